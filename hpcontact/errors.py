@@ -1,0 +1,29 @@
+"""Exceptions shared by every layer: bad input and failed numerics are never silent."""
+
+from __future__ import annotations
+
+from typing import Any
+
+
+class InputError(ValueError):
+    """A field of a scene, a spec or a command line is outside its allowed range.
+
+    The message names the field, the value and what is allowed, in one line; the command line
+    prints it and exits with status 2.
+    """
+
+    def __init__(self, field: str, allowed: str, value: Any = None) -> None:
+        self.field = field
+        self.allowed = allowed
+        self.value = value
+        shown = "" if value is None else f" = {value!r}"
+        super().__init__(f"{field}{shown}: {allowed}")
+
+
+class ConvergenceError(RuntimeError):
+    """An iterative solver stopped before reaching its tolerance (iterations and residual kept)."""
+
+    def __init__(self, message: str, iterations: int, residual: float) -> None:
+        self.iterations = iterations
+        self.residual = residual
+        super().__init__(f"{message} (iterations={iterations}, relative residual={residual:.3e})")
