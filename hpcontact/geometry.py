@@ -1,0 +1,234 @@
+"""Grids and contact shapes: which cells of a uniform grid belong to the contact area.
+
+A grid is nx × ny rectangular cells of size dx × dy (independent: a rectangle of aspect 1e-8 is
+meshed with cells of aspect ~1e-7, DESIGN §2.2), centred on the origin. Shapes are scaled so that
+their semi-major extent is 1 (DESIGN §4.1): circle radius 1, ellipse semi-axes 1 and b/a,
+rectangle half-sides 1 and b/a, polygon and star circumradius 1. A cell belongs to the contact
+when its centre lies inside the shape (centre-in-shape rasterization). Lengths are dimensionless
+(in units of the semi-major extent).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+import numpy as np
+
+from .errors import InputError
+
+SHAPES = ("circle", "ellipse", "rectangle", "polygon", "star", "rough", "mask")
+
+
+@dataclass(frozen=True)
+class Grid:
+    """nx × ny cells of size dx × dy, cell centres at ((i − (nx−1)/2) dx, (j − (ny−1)/2) dy)."""
+
+    nx: int
+    ny: int
+    dx: float
+    dy: float
+
+    @property
+    def x(self) -> np.ndarray:
+        """Cell-centre x coordinates, shape (nx,)."""
+        return (np.arange(self.nx) - 0.5 * (self.nx - 1)) * self.dx
+
+    @property
+    def y(self) -> np.ndarray:
+        """Cell-centre y coordinates, shape (ny,)."""
+        return (np.arange(self.ny) - 0.5 * (self.ny - 1)) * self.dy
+
+    @property
+    def cell_area(self) -> float:
+        return self.dx * self.dy
+
+    def centres(self) -> tuple[np.ndarray, np.ndarray]:
+        """Cell-centre coordinates as two (nx, ny) arrays (index order [i, j] = [x, y])."""
+        return np.meshgrid(self.x, self.y, indexing="ij")
+
+
+@dataclass(frozen=True)
+class Shape:
+    """A contact shape in its own frame, turned by ``angle_deg`` (counter-clockwise) on the grid.
+
+    ``aspect`` is b/a for ellipse and rectangle; ``sides`` the number of polygon sides or star
+    lobes; ``amplitude`` the star modulation ε of r(φ) ∝ 1 + ε cos(kφ); ``seed``, ``hurst`` and
+    ``rms`` define the rough patch; ``mask_path`` a .npy or .png file for ``mask``.
+    """
+
+    name: str
+    aspect: float = 1.0
+    sides: int = 5
+    angle_deg: float = 0.0
+    amplitude: float = 0.2
+    seed: int = 0
+    hurst: float = 0.8
+    rms: float = 0.02
+    mask_path: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.name not in SHAPES:
+            raise InputError("shape", f"one of {', '.join(SHAPES)}", self.name)
+        if not (0.0 < self.aspect <= 1.0) or not math.isfinite(self.aspect):
+            raise InputError("aspect", "b/a in (0, 1]", self.aspect)
+        if not math.isfinite(self.angle_deg):
+            raise InputError("shape_angle", "a finite angle in degrees", self.angle_deg)
+        if self.name == "polygon" and not (3 <= self.sides <= 1000):
+            raise InputError("sides", "an integer in [3, 1000] for a polygon", self.sides)
+        if self.name == "star":
+            if not (2 <= self.sides <= 1000):
+                raise InputError("sides", "an integer in [2, 1000] lobes for a star", self.sides)
+            if not (0.0 <= self.amplitude < 1.0):
+                raise InputError("amplitude", "star modulation in [0, 1)", self.amplitude)
+        if self.name == "rough":
+            if not (0.0 < self.hurst < 1.0):
+                raise InputError("hurst", "Hurst exponent in (0, 1)", self.hurst)
+            if not (0.0 < self.rms <= 1.0):
+                raise InputError("rms", "roughness rms in (0, 1] (units of the contact radius)", self.rms)
+        if self.name == "mask" and not self.mask_path:
+            raise InputError("mask", "a path to a .npy or .png file", self.mask_path)
+
+    # -- the shape in its own frame ------------------------------------------------------------
+    def _inside(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Points (x, y) of the shape's own frame that lie inside (closed set)."""
+        if self.name == "circle":
+            return x * x + y * y <= 1.0
+        if self.name == "ellipse":
+            return x * x + (y / self.aspect) ** 2 <= 1.0
+        if self.name == "rectangle":
+            return (np.abs(x) <= 1.0) & (np.abs(y) <= self.aspect)
+        r = np.hypot(x, y)
+        phi = np.arctan2(y, x)
+        return r <= self._radius(phi)
+
+    def _radius(self, phi: np.ndarray) -> np.ndarray:
+        """Boundary radius r(φ) of polygon and star (circumradius 1)."""
+        k = self.sides
+        if self.name == "polygon":
+            # distance to the side facing φ; a vertex lies on the +x axis
+            sector = 2.0 * math.pi / k
+            local = np.mod(phi + 0.5 * sector, sector) - 0.5 * sector  # angle from nearest vertex
+            return math.cos(math.pi / k) / np.cos(np.abs(local) - math.pi / k)
+        if self.name == "star":
+            return (1.0 + self.amplitude * np.cos(k * phi)) / (1.0 + self.amplitude)
+        raise AssertionError(self.name)
+
+    def half_extents(self) -> tuple[float, float]:
+        """Half-widths (X, Y) of the axis-aligned bounding box of the turned shape."""
+        c, s = math.cos(math.radians(self.angle_deg)), math.sin(math.radians(self.angle_deg))
+        if self.name in ("circle", "rough"):
+            return 1.0, 1.0
+        if self.name == "ellipse":
+            b = self.aspect
+            return math.sqrt(c * c + (b * s) ** 2), math.sqrt(s * s + (b * c) ** 2)
+        if self.name == "rectangle":
+            b = self.aspect
+            return abs(c) + b * abs(s), abs(s) + b * abs(c)
+        phi = np.linspace(0.0, 2.0 * math.pi, 20001)
+        r = self._radius(phi)
+        return float(np.max(np.abs(r * np.cos(phi + math.radians(self.angle_deg))))), float(
+            np.max(np.abs(r * np.sin(phi + math.radians(self.angle_deg))))
+        )
+
+    def contains(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Lab-frame points inside the shape turned by ``angle_deg``."""
+        t = math.radians(self.angle_deg)
+        c, s = math.cos(t), math.sin(t)
+        return self._inside(c * x + s * y, -s * x + c * y)
+
+
+def grid_for(shape: Shape, n: int, n_across: int | None = None) -> Grid:
+    """The grid that hugs the turned shape's bounding box: ``n`` cells along x, ``n_across`` along y.
+
+    Without ``n_across`` the cells are as square as the box allows, but never fewer than
+    min(n, 16) across, so a thin shape is still resolved across its width.
+    """
+    if n < 2:
+        raise InputError("n", "an integer >= 2 (cells along the long side)", n)
+    if n_across is not None and n_across < 1:
+        raise InputError("n_across", "an integer >= 1 (cells across the short side)", n_across)
+    X, Y = shape.half_extents()
+    if n_across is None:
+        n_across = max(min(n, 16), int(round(n * Y / X)))
+    return Grid(nx=n, ny=n_across, dx=2.0 * X / n, dy=2.0 * Y / n_across)
+
+
+def rasterize(shape: Shape, grid: Grid) -> np.ndarray:
+    """Boolean (nx, ny) mask of the cells whose centres lie inside the shape."""
+    x, y = grid.centres()
+    return shape.contains(x, y)
+
+
+def load_mask(path: str | Path) -> np.ndarray:
+    """A contact mask from a .npy array (non-zero = contact) or a .png image.
+
+    In a PNG, contact cells are the opaque dark pixels (luminance < 0.5 and alpha > 0.5). Image
+    rows run top to bottom, so the array is flipped to put +y up and transposed to [x, y] order.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError("mask", "an existing .npy or .png file", str(path))
+    if path.suffix.lower() == ".npy":
+        data = np.load(path, allow_pickle=False)
+        if data.ndim != 2:
+            raise InputError("mask", "a 2-D array", f"{path} with shape {data.shape}")
+        mask = np.asarray(data != 0)
+    elif path.suffix.lower() == ".png":
+        import matplotlib.image as mpimg
+
+        img = np.asarray(mpimg.imread(path), dtype=np.float64)
+        if img.ndim == 2:
+            mask = img < 0.5
+        else:
+            lum = img[..., :3].mean(axis=-1)
+            alpha = img[..., 3] if img.shape[-1] == 4 else np.ones_like(lum)
+            mask = (lum < 0.5) & (alpha > 0.5)
+        mask = mask[::-1, :].T
+    else:
+        raise InputError("mask", "a .npy or .png file", str(path))
+    if not mask.any():
+        raise InputError("mask", "at least one contact cell", str(path))
+    return mask
+
+
+def mask_grid(mask: np.ndarray) -> Grid:
+    """Square cells, semi-major extent 1 along the longer side of the mask's array."""
+    nx, ny = mask.shape
+    h = 2.0 / max(nx, ny)
+    return Grid(nx=nx, ny=ny, dx=h, dy=h)
+
+
+def crop_to_support(mask: np.ndarray, grid: Grid) -> tuple[np.ndarray, Grid]:
+    """The smallest sub-grid holding every contact cell (the solution does not depend on the rest).
+
+    Non-periodic convolution couples contact cells only, so cropping changes no result and makes
+    the FFTs smaller.
+    """
+    if not mask.any():
+        raise InputError("mask", "at least one contact cell", "an empty mask")
+    ii = np.flatnonzero(mask.any(axis=1))
+    jj = np.flatnonzero(mask.any(axis=0))
+    sub = mask[ii[0] : ii[-1] + 1, jj[0] : jj[-1] + 1]
+    return sub, Grid(nx=sub.shape[0], ny=sub.shape[1], dx=grid.dx, dy=grid.dy)
+
+
+def self_affine_surface(
+    nx: int, ny: int, dx: float, dy: float, hurst: float, rms: float, seed: int
+) -> np.ndarray:
+    """A seeded, self-affine random rough height field (units of length) with given rms.
+
+    Power spectral density C(q) ∝ q^(−2(1+H)) between the grid's lowest non-zero wavenumber and
+    the Nyquist wavenumber, random phases (Persson et al. 2005, J. Phys.: Condens. Matter 17 R1).
+    """
+    rng = np.random.default_rng(seed)
+    qx = 2.0 * np.pi * np.fft.fftfreq(nx, dx)
+    qy = 2.0 * np.pi * np.fft.rfftfreq(ny, dy)
+    q = np.hypot(qx[:, None], qy[None, :])
+    q0 = 2.0 * np.pi / max(nx * dx, ny * dy)
+    amplitude = np.where(q >= q0, np.maximum(q, q0) ** (-(1.0 + hurst)), 0.0)
+    phase = np.exp(2j * np.pi * rng.random(q.shape))
+    h = np.fft.irfft2(amplitude * phase, s=(nx, ny))
+    h -= h.mean()
+    return h * (rms / np.sqrt(np.mean(h * h)))
+

@@ -1,0 +1,243 @@
+"""One scene end to end: params → scene → grid and mask → plan → kernels → solves → record.
+
+``solve(params)`` returns the JSON record of DESIGN §4.1. Forces are in units of G·a² per unit
+of traction and stiffnesses in units of G·a (a = semi-major extent = 1 on the grid).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any, Mapping
+
+import numpy as np
+
+from . import quantities as q
+from .errors import InputError
+from .geometry import Grid, crop_to_support, grid_for, load_mask, mask_grid, rasterize, self_affine_surface
+from .kernels.isotropic import isotropic_block
+from .materials import Isotropic
+from .operator import COMPONENT_INDEX, ConvolutionOperator, cached_spectrum, padded_shape
+from .plan import Plan, Solve, make_plan
+from .preconditioner import FourierPreconditioner
+from .scene import Scene
+from .solvers import Solution, conjugate_gradient, polonsky_keer
+
+
+class Engine:
+    """Kernel spectra and operators of one (material, grid), built only as the plan asks."""
+
+    def __init__(self, material: Isotropic, grid: Grid, kernels: tuple[str, ...], threads: int = 1) -> None:
+        self.material, self.grid, self.threads = material, grid, threads
+        self.kernels = kernels
+        self._operators: dict[str, ConvolutionOperator] = {}
+        self.fft_shape = padded_shape(grid.nx, grid.ny)
+
+    def spectrum(self, block: str) -> np.ndarray:
+        """Spectrum of ``block``; at nu = 0 the yy block is the xx block (one kernel)."""
+        if block not in self.kernels and block == "yy" and "xx" in self.kernels:
+            block = "xx"
+        if block not in self.kernels:
+            raise KeyError(block)
+        g, m = self.grid, self.material
+        key = (m.key, g.nx, g.ny, g.dx, g.dy, block)
+        return cached_spectrum(key, lambda: isotropic_block(m, g.nx, g.ny, g.dx, g.dy, block), self.fft_shape)
+
+    def operator(self, components: str) -> ConvolutionOperator:
+        """The convolution operator on ``components`` with every planned block among them."""
+        if components not in self._operators:
+            spectra = {}
+            for a in components:
+                for b in components:
+                    try:
+                        spectra[a + b] = self.spectrum(a + b)
+                    except KeyError:
+                        continue
+            self._operators[components] = ConvolutionOperator(
+                self.grid.nx, self.grid.ny, components, spectra, threads=self.threads
+            )
+        return self._operators[components]
+
+
+def discretize(scene: Scene) -> tuple[Grid, np.ndarray]:
+    """The scene's grid and contact mask, cropped to the contact's bounding box."""
+    shape = scene.shape
+    if shape.name == "mask":
+        mask = load_mask(shape.mask_path)
+        grid = mask_grid(mask)
+    elif shape.name == "rough":
+        grid = grid_for(shape, scene.n, scene.n_across)
+        mask = rough_patch(scene, grid)
+    else:
+        grid = grid_for(shape, scene.n, scene.n_across)
+        mask = rasterize(shape, grid)
+    if not mask.any():
+        raise InputError("n", "a grid fine enough to put at least one cell in the contact", scene.n)
+    cropped, cropped_grid = crop_to_support(mask, grid)
+    return cropped_grid, cropped
+
+
+def rough_patch(scene: Scene, grid: Grid) -> np.ndarray:
+    """Contact patch of a seeded self-affine rough disc (radius 1) pressed on a rigid flat.
+
+    Heights h (rms ``scene.shape.rms``) on the unit disc; the flat approaches by one rms from
+    first contact; Polonsky–Keer gives the pressure; the patch is where p > 0.
+    """
+    shape = scene.shape
+    h = self_affine_surface(grid.nx, grid.ny, grid.dx, grid.dy, shape.hurst, shape.rms, shape.seed)
+    x, y = grid.centres()
+    inside = x * x + y * y <= 1.0
+    separation = np.where(inside, h.max() - h, 1e3 * shape.rms) - shape.rms
+    engine = Engine(scene.material, grid, ("zz",), scene.threads)
+    p = polonsky_keer(engine.operator("z").apply, separation, tol=max(scene.tol, 1e-8)).traction[0]
+    return p > 0.0
+
+
+def _preconditioner(scene: Scene, grid: Grid, components: str):
+    if not scene.precondition:
+        return None
+    return FourierPreconditioner(grid, scene.material, components).apply
+
+
+def _run_solve(scene: Scene, engine: Engine, mask: np.ndarray, solve: Solve) -> tuple[np.ndarray, Solution]:
+    """A bonded (or frictionless, for z alone) punch displaced by 1 along ``solve.load``."""
+    op = engine.operator(solve.components)
+    rhs = np.zeros((len(solve.components),) + mask.shape)
+    rhs[solve.components.index(solve.load)] = 1.0
+    solution = conjugate_gradient(
+        op.apply, rhs, mask, tol=scene.tol, precondition=_preconditioner(scene, engine.grid, solve.components)
+    )
+    force = np.zeros(3)
+    resultants = q.resultant(solution.traction, engine.grid.cell_area)
+    for c, value in zip(solve.components, resultants):
+        force[COMPONENT_INDEX[c]] = value
+    return force, solution
+
+
+def solve(params: Mapping[str, Any]) -> dict[str, Any]:
+    """Solve one scene; the record of DESIGN §4.1 (keys that apply to the quantities asked)."""
+    started = time.perf_counter()
+    scene = Scene.from_params(params)
+    grid, mask = discretize(scene)
+    plan = make_plan(scene, mask, grid)
+    engine = Engine(scene.material, grid, plan.kernels, scene.threads)
+    record: dict[str, Any] = {"nx": grid.nx, "ny": grid.ny, "dx": grid.dx, "dy": grid.dy}
+    record["contact_cells"] = int(mask.sum())
+    iterations, residual = 0, 0.0
+    forces: dict[str, np.ndarray] = {}
+    for s in plan.solves:
+        if s.name == "indentation_polonsky_keer":
+            continue
+        force, solution = _run_solve(scene, engine, mask, s)
+        forces[s.name] = force
+        iterations += solution.iterations
+        residual = max(residual, solution.residual)
+    record.update(_stiffness(scene, plan, forces, grid, mask))
+    if "compliance" in scene.quantities:
+        record.update(_compliance_proxy(engine, mask))
+    if "indentation" in scene.quantities:
+        indentation, solution = _indentation(scene)
+        record.update(indentation)
+        iterations += solution.iterations
+        residual = max(residual, solution.residual)
+    record["iterations"] = iterations
+    record["residual"] = residual
+    record["plan"] = plan.as_dict()
+    record["wall_time_s"] = time.perf_counter() - started
+    _check_finite(record)
+    return record
+
+
+def _stiffness(scene: Scene, plan: Plan, forces: dict[str, np.ndarray], grid: Grid, mask: np.ndarray) -> dict:
+    """Tensors from the solves' resultant forces (force = K · unit displacement)."""
+    out: dict[str, float] = {}
+    material = scene.material
+    K2 = None
+    if "tangential_x" in forces:
+        fx = forces["tangential_x"]
+        fy = forces.get("tangential_y")
+        if fy is None:  # mirror image of the x solve under x <-> y
+            fy = np.array([fx[1], fx[0], 0.0])
+        K2 = np.array([[fx[0], fy[0]], [fx[1], fy[1]]])
+    if "coupled_x" in forces:
+        fx, fz = forces["coupled_x"], forces["coupled_z"]
+        fy = forces.get("coupled_y")
+        if fy is None:
+            fy = np.array([fx[1], fx[0], fx[2]])
+        K3 = np.column_stack([fx, fy, fz])
+        for i, a in enumerate("xyz"):
+            for j, b in enumerate("xyz"):
+                out[f"K_{a}{b}"] = float(K3[i, j])
+        K2 = K3[:2, :2]
+    if K2 is not None:
+        out.update({"K_xx": float(K2[0, 0]), "K_xy": float(K2[0, 1]), "K_yx": float(K2[1, 0]), "K_yy": float(K2[1, 1])})
+        k_max, k_min, angle = q.principal_stiffness(K2)
+        out.update({"K_max": k_max, "K_min": k_min, "principal_angle_deg": angle})
+        out["K_a_over_K_b"] = float(K2[0, 0] / K2[1, 1])
+        out["asymmetry"] = q.asymmetry(K2)
+    if "normal_z" in forces:
+        out["K_zz"] = float(forces["normal_z"][2])
+    elif "normal" in scene.quantities and K2 is not None and material.nu == 0.0:
+        out["K_zz"] = float(K2[0, 0])
+    if "K_zz" in out and K2 is not None:
+        out["normalized_xx"] = float(q.li_normalization(K2[0, 0], out["K_zz"], material.E_star, material.G_star))
+        out["normalized_yy"] = float(q.li_normalization(K2[1, 1], out["K_zz"], material.E_star, material.G_star))
+    return out
+
+
+def _compliance_proxy(engine: Engine, mask: np.ndarray) -> dict[str, float]:
+    """Li 2017 §3.2: uniform unit traction along x and y on the contact, mean displacements."""
+    op = engine.operator("xy" if "xy" in engine.kernels else "x")
+    area = mask.sum() * engine.grid.cell_area
+    mean = np.zeros((2, 2))
+    for j in range(2):
+        if op.components == "xy":
+            t = np.zeros((2,) + mask.shape)
+            t[j] = mask
+            u = op.apply(t)
+            mean[:, j] = [u[0][mask].mean(), u[1][mask].mean()]
+        else:
+            mean[j, j] = op.apply(mask[None].astype(float))[0][mask].mean()
+    K = q.compliance_proxy(mean, np.array([area, area]))
+    return {f"proxy_K_{a}{b}": float(K[i, j]) for i, a in enumerate("xy") for j, b in enumerate("xy")}
+
+
+def _indentation(scene: Scene) -> tuple[dict[str, float], Solution]:
+    """Rigid sphere (radius R, approach d) pressed on the half-space: Polonsky–Keer contact.
+
+    The grid (``scene.n`` cells a side) spans 1.5 Hertz radii sqrt(R d) each way; the gap is
+    the exact sphere R − sqrt(R² − r²) minus d. The contact ellipse is fitted from the second
+    moments of the contact cells (for an ellipse with semi-axes a ≥ b the moments are a²/4 and
+    b²/4 along its axes).
+    """
+    R, d = scene.radius, scene.depth
+    half = 1.5 * math.sqrt(R * d)
+    h = 2.0 * half / scene.n
+    grid = Grid(scene.n, scene.n, h, h)
+    x, y = grid.centres()
+    r2 = np.minimum(x * x + y * y, R * R)
+    gap = R - np.sqrt(R * R - r2) - d
+    engine = Engine(scene.material, grid, ("zz",), scene.threads)
+    solution = polonsky_keer(engine.operator("z").apply, gap, tol=scene.tol)
+    p = solution.traction[0]
+    contact = p > 0.0
+    if contact[0, :].any() or contact[-1, :].any() or contact[:, 0].any() or contact[:, -1].any():
+        raise FloatingPointError("indentation contact reaches the grid edge; the grid is too small")
+    weights = contact.astype(float)
+    xc, yc = (weights * x).sum() / weights.sum(), (weights * y).sum() / weights.sum()
+    cov = np.cov(np.vstack([x[contact] - xc, y[contact] - yc]), bias=True)
+    values, vectors = np.linalg.eigh(cov)
+    out = {
+        "load": float(p.sum() * grid.cell_area),
+        "contact_area": float(contact.sum() * grid.cell_area),
+        "max_pressure": float(p.max()),
+        "ellipse_b_over_a": float(math.sqrt(values[0] / values[1])),
+        "ellipse_angle_deg": float(math.degrees(math.atan2(vectors[1, 1], vectors[0, 1])) % 180.0),
+    }
+    return out, solution
+
+
+def _check_finite(record: Mapping[str, Any]) -> None:
+    for key, value in record.items():
+        if isinstance(value, float) and not math.isfinite(value):
+            raise FloatingPointError(f"{key} is not finite ({value})")
