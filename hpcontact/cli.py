@@ -1,0 +1,133 @@
+"""Command line: ``hpcontact solve``, ``hpcontact run``, ``hpcontact info`` (DESIGN §4.1).
+
+Bad input exits with status 2 and one line on stderr naming the field and the allowed range.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import Any, Sequence
+
+from . import __version__
+from .errors import ConvergenceError, InputError
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that reports a bad option in one line (exit status 2), as the contract asks."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        self.exit(2, f"hpcontact: {message}\n")
+
+
+def _solve_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("solve", help="solve one scene")
+    p.add_argument("--shape", default="circle", help="circle, ellipse, rectangle, polygon, star, rough, mask")
+    p.add_argument("--aspect", type=float, help="b/a of ellipse or rectangle, in (0, 1]")
+    p.add_argument("--sides", type=int, help="polygon sides or star lobes")
+    p.add_argument("--shape-angle", type=float, help="turn the shape by this angle (degrees)")
+    p.add_argument("--amplitude", type=float, help="star modulation epsilon of r = 1 + eps cos(k phi)")
+    p.add_argument("--seed", type=int, help="seed of the rough surface")
+    p.add_argument("--mask", help="contact mask file (.npy or .png) for --shape mask")
+    p.add_argument("--nu", type=float, help="Poisson ratio, in [-1, 0.5]")
+    p.add_argument("--G", type=float, help="shear modulus (default 1)")
+    p.add_argument("--anisotropy", type=float, help="cubic anisotropy factor A (1 = isotropic)")
+    p.add_argument("--n", type=int, help="cells along the long side")
+    p.add_argument("--n-across", type=int, help="cells across the short side (thin shapes)")
+    p.add_argument("--tol", type=float, help="CG relative residual tolerance")
+    p.add_argument("--quantities", help="comma list: tangential, normal, compliance, coupled, indentation")
+    p.add_argument("--radius", type=float, help="rigid sphere radius (indentation)")
+    p.add_argument("--depth", type=float, help="rigid sphere approach (indentation)")
+    p.add_argument("--threads", type=int, help="FFTW threads")
+    p.add_argument("--no-precondition", action="store_true", help="plain CG (for comparison)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+
+
+def _params(args: argparse.Namespace) -> dict[str, Any]:
+    names = (
+        "shape aspect sides shape_angle amplitude seed mask nu G anisotropy n n_across tol quantities "
+        "radius depth threads"
+    ).split()
+    params = {name: getattr(args, name) for name in names if getattr(args, name) is not None}
+    if args.no_precondition:
+        params["precondition"] = False
+    return params
+
+
+def _print_record(record: dict[str, Any]) -> None:
+    for key, value in record.items():
+        if isinstance(value, float):
+            print(f"{key:>22s}  {value:.10g}")
+        elif isinstance(value, dict):
+            for sub, items in value.items():
+                print(f"{key + '.' + sub:>22s}  {', '.join(map(str, items)) or '-'}")
+        else:
+            print(f"{key:>22s}  {value}")
+
+
+def _cmd_solve(args: argparse.Namespace) -> int:
+    from .solve import solve
+
+    record = solve(_params(args))
+    if args.json:
+        print(json.dumps(record))
+    else:
+        _print_record(record)
+    return 0
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from .sweep.driver import run_sweep
+
+    path = run_sweep(args.spec, resume=args.resume, output=args.output)
+    if path is not None:
+        print(f"hpcontact: data set written to {path}", file=sys.stderr)
+    return 0
+
+
+def _cmd_info(args: argparse.Namespace) -> int:
+    import numpy
+    import pyfftw
+
+    from .operator import wisdom_path
+
+    info = {"hpcontact": __version__, "numpy": numpy.__version__, "pyfftw": pyfftw.__version__}
+    try:
+        import mpi4py
+        from mpi4py import MPI
+
+        info["mpi4py"] = mpi4py.__version__
+        info["mpi_library"] = MPI.Get_library_version().splitlines()[0].strip()
+    except ImportError as exc:  # mpi4py is a dependency, but report rather than crash
+        info["mpi4py"] = f"unavailable ({exc})"
+    info["fftw_wisdom"] = str(wisdom_path())
+    for key, value in info.items():
+        print(f"{key:>12s}  {value}")
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = _Parser(prog="hpcontact", description="Anisotropy of contact stiffness (FFT-BEM).")
+    parser.add_argument("--version", action="version", version=f"hpcontact {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    _solve_parser(sub)
+    run = sub.add_parser("run", help="run a sweep spec (under mpiexec or alone)")
+    run.add_argument("spec", help="sweep spec (TOML)")
+    run.add_argument("--resume", action="store_true", help="skip tasks that any journal already holds")
+    run.add_argument("--output", help="data set path (overrides the spec)")
+    sub.add_parser("info", help="versions, MPI library, FFTW wisdom location")
+    args = parser.parse_args(argv)
+    command = {"solve": _cmd_solve, "run": _cmd_run, "info": _cmd_info}[args.command]
+    try:
+        return command(args)
+    except InputError as exc:
+        print(f"hpcontact: error: {exc}", file=sys.stderr)
+        return 2
+    except ConvergenceError as exc:
+        print(f"hpcontact: did not converge: {exc}", file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
