@@ -1,0 +1,91 @@
+"""End-to-end scenes against closed forms (DESIGN §2.4) and independent checks (Li 2017).
+
+Tolerances are the acceptance targets of the engine issue; the errors actually measured on
+this code are quoted next to each (they are what a regression would move).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hpcontact import analytic
+from hpcontact.quantities import directional_stiffness
+from hpcontact.solve import solve
+
+pytestmark = pytest.mark.filterwarnings("error")
+
+
+def tensor(record: dict) -> np.ndarray:
+    return np.array([[record["K_xx"], record["K_xy"]], [record["K_yx"], record["K_yy"]]])
+
+
+@pytest.mark.parametrize("nu", [0.0, 0.3, 0.5])
+def test_circle_converges_to_closed_forms(nu: float) -> None:
+    """K_xx → 8Ga/(2−nu), K_zz → 2aE*; within 0.5 % at n = 256 and the error falls with n.
+
+    Measured: |error| 1.9e-3 (n=64), 9.3e-4 (256), 2.0e-4 (1024), all three nu. The staircase
+    area of a rasterized circle fluctuates with n (Gauss circle problem), so neighbouring grids
+    need not be ordered; grids a factor 4 apart are.
+    """
+    errors = []
+    for n in (64, 256, 1024):
+        r = solve({"shape": "circle", "nu": nu, "n": n, "quantities": "tangential,normal"})
+        e_xx = abs(r["K_xx"] / analytic.circle_tangential_stiffness(1.0, 1.0, nu) - 1.0)
+        e_zz = abs(r["K_zz"] / analytic.circle_normal_stiffness(1.0, 1.0, nu) - 1.0)
+        errors.append((e_xx, e_zz))
+        if n == 256:
+            assert e_xx < 5e-3 and e_zz < 5e-3  # issue target: 0.5 % at n = 256
+        # circle symmetry: the plan derives K_yy from K_xx, and K_xy vanishes by mirror symmetry
+        assert r["K_yy"] == r["K_xx"]
+        assert abs(r["K_xy"]) < 1e-6 * r["K_xx"]  # CG tol 1e-8 on the residual bounds it
+    for (a, b), (c, d) in zip(errors, errors[1:]):
+        assert c < a and d < b
+
+
+@pytest.mark.parametrize("aspect", [0.5, 0.1])
+@pytest.mark.parametrize("nu", [0.3, 0.5])
+def test_ellipse_ratio_matches_mindlin(aspect: float, nu: float) -> None:
+    """K_a/K_b within 0.05 % of Mindlin's no-slip ellipse at n = 512 (measured ≤ 3.0e-5)."""
+    r = solve({"shape": "ellipse", "aspect": aspect, "nu": nu, "n": 512})
+    reference = analytic.mindlin_ellipse_stiffness_ratio(aspect, nu)
+    assert abs(r["K_a_over_K_b"] / reference - 1.0) < 5e-4
+    assert r["asymmetry"] < 1e-6  # issue target; measured ≤ 1e-9
+
+
+@pytest.mark.parametrize("sides", range(3, 9))
+def test_regular_polygons_are_isotropic(sides: int) -> None:
+    """A shape with a 3-fold or higher axis has an isotropic tensor (Li 2017 §3.1).
+
+    Target 0.05 % at n = 512 (Li reports 0.5 % noise); measured ≤ 1.7e-4 (sides 3–7) and
+    1e-9 for the octagon (its mask is symmetric under x <-> y, so the y-solve is derived).
+    """
+    r = solve({"shape": "polygon", "sides": sides, "nu": 0.5, "n": 512})
+    spread = (r["K_max"] - r["K_min"]) / (0.5 * (r["K_max"] + r["K_min"]))
+    assert spread < 5e-4
+    assert r["asymmetry"] < 1e-6
+
+
+def test_tensor_transformation_matches_rotated_shape() -> None:
+    """K_nn(θ) = nᵀKn from one tensor agrees with Li's rotated-shape solve (shape turned by −θ).
+
+    Both carry the staircase error of different rasterizations; measured differences at
+    n = 256: 3.2e-4 (30°), 2.3e-4 (45°), 5.7e-5 (60°) — the bound 1e-3 is 3× the largest.
+    """
+    base = {"shape": "ellipse", "aspect": 0.5, "nu": 0.5, "n": 256}
+    K = tensor(solve(base))
+    for theta in (30.0, 45.0, 60.0):
+        turned = solve({**base, "shape_angle": -theta})
+        assert abs(directional_stiffness(K, theta) / turned["K_xx"] - 1.0) < 1e-3
+
+
+def test_json_plan_lists_only_what_ran() -> None:
+    """An isotropic tangential scene builds no normal or coupling kernel (DESIGN §1)."""
+    r = solve({"shape": "ellipse", "aspect": 0.3, "nu": 0.3, "n": 32})
+    assert set(r["plan"]["kernels"]) == {"xx", "xy", "yx", "yy"}
+    assert r["plan"]["solves"] == ["tangential_x[xy]", "tangential_y[xy]"]
+    assert "K_zz" not in r
+    r0 = solve({"shape": "ellipse", "aspect": 0.3, "nu": 0.0, "n": 32, "quantities": "tangential,normal"})
+    assert r0["plan"]["kernels"] == ["xx"]
+    assert r0["plan"]["solves"] == ["tangential_x[x]", "tangential_y[y]"]
+    assert r0["K_zz"] == r0["K_xx"] and r0["K_xy"] == 0.0
