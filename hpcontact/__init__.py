@@ -1,3 +1,15 @@
-"""hpcontact: anisotropy of contact stiffness with FFT-accelerated half-space boundary elements."""
+"""hpcontact: anisotropy of contact stiffness with FFT-accelerated half-space boundary elements.
+
+BLAS is limited to ``HPCONTACT_BLAS_THREADS`` threads (default 1) on import: the solvers' only
+BLAS calls are vector reductions, and threaded OpenBLAS on a machine whose cores are already
+busy (MPI ranks, FFTW threads) made each of them 200× slower (22 ms instead of 0.1 ms for a
+262k-entry norm, measured on 2 cores under load). FFTW threads are set separately (``threads``).
+"""
+
+import os as _os
+
+from threadpoolctl import threadpool_limits as _threadpool_limits
 
 __version__ = "0.1.0"
+
+_threadpool_limits(limits=int(_os.environ.get("HPCONTACT_BLAS_THREADS", "1")), user_api="blas")
