@@ -8,6 +8,7 @@ busy (MPI ranks, FFTW threads) made each of them 200× slower (22 ms instead of 
 
 import os as _os
 
+import numpy as _numpy  # noqa: F401  (loads OpenBLAS so that the limit below reaches it)
 from threadpoolctl import threadpool_limits as _threadpool_limits
 
 __version__ = "0.1.0"
