@@ -127,6 +127,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ConvergenceError as exc:
         print(f"hpcontact: did not converge: {exc}", file=sys.stderr)
         return 1
+    except FloatingPointError as exc:
+        print(f"hpcontact: numerical failure: {exc}", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":

@@ -112,6 +112,14 @@ class ConvolutionOperator:
     ``spectra`` maps block names ("xx", "xy", ... displacement component first) to kernel
     spectra on ``padded_shape(nx, ny)``; absent blocks are zero. ``threads`` FFTW threads.
     ``apply`` takes and returns arrays of shape (len(components), nx, ny).
+
+    The 2-D transforms are split into row (axis 2) and column (axis 1) passes so that the zero
+    padding is skipped where it is known: the padded input is zero in rows nx … N1−1, so the
+    forward row transforms run on the nx data rows only, and only rows 0 … nx−1 of the result are
+    kept, so the inverse row transforms run on those nx rows only. The column passes are full
+    length N1. This is the same arithmetic as the full 2-D transforms (bitwise, with FFTW's
+    row-column algorithm) at ~3/4 of the work; the 1/(N1·N2) normalization of the inverse is
+    folded into the final crop instead of a separate pass over the padded array.
     """
 
     def __init__(
@@ -133,41 +141,106 @@ class ConvolutionOperator:
             if block[0] not in components or block[1] not in components:
                 raise ValueError(f"block {block!r} does not act within components {components!r}")
         n1, n2 = self.shape
-        self._real_in = pyfftw.zeros_aligned((c, n1, n2), dtype=np.float64)
-        self._real_out = pyfftw.empty_aligned((c, n1, n2), dtype=np.float64)
-        self._spec_in = pyfftw.empty_aligned((c, n1, n2 // 2 + 1), dtype=np.complex128)
-        self._spec_out = pyfftw.empty_aligned((c, n1, n2 // 2 + 1), dtype=np.complex128)
+        half = n2 // 2 + 1
+        # real buffers hold the nx data rows only; spectra are full (N1 rows) for the columns
+        self._real_in = pyfftw.zeros_aligned((c, nx, n2), dtype=np.float64)
+        self._real_out = pyfftw.zeros_aligned((c, nx, n2), dtype=np.float64)
+        self._spec_in = pyfftw.zeros_aligned((c, n1, half), dtype=np.complex128)
+        # one component: the product is taken in place; several: a separate output (and a
+        # scratch plane for the sums over blocks, so that no temporary is allocated per apply)
+        self._spec_out = self._spec_in if c == 1 else pyfftw.zeros_aligned((c, n1, half), dtype=np.complex128)
+        # Products with real spectra (even-even and odd-odd kernels) are taken on the float64
+        # view of the complex planes against a copy of the spectrum with every value doubled
+        # (re and im factors side by side): a contiguous float multiply, ~2x faster than numpy's
+        # mixed float-by-complex product. Imaginary spectra (odd-even kernels) stay complex.
+        doubled: dict[int, np.ndarray] = {}
+        self._factors: list[list[tuple[bool, np.ndarray] | None]] = []
+        for row in self.pairs:
+            factors: list[tuple[bool, np.ndarray] | None] = []
+            for spectrum in row:
+                if spectrum is None:
+                    factors.append(None)
+                    continue
+                if spectrum.shape != (n1, half):
+                    raise ValueError(f"spectrum of shape {spectrum.shape}; expected {(n1, half)} for this grid")
+                if np.iscomplexobj(spectrum):
+                    factors.append((False, np.asarray(spectrum, dtype=np.complex128)))
+                else:
+                    if id(spectrum) not in doubled:
+                        doubled[id(spectrum)] = np.repeat(np.asarray(spectrum, dtype=np.float64), 2, axis=1)
+                    factors.append((True, doubled[id(spectrum)]))
+            self._factors.append(factors)
+        sums = any(sum(f is not None for f in row) > 1 for row in self._factors)
+        self._scratch = pyfftw.zeros_aligned((n1, half), dtype=np.complex128) if sums else None
+        # sums over blocks run in bands of rows that stay in cache (~512 KiB a plane)
+        self._band = max(1, 2**19 // (16 * half)) if sums else n1
+        self._scale = 1.0 / (n1 * n2)
         t0 = time.perf_counter()
         flags = (planner_effort,)
-        self._forward = pyfftw.FFTW(self._real_in, self._spec_in, axes=(1, 2), flags=flags, threads=threads)
-        self._inverse = pyfftw.FFTW(
-            self._spec_out, self._real_out, axes=(1, 2), direction="FFTW_BACKWARD", flags=flags, threads=threads
+        self._rows_forward = pyfftw.FFTW(
+            self._real_in, self._spec_in[:, :nx, :], axes=(2,), flags=flags, threads=threads
+        )
+        self._columns_forward = pyfftw.FFTW(self._spec_in, self._spec_in, axes=(1,), flags=flags, threads=threads)
+        self._columns_inverse = pyfftw.FFTW(
+            self._spec_out, self._spec_out, axes=(1,), direction="FFTW_BACKWARD", flags=flags, threads=threads
+        )
+        self._rows_inverse = pyfftw.FFTW(
+            self._spec_out[:, :nx, :],
+            self._real_out,
+            axes=(2,),
+            direction="FFTW_BACKWARD",
+            flags=flags + ("FFTW_DESTROY_INPUT",),
+            threads=threads,
         )
         self._real_in[...] = 0.0  # planning may scribble on the arrays
+        self._spec_out[...] = 0.0
         self.planning_time_s = time.perf_counter() - t0
         self.applications = 0
 
+    def _forward(self) -> None:
+        """Spectra of the zero-padded ``_real_in`` into ``_spec_in`` (unnormalized)."""
+        self._rows_forward.execute()
+        self._spec_in[:, self.nx :, :] = 0.0  # the padding rows (the column pass overwrote them)
+        self._columns_forward.execute()
+
+    def _inverse(self) -> None:
+        """Rows 0 … nx−1 of the inverse transform of ``_spec_out`` into ``_real_out`` (× N1·N2)."""
+        self._columns_inverse.execute()
+        self._rows_inverse.execute()
+
+    def _product(self) -> None:
+        """_spec_out[i] = Σ_j K_ij · _spec_in[j] (in place when there is one component)."""
+        spec_in, spec_out, scratch = self._spec_in, self._spec_out, self._scratch
+        n1, band = self.shape[0], self._band
+        for r0 in range(0, n1, band):
+            rows = slice(r0, r0 + band)
+            for i, row in enumerate(self._factors):
+                out = spec_out[i, rows]
+                first = True
+                for j, factor in enumerate(row):
+                    if factor is None:
+                        continue
+                    real, spectrum = factor
+                    target = out if first else scratch[: out.shape[0]]
+                    if real:
+                        np.multiply(spectrum[rows], spec_in[j, rows].view(np.float64), out=target.view(np.float64))
+                    else:
+                        np.multiply(spectrum[rows], spec_in[j, rows], out=target)
+                    if not first:
+                        out += target
+                    first = False
+                if first:
+                    out[...] = 0.0
+
     def apply(self, traction: np.ndarray) -> np.ndarray:
         """Displacements (c, nx, ny) of tractions (c, nx, ny) on the grid (non-periodic)."""
-        nx, ny = self.nx, self.ny
-        self._real_in[:, :nx, :ny] = traction
+        ny = self.ny
+        self._real_in[:, :, :ny] = traction
         self._forward()
-        for i, row in enumerate(self.pairs):
-            out = self._spec_out[i]
-            first = True
-            for j, spectrum in enumerate(row):
-                if spectrum is None:
-                    continue
-                if first:
-                    np.multiply(spectrum, self._spec_in[j], out=out)
-                    first = False
-                else:
-                    out += spectrum * self._spec_in[j]
-            if first:
-                out[...] = 0.0
+        self._product()
         self._inverse()
         self.applications += 1
-        return self._real_out[:, :nx, :ny].copy()
+        return np.multiply(self._real_out[:, :, :ny], self._scale)
 
     def fft_only(self) -> None:
         """One forward and one inverse transform of all components: the floor of ``apply``."""

@@ -11,7 +11,9 @@ mask, not assumed from the shape's name):
 - ``normal`` (frictionless flat punch): kernel zz only; at nu = 0 it is the same operator as the
   tangential x problem, so K_zz = K_xx without a solve when both are asked.
 - ``coupled`` (bonded punch, one elastic body on a rigid punch): all blocks, three-component
-  solves; at nu = 0.5 the coupling blocks vanish and it reduces to tangential + normal.
+  solves; it supplies the tangential block too (no separate tangential solves). At nu = 0.5
+  the coupling blocks vanish and it reduces to tangential + normal. With ``normal`` as well,
+  ``K_zz`` is the frictionless punch and the bonded one is ``K_zz_bonded``.
 - ``compliance`` (Li 2017 §3.2 proxy): tangential kernels, operator applications, no solve.
 - ``indentation`` (rigid sphere, Polonsky–Keer): kernel zz only.
 """
@@ -72,13 +74,16 @@ def make_plan(scene: Scene, mask: np.ndarray, grid: Grid) -> Plan:
         kernels.extend(b for b in blocks if b not in kernels)
 
     if "coupled" in wanted and nu == 0.5:
-        derived.append("coupled = tangential + normal (nu = 0.5: coupling blocks vanish)")
+        derived.append("coupled = tangential + normal (nu = 0.5: coupling blocks vanish, K_xz = ... = 0)")
         wanted = (wanted - {"coupled"}) | {"tangential", "normal"}
 
     if "coupled" in wanted:
+        if "tangential" in wanted:
+            derived.append("tangential block from the coupled solves")
+            wanted = wanted - {"tangential"}
         if nu == 0.0:
-            need("xx", "yy", "zz", "xz", "zx", "yz", "zy")
-            derived.append("xy = yx = 0 (nu = 0)")
+            need("xx", "zz", "xz", "zx", "yz", "zy")
+            derived.append("yy = xx, xy = yx = 0 (nu = 0)")
         else:
             need("xx", "xy", "yx", "yy", "zz", "xz", "zx", "yz", "zy")
         solves.append(Solve("coupled_x", "xyz", "x"))

@@ -119,14 +119,16 @@ class Scene:
         if not 1e-14 <= tol <= 1e-2:
             raise InputError("tol", "CG tolerance in [1e-14, 1e-2]", p["tol"])
         quantities = _quantities(p["quantities"])
-        radius = depth = None
-        if "indentation" in quantities:
-            radius = _finite("radius", p["radius"], "sphere radius, finite and > 0")
-            depth = _finite("depth", p["depth"], "approach, finite and > 0")
-            if radius <= 0.0:
-                raise InputError("radius", "sphere radius, finite and > 0", p["radius"])
-            if depth <= 0.0 or depth >= radius:
-                raise InputError("depth", "approach in (0, radius)", p["depth"])
+        radius = None if p["radius"] is None else _finite("radius", p["radius"], "sphere radius, finite and > 0")
+        depth = None if p["depth"] is None else _finite("depth", p["depth"], "approach in (0, radius)")
+        if "indentation" in quantities and radius is None:
+            raise InputError("radius", "sphere radius, finite and > 0 (needed for indentation)", None)
+        if "indentation" in quantities and depth is None:
+            raise InputError("depth", "approach in (0, radius) (needed for indentation)", None)
+        if radius is not None and radius <= 0.0:
+            raise InputError("radius", "sphere radius, finite and > 0", p["radius"])
+        if depth is not None and (depth <= 0.0 or (radius is not None and depth >= radius)):
+            raise InputError("depth", "approach in (0, radius)", p["depth"])
         shape = Shape(
             name=p["shape"],
             aspect=aspect,

@@ -118,25 +118,34 @@ def solve(params: Mapping[str, Any]) -> dict[str, Any]:
     """Solve one scene; the record of DESIGN §4.1 (keys that apply to the quantities asked)."""
     started = time.perf_counter()
     scene = Scene.from_params(params)
-    grid, mask = discretize(scene)
-    plan = make_plan(scene, mask, grid)
-    engine = Engine(scene.material, grid, plan.kernels, scene.threads)
-    record: dict[str, Any] = {"nx": grid.nx, "ny": grid.ny, "dx": grid.dx, "dy": grid.dy}
-    record["contact_cells"] = int(mask.sum())
+    record: dict[str, Any] = {}
     iterations, residual = 0, 0.0
-    forces: dict[str, np.ndarray] = {}
-    for s in plan.solves:
-        if s.name == "indentation_polonsky_keer":
-            continue
-        force, solution = _run_solve(scene, engine, mask, s)
-        forces[s.name] = force
-        iterations += solution.iterations
-        residual = max(residual, solution.residual)
-    record.update(_stiffness(scene, plan, forces, grid, mask))
-    if "compliance" in scene.quantities:
-        record.update(_compliance_proxy(engine, mask))
+    punch = [q_ for q_ in scene.quantities if q_ != "indentation"]
+    if punch:
+        grid, mask = discretize(scene)
+        plan = make_plan(scene, mask, grid)
+        engine = Engine(scene.material, grid, plan.kernels, scene.threads)
+        record.update(_grid_fields(grid))
+        record["contact_cells"] = int(mask.sum())
+        forces: dict[str, np.ndarray] = {}
+        for s in plan.solves:
+            if s.name == "indentation_polonsky_keer":
+                continue
+            force, solution = _run_solve(scene, engine, mask, s)
+            forces[s.name] = force
+            iterations += solution.iterations
+            residual = max(residual, solution.residual)
+        record.update(_stiffness(scene, plan, forces))
+        if "compliance" in scene.quantities:
+            record.update(_compliance_proxy(engine, mask))
+    else:
+        plan = make_plan(scene, np.ones((1, 1), dtype=bool), Grid(1, 1, 1.0, 1.0))
     if "indentation" in scene.quantities:
-        indentation, solution = _indentation(scene)
+        indentation, solution, sphere_grid = _indentation(scene)
+        if punch:  # nx ny dx dy contact_cells describe the punch's grid
+            indentation.pop("contact_cells")
+        else:
+            record.update(_grid_fields(sphere_grid))
         record.update(indentation)
         iterations += solution.iterations
         residual = max(residual, solution.residual)
@@ -148,7 +157,7 @@ def solve(params: Mapping[str, Any]) -> dict[str, Any]:
     return record
 
 
-def _stiffness(scene: Scene, plan: Plan, forces: dict[str, np.ndarray], grid: Grid, mask: np.ndarray) -> dict:
+def _stiffness(scene: Scene, plan: Plan, forces: dict[str, np.ndarray]) -> dict:
     """Tensors from the solves' resultant forces (force = K · unit displacement)."""
     out: dict[str, float] = {}
     material = scene.material
@@ -168,7 +177,11 @@ def _stiffness(scene: Scene, plan: Plan, forces: dict[str, np.ndarray], grid: Gr
         for i, a in enumerate("xyz"):
             for j, b in enumerate("xyz"):
                 out[f"K_{a}{b}"] = float(K3[i, j])
+        if "normal" in scene.quantities:
+            out["K_zz_bonded"] = out.pop("K_zz")
         K2 = K3[:2, :2]
+    elif "coupled" in scene.quantities:  # nu = 0.5: the plan reduced it, coupling is exactly 0
+        out.update({"K_xz": 0.0, "K_yz": 0.0, "K_zx": 0.0, "K_zy": 0.0})
     if K2 is not None:
         out.update({"K_xx": float(K2[0, 0]), "K_xy": float(K2[0, 1]), "K_yx": float(K2[1, 0]), "K_yy": float(K2[1, 1])})
         k_max, k_min, angle = q.principal_stiffness(K2)
@@ -202,7 +215,7 @@ def _compliance_proxy(engine: Engine, mask: np.ndarray) -> dict[str, float]:
     return {f"proxy_K_{a}{b}": float(K[i, j]) for i, a in enumerate("xy") for j, b in enumerate("xy")}
 
 
-def _indentation(scene: Scene) -> tuple[dict[str, float], Solution]:
+def _indentation(scene: Scene) -> tuple[dict[str, float], Solution, Grid]:
     """Rigid sphere (radius R, approach d) pressed on the half-space: Polonsky–Keer contact.
 
     The grid (``scene.n`` cells a side) spans 1.5 Hertz radii sqrt(R d) each way; the gap is
@@ -228,13 +241,18 @@ def _indentation(scene: Scene) -> tuple[dict[str, float], Solution]:
     cov = np.cov(np.vstack([x[contact] - xc, y[contact] - yc]), bias=True)
     values, vectors = np.linalg.eigh(cov)
     out = {
+        "contact_cells": int(contact.sum()),
         "load": float(p.sum() * grid.cell_area),
         "contact_area": float(contact.sum() * grid.cell_area),
         "max_pressure": float(p.max()),
         "ellipse_b_over_a": float(math.sqrt(values[0] / values[1])),
         "ellipse_angle_deg": float(math.degrees(math.atan2(vectors[1, 1], vectors[0, 1])) % 180.0),
     }
-    return out, solution
+    return out, solution, grid
+
+
+def _grid_fields(grid: Grid) -> dict[str, float]:
+    return {"nx": grid.nx, "ny": grid.ny, "dx": grid.dx, "dy": grid.dy}
 
 
 def _check_finite(record: Mapping[str, Any]) -> None:

@@ -1,0 +1,343 @@
+"""Sweep job spec: a TOML file → axes, fixed scene fields and settings, checked before any work.
+
+A spec has four tables (DESIGN §1, §4.2; every key is optional except one axis or a fixed scene)::
+
+    [sweep]                          # how the sweep runs
+    title = "Li 2017, Fig. 7"
+    output = "results/aspect.nc"     # relative to the working directory; --output overrides
+    journal = "results/aspect.nc.journal"   # per-rank HDF5 journals (default: output + ".journal")
+    angle_mode = "tensor"            # "tensor": K_nn(angle) from the tensor, no solve per angle;
+                                     # "rotated": Li's check, one solve per angle, shape_angle −= angle
+    progress_interval = 10.0         # seconds between progress lines on rank 0
+
+    [scene]                          # fixed fields of every scene (names of `hpcontact solve`)
+    quantities = ["tangential", "normal"]
+
+    [numerics]                       # accuracy settings of every scene
+    n = 128
+    n_across = 16
+    tol = 1e-10
+
+    [axes]                           # the parameter space: a Cartesian product
+    shape = ["ellipse", "rectangle", { label = "hexagon", shape = "polygon", sides = 6 }]
+    aspect = { logspace = [0, -8, 9] }      # numpy.logspace(start, stop, num): 1 … 1e-8
+    nu = [0.1, 0.3, 0.5]
+    angle = { linspace = [0, 180, 37] }     # numpy.linspace(start, stop, num)
+
+Axis names are those of DESIGN §1 (``shape angle nu aspect anisotropy orientation``) plus ``n``
+and ``tol`` for accuracy studies. A ``shape`` value is a shape name or a table with a ``label``
+(its coordinate in the data set) and scene fields (``shape``, ``sides``, ``aspect``, …); fields
+of such a table win over the other axes. Anything unknown, empty, duplicated or impossible is
+refused with an ``InputError`` naming the key (``axes.nu``, ``scene.G``, …), so a bad spec never
+reaches a rank's work loop. Values are checked by the scene's own validator for every distinct
+scene of the sweep.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Mapping
+
+import numpy as np
+
+from ..errors import InputError
+
+TABLES = ("sweep", "scene", "numerics", "axes")
+SWEEP_KEYS = ("title", "output", "journal", "angle_mode", "progress_interval")
+NUMERIC_KEYS = ("n", "n_across", "tol")
+AXIS_NAMES = ("shape", "angle", "nu", "aspect", "anisotropy", "orientation", "n", "tol")
+ANGLE_MODES = ("tensor", "rotated")
+FLOAT_FIELDS = frozenset(
+    {"angle", "nu", "aspect", "anisotropy", "orientation", "tol", "G", "shape_angle", "amplitude",
+     "hurst", "rms", "radius", "depth"}
+)
+INT_FIELDS = frozenset({"n", "n_across", "sides", "seed", "threads"})
+# Geometry fields and the shapes they apply to (DESIGN §4.1, hpcontact.geometry.Shape): a field a
+# shape ignores is dropped from its scene, so e.g. a circle on an aspect axis is solved once.
+SHAPE_ONLY_FIELDS: Mapping[str, frozenset[str]] = {
+    "aspect": frozenset({"ellipse", "rectangle"}),
+    "sides": frozenset({"polygon", "star"}),
+    "amplitude": frozenset({"star"}),
+    "seed": frozenset({"rough"}),
+    "hurst": frozenset({"rough"}),
+    "rms": frozenset({"rough"}),
+    "mask": frozenset({"mask"}),
+}
+
+Validator = Callable[[Mapping[str, Any]], None]
+
+
+@dataclass(frozen=True)
+class Axis:
+    """One axis of the parameter space.
+
+    ``values`` are the coordinates (float64, int64 for ``n``, labels for ``shape``); ``fields[i]``
+    the scene fields that coordinate ``values[i]`` sets (``{"nu": 0.3}``, or a shape table).
+    """
+
+    name: str
+    values: tuple
+    fields: tuple[Mapping[str, Any], ...]
+
+    def __len__(self) -> int:
+        return len(self.values)
+
+
+@dataclass(frozen=True)
+class Spec:
+    """A checked sweep spec. ``fixed`` holds the [scene] and [numerics] fields of every task."""
+
+    path: Path
+    text: str
+    title: str
+    output: Path
+    journal: Path
+    angle_mode: str
+    progress_interval: float
+    fixed: Mapping[str, Any]
+    axes: tuple[Axis, ...]
+
+    @property
+    def task_axes(self) -> tuple[Axis, ...]:
+        """Axes that need a solve per value: all but ``angle`` in tensor mode."""
+        if self.angle_mode == "tensor":
+            return tuple(a for a in self.axes if a.name != "angle")
+        return self.axes
+
+    def axis(self, name: str) -> Axis | None:
+        """The axis called ``name``, or None."""
+        return next((a for a in self.axes if a.name == name), None)
+
+    def points(self) -> itertools.product:
+        """Index tuples of every point of the task axes, in C order (last axis fastest)."""
+        return itertools.product(*(range(len(a)) for a in self.task_axes))
+
+    def scene_params(self, index: tuple[int, ...]) -> dict[str, Any]:
+        """Solver parameters of the task-axes point ``index``.
+
+        Fixed fields, then the axis values in spec order, then shape tables (they win); in
+        rotated mode the shape is turned by −angle on top of its own ``shape_angle``. Geometry
+        fields the shape ignores are left out (``SHAPE_ONLY_FIELDS``), so equal scenes compare
+        equal.
+        """
+        params = dict(self.fixed)
+        shape_fields: Mapping[str, Any] = {}
+        angle = None
+        for axis, i in zip(self.task_axes, index):
+            if axis.name == "shape":
+                shape_fields = axis.fields[i]
+            elif axis.name == "angle":
+                angle = axis.values[i]
+            else:
+                params.update(axis.fields[i])
+        params.update(shape_fields)
+        if angle is not None:
+            params["shape_angle"] = float(params.get("shape_angle", 0.0)) - angle
+        if "shape" in params:
+            for name, shapes in SHAPE_ONLY_FIELDS.items():
+                if name in params and params["shape"] not in shapes:
+                    del params[name]
+        return params
+
+
+def canonical_json(params: Mapping[str, Any]) -> str:
+    """A scene's parameters as canonical JSON (sorted keys, exact floats): its identity."""
+    return json.dumps(params, sort_keys=True, separators=(",", ":"))
+
+
+def load_spec(path: str | Path, output: str | Path | None = None, validate: Validator | None = None) -> Spec:
+    """Read and check the spec at ``path``; ``output`` overrides [sweep].output.
+
+    ``validate`` checks one scene's parameters (default ``hpcontact.scene.validate``); it runs
+    on every distinct scene of the sweep, so impossible values are refused up front.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise InputError("spec", f"a readable TOML file ({exc.strerror})", str(path)) from None
+    return parse_spec(text, path=path, output=output, validate=validate)
+
+
+def parse_spec(
+    text: str, path: str | Path = "<string>", output: str | Path | None = None, validate: Validator | None = None
+) -> Spec:
+    """Check the TOML ``text`` of a spec and build the ``Spec`` (see the module docstring)."""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError("spec", f"valid TOML ({exc})", str(path)) from None
+    _known_keys("", data, TABLES)
+    tables = {}
+    for name in TABLES:
+        table = data.get(name, {})
+        if not isinstance(table, dict):
+            raise InputError(name, "a TOML table", table)
+        tables[name] = table
+    sweep, scene, numerics, axes_table = (tables[name] for name in TABLES)
+    _known_keys("sweep.", sweep, SWEEP_KEYS)
+    _known_keys("numerics.", numerics, NUMERIC_KEYS)
+    _known_keys("axes.", axes_table, AXIS_NAMES)
+    for key in NUMERIC_KEYS:
+        if key in scene:
+            raise InputError(f"scene.{key}", "a numerical setting: put it in [numerics]", scene[key])
+
+    fixed = {key: _normalize(f"scene.{key}", key, value) for key, value in scene.items()}
+    fixed.update({key: _normalize(f"numerics.{key}", key, value) for key, value in numerics.items()})
+    axes = tuple(_axis(name, value) for name, value in axes_table.items())
+    for axis in axes:
+        section = "numerics" if axis.name in numerics else "scene"
+        if axis.name in fixed:
+            raise InputError(f"axes.{axis.name}", f"an axis or a fixed [{section}] field, not both")
+
+    angle_mode = sweep.get("angle_mode", "tensor")
+    if angle_mode not in ANGLE_MODES:
+        raise InputError("sweep.angle_mode", f"one of {', '.join(ANGLE_MODES)}", angle_mode)
+    if angle_mode == "rotated" and not any(a.name == "angle" for a in axes):
+        raise InputError("sweep.angle_mode", "'rotated' needs an angle axis in [axes]", angle_mode)
+    interval = sweep.get("progress_interval", 10.0)
+    if isinstance(interval, bool) or not isinstance(interval, (int, float)) or not interval > 0:
+        raise InputError("sweep.progress_interval", "a number of seconds > 0", interval)
+    title = sweep.get("title", Path(path).stem)
+    if not isinstance(title, str):
+        raise InputError("sweep.title", "a string", title)
+    out = Path(output) if output is not None else Path(_string("sweep.output", sweep.get("output", f"{Path(path).stem}.nc")))
+    if out.suffix != ".nc":
+        raise InputError("output" if output is not None else "sweep.output", "a path ending in .nc", str(out))
+    journal = Path(_string("sweep.journal", sweep["journal"])) if "journal" in sweep else out.with_name(out.name + ".journal")
+
+    spec = Spec(
+        path=Path(path),
+        text=text,
+        title=title,
+        output=out,
+        journal=journal,
+        angle_mode=angle_mode,
+        progress_interval=float(interval),
+        fixed=fixed,
+        axes=axes,
+    )
+    _check_scenes(spec, validate)
+    return spec
+
+
+def _known_keys(prefix: str, table: Mapping[str, Any], allowed: tuple[str, ...]) -> None:
+    for key in table:
+        if key not in allowed:
+            raise InputError(f"{prefix}{key}", f"unknown key; allowed: {', '.join(allowed)}")
+
+
+def _string(key: str, value: Any) -> str:
+    if not isinstance(value, str) or not value:
+        raise InputError(key, "a non-empty string", value)
+    return value
+
+
+def _normalize(key: str, name: str, value: Any) -> Any:
+    """``value`` as float64 (float fields) or int (integer fields); others unchanged."""
+    if name in FLOAT_FIELDS or name in INT_FIELDS:
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise InputError(key, "a finite number", value)
+        if name in INT_FIELDS:
+            if value != int(value):
+                raise InputError(key, "an integer", value)
+            return int(value)
+        return float(value)
+    return value
+
+
+def _axis(name: str, raw: Any) -> Axis:
+    key = f"axes.{name}"
+    if isinstance(raw, dict):
+        values = _generated(key, raw)
+    elif isinstance(raw, list):
+        values = list(raw)
+    else:
+        raise InputError(key, "a list of values or a table {linspace = [start, stop, num]} / {logspace = ...}", raw)
+    if not values:
+        raise InputError(key, "at least one value (the axis is empty)")
+    if name == "shape":
+        coords, fields = _shape_values(key, values)
+    else:
+        coords = tuple(_normalize(key, name, v) for v in values)
+        fields = tuple({name: v} for v in coords)
+    if len(set(coords)) != len(coords):
+        raise InputError(key, "distinct values (a coordinate appears twice)", list(coords))
+    return Axis(name=name, values=coords, fields=fields)
+
+
+def _generated(key: str, raw: dict) -> list[float]:
+    if len(raw) != 1 or next(iter(raw)) not in ("linspace", "logspace"):
+        raise InputError(key, "a table with one key: linspace or logspace", raw)
+    kind, args = next(iter(raw.items()))
+    ok = (
+        isinstance(args, list)
+        and len(args) == 3
+        and all(isinstance(a, (int, float)) and not isinstance(a, bool) and math.isfinite(a) for a in args)
+        and isinstance(args[2], int)
+    )
+    if not ok:
+        raise InputError(f"{key}.{kind}", "[start, stop, num] with finite numbers and an integer num", args)
+    start, stop, num = args
+    if num < 1:
+        raise InputError(f"{key}.{kind}", "num >= 1 (the axis is empty)", args)
+    make = np.linspace if kind == "linspace" else np.logspace
+    return [float(v) for v in make(float(start), float(stop), num, dtype=np.float64)]
+
+
+def _shape_values(key: str, values: list) -> tuple[tuple[str, ...], tuple[Mapping[str, Any], ...]]:
+    """Shape coordinates (labels) and the scene fields each one sets."""
+    coords, fields = [], []
+    for i, value in enumerate(values):
+        if isinstance(value, str):
+            coords.append(value)
+            fields.append({"shape": value})
+            continue
+        where = f"{key}[{i}]"
+        if not isinstance(value, dict):
+            raise InputError(where, "a shape name or a table {label = ..., shape = ..., ...}", value)
+        if not isinstance(value.get("label"), str) or not value["label"]:
+            raise InputError(f"{where}.label", "a non-empty string naming the shape in the data set", value.get("label"))
+        if "shape" not in value:
+            raise InputError(f"{where}.shape", "the shape name (circle, polygon, ...)")
+        if "angle" in value:
+            raise InputError(f"{where}.angle", "not a shape field (shape_angle turns the shape)")
+        coords.append(value["label"])
+        fields.append({k: _normalize(f"{where}.{k}", k, v) for k, v in value.items() if k != "label"})
+    return tuple(coords), tuple(fields)
+
+
+def _check_scenes(spec: Spec, validate: Validator | None) -> None:
+    """Run the scene validator once per distinct scene; name the spec key of a bad field."""
+    if validate is None:
+        from ..scene import validate
+    seen: set[str] = set()
+    for index in spec.points():
+        params = spec.scene_params(index)
+        text = canonical_json(params)
+        if text in seen:
+            continue
+        seen.add(text)
+        try:
+            validate(params)
+        except InputError as exc:
+            raise InputError(_locate(spec, index, exc.field), exc.allowed, exc.value) from None
+
+
+def _locate(spec: Spec, index: tuple[int, ...], name: str) -> str:
+    """Where in the spec the field ``name`` of the scene at ``index`` came from."""
+    for axis, i in zip(spec.task_axes, index):
+        if axis.name == "shape" and name in axis.fields[i]:
+            return f"axes.shape[{i}].{name}"
+        if axis.name == name:
+            return f"axes.{name}"
+    if name == "shape_angle" and spec.angle_mode == "rotated":
+        return "axes.angle"
+    if name in spec.fixed:
+        return f"numerics.{name}" if name in NUMERIC_KEYS else f"scene.{name}"
+    return f"scene.{name}"

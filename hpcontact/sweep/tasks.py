@@ -1,0 +1,112 @@
+"""Tasks of a sweep: the distinct scenes of the spec's parameter space, keyed, costed, chunked.
+
+A task is one call of the task function (``hpcontact.solve.solve``) on one scene. Points of the
+parameter space whose scenes are equal (a circle on an aspect axis, the load angle in tensor
+mode) share a task. A task's key is the SHA-1 of its canonical parameter JSON: it names the
+scene itself, not its place in the spec, so ``--resume`` after an edit of the spec reuses exactly
+the scenes that did not change and recomputes those that did (a changed ``tol``, say).
+
+Tasks are handed out in chunks, largest estimated cost first (longest-processing-time order
+keeps the tail short). A chunk holds tasks that can share kernels: same material, ``n``,
+``n_across`` and b/a, differing only in the contact's outline or the solve (``tol``,
+``quantities``); the engine caches kernel spectra per (material, grid) in each process, so on
+one rank, e.g., the ellipse and the rectangle of one b/a, or the ``tol`` values of an accuracy
+study, build their kernels once. No chunk costs more than 1/(4·ranks) of the whole sweep, so
+grouping never costs more balance than it saves.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+from .spec import Spec, canonical_json
+
+# Fields that change a scene's outline or its solves but not its material or grid spacing:
+# tasks differing only in these may share kernels (when their bounding boxes match).
+KERNEL_NEUTRAL_FIELDS = (
+    "shape", "sides", "amplitude", "shape_angle", "seed", "hurst", "rms", "mask",
+    "tol", "quantities", "threads", "precondition",
+)
+# Relative number of operator solves per requested quantity (tangential: x and y loads).
+SOLVES_PER_QUANTITY = {"tangential": 2.0, "normal": 1.0, "compliance": 0.1, "coupled": 3.0, "indentation": 3.0}
+# Engine defaults used when a spec leaves them out; only ratios of costs matter.
+DEFAULT_N = 128
+DEFAULT_TOL = 1e-8
+DEFAULT_QUANTITIES = ("tangential",)
+CHUNKS_PER_RANK = 4
+
+
+@dataclass(frozen=True)
+class Task:
+    """One scene to solve: ``key`` (SHA-1 of its canonical JSON), ``params``, estimated ``cost``
+    (arbitrary units, for ordering only) and kernel ``group``."""
+
+    key: str
+    params: Mapping[str, Any]
+    cost: float
+    group: str
+
+
+def task_key(params: Mapping[str, Any]) -> str:
+    """The key of the scene ``params``: SHA-1 (hex) of its canonical JSON."""
+    return hashlib.sha1(canonical_json(params).encode("utf-8")).hexdigest()
+
+
+def enumerate_tasks(spec: Spec) -> tuple[list[Task], dict[tuple[int, ...], str]]:
+    """The distinct tasks of ``spec`` in first-appearance order (C order over the task axes),
+    and the task key of every point (index tuple over ``spec.task_axes``)."""
+    tasks: dict[str, Task] = {}
+    where: dict[tuple[int, ...], str] = {}
+    for index in spec.points():
+        params = spec.scene_params(index)
+        key = task_key(params)
+        if key not in tasks:
+            neutral = {k: v for k, v in params.items() if k not in KERNEL_NEUTRAL_FIELDS}
+            tasks[key] = Task(key=key, params=params, cost=estimated_cost(params), group=canonical_json(neutral))
+        where[index] = key
+    return list(tasks.values()), where
+
+
+def estimated_cost(params: Mapping[str, Any]) -> float:
+    """Relative cost of a scene: padded FFT size · log (per operator application) × solves ×
+    digits of tolerance (CG iterations). Mirrors the grid rule of ``geometry.grid_for``."""
+    n = int(params.get("n", DEFAULT_N))
+    if params.get("n_across") is not None:
+        across = int(params["n_across"])
+    else:
+        across = max(min(n, 16), round(n * float(params.get("aspect", 1.0))))
+    size = 4.0 * n * across
+    quantities = params.get("quantities", DEFAULT_QUANTITIES)
+    if isinstance(quantities, str):
+        quantities = quantities.split(",")
+    solves = sum(SOLVES_PER_QUANTITY.get(q.strip(), 1.0) for q in quantities)
+    if params.get("shape") == "rough":
+        solves += 1.0  # the contact patch comes from a normal contact solve
+    digits = max(1.0, -math.log10(float(params.get("tol", DEFAULT_TOL))))
+    return size * math.log2(size) * max(solves, 0.1) * digits
+
+
+def make_chunks(tasks: list[Task], ranks: int) -> list[tuple[Task, ...]]:
+    """Tasks grouped by kernel and split at 1/(CHUNKS_PER_RANK·ranks) of the total cost; chunks
+    in decreasing cost (ties: first appearance), the order the ranks take them in."""
+    if not tasks:
+        return []
+    cap = sum(t.cost for t in tasks) / (CHUNKS_PER_RANK * ranks)
+    groups: dict[str, list[Task]] = {}
+    for task in tasks:
+        groups.setdefault(task.group, []).append(task)
+    chunks: list[tuple[Task, ...]] = []
+    for members in groups.values():
+        members = sorted(members, key=lambda t: -t.cost)
+        current: list[Task] = []
+        for task in members:
+            if current and sum(t.cost for t in current) + task.cost > cap:
+                chunks.append(tuple(current))
+                current = []
+            current.append(task)
+        chunks.append(tuple(current))
+    order = sorted(range(len(chunks)), key=lambda i: (-sum(t.cost for t in chunks[i]), i))
+    return [chunks[i] for i in order]

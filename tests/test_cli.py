@@ -1,0 +1,246 @@
+"""Command line contract (DESIGN §4.1): `hpcontact solve --json` and its error reporting.
+
+* One JSON object on stdout with the keys that apply to the quantities asked, and a `plan`
+  object listing the kernels built and the solves run.
+* Bad input: exit status 2 and ONE line on stderr naming the bad field (nothing on stdout).
+
+The physics of the numbers is tested elsewhere (test_solve, test_solvers); here the values are
+checked only for consistency with the contract (finite, symmetric where the plan derives them).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from hpcontact.cli import main
+
+pytestmark = pytest.mark.filterwarnings("error")
+
+SMALL = ["--n", "16"]
+TANGENTIAL_KEYS = {"K_xx", "K_xy", "K_yx", "K_yy", "K_max", "K_min", "principal_angle_deg", "K_a_over_K_b"}
+COMMON_KEYS = {"iterations", "residual", "wall_time_s", "nx", "ny", "dx", "dy", "plan"}
+COUPLING_KEYS = {"K_xz", "K_yz", "K_zx", "K_zy"}
+INDENTATION_KEYS = {"load", "contact_area", "ellipse_b_over_a", "ellipse_angle_deg"}
+
+
+def _run(capsys, *args) -> tuple[int, str, str]:
+    code = main(["solve", *args])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def _json(capsys, *args) -> dict:
+    code, out, err = _run(capsys, *args, "--json")
+    assert code == 0, err
+    assert err == ""
+    lines = out.strip().splitlines()
+    assert len(lines) == 1  # one JSON object, one line
+    record = json.loads(lines[0])
+    assert isinstance(record, dict)
+    for key, value in record.items():
+        if isinstance(value, float):
+            assert math.isfinite(value), key
+    plan = record["plan"]
+    assert isinstance(plan, dict)
+    assert isinstance(plan["kernels"], list) and isinstance(plan["solves"], list)
+    assert all(isinstance(k, str) for k in plan["kernels"])
+    return record
+
+
+def test_tangential_keys(capsys):
+    r = _json(capsys, "--shape", "ellipse", "--aspect", "0.5", "--nu", "0.3", *SMALL)
+    assert TANGENTIAL_KEYS | COMMON_KEYS <= set(r)
+    assert not ({"K_zz", "normalized_xx"} | COUPLING_KEYS | INDENTATION_KEYS) & set(r)
+    assert r["plan"]["kernels"] == ["xx", "xy", "yx", "yy"]
+    assert r["plan"]["solves"] == ["tangential_x[xy]", "tangential_y[xy]"]
+    assert isinstance(r["nx"], int) and isinstance(r["iterations"], int)
+    assert r["nx"] == 16 and r["dx"] == pytest.approx(2.0 / 16)
+    assert r["K_a_over_K_b"] == pytest.approx(r["K_xx"] / r["K_yy"], rel=1e-15)
+    assert r["K_max"] >= r["K_min"] > 0
+    assert 0.0 <= r["principal_angle_deg"] < 180.0
+    assert r["wall_time_s"] > 0.0 and r["residual"] <= 1e-8  # default tol
+
+
+def test_normal_and_tangential_keys(capsys):
+    r = _json(capsys, "--quantities", "tangential,normal", "--nu", "0.25", *SMALL)
+    assert TANGENTIAL_KEYS | COMMON_KEYS | {"K_zz", "normalized_xx", "normalized_yy"} <= set(r)
+    # Li's normalization, recomputed from the record: K E*/(K_zz G*), E* = 2G/(1−ν), G* = 4G/(2−ν)
+    nu = 0.25
+    expected = r["K_xx"] * (2 / (1 - nu)) / (r["K_zz"] * (4 / (2 - nu)))
+    assert r["normalized_xx"] == pytest.approx(expected, rel=1e-14)
+    assert set(r["plan"]["kernels"]) == {"xx", "xy", "yx", "yy", "zz"}
+
+
+def test_coupled_keys(capsys):
+    r = _json(capsys, "--quantities", "coupled", "--shape", "ellipse", "--aspect", "0.5", *SMALL)
+    assert TANGENTIAL_KEYS | COUPLING_KEYS | COMMON_KEYS | {"K_zz"} <= set(r)
+    assert all(s.endswith("[xyz]") for s in r["plan"]["solves"])
+
+
+def test_compliance_keys(capsys):
+    r = _json(capsys, "--quantities", "compliance", *SMALL)
+    assert {"proxy_K_xx", "proxy_K_xy", "proxy_K_yx", "proxy_K_yy"} | COMMON_KEYS <= set(r)
+    assert r["plan"]["solves"] == [] and r["iterations"] == 0
+
+
+def test_indentation_keys(capsys):
+    r = _json(capsys, "--quantities", "indentation", "--radius", "1", "--depth", "0.01", *SMALL)
+    assert INDENTATION_KEYS | COMMON_KEYS <= set(r)
+    assert r["plan"]["kernels"] == ["zz"]
+    assert r["ellipse_b_over_a"] == pytest.approx(1.0, abs=0.05)  # a sphere: circular contact
+
+
+def test_mask_file(capsys, tmp_path):
+    mask = np.zeros((9, 6), dtype=bool)
+    mask[1:8, 1:5] = True
+    path = tmp_path / "m.npy"
+    np.save(path, mask)
+    r = _json(capsys, "--shape", "mask", "--mask", str(path))
+    assert (r["nx"], r["ny"]) == (7, 4)  # cropped to the support
+    assert r["dx"] == r["dy"] == pytest.approx(2.0 / 9)
+
+
+def test_plain_text_output(capsys):
+    code, out, err = _run(capsys, *SMALL)
+    assert code == 0 and err == ""
+    assert "K_xx" in out and "plan.kernels" in out
+    with pytest.raises(json.JSONDecodeError):
+        json.loads(out)
+
+
+def test_no_precondition_same_answer(capsys):
+    a = _json(capsys, "--shape", "ellipse", "--aspect", "0.5", "--tol", "1e-12", *SMALL)
+    b = _json(capsys, "--shape", "ellipse", "--aspect", "0.5", "--tol", "1e-12", "--no-precondition", *SMALL)
+    # both to CG tol 1e-12 (cond ~ √N ≈ 15): 1e-10 relative
+    for key in ("K_xx", "K_yy"):
+        assert a[key] == pytest.approx(b[key], rel=1e-10)
+
+
+def test_subprocess_solve_json():
+    proc = subprocess.run(
+        [sys.executable, "-m", "hpcontact.cli", "solve", "--shape", "ellipse", "--aspect", "0.4", "--n", "12", "--json"],
+        capture_output=True, text=True, timeout=120,
+    )
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.strip().splitlines()
+    assert len(lines) == 1
+    record = json.loads(lines[0])
+    assert TANGENTIAL_KEYS | COMMON_KEYS <= set(record)
+    assert record["K_a_over_K_b"] < 1.0  # long along x: softer along x (ν = 0.3 default)
+
+
+def test_subprocess_bad_input_exit_2():
+    proc = subprocess.run(
+        [sys.executable, "-m", "hpcontact.cli", "solve", "--nu", "0.7", "--json"],
+        capture_output=True, text=True, timeout=120,
+    )
+    assert proc.returncode == 2
+    assert proc.stdout == ""
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "nu" in lines[0] and "0.5" in lines[0]
+
+
+BAD = [
+    (["--nu", "0.6"], "nu"),
+    (["--nu", "-1.5"], "nu"),
+    (["--nu", "-1"], "nu"),
+    (["--aspect", "0", "--shape", "ellipse"], "aspect"),
+    (["--aspect", "-0.3", "--shape", "rectangle"], "aspect"),
+    (["--aspect", "1.5", "--shape", "ellipse"], "aspect"),
+    (["--n", "1"], "n"),
+    (["--n", "0"], "n"),
+    (["--n", "nan"], "--n"),  # argparse: invalid int value
+    (["--n", "2.5"], "--n"),
+    (["--n-across", "0"], "n_across"),
+    (["--shape", "blob"], "shape"),
+    (["--shape", "mask"], "mask"),
+    (["--shape", "polygon", "--sides", "2"], "sides"),
+    (["--G", "0"], "G"),
+    (["--tol", "0.5"], "tol"),
+    (["--threads", "0"], "threads"),
+    (["--quantities", "slip"], "quantities"),
+    (["--quantities", "indentation"], "radius"),
+    (["--quantities", "indentation", "--radius", "1"], "depth"),
+    (["--colour", "red"], "--colour"),
+] + [
+    ([f"{option}={value}", *extra], field)  # "=" form: argparse takes "-inf" for an option otherwise
+    for value in ("nan", "inf", "-inf")
+    for option, field, extra in [
+        ("--nu", "nu", []),
+        ("--G", "G", []),
+        ("--aspect", "aspect", ["--shape", "ellipse"]),
+        ("--shape-angle", "shape_angle", []),
+        ("--amplitude", "amplitude", ["--shape", "star"]),
+        ("--anisotropy", "anisotropy", []),
+        ("--tol", "tol", []),
+        ("--radius", "radius", ["--quantities", "indentation", "--depth", "0.1"]),
+        ("--depth", "depth", ["--quantities", "indentation", "--radius", "1"]),
+    ]
+]
+
+
+def _exit_code(capsys, *args) -> tuple[int, str, str]:
+    """main()'s status, whether returned (InputError) or raised as SystemExit (argparse errors)."""
+    try:
+        code = main(["solve", *args])
+    except SystemExit as exc:
+        code = exc.code
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.mark.parametrize("args, field", BAD, ids=lambda v: " ".join(v) if isinstance(v, list) else v)
+def test_bad_input_exits_2_with_one_line(capsys, args, field):
+    code, out, err = _exit_code(capsys, *SMALL, *args, "--json")  # last --n wins: bad args after
+    assert code == 2
+    assert out == ""
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert field in lines[0]
+
+
+def test_empty_mask_file_exits_2(capsys, tmp_path):
+    path = tmp_path / "empty.npy"
+    np.save(path, np.zeros((5, 5)))
+    code, out, err = _exit_code(capsys, "--shape", "mask", "--mask", str(path), "--json")
+    assert code == 2 and out == ""
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and "mask" in lines[0]
+
+
+def test_missing_command_exits_2(capsys):
+    with pytest.raises(SystemExit) as info:
+        main([])
+    assert info.value.code == 2
+    assert len(capsys.readouterr().err.strip().splitlines()) == 1
+
+
+def test_png_mask_with_no_dark_pixel_exits_2(capsys, tmp_path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    path = tmp_path / "white.png"
+    plt.imsave(path, np.ones((6, 6)), cmap="gray", vmin=0.0, vmax=1.0)
+    code, out, err = _exit_code(capsys, "--shape", "mask", "--mask", str(path), "--json")
+    assert code == 2 and out == ""
+    assert len(err.strip().splitlines()) == 1 and "mask" in err
+
+
+@pytest.mark.parametrize("option", ["--radius", "--depth"])
+def test_nan_radius_or_depth_on_tangential_scene_exits_2(capsys, option):
+    code, out, err = _exit_code(capsys, option, "nan", *SMALL, "--json")
+    assert code == 2
+
+
+@pytest.mark.parametrize("G", ["1e300", "1e-300"])
+def test_huge_and_tiny_moduli_with_normalization(capsys, G):
+    r = _json(capsys, "--G", G, "--quantities", "tangential,normal", "--n", "8")
+    assert r["normalized_xx"] == pytest.approx(1.0, rel=0.1)  # a coarse circle: ~1

@@ -1,0 +1,231 @@
+"""Non-periodic FFT convolution (hpcontact.operator) against the direct O(N²) sum.
+
+The reference is the definition u_i[a] = Σ_j Σ_b K_ij[a − b] t_j[b], summed term by term over
+every pair of cells (no FFT), with the centred offset layout of the kernel blocks (entry
+[nx−1+p, ny−1+q] is offset (p, q)). Rounding: the FFT route has error ~ε·log₂(N)·max|K|·Σ|t|
+(Gentleman & Sande 1966) against O(N) roundings of the direct sum: ≲ 1e-14 relative to the norm
+of u on these grids; 1e-12 leaves two decades of margin.
+"""
+
+from __future__ import annotations
+
+import pickle
+
+import numpy as np
+import pyfftw
+import pytest
+
+from hpcontact import operator as op_mod
+from hpcontact.kernels.isotropic import BLOCKS, isotropic_block
+from hpcontact.materials import Isotropic
+from hpcontact.operator import (
+    ConvolutionOperator,
+    cached_spectrum,
+    clear_cache,
+    kernel_spectrum,
+    load_wisdom,
+    padded_shape,
+    save_wisdom,
+    wisdom_path,
+)
+
+pytestmark = pytest.mark.filterwarnings("error")
+
+REL = 1e-12  # see module docstring
+
+
+def direct_sum(blocks: dict[str, np.ndarray], components: str, traction: np.ndarray) -> np.ndarray:
+    """u_i[a] = Σ_j Σ_b K_ij[a − b] t_j[b], term by term over source cells b (no FFT)."""
+    c, nx, ny = traction.shape
+    u = np.zeros_like(traction)
+    for i, ci in enumerate(components):
+        for j, cj in enumerate(components):
+            K = blocks.get(ci + cj)
+            if K is None:
+                continue
+            for ib in range(nx):
+                for jb in range(ny):
+                    # K[a − b] for all targets a: rows nx−1−ib … 2nx−2−ib
+                    u[i] += K[nx - 1 - ib : 2 * nx - 1 - ib, ny - 1 - jb : 2 * ny - 1 - jb] * traction[j, ib, jb]
+    return u
+
+
+def spectra_of(blocks, nx, ny):
+    shape = padded_shape(nx, ny)
+    return {name: kernel_spectrum(K, shape) for name, K in blocks.items()}
+
+
+def _rel(a, b):
+    return np.linalg.norm(a - b) / np.linalg.norm(b)
+
+
+@pytest.mark.parametrize("nx, ny", [(1, 1), (1, 6), (7, 5), (8, 3), (12, 9)])
+@pytest.mark.parametrize("components", ["z", "xy", "xyz"])
+def test_apply_equals_direct_sum_random_kernels(nx, ny, components):
+    """Arbitrary (non-symmetric) kernels: the convolution indexing alone is tested."""
+    rng = np.random.default_rng(nx * 100 + ny)
+    blocks = {a + b: rng.normal(size=(2 * nx - 1, 2 * ny - 1)) for a in components for b in components}
+    if len(components) > 1:
+        del blocks[components[0] + components[-1]]  # an absent block is zero
+    t = rng.normal(size=(len(components), nx, ny))
+    op = ConvolutionOperator(nx, ny, components, spectra_of(blocks, nx, ny), planner_effort="FFTW_ESTIMATE")
+    u = op.apply(t)
+    assert u.shape == t.shape
+    assert _rel(u, direct_sum(blocks, components, t)) <= REL
+    assert op.applications == 1
+
+
+@pytest.mark.parametrize("nx, ny, dx, dy", [(7, 5, 0.3, 0.1), (6, 9, 1.0, 2.5), (5, 5, 1e-3, 1.0)])
+@pytest.mark.parametrize("components", ["x", "xy", "xyz"])
+def test_apply_equals_direct_sum_isotropic_blocks(nx, ny, dx, dy, components):
+    m = Isotropic(G=1.7, nu=0.3)
+    names = [a + b for a in components for b in components]
+    blocks = {name: isotropic_block(m, nx, ny, dx, dy, name) for name in names}
+    for K in blocks.values():
+        assert K.shape == (2 * nx - 1, 2 * ny - 1)
+    rng = np.random.default_rng(1)
+    t = rng.normal(size=(len(components), nx, ny))
+    op = ConvolutionOperator(nx, ny, components, spectra_of(blocks, nx, ny), planner_effort="FFTW_ESTIMATE")
+    u = op.apply(t)
+    assert _rel(u, direct_sum(blocks, components, t)) <= REL
+    # applying twice gives the same (buffers are reused, nothing left over)
+    np.testing.assert_array_equal(op.apply(t), u)
+
+
+def test_no_periodic_wrap_around():
+    """A unit traction in one corner: the opposite corner sees exactly the kernel at the largest offset."""
+    nx, ny = 9, 6
+    m = Isotropic(G=1.0, nu=0.25)
+    K = isotropic_block(m, nx, ny, 0.2, 0.35, "xx")
+    op = ConvolutionOperator(nx, ny, "x", spectra_of({"xx": K}, nx, ny), planner_effort="FFTW_ESTIMATE")
+    t = np.zeros((1, nx, ny))
+    t[0, 0, 0] = 1.0
+    u = op.apply(t)[0]
+    # u[a] = K[a − 0]: offsets (0..nx−1, 0..ny−1); the far corner is offset (nx−1, ny−1)
+    np.testing.assert_allclose(u, K[nx - 1 :, ny - 1 :], rtol=1e-12, atol=1e-15 * K.max())
+    assert u[-1, -1] == pytest.approx(K[-1, -1], rel=1e-12)
+    t[0, 0, 0] = 0.0
+    t[0, -1, -1] = 1.0
+    u = op.apply(t)[0]
+    np.testing.assert_allclose(u, K[:nx, :ny], rtol=1e-12, atol=1e-15 * K.max())
+    assert u[0, 0] == pytest.approx(K[0, 0], rel=1e-12)
+    # a periodic convolution on the unpadded grid would have added the near-field value
+    # K[0 offset] ≈ 1 order of magnitude larger: the comparison above would fail by far.
+    assert K[nx - 1, ny - 1] > 10 * K[0, 0]
+
+
+def test_odd_kernel_sign_convention():
+    """Block xz is odd in x: a pressure at the centre pulls the surface toward it (u_x < 0 at x > 0)."""
+    nx, ny = 7, 7
+    m = Isotropic(G=1.0, nu=0.3)
+    blocks = {"xz": isotropic_block(m, nx, ny, 0.1, 0.1, "xz"), "zz": isotropic_block(m, nx, ny, 0.1, 0.1, "zz")}
+    op = ConvolutionOperator(nx, ny, "xz", spectra_of(blocks, nx, ny), planner_effort="FFTW_ESTIMATE")
+    t = np.zeros((2, nx, ny))
+    t[1, 3, 3] = 1.0
+    u = op.apply(t)
+    assert np.all(u[0, 4:, 3] < 0) and np.all(u[0, :3, 3] > 0)
+    assert abs(u[0, 3, 3]) <= 1e-15 * np.max(np.abs(u[0]))  # odd kernel: zero under the load
+    assert np.all(u[1] > 0)
+
+
+def test_block_outside_components_is_refused():
+    nx, ny = 3, 3
+    with pytest.raises(ValueError):
+        ConvolutionOperator(nx, ny, "xy", {"xz": np.zeros(padded_shape(nx, ny))}, planner_effort="FFTW_ESTIMATE")
+
+
+def test_padded_shape():
+    for nx, ny in [(1, 1), (7, 5), (64, 3), (100, 101)]:
+        n1, n2 = padded_shape(nx, ny)
+        assert n1 >= 2 * nx - 1 and n2 >= 2 * ny - 1
+        # FFT-friendly: 2, 3, 5 smooth (scipy next_fast_len for real transforms)
+        for n in (n1, n2):
+            for p in (2, 3, 5):
+                while n % p == 0:
+                    n //= p
+            assert n == 1
+
+
+def test_kernel_spectrum_real_for_even_kernels():
+    nx, ny = 6, 5
+    m = Isotropic(G=1.0, nu=0.3)
+    shape = padded_shape(nx, ny)
+    for block in ("xx", "yy", "zz", "xy"):  # even in x and y, or odd in both (xy): real spectrum
+        K = isotropic_block(m, nx, ny, 0.4, 0.15, block)
+        s = kernel_spectrum(K, shape)
+        assert s.dtype == np.float64 and s.shape == (shape[0], shape[1] // 2 + 1)
+        # independent layout: offset (p, q) at index (p mod N1, q mod N2), full complex rfft2
+        wrapped = np.zeros(shape)
+        for p in range(-(nx - 1), nx):
+            for q in range(-(ny - 1), ny):
+                wrapped[p % shape[0], q % shape[1]] = K[nx - 1 + p, ny - 1 + q]
+        full = np.fft.rfft2(wrapped)
+        assert np.max(np.abs(full.imag)) <= 1e-13 * np.max(np.abs(full))
+        np.testing.assert_allclose(s, full.real, rtol=0, atol=1e-14 * np.max(np.abs(full)))
+    for block in ("xz", "zy"):  # odd in one axis only: imaginary spectrum, returned complex
+        K = isotropic_block(m, nx, ny, 0.4, 0.15, block)
+        s = kernel_spectrum(K, shape)
+        assert np.iscomplexobj(s)
+        assert np.max(np.abs(s.real)) <= 1e-13 * np.max(np.abs(s.imag))
+
+
+def test_spectrum_cache_hit_returns_same_object():
+    clear_cache()
+    calls = []
+    K = np.arange(15.0).reshape(3, 5)
+
+    def build():
+        calls.append(1)
+        return K
+
+    key = ("test-material", 2, 3, 0.1, 0.2, "xx")
+    shape = padded_shape(2, 3)
+    first = cached_spectrum(key, build, shape)
+    second = cached_spectrum(key, build, shape)
+    assert second is first
+    assert len(calls) == 1
+    assert not first.flags.writeable  # shared between operators: must be read-only
+    other = cached_spectrum(key, build, (shape[0] * 2, shape[1]))  # another padded shape: new entry
+    assert other is not first and len(calls) == 2
+    clear_cache()
+    third = cached_spectrum(key, build, shape)
+    assert third is not first and len(calls) == 3
+    np.testing.assert_array_equal(third, first)
+    clear_cache()
+
+
+def _entries(wisdom: bytes) -> set[bytes]:
+    return {line.strip() for line in wisdom.splitlines()[1:-1]}
+
+
+def test_wisdom_roundtrip(tmp_path, monkeypatch):
+    path = tmp_path / "sub" / "wisdom.pkl"
+    monkeypatch.setenv("HPCONTACT_WISDOM", str(path))
+    assert wisdom_path() == path
+    assert load_wisdom() is False  # none yet
+    ConvolutionOperator(10, 6, "xy", {}, planner_effort="FFTW_MEASURE")  # creates some wisdom
+    saved = pyfftw.export_wisdom()
+    assert any(_entries(w) for w in saved)  # something to round-trip
+    save_wisdom()
+    assert path.is_file()
+    assert not list(path.parent.glob("*.tmp"))  # atomic: the temporary file is gone
+    with open(path, "rb") as fh:
+        assert pickle.load(fh) == saved
+    pyfftw.forget_wisdom()
+    assert pyfftw.export_wisdom() != saved
+    assert load_wisdom() is True
+    # FFTW may re-export the same entries in another order: compare the entries, per precision
+    assert [_entries(w) for w in pyfftw.export_wisdom()] == [_entries(w) for w in saved]
+    path.write_bytes(b"not a pickle")
+    assert load_wisdom() is False
+
+
+def test_wisdom_path_default(monkeypatch):
+    monkeypatch.delenv("HPCONTACT_WISDOM", raising=False)
+    assert wisdom_path().name == "fftw_wisdom.pkl"
+    assert "hpcontact" in wisdom_path().parts
+
+
+def test_module_constants():
+    assert op_mod.COMPONENT_INDEX == {"x": 0, "y": 1, "z": 2}
+    assert set(BLOCKS) == {a + b for a in "xyz" for b in "xyz"}
