@@ -16,6 +16,11 @@ mask, not assumed from the shape's name):
   ``K_zz`` is the frictionless punch and the bonded one is ``K_zz_bonded``.
 - ``compliance`` (Li 2017 §3.2 proxy): tangential kernels, operator applications, no solve.
 - ``indentation`` (rigid sphere, Polonsky–Keer): kernel zz only.
+
+An anisotropic half-space (a crystal) couples normal and tangential response even for a bonded
+punch alone, so ``tangential`` is solved as ``coupled`` (3 × 3, all nine blocks), and none of
+the isotropic shortcuts (nu = 0, x ↔ y mirror, nu = 0.5) apply. An isotropic material stays on
+the closed-form kernels whatever its orientation.
 """
 
 from __future__ import annotations
@@ -25,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .geometry import Grid
+from .materials import Isotropic
 from .scene import Scene
 
 
@@ -45,9 +51,11 @@ class Plan:
     solves: tuple[Solve, ...]
     derived: tuple[str, ...]
     applications: tuple[str, ...] = ()
+    kernel_source: str = ""
 
     def as_dict(self) -> dict:
         return {
+            "kernel_source": self.kernel_source,
             "kernels": list(self.kernels),
             "solves": [f"{s.name}[{s.components}]" for s in self.solves],
             "derived": list(self.derived),
@@ -62,13 +70,21 @@ def transpose_symmetric(mask: np.ndarray, grid: Grid) -> bool:
 
 def make_plan(scene: Scene, mask: np.ndarray, grid: Grid) -> Plan:
     """The kernels and solves ``scene`` needs on its contact ``mask``."""
-    nu = scene.material.nu
     wanted = set(scene.quantities)
     kernels: list[str] = []
     solves: list[Solve] = []
     derived: list[str] = []
     applications: list[str] = []
-    mirror = transpose_symmetric(mask, grid)
+    if isinstance(scene.material, Isotropic):
+        nu = scene.material.nu
+        mirror = transpose_symmetric(mask, grid)
+        source = "isotropic closed form (Boussinesq-Cerruti cell integrals)"
+    else:
+        nu = None  # no isotropic shortcut applies
+        mirror = False
+        source = "anisotropic (Barnett-Lothe surface Green's function)"
+        if "tangential" in wanted:
+            wanted.add("coupled")
 
     def need(*blocks: str) -> None:
         kernels.extend(b for b in blocks if b not in kernels)
@@ -118,4 +134,4 @@ def make_plan(scene: Scene, mask: np.ndarray, grid: Grid) -> Plan:
     if "indentation" in wanted:
         need("zz")
         solves.append(Solve("indentation_polonsky_keer", "z", "z"))
-    return Plan(tuple(kernels), tuple(solves), tuple(derived), tuple(applications))
+    return Plan(tuple(kernels), tuple(solves), tuple(derived), tuple(applications), source)

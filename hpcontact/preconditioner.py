@@ -1,23 +1,29 @@
 """Fourier preconditioner for CG on a contact mask: the inverse of the half-space symbol.
 
-The half-space compliance acts in Fourier space as û = H(m) t̂ / |k| (DESIGN §2.1, Johnson
-1985 §3.2); for isotropic bodies with coupling neglected, H = (I − nu m mᵀ)/G on the tangential
-components and (1 − nu)/G on the normal one. Its inverse |k| G (I + nu/(1−nu) m mᵀ) (and
-|k| G/(1−nu)) is applied on a periodic grid over the contact's bounding box (unpadded except along short
-axes, ``preconditioner_length``) with the discrete wavenumber k_x = 2 sin(κ_x dx/2)/dx (bounded
-at Nyquist like the cell-averaged operator) and |k| floored at the lowest non-zero wavenumber,
-so the preconditioner is symmetric positive definite; restricted to the mask it stays SPD, as CG
-requires. One application costs two FFTs on that grid (~1/4 of an operator application's FFTs
-when unpadded).
+The half-space compliance acts in Fourier space as û = H(m) t̂ / |k| (DESIGN §2.1 and §2.5;
+Johnson 1985 §3.2 for isotropic bodies, Barnett & Lothe 1985 for crystals), H Hermitian positive
+definite and depending on the direction m alone. Restricted to the traction components c a solve
+couples (e.g. "xy" with normal–tangential coupling neglected, "z", or "xyz"), its inverse
+|k| H_cc(m)⁻¹ is applied on a periodic grid over the contact's bounding box (unpadded except
+along short axes, ``preconditioner_length``) with the discrete wavenumber
+k_x = 2 sin(κ_x dx/2)/dx (bounded at Nyquist like the cell-averaged operator) and |k| floored at
+the lowest non-zero wavenumber: symmetric positive definite, and so is its restriction to the
+mask, as CG requires. H is tabulated at ``TABLE_ANGLES`` directions (nearest entry used): a
+preconditioner need not be exact. One application costs two FFTs on that grid (~1/4 of an
+operator application's FFTs when unpadded).
 """
 
 from __future__ import annotations
+
+from typing import Callable
 
 import numpy as np
 import scipy.fft
 
 from .geometry import Grid
-from .materials import Isotropic
+
+TABLE_ANGLES = 1024
+COMPONENT_INDEX = {"x": 0, "y": 1, "z": 2}
 
 
 def preconditioner_length(n: int, n_other: int) -> int:
@@ -32,34 +38,34 @@ def preconditioner_length(n: int, n_other: int) -> int:
 
 
 class FourierPreconditioner:
-    """z = M⁻¹ r for residuals r of shape (c, nx, ny) on ``components`` ("x", "xy", "z", "xyz")."""
+    """z = M⁻¹ r for residuals r of shape (c, nx, ny) on ``components`` ("x", "xy", "z", "xyz").
 
-    def __init__(self, grid: Grid, material: Isotropic, components: str) -> None:
-        self.components = components
+    ``surface_green(phi)`` returns H at in-plane directions φ (radians) as (..., 3, 3).
+    """
+
+    def __init__(self, grid: Grid, surface_green: Callable[[np.ndarray], np.ndarray], components: str) -> None:
         self.shape = (preconditioner_length(grid.nx, grid.ny), preconditioner_length(grid.ny, grid.nx))
-        n1, n2 = self.shape
-        kx = 2.0 * np.sin(np.pi * np.fft.fftfreq(n1)) / grid.dx
-        ky = 2.0 * np.sin(np.pi * np.fft.rfftfreq(n2)) / grid.dy
-        k = np.hypot(kx[:, None], ky[None, :])
-        k_floor = np.min(k[k > 0.0])
-        k = np.maximum(k, k_floor)
-        mx, my = kx[:, None] / k, ky[None, :] / k
-        G, nu = material.G, material.nu
-        c = len(components)
-        self.symbol = np.zeros((c, c) + k.shape)
-        m = {"x": mx, "y": my}
-        for i, a in enumerate(components):
-            for j, b in enumerate(components):
-                if a == "z" or b == "z":
-                    if a == b:
-                        self.symbol[i, j] = G * k / (1.0 - nu)
-                    continue
-                delta = 1.0 if a == b else 0.0
-                self.symbol[i, j] = G * k * (delta + nu / (1.0 - nu) * m[a] * m[b])
         self.grid_shape = (grid.nx, grid.ny)
+        n1, n2 = self.shape
+        kx = 2.0 * np.sin(np.pi * np.fft.fftfreq(n1))[:, None] / grid.dx
+        ky = 2.0 * np.sin(np.pi * np.fft.rfftfreq(n2))[None, :] / grid.dy
+        k = np.hypot(kx, ky)
+        k = np.maximum(k, np.min(k[k > 0.0]))
+        index = [COMPONENT_INDEX[c] for c in components]
+        phi_table = 2.0 * np.pi * np.arange(TABLE_ANGLES) / TABLE_ANGLES
+        H = surface_green(phi_table)[:, index][:, :, index]
+        inverse_table = np.linalg.inv(H)  # (angles, c, c)
+        nearest = np.rint(np.mod(np.arctan2(ky, kx), 2.0 * np.pi) * (TABLE_ANGLES / (2.0 * np.pi))).astype(int)
+        symbol = np.moveaxis(inverse_table[nearest % TABLE_ANGLES], (-2, -1), (0, 1)) * k
+        if np.max(np.abs(symbol.imag)) == 0.0:
+            symbol = symbol.real
+        self.symbol = np.ascontiguousarray(symbol)
 
     def apply(self, residual: np.ndarray) -> np.ndarray:
         spectra = scipy.fft.rfft2(residual, s=self.shape, axes=(1, 2))
-        out = np.einsum("ij...,j...->i...", self.symbol, spectra)
+        if spectra.shape[0] == 1:
+            out = spectra * self.symbol[0]
+        else:
+            out = np.einsum("ij...,j...->i...", self.symbol, spectra)
         result = scipy.fft.irfft2(out, s=self.shape, axes=(1, 2))
         return result[:, : self.grid_shape[0], : self.grid_shape[1]]

@@ -11,9 +11,12 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, Mapping
 
+from .crystal import Crystal, crystal, cubic_from_nu_A
 from .errors import InputError
 from .geometry import SHAPES, Shape
 from .materials import Isotropic
+
+Material = Isotropic | Crystal
 
 QUANTITIES = ("tangential", "normal", "compliance", "coupled", "indentation")
 
@@ -30,6 +33,10 @@ DEFAULTS: dict[str, Any] = {
     "nu": 0.3,
     "G": 1.0,
     "anisotropy": 1.0,
+    "orientation": None,
+    "miller": None,
+    "azimuth": 0.0,
+    "material": None,
     "n": 128,
     "n_across": None,
     "tol": 1e-8,
@@ -75,7 +82,7 @@ class Scene:
     """One point of the parameter space: what to solve and how finely."""
 
     shape: Shape
-    material: Isotropic
+    material: Material
     quantities: tuple[str, ...]
     n: int
     n_across: int | None
@@ -103,9 +110,7 @@ class Scene:
         G = _finite("G", p["G"], "shear modulus, finite and > 0")
         if G <= 0.0:
             raise InputError("G", "shear modulus, finite and > 0", p["G"])
-        anisotropy = _finite("anisotropy", p["anisotropy"], "cubic anisotropy factor A > 0")
-        if anisotropy != 1.0:
-            raise InputError("anisotropy", "1 (anisotropic half-spaces are not in this build)", p["anisotropy"])
+        material = _material(p, G, nu)
         aspect = _finite("aspect", p["aspect"], "b/a in (0, 1]")
         if not 0.0 < aspect <= 1.0:
             raise InputError("aspect", "b/a in (0, 1]", p["aspect"])
@@ -143,7 +148,7 @@ class Scene:
         threads = _integer("threads", p["threads"], 1, "an integer >= 1")
         return cls(
             shape=shape,
-            material=Isotropic(G=G, nu=nu),
+            material=material,
             quantities=quantities,
             n=n,
             n_across=n_across,
@@ -154,6 +159,52 @@ class Scene:
             depth=depth,
             params=dict(params),
         )
+
+
+def _miller(value: Any) -> tuple[int, int, int]:
+    allowed = 'three integers "h k l", not all zero'
+    try:
+        items = value.replace(",", " ").split() if isinstance(value, str) else list(value)
+        hkl = tuple(int(item) for item in items)
+    except (TypeError, ValueError):
+        raise InputError("miller", allowed, value) from None
+    if len(hkl) != 3 or not any(hkl):
+        raise InputError("miller", allowed, value)
+    return hkl  # type: ignore[return-value]
+
+
+def _material(p: Mapping[str, Any], G: float, nu: float) -> Material:
+    """The half-space: isotropic (closed-form kernels) unless a crystal or A ≠ 1 is asked.
+
+    ``material`` names a library crystal (GPa; G and nu are then ignored); otherwise a cubic
+    crystal from (nu, A) with (C11 − C12)/2 = G (DESIGN §2.5). A crystal is turned so that the
+    surface normal is ``miller`` (h k l) or the path angle ``orientation`` ψ, default [001],
+    then by ``azimuth`` degrees in plane. At A = 1 without a named crystal the body is
+    isotropic whatever the orientation, and stays on the closed-form path.
+    """
+    anisotropy = _finite("anisotropy", p["anisotropy"], "cubic anisotropy factor A in [0.01, 100]")
+    if not 0.01 <= anisotropy <= 100.0:
+        raise InputError("anisotropy", "cubic anisotropy factor A in [0.01, 100]", p["anisotropy"])
+    azimuth = _finite("azimuth", p["azimuth"], "a finite in-plane angle in degrees")
+    orientation = p["orientation"]
+    if orientation is not None:
+        orientation = _finite("orientation", orientation, "path angle psi in [0, 90] degrees")
+        if not 0.0 <= orientation <= 90.0:
+            raise InputError("orientation", "path angle psi in [0, 90] degrees ([110] -> [111] -> [001])", p["orientation"])
+    miller = None if p["miller"] is None else _miller(p["miller"])
+    if orientation is not None and miller is not None:
+        raise InputError("miller", "either miller or orientation, not both", p["miller"])
+    if p["material"] is None and anisotropy == 1.0:
+        return Isotropic(G=G, nu=nu)
+    if p["material"] is not None:
+        base = crystal(str(p["material"]))
+    else:
+        if nu == 0.5:
+            raise InputError("nu", "Poisson ratio in (-1, 0.5) for a cubic crystal (A != 1)", nu)
+        base = cubic_from_nu_A(nu, anisotropy, scale=G)
+    if orientation is not None:
+        return base.oriented(psi_deg=orientation, azimuth_deg=azimuth)
+    return base.oriented(miller=miller or (0, 0, 1), azimuth_deg=azimuth)
 
 
 def validate(params: Mapping[str, Any]) -> None:

@@ -15,7 +15,9 @@ import numpy as np
 from . import quantities as q
 from .errors import InputError
 from .geometry import Grid, crop_to_support, grid_for, load_mask, mask_grid, rasterize, self_affine_surface
-from .kernels.isotropic import isotropic_block
+from .crystal import Crystal
+from .kernels.anisotropic import anisotropic_offset_blocks, kernel_for
+from .kernels.isotropic import isotropic_block, isotropic_surface_green
 from .materials import Isotropic
 from .operator import COMPONENT_INDEX, ConvolutionOperator, cached_spectrum, padded_shape
 from .plan import Plan, Solve, make_plan
@@ -27,11 +29,29 @@ from .solvers import Solution, conjugate_gradient, polonsky_keer
 class Engine:
     """Kernel spectra and operators of one (material, grid), built only as the plan asks."""
 
-    def __init__(self, material: Isotropic, grid: Grid, kernels: tuple[str, ...], threads: int = 1) -> None:
+    def __init__(self, material: Isotropic | Crystal, grid: Grid, kernels: tuple[str, ...], threads: int = 1) -> None:
         self.material, self.grid, self.threads = material, grid, threads
         self.kernels = kernels
         self._operators: dict[str, ConvolutionOperator] = {}
         self.fft_shape = padded_shape(grid.nx, grid.ny)
+        self._crystal_blocks: dict[str, np.ndarray] | None = None
+
+    def centred_block(self, block: str) -> np.ndarray:
+        """Influence coefficients of ``block`` on the centred offset grid (closed form or crystal)."""
+        g, m = self.grid, self.material
+        if isinstance(m, Isotropic):
+            return isotropic_block(m, g.nx, g.ny, g.dx, g.dy, block)
+        if self._crystal_blocks is None:  # every planned block in one pass (shared work)
+            pairs = [(COMPONENT_INDEX[b[0]], COMPONENT_INDEX[b[1]]) for b in self.kernels]
+            blocks = anisotropic_offset_blocks(m, g.nx, g.ny, g.dx, g.dy, pairs, threads=self.threads)
+            self._crystal_blocks = {b: blocks[p] for b, p in zip(self.kernels, pairs)}
+        return self._crystal_blocks[block]
+
+    def surface_green(self, phi: np.ndarray) -> np.ndarray:
+        """H(m) of the material at in-plane directions φ (for the preconditioner)."""
+        if isinstance(self.material, Isotropic):
+            return isotropic_surface_green(self.material, phi)
+        return kernel_for(self.material).fourier(phi)
 
     def spectrum(self, block: str) -> np.ndarray:
         """Spectrum of ``block``; at nu = 0 the yy block is the xx block (one kernel)."""
@@ -41,7 +61,7 @@ class Engine:
             raise KeyError(block)
         g, m = self.grid, self.material
         key = (m.key, g.nx, g.ny, g.dx, g.dy, block)
-        return cached_spectrum(key, lambda: isotropic_block(m, g.nx, g.ny, g.dx, g.dy, block), self.fft_shape)
+        return cached_spectrum(key, lambda: self.centred_block(block), self.fft_shape)
 
     def operator(self, components: str) -> ConvolutionOperator:
         """The convolution operator on ``components`` with every planned block among them."""
@@ -93,10 +113,10 @@ def rough_patch(scene: Scene, grid: Grid) -> np.ndarray:
     return p > 0.0
 
 
-def _preconditioner(scene: Scene, grid: Grid, components: str):
+def _preconditioner(scene: Scene, engine: Engine, components: str):
     if not scene.precondition:
         return None
-    return FourierPreconditioner(grid, scene.material, components).apply
+    return FourierPreconditioner(engine.grid, engine.surface_green, components).apply
 
 
 def _run_solve(scene: Scene, engine: Engine, mask: np.ndarray, solve: Solve) -> tuple[np.ndarray, Solution]:
@@ -105,7 +125,7 @@ def _run_solve(scene: Scene, engine: Engine, mask: np.ndarray, solve: Solve) -> 
     rhs = np.zeros((len(solve.components),) + mask.shape)
     rhs[solve.components.index(solve.load)] = 1.0
     solution = conjugate_gradient(
-        op.apply, rhs, mask, tol=scene.tol, precondition=_preconditioner(scene, engine.grid, solve.components)
+        op.apply, rhs, mask, tol=scene.tol, precondition=_preconditioner(scene, engine, solve.components)
     )
     force = np.zeros(3)
     resultants = q.resultant(solution.traction, engine.grid.cell_area)
@@ -190,9 +210,9 @@ def _stiffness(scene: Scene, plan: Plan, forces: dict[str, np.ndarray]) -> dict:
         out["asymmetry"] = q.asymmetry(K2)
     if "normal_z" in forces:
         out["K_zz"] = float(forces["normal_z"][2])
-    elif "normal" in scene.quantities and K2 is not None and material.nu == 0.0:
+    elif "normal" in scene.quantities and K2 is not None and isinstance(material, Isotropic) and material.nu == 0.0:
         out["K_zz"] = float(K2[0, 0])
-    if "K_zz" in out and K2 is not None:
+    if "K_zz" in out and K2 is not None and isinstance(material, Isotropic):
         out["normalized_xx"] = float(q.li_normalization(K2[0, 0], out["K_zz"], material.E_star, material.G_star))
         out["normalized_yy"] = float(q.li_normalization(K2[1, 1], out["K_zz"], material.E_star, material.G_star))
     return out

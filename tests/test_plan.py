@@ -128,6 +128,7 @@ def test_nu_zero_normal_with_tangential_is_derived():
 def test_plan_as_dict_is_json_ready():
     d = _plan(shape="ellipse", aspect=0.5, nu=0.3).as_dict()
     assert d == {
+        "kernel_source": "isotropic closed form (Boussinesq-Cerruti cell integrals)",
         "kernels": ["xx", "xy", "yx", "yy"],
         "solves": ["tangential_x[xy]", "tangential_y[xy]"],
         "derived": [],

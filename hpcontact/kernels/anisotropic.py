@@ -27,6 +27,10 @@ the lab-frame Voigt matrix (see :mod:`hpcontact.crystal`); displacements per for
    Isotropic check (Johnson 1985 §3.2, §3.6): H = [(I − nu m mᵀ)/G, +i(1−2nu) m/(2G);
    −i(1−2nu) mᵀ/(2G), (1−nu)/G].  H(−m) = conj(H(m)); L⁻¹ is real symmetric and S L⁻¹
    antisymmetric (Ting §7.5), so H is Hermitian.
+   Nearly incompressible bodies: R T⁻¹ Rᵀ − Q cancels O(λ²/μ) terms down to O(μ) (relative
+   loss eps (λ/μ)², 2.5e-9 at nu = 0.4999).  The integrands are therefore formed from
+   C = C' + λ δ_ij δ_kl with C' of the size of the shear moduli and the rank-one term restored
+   exactly by Sherman–Morrison (:func:`_pressure_split`, :func:`_bl_sums`).
 
 2. Real space.  H is expanded in a Fourier series in φ, H(φ) = Σ_n h_n e^{inφ} (FFT of H at
    equispaced directions; the series converges geometrically, e^{−β|n|}, because H is analytic
@@ -56,11 +60,18 @@ the lab-frame Voigt matrix (see :mod:`hpcontact.crystal`); displacements per for
    c0 ± c1 = G(±π/2): the subtracted part is integrated in closed form (the isotropic rectangle
    formula x asinh(y/|x|) is its constant part), the remainder is analytic on the closed interval
    and is integrated by 14-point Gauss–Legendre panels of width ≤ β.  Used near the source
-   (β r_min / max(a, b) < 4) and for any cell aspect ratio (the panels refine themselves).
+   (min(β, 1/2) r_min / max(a, b) < 4) and for any cell aspect ratio (1e-10 … 1e10: the
+   panels refine themselves and the closed-form part carries the logarithmic end behaviour).
    Far cells use a tensor Gauss–Legendre rule whose order per direction follows from the
-   Bernstein-ellipse bound ρ^{−2p} with ρ from the distance to the nearest singularity
-   (≥ min(β, 1) r_min): p ≈ 3 for most cells of a 512² grid.  Both paths are exact to
-   quadrature precision (tests: ~1e-13 relative against mpmath).
+   Bernstein-ellipse bound 0.3 ρ^{−2p} ≤ 1e-14 with ρ from the distance to the nearest complex
+   singularity (≥ min(β, 1/2) r_min): p = 3 for most cells of a 512² grid.
+
+   Accuracy reached (tests/kernels/test_anisotropic.py): H against the isotropic closed form
+   and against Stroh eigenvectors ≤ 2e-15; g against Johnson's point-force solutions ≤ 2e-15;
+   cell coefficients against exact isotropic rectangle integrals and against independent
+   quadrature of the chord form ≤ 1e-14 for square and moderately thin cells.  The edge formula
+   loses ~eps × (offset index) to cancellation between opposite edges (3e-13 at 1000 cells of
+   aspect 1e-6); nearly incompressible bodies lose ~eps λ/μ in forming C' (1e-14 at nu = 0.4999).
 
 References: D. M. Barnett and J. Lothe, Phys. Norv. 7 (1973) 13; Proc. R. Soc. A 402 (1985)
 135 (free surface / half-space Green's functions).  T. C. T. Ting, Anisotropic Elasticity,
@@ -106,9 +117,10 @@ _MAX_PHI = 1 << 14
 #: Table size for g(θ) (power of two) and the local Lagrange interpolation stencil.
 _TABLE_MIN = 1 << 17
 _STENCIL = np.arange(-1, 3)
-#: Gauss–Legendre order and panel width (in units of β) of the near-field edge integrals.
+#: Gauss–Legendre order of the near-field edge panels (panel width ≤ β in φ: ρ ≥ 2 + √5,
+#: error ~ρ^{−28} ≈ 3e-18).
 _EDGE_ORDER = 14
-#: Near/far switch: edges when min(β,1) r_min / max(a, b) < _Q_NEAR.
+#: Near/far switch: edges when min(β, _BETA_FAR) r_min / max(a, b) < _Q_NEAR.
 _Q_NEAR = 4.0
 #: Far-field tensor Gauss–Legendre: relative target and prefactor of the error model
 #: prefactor × ρ^{−2p}.  The prefactor 0.3 is calibrated against p = 20 reference integrals for
@@ -326,7 +338,7 @@ class AnisotropicKernel:
             top = np.max(mag[N // 2 - N // 8 : N // 2 + N // 8 + 1]) / mag.max()
             # Converged: the top quarter of the spectrum is at round-off, or it stopped
             # decreasing at a level that is noise of H itself (nearly incompressible bodies
-            # lose ~log10(λ/μ) digits in L, see _surface_green).
+            # lose ~log10(λ/μ) digits when C' = C − λδδ is formed, see _pressure_split).
             if top <= _PHI_TOL or (top <= _PHI_NOISE and top > 0.1 * top_prev):
                 break
             if N >= _MAX_PHI:
@@ -581,7 +593,7 @@ def _asinh_difference(u1: NDArray, u2: NDArray, du: NDArray) -> NDArray:
 # Cache and the grid API
 # --------------------------------------------------------------------------------------------
 _KERNELS: "OrderedDict[bytes, AnisotropicKernel]" = OrderedDict()
-_KERNEL_CACHE_SIZE = 32
+_KERNEL_CACHE_SIZE = 8  # each kernel holds a 2^17 x 9 table: ~9.4 MB
 
 
 def kernel_for(material: Any) -> AnisotropicKernel:

@@ -61,3 +61,19 @@ def isotropic_block(material: Isotropic, nx: int, ny: int, dx: float, dy: float,
     sign = -1.0 if block[1] == "z" else 1.0
     name = "x_over_r2" if "x" in block else "y_over_r2"
     return sign * (1.0 - 2.0 * nu) / (4.0 * math.pi * G) * integral(name)
+
+
+def isotropic_surface_green(material: Isotropic, phi: np.ndarray) -> np.ndarray:
+    """H(m) of û = H f̂/|k| for m = (cos φ, sin φ) (DESIGN §2.1; units 1/stress), (..., 3, 3).
+
+    Tangential block (I − nu m mᵀ)/G, normal (1 − nu)/G, coupling H_xz = +i(1−2nu) m_x/(2G),
+    H_zx = −i(1−2nu) m_x/(2G) (signs fixed against the real-space Boussinesq–Cerruti blocks).
+    """
+    G, nu = material.G, material.nu
+    m = np.stack([np.cos(phi), np.sin(phi)], axis=-1)
+    H = np.zeros(np.shape(phi) + (3, 3), dtype=np.complex128)
+    H[..., :2, :2] = (np.eye(2) - nu * m[..., :, None] * m[..., None, :]) / G
+    H[..., 2, 2] = (1.0 - nu) / G
+    H[..., :2, 2] = 1j * (1.0 - 2.0 * nu) * m / (2.0 * G)
+    H[..., 2, :2] = -1j * (1.0 - 2.0 * nu) * m / (2.0 * G)
+    return H

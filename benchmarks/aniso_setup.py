@@ -1,0 +1,79 @@
+"""Construction time of anisotropic cell influence coefficients (kernel set-up, not solves).
+
+For each material/orientation and grid size n (nx = ny = n, square cells) prints
+* ``green_s``   – surface Green's function: Barnett–Lothe H(φ), Fourier series, g(θ) table
+                  (done once per material + orientation, then cached);
+* ``zz_s``      – the zz block alone (frictionless normal contact);
+* ``all9_s``    – all nine blocks (coupled bonded contact);
+wall-clock and CPU seconds, with the quadrature statistics (directions, ω nodes, strip β).
+
+    .venv/bin/python benchmarks/aniso_setup.py [--n 256 512] [--threads 1] [--json]
+
+Not a test: numbers depend on the machine and its load (the CPU column is the robust one).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+
+from hpcontact import crystal as cr  # noqa: E402
+from hpcontact.kernels import anisotropic as an  # noqa: E402
+
+
+def materials() -> list[tuple[str, cr.Crystal]]:
+    out = [
+        ("cubic nu=0.3 A=1 [110]", cr.cubic_from_nu_A(0.3, 1.0).oriented(psi_deg=0.0)),
+        ("cubic nu=0.3 A=2 psi=20", cr.cubic_from_nu_A(0.3, 2.0).oriented(psi_deg=20.0)),
+        ("cubic nu=0.3 A=8 psi=20", cr.cubic_from_nu_A(0.3, 8.0).oriented(psi_deg=20.0)),
+        ("cubic nu=0.49 A=0.25 [111]", cr.cubic_from_nu_A(0.49, 0.25).oriented(psi_deg=35.26438968)),
+        ("Cu (111)", cr.crystal("Cu").oriented(miller=(1, 1, 1))),
+        ("Fe (123) az=15", cr.crystal("Fe").oriented(miller=(1, 2, 3), azimuth_deg=15.0)),
+        ("Si (001)", cr.crystal("Si").oriented(miller=(0, 0, 1))),
+    ]
+    return out
+
+
+def timed(fn):
+    w, c = time.perf_counter(), time.process_time()
+    result = fn()
+    return result, time.perf_counter() - w, time.process_time() - c
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--n", type=int, nargs="+", default=[256, 512])
+    ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument("--json", action="store_true", help="one JSON object per line")
+    args = ap.parse_args(argv)
+    rows = []
+    if not args.json:
+        print(f"{'material':30s} {'n':>5s} {'green_s':>8s} {'zz_s':>7s} {'zz_cpu':>7s} "
+              f"{'all9_s':>7s} {'all9_cpu':>8s} {'n_phi':>6s} {'n_om':>5s} {'beta':>5s}")
+    for name, mat in materials():
+        for n in args.n:
+            an.clear_cache()
+            kern, t_green, _ = timed(lambda: an.kernel_for(mat))
+            _, t_zz, c_zz = timed(lambda: an.anisotropic_offset_blocks(mat, n, n, 1.0, 1.0, [(2, 2)],
+                                                                        threads=args.threads))
+            _, t_all, c_all = timed(lambda: an.anisotropic_offset_blocks(mat, n, n, 1.0, 1.0,
+                                                                         threads=args.threads))
+            row = dict(material=name, n=n, green_s=t_green, zz_s=t_zz, zz_cpu_s=c_zz, all9_s=t_all,
+                       all9_cpu_s=c_all, n_phi=kern.n_phi, n_omega=kern.n_omega, beta=kern.beta,
+                       threads=args.threads)
+            rows.append(row)
+            if args.json:
+                print(json.dumps(row))
+            else:
+                print(f"{name:30s} {n:5d} {t_green:8.3f} {t_zz:7.2f} {c_zz:7.2f} {t_all:7.2f} "
+                      f"{c_all:8.2f} {kern.n_phi:6d} {kern.n_omega:5d} {kern.beta:5.2f}", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
