@@ -33,6 +33,10 @@ def _solve_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--nu", type=float, help="Poisson ratio, in [-1, 0.5]")
     p.add_argument("--G", type=float, help="shear modulus (default 1)")
     p.add_argument("--anisotropy", type=float, help="cubic anisotropy factor A (1 = isotropic)")
+    p.add_argument("--orientation", type=float, help="surface normal along [110] -> [111] -> [001], psi in degrees")
+    p.add_argument("--miller", help='surface normal as Miller indices "h k l"')
+    p.add_argument("--azimuth", type=float, help="in-plane turn of the crystal (degrees)")
+    p.add_argument("--material", help="library crystal by name (Cu, Al, Fe, Ni, W, Si, ...)")
     p.add_argument("--n", type=int, help="cells along the long side")
     p.add_argument("--n-across", type=int, help="cells across the short side (thin shapes)")
     p.add_argument("--tol", type=float, help="CG relative residual tolerance")
@@ -46,8 +50,8 @@ def _solve_parser(sub: argparse._SubParsersAction) -> None:
 
 def _params(args: argparse.Namespace) -> dict[str, Any]:
     names = (
-        "shape aspect sides shape_angle amplitude seed mask nu G anisotropy n n_across tol quantities "
-        "radius depth threads"
+        "shape aspect sides shape_angle amplitude seed mask nu G anisotropy orientation miller azimuth "
+        "material n n_across tol quantities radius depth threads"
     ).split()
     params = {name: getattr(args, name) for name in names if getattr(args, name) is not None}
     if args.no_precondition:

@@ -239,9 +239,10 @@ def _indentation(scene: Scene) -> tuple[dict[str, float], Solution, Grid]:
     """Rigid sphere (radius R, approach d) pressed on the half-space: Polonsky–Keer contact.
 
     The grid (``scene.n`` cells a side) spans 1.5 Hertz radii sqrt(R d) each way; the gap is
-    the exact sphere R − sqrt(R² − r²) minus d. The contact ellipse is fitted from the second
-    moments of the contact cells (for an ellipse with semi-axes a ≥ b the moments are a²/4 and
-    b²/4 along its axes).
+    the exact sphere R − sqrt(R² − r²) minus d (it differs from Hertz's paraboloid by r⁴/8R³,
+    a relative O(d/R) effect on the load). The contact ellipse is fitted from the pressure's
+    second moments (a Hertzian pressure on an ellipse of semi-axes a ≥ b has moments a²/5 and
+    b²/5 along its axes): smoother under refinement than the staircase of contact cells.
     """
     R, d = scene.radius, scene.depth
     half = 1.5 * math.sqrt(R * d)
@@ -256,9 +257,12 @@ def _indentation(scene: Scene) -> tuple[dict[str, float], Solution, Grid]:
     contact = p > 0.0
     if contact[0, :].any() or contact[-1, :].any() or contact[:, 0].any() or contact[:, -1].any():
         raise FloatingPointError("indentation contact reaches the grid edge; the grid is too small")
-    weights = contact.astype(float)
-    xc, yc = (weights * x).sum() / weights.sum(), (weights * y).sum() / weights.sum()
-    cov = np.cov(np.vstack([x[contact] - xc, y[contact] - yc]), bias=True)
+    load = float(p.sum())
+    xc, yc = (p * x).sum() / load, (p * y).sum() / load
+    cov = np.array(
+        [[(p * (x - xc) ** 2).sum(), (p * (x - xc) * (y - yc)).sum()], [0.0, (p * (y - yc) ** 2).sum()]]
+    ) / load
+    cov[1, 0] = cov[0, 1]
     values, vectors = np.linalg.eigh(cov)
     out = {
         "contact_cells": int(contact.sum()),
