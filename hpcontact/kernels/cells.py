@@ -29,40 +29,48 @@ lengths (homogeneous of degree 1 in x, y, a, b); I1 = Ixx + Iyy. Parities are in
 
 Why not just the corner sum
 ---------------------------
-Far from the cell the four corner values agree to ~(R/h)² and the sum loses that many digits
-(all of them at 1e6 cells); for a thin cell (b/a down to 1e-10) it also loses ~a/b digits when the
-target is far compared to the thin side but near compared to the long one. DESIGN §2.2 asks for
+The corner sum is a second difference: at distance R from a cell of size h the result is
+~(h/R)² smaller than the corner values, so it loses 2·log10(R/h) digits (all of them at 1e6
+cells); for a thin cell (b/a down to 1e-10) it also loses up to log10(a/b) digits when the target
+is far compared to the thin side but near compared to the long one. DESIGN §2.2 asks for
 1e-12 relative for aspects 1e-10 … 1e10 and distances up to 1e6 cells, so this module uses:
 
 1. **Symmetry reduction.** Every integral is even or odd in x and in y (`PARITY`), so the target
    is reflected into x, y ≥ 0 and the sign restored afterwards. An integrand odd in ξ (Ix, Ixy)
    integrates to zero over the part of [x−a, x+a] symmetric about 0, so for 0 ≤ x < a
-   ``I(x; a) = I(a; x)``: the target moves to the cell edge and the half-width becomes x. This
-   removes the cancellation near the axes and makes exact zeros (x = 0) exact.
+   ``I(x; a) = I(a; x)``: the target moves to x = a and the half-width becomes x. This removes
+   the cancellation for targets near an axis (the result stays relatively accurate as x → 0)
+   and makes the zeros on the axes exact. Likewise in y.
 
 2. **Regimes.** Let D be the distance from the target to the (reduced) rectangle, s_x = D/a,
    s_y = D/b. As a function of x' the integrand (and its exact y-integral) is analytic except
    at x' = x ± i|y − y'|, at distance ≥ D from [−a, a]; it is therefore analytic inside the
-   Bernstein ellipse with foci ±a and semi-minor axis D, of parameter ρ_x = s_x + (s_x² + 1)^½,
-   and n-point Gauss–Legendre integration in x has error O(ρ_x^(−2n)) (Trefethen, *Approximation
-   Theory and Approximation Practice*, Thm 19.3). The same holds in y.
+   Bernstein ellipse with foci ±a and semi-minor axis D, of parameter β_x = s_x + (s_x² + 1)^½,
+   and n-point Gauss–Legendre integration in x has error O(β_x^(−2n)) (Trefethen, *Approximation
+   Theory and Approximation Practice*, 2013, Thm 19.3). The same holds in y.
 
-   * s_x ≥ 2 and s_y ≥ 2: tensor Gauss–Legendre, n_x × n_y points (n from `_gl_order`, chosen so
-     that ρ^(−2n) ≤ 1e-18 with a margin; 2 … 15 points, 2–4 at typical far-field distances).
+   * s_x ≥ 2 and s_y ≥ 2: tensor Gauss–Legendre, n_x × n_y points, n = ceil(22/ln β) (one more
+     along x for xx_over_r3, along y for yy_over_r3), calibrated so that the quadrature error is
+     ≲ 1e-18 relative (`_gl_order`): 16 points at s = 2, 4 from s ≈ 120, 3 from s ≈ 760,
+     2 from s ≈ 3e4 — 3 × 3 for most of a 1024² grid.
    * s_x ≥ 2 > s_y: Gauss–Legendre in x; at each node the y-integral in closed form, written
      without cancellation (width times a factor: asinh(u₂) − asinh(u₁) as
      log1p(2b(1 + 2y/(ρ₁+ρ₂))/(η₁+ρ₁)), t/ρ differences with the difference of squares factored,
      atan2 for arctangent differences, log1p for log ratios, a series for asinh(u) − u/(1+u²)^½).
      s_y ≥ 2 > s_x likewise with the roles swapped.
    * s_x, s_y < 2: the target is within two small-side widths of the cell and the corner sum
-     of the F above loses at most ~1.5 digits (measured); xy_over_r3 is always evaluated in the
+     of the F above loses at most ~1.5 digits (measured: ≤ 4e-15 relative; the worst case is
+     xx_over_r3 just beyond the y edge, where Ixx ≪ I1). xy_over_r3 is always evaluated in the
      fully factored, cancellation-free form
      ``16 a b x y [1/(ρ₁₂+ρ₂₂) + 1/(ρ₁₁+ρ₂₁)] / ((ρ₂₁+ρ₂₂)(ρ₁₁+ρ₁₂))`` (ρ_ij at corner (ξ_i, η_j)).
 
    The widths 2a, 2b and the sums 2x, 2y enter the differenced forms exactly (never as
    (x + a) − (x − a)), which is what makes the result relatively accurate to a few ulp of the
-   inputs rather than of the corner coordinates. Measured against 30-digit mpmath quadrature
-   (tests/kernels/test_cells.py) the maximum relative error is ~1e-15 over all regimes.
+   inputs rather than of the corner coordinates. Measured maximum relative errors: 8e-16 against
+   30-digit mpmath quadrature at the test cases (aspects 1e-10 … 1e10; source, edges, corners,
+   axes, 3, 1e3 and 1e6 cells away; tests/kernels/test_cells.py); in random sweeps of ~5e4
+   (target, kernel) pairs against the corner sum in 150-digit arithmetic, 4e-15 in the corner-sum
+   regime and ≤ 2e-15 in the others.
 
 Lengths are scaled by a power of two near max(a, b) before evaluation (exact), so no square can
 overflow or underflow for any reasonable input. Everything is vectorised: points are grouped by
@@ -99,11 +107,17 @@ PARITY: dict[str, tuple[int, int]] = {
 # Regime threshold on D/h: quadrature in a direction when the target is at least _C half-widths
 # (of that direction) away from the cell.
 _C = 2.0
-# Gauss–Legendre order n = ceil(_K / ln rho) (see _gl_order).
+# Gauss–Legendre order n = ceil(_K / ln β), β the Bernstein-ellipse parameter (see _gl_order).
 _K = 22.0
 _NMAX = 24
-# Points per chunk in the tensor-product evaluation (bounds temporary memory).
+# Points per chunk in the tensor-product evaluation (bounds temporary memory, stays in cache).
 _CHUNK_ELEMENTS = 1 << 16
+# Floating-point state inside the evaluation. Branches are selected with np.where, so both sides
+# are computed everywhere; the regime rules keep every selected value finite and the discarded
+# ones are made harmless with _safe(), but a stray flag in a discarded branch must not warn or
+# raise in the caller. Results are checked for finiteness afterwards. (The tests switch this to
+# "raise" to check that no branch, selected or not, divides by zero or overflows.)
+_ERRSTATE: dict[str, str] = {"all": "ignore"}
 
 
 def _gl_tables(nmax: int) -> tuple[list[np.ndarray], list[np.ndarray]]:
@@ -125,15 +139,15 @@ _GL_T, _GL_W = _gl_tables(_NMAX)
 def _gl_order(s: np.ndarray, extra: bool = False) -> np.ndarray:
     """Gauss–Legendre order for a direction with distance ratio s = D/h (s ≥ _C).
 
-    Bernstein-ellipse parameter rho = s + sqrt(s² + 1) (ln rho = asinh s); the error of an n-point
-    rule for an integrand analytic inside that ellipse decays like rho**(−2n). n = ceil(_K / ln rho)
+    Bernstein-ellipse parameter β = s + sqrt(s² + 1) (ln β = asinh s); the error of an n-point
+    rule for an integrand analytic inside that ellipse decays like β**(−2n). n = ceil(_K / ln β)
     (+1 for the kernel whose integrand carries the square of this direction's coordinate, ξ²/ρ³
-    along x: it is ~rho² larger on the ellipse than on the interval). Calibrated against 45-digit
+    along x: it is ~β² larger on the ellipse than on the interval). Calibrated against 45-digit
     Gauss–Legendre sums for every kernel, several target angles and cell aspects: the orders
-    needed for a relative error below 1e-16 satisfy (n − 1)·ln rho ≤ 19.3 (resp.
-    (n − 2)·ln rho ≤ 18.8 with the extra node); _K = 22 leaves a further factor
+    needed for a relative error below 1e-16 satisfy (n − 1)·ln β ≤ 19.3 (resp.
+    (n − 2)·ln β ≤ 18.8 with the extra node); _K = 22 leaves a further factor
     exp(−2·2.7) ≈ 1/200, so the quadrature error is ≲ 1e-18 relative. That is 16 (17) points at
-    s = 2, 4 at s ~ 100, 3 beyond s ≈ 760, 2 beyond s ≈ 3e4.
+    s = 2, 4 from s ≈ 120, 3 from s ≈ 760, 2 from s ≈ 3e4.
     """
     n = _NMAX + 1 - np.searchsorted(_ORDER_THRESHOLDS, s, side="right")
     if extra:
@@ -171,11 +185,12 @@ def _half_p_log(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     r_small = np.where(big, 0.0, q / _safe(p))
     r_big = np.where(big, p / _safe(q), 0.0)
     lr = np.log(np.where(big & (ap > 0.0), aq / _safe(ap), 1.0))
-    v = np.where(big, p * (lr + 0.5 * np.log1p(r_big * r_big)), 0.5 * p * np.log1p(r_small * r_small))
+    v_big = p * (lr + 0.5 * np.log1p(r_big * r_big))
+    v = np.where(big, v_big, 0.5 * p * np.log1p(r_small * r_small))
     return np.where(ap > 0.0, v, 0.0)
 
 
-# Series of atanh(w) − w = Σ_{k≥1} w^(2k+1)/(2k+1), used for |w| ≤ 1/2 (27 terms: < 1e-18 rel).
+# Series of atanh(w) − w = Σ_{k≥1} w^(2k+1)/(2k+1), used for |w| ≤ 1/2 (27 terms: < 1e-17 rel).
 _PSI_COEF = np.array([1.0 / (2 * k + 1) for k in range(1, 28)])
 
 
@@ -191,8 +206,10 @@ def _psi(w: np.ndarray) -> np.ndarray:
 # --------------------------------------------------------------------------------------------
 # One-dimensional exact integrals over t ∈ [c − h, c + h] at fixed s, c ≥ 0, h > 0.
 # Differences are written as (exact width 2h or exact sum 2c) × (well-conditioned factor).
-# All are only called where (s, t) = (0, 0) is not in the closed segment, except K1 / Kt / Ktt
-# which are then not needed (regime rules in the callers guarantee this).
+# They are used only in the direction in which the target is near (D < _C·h there, the other
+# direction being integrated by quadrature at distance ≥ _C times its half-width), so the
+# segment never passes through (s, t) = (0, 0), s ≠ 0 where it straddles t = 0, and t₂/t₁ ≥ 2
+# where it does not: every selected branch is finite and well conditioned.
 # --------------------------------------------------------------------------------------------
 def _k1(s, c, h):
     """∫ dt/ρ = asinh(t₂/|s|) − asinh(t₁/|s|), as log1p((t₂+ρ₂ − t₁−ρ₁)/(t₁+ρ₁))."""
@@ -399,7 +416,8 @@ def _xy(x, y, a, b):
     r12 = np.sqrt(x1 * x1 + y2 * y2)
     r21 = np.sqrt(x2 * x2 + y1 * y1)
     r22 = np.sqrt(x2 * x2 + y2 * y2)
-    return (16.0 * a * b) * (x * y) * (1.0 / (r12 + r22) + 1.0 / (r11 + r21)) / ((r21 + r22) * (r11 + r12))
+    num = (16.0 * a * b) * (x * y) * (1.0 / (r12 + r22) + 1.0 / (r11 + r21))
+    return num / ((r21 + r22) * (r11 + r12))
 
 
 def _check_names(which: Iterable[str]) -> list[str]:
@@ -428,11 +446,11 @@ def cell_integrals(
     ``∫_{−a}^{a} ∫_{−b}^{b} f(x − x', y − y') dy' dx'`` with f = 1/ρ, ξ²/ρ³, η²/ρ³, ξη/ρ³, ξ/ρ²,
     η/ρ² (ξ = x − x', η = y − y', ρ² = ξ² + η²), in length units, as float64 arrays of the
     broadcast shape of x and y. Closed-form corner sums near the cell, Gauss–Legendre with a
-    Bernstein-ellipse order choice (error ~rho^(−2n) ≤ 1e-18) in the directions where the target is
-    ≥ 2 half-widths away, cancellation-free exact one-dimensional integrals otherwise; relative
-    error ≲ 1e-15 for cell aspects 1e-10 … 1e10 and distances 0 … 1e6 cells (exact zeros where
-    the parity makes them zero). The target may be anywhere, including inside the cell, on its
-    edges and corners (all six integrals are finite there).
+    Bernstein-ellipse order choice (error ≲ 1e-18) in the directions where the target is ≥ 2
+    half-widths away, cancellation-free exact one-dimensional integrals otherwise (see the module
+    docstring); relative error ≲ 4e-15 for cell aspects 1e-10 … 1e10 and distances 0 … 1e6 cells,
+    exact zeros where the parity makes them zero. The target may be anywhere, including inside
+    the cell, on its edges and corners (all six integrals are finite there).
 
     References: Johnson, *Contact Mechanics* (1985) §3.2; Love, Phil. Trans. A 228 (1929).
 
@@ -453,7 +471,7 @@ def cell_integrals(
     n = xs.size
 
     out: dict[str, np.ndarray] = {}
-    with np.errstate(all="ignore"):  # masked branches only; results are checked below
+    with np.errstate(**_ERRSTATE):
         for name in names:
             px, py = PARITY[name]
             if name == "xy_over_r3":
@@ -461,7 +479,7 @@ def cell_integrals(
             else:
                 xx, yy, aa, bb = xs, ys, a_s, b_s
                 live = np.ones(n, dtype=bool)
-                if px < 0:  # odd in ξ: for x < a fold [x−a, x+a] onto [a−x, a+x] (I(x; a) = I(a; x))
+                if px < 0:  # odd in ξ: for x < a fold [x−a, x+a] onto [a−x, a+x], I(x; a) = I(a; x)
                     live &= xx != 0.0
                     fold = xx < a_s
                     if fold.any():
