@@ -82,12 +82,9 @@ def _cmd_solve(args: argparse.Namespace) -> int:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from .sweep.driver import run_sweep
+    from .sweep.driver import run_command
 
-    path = run_sweep(args.spec, resume=args.resume, output=args.output)
-    if path is not None:
-        print(f"hpcontact: data set written to {path}", file=sys.stderr)
-    return 0
+    return run_command(args.spec, args.resume, args.output)
 
 
 def _cmd_info(args: argparse.Namespace) -> int:

@@ -42,7 +42,7 @@ from .journal import (
     to_json,
 )
 from .progress import Progress, Summary
-from .schedule import SLOTS, Team, claimed_chunks, report_done, world
+from .schedule import SLOTS, Team, claimed_chunks, report_done, totals_done, world
 from .spec import Spec, Validator, load_spec
 from .tasks import Task, enumerate_tasks, make_chunks
 
@@ -145,9 +145,9 @@ def run_sweep(
     (default stdout). Spec errors raise ``InputError`` on every rank before any work starts.
     """
     if task_function is None:
-        from ..solve import solve as task_function  # imported before the clock starts
-    started = time.perf_counter()
+        from ..solve import solve as task_function
     team = team if team is not None else world()
+    started = time.perf_counter()  # after the imports and MPI start-up
     stream = stream if stream is not None else sys.stdout
     where: dict[tuple[int, ...], str] = {}  # point -> task key, on rank 0 only
 
@@ -191,10 +191,10 @@ def run_sweep(
                 journal.append(entry)
                 journal_s += time.perf_counter() - mark
                 mark = time.perf_counter()
-                finished, cost = report_done(counter, task.cost)
+                report_done(counter, task.cost)
                 schedule_s += time.perf_counter() - mark
-                if progress is not None:
-                    progress.update(finished, cost)
+                if progress is not None and progress.due():
+                    progress.report(*totals_done(counter))
             claim = time.perf_counter()
         schedule_s += time.perf_counter() - claim
     finally:

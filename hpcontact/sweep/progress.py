@@ -40,13 +40,14 @@ class Progress:
         self.started = time.perf_counter()
         self._last = self.started
 
-    def update(self, done: int, cost_done: float) -> None:
-        """Report ``done`` tasks of estimated cost ``cost_done`` finished this run, if it is time."""
-        now = time.perf_counter()
-        if now - self._last < self.interval:
-            return
-        self._last = now
-        print(self.line(done, cost_done, now - self.started), file=self.stream, flush=True)
+    def due(self) -> bool:
+        """Whether ``interval`` seconds have passed since the last line."""
+        return time.perf_counter() - self._last >= self.interval
+
+    def report(self, done: int, cost_done: float) -> None:
+        """Print the line for ``done`` tasks of estimated cost ``cost_done`` finished this run."""
+        self._last = time.perf_counter()
+        print(self.line(done, cost_done, self._last - self.started), file=self.stream, flush=True)
 
     def line(self, done: int, cost_done: float, elapsed: float) -> str:
         """One progress line after ``elapsed`` seconds, ``done`` tasks of ``cost_done`` run so far."""
@@ -112,15 +113,17 @@ class Summary:
 
     def text(self, failures: list[str]) -> str:
         """The end-of-sweep report; ``failures`` are up to a few failed-task messages."""
-        per_task = self.task_s / self.run if self.run else 0.0
         lines = [
             f"hpcontact: sweep done: {self.tasks} tasks for {self.points} points "
             f"({self.run} run, {self.reused} from journals), {self.failures} failed",
-            f"hpcontact: wall {_duration(self.wall_s)} on {self.ranks} rank(s); task time {self.task_s:.2f}s "
-            f"total, {per_task:.3f}s per task; parallel efficiency {self.efficiency:.3f}",
-            f"hpcontact: driver time: setup {self.setup_s:.3f}s, scheduling {self.schedule_s:.3f}s, "
-            f"journal {self.journal_s:.3f}s (all ranks), gather {self.gather_s:.3f}s; "
-            f"{self.overhead_per_task_s * 1e3:.1f} ms per task",
         ]
+        if self.run:
+            lines += [
+                f"hpcontact: wall {_duration(self.wall_s)} on {self.ranks} rank(s); task time {self.task_s:.2f}s "
+                f"total, {self.task_s / self.run:.3f}s per task; parallel efficiency {self.efficiency:.3f}",
+                f"hpcontact: driver time: setup {self.setup_s:.3f}s, scheduling {self.schedule_s:.3f}s, "
+                f"journal {self.journal_s:.3f}s (all ranks), gather {self.gather_s:.3f}s; "
+                f"{self.overhead_per_task_s * 1e3:.1f} ms per task",
+            ]
         lines += [f"hpcontact: failed: {m}" for m in failures]
         return "\n".join(lines)

@@ -7,11 +7,13 @@ one process. With the counter, each rank takes the next chunk index itself, so a
 compute, results stay on the rank that made them (its journal), and the only traffic is one
 8-byte atomic per chunk.
 
-Progress: the passive-target epoch is opened once (``Lock_all`` with ``MODE_NOCHECK``) and every
-operation is completed with ``Flush``. Locking per operation instead makes a ``Fetch_and_op``
-wait until the target rank next enters the MPI library, i.e. until rank 0 finishes its own solve
-(measured with MPICH: 3 s stalls behind a 3 s solve); within one epoch the atomics complete in
-microseconds through shared memory or the network's hardware atomics, with rank 0 busy.
+Progress: the passive-target epoch is opened once (``Lock_all`` with ``MODE_NOCHECK``) and an
+operation whose result is needed is completed with ``Flush``. Locking per operation instead
+makes a ``Fetch_and_op`` wait until the target rank next enters the MPI library, i.e. until rank
+0 finishes its own solve (measured with MPICH: 3 s stalls behind a 3 s solve); within one epoch
+the atomics complete in microseconds through shared memory or the network's hardware atomics,
+with rank 0 busy. Finished-task counts (for progress lines only) are added with ``Accumulate``
+and never waited for: one waiting operation per chunk is all a rank pays.
 
 A solver never imports MPI: ``mpi4py`` is imported here, only when a launcher started the
 process (``world``), and a single process without mpiexec runs with ``SerialTeam``.
@@ -32,7 +34,11 @@ class Counter(Protocol):
     """Integer slots all ranks add to atomically."""
 
     def fetch_add(self, slot: int, value: int) -> int:
-        """Add ``value`` to ``slot``; the value before the addition."""
+        """Add ``value`` to ``slot``; the value before the addition (waits for the result)."""
+
+    def add(self, slot: int, values: Sequence[int]) -> None:
+        """Add ``values`` to ``slot``, ``slot + 1``, …; done by the next ``fetch_add`` or ``close``
+        at the latest (no wait)."""
 
     def close(self) -> None:
         """Release the counter (collective)."""
@@ -71,6 +77,10 @@ class LocalCounter:
         self._values[slot] += value
         return old
 
+    def add(self, slot: int, values: Sequence[int]) -> None:
+        for i, value in enumerate(values):
+            self._values[slot + i] += value
+
     def close(self) -> None:
         """Nothing to release."""
 
@@ -98,7 +108,8 @@ class SerialTeam:
 
 
 class RMACounter:
-    """int64 slots in an MPI window on rank 0, updated with ``Fetch_and_op`` (see module doc)."""
+    """int64 slots in an MPI window on rank 0: ``Fetch_and_op`` + ``Flush`` when the value is
+    needed, ``Accumulate`` without waiting otherwise (see the module docstring)."""
 
     def __init__(self, comm: Any, slots: int) -> None:
         from mpi4py import MPI
@@ -114,12 +125,20 @@ class RMACounter:
         self._comm = comm
         self._add = np.zeros(1, dtype=np.int64)
         self._old = np.zeros(1, dtype=np.int64)
+        self._pending: list[np.ndarray] = []  # buffers of accumulates not yet flushed
 
     def fetch_add(self, slot: int, value: int) -> int:
         self._add[0] = value
-        self._win.Fetch_and_op(self._add, self._old, 0, slot, self._MPI.SUM)
+        self._win.Fetch_and_op([self._add, self._MPI.INT64_T], [self._old, self._MPI.INT64_T], 0, slot, self._MPI.SUM)
         self._win.Flush(0)
+        self._pending.clear()
         return int(self._old[0])
+
+    def add(self, slot: int, values: Sequence[int]) -> None:
+        buffer = np.array(values, dtype=np.int64)
+        self._pending.append(buffer)
+        target = (slot, len(buffer), self._MPI.INT64_T)
+        self._win.Accumulate([buffer, self._MPI.INT64_T], 0, target=target, op=self._MPI.SUM)
 
     def close(self) -> None:
         self._win.Unlock_all()
@@ -189,8 +208,11 @@ def claimed_chunks(chunks: Sequence[tuple[Any, ...]], counter: Counter) -> Itera
         yield chunks[index]
 
 
-def report_done(counter: Counter, cost: float) -> tuple[int, int]:
-    """Count one finished task of estimated ``cost``; totals (tasks, cost) including it."""
-    tasks = counter.fetch_add(TASKS_DONE, 1) + 1
-    units = max(1, int(round(cost)))
-    return tasks, counter.fetch_add(COST_DONE, units) + units
+def report_done(counter: Counter, cost: float) -> None:
+    """Count one finished task of estimated ``cost`` (at least one unit), without waiting."""
+    counter.add(TASKS_DONE, (1, max(1, int(round(cost)))))
+
+
+def totals_done(counter: Counter) -> tuple[int, int]:
+    """Tasks and estimated cost finished so far by all ranks (as far as they have arrived)."""
+    return counter.fetch_add(TASKS_DONE, 0), counter.fetch_add(COST_DONE, 0)

@@ -1,0 +1,93 @@
+"""K_a/K_b versus b/a and nu: curves on a log axis against Mindlin's ellipse, and filled maps.
+
+    python postprocess/anisotropy_map.py results/demo.nc figures/ [--shapes ellipse rectangle]
+
+Writes ``anisotropy_curves.png`` (one panel per shape: K_a/K_b = K_xx/K_yy versus b/a, points
+per nu, Mindlin's bonded ellipse as lines, Li 2017 Fig. 7) and ``anisotropy_map_<shape>.png``
+(filled contours over log10 b/a and nu); shapes whose stiffness ignores b/a are left out. Other
+axes (anisotropy, orientation, n, tol) are taken at their first value and named in the title.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from common import arguments, by_shape, colours, label, open_dataset, panels, save, scalar_notes, select_rest, shapes
+from hpcontact.analytic import mindlin_ellipse_stiffness_ratio
+
+import matplotlib.pyplot as plt
+from matplotlib.ticker import MaxNLocator
+
+RATIO = "K_a_over_K_b"
+
+
+def depends_on_aspect(ds, shape: str) -> bool:
+    """Whether the shape's K_a/K_b changes along b/a (polygons and stars ignore it)."""
+    da = by_shape(ds[RATIO], shape)
+    spread = da.max("aspect") - da.min("aspect")
+    return bool((spread > 0.0).any())
+
+
+def curves(ds, names, outdir) -> None:
+    """K_a/K_b versus b/a per shape, one colour per nu, Mindlin's ellipse as lines."""
+    fig, axes = panels(len(names))
+    nus = ds["nu"].values if "nu" in ds[RATIO].dims else np.atleast_1d(ds["nu"].values)
+    fine = np.logspace(np.log10(ds["aspect"].values.min()), 0.0, 200)
+    note = ""
+    for ax, shape in zip(axes, names):
+        da = by_shape(ds[RATIO], shape)
+        for colour, nu in zip(colours(len(nus)), nus):
+            at_nu = da.sel(nu=nu) if "nu" in da.dims else da
+            at_nu, note = select_rest(at_nu, ["aspect"])
+            ax.plot(at_nu["aspect"], at_nu, "o", ms=3.5, color=colour, label=f"ν = {nu:.2g}")
+            ax.plot(fine, mindlin_ellipse_stiffness_ratio(fine, nu), "-", lw=1.0, color=colour)
+        ax.set_xscale("log")
+        ax.set_xlabel("aspect ratio b/a")
+        ax.set_ylabel("K_a / K_b  (K_xx / K_yy)")
+        ax.set_title(shape or ds.attrs.get("title", ""))
+        ax.grid(True, which="both", alpha=0.3)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside right center", fontsize=8, title="points: sweep\nlines: Mindlin\nellipse", title_fontsize=8)
+    notes = ", ".join(filter(None, [note, scalar_notes(ds)]))
+    fig.suptitle(f"Tangential stiffness anisotropy K_a/K_b (a: major axis along x){f' — {notes}' if notes else ''}", fontsize=10)
+    save(fig, outdir, "anisotropy_curves.png")
+
+
+def maps(ds, names, outdir) -> None:
+    """Filled contours of K_a/K_b over log10(b/a) and nu."""
+    if "nu" not in ds[RATIO].dims or ds.sizes["nu"] < 2 or ds.sizes["aspect"] < 2:
+        print("no map: needs nu and aspect axes with two values or more")
+        return
+    for shape in names:
+        da, note = select_rest(by_shape(ds[RATIO], shape), ["aspect", "nu"])
+        da = da.transpose("nu", "aspect")
+        fig, ax = plt.subplots(figsize=(6.0, 4.2), layout="constrained")
+        levels = MaxNLocator(20).tick_values(float(da.min()), 1.0)
+        filled = ax.contourf(np.log10(da["aspect"]), da["nu"], da.values, levels=levels, cmap="viridis")
+        lines = ax.contour(np.log10(da["aspect"]), da["nu"], da.values, levels=levels[::4], colors="w", linewidths=0.6)
+        ax.clabel(lines, fmt="%.2f", fontsize=7)
+        fig.colorbar(filled, ax=ax, label="K_a / K_b  (K_xx / K_yy)")
+        ax.set_xlabel("log10(b/a)")
+        ax.set_ylabel(label(ds["nu"]))
+        notes = ", ".join(filter(None, [note, scalar_notes(ds)]))
+        ax.set_title(f"{shape}: K_a/K_b{f' ({notes})' if notes else ''}", fontsize=10)
+        save(fig, outdir, f"anisotropy_map_{shape or 'all'}.png")
+
+
+def main() -> None:
+    args = arguments(__doc__.splitlines()[0], [("--shapes", {"nargs": "+", "help": "shapes to plot (default: all)"})])
+    ds = open_dataset(args.dataset)
+    if RATIO not in ds or "aspect" not in ds[RATIO].dims:
+        raise SystemExit(f"{args.dataset}: needs {RATIO} with an aspect axis (a tangential sweep over b/a)")
+    names = [s for s in (args.shapes or shapes(ds)) if depends_on_aspect(ds, s)]
+    flat = [s for s in (args.shapes or shapes(ds)) if s not in names]
+    if flat:
+        print(f"independent of b/a, not plotted: {', '.join(flat)}")
+    if not names:
+        raise SystemExit(f"{args.dataset}: no shape's K_a/K_b depends on b/a")
+    curves(ds, names, args.outdir)
+    maps(ds, names, args.outdir)
+
+
+if __name__ == "__main__":
+    main()

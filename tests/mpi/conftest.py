@@ -1,0 +1,78 @@
+"""Fixtures of the MPI tests.
+
+Two ways to run them, both in CI:
+
+* ``mpiexec -n 2 python -m pytest -p no:cacheprovider tests/mpi`` — every rank runs pytest; the
+  tests marked ``mpi`` call the sweep collectively on ``MPI.COMM_WORLD`` (the same tests pass
+  in one plain process, where the team is a single rank). Tests that launch ``mpiexec``
+  themselves skip under a launcher.
+* ``python -m pytest tests/mpi`` — one process; ``test_kill_resume`` starts its own
+  ``mpiexec -n 2`` runs, kills a rank with SIGKILL and resumes.
+
+The shared temporary folder is made by rank 0 and broadcast (pytest's ``tmp_path`` differs from
+rank to rank).
+"""
+
+from __future__ import annotations
+
+import shutil
+import tempfile
+from pathlib import Path
+from typing import Callable, Iterator
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from hpcontact.sweep.schedule import Team, world
+
+
+@pytest.fixture(scope="session")
+def team() -> Team:
+    """MPI.COMM_WORLD under a launcher, else one serial rank."""
+    return world()
+
+
+@pytest.fixture(scope="module")
+def shared_dir(team: Team) -> Iterator[Path]:
+    """A temporary folder every rank sees, removed after the module's tests."""
+    path = Path(team.bcast(tempfile.mkdtemp(prefix="hpcontact-mpi-") if team.rank == 0 else None))
+    yield path
+    team.barrier()
+    if team.rank == 0:
+        shutil.rmtree(path, ignore_errors=True)
+
+
+# Run-dependent or ill-conditioned diagnostics: time, CG residual and iteration count (the last
+# iteration can fall either side of the tolerance), |K_xy - K_yx| and the principal direction
+# of a nearly isotropic tensor (rounding noise by definition).
+NOT_COMPARED = ("wall_time_s", "residual", "iterations", "asymmetry", "principal_angle_deg")
+
+
+def _assert_same_results(a: xr.Dataset, b: xr.Dataset, rtol: float = 1e-12) -> None:
+    """Same coordinates, status, messages and plans; every stiffness equal to ``rtol`` of the
+    largest stiffness, other floats to ``rtol`` of their own scale; NaN exactly where NaN.
+
+    Not bitwise: the engine plans FFTs with FFTW_MEASURE, which may pick different algorithms
+    in different processes; the rounding differences stay below ~5e-13 relative at tol = 1e-12.
+    """
+    assert set(a.variables) == set(b.variables)
+    for name in a.coords:
+        xr.testing.assert_identical(a[name], b[name])
+    stiffness = max(float(np.nanmax(np.abs(b[n].values))) for n in b.data_vars if b[n].attrs.get("units") == "G a")
+    for name in sorted(set(a.data_vars) - set(NOT_COMPARED)):
+        x, y = a[name].values, b[name].values
+        assert a[name].attrs.keys() == b[name].attrs.keys(), name
+        if x.dtype.kind != "f":
+            np.testing.assert_array_equal(x, y, err_msg=name)
+            continue
+        np.testing.assert_array_equal(np.isnan(x), np.isnan(y), err_msg=name)
+        scale = stiffness if b[name].attrs.get("units") == "G a" else float(np.nanmax(np.abs(y), initial=0.0))
+        error = float(np.nanmax(np.abs(x - y), initial=0.0))
+        assert error <= rtol * scale, f"{name}: {error:.3e} > {rtol:.0e} x {scale:.3e}"
+
+
+@pytest.fixture(scope="session")
+def assert_same_results() -> Callable[[xr.Dataset, xr.Dataset], None]:
+    """Compare two sweep data sets (see ``_assert_same_results``)."""
+    return _assert_same_results

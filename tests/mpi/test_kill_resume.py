@@ -1,0 +1,116 @@
+"""Kill a rank of a 2-rank sweep with SIGKILL, resume, and compare with an uninterrupted run.
+
+Launches its own ``mpiexec -n 2`` (so it skips when pytest itself runs under a launcher).
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+import xarray as xr
+
+from hpcontact.solve import solve
+from hpcontact.sweep.driver import run_sweep
+from hpcontact.sweep.journal import read_journals
+from hpcontact.sweep.schedule import SerialTeam, launched_by_mpi
+from hpcontact.sweep.spec import load_spec
+from hpcontact.sweep.tasks import enumerate_tasks
+
+ROOT = Path(__file__).resolve().parents[2]
+RUNNER = Path(__file__).with_name("sweep_runner.py")
+MPIEXEC = shutil.which("mpiexec", path=f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}")
+SPEC = """
+[sweep]
+title = "kill and resume"
+progress_interval = 0.5
+[scene]
+quantities = ["tangential", "normal"]
+[numerics]
+n = 16
+tol = 1e-12
+[axes]
+shape = ["circle", "ellipse", "rectangle"]
+aspect = [1.0, 0.3, 0.01]
+nu = [0.1, 0.3, 0.5]
+angle = { linspace = [0, 180, 7] }
+"""
+
+pytestmark = [
+    pytest.mark.skipif(launched_by_mpi(), reason="starts its own mpiexec; run pytest without a launcher"),
+    pytest.mark.skipif(MPIEXEC is None, reason="no mpiexec"),
+]
+
+
+def launch(spec: Path, output: Path, log: Path, *extra: str) -> subprocess.Popen:
+    log.mkdir()
+    env = {k: v for k, v in os.environ.items() if k != "HPCONTACT_MPI"}
+    env.update(PYTHONPATH=f"{ROOT}{os.pathsep}{env.get('PYTHONPATH', '')}", OMP_NUM_THREADS="1")
+    command = [MPIEXEC, "-n", "2", sys.executable, str(RUNNER), str(spec), "--output", str(output), "--log", str(log)]
+    return subprocess.Popen(
+        [*command, *extra], env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True
+    )
+
+
+@pytest.fixture
+def launched():
+    """Processes started by the test; any still running at the end are killed with their ranks."""
+    procs: list[subprocess.Popen] = []
+    yield procs
+    for proc in procs:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.communicate()
+
+
+def started(log: Path, rank: int) -> list[tuple[int, str]]:
+    """(pid, task key) of each task the rank started, in order."""
+    path = log / f"rank{rank}.log"
+    lines = path.read_text().splitlines() if path.exists() else []
+    return [(int(pid), key) for pid, key in (line.split() for line in lines)]
+
+
+def test_resume_after_a_killed_rank_loses_nothing_and_recomputes_nothing(tmp_path, assert_same_results, launched):
+    spec = tmp_path / "spec.toml"
+    spec.write_text(SPEC)
+    output = tmp_path / "out.nc"
+    keys = {t.key for t in enumerate_tasks(load_spec(spec))[0]}
+    assert len(keys) == 3 + 9 + 9  # the circle ignores the aspect
+
+    first = launch(spec, output, tmp_path / "log1", "--delay", "0.25")
+    launched.append(first)
+    deadline = time.monotonic() + 120.0
+    while len(started(tmp_path / "log1", 1)) < 4 or not started(tmp_path / "log1", 0):
+        assert first.poll() is None and time.monotonic() < deadline, first.communicate()[0]
+        time.sleep(0.02)
+    os.kill(started(tmp_path / "log1", 1)[-1][0], signal.SIGKILL)  # rank 1, in the middle of a task
+    text = first.communicate(timeout=60)[0]
+    assert first.returncode != 0, text
+    assert not output.exists()
+
+    journaled = set(read_journals(output.with_name("out.nc.journal")))
+    assert 3 <= len(journaled) < len(keys) and journaled <= keys
+
+    second = launch(spec, output, tmp_path / "log2", "--resume")
+    launched.append(second)
+    text = second.communicate(timeout=120)[0]
+    assert second.returncode == 0, text
+    rerun = [key for rank in (0, 1) for _, key in started(tmp_path / "log2", rank)]
+    assert len(rerun) == len(set(rerun)), "a task ran twice"
+    assert not set(rerun) & journaled, "a journaled task was computed again"
+    assert set(rerun) | journaled == keys, "a task was lost"
+    assert f"({len(journaled)} from journals)" in text
+
+    reference = run_sweep(
+        spec, output=tmp_path / "reference.nc", task_function=solve, team=SerialTeam(), stream=io.StringIO()
+    )
+    with xr.open_dataset(output) as a, xr.open_dataset(reference) as b:
+        assert a.attrs["mpi_size"] == 2 and a.attrs["sweep_tasks_reused"] == len(journaled)
+        assert_same_results(a, b)

@@ -1,0 +1,52 @@
+"""Shared helpers of the sweep tests: specs written to a temporary folder and fake solvers."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Callable, Mapping
+
+import pytest
+
+
+def _fake_solve(params: Mapping[str, Any]) -> dict[str, Any]:
+    """A cheap stand-in for ``hpcontact.solve.solve``: a smooth, shape-dependent tensor."""
+    nu = float(params.get("nu", 0.3))
+    aspect = float(params.get("aspect", 1.0))
+    turn = float(params.get("shape_angle", 0.0))
+    sides = float(params.get("sides", 0.0))
+    k_a = (1.0 + nu) * (1.0 + 0.01 * sides)
+    k_b = k_a / aspect**0.05
+    return {
+        "K_xx": k_a,
+        "K_xy": 1e-3 * turn,
+        "K_yx": 1e-3 * turn,
+        "K_yy": k_b,
+        "K_zz": 2.0 * k_a,
+        "K_a_over_K_b": k_a / k_b,
+        "normalized_xx": 0.5,
+        "normalized_yy": 0.5 * k_b / k_a,
+        "iterations": 7,
+        "plan": {"kernels": ["xx", "yy"], "solves": 2},
+    }
+
+
+@pytest.fixture
+def write_spec(tmp_path: Path) -> Callable[[str], Path]:
+    """Write spec text to ``tmp_path/spec.toml`` (output defaults inside ``tmp_path``)."""
+
+    def write(text: str, name: str = "spec.toml") -> Path:
+        if "output" not in text:
+            text = f'[sweep]\noutput = "{tmp_path / "out.nc"}"\n' + text if "[sweep]" not in text else text.replace(
+                "[sweep]", f'[sweep]\noutput = "{tmp_path / "out.nc"}"', 1
+            )
+        path = tmp_path / name
+        path.write_text(text, encoding="utf-8")
+        return path
+
+    return write
+
+
+@pytest.fixture(scope="session")
+def fake_solve() -> Callable[[Mapping[str, Any]], dict[str, Any]]:
+    """A cheap stand-in for the solver: a smooth, shape-dependent tensor and a plan."""
+    return _fake_solve
