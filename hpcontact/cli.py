@@ -36,16 +36,50 @@ def _solve_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--orientation", type=float, help="surface normal along [110] -> [111] -> [001], psi in degrees")
     p.add_argument("--miller", help='surface normal as Miller indices "h k l"')
     p.add_argument("--azimuth", type=float, help="in-plane turn of the crystal (degrees)")
-    p.add_argument("--material", help="library crystal by name (Cu, Al, Fe, Ni, W, Si, ...)")
+    p.add_argument(
+        "--material",
+        help="library crystal by name (Cu, Al, Fe, Ni, W, Si, ...); with --quantities slip: the isotropic "
+        "body 1 (Cu, Fe/steel, Al, rigid)",
+    )
     p.add_argument("--n", type=int, help="cells along the long side")
     p.add_argument("--n-across", type=int, help="cells across the short side (thin shapes)")
     p.add_argument("--tol", type=float, help="CG relative residual tolerance")
-    p.add_argument("--quantities", help="comma list: tangential, normal, compliance, coupled, indentation")
+    p.add_argument("--quantities", help="comma list: tangential, normal, compliance, coupled, indentation; or slip")
     p.add_argument("--radius", type=float, help="rigid sphere radius (indentation)")
     p.add_argument("--depth", type=float, help="rigid sphere approach (indentation)")
     p.add_argument("--threads", type=int, help="FFTW threads")
     p.add_argument("--no-precondition", action="store_true", help="plain CG (for comparison)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
+    slip = p.add_argument_group("partial slip (--quantities slip; see hpcontact.slip)")
+    for name, kind, text in SLIP_OPTIONS:
+        if kind is bool:
+            slip.add_argument(f"--{name.replace('_', '-')}", action="store_true", default=None, help=text)
+        else:
+            slip.add_argument(f"--{name.replace('_', '-')}", type=kind, help=text)
+
+
+SLIP_OPTIONS = (
+    ("radius_b", float, "second principal radius of body 1 (ellipsoid)"),
+    ("radius2", float, "radius of body 2 (default: a flat)"),
+    ("radius2_b", float, "second principal radius of body 2"),
+    ("body2_angle", float, "angle between the principal axes of the bodies (degrees)"),
+    ("material2", str, "body 2 by name (Cu, Fe/steel, Al, rigid)"),
+    ("E", float, "Young's modulus of body 1"),
+    ("E2", float, "Young's modulus of body 2"),
+    ("G2", float, "shear modulus of body 2"),
+    ("nu2", float, "Poisson ratio of body 2"),
+    ("load", float, "normal load P (> 0)"),
+    ("mu", float, "friction coefficient (>= 0)"),
+    ("q_ratio", float, "tangential load Q/(mu P) in [0, 1)"),
+    ("angle", float, "direction of the tangential load (degrees from x)"),
+    ("steps", int, "tangential load steps"),
+    ("control", str, "force or displacement"),
+    ("displacement", float, "final tangential displacement (with --control displacement)"),
+    ("path", str, "load (monotonic) or loop (load, unload, reload)"),
+    ("coupling", str, "auto, both, coupled or decoupled"),
+    ("tensor", bool, "add the incremental 2 x 2 tangential stiffness tensor"),
+    ("history", bool, "add every load step"),
+)
 
 
 def _params(args: argparse.Namespace) -> dict[str, Any]:
@@ -71,9 +105,21 @@ def _print_record(record: dict[str, Any]) -> None:
 
 
 def _cmd_solve(args: argparse.Namespace) -> int:
-    from .solve import solve
+    params = _params(args)
+    if params.get("quantities", "").strip() == "slip":
+        from .slip import solve_slip
 
-    record = solve(_params(args))
+        params.pop("quantities")
+        params.pop("shape", None)
+        params.update({name: getattr(args, name) for name, _, _ in SLIP_OPTIONS if getattr(args, name) is not None})
+        record = solve_slip(params)
+    else:
+        given = [f"--{name.replace('_', '-')}" for name, _, _ in SLIP_OPTIONS if getattr(args, name) is not None]
+        if given:
+            raise InputError(given[0][2:], "only with --quantities slip", getattr(args, given[0][2:].replace("-", "_")))
+        from .solve import solve
+
+        record = solve(params)
     if args.json:
         print(json.dumps(record))
     else:
