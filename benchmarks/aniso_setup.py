@@ -5,9 +5,20 @@ For each material/orientation and grid size n (nx = ny = n, square cells) prints
                   (done once per material + orientation, then cached);
 * ``zz_s``      – the zz block alone (frictionless normal contact);
 * ``all9_s``    – all nine blocks (coupled bonded contact);
-wall-clock and CPU seconds, with the quadrature statistics (directions, ω nodes, strip β).
+wall-clock and CPU seconds, with the quadrature statistics (directions, ω nodes, strip β); and,
+for comparison, one solve on the same grid once its kernels are built (the engine's cache warm):
+* ``setup_s``    – what a scene's engine builds before its first solve on that grid: the nine
+                   blocks' cell coefficients and their zero-padded FFT spectra (cached per
+                   material + grid in each process);
+* ``solve_z_s``  – one frictionless flat-punch solve (circle of n cells across, zz only, CG);
+* ``solve_xyz_s``– one coupled bonded solve (circle, unit x displacement, three components);
+  a tangential crystal scene runs three of these (x, y and z loads).
+The ``setup/solve`` column is (green + setup) / solve_xyz: above 1, kernel construction
+costs more than a solve, so a sweep that revisits a material + grid (``tol`` studies, shapes
+of one bounding box, load cases) gains from the per-process cache; well below 1, the solves
+dominate and the cache hardly matters.
 
-    .venv/bin/python benchmarks/aniso_setup.py [--n 256 512] [--threads 1] [--json]
+    .venv/bin/python benchmarks/aniso_setup.py [--n 256 512] [--threads 1] [--json] [--no-solve]
 
 Not a test: numbers depend on the machine and its load (the CPU column is the robust one).
 """
@@ -22,8 +33,17 @@ import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
+import numpy as np  # noqa: E402
+
 from hpcontact import crystal as cr  # noqa: E402
+from hpcontact import operator as op  # noqa: E402
+from hpcontact.geometry import Grid  # noqa: E402
 from hpcontact.kernels import anisotropic as an  # noqa: E402
+from hpcontact.preconditioner import FourierPreconditioner  # noqa: E402
+from hpcontact.solve import Engine  # noqa: E402
+from hpcontact.solvers import conjugate_gradient  # noqa: E402
+
+ALL9 = ("xx", "xy", "xz", "yx", "yy", "yz", "zx", "zy", "zz")
 
 
 def materials() -> list[tuple[str, cr.Crystal]]:
@@ -45,16 +65,42 @@ def timed(fn):
     return result, time.perf_counter() - w, time.process_time() - c
 
 
+def one_solve(mat: cr.Crystal, n: int, threads: int) -> dict:
+    """Engine set-up (nine blocks + spectra), then one z and one coupled x solve on a circle.
+
+    The grid is n × n cells of size 2/n (the circle of radius 1 touches its edges), the grid
+    ``hpcontact.solve`` uses for a circle of ``n`` cells; H(φ) is already cached by the
+    caller's timing, as in a sweep that revisits the material."""
+    grid = Grid(n, n, 2.0 / n, 2.0 / n)
+    x, y = grid.centres()
+    mask = x * x + y * y <= 1.0
+    engine = Engine(mat, grid, ALL9, threads)
+    op.clear_cache()
+    _, t_setup, _ = timed(lambda: engine.operator("xyz"))
+    out = {"setup_s": t_setup}
+    for name, components, load in (("z", "z", "z"), ("xyz", "xyz", "x")):
+        operator = engine.operator(components)
+        rhs = np.zeros((len(components),) + mask.shape)
+        rhs[components.index(load)] = 1.0
+        pre = FourierPreconditioner(grid, engine.surface_green, components).apply
+        sol, t, c = timed(lambda: conjugate_gradient(operator.apply, rhs, mask, tol=1e-10, precondition=pre))
+        out.update({f"solve_{name}_s": t, f"solve_{name}_cpu_s": c, f"solve_{name}_iterations": sol.iterations})
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, nargs="+", default=[256, 512])
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--json", action="store_true", help="one JSON object per line")
+    ap.add_argument("--no-solve", action="store_true", help="kernel construction only (no solve columns)")
     args = ap.parse_args(argv)
     rows = []
     if not args.json:
+        solve_head = "" if args.no_solve else (f" {'setup_s':>7s} {'solve_z_s':>9s} {'it_z':>4s} {'solve_xyz_s':>11s} "
+                                               f"{'it_xyz':>6s} {'setup/solve':>11s}")
         print(f"{'material':30s} {'n':>5s} {'green_s':>8s} {'zz_s':>7s} {'zz_cpu':>7s} "
-              f"{'all9_s':>7s} {'all9_cpu':>8s} {'n_phi':>6s} {'n_om':>5s} {'beta':>5s}")
+              f"{'all9_s':>7s} {'all9_cpu':>8s} {'n_phi':>6s} {'n_om':>5s} {'beta':>5s}{solve_head}")
     for name, mat in materials():
         for n in args.n:
             an.clear_cache()
@@ -66,12 +112,18 @@ def main(argv: list[str] | None = None) -> int:
             row = dict(material=name, n=n, green_s=t_green, zz_s=t_zz, zz_cpu_s=c_zz, all9_s=t_all,
                        all9_cpu_s=c_all, n_phi=kern.n_phi, n_omega=kern.n_omega, beta=kern.beta,
                        threads=args.threads)
+            solve_text = ""
+            if not args.no_solve:
+                row.update(one_solve(mat, n, args.threads))
+                row["setup_over_solve"] = (t_green + row["setup_s"]) / row["solve_xyz_s"]
+                solve_text = (f" {row['setup_s']:7.2f} {row['solve_z_s']:9.2f} {row['solve_z_iterations']:4d} "
+                              f"{row['solve_xyz_s']:11.2f} {row['solve_xyz_iterations']:6d} {row['setup_over_solve']:11.2f}")
             rows.append(row)
             if args.json:
                 print(json.dumps(row))
             else:
                 print(f"{name:30s} {n:5d} {t_green:8.3f} {t_zz:7.2f} {c_zz:7.2f} {t_all:7.2f} "
-                      f"{c_all:8.2f} {kern.n_phi:6d} {kern.n_omega:5d} {kern.beta:5.2f}", flush=True)
+                      f"{c_all:8.2f} {kern.n_phi:6d} {kern.n_omega:5d} {kern.beta:5.2f}{solve_text}", flush=True)
     return 0
 
 

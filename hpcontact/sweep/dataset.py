@@ -3,7 +3,11 @@
 Dimensions are the spec's axes in spec order, each a coordinate with CF ``units`` and
 ``long_name``; fixed scalar fields of the spec become scalar coordinates. Data variables are the
 keys of the task records (float64, NaN where a task failed; non-numeric values such as ``plan``
-as JSON text), plus ``status`` (0 ok), ``message`` and ``wall_time_s`` per task. Points that
+as JSON text), plus ``status`` (0 ok), ``message`` and ``wall_time_s`` per task. A ``material``
+axis is a string coordinate (library crystal names). Units: stresses in G (the shear modulus,
+(C11 − C12)/2 of a cubic crystal from (nu, A)), or GPa when the scenes name library crystals;
+punch lengths in a (the semi-major extent, 1 on the grid); indentation lengths in L, the unit
+the spec gives the sphere's radius and depth in. Points that
 share a scene share its record. With an ``angle`` axis the stiffness along the load direction
 ``K_nn`` (and Li's normalized ``normalized_nn``) is derived from the tensor, K_nn = nᵀ K n, in
 tensor mode, and is K_xx of the shape turned by −angle in rotated mode.
@@ -35,6 +39,11 @@ AXIS_ATTRS: Mapping[str, Mapping[str, str]] = {
     "aspect": {"long_name": "aspect ratio b/a of the contact", "units": "1"},
     "anisotropy": {"long_name": "cubic anisotropy factor A = 2 C44 / (C11 - C12)", "units": "1"},
     "orientation": {"long_name": "surface normal along [110] -> [111] -> [001]", "units": "degree"},
+    "material": {"long_name": "library crystal (elastic constants in GPa)"},
+    "miller": {"long_name": "surface normal (h k l) of the crystal"},
+    "azimuth": {"long_name": "in-plane turn of the crystal about the surface normal", "units": "degree"},
+    "radius": {"long_name": "radius R of the rigid sphere", "units": "L"},
+    "depth": {"long_name": "approach d of the rigid sphere", "units": "L"},
     "n": {"long_name": "grid cells along the long side", "units": "1"},
     "n_across": {"long_name": "grid cells across the short side", "units": "1"},
     "tol": {"long_name": "conjugate-gradient relative residual tolerance", "units": "1"},
@@ -69,10 +78,12 @@ VARIABLE_ATTRS: dict[str, Mapping[str, str]] = {
     "ny": {"long_name": "grid cells along y", "units": "1"},
     "dx": {"long_name": "cell size along x", "units": "a"},
     "dy": {"long_name": "cell size along y", "units": "a"},
+    "K_zz_bonded": {"long_name": "normal stiffness K_zz of the bonded (coupled) punch", "units": STIFFNESS},
     "contact_cells": {"long_name": "grid cells in the contact", "units": "1"},
-    "load": {"long_name": "normal load", "units": "G a2"},
-    "contact_area": {"long_name": "contact area", "units": "a2"},
-    "ellipse_b_over_a": {"long_name": "aspect ratio of the ellipse fitted to the contact", "units": "1"},
+    "load": {"long_name": "normal load on the rigid sphere", "units": "G L2"},
+    "contact_area": {"long_name": "contact area under the sphere", "units": "L2"},
+    "max_pressure": {"long_name": "largest contact pressure under the sphere", "units": "G"},
+    "ellipse_b_over_a": {"long_name": "aspect ratio b/a of the ellipse fitted to the contact (pressure moments)", "units": "1"},
     "ellipse_angle_deg": {"long_name": "major axis of the fitted ellipse from x", "units": "degree"},
     "plan": {"long_name": "kernels built and solves run (JSON)"},
     "message": {"long_name": "error message of a failed task"},
@@ -130,14 +141,41 @@ def build_dataset(
             coords[name] = ((), value)
     ds = xr.Dataset(variables, coords=coords)
     _derive_directional(ds, spec)
+    gpa = _names_crystals(spec)
+    sphere_grid = _indentation_only(spec)
     for name in ds.variables:
-        ds[name].attrs.update(VARIABLE_ATTRS.get(name, AXIS_ATTRS.get(name, {})))
-    ds.attrs.update(_global_attrs(spec, attrs))
+        variable_attrs = _with_stress_unit(VARIABLE_ATTRS.get(name, AXIS_ATTRS.get(name, {})), gpa)
+        if sphere_grid and name in ("dx", "dy"):  # the record's grid is the sphere's
+            variable_attrs["units"] = "L"
+        ds[name].attrs.update(variable_attrs)
+    ds.attrs.update(_global_attrs(spec, attrs, gpa))
     return ds
 
 
+def _names_crystals(spec: Spec) -> bool:
+    """Whether the scenes name library crystals (stresses in GPa, not in units of G)."""
+    return spec.fixed.get("material") is not None or spec.axis("material") is not None
+
+
+def _indentation_only(spec: Spec) -> bool:
+    """Whether every scene asks for indentation alone (the record's grid is the sphere's)."""
+    quantities = spec.fixed.get("quantities")
+    if isinstance(quantities, str):
+        quantities = quantities.split(",")
+    return quantities is not None and {str(q).strip() for q in quantities} == {"indentation"}
+
+
+def _with_stress_unit(attrs: Mapping[str, Any], gpa: bool) -> dict[str, Any]:
+    """``attrs`` with the stress unit G replaced by GPa for library crystals."""
+    out = dict(attrs)
+    units = out.get("units")
+    if gpa and isinstance(units, str) and units.split(" ")[0] == "G":
+        out["units"] = "GPa" + units[1:]
+    return out
+
+
 def _coordinate(name: str, values: tuple) -> np.ndarray:
-    if name == "shape":
+    if name in ("shape", "material"):
         return np.array(values, dtype=object)
     if name == "n":
         return np.array(values, dtype=np.int64)
@@ -163,14 +201,17 @@ def _derive_directional(ds: xr.Dataset, spec: Spec) -> None:
         ds["normalized_nn"] = (ds["K_nn"] * (ds["normalized_xx"] / ds["K_xx"])).transpose(*order)
 
 
-def _global_attrs(spec: Spec, attrs: Mapping[str, Any]) -> dict[str, Any]:
+def _global_attrs(spec: Spec, attrs: Mapping[str, Any], gpa: bool = False) -> dict[str, Any]:
+    stress = "GPa (library crystal constants)" if gpa else "G (shear modulus; (C11 - C12)/2 for a cubic crystal from nu and A)"
     out: dict[str, Any] = {
         "title": spec.title,
         "Conventions": "CF-1.8",
         "angle_mode": spec.angle_mode,
         "spec_path": str(spec.path),
         "spec": spec.text,
-        "stiffness_units": "forces per unit displacement in units of G a (G shear modulus, a semi-major extent = 1)",
+        "stiffness_units": f"forces per unit displacement in units of {'GPa' if gpa else 'G'} a (a semi-major extent of the punch = 1)",
+        "stress_units": stress,
+        "length_units": "a: semi-major extent of the punch (= 1 on the grid); L: unit of the sphere's radius and depth",
     }
     for name, value in spec.fixed.items():
         if not (_is_number(value) or isinstance(value, str)):

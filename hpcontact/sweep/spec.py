@@ -24,8 +24,22 @@ A spec has four tables (DESIGN §1, §4.2; every key is optional except one axis
     nu = [0.1, 0.3, 0.5]
     angle = { linspace = [0, 180, 37] }     # numpy.linspace(start, stop, num)
 
-Axis names are those of DESIGN §1 (``shape angle nu aspect anisotropy orientation``) plus ``n``
-and ``tol`` for accuracy studies. A ``shape`` value is a shape name or a table with a ``label``
+Axis names are those of DESIGN §1 (``shape angle nu aspect anisotropy orientation``), ``material``
+(library crystal names, a string coordinate: ``material = ["Cu", "Al", "W"]``), plus ``n`` and
+``tol`` for accuracy studies. Crystal scenes::
+
+    [scene]                          # Rodríguez-Tembleque et al. 2011: sphere on a cubic crystal
+    quantities = ["indentation"]
+    radius = 1.0                     # rigid sphere radius R and approach d (fixed fields)
+    depth = 1e-4
+    [axes]
+    anisotropy = [0.5, 1, 2]         # cubic from (nu, A), (C11 - C12)/2 = G
+    orientation = { linspace = [0, 90, 19] }   # psi along [110] -> [111] -> [001]
+
+A field the scene ignores is left out of its parameters, so equal scenes are solved once: at
+A = 1 without a named crystal the body is isotropic and ``orientation``, ``miller`` and
+``azimuth`` are dropped; with a named ``material`` its library constants hold and ``nu``,
+``G`` and ``anisotropy`` are dropped (both after validation, so a bad value is still refused). A ``shape`` value is a shape name or a table with a ``label``
 (its coordinate in the data set) and scene fields (``shape``, ``sides``, ``aspect``, …); fields
 of such a table win over the other axes. Anything unknown, empty, duplicated or impossible is
 refused with an ``InputError`` naming the key (``axes.nu``, ``scene.G``, …), so a bad spec never
@@ -50,12 +64,13 @@ from ..errors import InputError
 TABLES = ("sweep", "scene", "numerics", "axes")
 SWEEP_KEYS = ("title", "output", "journal", "angle_mode", "progress_interval")
 NUMERIC_KEYS = ("n", "n_across", "tol")
-AXIS_NAMES = ("shape", "angle", "nu", "aspect", "anisotropy", "orientation", "n", "tol")
+AXIS_NAMES = ("shape", "angle", "nu", "aspect", "anisotropy", "orientation", "material", "n", "tol")
 ANGLE_MODES = ("tensor", "rotated")
 FLOAT_FIELDS = frozenset(
     {"angle", "nu", "aspect", "anisotropy", "orientation", "tol", "G", "shape_angle", "amplitude",
-     "hurst", "rms", "radius", "depth"}
+     "hurst", "rms", "radius", "depth", "azimuth"}
 )
+STRING_FIELDS = frozenset({"material"})
 INT_FIELDS = frozenset({"n", "n_across", "sides", "seed", "threads"})
 # Geometry fields and the shapes they apply to (DESIGN §4.1, hpcontact.geometry.Shape): a field a
 # shape ignores is dropped from its scene, so e.g. a circle on an aspect axis is solved once.
@@ -68,6 +83,10 @@ SHAPE_ONLY_FIELDS: Mapping[str, frozenset[str]] = {
     "rms": frozenset({"rough"}),
     "mask": frozenset({"mask"}),
 }
+# Material fields a scene ignores (hpcontact.scene._material): orientation fields of an isotropic
+# body (no named crystal, A = 1), isotropic constants when a library crystal is named.
+ORIENTATION_FIELDS = ("orientation", "miller", "azimuth")
+ISOTROPIC_CONSTANTS = ("nu", "G", "anisotropy")
 
 Validator = Callable[[Mapping[str, Any]], None]
 
@@ -117,13 +136,14 @@ class Spec:
         """Index tuples of every point of the task axes, in C order (last axis fastest)."""
         return itertools.product(*(range(len(a)) for a in self.task_axes))
 
-    def scene_params(self, index: tuple[int, ...]) -> dict[str, Any]:
+    def scene_params(self, index: tuple[int, ...], reduce_material: bool = True) -> dict[str, Any]:
         """Solver parameters of the task-axes point ``index``.
 
         Fixed fields, then the axis values in spec order, then shape tables (they win); in
         rotated mode the shape is turned by −angle on top of its own ``shape_angle``. Geometry
-        fields the shape ignores are left out (``SHAPE_ONLY_FIELDS``), so equal scenes compare
-        equal.
+        fields the shape ignores are left out (``SHAPE_ONLY_FIELDS``), and so (unless
+        ``reduce_material`` is false) are material fields the body ignores (orientation of an
+        isotropic body, nu/G/A of a named crystal), so equal scenes compare equal.
         """
         params = dict(self.fixed)
         shape_fields: Mapping[str, Any] = {}
@@ -142,7 +162,19 @@ class Spec:
             for name, shapes in SHAPE_ONLY_FIELDS.items():
                 if name in params and params["shape"] not in shapes:
                     del params[name]
+        if reduce_material:
+            _drop_ignored_material_fields(params)
         return params
+
+
+def _drop_ignored_material_fields(params: dict[str, Any]) -> None:
+    """Leave out the material fields ``hpcontact.scene`` ignores for these parameters."""
+    if params.get("material") is not None:
+        for name in ISOTROPIC_CONSTANTS:
+            params.pop(name, None)
+    elif params.get("anisotropy", 1.0) == 1.0:
+        for name in ORIENTATION_FIELDS:
+            params.pop(name, None)
 
 
 def canonical_json(params: Mapping[str, Any]) -> str:
@@ -239,7 +271,12 @@ def _string(key: str, value: Any) -> str:
 
 
 def _normalize(key: str, name: str, value: Any) -> Any:
-    """``value`` as float64 (float fields) or int (integer fields); others unchanged."""
+    """``value`` as float64 (float fields), int (integer fields) or a non-empty string (string
+    fields); others unchanged."""
+    if name in STRING_FIELDS:
+        if not isinstance(value, str) or not value.strip():
+            raise InputError(key, "a non-empty string (a library crystal name: Cu, Al, Fe, ...)", value)
+        return value.strip()
     if name in FLOAT_FIELDS or name in INT_FIELDS:
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
             raise InputError(key, "a finite number", value)
@@ -313,12 +350,15 @@ def _shape_values(key: str, values: list) -> tuple[tuple[str, ...], tuple[Mappin
 
 
 def _check_scenes(spec: Spec, validate: Validator | None) -> None:
-    """Run the scene validator once per distinct scene; name the spec key of a bad field."""
+    """Run the scene validator once per distinct scene; name the spec key of a bad field.
+
+    Scenes are validated before ignored material fields are dropped, so an impossible
+    orientation is refused even at A = 1."""
     if validate is None:
         from ..scene import validate
     seen: set[str] = set()
     for index in spec.points():
-        params = spec.scene_params(index)
+        params = spec.scene_params(index, reduce_material=False)
         text = canonical_json(params)
         if text in seen:
             continue

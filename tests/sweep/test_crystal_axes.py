@@ -1,0 +1,188 @@
+"""Crystal axes of a sweep: material (string coordinate), anisotropy, orientation; indentation scenes."""
+
+from __future__ import annotations
+
+import io
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from hpcontact.errors import InputError
+from hpcontact.sweep.driver import run_sweep
+from hpcontact.sweep.journal import OK
+from hpcontact.sweep.schedule import SerialTeam
+from hpcontact.sweep.spec import parse_spec
+from hpcontact.sweep.tasks import enumerate_tasks, estimated_cost
+
+ROOT = Path(__file__).resolve().parents[2]
+PSI_111 = 35.26438968275465
+
+CRYSTALS = """
+[scene]
+quantities = ["indentation"]
+radius = 1.0
+depth = 1e-4
+[numerics]
+n = 24
+[axes]
+material = ["Cu", "W"]
+orientation = [0, %s, 90]
+""" % PSI_111
+
+CUBIC = """
+[scene]
+quantities = ["indentation"]
+radius = 1.0
+depth = 1e-4
+nu = 0.3
+[numerics]
+n = 24
+[axes]
+anisotropy = [1.0, 3.0]
+orientation = [0, 90]
+"""
+
+
+def parse(text: str):
+    return parse_spec(text, path="job.toml")  # the engine's own scene validator
+
+
+def refused(text: str) -> InputError:
+    with pytest.raises(InputError) as info:
+        parse(text)
+    return info.value
+
+
+def test_material_axis_is_a_string_coordinate_and_validated():
+    spec = parse(CRYSTALS)
+    assert [a.name for a in spec.axes] == ["material", "orientation"]
+    assert spec.axis("material").values == ("Cu", "W")
+    assert spec.scene_params((1, 2)) == {
+        "quantities": ["indentation"], "radius": 1.0, "depth": 1e-4, "n": 24, "material": "W", "orientation": 90.0,
+    }
+    assert refused(CRYSTALS.replace('"W"', '"Unobtainium"')).field == "axes.material"
+    assert refused(CRYSTALS.replace('"W"', "3")).field == "axes.material"
+    assert refused(CRYSTALS.replace('"W"', '""')).field == "axes.material"
+    assert refused(CRYSTALS.replace('"W"', '"Cu"')).field == "axes.material"  # duplicate
+    assert refused(CRYSTALS.replace("90]", "120]")).field == "axes.orientation"
+
+
+def test_ignored_material_fields_are_dropped_so_equal_scenes_are_solved_once():
+    spec = parse(CUBIC)
+    tasks, where = enumerate_tasks(spec)
+    assert len(where) == 4 and len(tasks) == 3  # A = 1 is isotropic: one scene for both orientations
+    assert where[(0, 0)] == where[(0, 1)] and where[(1, 0)] != where[(1, 1)]
+    assert "orientation" not in spec.scene_params((0, 1)) and spec.scene_params((1, 1))["orientation"] == 90.0
+    # a named crystal ignores nu and A: one scene per material and orientation
+    named = parse(CRYSTALS + "nu = [0.1, 0.3]\n")
+    tasks, where = enumerate_tasks(named)
+    assert len(where) == 12 and len(tasks) == 6 and "nu" not in tasks[0].params
+    # validation still sees the dropped fields: an impossible orientation is refused at A = 1
+    assert refused(CUBIC.replace("anisotropy = [1.0, 3.0]", "anisotropy = [1.0]").replace("[0, 90]", "[0, 95]")).field == "axes.orientation"
+    assert refused(CRYSTALS + "nu = [0.1, 0.7]\n").field == "axes.nu"
+    assert len(enumerate_tasks(parse(CRYSTALS + "anisotropy = [2.0, 3.0]\n"))[0]) == 6
+
+
+def test_crystal_scenes_cost_more_than_isotropic_ones():
+    base = {"quantities": ["tangential"], "n": 32}
+    assert estimated_cost({**base, "anisotropy": 2.0}) > 3 * estimated_cost(base)
+    assert estimated_cost({**base, "material": "Cu"}) == estimated_cost({**base, "anisotropy": 2.0})
+    sphere = {"quantities": ["indentation"], "n": 32, "radius": 1.0, "depth": 1e-4}
+    assert estimated_cost(sphere) == estimated_cost({**sphere, "aspect": 0.01})  # n x n sphere grid
+
+
+def sweep(write_spec, text: str):
+    return run_sweep(write_spec(text), team=SerialTeam(), stream=io.StringIO())
+
+
+def test_indentation_sweep_over_crystals_writes_labelled_variables(write_spec):
+    with xr.open_dataset(sweep(write_spec, CRYSTALS)) as ds:
+        ds = ds.load()
+    assert dict(ds.sizes) == {"material": 2, "orientation": 3}
+    assert ds["material"].values.tolist() == ["Cu", "W"] and ds["material"].dtype.kind in "OU"
+    assert ds["material"].attrs["long_name"].startswith("library crystal")
+    assert ds["orientation"].attrs["units"] == "degree"
+    assert float(ds["radius"]) == 1.0 and ds["radius"].dims == () and ds["depth"].attrs["units"] == "L"
+    assert (ds.status == OK).all()
+    for name, units in (("load", "GPa L2"), ("contact_area", "L2"), ("max_pressure", "GPa"),
+                        ("ellipse_b_over_a", "1"), ("ellipse_angle_deg", "degree"), ("dx", "L")):
+        assert ds[name].dims == ("material", "orientation") and ds[name].dtype == np.float64, name
+        assert ds[name].attrs["units"] == units and ds[name].attrs["long_name"], name
+    assert "GPa" in ds.attrs["stress_units"] and ds.attrs["mpi_size"] == 1
+    # {111} and {001} contacts are circles, {110} an ellipse (Cu: A = 3.2); W is nearly isotropic
+    ratio = ds["ellipse_b_over_a"]
+    assert float(ratio.sel(material="Cu", orientation=0)) < 0.97
+    np.testing.assert_allclose(ratio.sel(orientation=[PSI_111, 90]), 1.0, atol=1e-3)  # square grid: 3-fold only to ~1e-4
+    assert abs(float(ratio.sel(material="W", orientation=0)) - 1.0) < 2e-3
+    # W (A = 1.01): the load is Hertz's with W's indentation modulus, within the coarse grid's error
+    P_111 = float(ds["load"].sel(material="W", orientation=PSI_111))
+    assert P_111 == pytest.approx(4.0 / 3.0 * 444.6 * 1e-6, rel=2e-2)
+
+
+def test_indentation_sweep_over_anisotropy_and_orientation(write_spec):
+    with xr.open_dataset(sweep(write_spec, CUBIC)) as ds:
+        ds = ds.load()
+    assert dict(ds.sizes) == {"anisotropy": 2, "orientation": 2}
+    assert ds["load"].attrs["units"] == "G L2" and ds["anisotropy"].attrs["units"] == "1"
+    assert (ds.status == OK).all()
+    iso = ds["load"].sel(anisotropy=1.0)
+    assert float(iso[0]) == float(iso[1])  # one isotropic scene shown at both orientations
+    expected = 4.0 / 3.0 * (2.0 / 0.7) * 1e-6  # Hertz: (4/3) E* sqrt(R) d^1.5, E* = 2G/(1 - nu)
+    assert float(iso[0]) == pytest.approx(expected, rel=2e-2)
+    # A = 3: [110] is stiffer than [001] (Rodríguez-Tembleque et al. 2011, Fig. 10)
+    cubic = ds["load"].sel(anisotropy=3.0)
+    assert float(cubic.sel(orientation=0)) / float(cubic.sel(orientation=90)) == pytest.approx(1.14, abs=0.02)
+
+
+TANGENTIAL = """
+[scene]
+quantities = ["tangential"]
+shape = "ellipse"
+nu = 0.3
+[numerics]
+n = 12
+tol = 1e-8
+[axes]
+aspect = [1.0, 0.5]
+anisotropy = [1.0, 3.0]
+orientation = [0, 90]
+"""
+
+
+def run_script(script: str, *args: str) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONPATH": f"{ROOT}{os.pathsep}{os.environ.get('PYTHONPATH', '')}", "MPLBACKEND": "Agg"}
+    return subprocess.run([sys.executable, str(ROOT / "postprocess" / script), *args],
+                          env=env, capture_output=True, text=True, timeout=120)
+
+
+def test_orientation_map_draws_the_sphere_curves_and_the_tangential_map(write_spec, tmp_path):
+    sphere = sweep(write_spec, CUBIC)
+    tangential = run_sweep(write_spec(TANGENTIAL, "tangential.toml"), output=tmp_path / "tangential.nc",
+                           team=SerialTeam(), stream=io.StringIO())
+    with xr.open_dataset(tangential) as ds:
+        ratio = (ds["K_min"] / ds["K_max"]).load()
+    assert float(ratio.sel(aspect=1.0, anisotropy=3.0, orientation=90)) == pytest.approx(1.0, abs=1e-6)  # 4-fold
+    assert float(ratio.sel(aspect=1.0, anisotropy=3.0, orientation=0)) < 0.95  # {110}: 2-fold only
+    done = run_script("orientation_map.py", str(sphere), str(tmp_path / "fig"), "--fine", "4")
+    assert done.returncode == 0, done.stderr
+    assert "largest |BEM - Willis| in P/P[001]" in done.stdout
+    done = run_script("orientation_map.py", str(tangential), str(tmp_path / "fig"))
+    assert done.returncode == 0, done.stderr
+    for name in ("orientation_sphere.png", "orientation_tangential_map.png", "orientation_tangential_curves.png"):
+        path = tmp_path / "fig" / name
+        assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 10_000, name
+
+
+def test_indentation_moduli_table(tmp_path):
+    done = run_script("indentation_moduli.py", "--n", "24", "--materials", "W", "--output", str(tmp_path / "t.md"))
+    assert done.returncode == 0, done.stderr
+    lines = [line for line in (tmp_path / "t.md").read_text().splitlines() if line.startswith("| W ")]
+    assert [line.split("|")[3].strip() for line in lines] == ["(001)", "(011)", "(111)"]
+    moduli = [[float(v) for v in line.split("|")[4:7]] for line in lines]
+    assert np.allclose(moduli, 444.6, rtol=2e-2)  # W is nearly isotropic (A = 1.01)
+    assert "Vlassak & Nix 1994" in done.stdout
