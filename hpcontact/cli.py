@@ -44,6 +44,7 @@ def _solve_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--n", type=int, help="cells along the long side")
     p.add_argument("--n-across", type=int, help="cells across the short side (thin shapes)")
     p.add_argument("--tol", type=float, help="CG relative residual tolerance")
+    p.add_argument("--accuracy", type=float, help="extrapolate over grids until the estimated relative error <= REL")
     p.add_argument("--quantities", help="comma list: tangential, normal, compliance, coupled, indentation; or slip")
     p.add_argument("--radius", type=float, help="rigid sphere radius (indentation)")
     p.add_argument("--depth", type=float, help="rigid sphere approach (indentation)")
@@ -99,7 +100,8 @@ def _print_record(record: dict[str, Any]) -> None:
             print(f"{key:>22s}  {value:.10g}")
         elif isinstance(value, dict):
             for sub, items in value.items():
-                print(f"{key + '.' + sub:>22s}  {', '.join(map(str, items)) or '-'}")
+                shown = ", ".join(map(str, items)) if isinstance(items, (list, tuple)) else items
+                print(f"{key + '.' + sub:>22s}  {shown if shown != '' else '-'}")
         else:
             print(f"{key:>22s}  {value}")
 
@@ -117,9 +119,14 @@ def _cmd_solve(args: argparse.Namespace) -> int:
         given = [f"--{name.replace('_', '-')}" for name, _, _ in SLIP_OPTIONS if getattr(args, name) is not None]
         if given:
             raise InputError(given[0][2:], "only with --quantities slip", getattr(args, given[0][2:].replace("-", "_")))
-        from .solve import solve
+        if args.accuracy is not None:
+            from .accuracy import solve_to_accuracy
 
-        record = solve(params)
+            record = solve_to_accuracy(params, args.accuracy)
+        else:
+            from .solve import solve
+
+            record = solve(params)
     if args.json:
         print(json.dumps(record))
     else:

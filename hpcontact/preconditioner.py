@@ -26,15 +26,17 @@ TABLE_ANGLES = 1024
 COMPONENT_INDEX = {"x": 0, "y": 1, "z": 2}
 
 
-def preconditioner_length(n: int, n_other: int) -> int:
-    """Periodic length of the preconditioner's grid along an axis of ``n`` cells.
+def preconditioner_length(n: int, length: float, other_length: float) -> int:
+    """Periodic length (cells) of the preconditioner's grid along an axis of ``n`` cells.
 
-    Unpadded where the contact's periodic images barely touch; doubled (no wrap-around) along a
-    short axis (n < 64 or n < n_other/4), where the images of a strip would lie side by side:
-    measured on a rectangle b/a = 1e-8, nu = 0.5, 256 × 32 cells: 538 CG iterations unpadded,
-    34 padded; unchanged (17–34) for circle, ellipse 0.1 and rectangle 0.2 at n = 512.
+    Unpadded where the contact's periodic images barely touch; doubled (no wrap-around) along an
+    axis that is short in cells (n < 64) or physically (``length`` < ``other_length``/4), where
+    the images of a strip would lie side by side. Measured: rectangle b/a = 1e-8, nu = 0.5,
+    256 × 32 cells: 538 CG iterations unpadded, 34 padded; thin ellipse on 256 × 64 cells
+    (physically thin, not in cells): 869 → 63; unchanged (17–34) for circle, ellipse 0.1 and
+    rectangle 0.2 at n = 512.
     """
-    return scipy.fft.next_fast_len(2 * n if (n < 64 or 4 * n < n_other) else n, real=True)
+    return scipy.fft.next_fast_len(2 * n if (n < 64 or 4.0 * length < other_length) else n, real=True)
 
 
 class FourierPreconditioner:
@@ -44,7 +46,8 @@ class FourierPreconditioner:
     """
 
     def __init__(self, grid: Grid, surface_green: Callable[[np.ndarray], np.ndarray], components: str) -> None:
-        self.shape = (preconditioner_length(grid.nx, grid.ny), preconditioner_length(grid.ny, grid.nx))
+        lx, ly = grid.nx * grid.dx, grid.ny * grid.dy
+        self.shape = (preconditioner_length(grid.nx, lx, ly), preconditioner_length(grid.ny, ly, lx))
         self.grid_shape = (grid.nx, grid.ny)
         n1, n2 = self.shape
         kx = 2.0 * np.sin(np.pi * np.fft.fftfreq(n1))[:, None] / grid.dx
