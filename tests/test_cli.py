@@ -164,7 +164,8 @@ BAD = [
     (["--G", "0"], "G"),
     (["--tol", "0.5"], "tol"),
     (["--threads", "0"], "threads"),
-    (["--quantities", "slip"], "quantities"),
+    (["--quantities", "slip"], "radius"),  # a slip scene needs its sphere radius first
+    (["--quantities", "slip,normal"], "quantities"),
     (["--quantities", "indentation"], "radius"),
     (["--quantities", "indentation", "--radius", "1"], "depth"),
     (["--colour", "red"], "--colour"),
