@@ -1179,7 +1179,10 @@ def solve_slip(params: Mapping[str, Any]) -> dict[str, Any]:
         decoupled = paths[False]
         record.update(_mode_keys(decoupled, "decoupled_"))
         record["coupling_effect_stiffness"] = _relative(last.stiffness, decoupled.last.stiffness)
-        record["coupling_effect_displacement"] = _relative(last.displacement, decoupled.last.displacement)
+        # δ is zero to the solver's tolerance at Q = 0 (scale: δ at the sliding limit, mu P/k_t(0))
+        record["coupling_effect_displacement"] = _relative(
+            last.displacement, decoupled.last.displacement, scene.tol * limit / k0 if k0 > 0.0 else 0.0
+        )
         record["coupling_effect_stick_area"] = _relative(last.stick_area, decoupled.last.stick_area)
     counters = [p.counters for p in paths.values()]
     record["iterations"] = int(sum(c.total() for c in counters))
@@ -1196,7 +1199,10 @@ def solve_slip(params: Mapping[str, Any]) -> dict[str, Any]:
     return record
 
 
-def _relative(a: float, b: float) -> float:
+def _relative(a: float, b: float, zero: float = 0.0) -> float:
+    """a/b − 1; 0 when both are zero (|a|, |b| ≤ ``zero``: solver round-off of a vanishing value)."""
+    if abs(a) <= zero and abs(b) <= zero:
+        return 0.0
     return a / b - 1.0 if b != 0.0 else (0.0 if a == 0.0 else math.copysign(math.inf, a))
 
 

@@ -1,13 +1,12 @@
 """Tangential stiffness with partial slip: k_t against Q/(mu P) for the seed's sphere pairs.
 
-    python postprocess/slip_stiffness.py results/sphere_pairs.nc figures/slip/ [--mu 0.2]
-    python postprocess/slip_stiffness.py results/sphere_pairs_quick.nc figures/slip/ --compute
+    mpiexec -n 2 hpcontact run jobs/sphere_pairs.toml
+    python postprocess/slip_stiffness.py results/sphere_pairs.nc results/figures/slip/ [--mu 0.2]
 
 Reads the data set of ``jobs/sphere_pairs.toml`` (dimensions pair, load, mu, q_ratio; one
-``hpcontact.slip.solve_slip`` record per point). With ``--compute`` (or when the file is
-missing) it first computes a reduced version directly — every pair, loads 10 and 100 N,
-mu = 0.3, one loading path per pair and load with the whole curve (``history``) — and writes it
-to DATASET in the same layout, so the figures do not wait for the sweep.
+``hpcontact.slip.solve_slip`` record per point, SI units). The pairs' scene fields (materials,
+radii, n) are the data set's coordinates, so the scenes solved here for the maps are the
+sweep's own.
 
 Figures (PNG in OUTDIR):
 
@@ -18,16 +17,17 @@ Figures (PNG in OUTDIR):
   k_t = c k_n, c = 0.25–0.35 (Sherif; Pan, cited by the seed paper), with the Hertz normal
   stiffness k_n = 3P/(2d).
 * ``kt_ratio.png`` — k_t/k_t(0) for every pair, load and mu on one plot: they collapse on
-  (1 − Q/(mu P))^(1/3); the constant-ratio model would be a horizontal line at c k_n/k_t(0).
-* ``stick_zones.png`` — |t|/(mu p) on the contact of the Fe–Fe pair at 100 N for a few load
-  levels, the stick zone outlined and Cattaneo's stick circle c = a(1 − Q/(mu P))^(1/3) dashed
-  (solved here at n = 64).
+  (1 − Q/(mu P))^(1/3); the constant-ratio model is the band c k_n/k_t(0).
+* ``stick_zones.png`` — |t|/(mu p) on the contact of one pair (``--pair``, default Fe–Fe) at one
+  load (``--load``, default 100 N) for a few load levels, solved here on the sweep's grid: the
+  stick zone outlined and Cattaneo's stick circle c = a(1 − Q/(mu P))^(1/3) dashed.
 * ``ellipse_kx_ky.png`` — an Fe ellipsoid (R_a = 8 mm, R_b = 24 mm) on an Fe flat: k along the
   major and the minor axis of the contact ellipse and their ratio against Q/(mu P), Mindlin's
   bonded ellipse at Q = 0 marked (solved here, n = 128 by default: the ratio carries the stick
-  area's staircase, ±0.3 % at n = 64).
+  area's staircase, ±0.3 % at n = 64; ``--n-ellipse 0`` leaves it out).
 
-The coupled-minus-decoupled differences of the dissimilar pairs are printed as a table.
+Printed: k_t(0)/k_n per pair, the largest deviation from Mindlin–Deresiewicz, where k_t falls
+into the constant-ratio band, and the coupled-minus-decoupled differences of the dissimilar pairs.
 """
 
 from __future__ import annotations
@@ -36,6 +36,7 @@ import argparse
 import math
 import sys
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
@@ -52,91 +53,40 @@ if str(ROOT) not in sys.path:
 from hpcontact import analytic  # noqa: E402
 from hpcontact.bodies import pair_from_params  # noqa: E402
 from hpcontact.slip import PathSolver, SlipProblem, solve_slip, validate  # noqa: E402
+from hpcontact.sweep.spec import LABEL_AXES  # noqa: E402
 
-# the seed's design (jobs/sphere_pairs.toml): label -> body fields
-PAIRS = {
-    "Cu-Cu": {"material": "Cu", "material2": "Cu"},
-    "Cu-Fe": {"material": "Cu", "material2": "Fe"},
-    "Cu-Al": {"material": "Cu", "material2": "Al"},
-    "Fe-Fe": {"material": "Fe", "material2": "Fe"},
-    "Fe-Al": {"material": "Fe", "material2": "Al"},
-    "Al-Al": {"material": "Al", "material2": "Al"},
-    "Cu-Fe R8-R8": {"material": "Cu", "material2": "Fe", "radius2": 8e-3},
-    "Fe-Al R8-R8": {"material": "Fe", "material2": "Al", "radius2": 8e-3},
-}
-BASE = {"radius": 8e-3, "radius2": 9e-3}
 RATIO_BAND = (0.25, 0.35)  # constant-ratio model k_t = c k_n (seed paper, refs. 5 and 6)
-VARIABLES = (
-    "tangential_force", "tangential_displacement", "tangential_stiffness", "stick_area_stiffness", "stick_area",
-    "contact_area", "normal_stiffness", "hertz_a", "mindlin_stiffness", "mindlin_no_slip_stiffness",
-    "decoupled_tangential_stiffness", "decoupled_tangential_displacement", "coupling_effect_stiffness",
-    "coupling_effect_displacement", "dundurs_beta", "wall_time_s",
-)
 UM = 1e-6  # stiffness shown in N/µm
 
 
-def pair_params(label: str) -> dict:
-    return {**BASE, **PAIRS[label]}
+def open_dataset(path: Path) -> xr.Dataset:
+    if not path.exists():
+        sys.exit(f"{path}: no such data set; run the sweep first: mpiexec -n 2 hpcontact run jobs/sphere_pairs.toml")
+    with xr.open_dataset(path) as ds:
+        return ds.load()
 
 
-def compute(path: Path, loads=(10.0, 100.0), mus=(0.3,), n: int = 64, steps: int = 9) -> xr.Dataset:
-    """The reduced sweep: one loading path to 0.9 mu P per (pair, load, mu), every step kept."""
-    q = np.linspace(0.0, 0.9, steps + 1)
-    shape = (len(PAIRS), len(loads), len(mus), len(q))
-    data = {name: np.full(shape, np.nan) for name in VARIABLES}
-    for i, label in enumerate(PAIRS):
-        for j, load in enumerate(loads):
-            for k, mu in enumerate(mus):
-                params = {**pair_params(label), "load": load, "mu": mu, "q_ratio": 0.9, "steps": steps, "n": n,
-                          "history": True}
-                record = solve_slip(params)
-                print(f"{label:12s} P = {load:6.1f} N mu = {mu}: {record['wall_time_s']:.1f} s", flush=True)
-                h = record["history"]
-                pair = pair_from_params(params)
-                eq, a = pair.equivalent, pair.hertz(load).a
-                data["tangential_force"][i, j, k] = h["tangential_force"]
-                data["tangential_displacement"][i, j, k] = h["tangential_displacement"]
-                data["tangential_stiffness"][i, j, k] = h["tangential_stiffness"]
-                data["stick_area_stiffness"][i, j, k] = h["stick_area_stiffness"]
-                data["stick_area"][i, j, k] = h["stick_area"]
-                data["contact_area"][i, j, k] = h["contact_area"]
-                data["mindlin_stiffness"][i, j, k] = analytic.cattaneo_mindlin_stiffness(
-                    np.clip(h["tangential_force"], 0.0, mu * load), load, mu, a, eq.G, eq.nu)
-                for name in ("normal_stiffness", "hertz_a", "mindlin_no_slip_stiffness", "dundurs_beta"):
-                    data[name][i, j, k] = record[name]
-                data["wall_time_s"][i, j, k] = record["wall_time_s"]
-                if "decoupled_history" in record:
-                    d = record["decoupled_history"]
-                    data["decoupled_tangential_stiffness"][i, j, k] = d["tangential_stiffness"]
-                    data["decoupled_tangential_displacement"][i, j, k] = d["tangential_displacement"]
-                    data["coupling_effect_stiffness"][i, j, k] = (
-                        np.array(h["tangential_stiffness"]) / np.array(d["tangential_stiffness"]) - 1.0)
-                    with np.errstate(invalid="ignore", divide="ignore"):
-                        data["coupling_effect_displacement"][i, j, k] = (
-                            np.array(h["tangential_displacement"]) / np.array(d["tangential_displacement"]) - 1.0)
-    dims = ("pair", "load", "mu", "q_ratio")
-    ds = xr.Dataset(
-        {name: (dims, values) for name, values in data.items()},
-        coords={"pair": list(PAIRS), "load": np.array(loads), "mu": np.array(mus), "q_ratio": q},
-        attrs={"title": "Sphere pairs with partial slip (reduced, computed by postprocess/slip_stiffness.py)",
-               "n": n, "steps": steps},
-    )
-    path.parent.mkdir(parents=True, exist_ok=True)
-    ds.to_netcdf(path)
-    return ds
+def scene_params(point: xr.Dataset) -> dict[str, Any]:
+    """The solver fields of one selected point of the data set: its scalar coordinates, label
+    coordinates (the pair's name) left out."""
+    params = {}
+    for name, coord in point.coords.items():
+        if coord.ndim == 0 and name not in LABEL_AXES:
+            value = coord.values.item()
+            params[name] = value.decode() if isinstance(value, bytes) else value
+    return params
 
 
-def _mindlin_line(ds: xr.Dataset, pair: str, load: float, mu: float, q: np.ndarray) -> np.ndarray:
-    """Mindlin–Deresiewicz k_t(q) of the pair from its bonded value (analytic Hertz radius)."""
-    k0 = float(ds["mindlin_no_slip_stiffness"].sel(pair=pair, load=load, mu=mu).isel(q_ratio=0))
-    return k0 * np.cbrt(1.0 - q)
+def along_q(da: xr.DataArray) -> xr.DataArray:
+    """A quantity that does not depend on Q (Hertz, bonded stiffness), taken over q_ratio."""
+    return da.max("q_ratio", skipna=True)
 
 
 def figure_kt_vs_q(ds: xr.Dataset, mu: float, outdir: Path) -> None:
     pairs = [str(p) for p in ds["pair"].values]
-    cols = 4
+    cols = min(3, len(pairs))
     rows = math.ceil(len(pairs) / cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(4.0 * cols, 3.3 * rows), sharex=True, squeeze=False)
+    fig, axes = plt.subplots(rows, cols, figsize=(3.6 * cols, 3.0 * rows), sharex=True, squeeze=False)
     q_fine = np.linspace(0.0, 0.999, 200)
     colours = plt.cm.viridis(np.linspace(0.0, 0.85, ds.sizes["load"]))
     for ax, pair in zip(axes.flat, pairs):
@@ -146,10 +96,11 @@ def figure_kt_vs_q(ds: xr.Dataset, mu: float, outdir: Path) -> None:
             ax.plot(q, sel["tangential_stiffness"] * UM, "o", color=colour, ms=4, label=f"P = {load:g} N")
             if "decoupled_tangential_stiffness" in sel and np.isfinite(sel["decoupled_tangential_stiffness"]).any():
                 ax.plot(q, sel["decoupled_tangential_stiffness"] * UM, "o", mfc="none", color=colour, ms=7)
-            ax.plot(q_fine, _mindlin_line(ds, pair, load, mu, q_fine) * UM, "-", color=colour, lw=1)
-            kn = float(sel["normal_stiffness"].isel(q_ratio=0))
-            ax.axhspan(RATIO_BAND[0] * kn * UM, RATIO_BAND[1] * kn * UM, color=colour, alpha=0.12, lw=0)
-        ax.set_title(pair)
+            k0 = float(along_q(sel["mindlin_no_slip_stiffness"]))
+            ax.plot(q_fine, k0 * np.cbrt(1.0 - q_fine) * UM, "-", color=colour, lw=1)
+            kn = float(along_q(sel["normal_stiffness"]))
+            ax.axhspan(RATIO_BAND[0] * kn * UM, RATIO_BAND[1] * kn * UM, color=colour, alpha=0.15, lw=0)
+        ax.set_title(pair, fontsize=10)
         ax.set_xlim(0, 1)
         ax.set_ylim(bottom=0)
         ax.grid(alpha=0.3)
@@ -160,10 +111,11 @@ def figure_kt_vs_q(ds: xr.Dataset, mu: float, outdir: Path) -> None:
     for ax in list(axes.flat)[len(pairs):]:
         ax.axis("off")
     axes[0, 0].legend(fontsize=7, loc="lower left")
-    fig.suptitle(f"Tangential stiffness with partial slip, μ = {mu:g}: markers solver (open: decoupled), "
-                 f"lines Mindlin–Deresiewicz, bands k_t = (0.25–0.35) k_n", fontsize=10)
+    radii = f"R = {float(ds['radius']) * 1e3:g}/{float(ds['radius2']) * 1e3:g} mm, " if ds["radius2"].ndim == 0 else ""
+    fig.suptitle(f"Sphere pairs, {radii}μ = {mu:g}, n = {int(ds['n'])}: markers solver (open: decoupled), "
+                 f"lines Mindlin–Deresiewicz, bands k_t = (0.25–0.35) k_n", fontsize=9)
     fig.tight_layout()
-    fig.savefig(outdir / "kt_vs_q.png", dpi=150)
+    fig.savefig(outdir / "kt_vs_q.png", dpi=110)
     plt.close(fig)
 
 
@@ -172,19 +124,15 @@ def figure_ratio(ds: xr.Dataset, outdir: Path) -> None:
     q_fine = np.linspace(0.0, 0.999, 200)
     ax.plot(q_fine, np.cbrt(1.0 - q_fine), "k-", lw=1.2, label="Mindlin–Deresiewicz (1 − Q/μP)^⅓")
     markers = "osD^v<>p"
-    lo, hi = [], []
     for marker, pair in zip(markers, ds["pair"].values):
-        sel = ds.sel(pair=pair)
-        k = sel["tangential_stiffness"]
-        ratio = k / k.isel(q_ratio=0)
-        for load in ds["load"].values:
-            for mu in ds["mu"].values:
+        ratio = ds["stiffness_ratio"].sel(pair=pair)
+        for i, load in enumerate(ds["load"].values):
+            for j, mu in enumerate(ds["mu"].values):
                 ax.plot(ds["q_ratio"], ratio.sel(load=load, mu=mu), marker, ms=3, alpha=0.7, mfc="none",
-                        label=str(pair) if (load == ds["load"].values[0] and mu == ds["mu"].values[0]) else None)
-        cn = sel["normal_stiffness"].isel(q_ratio=0) / k.isel(q_ratio=0)
-        lo.append(float(RATIO_BAND[0] * cn.min()))
-        hi.append(float(RATIO_BAND[1] * cn.max()))
-    ax.axhspan(min(lo), max(hi), color="tab:red", alpha=0.12, lw=0, label="k_t = (0.25–0.35) k_n")
+                        label=str(pair) if i == j == 0 else None)
+    band = ds["normal_stiffness"] / ds["no_slip_stiffness"]
+    ax.axhspan(RATIO_BAND[0] * float(band.min()), RATIO_BAND[1] * float(band.max()), color="tab:red", alpha=0.12,
+               lw=0, label="k_t = (0.25–0.35) k_n")
     ax.set_xlabel("Q/(μP)")
     ax.set_ylabel("k_t / k_t(Q = 0)")
     ax.set_xlim(0, 1)
@@ -192,44 +140,57 @@ def figure_ratio(ds: xr.Dataset, outdir: Path) -> None:
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, ncol=2)
     fig.tight_layout()
-    fig.savefig(outdir / "kt_ratio.png", dpi=150)
+    fig.savefig(outdir / "kt_ratio.png", dpi=110)
     plt.close(fig)
 
 
-def figure_stick_zones(outdir: Path, levels=(0.3, 0.6, 0.9), n: int = 64) -> None:
-    params = {**pair_params("Fe-Fe"), "load": 100.0, "mu": 0.3, "q_ratio": max(levels), "n": n}
+def figure_stick_zones(ds: xr.Dataset, outdir: Path, pair: str, load: float, mu: float,
+                       levels=(0.3, 0.6, 0.9), step: float = 0.1) -> None:
+    """|t|/(mu p) at a few levels of one monotonic loading path (steps of ``step`` mu P)."""
+    point = ds.sel(pair=pair, load=load, mu=mu).isel(q_ratio=0)
+    params = {**scene_params(point), "q_ratio": max(levels)}
     problem = SlipProblem(validate(params))
-    solver = PathSolver(problem, coupled=False)
+    solver = PathSolver(problem, coupled=not problem.pair.similar)
     limit = problem.scene.mu * problem.P
     x, y = problem.x * problem.L * 1e6, problem.y * problem.L * 1e6  # µm
     a = problem.hertz.a * 1e6
+    targets = np.round(np.arange(1, round(max(levels) / step) + 1) * step, 12)
+    fig, axes = plt.subplots(1, len(levels), figsize=(3.0 * len(levels) + 0.8, 3.4), squeeze=False,
+                             layout="constrained")
+    panels = iter(zip(axes[0], levels))
+    ax, level = next(panels)
     state = solver.initial
-    fig, axes = plt.subplots(1, len(levels), figsize=(4.0 * len(levels), 3.8), squeeze=False)
-    for ax, level in zip(axes[0], levels):
-        steps = max(1, round(10 * level))
-        state = solver.initial
-        solver._last_increment = None
-        for k in range(1, steps + 1):
-            state = solver.to_force(state, np.array([level * limit * k / steps, 0.0]))
+    image = None
+    for target in targets:
+        state = solver.to_force(state, np.array([target * limit, 0.0]))
+        if not math.isclose(target, level):
+            continue
         bound = problem.scene.mu * state.p
         ratio = np.where(state.contact, np.hypot(state.t[0], state.t[1]) / np.where(bound > 0, bound, 1.0), np.nan)
         image = ax.pcolormesh(x, y, ratio, vmin=0.0, vmax=1.0, cmap="magma", shading="auto")
         ax.contour(x, y, state.stick.astype(float), levels=[0.5], colors="cyan", linewidths=1.2)
         c = analytic.stick_radius(level * limit, problem.P, problem.scene.mu, 1.0) * a
         phi = np.linspace(0.0, 2.0 * np.pi, 200)
-        ax.plot(c * np.cos(phi), c * np.sin(phi), "w--", lw=1)
-        ax.plot(a * np.cos(phi), a * np.sin(phi), "w:", lw=0.8)
+        ax.plot(c * np.cos(phi), c * np.sin(phi), "k--", lw=1.1)
+        ax.plot(a * np.cos(phi), a * np.sin(phi), ":", color="grey", lw=1.0)
+        stick = math.sqrt(float(state.stick.sum()) * problem.grid.cell_area / math.pi) * problem.L * 1e6
         ax.set_aspect("equal")
-        ax.set_title(f"Q/(μP) = {level:g}")
+        ax.set_title(f"Q/(μP) = {level:g}\nstick radius {stick:.0f} µm (Cattaneo {c:.0f})", fontsize=8)
         ax.set_xlabel("x [µm]")
+        try:
+            ax, level = next(panels)
+        except StopIteration:
+            break
     axes[0, 0].set_ylabel("y [µm]")
-    fig.colorbar(image, ax=axes[0].tolist(), label="|t| / (μ p)")
-    fig.suptitle("Fe–Fe, 8/9 mm, P = 100 N, μ = 0.3: stick zone (cyan), Cattaneo's circle (dashed)", fontsize=10)
-    fig.savefig(outdir / "stick_zones.png", dpi=150)
+    fig.colorbar(image, ax=axes[0].tolist(), label="|t| / (μ p)", shrink=0.8)
+    radii = f"{params['radius'] * 1e3:g}/{params.get('radius2', math.inf) * 1e3:g} mm"
+    fig.suptitle(f"{pair}, {radii}, P = {load:g} N, μ = {mu:g}, n = {params.get('n')}: stick zone (cyan), "
+                 f"Cattaneo's circle (dashed), Hertz a = {a:.0f} µm (dotted)", fontsize=9)
+    fig.savefig(outdir / "stick_zones.png", dpi=110)
     plt.close(fig)
 
 
-def figure_ellipse(outdir: Path, n: int = 64, steps: int = 9) -> None:
+def figure_ellipse(outdir: Path, n: int = 128, steps: int = 9) -> None:
     base = {"radius": 8e-3, "radius_b": 24e-3, "material": "Fe", "material2": "Fe", "load": 100.0, "mu": 0.3,
             "q_ratio": 0.9, "steps": steps, "n": n, "history": True}
     pair = pair_from_params(base)
@@ -254,49 +215,65 @@ def figure_ellipse(outdir: Path, n: int = 64, steps: int = 9) -> None:
     ax2.set_ylabel("k_b / k_a")
     ax2.legend(fontsize=8)
     ax2.grid(alpha=0.3)
-    fig.suptitle(f"Fe ellipsoid 8 × 24 mm on Fe flat, P = 100 N: Hertz ellipse b/a = {h.aspect:.3f}", fontsize=10)
+    fig.suptitle(f"Fe ellipsoid 8 × 24 mm on Fe flat, P = 100 N, n = {n}: Hertz ellipse b/a = {h.aspect:.3f}",
+                 fontsize=10)
     fig.tight_layout()
-    fig.savefig(outdir / "ellipse_kx_ky.png", dpi=150)
+    fig.savefig(outdir / "ellipse_kx_ky.png", dpi=110)
     plt.close(fig)
 
 
-def coupling_table(ds: xr.Dataset) -> None:
-    if "coupling_effect_stiffness" not in ds:
-        return
-    print("coupled / decoupled − 1 at the largest Q/(mu P) (k_t, δ), dissimilar pairs:")
-    last = ds.isel(q_ratio=-1)
+def summary(ds: xr.Dataset) -> None:
+    """The numbers the figures show: k_t(0)/k_n, deviation from Mindlin–Deresiewicz, where k_t
+    enters the constant-ratio band, coupled − decoupled."""
+    ok = ds["status"] == 0
+    print(f"{int(ok.sum())}/{ok.size} points ok; task wall time {float(ds['wall_time_s'].sum()):.0f} s in all")
+    k0 = ds["no_slip_stiffness"]
+    ratio0 = along_q(k0 / ds["normal_stiffness"])
+    deviation = ds["tangential_stiffness"] / ds["mindlin_stiffness"] - 1.0
+    print("pair          k_t(0)/k_n   k_t(0)/Mindlin-1   k_t/MD-1 (all Q)      Q/(mu P) at k_t = 0.35 k_n, 0.25 k_n")
     for pair in ds["pair"].values:
-        beta = float(last["dundurs_beta"].sel(pair=pair).max())
-        if beta == 0.0:
-            continue
-        effect_k = last["coupling_effect_stiffness"].sel(pair=pair)
-        effect_d = last["coupling_effect_displacement"].sel(pair=pair)
-        print(f"  {str(pair):12s} beta = {beta:+.4f}: k_t {float(effect_k.min()):+.2e} … {float(effect_k.max()):+.2e},"
-              f" δ {float(effect_d.min()):+.2e} … {float(effect_d.max()):+.2e}")
+        r0 = float(ratio0.sel(pair=pair).mean())
+        d0 = float(along_q(k0 / ds["mindlin_no_slip_stiffness"]).sel(pair=pair).mean() - 1.0)
+        dev = deviation.sel(pair=pair)
+        # Mindlin–Deresiewicz with the solver's k_t(0): k_t = k_t(0) (1 − q)^(1/3) = c k_n
+        q_band = [1.0 - (c / r0) ** 3 for c in RATIO_BAND[::-1]]
+        print(f"  {str(pair):12s} {r0:8.4f}     {d0:+.2e}          {float(dev.min()):+.2e} … {float(dev.max()):+.2e}"
+              f"     {q_band[0]:.3f}, {q_band[1]:.3f}")
+    if "coupling_effect_stiffness" in ds:
+        print("coupled / decoupled − 1 at the largest Q/(mu P) (k_t, δ), dissimilar pairs:")
+        last = ds.isel(q_ratio=-1)
+        for pair in ds["pair"].values:
+            beta = float(last["dundurs_beta"].sel(pair=pair).max())
+            if beta == 0.0:
+                continue
+            effect_k = last["coupling_effect_stiffness"].sel(pair=pair)
+            effect_d = last["coupling_effect_displacement"].sel(pair=pair)
+            print(f"  {str(pair):12s} beta = {beta:+.4f}: k_t {float(effect_k.min()):+.2e} … {float(effect_k.max()):+.2e},"
+                  f" δ {float(effect_d.min()):+.2e} … {float(effect_d.max()):+.2e}")
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("dataset", type=Path, help="data set of jobs/sphere_pairs.toml (or where to compute one)")
+    parser.add_argument("dataset", type=Path, help="data set of jobs/sphere_pairs.toml (hpcontact run)")
     parser.add_argument("outdir", type=Path, help="folder for the PNG files")
-    parser.add_argument("--mu", type=float, help="friction coefficient of kt_vs_q.png (default: the first)")
-    parser.add_argument("--compute", action="store_true", help="compute the reduced data set first")
-    parser.add_argument("--n", type=int, default=64, help="cells across the contact for what is solved here")
+    parser.add_argument("--mu", type=float, help="friction coefficient of kt_vs_q.png and the maps (default: the first)")
+    parser.add_argument("--pair", default="Fe-Fe", help="pair of stick_zones.png (default Fe-Fe, else the first)")
+    parser.add_argument("--load", type=float, default=100.0, help="load of stick_zones.png (nearest in the data set)")
     parser.add_argument("--n-ellipse", type=int, default=128,
-                        help="cells across the ellipse (k_b/k_a carries the stick area's staircase, ±0.3 %% at 64)")
+                        help="cells across the ellipse of ellipse_kx_ky.png, 0: leave it out (k_b/k_a carries "
+                             "the stick area's staircase, ±0.3 %% at 64)")
     args = parser.parse_args()
     args.outdir.mkdir(parents=True, exist_ok=True)
-    if args.compute or not args.dataset.exists():
-        ds = compute(args.dataset, n=args.n)
-    else:
-        with xr.open_dataset(args.dataset) as opened:
-            ds = opened.load()
+    ds = open_dataset(args.dataset)
     mu = float(ds["mu"].values[0]) if args.mu is None else float(ds["mu"].sel(mu=args.mu, method="nearest"))
+    pair = args.pair if args.pair in ds["pair"].values else str(ds["pair"].values[0])
+    load = float(ds["load"].sel(load=args.load, method="nearest"))
+    summary(ds)
     figure_kt_vs_q(ds, mu, args.outdir)
     figure_ratio(ds, args.outdir)
-    coupling_table(ds)
-    figure_stick_zones(args.outdir, n=args.n)
-    figure_ellipse(args.outdir, n=args.n_ellipse)
+    figure_stick_zones(ds, args.outdir, pair, load, mu)
+    if args.n_ellipse:
+        figure_ellipse(args.outdir, n=args.n_ellipse)
     print(f"figures in {args.outdir}")
 
 

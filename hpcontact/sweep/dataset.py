@@ -3,20 +3,29 @@
 Dimensions are the spec's axes in spec order, each a coordinate with CF ``units`` and
 ``long_name``; fixed scalar fields of the spec become scalar coordinates. Data variables are the
 keys of the task records (float64, NaN where a task failed; non-numeric values such as ``plan``
-as JSON text), plus ``status`` (0 ok), ``message`` and ``wall_time_s`` per task. A ``material``
-axis is a string coordinate (library crystal names). Units: stresses in G (the shear modulus,
+as JSON text), plus ``status`` (0 ok), ``message`` and ``wall_time_s`` per task. A record key
+that names a coordinate (a slip record's ``load`` on a ``load`` axis, say) is left out where it
+equals the coordinate at every point, and kept as ``record_<key>`` where it does not (a label
+table overrode the field). ``material`` and ``pair`` axes are string coordinates. A field that
+label tables set (``radius2`` of a ``pair`` table, ``sides`` of a ``shape`` table) is a
+coordinate along the label axes that set it (the table's value, else the fixed one, else NaN or
+""), not a scalar: a fixed value a table overrides is never reported for every point. Attributes
+follow the spec's scene kind (``kinds``). Contact scenes: stresses in G (the shear modulus,
 (C11 − C12)/2 of a cubic crystal from (nu, A)), or GPa when the scenes name library crystals;
 punch lengths in a (the semi-major extent, 1 on the grid); indentation lengths in L, the unit
 the spec gives the sphere's radius and depth in. Points that
 share a scene share its record. With an ``angle`` axis the stiffness along the load direction
 ``K_nn`` (and Li's normalized ``normalized_nn``) is derived from the tensor, K_nn = nᵀ K n, in
-tensor mode, and is K_xx of the shape turned by −angle in rotated mode.
+tensor mode, and is K_xx of the shape turned by −angle in rotated mode. Slip scenes
+(``hpcontact.slip``): forces in N, lengths in m, stiffnesses in N/m, areas in m² when the scenes
+name library materials (SI), else in the force and length units of the input (F, L).
 """
 
 from __future__ import annotations
 
 import json
 import numbers
+import re
 import os
 from pathlib import Path
 from typing import Any, Mapping
@@ -26,7 +35,8 @@ import xarray as xr
 
 from ..quantities import directional_stiffness
 from .journal import BAD_INPUT, ERROR, NOT_CONVERGED, OK, Entry, to_json
-from .spec import Spec
+from .kinds import SLIP
+from .spec import LABEL_AXES, Spec
 
 NOT_COMPUTED = -1
 STATUS_MEANINGS = {OK: "ok", BAD_INPUT: "bad_input", NOT_CONVERGED: "not_converged", ERROR: "error", NOT_COMPUTED: "not_computed"}
@@ -96,6 +106,70 @@ VARIABLE_ATTRS: dict[str, Mapping[str, str]] = {
 }
 
 
+# Slip scenes (hpcontact.slip.solve_slip): (long_name, unit) with F the force and L the length unit
+# (N and m for library materials); the end of the loading path unless said otherwise.
+SLIP_MODE_ATTRS: Mapping[str, tuple[str, str]] = {
+    "tangential_force": ("tangential force Q along the load direction", "F"),
+    "tangential_displacement": ("tangential displacement delta of body 2 relative to body 1 along the load", "L"),
+    "tangential_stiffness": ("incremental tangential stiffness k_t = dQ/d delta along the load (consistent tangent)", "F L-1"),
+    "stick_area_stiffness": ("no-slip stiffness of the stick area along the load (frozen slip zone)", "F L-1"),
+    "stick_area": ("area of the stick zone", "L2"),
+    "contact_area": ("area in contact (grid cells)", "L2"),
+}
+SLIP_ATTRS: Mapping[str, tuple[str, str]] = {
+    **SLIP_MODE_ATTRS,
+    **{f"decoupled_{k}": (f"{name}, decoupled (Goodman: pressure of the normal contact)", unit)
+       for k, (name, unit) in SLIP_MODE_ATTRS.items()},
+    **{f"tangential_stiffness_{i}{j}": (f"incremental tangential stiffness tensor, force along {i} per displacement along {j}", "F L-1")
+       for i in "xy" for j in "xy"},
+    "load": ("normal load P", "F"),
+    "no_slip_stiffness": ("tangential stiffness k_t at Q = 0 on the grid", "F L-1"),
+    "stiffness_ratio": ("k_t / k_t(Q = 0)", "1"),
+    "force_ratio": ("Q/(mu P) reached", "1"),
+    "stick_radius": ("sqrt(stick_area / pi)", "L"),
+    "hertz_a": ("semi-major axis of the Hertz contact ellipse", "L"),
+    "hertz_b": ("semi-minor axis of the Hertz contact ellipse", "L"),
+    "contact_angle_deg": ("major axis of the Hertz ellipse from x", "degree"),
+    "normal_stiffness": ("Hertz normal stiffness k_n = dP/dd = 3P/(2d)", "F L-1"),
+    "dundurs_beta": ("Dundurs' parameter beta of the pair", "1"),
+    "mindlin_no_slip_stiffness": ("Mindlin's bonded-ellipse tangential stiffness along the load", "F L-1"),
+    "mindlin_stiffness": ("Cattaneo-Mindlin / Mindlin-Deresiewicz k_t at Q (circular contact)", "F L-1"),
+    "mindlin_displacement": ("Cattaneo-Mindlin / Mindlin-Deresiewicz delta at Q (circular contact)", "L"),
+    "mindlin_stick_radius": ("Cattaneo's stick radius c = a (1 - Q/(mu P))^(1/3)", "L"),
+    "coupling_effect_stiffness": ("coupled / decoupled k_t - 1", "1"),
+    "coupling_effect_displacement": ("coupled / decoupled delta - 1", "1"),
+    "coupling_effect_stick_area": ("coupled / decoupled stick area - 1", "1"),
+    "iterations": ("operator applications (slip solver, CG, Polonsky-Keer), all paths", "1"),
+    "residual": ("largest final relative KKT residual", "1"),
+    "dx": ("cell size along the contact ellipse's major axis", "L"),
+    "dy": ("cell size along the contact ellipse's minor axis", "L"),
+    "history": ("every load step of the path (JSON)", ""),
+    "decoupled_history": ("every load step of the decoupled path (JSON)", ""),
+    # coordinates (axes and fixed fields)
+    "pair": ("contact pair", ""),
+    "mu": ("friction coefficient", "1"),
+    "q_ratio": ("tangential load at the end of the path Q/(mu P)", "1"),
+    "angle": ("direction of the tangential load from x", "degree"),
+    "radius": ("radius of curvature of body 1", "L"),
+    "radius_b": ("second principal radius of curvature of body 1", "L"),
+    "radius2": ("radius of curvature of body 2 (inf: flat)", "L"),
+    "radius2_b": ("second principal radius of curvature of body 2", "L"),
+    "body2_angle": ("angle between the principal axes of the bodies", "degree"),
+    "material": ("material of body 1 (hpcontact.bodies library, isotropic)", ""),
+    "material2": ("material of body 2 (hpcontact.bodies library, isotropic)", ""),
+    "E": ("Young's modulus of body 1", "F L-2"),
+    "G": ("shear modulus of body 1", "F L-2"),
+    "nu": ("Poisson ratio of body 1", "1"),
+    "E2": ("Young's modulus of body 2", "F L-2"),
+    "G2": ("shear modulus of body 2", "F L-2"),
+    "nu2": ("Poisson ratio of body 2", "1"),
+    "displacement": ("final tangential displacement (displacement control)", "L"),
+    "n": ("grid cells across the contact's major diameter", "1"),
+    "steps": ("tangential load steps", "1"),
+}
+SI_UNITS = {"F": "N", "L": "m"}
+
+
 def _is_number(value: Any) -> bool:
     return isinstance(value, numbers.Real) and not isinstance(value, bool)
 
@@ -126,6 +200,12 @@ def build_dataset(
     for e in found:
         if e is not None and e.status == OK:
             names.update(dict.fromkeys(k for k in e.record if k not in variables))
+    coords: dict[str, Any] = {a.name: (a.name, _coordinate(a.name, a.values)) for a in spec.axes}
+    for name, value in spec.fixed.items():
+        if _is_number(value) or isinstance(value, str):
+            coords[name] = ((), value)
+    coords.update(_label_coordinates(spec))
+    renamed: dict[str, str] = {}
     for name in names:
         values = [None if e is None or e.status != OK else e.record.get(name) for e in found]
         present = [v for v in values if v is not None]
@@ -133,27 +213,118 @@ def build_dataset(
             array = np.array([np.nan if v is None else float(v) for v in values], dtype=np.float64)
         else:
             array = np.array(["" if v is None else v if isinstance(v, str) else to_json(v) for v in values], dtype=object)
-        variables[name] = (dims, array.reshape(shape))
+        array = array.reshape(shape)
+        if name in coords:
+            if _equals_coordinate(array, _coordinate_grid(coords[name], dims, shape)):
+                continue  # the coordinate already says it
+            renamed[f"record_{name}"] = name
+            name = f"record_{name}"
+        variables[name] = (dims, array)
 
-    coords: dict[str, Any] = {a.name: (a.name, _coordinate(a.name, a.values)) for a in spec.axes}
-    for name, value in spec.fixed.items():
-        if _is_number(value) or isinstance(value, str):
-            coords[name] = ((), value)
     ds = xr.Dataset(variables, coords=coords)
     _derive_directional(ds, spec)
-    gpa = _names_crystals(spec)
-    sphere_grid = _indentation_only(spec)
+    table = _attribute_table(spec)
     for name in ds.variables:
-        variable_attrs = _with_stress_unit(VARIABLE_ATTRS.get(name, AXIS_ATTRS.get(name, {})), gpa)
-        if sphere_grid and name in ("dx", "dy"):  # the record's grid is the sphere's
-            variable_attrs["units"] = "L"
+        variable_attrs = dict(table.get(renamed.get(name, name), {}))
+        if name in renamed and "long_name" in variable_attrs:
+            variable_attrs["long_name"] = f"{variable_attrs['long_name']} (task record; differs from the coordinate)"
         ds[name].attrs.update(variable_attrs)
-    ds.attrs.update(_global_attrs(spec, attrs, gpa))
+    ds.attrs.update(_global_attrs(spec, attrs))
     return ds
 
 
+def _label_coordinates(spec: Spec) -> dict[str, tuple[tuple[str, ...], np.ndarray]]:
+    """Fields set by label tables (``LABEL_AXES``; not axis names) as coordinates over the label
+    axes that set them: the value of the last table setting it (the order of
+    ``Spec.scene_params``), else the fixed value, else missing (NaN, or "" for text)."""
+    label_axes = [a for a in spec.task_axes if a.name in LABEL_AXES]
+    axis_names = {a.name for a in spec.axes}
+    out: dict[str, tuple[tuple[str, ...], np.ndarray]] = {}
+    for name in dict.fromkeys(k for a in label_axes for fields in a.fields for k in fields):
+        if name in axis_names:
+            continue  # the axis coordinate stands (a shape table's shape)
+        setting = [a for a in label_axes if any(name in fields for fields in a.fields)]
+        shape = tuple(len(a) for a in setting)
+        values = []
+        for index in np.ndindex(*shape):
+            value = spec.fixed.get(name)
+            for axis, i in zip(setting, index):
+                value = axis.fields[i].get(name, value)
+            values.append(value)
+        present = [v for v in values if v is not None]
+        if present and all(_is_number(v) for v in present):
+            exact = all(isinstance(v, numbers.Integral) for v in present) and len(present) == len(values)
+            array = np.array([np.nan if v is None else v for v in values], dtype=np.int64 if exact else np.float64)
+        else:
+            array = np.array(["" if v is None else v if isinstance(v, str) else to_json(v) for v in values], dtype=object)
+        out[name] = (tuple(a.name for a in setting), array.reshape(shape))
+    return out
+
+
+def _coordinate_grid(coordinate: Any, dims: tuple[str, ...], shape: tuple[int, ...]) -> np.ndarray | None:
+    """The coordinate ``(dims, values)`` at every point of the task axes ``dims`` (None when it
+    runs along another axis, e.g. the angle of tensor mode)."""
+    cdims, values = coordinate
+    cdims = (cdims,) if isinstance(cdims, str) else tuple(cdims)
+    values = np.asarray(values)
+    if not set(cdims) <= set(dims):
+        return None
+    order = [d for d in dims if d in cdims]
+    values = np.transpose(values, [cdims.index(d) for d in order]) if values.ndim else values
+    return np.broadcast_to(values.reshape([shape[k] if d in cdims else 1 for k, d in enumerate(dims)]), shape)
+
+
+def _equals_coordinate(array: np.ndarray, grid: np.ndarray | None) -> bool:
+    """Whether the record values ``array`` equal the coordinate ``grid`` wherever they exist."""
+    if grid is None:
+        return False
+    if array.dtype == object or grid.dtype == object:
+        return bool(np.all((array == "") | (array == grid)))
+    if grid.dtype.kind not in "fiu":
+        return False
+    with np.errstate(invalid="ignore"):
+        same = np.isclose(array, grid.astype(np.float64), rtol=1e-12, atol=0.0, equal_nan=False)
+    return bool(np.all(same | np.isnan(array)))
+
+
+def _attribute_table(spec: Spec) -> dict[str, dict[str, Any]]:
+    """Attributes (units, long_name) of every variable and coordinate name for the spec's
+    scene kind."""
+    if spec.kind == SLIP:
+        return _slip_attribute_table(spec)
+    gpa = _names_crystals(spec)
+    table = {name: _with_stress_unit(attrs, gpa) for name, attrs in {**AXIS_ATTRS, **VARIABLE_ATTRS}.items()}
+    if _indentation_only(spec):  # the record's grid is the sphere's
+        for name in ("dx", "dy"):
+            table[name]["units"] = "L"
+    return table
+
+
+def _slip_attribute_table(spec: Spec) -> dict[str, dict[str, Any]]:
+    """Slip attributes (``SLIP_ATTRS``) in SI units when the scenes name library materials,
+    else in the input's force and length units F and L; the kind-neutral ones from the
+    contact tables (status, message, wall time, grid counts, tol)."""
+    units = SI_UNITS if _names_materials(spec) else {"F": "F", "L": "L"}
+    table = {name: dict(VARIABLE_ATTRS.get(name, AXIS_ATTRS.get(name, {})))
+             for name in ("status", "message", "wall_time_s", "nx", "ny", "tol", "plan")}
+    for name, (long_name, unit) in SLIP_ATTRS.items():
+        attrs: dict[str, Any] = {"long_name": long_name}
+        if unit:
+            attrs["units"] = re.sub(r"\b([FL])(?=-?\d*\b)", lambda m: units[m.group(1)], unit)
+        table[name] = attrs
+    return table
+
+
+def _names_materials(spec: Spec) -> bool:
+    """Whether a slip sweep names elastic library materials (their constants are in Pa: SI)."""
+    tables = [spec.fixed] + [fields for axis in spec.axes for fields in axis.fields]
+    return any(
+        isinstance(t.get(key), str) and t[key].strip().lower() != "rigid" for t in tables for key in ("material", "material2")
+    )
+
+
 def _names_crystals(spec: Spec) -> bool:
-    """Whether the scenes name library crystals (stresses in GPa, not in units of G)."""
+    """Whether the (contact) scenes name library crystals (stresses in GPa, not in units of G)."""
     return spec.fixed.get("material") is not None or spec.axis("material") is not None
 
 
@@ -175,7 +346,7 @@ def _with_stress_unit(attrs: Mapping[str, Any], gpa: bool) -> dict[str, Any]:
 
 
 def _coordinate(name: str, values: tuple) -> np.ndarray:
-    if name in ("shape", "material"):
+    if name in LABEL_AXES or name == "material":
         return np.array(values, dtype=object)
     if name == "n":
         return np.array(values, dtype=np.int64)
@@ -201,18 +372,28 @@ def _derive_directional(ds: xr.Dataset, spec: Spec) -> None:
         ds["normalized_nn"] = (ds["K_nn"] * (ds["normalized_xx"] / ds["K_xx"])).transpose(*order)
 
 
-def _global_attrs(spec: Spec, attrs: Mapping[str, Any], gpa: bool = False) -> dict[str, Any]:
-    stress = "GPa (library crystal constants)" if gpa else "G (shear modulus; (C11 - C12)/2 for a cubic crystal from nu and A)"
+def _global_attrs(spec: Spec, attrs: Mapping[str, Any]) -> dict[str, Any]:
     out: dict[str, Any] = {
         "title": spec.title,
         "Conventions": "CF-1.8",
+        "scene_kind": spec.kind,
         "angle_mode": spec.angle_mode,
         "spec_path": str(spec.path),
         "spec": spec.text,
-        "stiffness_units": f"forces per unit displacement in units of {'GPa' if gpa else 'G'} a (a semi-major extent of the punch = 1)",
-        "stress_units": stress,
-        "length_units": "a: semi-major extent of the punch (= 1 on the grid); L: unit of the sphere's radius and depth",
     }
+    if spec.kind == SLIP:
+        if _names_materials(spec):
+            out["units"] = "SI: forces in N, lengths in m, stiffnesses in N/m, areas in m2 (library materials, Pa)"
+        else:
+            out["units"] = "F and L: the force and length units of the input (moduli in F/L2, radii in L)"
+    else:
+        gpa = _names_crystals(spec)
+        stress = "GPa (library crystal constants)" if gpa else "G (shear modulus; (C11 - C12)/2 for a cubic crystal from nu and A)"
+        out.update({
+            "stiffness_units": f"forces per unit displacement in units of {'GPa' if gpa else 'G'} a (a semi-major extent of the punch = 1)",
+            "stress_units": stress,
+            "length_units": "a: semi-major extent of the punch (= 1 on the grid); L: unit of the sphere's radius and depth",
+        })
     for name, value in spec.fixed.items():
         if not (_is_number(value) or isinstance(value, str)):
             out[f"scene_{name}"] = json.dumps(value)

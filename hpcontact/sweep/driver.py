@@ -5,7 +5,8 @@
 reads the journals of earlier runs (``resume``) or clears them (fresh run); the ranks then take
 chunks of tasks from a shared counter (``schedule``) and journal each finished task; finally
 rank 0 assembles the data set from all journals and writes it atomically. A task that raises is
-journaled with its status and message and the sweep goes on.
+journaled with its status and message and the sweep goes on. The spec's scene kind (``kinds``:
+contact, or slip for ``quantities = "slip"``) picks the task function and the scene validator.
 
 ``run_command(spec, resume, output)`` is ``hpcontact run SPEC [--resume] [--output PATH]`` (exit
 status, errors reported once, MPI abort on an unexpected error); ``main(argv)`` parses those
@@ -28,6 +29,7 @@ from typing import Any, Callable, Mapping, Sequence, TextIO
 
 from .. import __version__
 from ..errors import ConvergenceError, InputError
+from . import kinds
 from .dataset import NOT_COMPUTED, build_dataset, write_netcdf
 from .journal import (
     BAD_INPUT,
@@ -140,12 +142,12 @@ def run_sweep(
 
     ``resume`` skips every task any journal of this output holds (else the journals are
     cleared); ``output`` overrides the spec's output path; ``task_function`` solves one scene
-    (default ``hpcontact.solve.solve``); ``validate`` checks one scene's parameters (default
-    ``hpcontact.scene.validate``); rank 0 prints progress and the summary to ``stream``
-    (default stdout). Spec errors raise ``InputError`` on every rank before any work starts.
+    and ``validate`` checks one scene's parameters (defaults: those of the spec's scene kind,
+    ``kinds``: ``hpcontact.solve.solve`` and ``hpcontact.scene.validate``, or
+    ``hpcontact.slip.solve_slip`` and ``hpcontact.slip.validate`` for ``quantities = "slip"``);
+    rank 0 prints progress and the summary to ``stream`` (default stdout). Spec errors raise
+    ``InputError`` on every rank before any work starts.
     """
-    if task_function is None:
-        from ..solve import solve as task_function
     team = team if team is not None else world()
     started = time.perf_counter()  # after the imports and MPI start-up
     stream = stream if stream is not None else sys.stdout
@@ -157,6 +159,8 @@ def run_sweep(
         return spec, tasks, done, session
 
     spec, tasks, done, session = _shared(team, prepare)
+    if task_function is None:
+        task_function = kinds.task_function(spec.kind)
     todo = [t for t in tasks if t.key not in done]
     chunks = make_chunks(todo, team.size)
     setup_s = time.perf_counter() - started

@@ -45,6 +45,30 @@ of such a table win over the other axes. Anything unknown, empty, duplicated or 
 refused with an ``InputError`` naming the key (``axes.nu``, ``scene.G``, …), so a bad spec never
 reaches a rank's work loop. Values are checked by the scene's own validator for every distinct
 scene of the sweep.
+
+Partial-slip scenes (``quantities = "slip"``: ``hpcontact.slip``, two bodies pressed by a load P
+and loaded tangentially to Q = q_ratio mu P; the scene kind, ``kinds``) take the axes ``load``,
+``mu``, ``q_ratio`` and ``pair``; a ``pair`` value is a table with a ``label`` and body fields
+(``material material2 radius radius_b radius2 radius2_b body2_angle E G nu E2 G2 nu2``, or any
+other scene field; its fields win over the other axes)::
+
+    [scene]
+    quantities = "slip"
+    radius = 8e-3                    # body 1 and body 2, metres (library materials: SI units)
+    radius2 = 9e-3
+    steps = 5                        # force-controlled load steps up to q_ratio mu P
+    [axes]
+    pair = [
+        { label = "Cu-Fe", material = "Cu", material2 = "Fe" },
+        { label = "Fe-flat", material = "Fe", material2 = "Fe", radius2 = "flat" },
+    ]
+    load = [10.0, 100.0]             # newtons
+    mu = [0.3]
+    q_ratio = { linspace = [0, 0.9, 10] }
+
+In a slip sweep ``angle`` is the direction of the tangential load, an ordinary field solved per
+value (``angle_mode`` is for punch tensors and is refused). Radii of body 2 and the second radii
+(``radius_b radius2 radius2_b``) may be ``inf`` or ``"flat"`` (a flat direction).
 """
 
 from __future__ import annotations
@@ -60,18 +84,36 @@ from typing import Any, Callable, Mapping
 import numpy as np
 
 from ..errors import InputError
+from .kinds import CONTACT, SLIP, scene_kind, validator
 
 TABLES = ("sweep", "scene", "numerics", "axes")
 SWEEP_KEYS = ("title", "output", "journal", "angle_mode", "progress_interval")
 NUMERIC_KEYS = ("n", "n_across", "tol")
-AXIS_NAMES = ("shape", "angle", "nu", "aspect", "anisotropy", "orientation", "material", "n", "tol")
+AXIS_NAMES = (
+    "shape", "angle", "nu", "aspect", "anisotropy", "orientation", "material", "n", "tol",
+    "pair", "load", "mu", "q_ratio",
+)
+# Axes whose values may be tables with a ``label`` (the coordinate) and scene fields, and the
+# field a plain string value sets (None: tables only).
+LABEL_AXES: Mapping[str, str | None] = {"shape": "shape", "pair": None}
 ANGLE_MODES = ("tensor", "rotated")
+ANGLE_FIELD = "field"  # slip sweeps: angle is the load direction of each scene (no angle_mode)
 FLOAT_FIELDS = frozenset(
     {"angle", "nu", "aspect", "anisotropy", "orientation", "tol", "G", "shape_angle", "amplitude",
-     "hurst", "rms", "radius", "depth", "azimuth"}
+     "hurst", "rms", "radius", "depth", "azimuth",
+     "load", "mu", "q_ratio", "radius_b", "radius2", "radius2_b", "body2_angle", "E", "E2", "G2", "nu2",
+     "displacement"}
 )
-STRING_FIELDS = frozenset({"material"})
-INT_FIELDS = frozenset({"n", "n_across", "sides", "seed", "threads"})
+# Radii that may be infinite (a flat direction): inf, or the strings "inf" / "flat".
+FLAT_FIELDS = frozenset({"radius_b", "radius2", "radius2_b"})
+STRING_FIELDS: Mapping[str, str] = {
+    "material": "a library material name (crystals: Cu, Al, Fe, ...; slip bodies: Cu, Fe, Al, rigid)",
+    "material2": "a library material name of body 2 (Cu, Fe, Al, rigid)",
+    "control": "force or displacement",
+    "path": "load or loop",
+    "coupling": "auto, both, coupled or decoupled",
+}
+INT_FIELDS = frozenset({"n", "n_across", "sides", "seed", "threads", "steps"})
 # Geometry fields and the shapes they apply to (DESIGN §4.1, hpcontact.geometry.Shape): a field a
 # shape ignores is dropped from its scene, so e.g. a circle on an aspect axis is solved once.
 SHAPE_ONLY_FIELDS: Mapping[str, frozenset[str]] = {
@@ -95,8 +137,9 @@ Validator = Callable[[Mapping[str, Any]], None]
 class Axis:
     """One axis of the parameter space.
 
-    ``values`` are the coordinates (float64, int64 for ``n``, labels for ``shape``); ``fields[i]``
-    the scene fields that coordinate ``values[i]`` sets (``{"nu": 0.3}``, or a shape table).
+    ``values`` are the coordinates (float64, int64 for ``n``, labels for ``shape`` and ``pair``);
+    ``fields[i]`` the scene fields that coordinate ``values[i]`` sets (``{"nu": 0.3}``, or the
+    fields of a label table).
     """
 
     name: str
@@ -109,7 +152,8 @@ class Axis:
 
 @dataclass(frozen=True)
 class Spec:
-    """A checked sweep spec. ``fixed`` holds the [scene] and [numerics] fields of every task."""
+    """A checked sweep spec. ``fixed`` holds the [scene] and [numerics] fields of every task;
+    ``kind`` is the scene kind (``kinds``: contact or slip)."""
 
     path: Path
     text: str
@@ -120,6 +164,7 @@ class Spec:
     progress_interval: float
     fixed: Mapping[str, Any]
     axes: tuple[Axis, ...]
+    kind: str = CONTACT
 
     @property
     def task_axes(self) -> tuple[Axis, ...]:
@@ -139,31 +184,34 @@ class Spec:
     def scene_params(self, index: tuple[int, ...], reduce_material: bool = True) -> dict[str, Any]:
         """Solver parameters of the task-axes point ``index``.
 
-        Fixed fields, then the axis values in spec order, then shape tables (they win); in
-        rotated mode the shape is turned by −angle on top of its own ``shape_angle``. Geometry
-        fields the shape ignores are left out (``SHAPE_ONLY_FIELDS``), and so (unless
-        ``reduce_material`` is false) are material fields the body ignores (orientation of an
-        isotropic body, nu/G/A of a named crystal), so equal scenes compare equal.
+        Fixed fields, then the axis values in spec order, then label tables (``shape``, ``pair``:
+        they win); in rotated mode the shape is turned by −angle on top of its own
+        ``shape_angle`` (in a slip sweep ``angle`` is a field like any other). For contact
+        scenes, geometry fields the shape ignores are left out (``SHAPE_ONLY_FIELDS``), and so
+        (unless ``reduce_material`` is false) are material fields the body ignores (orientation
+        of an isotropic body, nu/G/A of a named crystal), so equal scenes compare equal.
         """
         params = dict(self.fixed)
-        shape_fields: Mapping[str, Any] = {}
+        tables: list[Mapping[str, Any]] = []
         angle = None
         for axis, i in zip(self.task_axes, index):
-            if axis.name == "shape":
-                shape_fields = axis.fields[i]
-            elif axis.name == "angle":
+            if axis.name in LABEL_AXES:
+                tables.append(axis.fields[i])
+            elif axis.name == "angle" and self.angle_mode != ANGLE_FIELD:
                 angle = axis.values[i]
             else:
                 params.update(axis.fields[i])
-        params.update(shape_fields)
+        for table in tables:
+            params.update(table)
         if angle is not None:
             params["shape_angle"] = float(params.get("shape_angle", 0.0)) - angle
-        if "shape" in params:
-            for name, shapes in SHAPE_ONLY_FIELDS.items():
-                if name in params and params["shape"] not in shapes:
-                    del params[name]
-        if reduce_material:
-            _drop_ignored_material_fields(params)
+        if self.kind == CONTACT:
+            if "shape" in params:
+                for name, shapes in SHAPE_ONLY_FIELDS.items():
+                    if name in params and params["shape"] not in shapes:
+                        del params[name]
+            if reduce_material:
+                _drop_ignored_material_fields(params)
         return params
 
 
@@ -185,8 +233,9 @@ def canonical_json(params: Mapping[str, Any]) -> str:
 def load_spec(path: str | Path, output: str | Path | None = None, validate: Validator | None = None) -> Spec:
     """Read and check the spec at ``path``; ``output`` overrides [sweep].output.
 
-    ``validate`` checks one scene's parameters (default ``hpcontact.scene.validate``); it runs
-    on every distinct scene of the sweep, so impossible values are refused up front.
+    ``validate`` checks one scene's parameters (default: the validator of the spec's scene kind,
+    ``kinds.validator``); it runs on every distinct scene of the sweep, so impossible values are
+    refused up front.
     """
     path = Path(path)
     try:
@@ -227,11 +276,19 @@ def parse_spec(
         if axis.name in fixed:
             raise InputError(f"axes.{axis.name}", f"an axis or a fixed [{section}] field, not both")
 
-    angle_mode = sweep.get("angle_mode", "tensor")
-    if angle_mode not in ANGLE_MODES:
-        raise InputError("sweep.angle_mode", f"one of {', '.join(ANGLE_MODES)}", angle_mode)
-    if angle_mode == "rotated" and not any(a.name == "angle" for a in axes):
-        raise InputError("sweep.angle_mode", "'rotated' needs an angle axis in [axes]", angle_mode)
+    kind = scene_kind(fixed)
+    if kind == SLIP:
+        if "angle_mode" in sweep:
+            raise InputError(
+                "sweep.angle_mode", "not used by slip scenes (angle is the load direction, solved per value)", sweep["angle_mode"]
+            )
+        angle_mode = ANGLE_FIELD
+    else:
+        angle_mode = sweep.get("angle_mode", "tensor")
+        if angle_mode not in ANGLE_MODES:
+            raise InputError("sweep.angle_mode", f"one of {', '.join(ANGLE_MODES)}", angle_mode)
+        if angle_mode == "rotated" and not any(a.name == "angle" for a in axes):
+            raise InputError("sweep.angle_mode", "'rotated' needs an angle axis in [axes]", angle_mode)
     interval = sweep.get("progress_interval", 10.0)
     if isinstance(interval, bool) or not isinstance(interval, (int, float)) or not interval > 0:
         raise InputError("sweep.progress_interval", "a number of seconds > 0", interval)
@@ -253,6 +310,7 @@ def parse_spec(
         progress_interval=float(interval),
         fixed=fixed,
         axes=axes,
+        kind=kind,
     )
     _check_scenes(spec, validate)
     return spec
@@ -271,12 +329,20 @@ def _string(key: str, value: Any) -> str:
 
 
 def _normalize(key: str, name: str, value: Any) -> Any:
-    """``value`` as float64 (float fields), int (integer fields) or a non-empty string (string
-    fields); others unchanged."""
+    """``value`` as float64 (float fields; inf, "inf" or "flat" for the radii that may be
+    flat), int (integer fields) or a non-empty string (string fields); others unchanged."""
     if name in STRING_FIELDS:
         if not isinstance(value, str) or not value.strip():
-            raise InputError(key, "a non-empty string (a library crystal name: Cu, Al, Fe, ...)", value)
+            raise InputError(key, f"a non-empty string ({STRING_FIELDS[name]})", value)
         return value.strip()
+    if name in FLAT_FIELDS:
+        if isinstance(value, str) and value.strip().lower() in ("inf", "infinity", "flat"):
+            return math.inf
+        if isinstance(value, float) and value == math.inf:
+            return value
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise InputError(key, "a finite radius, or inf / \"flat\" for a flat direction", value)
+        return float(value)
     if name in FLOAT_FIELDS or name in INT_FIELDS:
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
             raise InputError(key, "a finite number", value)
@@ -298,8 +364,8 @@ def _axis(name: str, raw: Any) -> Axis:
         raise InputError(key, "a list of values or a table {linspace = [start, stop, num]} / {logspace = ...}", raw)
     if not values:
         raise InputError(key, "at least one value (the axis is empty)")
-    if name == "shape":
-        coords, fields = _shape_values(key, values)
+    if name in LABEL_AXES:
+        coords, fields = _label_values(key, name, values)
     else:
         coords = tuple(_normalize(key, name, v) for v in values)
         fields = tuple({name: v} for v in coords)
@@ -327,23 +393,33 @@ def _generated(key: str, raw: dict) -> list[float]:
     return [float(v) for v in make(float(start), float(stop), num, dtype=np.float64)]
 
 
-def _shape_values(key: str, values: list) -> tuple[tuple[str, ...], tuple[Mapping[str, Any], ...]]:
-    """Shape coordinates (labels) and the scene fields each one sets."""
+def _label_values(key: str, name: str, values: list) -> tuple[tuple[str, ...], tuple[Mapping[str, Any], ...]]:
+    """Coordinates (labels) of a label axis (``LABEL_AXES``) and the scene fields each one sets.
+
+    A value is a table ``{label = ..., field = ..., ...}`` (a ``shape`` table must name its
+    shape) or, where the axis has a plain field (``shape``), a string setting that field."""
+    plain = LABEL_AXES[name]
+    if plain is not None:
+        expected = f"a {plain} name or a table {{label = ..., {plain} = ..., ...}}"
+    else:
+        expected = f"a table {{label = ..., field = value, ...}} (e.g. {{label = \"Cu-Fe\", material = \"Cu\", material2 = \"Fe\"}})"
     coords, fields = [], []
     for i, value in enumerate(values):
-        if isinstance(value, str):
+        if plain is not None and isinstance(value, str):
             coords.append(value)
-            fields.append({"shape": value})
+            fields.append({plain: value})
             continue
         where = f"{key}[{i}]"
         if not isinstance(value, dict):
-            raise InputError(where, "a shape name or a table {label = ..., shape = ..., ...}", value)
+            raise InputError(where, expected, value)
         if not isinstance(value.get("label"), str) or not value["label"]:
-            raise InputError(f"{where}.label", "a non-empty string naming the shape in the data set", value.get("label"))
-        if "shape" not in value:
-            raise InputError(f"{where}.shape", "the shape name (circle, polygon, ...)")
-        if "angle" in value:
+            raise InputError(f"{where}.label", f"a non-empty string naming the {name} in the data set", value.get("label"))
+        if plain is not None and plain not in value:
+            raise InputError(f"{where}.{plain}", f"the {plain} name (circle, polygon, ...)")
+        if name == "shape" and "angle" in value:
             raise InputError(f"{where}.angle", "not a shape field (shape_angle turns the shape)")
+        if len(value) == 1:
+            raise InputError(where, "a label and at least one scene field", value)
         coords.append(value["label"])
         fields.append({k: _normalize(f"{where}.{k}", k, v) for k, v in value.items() if k != "label"})
     return tuple(coords), tuple(fields)
@@ -355,7 +431,7 @@ def _check_scenes(spec: Spec, validate: Validator | None) -> None:
     Scenes are validated before ignored material fields are dropped, so an impossible
     orientation is refused even at A = 1."""
     if validate is None:
-        from ..scene import validate
+        validate = validator(spec.kind)
     seen: set[str] = set()
     for index in spec.points():
         params = spec.scene_params(index, reduce_material=False)
@@ -370,10 +446,12 @@ def _check_scenes(spec: Spec, validate: Validator | None) -> None:
 
 
 def _locate(spec: Spec, index: tuple[int, ...], name: str) -> str:
-    """Where in the spec the field ``name`` of the scene at ``index`` came from."""
+    """Where in the spec the field ``name`` of the scene at ``index`` came from (label tables
+    first, the last one setting it: their fields win)."""
+    for axis, i in reversed(list(zip(spec.task_axes, index))):
+        if axis.name in LABEL_AXES and name in axis.fields[i]:
+            return f"axes.{axis.name}[{i}].{name}"
     for axis, i in zip(spec.task_axes, index):
-        if axis.name == "shape" and name in axis.fields[i]:
-            return f"axes.shape[{i}].{name}"
         if axis.name == name:
             return f"axes.{name}"
     if name == "shape_angle" and spec.angle_mode == "rotated":

@@ -12,7 +12,9 @@ keeps the tail short). A chunk holds tasks that can share kernels: same material
 ``quantities``); the engine caches kernel spectra per (material, grid) in each process, so on
 one rank, e.g., the ellipse and the rectangle of one b/a, or the ``tol`` values of an accuracy
 study, build their kernels once. No chunk costs more than 1/(4·ranks) of the whole sweep, so
-grouping never costs more balance than it saves.
+grouping never costs more balance than it saves. A slip scene's kernels depend on the pair's
+equivalent body and the grid (n and the contact ellipse's b/a), not on the loads, the friction
+coefficient or the loading path: its tasks group by pair, radii and grid.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ import math
 from dataclasses import dataclass
 from typing import Any, Mapping
 
+from .kinds import SLIP, quantity_names, scene_kind
 from .spec import Spec, canonical_json
 
 # Fields that change a scene's outline or its solves but not its material or grid spacing:
@@ -29,6 +32,12 @@ from .spec import Spec, canonical_json
 KERNEL_NEUTRAL_FIELDS = (
     "shape", "sides", "amplitude", "shape_angle", "seed", "hurst", "rms", "mask",
     "tol", "quantities", "threads", "precondition",
+)
+# Fields of a slip scene that set its loading, not its kernels (hpcontact.slip: lengths are
+# scaled by the Hertz radius, so the grid depends on n and b/a only, the kernel on nu_eq).
+SLIP_KERNEL_NEUTRAL_FIELDS = (
+    "load", "mu", "q_ratio", "angle", "steps", "control", "displacement", "path", "coupling",
+    "tensor", "history", "tol", "quantities", "threads", "precondition",
 )
 # Relative number of operator solves per requested quantity (tangential: x and y loads).
 SOLVES_PER_QUANTITY = {"tangential": 2.0, "normal": 1.0, "compliance": 0.1, "coupled": 3.0, "indentation": 3.0}
@@ -42,6 +51,15 @@ CHUNKS_PER_RANK = 4
 # its kernels are integrated by quadrature (measured: ~10x an isotropic scene at n = 64).
 CRYSTAL_TANGENTIAL_SOLVES = 3.0 * 9.0 / 4.0
 CRYSTAL_FACTOR = 2.0
+# A slip scene (hpcontact.slip): one Polonsky–Keer normal solve, then ~8 CG-sized solves per load
+# step (semismooth Newton steps and the tangent tensor), on the padded grid of ±1.1 Hertz radii
+# (≈ 1.1 n cells a side). A dissimilar pair solved coupled (Panagiotopoulos passes) costs ~3x
+# the decoupled path, and "auto" runs both (measured ~4x a similar pair at n = 64).
+SLIP_SOLVES_PER_STEP = 8.0
+SLIP_GRID_MARGIN = 1.1
+SLIP_COUPLED_FACTOR = 3.0
+SLIP_DEFAULT_N = 64
+SLIP_DEFAULT_STEPS = 10
 
 
 @dataclass(frozen=True)
@@ -69,7 +87,8 @@ def enumerate_tasks(spec: Spec) -> tuple[list[Task], dict[tuple[int, ...], str]]
         params = spec.scene_params(index)
         key = task_key(params)
         if key not in tasks:
-            neutral = {k: v for k, v in params.items() if k not in KERNEL_NEUTRAL_FIELDS}
+            ignored = SLIP_KERNEL_NEUTRAL_FIELDS if spec.kind == SLIP else KERNEL_NEUTRAL_FIELDS
+            neutral = {k: v for k, v in params.items() if k not in ignored}
             tasks[key] = Task(key=key, params=params, cost=estimated_cost(params), group=canonical_json(neutral))
         where[index] = key
     return list(tasks.values()), where
@@ -79,12 +98,12 @@ def estimated_cost(params: Mapping[str, Any]) -> float:
     """Relative cost of a scene: padded FFT size · log (per operator application) × solves ×
     digits of tolerance (CG iterations). Mirrors the grid rule of ``geometry.grid_for``; an
     indentation-only scene is solved on an n × n grid around the sphere's contact; crystal
-    scenes cost more (``CRYSTAL_FACTOR``, coupled tangential solves)."""
+    scenes cost more (``CRYSTAL_FACTOR``, coupled tangential solves); slip scenes see
+    ``slip_cost``."""
+    if scene_kind(params) == SLIP:
+        return slip_cost(params)
     n = int(params.get("n", DEFAULT_N))
-    quantities = params.get("quantities", DEFAULT_QUANTITIES)
-    if isinstance(quantities, str):
-        quantities = quantities.split(",")
-    quantities = [q.strip() for q in quantities]
+    quantities = quantity_names(params.get("quantities", DEFAULT_QUANTITIES))
     if params.get("n_across") is not None:
         across = int(params["n_across"])
     elif set(quantities) == {"indentation"}:
@@ -101,6 +120,29 @@ def estimated_cost(params: Mapping[str, Any]) -> float:
         solves += 1.0  # the contact patch comes from a normal contact solve
     digits = max(1.0, -math.log10(float(params.get("tol", DEFAULT_TOL))))
     return size * math.log2(size) * max(solves, 0.1) * digits * (CRYSTAL_FACTOR if crystal else 1.0)
+
+
+def slip_cost(params: Mapping[str, Any]) -> float:
+    """Relative cost of a slip scene: padded FFT size · log × (1 + 8 × steps solves) × digits
+    of tolerance, on the n × n contact grid with its margin; a loop path has 5 × steps steps;
+    a dissimilar pair pays for its coupled path (and the decoupled one with coupling
+    auto/both). Same units as ``estimated_cost``."""
+    from ..bodies import pair_from_params
+
+    n = int(params.get("n", SLIP_DEFAULT_N))
+    side = 2.0 * SLIP_GRID_MARGIN * n  # padded FFT grid: twice the contact grid
+    size = side * side
+    steps = int(params.get("steps", SLIP_DEFAULT_STEPS)) * (5 if params.get("path") == "loop" else 1)
+    tangential = SLIP_SOLVES_PER_STEP * steps if float(params.get("mu", 1.0)) > 0.0 else 0.0
+    coupling = params.get("coupling", "auto")
+    if coupling == "decoupled" or pair_from_params(params).similar:
+        passes = 1.0
+    elif coupling == "coupled":
+        passes = SLIP_COUPLED_FACTOR
+    else:
+        passes = 1.0 + SLIP_COUPLED_FACTOR
+    digits = max(1.0, -math.log10(float(params.get("tol", DEFAULT_TOL))))
+    return size * math.log2(size) * (1.0 + tangential * passes) * digits
 
 
 def make_chunks(tasks: list[Task], ranks: int) -> list[tuple[Task, ...]]:
