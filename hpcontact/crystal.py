@@ -42,7 +42,7 @@ from typing import Iterable, Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .errors import InputError
+from .errors import InputError, finite_number
 
 __all__ = [
     "Crystal",
@@ -139,22 +139,9 @@ def check_stiffness(C6: ArrayLike, field_name: str = "stiffness") -> NDArray[np.
 
 
 def _positive(name: str, value: float) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise InputError(name, "a finite number > 0", value) from None
-    if not (math.isfinite(v) and v > 0.0):
+    v = finite_number(name, value, "a finite number > 0")
+    if not v > 0.0:
         raise InputError(name, "a finite number > 0", value)
-    return v
-
-
-def _finite(name: str, value: float, allowed: str) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise InputError(name, allowed, value) from None
-    if not math.isfinite(v):
-        raise InputError(name, allowed, value)
     return v
 
 
@@ -248,9 +235,9 @@ def cubic(C11: float, C12: float, C44: float, *, name: str = "", citation: str =
 
     Positive definite iff C44 > 0, C11 − C12 > 0, C11 + 2 C12 > 0 (Born stability; Nye 1957).
     """
-    C11 = _finite("C11", C11, "a finite stiffness")
-    C12 = _finite("C12", C12, "a finite stiffness")
-    C44 = _finite("C44", C44, "a finite stiffness")
+    C11 = finite_number("C11", C11, "a finite stiffness")
+    C12 = finite_number("C12", C12, "a finite stiffness")
+    C44 = finite_number("C44", C44, "a finite stiffness")
     if not C44 > 0.0:
         raise InputError("C44", "C44 > 0 (positive definite cubic stiffness)", C44)
     if not C11 - C12 > 0.0:
@@ -272,7 +259,7 @@ def cubic_from_nu_A(nu: float, A: float, scale: float = 1.0) -> Crystal:
     G = scale and Poisson ratio nu.  Allowed: −1 < nu < 0.5 (nu = 0.5 has no finite stiffness;
     the isotropic closed form covers it), A > 0, scale > 0.
     """
-    nu = _finite("nu", nu, "Poisson ratio in (-1, 0.5) for a cubic crystal")
+    nu = finite_number("nu", nu, "Poisson ratio in (-1, 0.5) for a cubic crystal")
     if not -1.0 < nu < 0.5:
         raise InputError("nu", "Poisson ratio in (-1, 0.5) for a cubic crystal (0.5 has no finite stiffness)", nu)
     A = _positive("anisotropy", A)
@@ -286,7 +273,7 @@ def cubic_from_nu_A(nu: float, A: float, scale: float = 1.0) -> Crystal:
 def isotropic(G: float, nu: float) -> Crystal:
     """Isotropic stiffness: C11 = λ + 2G, C12 = λ, C44 = G, λ = 2 G nu/(1 − 2 nu); −1 < nu < 0.5."""
     G = _positive("G", G)
-    nu = _finite("nu", nu, "Poisson ratio in (-1, 0.5)")
+    nu = finite_number("nu", nu, "Poisson ratio in (-1, 0.5)")
     if not -1.0 < nu < 0.5:
         raise InputError("nu", "Poisson ratio in (-1, 0.5) for a stiffness matrix", nu)
     lam = 2.0 * G * nu / (1.0 - 2.0 * nu)
@@ -308,7 +295,7 @@ def orthotropic(
     """
     E1, E2, E3 = (_positive(n, v) for n, v in (("E1", E1), ("E2", E2), ("E3", E3)))
     G12, G13, G23 = (_positive(n, v) for n, v in (("G12", G12), ("G13", G13), ("G23", G23)))
-    nu12, nu13, nu23 = (_finite(n, v, "a finite Poisson ratio") for n, v in (("nu12", nu12), ("nu13", nu13), ("nu23", nu23)))
+    nu12, nu13, nu23 = (finite_number(n, v, "a finite Poisson ratio") for n, v in (("nu12", nu12), ("nu13", nu13), ("nu23", nu23)))
     S = np.zeros((6, 6))
     S[0, 0], S[1, 1], S[2, 2] = 1.0 / E1, 1.0 / E2, 1.0 / E3
     S[0, 1] = S[1, 0] = -nu12 / E1
@@ -353,7 +340,7 @@ def rotate_voigt(C6: ArrayLike, R: ArrayLike) -> NDArray[np.float64]:
 
 
 def _in_plane(x0: NDArray[np.float64], z: NDArray[np.float64], azimuth_deg: float) -> NDArray[np.float64]:
-    azimuth = math.radians(_finite("azimuth", azimuth_deg, "a finite angle in degrees"))
+    azimuth = math.radians(finite_number("azimuth", azimuth_deg, "a finite angle in degrees"))
     y0 = np.cross(z, x0)
     ca, sa = math.cos(azimuth), math.sin(azimuth)
     x = ca * x0 + sa * y0
@@ -372,7 +359,7 @@ def rotation_from_orientation(psi_deg: float, azimuth_deg: float = 0.0) -> NDArr
     = (−sin psi/√2, −sin psi/√2, cos psi); then the azimuth turn.  psi in degrees, any finite
     value (the path is periodic; 0 … 90 is the physical range [110] → [111] → [001]).
     """
-    psi = math.radians(_finite("orientation", psi_deg, "a finite angle in degrees"))
+    psi = math.radians(finite_number("orientation", psi_deg, "a finite angle in degrees"))
     s2 = math.sqrt(0.5)
     z = np.array([math.cos(psi) * s2, math.cos(psi) * s2, math.sin(psi)])
     x0 = np.array([-s2, s2, 0.0])

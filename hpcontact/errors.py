@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 
@@ -27,3 +28,24 @@ class ConvergenceError(RuntimeError):
         self.iterations = iterations
         self.residual = residual
         super().__init__(f"{message} (iterations={iterations}, relative residual={residual:.3e})")
+
+
+def finite_number(field: str, value: Any, allowed: str) -> float:
+    """``value`` as a finite float, else ``InputError(field, allowed, value)`` (bools refused)."""
+    if isinstance(value, bool):
+        raise InputError(field, allowed, value)
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise InputError(field, allowed, value) from None
+    if not math.isfinite(number):
+        raise InputError(field, allowed, value)
+    return number
+
+
+def integer(field: str, value: Any, low: int, allowed: str, high: float = math.inf) -> int:
+    """``value`` as an integer in [low, high], else ``InputError(field, allowed, value)``."""
+    number = finite_number(field, value, allowed)
+    if number != int(number) or not low <= number <= high:
+        raise InputError(field, allowed, value)
+    return int(number)

@@ -4,8 +4,10 @@ u_i[a] = Σ_j Σ_b K_ij[a − b] t_j[b] over an nx × ny grid is a linear (non-p
 zero-pad to N1 × N2 with N1 ≥ 2nx − 1, N2 ≥ 2ny − 1 (FFTW-friendly sizes), transform with
 real-to-complex FFTs, multiply by the kernel spectra, transform back and crop (DESIGN §2.2).
 Only the blocks a scene needs are given; a missing block is zero. Plans are built once per
-operator with FFTW wisdom reused across operators and processes (``load_wisdom``/``save_wisdom``);
-kernel spectra are cached per (material, grid, block).
+operator (by default from FFTW wisdom when there is some, else FFTW_ESTIMATE, upgraded to
+FFTW_MEASURE for operators applied many times; see ``AUTO_MEASURE_AFTER``), with FFTW wisdom
+reused across operators and processes (``load_wisdom``/``save_wisdom``); kernel spectra are
+cached per (material, grid, block).
 
 Units: t in stress, u in length (the blocks carry length/stress).
 """
@@ -28,6 +30,12 @@ COMPONENT_INDEX = {"x": 0, "y": 1, "z": 2}
 _SPECTRUM_CACHE: "OrderedDict[tuple, np.ndarray]" = OrderedDict()
 _SPECTRUM_CACHE_BYTES = int(os.environ.get("HPCONTACT_KERNEL_CACHE_MB", "1024")) * 2**20
 _LOCK = threading.Lock()
+# planner_effort="auto": plans come from FFTW wisdom at FFTW_MEASURE when there is some (planning
+# then takes milliseconds), else from FFTW_ESTIMATE; an operator applied AUTO_MEASURE_AFTER times
+# is re-planned with FFTW_MEASURE (which costs ~20-300 transforms of planning and makes each
+# transform ~1.4-1.8x faster, so it pays off only for long runs; the new wisdom then serves
+# every later operator of the same problem in the process, and across processes via save_wisdom).
+AUTO_MEASURE_AFTER = 100
 
 
 def padded_shape(nx: int, ny: int) -> tuple[int, int]:
@@ -120,6 +128,11 @@ class ConvolutionOperator:
     length N1. This is the same arithmetic as the full 2-D transforms (bitwise, with FFTW's
     row-column algorithm) at ~3/4 of the work; the 1/(N1·N2) normalization of the inverse is
     folded into the final crop instead of a separate pass over the padded array.
+
+    ``planner_effort`` is an FFTW planner flag ("FFTW_ESTIMATE", "FFTW_MEASURE", ...) or "auto"
+    (default): FFTW_MEASURE plans from wisdom if FFTW has it for these problems, else
+    FFTW_ESTIMATE plans, re-planned with FFTW_MEASURE after ``AUTO_MEASURE_AFTER`` applications.
+    ``plan_effort`` says which plans are in use; ``planning_time_s`` is the planning time so far.
     """
 
     def __init__(
@@ -129,7 +142,7 @@ class ConvolutionOperator:
         components: str,
         spectra: Mapping[str, np.ndarray],
         threads: int = 1,
-        planner_effort: str = "FFTW_MEASURE",
+        planner_effort: str = "auto",
     ) -> None:
         self.nx, self.ny, self.components = nx, ny, components
         self.shape = padded_shape(nx, ny)
@@ -146,14 +159,13 @@ class ConvolutionOperator:
         self._real_in = pyfftw.zeros_aligned((c, nx, n2), dtype=np.float64)
         self._real_out = pyfftw.zeros_aligned((c, nx, n2), dtype=np.float64)
         self._spec_in = pyfftw.zeros_aligned((c, n1, half), dtype=np.complex128)
-        # one component: the product is taken in place; several: a separate output (and a
-        # scratch plane for the sums over blocks, so that no temporary is allocated per apply)
+        # one component: the product is taken in place; several: a separate output
         self._spec_out = self._spec_in if c == 1 else pyfftw.zeros_aligned((c, n1, half), dtype=np.complex128)
         # Products with real spectra (even-even and odd-odd kernels) are taken on the float64
         # view of the complex planes against a copy of the spectrum with every value doubled
         # (re and im factors side by side): a contiguous float multiply, ~2x faster than numpy's
         # mixed float-by-complex product. Imaginary spectra (odd-even kernels) stay complex.
-        doubled: dict[int, np.ndarray] = {}
+        doubled: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._factors: list[list[tuple[bool, np.ndarray] | None]] = []
         for row in self.pairs:
             factors: list[tuple[bool, np.ndarray] | None] = []
@@ -166,36 +178,58 @@ class ConvolutionOperator:
                 if np.iscomplexobj(spectrum):
                     factors.append((False, np.asarray(spectrum, dtype=np.complex128)))
                 else:
-                    if id(spectrum) not in doubled:
-                        doubled[id(spectrum)] = np.repeat(np.asarray(spectrum, dtype=np.float64), 2, axis=1)
-                    factors.append((True, doubled[id(spectrum)]))
+                    key = next((k for k, (original, _) in doubled.items() if original is spectrum or
+                                np.array_equal(original, spectrum)), id(spectrum))  # e.g. xy = yx: one copy
+                    if key not in doubled:
+                        doubled[key] = (spectrum, np.repeat(np.asarray(spectrum, dtype=np.float64), 2, axis=1))
+                    factors.append((True, doubled[key][1]))
             self._factors.append(factors)
         sums = any(sum(f is not None for f in row) > 1 for row in self._factors)
-        self._scratch = pyfftw.zeros_aligned((n1, half), dtype=np.complex128) if sums else None
-        # sums over blocks run in bands of rows that stay in cache (~512 KiB a plane)
+        # sums over blocks run in bands of rows that stay in cache (~512 KiB a plane), with a
+        # band-sized scratch for the products
         self._band = max(1, 2**19 // (16 * half)) if sums else n1
+        self._scratch = pyfftw.zeros_aligned((self._band, half), dtype=np.complex128) if sums else None
         self._scale = 1.0 / (n1 * n2)
+        self._threads = threads
+        self.applications = 0
         t0 = time.perf_counter()
-        flags = (planner_effort,)
-        self._rows_forward = pyfftw.FFTW(
-            self._real_in, self._spec_in[:, :nx, :], axes=(2,), flags=flags, threads=threads
-        )
-        self._columns_forward = pyfftw.FFTW(self._spec_in, self._spec_in, axes=(1,), flags=flags, threads=threads)
-        self._columns_inverse = pyfftw.FFTW(
-            self._spec_out, self._spec_out, axes=(1,), direction="FFTW_BACKWARD", flags=flags, threads=threads
-        )
-        self._rows_inverse = pyfftw.FFTW(
-            self._spec_out[:, :nx, :],
-            self._real_out,
-            axes=(2,),
-            direction="FFTW_BACKWARD",
-            flags=flags + ("FFTW_DESTROY_INPUT",),
-            threads=threads,
+        if planner_effort == "auto":
+            self.plan_effort = self._plan("FFTW_MEASURE", wisdom_only=True)
+            self._measure_at = AUTO_MEASURE_AFTER if self.plan_effort != "FFTW_MEASURE" else None
+        else:
+            self.plan_effort = self._plan(planner_effort)
+            self._measure_at = None
+        self.planning_time_s = time.perf_counter() - t0
+
+    def _plan(self, effort: str, wisdom_only: bool = False) -> str:
+        """Build the four FFTW plans at ``effort``; with ``wisdom_only``, each plan that FFTW has no
+        wisdom for at that effort is made with FFTW_ESTIMATE instead. Returns the effort in use
+        ("FFTW_ESTIMATE" if any plan fell back). Planning overwrites the buffers: they are cleared.
+        """
+        nx, threads = self.nx, self._threads
+        fell_back = False
+
+        def make(input_array, output_array, axis, direction, extra=()):
+            nonlocal fell_back
+            kwargs = dict(axes=(axis,), direction=direction, threads=threads)
+            if wisdom_only:
+                try:
+                    return pyfftw.FFTW(input_array, output_array, flags=(effort, "FFTW_WISDOM_ONLY") + extra, **kwargs)
+                except RuntimeError:  # no wisdom for this problem
+                    fell_back = True
+                    return pyfftw.FFTW(input_array, output_array, flags=("FFTW_ESTIMATE",) + extra, **kwargs)
+            return pyfftw.FFTW(input_array, output_array, flags=(effort,) + extra, **kwargs)
+
+        # rows: axis 2 of the nx data rows; columns: axis 1, full length N1, in place
+        self._rows_forward = make(self._real_in, self._spec_in[:, :nx, :], 2, "FFTW_FORWARD")
+        self._columns_forward = make(self._spec_in, self._spec_in, 1, "FFTW_FORWARD")
+        self._columns_inverse = make(self._spec_out, self._spec_out, 1, "FFTW_BACKWARD")
+        self._rows_inverse = make(
+            self._spec_out[:, :nx, :], self._real_out, 2, "FFTW_BACKWARD", ("FFTW_DESTROY_INPUT",)
         )
         self._real_in[...] = 0.0  # planning may scribble on the arrays
         self._spec_out[...] = 0.0
-        self.planning_time_s = time.perf_counter() - t0
-        self.applications = 0
+        return "FFTW_ESTIMATE" if fell_back else effort
 
     def _forward(self) -> None:
         """Spectra of the zero-padded ``_real_in`` into ``_spec_in`` (unnormalized)."""
@@ -234,6 +268,11 @@ class ConvolutionOperator:
 
     def apply(self, traction: np.ndarray) -> np.ndarray:
         """Displacements (c, nx, ny) of tractions (c, nx, ny) on the grid (non-periodic)."""
+        if self._measure_at is not None and self.applications >= self._measure_at:
+            t0 = time.perf_counter()  # applied often enough for FFTW_MEASURE plans to pay off
+            self.plan_effort = self._plan("FFTW_MEASURE")
+            self._measure_at = None
+            self.planning_time_s += time.perf_counter() - t0
         ny = self.ny
         self._real_in[:, :, :ny] = traction
         self._forward()

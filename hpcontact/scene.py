@@ -7,12 +7,11 @@ allowed range. ``hpcontact.plan`` decides what to build and run for it.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import Any, Mapping
 
 from .crystal import Crystal, crystal, cubic_from_nu_A
-from .errors import InputError
+from .errors import InputError, finite_number, integer
 from .geometry import SHAPES, Shape
 from .materials import Isotropic
 
@@ -46,23 +45,6 @@ DEFAULTS: dict[str, Any] = {
     "threads": 1,
     "precondition": True,
 }
-
-
-def _finite(name: str, value: Any, allowed: str) -> float:
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise InputError(name, allowed, value) from None
-    if not math.isfinite(number):
-        raise InputError(name, allowed, value)
-    return number
-
-
-def _integer(name: str, value: Any, low: int, allowed: str) -> int:
-    number = _finite(name, value, allowed)
-    if number != int(number) or number < low:
-        raise InputError(name, allowed, value)
-    return int(number)
 
 
 def _quantities(value: Any) -> tuple[str, ...]:
@@ -102,30 +84,30 @@ class Scene:
         p = {**DEFAULTS, **{k: v for k, v in params.items() if v is not None}}
         if p["shape"] not in SHAPES:
             raise InputError("shape", f"one of {', '.join(SHAPES)}", p["shape"])
-        nu = _finite("nu", p["nu"], "Poisson ratio in [-1, 0.5]")
+        nu = finite_number("nu", p["nu"], "Poisson ratio in [-1, 0.5]")
         if not -1.0 <= nu <= 0.5:
             raise InputError("nu", "Poisson ratio in [-1, 0.5]", p["nu"])
         if nu == -1.0:
             raise InputError("nu", "Poisson ratio in (-1, 0.5] (nu = -1 has zero bulk modulus)", p["nu"])
-        G = _finite("G", p["G"], "shear modulus, finite and > 0")
+        G = finite_number("G", p["G"], "shear modulus, finite and > 0")
         if G <= 0.0:
             raise InputError("G", "shear modulus, finite and > 0", p["G"])
         material = _material(p, G, nu)
-        aspect = _finite("aspect", p["aspect"], "b/a in (0, 1]")
+        aspect = finite_number("aspect", p["aspect"], "b/a in (0, 1]")
         if not 0.0 < aspect <= 1.0:
             raise InputError("aspect", "b/a in (0, 1]", p["aspect"])
-        n = _integer("n", p["n"], 2, "an integer >= 2 (cells along the long side)")
-        n_across = None if p["n_across"] is None else _integer(
+        n = integer("n", p["n"], 2, "an integer >= 2 (cells along the long side)")
+        n_across = None if p["n_across"] is None else integer(
             "n_across", p["n_across"], 1, "an integer >= 1 (cells across the short side)"
         )
         if n * (n_across or n) > 2**26:
             raise InputError("n", "a grid of at most 2**26 cells", f"{n} x {n_across or n}")
-        tol = _finite("tol", p["tol"], "CG tolerance in [1e-14, 1e-2]")
+        tol = finite_number("tol", p["tol"], "CG tolerance in [1e-14, 1e-2]")
         if not 1e-14 <= tol <= 1e-2:
             raise InputError("tol", "CG tolerance in [1e-14, 1e-2]", p["tol"])
         quantities = _quantities(p["quantities"])
-        radius = None if p["radius"] is None else _finite("radius", p["radius"], "sphere radius, finite and > 0")
-        depth = None if p["depth"] is None else _finite("depth", p["depth"], "approach in (0, radius)")
+        radius = None if p["radius"] is None else finite_number("radius", p["radius"], "sphere radius, finite and > 0")
+        depth = None if p["depth"] is None else finite_number("depth", p["depth"], "approach in (0, radius)")
         if "indentation" in quantities and radius is None:
             raise InputError("radius", "sphere radius, finite and > 0 (needed for indentation)", None)
         if "indentation" in quantities and depth is None:
@@ -137,15 +119,15 @@ class Scene:
         shape = Shape(
             name=p["shape"],
             aspect=aspect,
-            sides=_integer("sides", p["sides"], 2, "an integer >= 2"),
-            angle_deg=_finite("shape_angle", p["shape_angle"], "a finite angle in degrees"),
-            amplitude=_finite("amplitude", p["amplitude"], "star modulation in [0, 1)"),
-            seed=_integer("seed", p["seed"], 0, "an integer >= 0"),
-            hurst=_finite("hurst", p["hurst"], "Hurst exponent in (0, 1)"),
-            rms=_finite("rms", p["rms"], "roughness rms in (0, 1]"),
+            sides=integer("sides", p["sides"], 2, "an integer >= 2"),
+            angle_deg=finite_number("shape_angle", p["shape_angle"], "a finite angle in degrees"),
+            amplitude=finite_number("amplitude", p["amplitude"], "star modulation in [0, 1)"),
+            seed=integer("seed", p["seed"], 0, "an integer >= 0"),
+            hurst=finite_number("hurst", p["hurst"], "Hurst exponent in (0, 1)"),
+            rms=finite_number("rms", p["rms"], "roughness rms in (0, 1]"),
             mask_path=p["mask"],
         )
-        threads = _integer("threads", p["threads"], 1, "an integer >= 1")
+        threads = integer("threads", p["threads"], 1, "an integer >= 1")
         return cls(
             shape=shape,
             material=material,
@@ -182,13 +164,13 @@ def _material(p: Mapping[str, Any], G: float, nu: float) -> Material:
     then by ``azimuth`` degrees in plane. At A = 1 without a named crystal the body is
     isotropic whatever the orientation, and stays on the closed-form path.
     """
-    anisotropy = _finite("anisotropy", p["anisotropy"], "cubic anisotropy factor A in [0.01, 100]")
+    anisotropy = finite_number("anisotropy", p["anisotropy"], "cubic anisotropy factor A in [0.01, 100]")
     if not 0.01 <= anisotropy <= 100.0:
         raise InputError("anisotropy", "cubic anisotropy factor A in [0.01, 100]", p["anisotropy"])
-    azimuth = _finite("azimuth", p["azimuth"], "a finite in-plane angle in degrees")
+    azimuth = finite_number("azimuth", p["azimuth"], "a finite in-plane angle in degrees")
     orientation = p["orientation"]
     if orientation is not None:
-        orientation = _finite("orientation", orientation, "path angle psi in [0, 90] degrees")
+        orientation = finite_number("orientation", orientation, "path angle psi in [0, 90] degrees")
         if not 0.0 <= orientation <= 90.0:
             raise InputError("orientation", "path angle psi in [0, 90] degrees ([110] -> [111] -> [001])", p["orientation"])
     miller = None if p["miller"] is None else _miller(p["miller"])

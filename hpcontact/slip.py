@@ -112,7 +112,7 @@ import numpy as np
 
 from . import analytic
 from .bodies import HertzEllipse, Pair, pair_from_params
-from .errors import ConvergenceError, InputError
+from .errors import ConvergenceError, InputError, finite_number, integer
 from .geometry import Grid
 from .kernels.isotropic import isotropic_block, isotropic_surface_green
 from .materials import Isotropic
@@ -487,25 +487,6 @@ class SlipScene:
     precondition: bool
 
 
-def _number(name: str, value: Any, allowed: str) -> float:
-    if isinstance(value, bool):
-        raise InputError(name, allowed, value)
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise InputError(name, allowed, value) from None
-    if not math.isfinite(x):
-        raise InputError(name, allowed, value)
-    return x
-
-
-def _integer(name: str, value: Any, low: int, high: int, allowed: str) -> int:
-    x = _number(name, value, allowed)
-    if x != int(x) or not low <= x <= high:
-        raise InputError(name, allowed, value)
-    return int(x)
-
-
 def _flag(name: str, value: Any) -> bool:
     if isinstance(value, (bool, np.bool_)):
         return bool(value)
@@ -542,22 +523,22 @@ def validate(params: Mapping[str, Any]) -> SlipScene:
     for name in ("radius", "load", "mu", "q_ratio"):
         if name not in p:
             raise InputError(name, "required for a slip scene", None)
-    load = _number("load", p["load"], "a normal load, finite and > 0")
+    load = finite_number("load", p["load"], "a normal load, finite and > 0")
     if not load > 0.0:
         raise InputError("load", "a normal load, finite and > 0", p["load"])
-    mu = _number("mu", p["mu"], "a friction coefficient, finite and >= 0")
+    mu = finite_number("mu", p["mu"], "a friction coefficient, finite and >= 0")
     if mu < 0.0:
         raise InputError("mu", "a friction coefficient, finite and >= 0", p["mu"])
-    q_ratio = _number("q_ratio", p["q_ratio"], "Q/(mu P) in [0, 1) (1 is gross sliding)")
+    q_ratio = finite_number("q_ratio", p["q_ratio"], "Q/(mu P) in [0, 1) (1 is gross sliding)")
     if not 0.0 <= q_ratio < 1.0:
         raise InputError("q_ratio", "Q/(mu P) in [0, 1) (1 is gross sliding)", p["q_ratio"])
     pair = pair_from_params(p)
-    angle = _number("angle", p.get("angle", 0.0), "a finite angle in degrees")
-    n = _integer("n", p.get("n", 64), 8, 4096, "an integer in [8, 4096] (cells across the contact)")
-    tol = _number("tol", p.get("tol", 1e-8), "a tolerance in [1e-14, 1e-4]")
+    angle = finite_number("angle", p.get("angle", 0.0), "a finite angle in degrees")
+    n = integer("n", p.get("n", 64), 8, "an integer in [8, 4096] (cells across the contact)", 4096)
+    tol = finite_number("tol", p.get("tol", 1e-8), "a tolerance in [1e-14, 1e-4]")
     if not 1e-14 <= tol <= 1e-4:
         raise InputError("tol", "a tolerance in [1e-14, 1e-4]", p["tol"])
-    steps = _integer("steps", p.get("steps", 10), 1, 1000, "an integer in [1, 1000]")
+    steps = integer("steps", p.get("steps", 10), 1, "an integer in [1, 1000]", 1000)
     control = p.get("control", "force")
     if control not in CONTROLS:
         raise InputError("control", f"one of {', '.join(CONTROLS)}", control)
@@ -565,7 +546,7 @@ def validate(params: Mapping[str, Any]) -> SlipScene:
     if control == "displacement":
         if "displacement" not in p:
             raise InputError("displacement", "the final tangential displacement (control = displacement)", None)
-        displacement = _number("displacement", p["displacement"], "a finite displacement >= 0")
+        displacement = finite_number("displacement", p["displacement"], "a finite displacement >= 0")
         if displacement < 0.0:
             raise InputError("displacement", "a finite displacement >= 0", p["displacement"])
     elif "displacement" in p:
@@ -578,7 +559,7 @@ def validate(params: Mapping[str, Any]) -> SlipScene:
     coupling = p.get("coupling", "auto")
     if coupling not in COUPLINGS:
         raise InputError("coupling", f"one of {', '.join(COUPLINGS)}", coupling)
-    threads = _integer("threads", p.get("threads", 1), 1, 1024, "an integer >= 1")
+    threads = integer("threads", p.get("threads", 1), 1, "an integer >= 1", 1024)
     return SlipScene(
         pair=pair, load=load, mu=mu, q_ratio=q_ratio, angle_deg=angle, n=n, tol=tol, steps=steps,
         control=control, displacement=displacement, path=path,

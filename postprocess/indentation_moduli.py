@@ -30,8 +30,6 @@ import math
 import time
 from pathlib import Path
 
-import numpy as np
-
 from hpcontact.analytic import willis_sphere_contact
 from hpcontact.crystal import crystal
 from hpcontact.kernels.anisotropic import indentation_modulus, surface_green_fourier

@@ -31,7 +31,6 @@ from hpcontact.analytic import willis_sphere_contact
 from hpcontact.crystal import cubic_from_nu_A
 from hpcontact.kernels.anisotropic import surface_green_fourier
 
-import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.ticker import MaxNLocator  # noqa: E402
 
 PSI_111 = math.degrees(math.atan(1.0 / math.sqrt(2.0)))  # 35.26°: n(ψ) ∥ [111]

@@ -397,7 +397,6 @@ def test_self_affine_surface_power_law():
     qx = 2 * np.pi * np.fft.fftfreq(nx, dx)
     qy = 2 * np.pi * np.fft.rfftfreq(ny, dy)
     q = np.hypot(qx[:, None], qy[None, :])
-    q0 = 2 * np.pi / max(nx * dx, ny * dy)
     interior = np.zeros_like(q, dtype=bool)
     interior[:, 1 : (ny - 1) // 2 + 1] = True  # 0 < q_y < Nyquist (ny even: Nyquist at ny/2)
     ratio = np.abs(spec[interior]) * q[interior] ** (1.0 + H)

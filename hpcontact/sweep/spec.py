@@ -402,7 +402,7 @@ def _label_values(key: str, name: str, values: list) -> tuple[tuple[str, ...], t
     if plain is not None:
         expected = f"a {plain} name or a table {{label = ..., {plain} = ..., ...}}"
     else:
-        expected = f"a table {{label = ..., field = value, ...}} (e.g. {{label = \"Cu-Fe\", material = \"Cu\", material2 = \"Fe\"}})"
+        expected = 'a table {label = ..., field = value, ...} (e.g. {label = "Cu-Fe", material = "Cu", material2 = "Fe"})'
     coords, fields = [], []
     for i, value in enumerate(values):
         if plain is not None and isinstance(value, str):
