@@ -107,6 +107,9 @@ def _print_record(record: dict[str, Any]) -> None:
 
 
 def _cmd_solve(args: argparse.Namespace) -> int:
+    from .operator import load_wisdom, save_wisdom
+
+    load_wisdom()  # FFTW plans measured by earlier runs come back in milliseconds
     params = _params(args)
     if params.get("quantities", "").strip() == "slip":
         from .slip import solve_slip
@@ -131,6 +134,10 @@ def _cmd_solve(args: argparse.Namespace) -> int:
         print(json.dumps(record))
     else:
         _print_record(record)
+    try:
+        save_wisdom()
+    except OSError as exc:  # a read-only home is no reason to fail a finished solve
+        print(f"hpcontact: FFTW wisdom not saved ({exc})", file=sys.stderr)
     return 0
 
 

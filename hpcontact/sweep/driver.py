@@ -29,6 +29,7 @@ from typing import Any, Callable, Mapping, Sequence, TextIO
 
 from .. import __version__
 from ..errors import ConvergenceError, InputError
+from ..operator import load_wisdom, save_wisdom
 from . import kinds
 from .dataset import NOT_COMPUTED, build_dataset, write_netcdf
 from .journal import (
@@ -260,6 +261,7 @@ def run_command(spec: str | Path, resume: bool = False, output: str | Path | Non
     stderr from rank 0, naming the key). Any other error prints its traceback and, under MPI,
     aborts every rank (a rank left waiting in a collective would hang the job)."""
     team = world()
+    load_wisdom()  # FFTW plans of earlier runs: measured plans in milliseconds
     try:
         run_sweep(spec, resume=resume, output=output, team=team)
     except InputError as exc:
@@ -270,7 +272,17 @@ def run_command(spec: str | Path, resume: bool = False, output: str | Path | Non
         traceback.print_exc()
         team.abort(1)
         return 1
+    if team.rank == 0:
+        _keep_wisdom()
     return 0
+
+
+def _keep_wisdom() -> None:
+    """Save FFTW wisdom for the next run; a read-only home is no reason to fail a finished run."""
+    try:
+        save_wisdom()
+    except OSError as exc:
+        print(f"hpcontact: FFTW wisdom not saved ({exc})", file=sys.stderr)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
