@@ -45,8 +45,8 @@ def conjugate_gradient(
     """
     if rhs.ndim != 3:
         raise ValueError("rhs must have shape (components, nx, ny)")
-    active = np.broadcast_to(mask, rhs.shape)
-    b = np.where(active, rhs, 0.0)
+    weight = mask.astype(np.float64)  # P as a 0/1 multiplier: ~3x cheaper than np.where
+    b = rhs * weight
     b_norm = float(np.linalg.norm(b))
     if not math.isfinite(b_norm):
         raise ValueError("prescribed displacement is not finite")
@@ -55,24 +55,30 @@ def conjugate_gradient(
         return Solution(x, 0, 0.0)
     maxiter = maxiter if maxiter is not None else max(200, 10 * int(math.sqrt(mask.sum())) + 50)
     r = b.copy()
-    z = np.where(active, precondition(r), 0.0) if precondition else r
+    step = np.empty_like(b)  # scratch for the x and r updates
+
+    def preconditioned(residual_: np.ndarray) -> np.ndarray:
+        return precondition(residual_) * weight if precondition else residual_
+
+    z = preconditioned(r)
     p = z.copy()
     rz = float(np.vdot(r, z))
     residual = 1.0
     for iteration in range(1, maxiter + 1):
-        q = np.where(active, apply(p), 0.0)
+        q = apply(p)
+        q *= weight
         curvature = float(np.vdot(p, q))
         if not curvature > 0.0:
             raise ConvergenceError("operator is not positive definite on the mask", iteration, residual)
         alpha = rz / curvature
-        x += alpha * p
-        r -= alpha * q
+        x += np.multiply(alpha, p, out=step)
+        r -= np.multiply(alpha, q, out=step)
         residual = float(np.linalg.norm(r)) / b_norm
         if not math.isfinite(residual):
             raise ConvergenceError("non-finite residual in conjugate gradients", iteration, residual)
         if residual <= tol:
             return Solution(x, iteration, residual)
-        z = np.where(active, precondition(r), 0.0) if precondition else r
+        z = preconditioned(r)
         rz_new = float(np.vdot(r, z))
         p *= rz_new / rz
         p += z
