@@ -43,15 +43,15 @@ import argparse
 import json
 import os
 import platform
-import subprocess
 import sys
 import time
+
+from children import run_child
 
 CASES = {
     "circle_tangential": {"shape": "circle", "nu": 0.3, "quantities": "tangential"},
     "punch_normal": {"shape": "circle", "nu": 0.3, "quantities": "normal"},
 }
-THREAD_VARIABLES = ("HPCONTACT_BLAS_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS")
 CLOCK = time.perf_counter  # the child switches to time.process_time with --clock cpu
 
 
@@ -233,26 +233,6 @@ def child(spec: dict) -> dict:
 # ---------------------------------------------------------------------------------------------
 # parent: run the children, print the tables
 # ---------------------------------------------------------------------------------------------
-def run_child(spec: dict, timeout: float) -> dict:
-    env = dict(os.environ)
-    for var in THREAD_VARIABLES:
-        env[var] = str(spec["threads"])
-    try:
-        out = subprocess.run(
-            [sys.executable, os.path.abspath(__file__), "--child", json.dumps(spec)],
-            env=env,
-            capture_output=True,
-            text=True,
-            timeout=timeout,
-        )
-    except subprocess.TimeoutExpired:
-        return {**spec, "error": f"timed out after {timeout:.0f} s"}
-    lines = [line for line in out.stdout.splitlines() if line.startswith("{")]
-    if out.returncode != 0 or not lines:
-        return {**spec, "error": (out.stderr.strip().splitlines() or ["no output"])[-1]}
-    return json.loads(lines[-1])
-
-
 def host_line(threads: int) -> str:
     cpu = platform.processor() or platform.machine()
     try:
@@ -347,7 +327,7 @@ def main(argv: list[str] | None = None) -> int:
                 spec = {"case": case, "n": n, "solver": solver, "threads": args.threads, "tol": args.tol,
                         "repeat": args.repeat, "wisdom": args.wisdom, "full_fft": args.full_fft, "clock": args.clock,
                         "planner": args.planner}
-                r = run_child(spec, args.timeout)
+                r = run_child(__file__, spec, args.timeout)
                 rows.append(r)
                 if "error" in r:
                     print(f"  {case} n={n} {solver}: FAILED: {r['error']}", file=sys.stderr, flush=True)

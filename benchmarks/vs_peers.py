@@ -34,14 +34,14 @@ import argparse
 import json
 import os
 import platform
-import subprocess
 import sys
 import tempfile
 import time
 
+from children import run_child
+
 E, NU, RADIUS = 1.0, 0.3, 0.4
 CLOCK = time.perf_counter  # the child switches to time.process_time with --clock cpu
-THREAD_VARIABLES = ("HPCONTACT_BLAS_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS")
 CODES = ("ours", "tamaas", "contactmechanics")
 
 
@@ -250,27 +250,6 @@ def child(spec: dict) -> dict:
 LABELS = {"ours_pcg": "hpcontact PCG", "ours_cg": "hpcontact CG", "tamaas": "Tamaas", "contactmechanics": "ContactMechanics"}
 
 
-def run_child(spec: dict, timeout: float) -> dict:
-    env = dict(os.environ)
-    for var in THREAD_VARIABLES:
-        env[var] = str(spec["threads"])
-    try:
-        out = subprocess.run(
-            [sys.executable, os.path.abspath(__file__), "--child", json.dumps(spec)],
-            env=env,
-            capture_output=True,
-            text=True,
-            timeout=timeout,
-        )
-    except subprocess.TimeoutExpired:
-        return {**spec, "error": f"did not finish within {timeout:.0f} s"}
-    lines = [line for line in out.stdout.splitlines() if line.startswith("{")]
-    if out.returncode != 0 or not lines:
-        tail = (out.stderr.strip().splitlines() or ["no output"])[-1]
-        return {**spec, "error": f"failed: {tail}"}
-    return json.loads(lines[-1])
-
-
 def host_line(threads: int) -> str:
     cpu = platform.machine()
     try:
@@ -356,7 +335,7 @@ def main(argv: list[str] | None = None) -> int:
     for n in args.n:
         for code in codes:
             spec = {"code": code, "n": n, "tol": args.tol, "threads": args.threads, "clock": args.clock}
-            r = run_child(spec, args.timeout)
+            r = run_child(__file__, spec, args.timeout)
             rows.append(r)
             if "error" in r:
                 print(f"  n={n} {LABELS[code]}: {r['error']}", file=sys.stderr, flush=True)
