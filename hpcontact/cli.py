@@ -110,26 +110,23 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     from .operator import load_wisdom, save_wisdom
 
     load_wisdom()  # FFTW plans measured by earlier runs come back in milliseconds
+    from .sweep.kinds import SLIP, scene_kind, task_function
+
     params = _params(args)
-    if params.get("quantities", "").strip() == "slip":
-        from .slip import solve_slip
-
-        params.pop("quantities")
+    slip_given = {name: getattr(args, name) for name, _, _ in SLIP_OPTIONS if getattr(args, name) is not None}
+    kind = scene_kind(params)
+    if kind == SLIP:  # the same dispatch as a sweep's (hpcontact.sweep.kinds)
         params.pop("shape", None)
-        params.update({name: getattr(args, name) for name, _, _ in SLIP_OPTIONS if getattr(args, name) is not None})
-        record = solve_slip(params)
+        params.update(slip_given)
+    elif slip_given:
+        field = next(iter(slip_given))
+        raise InputError(field, "only with --quantities slip", slip_given[field])
+    if args.accuracy is not None and kind != SLIP:
+        from .accuracy import solve_to_accuracy
+
+        record = solve_to_accuracy(params, args.accuracy)
     else:
-        given = [f"--{name.replace('_', '-')}" for name, _, _ in SLIP_OPTIONS if getattr(args, name) is not None]
-        if given:
-            raise InputError(given[0][2:], "only with --quantities slip", getattr(args, given[0][2:].replace("-", "_")))
-        if args.accuracy is not None:
-            from .accuracy import solve_to_accuracy
-
-            record = solve_to_accuracy(params, args.accuracy)
-        else:
-            from .solve import solve
-
-            record = solve(params)
+        record = task_function(kind)(params)
     if args.json:
         print(json.dumps(record))
     else:
