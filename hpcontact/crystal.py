@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Iterable, Sequence
+from typing import Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -450,6 +450,3 @@ def library_names() -> list[str]:
     """Names of the library crystals."""
     return sorted(_LIBRARY)
 
-
-def _iter_library() -> Iterable[Crystal]:  # pragma: no cover - convenience
-    return (crystal(n) for n in library_names())

@@ -597,7 +597,6 @@ class SlipProblem:
         A, B = self.hertz.A * self.L, self.hertz.B * self.L  # dimensionless gap coefficients
         self.gap = A * x * x + B * y * y
         self.P = scene.load / (self.G_ref * self.L * self.L)
-        self.coupled_possible = not pair.similar
         nu = self.material.nu
         tangential = ("xx",) if nu == 0.0 else ("xx", "xy", "yx", "yy")
         self.engine = Engine(self.material, self.grid, tangential + ("zz",), scene.threads)
@@ -994,7 +993,6 @@ class PathPoint:
     stiffness: float
     stick_area: float
     contact_area: float
-    force_vector: np.ndarray
     tensor: np.ndarray  # scene frame
     stick_stiffness: float  # frozen-slip-zone (stick-area) stiffness along the load
 
@@ -1043,7 +1041,6 @@ def run_path(problem: SlipProblem, coupled: bool) -> PathResult:
             stiffness=along(K, n) * Ku,
             stick_area=float(state.stick.sum()) * area if scene.mu > 0.0 else 0.0,
             contact_area=float(state.contact.sum()) * area,
-            force_vector=R @ state.force * Fu,
             tensor=R @ K @ R.T * Ku,
             stick_stiffness=along(K_stick, n) * Ku,
         )

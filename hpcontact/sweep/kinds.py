@@ -18,7 +18,6 @@ from typing import Any, Callable, Mapping
 
 CONTACT = "contact"
 SLIP = "slip"
-KINDS = (CONTACT, SLIP)
 
 TaskFunction = Callable[[Mapping[str, Any]], Mapping[str, Any]]
 Validator = Callable[[Mapping[str, Any]], Any]
