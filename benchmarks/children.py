@@ -7,6 +7,7 @@ to the spec's ``threads`` so that BLAS, OpenMP and FFTW all use the same number.
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import subprocess
@@ -35,3 +36,13 @@ def run_child(script: str, spec: dict, timeout: float) -> dict:
         tail = (out.stderr.strip().splitlines() or ["no output"])[-1]
         return {**spec, "error": f"failed: {tail}"}
     return json.loads(lines[-1])
+
+
+def add_run_options(parser: argparse.ArgumentParser, timeout: float) -> None:
+    """Options every benchmark shares: per-run timeout, clock, JSON output, the child entry."""
+    parser.add_argument("--timeout", type=float, default=timeout, help=f"seconds per run (default {timeout:.0f})")
+    parser.add_argument("--clock", choices=["wall", "cpu"], default="wall",
+                        help="wall: elapsed time (default); cpu: each run's process CPU time, robust on a loaded "
+                             "machine but meaningful with --threads 1 only")
+    parser.add_argument("--json", help="also write the rows to this JSON file")
+    parser.add_argument("--child", help=argparse.SUPPRESS)

@@ -46,7 +46,7 @@ import platform
 import sys
 import time
 
-from children import run_child
+from children import add_run_options, run_child
 
 CASES = {
     "circle_tangential": {"shape": "circle", "nu": 0.3, "quantities": "tangential"},
@@ -307,12 +307,7 @@ def main(argv: list[str] | None = None) -> int:
                    help="planner effort for the operator (default: ConvolutionOperator's default)")
     p.add_argument("--wisdom", action="store_true", help="load and save FFTW wisdom (planning then takes ms)")
     p.add_argument("--no-full-fft", dest="full_fft", action="store_false", help="skip the unpruned 2-D FFT reference")
-    p.add_argument("--timeout", type=float, default=1800.0, help="seconds per run (default 1800)")
-    p.add_argument("--clock", choices=["wall", "cpu"], default="wall",
-                   help="wall: elapsed time (default); cpu: the process's CPU time, robust on a loaded "
-                        "machine but meaningful with --threads 1 only")
-    p.add_argument("--json", help="also write the rows to this JSON file")
-    p.add_argument("--child", help=argparse.SUPPRESS)
+    add_run_options(p, timeout=1800.0)
     args = p.parse_args(argv)
     if args.child:
         print(json.dumps(child(json.loads(args.child))))

@@ -38,7 +38,7 @@ import sys
 import tempfile
 import time
 
-from children import run_child
+from children import add_run_options, run_child
 
 E, NU, RADIUS = 1.0, 0.3, 0.4
 CLOCK = time.perf_counter  # the child switches to time.process_time with --clock cpu
@@ -316,12 +316,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--threads", type=int, default=1, help="FFTW/BLAS/OpenMP threads for every code (default 1)")
     p.add_argument("--codes", nargs="+", choices=["ours", "tamaas", "contactmechanics"], default=list(CODES))
     p.add_argument("--tol", type=float, default=1e-8, help="solver tolerance for every code (default 1e-8)")
-    p.add_argument("--timeout", type=float, default=900.0, help="seconds allowed per run (default 900)")
-    p.add_argument("--clock", choices=["wall", "cpu"], default="wall",
-                   help="wall: elapsed time (default); cpu: each run's process CPU time, robust on a loaded "
-                        "machine but meaningful with --threads 1 only")
-    p.add_argument("--json", help="also write the rows to this JSON file")
-    p.add_argument("--child", help=argparse.SUPPRESS)
+    add_run_options(p, timeout=900.0)
     args = p.parse_args(argv)
     if args.child:
         print(json.dumps(child(json.loads(args.child))))
