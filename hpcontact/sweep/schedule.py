@@ -1,19 +1,41 @@
-"""Dynamic distribution of chunks over ranks: a shared atomic counter, every rank a worker.
+"""Dynamic distribution of chunks over ranks: rank 0 holds the work counter and serves it over
+two-sided messages from a thread, every rank (rank 0 included) computes.
 
-Choice: a one-sided atomic counter (MPI RMA ``Fetch_and_op`` on an int64 window held by rank
-0), not ``mpi4py.futures.MPICommExecutor``. The executor dedicates rank 0 to handing out work,
-which idles half of a 2-rank job (and 1/64 of a 64-rank one) and funnels every result through
-one process. With the counter, each rank takes the next chunk index itself, so all ranks
-compute, results stay on the rank that made them (its journal), and the only traffic is one
-8-byte atomic per chunk.
+Why not one-sided atomics. The first scheduler kept the counter in an MPI window and let each
+rank ``Fetch_and_op`` the next chunk index. MPI does not promise that a passive-target
+operation completes while the target computes, and multi-node transports do not give that
+progress (measured, demo on 2 ranks, issue 15): Open MPI ``osc/ucx`` left rank 1 inside its first
+``Fetch_and_op`` + ``Flush`` for the whole run (efficiency 0.48, rank 0 ran all 228 tasks);
+Debian's MPICH over UCX answered each operation only when rank 0 next entered MPI (0.9–2 s
+stalls, tasks split 170/58); Open MPI over TCP without shared-memory windows could not create
+the window at all (``osc/pt2pt`` refuses ``MPI_THREAD_MULTIPLE``). Only shared-memory windows on
+one node worked — exactly the case clusters are not.
 
-Progress: the passive-target epoch is opened once (``Lock_all`` with ``MODE_NOCHECK``) and an
-operation whose result is needed is completed with ``Flush``. Locking per operation instead
-makes a ``Fetch_and_op`` wait until the target rank next enters the MPI library, i.e. until rank
-0 finishes its own solve (measured with MPICH: 3 s stalls behind a 3 s solve); within one epoch
-the atomics complete in microseconds through shared memory or the network's hardware atomics,
-with rank 0 busy. Finished-task counts (for progress lines only) are added with ``Accumulate``
-and never waited for: one waiting operation per chunk is all a rank pays.
+Why not ``mpi4py.futures.MPICommExecutor``. It dedicates rank 0 to serving (half of a 2-rank
+job idle) and funnels every result through it.
+
+The choice. Rank 0 runs a server thread that answers requests (``fetch_add``: the next chunk
+index; ``add``: progress counts, no answer) with ``Iprobe`` + ``Recv``, sleeping ``POLL_S``
+between empty polls; its main thread computes chunks like every other rank and takes its own
+chunk indices from the same counter under a lock, without MPI. Point-to-point messages progress
+on every transport as soon as the server thread polls, so a worker waits at most ``POLL_S`` plus
+one GIL switch interval (5 ms) for a chunk, whatever rank 0 computes (FFTW and numpy release the
+GIL). A server blocked in ``Recv`` would be simpler, but Open MPI's blocking receive busy-polls
+a core, which takes it from rank 0's own solves (measured on 2 cores: speedup 1.26 with a
+blocking server thread, 1.55–1.66 with a sleeping poll, 1.67 for a static split of the same
+work).
+
+Thread level. Only one thread of rank 0 calls MPI at a time (the main thread makes no MPI call
+between starting and joining the server), so ``MPI_THREAD_SERIALIZED`` suffices; it is requested
+explicitly (mpi4py's default is ``MULTIPLE``, which some components refuse). An MPI that grants
+less makes the server thread unsafe: rank 0 then answers requests between its own tasks and
+while idle at the end, so a worker waits at most one of rank 0's tasks (one line says so and
+names the setting to change).
+
+Launch check. A batch system that starts N > 1 tasks without MPI process management (``srun``
+without ``--mpi=pmix`` at a site whose default is ``none``) gives N independent processes that
+would each run the whole sweep alone into the same output: ``world`` refuses that with
+``LaunchError`` (exit 2 on the command line). ``HPCONTACT_MPI=0`` runs one process on purpose.
 
 A solver never imports MPI: ``mpi4py`` is imported here, only when a launcher started the
 process (``world``), and a single process without mpiexec runs with ``SerialTeam``.
@@ -22,12 +44,41 @@ process (``world``), and a single process without mpiexec runs with ``SerialTeam
 from __future__ import annotations
 
 import os
-from typing import Any, Iterator, Protocol, Sequence
+import sys
+import threading
+import time
+import traceback
+from typing import Any, Iterator, Mapping, Protocol, Sequence
 
 import numpy as np
 
-# Environment variables set by MPI launchers (MPICH/Hydra and PMI-1/2, PMIx, Open MPI, Slurm+PMI).
-LAUNCHER_VARIABLES = ("PMI_RANK", "PMI_SIZE", "PMIX_RANK", "OMPI_COMM_WORLD_SIZE", "MPI_LOCALNRANKS")
+# Environment variables through which a launcher hands MPI process management to a process:
+# MPICH/Hydra, Intel MPI, MVAPICH and Slurm's pmi/pmi2 (PMI_*), PMIx (Slurm --mpi=pmix, prrte,
+# Open MPI 5), Open MPI's own launcher (OMPI_*), Cray PALS (its PMI reads PALS_*), MPICH's
+# MPI_LOCALNRANKS.
+LAUNCHER_VARIABLES = (
+    "PMI_RANK", "PMI_SIZE", "PMI_FD", "PMIX_RANK", "PMIX_NAMESPACE", "OMPI_COMM_WORLD_SIZE",
+    "OMPI_COMM_WORLD_RANK", "MV2_COMM_WORLD_RANK", "PALS_RANKID", "MPI_LOCALNRANKS",
+)
+# Variables whose value is the number of processes the launcher started (checked against
+# MPI.COMM_WORLD.size).
+SIZE_VARIABLES = ("PMI_SIZE", "OMPI_COMM_WORLD_SIZE", "MV2_COMM_WORLD_SIZE", "SLURM_STEP_NUM_TASKS")
+# Batch systems: (name, variable that marks a task of a parallel launch, variables holding the
+# number of tasks started, first one set wins). Slurm: srun sets SLURM_STEP_NUM_TASKS for the
+# tasks of a step; the batch script itself has SLURM_PROCID=0 and SLURM_NTASKS (the allocation)
+# but no step size, and one process started there is a deliberate serial run.
+BATCH_LAUNCHES = (
+    ("Slurm", "SLURM_PROCID", ("SLURM_STEP_NUM_TASKS",)),
+    ("Flux", "FLUX_TASK_RANK", ("FLUX_JOB_SIZE",)),
+    ("LSF jsrun", "JSM_NAMESPACE_RANK", ("JSM_NAMESPACE_SIZE",)),
+    ("LSF blaunch", "LSF_PM_TASKID", ("LSB_DJOB_NUMPROC",)),
+    ("PBS pbsdsh", "PBS_TASKNUM", ("PBS_NP",)),
+)
+POLL_S = 0.002  # server thread's sleep between empty polls (s)
+
+
+class LaunchError(RuntimeError):
+    """The processes were started in a way that cannot run one sweep together (one line)."""
 
 
 class Counter(Protocol):
@@ -37,11 +88,10 @@ class Counter(Protocol):
         """Add ``value`` to ``slot``; the value before the addition (waits for the result)."""
 
     def add(self, slot: int, values: Sequence[int]) -> None:
-        """Add ``values`` to ``slot``, ``slot + 1``, …; done by the next ``fetch_add`` or ``close``
-        at the latest (no wait)."""
+        """Add ``values`` to ``slot``, ``slot + 1``, …, without waiting for an answer."""
 
     def close(self) -> None:
-        """Release the counter (collective)."""
+        """Release the counter (collective; a rank may call it before the chunks run out)."""
 
 
 class Team(Protocol):
@@ -67,19 +117,22 @@ class Team(Protocol):
 
 
 class LocalCounter:
-    """The counter of a single process."""
+    """The counter of a single process (thread-safe: rank 0's server thread shares it)."""
 
     def __init__(self, slots: int) -> None:
         self._values = [0] * slots
+        self._lock = threading.Lock()
 
     def fetch_add(self, slot: int, value: int) -> int:
-        old = self._values[slot]
-        self._values[slot] += value
-        return old
+        with self._lock:
+            old = self._values[slot]
+            self._values[slot] += value
+            return old
 
     def add(self, slot: int, values: Sequence[int]) -> None:
-        for i, value in enumerate(values):
-            self._values[slot + i] += value
+        with self._lock:
+            for i, value in enumerate(values):
+                self._values[slot + i] += value
 
     def close(self) -> None:
         """Nothing to release."""
@@ -107,52 +160,116 @@ class SerialTeam:
         """Nothing else to end: the caller returns its exit status."""
 
 
-class RMACounter:
-    """int64 slots in an MPI window on rank 0: ``Fetch_and_op`` + ``Flush`` when the value is
-    needed, ``Accumulate`` without waiting otherwise (see the module docstring)."""
+# Messages to rank 0: int64 [operation, slot, count, value_0, …, value_{count-1}, 0, …].
+FETCH_ADD, ADD, LEAVE = 0, 1, 2
+REQUEST_TAG, ANSWER_TAG = 7301, 7302
 
-    def __init__(self, comm: Any, slots: int) -> None:
+
+class ServedCounter:
+    """The counter on rank 0, served to the other ranks by messages (see the module docstring).
+
+    ``threaded``: rank 0 serves from a thread (needs ``MPI_THREAD_SERIALIZED``); otherwise it
+    answers pending requests whenever it touches the counter itself (between its tasks) and, at
+    ``close``, until every other rank has left.
+    """
+
+    def __init__(self, comm: Any, slots: int, threaded: bool) -> None:
         from mpi4py import MPI
 
         self._MPI = MPI
-        self._win = MPI.Win.Allocate(8 * slots if comm.rank == 0 else 0, disp_unit=8, comm=comm)
-        if comm.rank == 0:
-            self._win.Lock(0, MPI.LOCK_EXCLUSIVE)
-            np.frombuffer(self._win.tomemory(), dtype=np.int64)[:] = 0
-            self._win.Unlock(0)
-        comm.Barrier()
-        self._win.Lock_all(MPI.MODE_NOCHECK)
         self._comm = comm
-        self._add = np.zeros(1, dtype=np.int64)
-        self._old = np.zeros(1, dtype=np.int64)
-        self._pending: list[np.ndarray] = []  # buffers of accumulates not yet flushed
+        self._message = np.zeros(3 + slots, dtype=np.int64)
+        self._answer = np.zeros(1, dtype=np.int64)
+        self._left = False
+        self._server: threading.Thread | None = None
+        if comm.rank == 0:
+            self._local = LocalCounter(slots)
+            self._workers = comm.size - 1  # ranks that have not left yet
+            if threaded and self._workers:
+                self._server = threading.Thread(target=self._serve, name="hpcontact-scheduler", daemon=True)
+                self._server.start()
+        self._threaded = threaded
+
+    # rank 0 -----------------------------------------------------------------------------------
+    def _serve_one(self) -> bool:
+        """Answer one pending request; False when none is waiting."""
+        status = self._MPI.Status()
+        if not self._comm.Iprobe(source=self._MPI.ANY_SOURCE, tag=REQUEST_TAG, status=status):
+            return False
+        source = status.Get_source()
+        message = np.empty_like(self._message)
+        self._comm.Recv([message, self._MPI.INT64_T], source=source, tag=REQUEST_TAG)
+        operation, slot, values = int(message[0]), int(message[1]), message[3 : 3 + int(message[2])]
+        if operation == FETCH_ADD:
+            answer = np.array([self._local.fetch_add(slot, int(values[0]))], dtype=np.int64)
+            self._comm.Send([answer, self._MPI.INT64_T], dest=source, tag=ANSWER_TAG)
+        elif operation == ADD:
+            self._local.add(slot, [int(v) for v in values])
+        else:
+            self._workers -= 1
+        return True
+
+    def _serve(self) -> None:
+        """Answer requests until every other rank has left (the server thread's loop). A failure
+        here would leave the other ranks waiting for ever: it ends the job instead."""
+        try:
+            while self._workers:
+                if not self._serve_one():
+                    time.sleep(POLL_S)
+        except BaseException:
+            traceback.print_exc()
+            self._comm.Abort(1)
+            raise
+
+    def _drain(self) -> None:
+        """Unthreaded rank 0: answer what is pending now."""
+        if not self._threaded:
+            while self._workers and self._serve_one():
+                pass
+
+    # every rank -------------------------------------------------------------------------------
+    def _send(self, operation: int, slot: int, values: Sequence[int]) -> None:
+        self._message[:] = 0
+        self._message[:3] = operation, slot, len(values)
+        self._message[3 : 3 + len(values)] = values
+        self._comm.Send([self._message, self._MPI.INT64_T], dest=0, tag=REQUEST_TAG)
 
     def fetch_add(self, slot: int, value: int) -> int:
-        self._add[0] = value
-        self._win.Fetch_and_op([self._add, self._MPI.INT64_T], [self._old, self._MPI.INT64_T], 0, slot, self._MPI.SUM)
-        self._win.Flush(0)
-        self._pending.clear()
-        return int(self._old[0])
+        if self._comm.rank == 0:
+            self._drain()
+            return self._local.fetch_add(slot, value)
+        self._send(FETCH_ADD, slot, [value])
+        self._comm.Recv([self._answer, self._MPI.INT64_T], source=0, tag=ANSWER_TAG)
+        return int(self._answer[0])
 
     def add(self, slot: int, values: Sequence[int]) -> None:
-        buffer = np.array(values, dtype=np.int64)
-        self._pending.append(buffer)
-        target = (slot, len(buffer), self._MPI.INT64_T)
-        self._win.Accumulate([buffer, self._MPI.INT64_T], 0, target=target, op=self._MPI.SUM)
+        if self._comm.rank == 0:
+            self._drain()
+            self._local.add(slot, values)
+        else:
+            self._send(ADD, slot, values)
 
     def close(self) -> None:
-        self._win.Unlock_all()
+        if self._comm.rank == 0:
+            if self._server is not None:
+                self._server.join()
+            else:
+                self._serve()
+        elif not self._left:
+            self._send(LEAVE, 0, [])
+            self._left = True
         self._comm.Barrier()
-        self._win.Free()
 
 
 class MPITeam:
-    """The ranks of an MPI communicator."""
+    """The ranks of an MPI communicator; ``threaded``: rank 0 may serve the counter from a
+    thread (the MPI granted at least ``MPI_THREAD_SERIALIZED``)."""
 
-    def __init__(self, comm: Any) -> None:
+    def __init__(self, comm: Any, threaded: bool = True) -> None:
         self.comm = comm
         self.rank = comm.rank
         self.size = comm.size
+        self.threaded = threaded
 
     def bcast(self, obj: Any) -> Any:
         return self.comm.bcast(obj, root=0)
@@ -164,7 +281,7 @@ class MPITeam:
         self.comm.Barrier()
 
     def counter(self, slots: int) -> Counter:
-        return RMACounter(self.comm, slots)
+        return ServedCounter(self.comm, slots, self.threaded)
 
     def abort(self, code: int) -> None:
         self.comm.Abort(code)
@@ -178,19 +295,72 @@ def launched_by_mpi() -> bool:
     return any(name in os.environ for name in LAUNCHER_VARIABLES)
 
 
+def _count(value: str | None) -> int | None:
+    """A task count from an environment variable (Slurm writes e.g. ``4(x2)`` in some)."""
+    if value is None:
+        return None
+    digits = value.split("(")[0].strip()
+    return int(digits) if digits.isdigit() else None
+
+
+def check_launch(environ: Mapping[str, str] | None = None) -> None:
+    """Refuse (``LaunchError``) a process that a batch system started as one of N > 1 tasks
+    without MPI process management: every such process would run the whole sweep alone."""
+    env = os.environ if environ is None else environ
+    if env.get("HPCONTACT_MPI") in ("0", "1") or any(name in env for name in LAUNCHER_VARIABLES):
+        return
+    for name, marker, sizes in BATCH_LAUNCHES:
+        if marker not in env:
+            continue
+        tasks = next((_count(env[v]) for v in sizes if v in env), None)
+        if tasks is not None and tasks > 1:
+            raise LaunchError(
+                f"{name} started {tasks} tasks without MPI process management ({marker} set, no PMI/PMIx "
+                "variables): each would run the whole sweep alone. Launch with `srun --mpi=pmix hpcontact run ...` "
+                "(or --mpi=pmi2, or `mpirun -n N hpcontact run ...`); set HPCONTACT_MPI=0 to run one process on purpose"
+            )
+
+
+def _thread_level_name(MPI: Any, level: int) -> str:
+    names = {MPI.THREAD_SINGLE: "SINGLE", MPI.THREAD_FUNNELED: "FUNNELED", MPI.THREAD_SERIALIZED: "SERIALIZED",
+             MPI.THREAD_MULTIPLE: "MULTIPLE"}
+    return names.get(level, str(level))
+
+
 def world() -> Team:
-    """``MPI.COMM_WORLD`` as a team under a launcher, else a ``SerialTeam`` (mpi4py not imported)."""
+    """``MPI.COMM_WORLD`` as a team under a launcher, else a ``SerialTeam`` (mpi4py not imported).
+
+    Requests ``MPI_THREAD_SERIALIZED`` (unless ``MPI4PY_RC_THREAD_LEVEL`` or an earlier import of
+    mpi4py decided otherwise); raises ``LaunchError`` for a batch launch without MPI process
+    management and for a launcher whose rank count mpi4py does not see.
+    """
+    check_launch()
     if not launched_by_mpi():
         return SerialTeam()
+    import mpi4py
+
+    if "mpi4py.MPI" not in sys.modules and "MPI4PY_RC_THREAD_LEVEL" not in os.environ:
+        mpi4py.rc.thread_level = "serialized"
     from mpi4py import MPI
 
-    expected = os.environ.get("PMI_SIZE") or os.environ.get("OMPI_COMM_WORLD_SIZE")
-    if expected is not None and int(expected) != MPI.COMM_WORLD.size:
-        raise RuntimeError(
-            f"the launcher started {expected} ranks but mpi4py sees {MPI.COMM_WORLD.size}: "
-            "mpi4py is built against another MPI than the mpiexec/srun in use"
+    size = MPI.COMM_WORLD.size
+    for name in SIZE_VARIABLES:
+        expected = _count(os.environ.get(name))
+        if expected is not None and expected != size:
+            raise LaunchError(
+                f"the launcher started {expected} ranks ({name}) but mpi4py sees {size}: mpi4py is built against "
+                "another MPI than the mpiexec/srun in use (rebuild it: pip install --no-binary=mpi4py mpi4py)"
+            )
+    granted = MPI.Query_thread()
+    threaded = granted >= MPI.THREAD_SERIALIZED
+    if not threaded and size > 1 and MPI.COMM_WORLD.rank == 0:
+        print(
+            f"hpcontact: MPI granted thread level {_thread_level_name(MPI, granted)} (< SERIALIZED): rank 0 hands out "
+            "work only between its own tasks; set MPI4PY_RC_THREAD_LEVEL=serialized or use an MPI built with thread support",
+            file=sys.stderr,
+            flush=True,
         )
-    return MPITeam(MPI.COMM_WORLD)
+    return MPITeam(MPI.COMM_WORLD, threaded)
 
 
 NEXT_CHUNK = 0  # counter slots
@@ -200,7 +370,8 @@ SLOTS = 3
 
 
 def claimed_chunks(chunks: Sequence[tuple[Any, ...]], counter: Counter) -> Iterator[tuple[Any, ...]]:
-    """The chunks this rank takes, one at a time, until none is left (every rank calls it)."""
+    """The chunks this rank takes, one at a time, until none is left (every rank calls it; a
+    rank may stop early, e.g. on a signal, and then calls ``counter.close``)."""
     while True:
         index = counter.fetch_add(NEXT_CHUNK, 1)
         if index >= len(chunks):

@@ -1,14 +1,21 @@
-"""Scheduling without MPI: the serial team, the local counter and the claim loop."""
+"""Scheduling without MPI: the serial team, the local counter, the claim loop and the launch
+check (the served counter on 2 ranks: ``tests/mpi/test_schedule.py``)."""
 
 from __future__ import annotations
+
+import threading
+
+import pytest
 
 from hpcontact.sweep import schedule
 from hpcontact.sweep.schedule import (
     COST_DONE,
     NEXT_CHUNK,
     SLOTS,
+    LaunchError,
     LocalCounter,
     SerialTeam,
+    check_launch,
     claimed_chunks,
     launched_by_mpi,
     report_done,
@@ -52,3 +59,55 @@ def test_world_is_serial_without_a_launcher(monkeypatch):
     assert launched_by_mpi()
     monkeypatch.setenv("HPCONTACT_MPI", "0")
     assert not launched_by_mpi()
+
+
+def test_local_counter_hands_out_each_value_once_across_threads():
+    # rank 0's server thread and its main thread share one LocalCounter
+    counter = LocalCounter(SLOTS)
+    taken: list[list[int]] = [[] for _ in range(4)]
+
+    def claim(mine: list[int]) -> None:
+        for _ in range(2000):
+            mine.append(counter.fetch_add(NEXT_CHUNK, 1))
+
+    threads = [threading.Thread(target=claim, args=(mine,)) for mine in taken]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert sorted(v for mine in taken for v in mine) == list(range(8000))
+
+
+@pytest.mark.parametrize(
+    "environ, launcher",
+    [
+        ({"SLURM_PROCID": "1", "SLURM_NTASKS": "2", "SLURM_STEP_NUM_TASKS": "2"}, "Slurm"),  # srun --mpi=none
+        ({"SLURM_PROCID": "0", "SLURM_NTASKS": "64", "SLURM_STEP_NUM_TASKS": "64(x2)"}, "Slurm"),
+        ({"FLUX_TASK_RANK": "0", "FLUX_JOB_SIZE": "4"}, "Flux"),
+        ({"JSM_NAMESPACE_RANK": "3", "JSM_NAMESPACE_SIZE": "8"}, "LSF jsrun"),
+        ({"LSF_PM_TASKID": "1", "LSB_DJOB_NUMPROC": "8"}, "LSF blaunch"),
+        ({"PBS_TASKNUM": "2", "PBS_NP": "4"}, "PBS pbsdsh"),
+    ],
+)
+def test_batch_tasks_without_process_management_are_refused(environ, launcher):
+    with pytest.raises(LaunchError) as caught:
+        check_launch(environ)
+    message = str(caught.value)
+    assert message.startswith(launcher) and "srun --mpi=pmix" in message and "mpirun" in message
+    assert "\n" not in message
+
+
+@pytest.mark.parametrize(
+    "environ",
+    [
+        {},
+        {"SLURM_PROCID": "0", "SLURM_STEP_NUM_TASKS": "1"},  # a one-task job step
+        {"SLURM_PROCID": "0", "SLURM_STEP_NUM_TASKS": "2", "PMIX_RANK": "0"},  # srun --mpi=pmix
+        {"SLURM_PROCID": "1", "SLURM_STEP_NUM_TASKS": "2", "PMI_RANK": "1"},  # srun --mpi=pmi2
+        {"SLURM_PROCID": "0", "SLURM_NTASKS": "2", "OMPI_COMM_WORLD_SIZE": "2"},  # mpirun in an allocation
+        {"SLURM_PROCID": "0", "SLURM_STEP_NUM_TASKS": "2", "HPCONTACT_MPI": "0"},  # one process on purpose
+        {"SLURM_PROCID": "0", "SLURM_NTASKS": "8"},  # the batch script itself, outside srun
+    ],
+)
+def test_launches_with_process_management_or_one_task_pass(environ):
+    check_launch(environ)

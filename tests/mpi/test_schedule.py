@@ -1,0 +1,95 @@
+"""The served counter on every rank of the team (2 under ``mpiexec -n 2``): each chunk claimed
+exactly once, progress counts delivered, a rank may leave early, and — the property the RMA
+counter lacked on multi-node transports — a worker gets work while rank 0 computes without
+entering MPI. In one plain process the team is serial and the tests check the serial path."""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+
+from hpcontact.sweep.schedule import (
+    NEXT_CHUNK,
+    SLOTS,
+    MPITeam,
+    Team,
+    claimed_chunks,
+    report_done,
+    totals_done,
+)
+
+pytestmark = pytest.mark.mpi
+
+CHUNKS = [(i,) for i in range(40)]
+
+
+def _team(team: Team, threaded: bool) -> Team:
+    """The same ranks, with rank 0 serving from a thread or between its own chunks."""
+    return MPITeam(team.comm, threaded) if isinstance(team, MPITeam) else team
+
+
+def _hold_the_interpreter(seconds: float) -> None:
+    """A task of rank 0 that never enters MPI and holds the GIL except at switch intervals."""
+    end = time.perf_counter() + seconds
+    while time.perf_counter() < end:
+        sum(range(1000))
+
+
+@pytest.mark.parametrize("threaded", [True, False])
+def test_every_chunk_is_claimed_once_and_counted(team: Team, threaded: bool) -> None:
+    team = _team(team, threaded)
+    counter = team.counter(SLOTS)
+    mine = []
+    for chunk in claimed_chunks(CHUNKS, counter):
+        mine.append(chunk[0])
+        time.sleep(0.005)
+        report_done(counter, 2.4)
+    counter.close()
+    claimed = team.gather(mine)
+    if team.rank == 0:
+        assert sorted(i for ranks in claimed for i in ranks) == list(range(len(CHUNKS)))
+        assert totals_done(counter) == (len(CHUNKS), 2 * len(CHUNKS))  # every add arrived before the close
+        assert counter.fetch_add(NEXT_CHUNK, 0) == len(CHUNKS) + team.size  # one claim past the end per rank
+        if team.size > 1:
+            assert all(claimed), "a rank computed nothing"
+
+
+def test_a_worker_gets_work_while_rank_0_computes(team: Team) -> None:
+    """Rank 0 takes the first chunk and spends 3 s in it without any MPI call; every other chunk
+    (10 ms each) must be served to the other ranks meanwhile: 39 claims in 3 s leave ~75 ms per
+    claim, 15x the server's worst latency (2 ms poll + one 5 ms GIL switch interval)."""
+    if team.size == 1:
+        pytest.skip("needs 2 ranks")
+    team = _team(team, True)
+    counter = team.counter(SLOTS)
+    mine = []
+    if team.rank != 0:
+        time.sleep(0.5)  # let rank 0 claim chunk 0 first
+    for chunk in claimed_chunks(CHUNKS, counter):
+        mine.append(chunk[0])
+        if team.rank == 0:
+            _hold_the_interpreter(3.0)
+        else:
+            time.sleep(0.01)
+    counter.close()
+    claimed = team.gather(mine)
+    if team.rank == 0:
+        assert claimed[0] == [0], f"rank 0 had to take chunks {claimed[0][1:]} itself: the workers starved"
+
+
+def test_a_rank_that_leaves_early_does_not_block_the_others(team: Team) -> None:
+    team = _team(team, True)
+    counter = team.counter(SLOTS)
+    mine = []
+    for chunk in claimed_chunks(CHUNKS, counter):
+        mine.append(chunk[0])
+        if team.rank == team.size - 1 and team.size > 1:
+            break  # e.g. stopped by a signal: claims nothing more, then closes
+        time.sleep(0.002)
+    counter.close()
+    claimed = team.gather(mine)
+    if team.rank == 0:
+        assert sorted(i for ranks in claimed for i in ranks) == list(range(len(CHUNKS)))
+        if team.size > 1:
+            assert len(claimed[-1]) == 1
