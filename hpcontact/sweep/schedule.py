@@ -15,10 +15,10 @@ Why not ``mpi4py.futures.MPICommExecutor``. It dedicates rank 0 to serving (half
 job idle) and funnels every result through it.
 
 The choice. Rank 0 runs a server thread that answers requests (``fetch_add``: the next chunk
-index; ``add``: progress counts, no answer) with ``Iprobe`` + ``Recv``, sleeping ``POLL_S``
+index; ``add``: progress counts, no answer, sent at most once a second per worker) with ``Iprobe`` + ``Recv``, sleeping 1–16 ms
 between empty polls; its main thread computes chunks like every other rank and takes its own
 chunk indices from the same counter under a lock, without MPI. Point-to-point messages progress
-on every transport as soon as the server thread polls, so a worker waits at most ``POLL_S`` plus
+on every transport as soon as the server thread polls, so a worker waits at most ``IDLE_POLL_S`` plus
 one GIL switch interval (5 ms) for a chunk, whatever rank 0 computes (FFTW and numpy release the
 GIL). A server blocked in ``Recv`` would be simpler, but Open MPI's blocking receive busy-polls
 a core, which takes it from rank 0's own solves (measured on 2 cores: speedup 1.26 with a
@@ -74,7 +74,16 @@ BATCH_LAUNCHES = (
     ("LSF blaunch", "LSF_PM_TASKID", ("LSB_DJOB_NUMPROC",)),
     ("PBS pbsdsh", "PBS_TASKNUM", ("PBS_NP",)),
 )
-POLL_S = 0.002  # server thread's sleep between empty polls (s)
+# The server thread sleeps between empty polls: POLL_S after a message, doubling while none
+# comes, up to IDLE_POLL_S. A worker's claim waits at most IDLE_POLL_S + one GIL switch interval
+# (5 ms) — small against a chunk (≥ 1/(4·ranks) of the sweep) — and rank 0's solves are
+# interrupted ≤ 1/IDLE_POLL_S times a second while no one asks.
+POLL_S = 0.001
+IDLE_POLL_S = 0.016
+# A worker's ``add``s are summed locally and sent at most every ADD_EVERY_S seconds (and before
+# each claim and at close): rank 0 answers O(ranks) messages a second, not one per task, so its
+# own solves do not pay for 1000 ranks' progress counts; progress lines lag by ≤ ADD_EVERY_S.
+ADD_EVERY_S = 1.0
 
 
 class LaunchError(RuntimeError):
@@ -88,7 +97,8 @@ class Counter(Protocol):
         """Add ``value`` to ``slot``; the value before the addition (waits for the result)."""
 
     def add(self, slot: int, values: Sequence[int]) -> None:
-        """Add ``values`` to ``slot``, ``slot + 1``, …, without waiting for an answer."""
+        """Add ``values`` to ``slot``, ``slot + 1``, …, without waiting (seen by other ranks
+        after a delay: at the latest at this rank's next ``fetch_add`` or ``close``)."""
 
     def close(self) -> None:
         """Release the counter (collective; a rank may call it before the chunks run out)."""
@@ -180,6 +190,8 @@ class ServedCounter:
         self._comm = comm
         self._message = np.zeros(3 + slots, dtype=np.int64)
         self._answer = np.zeros(1, dtype=np.int64)
+        self._unsent = np.zeros(slots, dtype=np.int64)  # a worker's adds not yet sent
+        self._sent_at = time.monotonic()
         self._left = False
         self._server: threading.Thread | None = None
         if comm.rank == 0:
@@ -213,9 +225,13 @@ class ServedCounter:
         """Answer requests until every other rank has left (the server thread's loop). A failure
         here would leave the other ranks waiting for ever: it ends the job instead."""
         try:
+            pause = POLL_S
             while self._workers:
-                if not self._serve_one():
-                    time.sleep(POLL_S)
+                if self._serve_one():
+                    pause = POLL_S
+                else:
+                    time.sleep(pause)
+                    pause = min(2.0 * pause, IDLE_POLL_S)
         except BaseException:
             traceback.print_exc()
             self._comm.Abort(1)
@@ -234,10 +250,18 @@ class ServedCounter:
         self._message[3 : 3 + len(values)] = values
         self._comm.Send([self._message, self._MPI.INT64_T], dest=0, tag=REQUEST_TAG)
 
+    def _send_adds(self) -> None:
+        """A worker: send the adds summed since the last send, if any."""
+        if self._unsent.any():
+            self._send(ADD, 0, list(self._unsent))
+            self._unsent[:] = 0
+        self._sent_at = time.monotonic()
+
     def fetch_add(self, slot: int, value: int) -> int:
         if self._comm.rank == 0:
             self._drain()
             return self._local.fetch_add(slot, value)
+        self._send_adds()
         self._send(FETCH_ADD, slot, [value])
         self._comm.Recv([self._answer, self._MPI.INT64_T], source=0, tag=ANSWER_TAG)
         return int(self._answer[0])
@@ -246,8 +270,10 @@ class ServedCounter:
         if self._comm.rank == 0:
             self._drain()
             self._local.add(slot, values)
-        else:
-            self._send(ADD, slot, values)
+            return
+        self._unsent[slot : slot + len(values)] += values
+        if time.monotonic() - self._sent_at >= ADD_EVERY_S:
+            self._send_adds()
 
     def close(self) -> None:
         if self._comm.rank == 0:
@@ -256,6 +282,7 @@ class ServedCounter:
             else:
                 self._serve()
         elif not self._left:
+            self._send_adds()
             self._send(LEAVE, 0, [])
             self._left = True
         self._comm.Barrier()
