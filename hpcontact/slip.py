@@ -154,13 +154,17 @@ def solve_slip(params: Mapping[str, Any]) -> dict[str, Any]:
     record["hertz_a"], record["hertz_b"] = hertz.a, hertz.b
     record["contact_angle_deg"] = hertz.angle_deg
     record["normal_stiffness"] = hertz.normal_stiffness
-    record["dundurs_beta"] = pair.dundurs_beta
-    eq = pair.equivalent
-    theta = math.radians(scene.angle_deg - hertz.angle_deg)
-    J_a, J_b = analytic.mindlin_ellipse_compliance(hertz.a, hertz.b, eq.G, eq.nu)
-    record["mindlin_no_slip_stiffness"] = 1.0 / (J_a * math.cos(theta) ** 2 + J_b * math.sin(theta) ** 2)
-    if hertz.aspect == 1.0 and limit > 0.0:
-        record.update(_mindlin_reference(main, scene, hertz, eq))
+    if problem.anisotropic:  # no closed forms: Hertz and Mindlin need isotropic bodies
+        record["coupling_size"] = pair.coupling_size
+    else:
+        record["dundurs_beta"] = pair.dundurs_beta
+        record["coupling_size"] = abs(pair.dundurs_beta)
+        eq = pair.equivalent
+        theta = math.radians(scene.angle_deg - hertz.angle_deg)
+        J_a, J_b = analytic.mindlin_ellipse_compliance(hertz.a, hertz.b, eq.G, eq.nu)
+        record["mindlin_no_slip_stiffness"] = 1.0 / (J_a * math.cos(theta) ** 2 + J_b * math.sin(theta) ** 2)
+        if hertz.aspect == 1.0 and limit > 0.0:
+            record.update(_mindlin_reference(main, scene, hertz, eq))
     if len(modes) == 2:
         decoupled = paths[False]
         record.update(_mode_keys(decoupled, "decoupled_"))
@@ -209,6 +213,30 @@ def _mindlin_reference(path: PathResult, scene: SlipScene, hertz: HertzEllipse, 
     }
 
 
+def _pair_lines(problem: SlipProblem, coupling: str) -> list[str]:
+    """The pair's coupling and moduli for the plan (crystal pairs: Barnett-Lothe kernels of each body)."""
+    pair = problem.pair
+    if problem.anisotropic:
+        bodies = ["rigid" if b.material is None else getattr(b.material, "name", "") or type(b.material).__name__
+                  for b in (pair.body1, pair.body2)]
+        return [
+            f"similar={pair.similar}",
+            f"coupling_size={pair.coupling_size:.6g}",
+            f"coupling={coupling}",
+            f"bodies={bodies[0]} | {bodies[1]} (body 2 in its own frame, turned 180 deg about x)",
+            f"G_ref={problem.G_ref:.6g}",
+            f"E_star_estimate={pair.E_star:.6g} (indentation moduli; grid sizing only)",
+        ]
+    return [
+        f"similar={pair.similar}",
+        f"dundurs_beta={pair.dundurs_beta:.6g}",
+        f"coupling={coupling}",
+        f"G_eq={pair.equivalent.G:.6g}",
+        f"nu_eq={pair.equivalent.nu:.6g}",
+        f"E_star={pair.E_star:.6g}",
+    ]
+
+
 def _plan(problem: SlipProblem, modes: list[bool], paths: Mapping[bool, PathResult]) -> dict[str, Any]:
     """What was built and run, the pair's coupling and the method (DESIGN §1: only what is needed)."""
     scene, pair = problem.scene, problem.pair
@@ -216,10 +244,12 @@ def _plan(problem: SlipProblem, modes: list[bool], paths: Mapping[bool, PathResu
     if True in modes:
         kernels += ["xz(pair)", "yz(pair)", "zx(pair)", "zy(pair)"]
     derived = []
-    if problem.material.nu == 0.0:
+    if problem.material is not None and problem.material.nu == 0.0:
         derived.append("yy = xx, xy = 0 (nu_eq = 0)")
     if pair.similar:
-        derived.append("no coupling blocks: elastically similar pair ((1-2nu1)/G1 = (1-2nu2)/G2, beta = 0)")
+        derived.append("no coupling blocks: elastically similar pair (coupling blocks of body 2 cancel body 1's, "
+                       "coupling_size < 1e-12)" if problem.anisotropic else
+                       "no coupling blocks: elastically similar pair ((1-2nu1)/G1 = (1-2nu2)/G2, beta = 0)")
     solves = []
     for coupled in modes:
         c = paths[coupled].counters
@@ -234,14 +264,7 @@ def _plan(problem: SlipProblem, modes: list[bool], paths: Mapping[bool, PathResu
         "solves": ["normal_polonsky_keer[z]"] + solves,
         "derived": derived,
         "operator_applications": [],
-        "pair": [
-            f"similar={pair.similar}",
-            f"dundurs_beta={pair.dundurs_beta:.6g}",
-            f"coupling={coupling}",
-            f"G_eq={pair.equivalent.G:.6g}",
-            f"nu_eq={pair.equivalent.nu:.6g}",
-            f"E_star={pair.E_star:.6g}",
-        ],
+        "pair": _pair_lines(problem, coupling),
         "method": [
             "normal pressure: discrete Hertz, Polonsky-Keer on the slip grid at the load, applied without friction",
             "slip: semismooth Newton (primal-dual active set, linearized slip directions), PCG inner solves, "

@@ -21,11 +21,13 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from .bodies import HertzEllipse, Pair, pair_from_params
+from .anisotropic_pair import AnisotropicPair, PairCompliance, PairEngine
+from .bodies import Body, HertzEllipse, Pair, pair_from_params
+from .elastic_constants import CONSTANT_FIELDS, anisotropic_material
 from .errors import ConvergenceError, InputError, finite_number, integer
 from .friction_qp import Operator
 from .geometry import Grid
-from .kernels.isotropic import isotropic_block, isotropic_surface_green
+from .kernels.isotropic import isotropic_surface_green
 from .materials import Isotropic
 from .operator import ConvolutionOperator, cached_spectrum
 from .preconditioner import FourierPreconditioner
@@ -38,7 +40,9 @@ FIELDS = (
     "material", "material2", "E", "G", "nu", "E2", "G2", "nu2",
     "load", "mu", "q_ratio", "angle", "n", "tol", "steps", "control", "displacement", "path",
     "tensor", "history", "coupling", "threads", "precondition",
-)
+) + CONSTANT_FIELDS + tuple(f"{name}2" for name in CONSTANT_FIELDS)
+#: Crystal constants are given in GPa (``elastic_constants``); slip scenes are in SI units.
+GPA = 1e9
 #: Fields of the generic ``hpcontact solve`` parser that a slip scene does not use: the contact
 #: shape follows from the bodies. Accepted (so the CLI may pass its defaults) and ignored.
 IGNORED = ("shape",)
@@ -115,7 +119,7 @@ def validate(params: Mapping[str, Any]) -> SlipScene:
     q_ratio = finite_number("q_ratio", p["q_ratio"], "Q/(mu P) in [0, 1) (1 is gross sliding)")
     if not 0.0 <= q_ratio < 1.0:
         raise InputError("q_ratio", "Q/(mu P) in [0, 1) (1 is gross sliding)", p["q_ratio"])
-    pair = pair_from_params(p)
+    pair = slip_pair(p)
     angle = finite_number("angle", p.get("angle", 0.0), "a finite angle in degrees")
     n = integer("n", p.get("n", 64), 8, "an integer in [8, 4096] (cells across the contact)", 4096)
     tol = finite_number("tol", p.get("tol", 1e-8), "a tolerance in [1e-14, 1e-4]")
@@ -151,6 +155,26 @@ def validate(params: Mapping[str, Any]) -> SlipScene:
     )
 
 
+def slip_pair(p: Mapping[str, Any]) -> Pair:
+    """The scene's pair: ``bodies.pair_from_params``, with a crystal in place of a body whose fields
+    describe one (``elastic_constants.anisotropic_material``: "crystal:NAME", ``anisotropy`` ≠ 1
+    with nu and G or E, ``cubic``, ``orthotropic``, ``voigt``; GPa; body 2 in its own frame)."""
+    crystals = [anisotropic_material(p, suffix, GPA, library=False) for suffix in ("", "2")]
+    if crystals == [None, None]:
+        return pair_from_params(p)
+    iso = dict(p)
+    for suffix, c in zip(("", "2"), crystals):
+        if c is not None:  # the crystal replaces the isotropic description of this body
+            for name in ("material", "E", "G", "nu"):
+                iso.pop(f"{name}{suffix}", None)
+    if crystals[1] is not None:
+        iso["G2"] = 1.0  # a placeholder elastic body 2 (not rigid), replaced below
+    base = pair_from_params(iso)
+    bodies = [b if c is None else Body(c, b.radius_a, b.radius_b, b.angle_deg)
+              for b, c in zip((base.body1, base.body2), crystals)]
+    return AnisotropicPair(*bodies)
+
+
 class SlipProblem:
     """The pair on its contact grid: scaled units, gap, operators, Hertz reference.
 
@@ -166,23 +190,34 @@ class SlipProblem:
         self.pair = pair
         self.hertz: HertzEllipse = pair.hertz(scene.load)
         self.L = self.hertz.a
-        self.G_ref = pair.equivalent.G
-        self.material = Isotropic(G=1.0, nu=pair.equivalent.nu)
+        self.anisotropic = isinstance(pair, AnisotropicPair)
+        if self.anisotropic:
+            self.G_ref = pair.reference_modulus
+            self.compliance = pair.scaled(self.G_ref)
+            self.material: Isotropic | None = None
+        else:
+            self.G_ref = pair.equivalent.G
+            self.compliance = PairCompliance(*(None if b.material is None else Isotropic(b.material.G / self.G_ref, b.material.nu)
+                                               for b in (pair.body1, pair.body2)))
+            self.material = Isotropic(G=1.0, nu=pair.equivalent.nu)
         aspect = self.hertz.aspect
         dx = 2.0 / scene.n
         across = scene.n * aspect
         dy = dx if across >= MIN_CELLS_ACROSS else 2.0 * aspect / MIN_CELLS_ACROSS
-        nx = 2 * math.ceil(GRID_MARGIN / dx)
-        ny = 2 * math.ceil(GRID_MARGIN * aspect / dy)
+        margin = GRID_MARGIN * self._anisotropy_margin()
+        nx = 2 * math.ceil(margin / dx)
+        ny = 2 * math.ceil(margin * aspect / dy)
         self.grid = Grid(nx, ny, dx, dy)
         x, y = self.grid.centres()
         self.x, self.y = x, y
         A, B = self.hertz.A * self.L, self.hertz.B * self.L  # dimensionless gap coefficients
         self.gap = A * x * x + B * y * y
         self.P = scene.load / (self.G_ref * self.L * self.L)
-        nu = self.material.nu
-        tangential = ("xx",) if nu == 0.0 else ("xx", "xy", "yx", "yy")
-        self.engine = Engine(self.material, self.grid, tangential + ("zz",), scene.threads)
+        if self.material is None:
+            self.engine: Engine = PairEngine(self.compliance, self.grid, ("xx", "xy", "yx", "yy", "zz"), scene.threads)
+        else:
+            tangential = ("xx",) if self.material.nu == 0.0 else ("xx", "xy", "yx", "yy")
+            self.engine = Engine(self.material, self.grid, tangential + ("zz",), scene.threads)
         self.op_t = self.engine.operator("xy")
         self.op_z = self.engine.operator("z")
         self.precondition_t = (
@@ -196,9 +231,22 @@ class SlipProblem:
         self._op_full: ConvolutionOperator | None = None
         self._precondition_full: Operator | None = None
 
+    def _anisotropy_margin(self) -> float:
+        """Extra grid span for a crystal pair: sqrt(max/min of H_zz over directions) (1 when
+        isotropic). A heuristic: the contact is not the Hertz ellipse of the indentation-modulus
+        estimate, and a larger grid only costs time (the non-periodic solution does not change)."""
+        if not self.anisotropic:
+            return 1.0
+        phi = np.arange(64) * (np.pi / 64)
+        hzz = self.compliance.fourier(phi)[:, 2, 2].real
+        return float(math.sqrt(hzz.max() / hzz.min()))
+
     def surface_green(self, phi: np.ndarray) -> np.ndarray:
-        """H(m) of the pair (grid units, for the preconditioner): the equivalent body's tangential
-        and normal blocks, coupling ±i c m/2 with c = G_eq[(1−2nu1)/G1 − (1−2nu2)/G2]."""
+        """H(m) of the pair (grid units, for the preconditioner): ``PairCompliance.fourier`` for a
+        crystal pair; else the equivalent body's tangential and normal blocks, coupling ±i c m/2
+        with c = G_eq[(1−2nu1)/G1 − (1−2nu2)/G2]."""
+        if self.material is None:
+            return self.compliance.fourier(phi)
         H = isotropic_surface_green(self.material, phi)
         c = self.pair.coupling_modulus * self.G_ref
         m = np.stack([np.cos(phi), np.sin(phi)], axis=-1)
@@ -228,22 +276,22 @@ class SlipProblem:
 
     @property
     def coupling_operator(self) -> ConvolutionOperator:
-        """(t_x, t_y, p) ↦ (A_xz p, A_yz p, A_zx t_x + A_zy t_y): blocks of body 1 minus body 2."""
+        """(t_x, t_y, p) ↦ (A_xz p, A_yz p, A_zx t_x + A_zy t_y): the coupling blocks of the pair
+        (``PairCompliance.blocks``; body 1's minus body 2's for isotropic bodies)."""
         if self._op_c is None:
             g = self.grid
-            mats = [self.pair.coupling_material(i) for i in (1, 2)]
-            scaled = [None if m is None else Isotropic(G=m.G / self.G_ref, nu=m.nu) for m in mats]
-            key_base = ("pair-coupling",) + tuple(("rigid",) if m is None else m.key for m in scaled)
+            names = ("xz", "yz", "zx", "zy")
+            built: dict[str, np.ndarray] = {}
+
+            def build(block: str) -> np.ndarray:
+                if not built:  # all four in one pass (a crystal's cells share their work)
+                    built.update(self.compliance.blocks(g.nx, g.ny, g.dx, g.dy, names, self.scene.threads))
+                return built[block]
+
             spectra = {}
-            for block in ("xz", "yz", "zx", "zy"):
-                def build(block: str = block) -> np.ndarray:
-                    out = np.zeros((2 * g.nx - 1, 2 * g.ny - 1))
-                    for sign, m in zip((1.0, -1.0), scaled):
-                        if m is not None:
-                            out = out + sign * isotropic_block(m, g.nx, g.ny, g.dx, g.dy, block)
-                    return out
-                key = key_base + (g.nx, g.ny, g.dx, g.dy, block)
-                spectra[block] = cached_spectrum(key, build, self.engine.fft_shape)
+            for block in names:
+                key = ("pair-coupling",) + self.compliance.key + (g.nx, g.ny, g.dx, g.dy, block)
+                spectra[block] = cached_spectrum(key, lambda block=block: build(block), self.engine.fft_shape)
             self._op_c = ConvolutionOperator(g.nx, g.ny, "xyz", spectra, threads=self.scene.threads)
         return self._op_c
 

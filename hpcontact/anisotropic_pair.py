@@ -1,0 +1,194 @@
+r"""Interface compliance of two bodies either of which may be anisotropic (crystal, orthotropic, 6 × 6).
+
+Conventions (DESIGN §2, ``hpcontact.bodies``): body 1 fills z > 0 and carries the traction
+t = (t_x, t_y, p) (p > 0 presses into it); body 2 fills z < 0 and carries −t. The contact
+conditions see the relative surface displacement u = u_1 − u_2 (u_z positive into body 1, so
+the gap closes by u_z).
+
+Body 2 in its own frame. Body 2's material is given in the frame x′ = x, y′ = −y, z′ = −z
+(z′ into body 2): the lab turned by 180° about x, M = diag(1, −1, −1) = M⁻¹ = Mᵀ, proper.
+In that frame it is an ordinary half-space z′ > 0 with Green's function G₂′ (the kernels of
+``hpcontact.kernels``). The traction it carries, −t, reads f′ = −M t there, so at lab point
+x its displacement is u_2 = M G₂′(M(x − ξ)) (−M t) and
+
+    u_1 − u_2 = [G_1(r) + M G₂′(M r) M] * t,    r = x − ξ,   M r = (r_x, −r_y),
+
+    H_pair(φ) = H_1(φ) + M H₂′(−φ) M          (Fourier: û = H(m) t̂/k, M m ↔ φ → −φ).
+
+So the pair's tangential and normal blocks add body 2's with y mirrored and the signs
+M_ii M_jj: xy and yx change sign under the mirror and change back by M_xx M_yy = −1, and
+the coupling blocks xz, yz, zx, zy take an extra −1: for two isotropic bodies this is exactly
+A_1 + A_2 for xx xy yy zz and A_1 − A_2 for the coupling (``bodies``), the terms that cancel for
+elastically similar pairs. A crystal body enters through the Barnett–Lothe surface Green's
+function and its cell coefficients (``kernels.anisotropic``); on a grid the mirror is the flip
+of the offset axis q → −q of the centred coefficient arrays (cells are symmetric in y).
+
+Coupling. The coupling blocks vanish when body 2 mirrors body 1's coupling — two isotropic
+bodies with (1 − 2nu)/G equal, or two identical bodies with a symmetry plane y = 0 (e.g. the
+orthotropic pair of Rodríguez-Tembleque et al. 2011, §6.2, axes on the lab axes). Its size is
+
+    coupling_size = max_φ |(H_xz, H_yz)(φ)| / max_φ H_zz(φ),
+
+which for isotropic pairs is Dundurs' |β| (H_xz = i c m_x/2 with c = Σ ±(1 − 2nu_i)/G_i and
+H_zz = Σ (1 − nu_i)/G_i). Below ``bodies.SIMILARITY_TOL`` the pair is treated as similar.
+
+Hertz estimate (contact grid sizing only): E* from the indentation moduli of the bodies
+(Vlassak & Nix 1994), 1/E* = Σ 1/M_i, M = 2/⟨H_zz⟩ over directions; exact for isotropic bodies.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from .bodies import SIMILARITY_TOL, Pair
+from .crystal import Crystal
+from .kernels.anisotropic import anisotropic_offset_blocks, indentation_modulus, kernel_for
+from .kernels.isotropic import isotropic_block, isotropic_surface_green
+from .materials import Isotropic
+from .geometry import Grid
+from .operator import COMPONENT_INDEX
+from .solve import Engine
+
+Material = Isotropic | Crystal
+#: Body 2's frame: the lab turned by 180° about x.
+MIRROR = np.array([1.0, -1.0, -1.0])
+#: In-plane directions sampled for the coupling size (H is a trigonometric series of low degree
+#: for the materials met; 256 directions resolve its maximum to < 1e-4 relative).
+N_DIRECTIONS = 256
+
+
+def _scaled(material: Material | None, G_ref: float) -> Material | None:
+    if material is None:
+        return None
+    if isinstance(material, Isotropic):
+        return Isotropic(G=material.G / G_ref, nu=material.nu)
+    return Crystal(material.voigt / G_ref, material.name, material.citation)
+
+
+def shear_modulus(material: Material) -> float:
+    """G of an isotropic body; the mean shear stiffness (C44 + C55 + C66)/3 of a crystal (lab frame)."""
+    if isinstance(material, Isotropic):
+        return material.G
+    return float(np.trace(material.voigt[3:, 3:])) / 3.0
+
+
+def surface_green(material: Material, phi: np.ndarray) -> np.ndarray:
+    """H(m(φ)) of one body in its own frame, shape (len(φ), 3, 3)."""
+    if isinstance(material, Isotropic):
+        return isotropic_surface_green(material, phi)
+    return kernel_for(material).fourier(phi)
+
+
+@dataclass(frozen=True, eq=False)
+class PairCompliance:
+    """H_pair and the cell blocks of u_1 − u_2 for two bodies (None: rigid), in one stress unit."""
+
+    body1: Material | None
+    body2: Material | None
+
+    @property
+    def key(self) -> tuple:
+        """Hashable identity for the spectrum cache."""
+        return ("pair",) + tuple("rigid" if m is None else m.key for m in (self.body1, self.body2))
+
+    def fourier(self, phi: np.ndarray) -> np.ndarray:
+        """H_pair(φ) = H_1(φ) + M H₂′(−φ) M (complex, shape (len(φ), 3, 3))."""
+        phi = np.asarray(phi, dtype=np.float64)
+        H = np.zeros(phi.shape + (3, 3), dtype=np.complex128)
+        if self.body1 is not None:
+            H += surface_green(self.body1, phi)
+        if self.body2 is not None:
+            H += surface_green(self.body2, -phi) * np.multiply.outer(MIRROR, MIRROR)
+        return H
+
+    def blocks(self, nx: int, ny: int, dx: float, dy: float, names: tuple[str, ...],
+               threads: int = 1) -> dict[str, np.ndarray]:
+        """Centred cell coefficients (2nx − 1, 2ny − 1) of the blocks ``names`` (e.g. "xz")."""
+        out = {name: np.zeros((2 * nx - 1, 2 * ny - 1)) for name in names}
+        for material, mirrored in ((self.body1, False), (self.body2, True)):
+            if material is None:
+                continue
+            own = _own_blocks(material, nx, ny, dx, dy, names, threads)
+            for name in names:
+                if mirrored:
+                    i, j = COMPONENT_INDEX[name[0]], COMPONENT_INDEX[name[1]]
+                    out[name] += MIRROR[i] * MIRROR[j] * own[name][:, ::-1]
+                else:
+                    out[name] += own[name]
+        return out
+
+    def coupling_size(self) -> float:
+        """max_φ |(H_xz, H_yz)| / max_φ H_zz (Dundurs' |β| for isotropic pairs)."""
+        phi = np.arange(N_DIRECTIONS) * (2.0 * np.pi / N_DIRECTIONS)
+        H = self.fourier(phi)
+        return float(np.sqrt(np.abs(H[:, 0, 2]) ** 2 + np.abs(H[:, 1, 2]) ** 2).max() / H[:, 2, 2].real.max())
+
+
+def _own_blocks(material: Material, nx: int, ny: int, dx: float, dy: float, names: tuple[str, ...],
+                threads: int) -> dict[str, np.ndarray]:
+    if isinstance(material, Isotropic):
+        return {name: isotropic_block(material, nx, ny, dx, dy, name) for name in names}
+    pairs = [(COMPONENT_INDEX[n[0]], COMPONENT_INDEX[n[1]]) for n in names]
+    blocks = anisotropic_offset_blocks(material, nx, ny, dx, dy, pairs, threads=threads)
+    return {name: blocks[p] for name, p in zip(names, pairs)}
+
+
+@dataclass(frozen=True)
+class AnisotropicPair(Pair):
+    """A ``bodies.Pair`` at least one of whose bodies is a crystal (``Crystal``, lab frame; body 2's
+    in its own frame, see the module text). Geometry (curvatures, Hertz ellipse) as ``Pair``."""
+
+    @property
+    def compliance(self) -> PairCompliance:
+        return PairCompliance(self.body1.material, self.body2.material)
+
+    @property
+    def reference_modulus(self) -> float:
+        """G_ref = 1/Σ 1/G_i with G of ``shear_modulus`` (= G_eq of ``Pair`` for isotropic bodies)."""
+        return 1.0 / sum(1.0 / shear_modulus(b.material) for b in (self.body1, self.body2) if b.material is not None)
+
+    @property
+    def E_star(self) -> float:
+        """1/E* = Σ 1/M_i, M_i the indentation modulus (Vlassak & Nix 1994); the Hertz estimate."""
+        return 1.0 / sum(1.0 / _indentation(b.material) for b in (self.body1, self.body2) if b.material is not None)
+
+    @cached_property
+    def coupling_size(self) -> float:
+        """``PairCompliance.coupling_size`` (|β| for isotropic bodies)."""
+        return self.compliance.coupling_size()
+
+    @property
+    def similar(self) -> bool:
+        """The coupling blocks vanish (coupling_size below ``SIMILARITY_TOL``)."""
+        return self.coupling_size <= SIMILARITY_TOL
+
+    def scaled(self, G_ref: float) -> PairCompliance:
+        """The pair's compliance with stresses in units of ``G_ref``."""
+        return PairCompliance(_scaled(self.body1.material, G_ref), _scaled(self.body2.material, G_ref))
+
+
+def _indentation(material: Material) -> float:
+    if isinstance(material, Isotropic):
+        return material.E_star
+    return indentation_modulus(material)
+
+
+class PairEngine(Engine):
+    """``solve.Engine`` on the pair's compliance: spectra and operators of u_1 − u_2 (scaled units)."""
+
+    def __init__(self, compliance: PairCompliance, grid: Grid, kernels: tuple[str, ...], threads: int = 1) -> None:
+        super().__init__(compliance, grid, kernels, threads)  # type: ignore[arg-type]
+        self._blocks: dict[str, np.ndarray] | None = None
+
+    def centred_block(self, block: str) -> np.ndarray:
+        """The pair's coefficients of ``block`` (every planned block built in one pass)."""
+        if self._blocks is None:
+            g = self.grid
+            self._blocks = self.material.blocks(g.nx, g.ny, g.dx, g.dy, self.kernels, self.threads)
+        return self._blocks[block]
+
+    def surface_green(self, phi: np.ndarray) -> np.ndarray:
+        return self.material.fourier(phi)
