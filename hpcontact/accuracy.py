@@ -84,7 +84,9 @@ import numpy as np
 
 from . import quantities as q
 from .errors import InputError
+from .engine import Engine
 from .geometry import Grid, Shape, grid_for
+from .materials import Isotropic
 from .operator import COMPONENT_INDEX
 from .plan import Plan, Solve, make_plan
 from .preconditioner import FourierPreconditioner
@@ -119,7 +121,8 @@ MAX_CELLS = 2**22  # largest grid (nx · ny) the sequence may reach by default
 MIN_COVERAGE = 1e-12  # cells covered less than this are left out (D_ii would overflow)
 COVERAGE_ROUNDING = 1e-9  # closed-form coverage loses ~n²·eps to differences (measured 5.7e-11 at n = 1024)
 SUBSAMPLES = 32  # sub-samples per cell side where the coverage has no closed form
-TENSOR_KEYS = ("K_xx", "K_xy", "K_yx", "K_yy", "K_zz", "K_xz", "K_yz", "K_zx", "K_zy", "K_zz_bonded")
+TENSOR_KEYS = ("K_xx", "K_xy", "K_yx", "K_yy", "K_zz", "K_xz", "K_yz", "K_zx", "K_zy", "K_zz_bonded",
+               "K_xx_coupled", "K_xy_coupled", "K_yx_coupled", "K_yy_coupled")
 SUPPORTED = ("tangential", "normal", "coupled")
 
 
@@ -235,7 +238,7 @@ def _with_all_solves(plan: Plan, scene: Scene) -> Plan:
     """The plan without the x ↔ y mirror shortcut (coverage can break a mask's symmetry)."""
     solves = list(plan.solves)
     names = {s.name for s in solves}
-    nu0 = scene.material.nu == 0.0
+    nu0 = isinstance(scene.material, Isotropic) and scene.material.nu == 0.0
     if "tangential_x" in names and "tangential_y" not in names:
         solves.insert([s.name for s in solves].index("tangential_x") + 1, Solve("tangential_y", "y" if nu0 else "xy", "y"))
     if "coupled_x" in names and "coupled_y" not in names:
@@ -251,8 +254,6 @@ def covered_solve(params: Mapping[str, Any]) -> dict[str, Any]:
     ``residual``, ``wall_time_s``, ``nx ny dx dy``, ``plan``) plus ``contact_area`` = Σ f dA,
     which is exact where the coverage is. Quantities: tangential, normal, coupled.
     """
-    from .solve import Engine, _stiffness
-
     started = time.perf_counter()
     scene = Scene.from_params(params)
     unsupported = [x for x in scene.quantities if x not in SUPPORTED]
@@ -273,14 +274,14 @@ def covered_solve(params: Mapping[str, Any]) -> dict[str, Any]:
     forces: dict[str, np.ndarray] = {}
     iterations, residual = 0, 0.0
     for s in plan.solves:
-        op = engine.operator(s.components)
+        op = engine.operator(s.components, s.green)
         damping = np.stack([_self_compliance(engine, c) * phi for c in s.components])
         weights = np.stack([scale] * len(s.components))
         rhs = np.zeros((len(s.components),) + mask.shape)
         rhs[s.components.index(s.load)] = 1.0
         precondition = None
         if scene.precondition:
-            fourier = FourierPreconditioner(grid, engine.surface_green, s.components).apply
+            fourier = FourierPreconditioner(grid, engine.green_function(s.green), s.components).apply
             precondition = lambda r, fourier=fourier, w=weights: w * fourier(w * r)  # noqa: E731
         solution = conjugate_gradient(
             lambda t, op=op, d=damping: op.apply(t) + d * t, rhs, mask, tol=scene.tol, precondition=precondition
@@ -294,7 +295,7 @@ def covered_solve(params: Mapping[str, Any]) -> dict[str, Any]:
     record: dict[str, Any] = {"nx": grid.nx, "ny": grid.ny, "dx": grid.dx, "dy": grid.dy}
     record["contact_cells"] = int(mask.sum())
     record["contact_area"] = float(f.sum() * grid.cell_area)
-    record.update(_stiffness(scene, plan, forces))
+    record.update(q.stiffness_record(forces, scene.quantities, scene.material, noise=scene.tol))
     record["iterations"] = iterations
     record["residual"] = residual
     record["plan"] = {**plan.as_dict(), "boundary": "coverage-weighted cells, D_ii = A_ii (1 - f)/f"}
@@ -389,21 +390,6 @@ def grid_sequence(shape: Shape, n0: int = N0, n_across0: int | None = None, max_
     return out
 
 
-def _derived(record: dict[str, Any], scene: Scene) -> None:
-    """Recompute K_max, K_min, angle, ratio, asymmetry and Li's normalization from the tensor."""
-    if "K_xx" not in record:
-        return
-    K2 = np.array([[record["K_xx"], record["K_xy"]], [record["K_yx"], record["K_yy"]]])
-    k_max, k_min, angle = q.principal_stiffness(K2)
-    record.update({"K_max": k_max, "K_min": k_min, "principal_angle_deg": angle})
-    record["K_a_over_K_b"] = float(K2[0, 0] / K2[1, 1])
-    record["asymmetry"] = q.asymmetry(K2)
-    if "K_zz" in record:
-        m = scene.material
-        record["normalized_xx"] = float(q.li_normalization(K2[0, 0], record["K_zz"], m.E_star, m.G_star))
-        record["normalized_yy"] = float(q.li_normalization(K2[1, 1], record["K_zz"], m.E_star, m.G_star))
-
-
 def extrapolate(levels: Sequence[Mapping[str, Any]]) -> tuple[dict[str, float], dict[str, float], dict[str, float]]:
     """Extrapolated tensor entries, their estimated relative errors, and observed orders.
 
@@ -485,8 +471,8 @@ def solve_to_accuracy(
     finest = levels[-1]
     record: dict[str, Any] = {k: finest[k] for k in ("nx", "ny", "dx", "dy", "contact_cells", "contact_area")}
     record.update(values)
-    _derived(record, scene)
     worst = max(relative.values())
+    record.update(q.derived_quantities(values, scene.material, noise=worst))
     record["estimated_error"] = worst
     record["estimated_errors"] = dict(relative)
     record["convergence_order"] = {k: (v if math.isfinite(v) else None) for k, v in orders.items()}  # JSON-safe

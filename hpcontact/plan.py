@@ -1,26 +1,41 @@
 """What a scene needs built and run, and nothing more (DESIGN §1, "simulate only the effects").
 
-The plan is made from the scene and its rasterized contact (symmetry is read off the actual
-mask, not assumed from the shape's name):
+One physical meaning per quantity, for every material (the same table is in the README):
 
-- ``tangential`` (bonded punch, tangential load; normal–tangential coupling neglected as for
-  elastically similar bodies, Li 2017 assumption (ii), exact at nu = 0.5): kernels xx, yy and,
-  unless nu = 0, xy (= yx). At nu = 0 the x and y problems decouple and share one kernel
-  (xx = yy = I1/(2πG)), so each is a scalar solve. If the mask maps to itself under x ↔ y
-  (square cells), the y-solve is the mirror image of the x-solve and is skipped.
-- ``normal`` (frictionless flat punch): kernel zz only; at nu = 0 it is the same operator as the
-  tangential x problem, so K_zz = K_xx without a solve when both are asked.
-- ``coupled`` (bonded punch, one elastic body on a rigid punch): all blocks, three-component
-  solves; it supplies the tangential block too (no separate tangential solves). At nu = 0.5
-  the coupling blocks vanish and it reduces to tangential + normal. With ``normal`` as well,
-  ``K_zz`` is the frictionless punch and the bonded one is ``K_zz_bonded``.
-- ``compliance`` (Li 2017 §3.2 proxy): tangential kernels, operator applications, no solve.
-- ``indentation`` (rigid sphere, Polonsky–Keer): kernel zz only.
+| quantity | bodies | problem | coupling kept | keys |
+|---|---|---|---|---|
+| ``tangential`` | two identical bodies, same material and orientation, bonded; stiffness per body (the pair's is half) | rigid tangential displacement, normal approach held | all the pair has: the interface compliance is 2 Re H(m), so only Re H acts (below) | K_xx K_xy K_yx K_yy |
+| ``coupled`` | one elastic half-space under a rigid bonded punch | unit rigid displacement along x, y, z | all of H(m), 3 × 3 | K_ij, i, j in x y z (with ``tangential``: its 2 × 2 block as K_ij_coupled) |
+| ``normal`` | one elastic half-space, rigid frictionless flat punch | unit approach, tangential traction free | none (zz block) | K_zz (with ``coupled``: the bonded one is K_zz_bonded) |
+| ``compliance`` | as ``tangential`` | uniform tangential traction, mean displacement (Li 2017 §3.2 proxy) | none | proxy_K_ij |
+| ``indentation`` | one elastic half-space, rigid sphere, frictionless | Polonsky–Keer, unknown contact | none (zz block) | load, contact_area, ... |
 
-An anisotropic half-space (a crystal) couples normal and tangential response even for a bonded
-punch alone, so ``tangential`` is solved as ``coupled`` (3 × 3, all nine blocks), and none of
-the isotropic shortcuts (nu = 0, x ↔ y mirror, nu = 0.5) apply. An isotropic material stays on
-the closed-form kernels whatever its orientation.
+``tangential`` is Mindlin's (1949) and Li's (2017, assumption (ii)) decoupled stiffness,
+generalized to crystals. For two bodies the bonded interface responds to its traction t with the
+displacement jump (H₁(m) + H₂(m)) t̂/k, where H₂ is the lower body's Green's function. For the
+same crystal in the same orientation below the interface (the lattice runs on), reflecting z
+shows H₂ = conj(H₁) (checked to 6e-16 in ``tests/test_conventions.py``), so the jump is
+2 Re H(m) t̂/k: the imaginary part — the antisymmetric normal–tangential coupling and the odd
+part of the xy block — cancels; the real part remains. Per body, the stiffness is that of one
+half-space with Green's function Re H. For an isotropic body the coupling of Re H is zero
+(H_xz = +i(1 − 2nu)m_x/(2G) is imaginary), so z decouples and this is exactly Mindlin's K,
+with two-component (x, y) solves; for a tilted crystal Re H_xz ≠ 0 (up to 14 % of |H| at
+A = 3, psi = 20°), so the x and y solves carry z with the normal approach held (u_z = 0).
+Through A = 1 both meanings join continuously: Re H_xz = O(A − 1).
+
+Shortcuts (each one tested against the general path at and next to its point,
+``tests/test_conventions.py``):
+
+- isotropic ``tangential``: kernels xx, yy and, unless nu = 0, xy (= yx). At nu = 0 the x and y
+  problems decouple and share one kernel (xx = yy = I1/(2πG)), so each is a scalar solve. If the
+  mask maps to itself under x ↔ y (square cells), the y-solve is the mirror image of the x-solve
+  and is skipped.
+- ``normal`` at nu = 0 is the same operator as the tangential x problem, so K_zz = K_xx without
+  a solve when both are asked.
+- ``coupled`` at nu = 0.5 (isotropic): the coupling blocks vanish and it is ``tangential`` +
+  ``normal`` exactly.
+- isotropic materials stay on the closed-form kernels whatever their orientation; a crystal
+  (A ≠ 1 or a named crystal) uses the Barnett–Lothe kernels and none of the isotropic shortcuts.
 """
 
 from __future__ import annotations
@@ -36,11 +51,13 @@ from .scene import Scene
 
 @dataclass(frozen=True)
 class Solve:
-    """One linear solve: its name, the traction components it couples, the loads it carries."""
+    """One linear solve: its name, the traction components it couples, the load it carries and
+    the Green's function it uses ("H": one body; "Re H": per body of two identical bodies)."""
 
     name: str
     components: str  # e.g. "xy", "x", "z", "xyz"
     load: str  # displacement component prescribed = 1 ("x", "y", "z")
+    green: str = "H"
 
 
 @dataclass(frozen=True)
@@ -57,7 +74,7 @@ class Plan:
         return {
             "kernel_source": self.kernel_source,
             "kernels": list(self.kernels),
-            "solves": [f"{s.name}[{s.components}]" for s in self.solves],
+            "solves": [f"{s.name}[{s.components}]" + ("" if s.green == "H" else f"({s.green})") for s in self.solves],
             "derived": list(self.derived),
             "operator_applications": list(self.applications),
         }
@@ -69,13 +86,14 @@ def transpose_symmetric(mask: np.ndarray, grid: Grid) -> bool:
 
 
 def make_plan(scene: Scene, mask: np.ndarray, grid: Grid) -> Plan:
-    """The kernels and solves ``scene`` needs on its contact ``mask``."""
+    """The kernels and solves ``scene`` needs on its contact ``mask`` (conventions: module docstring)."""
     wanted = set(scene.quantities)
     kernels: list[str] = []
     solves: list[Solve] = []
     derived: list[str] = []
     applications: list[str] = []
-    if isinstance(scene.material, Isotropic):
+    isotropic = isinstance(scene.material, Isotropic)
+    if isotropic:
         nu = scene.material.nu
         mirror = transpose_symmetric(mask, grid)
         source = "isotropic closed form (Boussinesq-Cerruti cell integrals)"
@@ -83,8 +101,6 @@ def make_plan(scene: Scene, mask: np.ndarray, grid: Grid) -> Plan:
         nu = None  # no isotropic shortcut applies
         mirror = False
         source = "anisotropic (Barnett-Lothe surface Green's function)"
-        if "tangential" in wanted:
-            wanted.add("coupled")
 
     def need(*blocks: str) -> None:
         kernels.extend(b for b in blocks if b not in kernels)
@@ -94,9 +110,6 @@ def make_plan(scene: Scene, mask: np.ndarray, grid: Grid) -> Plan:
         wanted = (wanted - {"coupled"}) | {"tangential", "normal"}
 
     if "coupled" in wanted:
-        if "tangential" in wanted:
-            derived.append("tangential block from the coupled solves")
-            wanted = wanted - {"tangential"}
         if nu == 0.0:
             need("xx", "zz", "xz", "zx", "yz", "zy")
             derived.append("yy = xx, xy = yx = 0 (nu = 0)")
@@ -109,19 +122,25 @@ def make_plan(scene: Scene, mask: np.ndarray, grid: Grid) -> Plan:
             solves.append(Solve("coupled_y", "xyz", "y"))
         solves.append(Solve("coupled_z", "xyz", "z"))
 
-    if "tangential" in wanted or "compliance" in wanted:
+    if ("tangential" in wanted or "compliance" in wanted) and isotropic:
         if nu == 0.0:
             need("xx")
             derived.append("yy = xx, xy = yx = 0 (nu = 0: no x-y coupling)")
         else:
             need("xx", "xy", "yx", "yy")
-    if "tangential" in wanted:
+    elif "tangential" in wanted or "compliance" in wanted:
+        need("xx", "yy", "Re xy")
+    if "tangential" in wanted and isotropic:
         components = "x" if nu == 0.0 else "xy"
         solves.append(Solve("tangential_x", components, "x"))
         if mirror:
             derived.append("K_yy = K_xx, K_yx = K_xy (mask symmetric under x <-> y)")
         else:
             solves.append(Solve("tangential_y", "y" if nu == 0.0 else "xy", "y"))
+    elif "tangential" in wanted:  # crystal: Re H couples z in general, the normal approach is held
+        need("zz", "Re xz", "Re yz")
+        solves.append(Solve("tangential_x", "xyz", "x", "Re H"))
+        solves.append(Solve("tangential_y", "xyz", "y", "Re H"))
     if "compliance" in wanted:
         applications.extend(["uniform_traction_x", "uniform_traction_y"])
 

@@ -8,6 +8,7 @@ displacement along x and along y gives its two columns (Li 2017 §3.1).
 from __future__ import annotations
 
 import math
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
@@ -67,3 +68,93 @@ def compliance_proxy(mean_displacement: np.ndarray, force: np.ndarray) -> np.nda
     """
     J = np.asarray(mean_displacement, dtype=np.float64) / np.asarray(force, dtype=np.float64)[None, :]
     return np.linalg.inv(J)
+
+
+#: Noise floor of a solved tensor's entries relative to its largest (64 ulp: sums over cells).
+ROUNDING = 64.0 * np.finfo(float).eps
+
+
+def tensor_from_forces(forces: Mapping[str, np.ndarray], quantities: Sequence[str]) -> dict[str, float]:
+    """Stiffness entries K_ij (force i per unit displacement j) from the plan's solves.
+
+    ``forces[name]`` is the resultant force (x, y, z) of solve ``name`` (unit displacement along
+    its load). ``tangential_x/y`` give K_xx … K_yy; ``coupled_x/y/z`` the 3 × 3 tensor (its
+    2 × 2 block as K_ij_coupled when ``tangential`` is asked too, its K_zz as K_zz_bonded when
+    ``normal`` is); ``normal_z`` K_zz. Solves the plan skipped follow from its shortcuts: a
+    missing y solve is the x ↔ y mirror image of the x solve; coupled asked without coupled
+    solves is nu = 0.5 (coupling exactly 0, the tangential block is the tangential tensor);
+    normal asked without a normal solve is nu = 0 (K_zz = K_xx).
+    """
+    out: dict[str, float] = {}
+
+    def mirrored(f: np.ndarray) -> np.ndarray:
+        return np.array([f[1], f[0], f[2]])
+
+    if "tangential_x" in forces:
+        fx = forces["tangential_x"]
+        fy = forces.get("tangential_y", mirrored(fx))
+        out.update({"K_xx": fx[0], "K_yx": fx[1], "K_xy": fy[0], "K_yy": fy[1]})
+    if "coupled_x" in forces:
+        fx, fz = forces["coupled_x"], forces["coupled_z"]
+        fy = forces.get("coupled_y", mirrored(fx))
+        K3 = np.column_stack([fx, fy, fz])
+        for i, a in enumerate("xyz"):
+            for j, b in enumerate("xyz"):
+                key = f"K_{a}{b}"
+                if a != "z" and b != "z" and "tangential" in quantities:
+                    key += "_coupled"
+                elif key == "K_zz" and "normal" in quantities:
+                    key = "K_zz_bonded"
+                out[key] = K3[i, j]
+    if "normal_z" in forces:
+        out["K_zz"] = forces["normal_z"][2]
+    elif "normal" in quantities and "tangential_x" in forces:
+        out["K_zz"] = out["K_xx"]  # nu = 0
+    if "coupled" in quantities and "coupled_x" not in forces:  # nu = 0.5: coupling exactly 0
+        out.update({"K_xz": 0.0, "K_yz": 0.0, "K_zx": 0.0, "K_zy": 0.0})
+        if "tangential" in quantities:
+            out.update({f"{k}_coupled": out[k] for k in ("K_xx", "K_xy", "K_yx", "K_yy")})
+        if "normal" in quantities:
+            out["K_zz_bonded"] = out["K_zz"]
+    return {k: float(v) for k, v in out.items()}
+
+
+def derived_quantities(entries: Mapping[str, float], material: Any, noise: float = 0.0) -> dict[str, float | str | None]:
+    """Quantities that follow from the tensor entries (the one place they are computed).
+
+    From the 2 × 2 block K_xx … K_yy: principal values K_max, K_min and the direction of K_max
+    (``principal_angle_deg``; None — JSON null, NaN in a data set — with ``principal_angle_note`` when K_max − K_min is within the
+    tensor's own accuracy max(``noise``, |K_xy − K_yx|/K, 64 eps) of K_max: such a tensor is
+    isotropic and has no principal direction), ``K_a_over_K_b`` = K_xx/K_yy in the lab frame,
+    ``K_min_over_K_max`` (frame-free), ``asymmetry``; with K_zz and an isotropic material, Li's
+    normalization K E*/(K_zz G*) (Li 2017 eq. 9; not defined for a crystal, whose E* and G*
+    depend on direction). ``noise``: relative accuracy of the entries (CG tolerance, or the
+    estimated error of an extrapolation).
+    """
+    out: dict[str, float | str | None] = {}
+    if "K_xx" not in entries:
+        return out
+    K2 = np.array([[entries["K_xx"], entries["K_xy"]], [entries["K_yx"], entries["K_yy"]]])
+    k_max, k_min, angle = principal_stiffness(K2)
+    skew = asymmetry(K2)
+    if k_max - k_min <= max(noise, skew, ROUNDING) * abs(k_max):
+        angle = None
+        out["principal_angle_note"] = "tensor isotropic within its accuracy: no principal direction"
+    out.update({"K_max": k_max, "K_min": k_min, "principal_angle_deg": angle})
+    out["K_a_over_K_b"] = float(K2[0, 0] / K2[1, 1])
+    out["K_min_over_K_max"] = float(k_min / k_max)
+    out["asymmetry"] = skew
+    if "K_zz" in entries and hasattr(material, "E_star"):
+        out["normalized_xx"] = float(li_normalization(K2[0, 0], entries["K_zz"], material.E_star, material.G_star))
+        out["normalized_yy"] = float(li_normalization(K2[1, 1], entries["K_zz"], material.E_star, material.G_star))
+    return out
+
+
+def stiffness_record(
+    forces: Mapping[str, np.ndarray], quantities: Sequence[str], material: Any, noise: float = 0.0
+) -> dict[str, float | str | None]:
+    """Tensor entries and every quantity derived from them, from the solves' resultant forces
+    (:func:`tensor_from_forces`, then :func:`derived_quantities`): used by ``solve`` and by the
+    coverage-weighted solves of ``accuracy`` alike."""
+    entries = tensor_from_forces(forces, quantities)
+    return {**entries, **derived_quantities(entries, material, noise)}

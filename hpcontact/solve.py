@@ -15,68 +15,13 @@ import numpy as np
 from . import quantities as q
 from .errors import InputError
 from .geometry import Grid, crop_to_support, grid_for, load_mask, mask_grid, rasterize, self_affine_surface
-from .crystal import Crystal
-from .kernels.anisotropic import anisotropic_offset_blocks, kernel_for
-from .kernels.isotropic import isotropic_block, isotropic_surface_green
+from .engine import Engine
 from .materials import Isotropic
-from .operator import COMPONENT_INDEX, ConvolutionOperator, cached_spectrum, padded_shape
-from .plan import Plan, Solve, make_plan
+from .operator import COMPONENT_INDEX
+from .plan import Solve, make_plan
 from .preconditioner import FourierPreconditioner
 from .scene import Scene
 from .solvers import Solution, conjugate_gradient, polonsky_keer
-
-
-class Engine:
-    """Kernel spectra and operators of one (material, grid), built only as the plan asks."""
-
-    def __init__(self, material: Isotropic | Crystal, grid: Grid, kernels: tuple[str, ...], threads: int = 1) -> None:
-        self.material, self.grid, self.threads = material, grid, threads
-        self.kernels = kernels
-        self._operators: dict[str, ConvolutionOperator] = {}
-        self.fft_shape = padded_shape(grid.nx, grid.ny)
-        self._crystal_blocks: dict[str, np.ndarray] | None = None
-
-    def centred_block(self, block: str) -> np.ndarray:
-        """Influence coefficients of ``block`` on the centred offset grid (closed form or crystal)."""
-        g, m = self.grid, self.material
-        if isinstance(m, Isotropic):
-            return isotropic_block(m, g.nx, g.ny, g.dx, g.dy, block)
-        if self._crystal_blocks is None:  # every planned block in one pass (shared work)
-            pairs = [(COMPONENT_INDEX[b[0]], COMPONENT_INDEX[b[1]]) for b in self.kernels]
-            blocks = anisotropic_offset_blocks(m, g.nx, g.ny, g.dx, g.dy, pairs, threads=self.threads)
-            self._crystal_blocks = {b: blocks[p] for b, p in zip(self.kernels, pairs)}
-        return self._crystal_blocks[block]
-
-    def surface_green(self, phi: np.ndarray) -> np.ndarray:
-        """H(m) of the material at in-plane directions φ (for the preconditioner)."""
-        if isinstance(self.material, Isotropic):
-            return isotropic_surface_green(self.material, phi)
-        return kernel_for(self.material).fourier(phi)
-
-    def spectrum(self, block: str) -> np.ndarray:
-        """Spectrum of ``block``; at nu = 0 the yy block is the xx block (one kernel)."""
-        if block not in self.kernels and block == "yy" and "xx" in self.kernels:
-            block = "xx"
-        if block not in self.kernels:
-            raise KeyError(block)
-        g, m = self.grid, self.material
-        key = (m.key, g.nx, g.ny, g.dx, g.dy, block)
-        return cached_spectrum(key, lambda: self.centred_block(block), self.fft_shape)
-
-    def operator(self, components: str) -> ConvolutionOperator:
-        """The convolution operator on ``components`` with every planned block among them."""
-        if components not in self._operators:
-            spectra = {}
-            for a in components:
-                for b in components:
-                    try:
-                        spectra[a + b] = self.spectrum(a + b)
-                    except KeyError:
-                        continue
-            self._operators[components] = ConvolutionOperator(
-                self.grid.nx, self.grid.ny, components, spectra, threads=self.threads
-            )
-        return self._operators[components]
 
 
 def discretize(scene: Scene) -> tuple[Grid, np.ndarray]:
@@ -113,20 +58,18 @@ def rough_patch(scene: Scene, grid: Grid) -> np.ndarray:
     return p > 0.0
 
 
-def _preconditioner(scene: Scene, engine: Engine, components: str):
+def _preconditioner(scene: Scene, engine: Engine, solve: Solve):
     if not scene.precondition:
         return None
-    return FourierPreconditioner(engine.grid, engine.surface_green, components).apply
+    return FourierPreconditioner(engine.grid, engine.green_function(solve.green), solve.components).apply
 
 
 def _run_solve(scene: Scene, engine: Engine, mask: np.ndarray, solve: Solve) -> tuple[np.ndarray, Solution]:
     """A bonded (or frictionless, for z alone) punch displaced by 1 along ``solve.load``."""
-    op = engine.operator(solve.components)
+    op = engine.operator(solve.components, solve.green)
     rhs = np.zeros((len(solve.components),) + mask.shape)
     rhs[solve.components.index(solve.load)] = 1.0
-    solution = conjugate_gradient(
-        op.apply, rhs, mask, tol=scene.tol, precondition=_preconditioner(scene, engine, solve.components)
-    )
+    solution = conjugate_gradient(op.apply, rhs, mask, tol=scene.tol, precondition=_preconditioner(scene, engine, solve))
     force = np.zeros(3)
     resultants = q.resultant(solution.traction, engine.grid.cell_area)
     for c, value in zip(solve.components, resultants):
@@ -155,7 +98,7 @@ def solve(params: Mapping[str, Any]) -> dict[str, Any]:
             forces[s.name] = force
             iterations += solution.iterations
             residual = max(residual, solution.residual)
-        record.update(_stiffness(scene, plan, forces))
+        record.update(q.stiffness_record(forces, scene.quantities, scene.material, noise=scene.tol))
         if "compliance" in scene.quantities:
             record.update(_compliance_proxy(engine, mask))
     else:
@@ -177,50 +120,10 @@ def solve(params: Mapping[str, Any]) -> dict[str, Any]:
     return record
 
 
-def _stiffness(scene: Scene, plan: Plan, forces: dict[str, np.ndarray]) -> dict:
-    """Tensors from the solves' resultant forces (force = K · unit displacement)."""
-    out: dict[str, float] = {}
-    material = scene.material
-    K2 = None
-    if "tangential_x" in forces:
-        fx = forces["tangential_x"]
-        fy = forces.get("tangential_y")
-        if fy is None:  # mirror image of the x solve under x <-> y
-            fy = np.array([fx[1], fx[0], 0.0])
-        K2 = np.array([[fx[0], fy[0]], [fx[1], fy[1]]])
-    if "coupled_x" in forces:
-        fx, fz = forces["coupled_x"], forces["coupled_z"]
-        fy = forces.get("coupled_y")
-        if fy is None:
-            fy = np.array([fx[1], fx[0], fx[2]])
-        K3 = np.column_stack([fx, fy, fz])
-        for i, a in enumerate("xyz"):
-            for j, b in enumerate("xyz"):
-                out[f"K_{a}{b}"] = float(K3[i, j])
-        if "normal" in scene.quantities:
-            out["K_zz_bonded"] = out.pop("K_zz")
-        K2 = K3[:2, :2]
-    elif "coupled" in scene.quantities:  # nu = 0.5: the plan reduced it, coupling is exactly 0
-        out.update({"K_xz": 0.0, "K_yz": 0.0, "K_zx": 0.0, "K_zy": 0.0})
-    if K2 is not None:
-        out.update({"K_xx": float(K2[0, 0]), "K_xy": float(K2[0, 1]), "K_yx": float(K2[1, 0]), "K_yy": float(K2[1, 1])})
-        k_max, k_min, angle = q.principal_stiffness(K2)
-        out.update({"K_max": k_max, "K_min": k_min, "principal_angle_deg": angle})
-        out["K_a_over_K_b"] = float(K2[0, 0] / K2[1, 1])
-        out["asymmetry"] = q.asymmetry(K2)
-    if "normal_z" in forces:
-        out["K_zz"] = float(forces["normal_z"][2])
-    elif "normal" in scene.quantities and K2 is not None and isinstance(material, Isotropic) and material.nu == 0.0:
-        out["K_zz"] = float(K2[0, 0])
-    if "K_zz" in out and K2 is not None and isinstance(material, Isotropic):
-        out["normalized_xx"] = float(q.li_normalization(K2[0, 0], out["K_zz"], material.E_star, material.G_star))
-        out["normalized_yy"] = float(q.li_normalization(K2[1, 1], out["K_zz"], material.E_star, material.G_star))
-    return out
-
-
 def _compliance_proxy(engine: Engine, mask: np.ndarray) -> dict[str, float]:
     """Li 2017 §3.2: uniform unit traction along x and y on the contact, mean displacements."""
-    op = engine.operator("xy" if "xy" in engine.kernels else "x")
+    isotropic = isinstance(engine.material, Isotropic)  # Re H = H on its tangential blocks
+    op = engine.operator("xy" if {"xy", "Re xy"} & set(engine.kernels) else "x", "H" if isotropic else "Re H")
     area = mask.sum() * engine.grid.cell_area
     mean = np.zeros((2, 2))
     for j in range(2):

@@ -121,7 +121,7 @@ def test_crystal_path_reproduces_closed_form_at_isotropy() -> None:
     """
     base = {"shape": "ellipse", "aspect": 0.5, "nu": 0.3, "n": 48, "tol": 1e-12}
     closed = solve({**base, "quantities": "coupled"})
-    crystal = solve({**base, "quantities": "tangential", "anisotropy": 1.0 + 1e-12, "miller": "1 1 0"})
+    crystal = solve({**base, "quantities": "coupled", "anisotropy": 1.0 + 1e-12, "miller": "1 1 0"})
     assert crystal["plan"]["kernel_source"].startswith("anisotropic")
     assert closed["plan"]["kernel_source"].startswith("isotropic")
     scale = closed["K_zz"]
