@@ -5,27 +5,25 @@ t = (t_x, t_y, p) (p > 0 presses into it); body 2 fills z < 0 and carries −t. 
 conditions see the relative surface displacement u = u_1 − u_2 (u_z positive into body 1, so
 the gap closes by u_z).
 
-Body 2 in its own frame. Body 2's material is given in the frame x′ = x, y′ = −y, z′ = −z
-(z′ into body 2): the lab turned by 180° about x, M = diag(1, −1, −1) = M⁻¹ = Mᵀ, proper.
-In that frame it is an ordinary half-space z′ > 0 with Green's function G₂′ (the kernels of
-``hpcontact.kernels``). The traction it carries, −t, reads f′ = −M t there, so at lab point
-x its displacement is u_2 = M G₂′(M(x − ξ)) (−M t) and
+Body 2, the same lattice in the lab. Body 2's stiffness C_2 is given in the lab frame, like
+body 1's (identical fields: one crystal cut along the interface). Reflected through the surface,
+P = diag(1, 1, −1), body 2 becomes an upper half-space with stiffness P C_2 P carrying
+f′ = P(−t) (its pressure presses into it), and −u_2(x) = P G_{P C_2 P}(x − ξ) P t. The
+reflected Green's function is the conjugate, P H_{P C P}(m) P = conj H_C(m) = H_C(−m)
+(``tests/test_conventions.py``), so
 
-    u_1 − u_2 = [G_1(r) + M G₂′(M r) M] * t,    r = x − ξ,   M r = (r_x, −r_y),
+    u_1 − u_2 = [G_1(r) + G_2(−r)] * t,        H_pair(φ) = H_1(φ) + H_2(φ + π),
 
-    H_pair(φ) = H_1(φ) + M H₂′(−φ) M          (Fourier: û = H(m) t̂/k, M m ↔ φ → −φ).
+with G_2, H_2 the kernels body 2 would have as an upper half-space. For two isotropic bodies this
+is A_1 + A_2 for xx xy yy zz and A_1 − A_2 for the odd coupling blocks (``bodies``); two
+identical crystals give 2 Re H, the per-body ``Re H`` of ``hpcontact.engine``. On the grid,
+G_2(−r) is the centred coefficient array of body 2 reversed along both offset axes (cells are
+centrally symmetric).
 
-So the pair's tangential and normal blocks add body 2's with y mirrored and the signs
-M_ii M_jj: xy and yx change sign under the mirror and change back by M_xx M_yy = −1, and
-the coupling blocks xz, yz, zx, zy take an extra −1: for two isotropic bodies this is exactly
-A_1 + A_2 for xx xy yy zz and A_1 − A_2 for the coupling (``bodies``), the terms that cancel for
-elastically similar pairs. A crystal body enters through the Barnett–Lothe surface Green's
-function and its cell coefficients (``kernels.anisotropic``); on a grid the mirror is the flip
-of the offset axis q → −q of the centred coefficient arrays (cells are symmetric in y).
-
-Coupling. The coupling blocks vanish when body 2 mirrors body 1's coupling — two isotropic
-bodies with (1 − 2nu)/G equal, or two identical bodies with a symmetry plane y = 0 (e.g. the
-orthotropic pair of Rodríguez-Tembleque et al. 2011, §6.2, axes on the lab axes). Its size is
+Coupling. The coupling blocks vanish when body 2's cancel body 1's — two isotropic bodies with
+(1 − 2nu)/G equal, or two identical bodies whose H_xz, H_yz are imaginary (a mirror plane
+z = 0 of the lattice, e.g. the orthotropic pair of Rodríguez-Tembleque et al. 2011, §6.2, with
+its axes on the lab axes). Its size is
 
     coupling_size = max_φ |(H_xz, H_yz)(φ)| / max_φ H_zz(φ),
 
@@ -53,8 +51,6 @@ from .operator import COMPONENT_INDEX
 from .solve import Engine
 
 Material = Isotropic | Crystal
-#: Body 2's frame: the lab turned by 180° about x.
-MIRROR = np.array([1.0, -1.0, -1.0])
 #: In-plane directions sampled for the coupling size (H is a trigonometric series of low degree
 #: for the materials met; 256 directions resolve its maximum to < 1e-4 relative).
 N_DIRECTIONS = 256
@@ -76,7 +72,7 @@ def shear_modulus(material: Material) -> float:
 
 
 def surface_green(material: Material, phi: np.ndarray) -> np.ndarray:
-    """H(m(φ)) of one body in its own frame, shape (len(φ), 3, 3)."""
+    """H(m(φ)) of one body as an upper half-space (lab-frame stiffness), shape (len(φ), 3, 3)."""
     if isinstance(material, Isotropic):
         return isotropic_surface_green(material, phi)
     return kernel_for(material).fourier(phi)
@@ -95,29 +91,25 @@ class PairCompliance:
         return ("pair",) + tuple("rigid" if m is None else m.key for m in (self.body1, self.body2))
 
     def fourier(self, phi: np.ndarray) -> np.ndarray:
-        """H_pair(φ) = H_1(φ) + M H₂′(−φ) M (complex, shape (len(φ), 3, 3))."""
+        """H_pair(φ) = H_1(φ) + H_2(φ + π) (complex, shape (len(φ), 3, 3))."""
         phi = np.asarray(phi, dtype=np.float64)
         H = np.zeros(phi.shape + (3, 3), dtype=np.complex128)
         if self.body1 is not None:
             H += surface_green(self.body1, phi)
         if self.body2 is not None:
-            H += surface_green(self.body2, -phi) * np.multiply.outer(MIRROR, MIRROR)
+            H += surface_green(self.body2, phi + np.pi)
         return H
 
     def blocks(self, nx: int, ny: int, dx: float, dy: float, names: tuple[str, ...],
                threads: int = 1) -> dict[str, np.ndarray]:
         """Centred cell coefficients (2nx − 1, 2ny − 1) of the blocks ``names`` (e.g. "xz")."""
         out = {name: np.zeros((2 * nx - 1, 2 * ny - 1)) for name in names}
-        for material, mirrored in ((self.body1, False), (self.body2, True)):
+        for material, reversed_ in ((self.body1, False), (self.body2, True)):
             if material is None:
                 continue
             own = _own_blocks(material, nx, ny, dx, dy, names, threads)
             for name in names:
-                if mirrored:
-                    i, j = COMPONENT_INDEX[name[0]], COMPONENT_INDEX[name[1]]
-                    out[name] += MIRROR[i] * MIRROR[j] * own[name][:, ::-1]
-                else:
-                    out[name] += own[name]
+                out[name] += own[name][::-1, ::-1] if reversed_ else own[name]
         return out
 
     def coupling_size(self) -> float:
@@ -138,8 +130,8 @@ def _own_blocks(material: Material, nx: int, ny: int, dx: float, dy: float, name
 
 @dataclass(frozen=True)
 class AnisotropicPair(Pair):
-    """A ``bodies.Pair`` at least one of whose bodies is a crystal (``Crystal``, lab frame; body 2's
-    in its own frame, see the module text). Geometry (curvatures, Hertz ellipse) as ``Pair``."""
+    """A ``bodies.Pair`` at least one of whose bodies is a crystal (``Crystal``, both in the lab
+    frame, see the module text). Geometry (curvatures, Hertz ellipse) as ``Pair``."""
 
     @property
     def compliance(self) -> PairCompliance:
@@ -190,5 +182,7 @@ class PairEngine(Engine):
             self._blocks = self.material.blocks(g.nx, g.ny, g.dx, g.dy, self.kernels, self.threads)
         return self._blocks[block]
 
-    def surface_green(self, phi: np.ndarray) -> np.ndarray:
-        return self.material.fourier(phi)
+    def surface_green(self, phi: np.ndarray, green: str = "H") -> np.ndarray:
+        """H_pair(φ) (``green`` "H"; "Re H" its real part, as ``engine.Engine``)."""
+        H = self.material.fourier(phi)
+        return H if green == "H" else H.real.astype(np.complex128)

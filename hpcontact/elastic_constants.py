@@ -31,9 +31,9 @@ orthotropic or general body defaults to its material axes on the lab axes (1 →
 3 → z, the normal into the body), turned by ``azimuth`` degrees about z. Orientation fields of
 an isotropic body are ignored (as in punch scenes).
 
-Body 2 of a pair is described in its own frame: z′ into body 2 (= −z of the lab), x′ = x,
-y′ = −y — the lab turned by 180° about x (``hpcontact.anisotropic_pair``). The same fields
-therefore give body 2 the same crystal direction into itself as body 1.
+Both bodies of a pair are described in the lab frame (``hpcontact.anisotropic_pair``): the same
+fields give body 2 the same lattice orientation as body 1 (one crystal cut along the interface;
+body 2's surface normal into itself is then −[hkl], elastically the same direction).
 """
 
 from __future__ import annotations

@@ -223,7 +223,7 @@ def _pair_lines(problem: SlipProblem, coupling: str) -> list[str]:
             f"similar={pair.similar}",
             f"coupling_size={pair.coupling_size:.6g}",
             f"coupling={coupling}",
-            f"bodies={bodies[0]} | {bodies[1]} (body 2 in its own frame, turned 180 deg about x)",
+            f"bodies={bodies[0]} | {bodies[1]} (lab frame; interface H = H1(phi) + H2(phi + pi))",
             f"G_ref={problem.G_ref:.6g}",
             f"E_star_estimate={pair.E_star:.6g} (indentation moduli; grid sizing only)",
         ]

@@ -158,7 +158,7 @@ def validate(params: Mapping[str, Any]) -> SlipScene:
 def slip_pair(p: Mapping[str, Any]) -> Pair:
     """The scene's pair: ``bodies.pair_from_params``, with a crystal in place of a body whose fields
     describe one (``elastic_constants.anisotropic_material``: "crystal:NAME", ``anisotropy`` ≠ 1
-    with nu and G or E, ``cubic``, ``orthotropic``, ``voigt``; GPa; body 2 in its own frame)."""
+    with nu and G or E, ``cubic``, ``orthotropic``, ``voigt``; GPa; both in the lab frame)."""
     crystals = [anisotropic_material(p, suffix, GPA, library=False) for suffix in ("", "2")]
     if crystals == [None, None]:
         return pair_from_params(p)

@@ -1,13 +1,15 @@
 """Partial slip of pairs with anisotropic bodies (hpcontact.anisotropic_pair, hpcontact.slip).
 
-Checks of the interface compliance H_pair = H_1 + M H₂′(−φ) M (body 2 in its own frame, the lab
-turned 180° about x) and of the solver on it, against independent paths:
+Checks of the interface compliance H_pair(φ) = H_1(φ) + H_2(φ + π) (both stiffnesses in the lab
+frame; body 2 is its own lattice reflected through the surface) and of the solver on it,
+against independent paths:
 
 * two isotropic bodies given as general 6 × 6 matrices (Barnett–Lothe kernels, mirrored body 2)
   against today's isotropic pair (closed-form kernels of one equivalent body, coupling blocks of
   body 1 minus body 2): identical and dissimilar pairs;
 * a cubic crystal at A = 1 ± 1e-9 against the isotropic body (issue 11: 1e-6);
-* swapping the bodies (the scene turned upside down) leaves the record along x unchanged;
+* identical crystals give 2 Re H (the per-body ``Re H`` of ``hpcontact.engine``);
+* swapping the bodies (the scene turned upside down) leaves the record along the load unchanged;
 * Q → 0: the no-slip tensor of a crystal on a rigid flat equals the bonded tensor of the punch
   path (``solve.Engine`` on the crystal alone, CG on the same contact cells).
 
@@ -21,7 +23,8 @@ import numpy as np
 import pytest
 
 from hpcontact.anisotropic_pair import PairCompliance
-from hpcontact.crystal import cubic_from_nu_A, isotropic
+from hpcontact.crystal import cubic_from_nu_A, isotropic, rotate_voigt
+from hpcontact.kernels.anisotropic import surface_green_fourier
 from hpcontact.kernels.isotropic import isotropic_surface_green
 from hpcontact.materials import Isotropic
 from hpcontact.slip import PathSolver, SlipProblem, solve_slip, validate
@@ -31,6 +34,8 @@ from hpcontact.solvers import conjugate_gradient
 pytestmark = pytest.mark.filterwarnings("error")
 
 BASE = {"radius": 8e-3, "radius2": 9e-3, "load": 100.0, "mu": 0.3, "q_ratio": 0.6, "n": 24, "steps": 3}
+#: The orthotropic body of Rodríguez-Tembleque et al. 2011, §6.1 (Batra & Jiang 2008), GPa.
+ORTHO = "E1=25 E2=1 E3=1 G12=0.5 G13=0.5 G23=0.2 nu12=0.25 nu13=0.25 nu23=0.25"
 KEYS = ("tangential_force", "tangential_displacement", "tangential_stiffness", "stick_area", "contact_area")
 
 
@@ -88,20 +93,36 @@ def test_crystal_at_unit_anisotropy_reproduces_the_isotropic_body(A: float) -> N
     assert _relative(iso, crystal, keys) < 1.5e-9  # measured 4e-10
 
 
+def test_identical_crystals_see_twice_the_real_part() -> None:
+    """Two bodies of one lattice (same lab-frame stiffness): H_pair = H + conj H = 2 Re H, the
+    convention of issue 14 (``tests/test_conventions.py``); a tilted crystal keeps a real
+    coupling (not similar), the orthotropic pair of the paper with axes on the lab axes has none."""
+    tilted = cubic_from_nu_A(0.3, 3.0).oriented(psi_deg=20.0, azimuth_deg=10.0)
+    phi = np.linspace(0.0, 2.0 * np.pi, 19)
+    H = PairCompliance(tilted, tilted).fourier(phi)
+    # round-off of the Barnett-Lothe sums: measured 1.8e-16 relative
+    assert np.max(np.abs(H - 2.0 * surface_green_fourier(tilted.voigt, phi).real)) < 6e-16 * np.max(np.abs(H))
+    assert PairCompliance(tilted, tilted).coupling_size() > 0.05
+    ortho = {"orthotropic": ORTHO, "orthotropic2": ORTHO}
+    assert validate({**BASE, **ortho}).pair.coupling_size < 1e-15  # measured 0 (exact cancellation)
+
+
 def test_swapping_the_bodies_leaves_the_record_unchanged() -> None:
-    """The scene turned upside down (180° about x): body 2's own-frame fields become body 1's, and
-    a load along +x on the crystal is a load along −x (angle 180°) on the partner. k_t, δ along
-    the load and the areas must not change; a low-symmetry crystal (A = 3, ψ = 20°, azimuth 10°)
-    against Fe, coupled (Panagiotopoulos) and decoupled. Measured 4e-13 (CG tolerance 1e-10 of
-    the steps; the grid is its own mirror image). The same load along +x on Fe instead differs
-    by 1.8e-4 in the coupled δ: with coupling, loading along +Q and −Q is not symmetric for this
-    crystal (no 2-fold axis along the normal), which is why the angle matters here."""
-    crystal = {"anisotropy": 3.0, "G": 40e9, "nu": 0.3, "orientation": 20.0, "azimuth": 10.0}
+    """The scene turned upside down (180° about x, M = diag(1, −1, −1)): body 1 becomes body 2 with
+    lab stiffness M C M, and a load along +x on the crystal is a load along −x (angle 180°) on the
+    partner. k_t, δ along the load and the areas must not change; a low-symmetry crystal (A = 3,
+    ψ = 20°, azimuth 10°) against Fe, coupled (Panagiotopoulos) and decoupled. Measured 4e-13 (CG
+    tolerance 1e-10 of the steps; the grid is its own mirror image). The load along +x on Fe
+    instead differs by 2e-4 in the coupled δ: with coupling, loading along +Q and −Q is not
+    symmetric for this crystal (no 2-fold axis along the normal), so the angle matters here."""
+    crystal = cubic_from_nu_A(0.3, 3.0, scale=40.0).oriented(psi_deg=20.0, azimuth_deg=10.0)  # GPa
+    turned = rotate_voigt(crystal.voigt, np.diag([1.0, -1.0, -1.0]))
+    text = lambda C: " ".join(repr(float(x)) for x in C.ravel())  # noqa: E731
     base = {**BASE, "tol": 1e-10, "radius2": 8e-3}
-    one = solve_slip({**base, **crystal, "material2": "Fe"})
-    two = solve_slip({**base, **{f"{k}2": v for k, v in crystal.items()}, "material": "Fe", "angle": 180.0})
+    one = solve_slip({**base, "voigt": text(crystal.voigt), "material2": "Fe"})
+    two = solve_slip({**base, "voigt2": text(turned), "material": "Fe", "angle": 180.0})
     keys = KEYS + tuple(f"decoupled_{k}" for k in KEYS) + ("coupling_size",)
-    assert one["coupling_size"] > 0.05  # a coupled pair: the mirror signs matter
+    assert one["coupling_size"] > 0.05  # a coupled pair: the signs of the coupling matter
     assert _relative(one, two, keys) < 2e-12  # measured 4e-13
 
 
