@@ -15,7 +15,7 @@ along [110] (0°) -> [111] (35.26°) -> [001] (90°), DESIGN §2.5):
   BEM-Willis differences are printed. The normalized load is computed here, not stored.
 * a tangential sweep (``K_min``, ``K_max``; jobs/crystal_tangential.toml) gives
   ``orientation_tangential_map.png``: filled map of K_min/K_max (principal values of the 2 x 2
-  tangential block of the bonded punch's stiffness) over ψ × A, one panel per contact b/a, and
+  tangential stiffness, README convention table: Re H for a crystal) over ψ × A, one panel per contact b/a, and
   ``orientation_tangential_curves.png``: the same ratio versus ψ, one colour per A.
 """
 
