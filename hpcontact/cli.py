@@ -139,9 +139,9 @@ def _cmd_solve(args: argparse.Namespace) -> int:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from .sweep.driver import run_command
+    from .sweep.driver import run_from_arguments
 
-    return run_command(args.spec, args.resume, args.output)
+    return run_from_arguments(args)
 
 
 def _cmd_info(args: argparse.Namespace) -> int:
@@ -170,10 +170,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--version", action="version", version=f"hpcontact {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     _solve_parser(sub)
-    run = sub.add_parser("run", help="run a sweep spec (under mpiexec or alone)")
-    run.add_argument("spec", help="sweep spec (TOML)")
-    run.add_argument("--resume", action="store_true", help="skip tasks that any journal already holds")
-    run.add_argument("--output", help="data set path (overrides the spec)")
+    from .sweep.arguments import add_run_arguments
+
+    add_run_arguments(sub.add_parser("run", help="run a sweep spec (under mpiexec or alone)"))
     sub.add_parser("info", help="versions, MPI library, FFTW wisdom location")
     args = parser.parse_args(argv)
     command = {"solve": _cmd_solve, "run": _cmd_run, "info": _cmd_info}[args.command]

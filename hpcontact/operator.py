@@ -15,9 +15,9 @@ Units: t in stress, u in length (the blocks carry length/stress).
 from __future__ import annotations
 
 import os
-import pickle
 import threading
 import time
+import warnings
 from collections import OrderedDict
 from pathlib import Path
 from typing import Callable, Mapping
@@ -87,31 +87,48 @@ def clear_cache() -> None:
         _SPECTRUM_CACHE.clear()
 
 
+WISDOM_MAX_BYTES = 64 * 2**20  # a wisdom file is a few kB to a few MB of text
+
+
 def wisdom_path() -> Path:
-    """Where FFTW wisdom is kept: $HPCONTACT_WISDOM, else ~/.cache/hpcontact/fftw_wisdom.pkl."""
+    """Where FFTW wisdom is kept: $HPCONTACT_WISDOM, else ~/.cache/hpcontact/fftw_wisdom (the
+    double-precision wisdom text exactly as FFTW exports it; no pickle, so a file shared between
+    jobs can at worst hold useless plans, never code)."""
     env = os.environ.get("HPCONTACT_WISDOM")
-    return Path(env) if env else Path.home() / ".cache" / "hpcontact" / "fftw_wisdom.pkl"
+    return Path(env) if env else Path.home() / ".cache" / "hpcontact" / "fftw_wisdom"
 
 
 def load_wisdom() -> bool:
-    """Import saved FFTW wisdom (plans then build in milliseconds); False if none or unreadable."""
+    """Import saved FFTW wisdom (plans then build in milliseconds); False if there is none. A
+    file that cannot be read or that FFTW does not accept (another format, another FFTW, a
+    truncated file) is ignored with a warning."""
     path = wisdom_path()
     try:
         with open(path, "rb") as fh:
-            pyfftw.import_wisdom(pickle.load(fh))
-        return True
-    except (OSError, EOFError, pickle.UnpicklingError, ValueError, TypeError):
+            data = fh.read(WISDOM_MAX_BYTES + 1)
+    except FileNotFoundError:
         return False
+    except OSError as exc:
+        warnings.warn(f"FFTW wisdom {path} ignored: {exc.strerror or exc}", RuntimeWarning, stacklevel=2)
+        return False
+    if len(data) > WISDOM_MAX_BYTES or not data.startswith(b"(fftw-") or not pyfftw.import_wisdom((data, b"", b""))[0]:
+        warnings.warn(f"FFTW wisdom {path} ignored: not double-precision wisdom this FFTW accepts", RuntimeWarning,
+                      stacklevel=2)
+        return False
+    return True
 
 
 def save_wisdom() -> None:
-    """Export FFTW wisdom atomically (temporary file, then rename)."""
+    """Export the double-precision FFTW wisdom as FFTW writes it, atomically (temporary file,
+    then rename)."""
     path = wisdom_path()
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
-    with open(tmp, "wb") as fh:
-        pickle.dump(pyfftw.export_wisdom(), fh)
-    os.replace(tmp, path)
+    try:
+        tmp.write_bytes(pyfftw.export_wisdom()[0])
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
 
 
 class ConvolutionOperator:

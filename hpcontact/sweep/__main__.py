@@ -1,4 +1,4 @@
-"""``python -m hpcontact.sweep SPEC [--resume] [--output PATH]``: the sweep without the full CLI."""
+"""``python -m hpcontact.sweep SPEC [options]``: ``hpcontact run`` without the full CLI."""
 
 import sys
 

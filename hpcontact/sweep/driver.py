@@ -1,16 +1,26 @@
 """The sweep driver: spec → tasks → ranks → journals → data set (``hpcontact run``).
 
 ``run_sweep`` is collective: every rank of the team calls it. Rank 0 reads and checks the spec
-(every distinct scene is validated before any rank starts work), enumerates the tasks and
-reads the journals of earlier runs (``resume``) or clears them (fresh run); the ranks then take
-chunks of tasks from a shared counter (``schedule``) and journal each finished task; finally
-rank 0 assembles the data set from all journals and writes it atomically. A task that raises is
-journaled with its status and message and the sweep goes on. The spec's scene kind (``kinds``:
-contact, or slip for ``quantities = "slip"``) picks the task function and the scene validator.
+(every distinct scene is validated before any rank starts work), refuses an unusable output
+(``guard``), takes the output's lock, reads the journals of earlier runs and decides what to
+run: a task whose last outcome is ok or bad input (deterministic) is reused, one that failed
+(error, non-convergence) is run again, one started in ``journal.CRASH_RUNS`` runs that died
+while running it is quarantined (status crashed; ``retry_crashed`` runs it again), and one
+started in a single such run (a suspect) is run by rank 0 alone before it joins the shared
+chunks, so that a second death names the culprit and not the tasks that happened to run beside
+it. Existing journals need ``resume`` (continue) or ``restart`` (discard them); entries computed
+by another package version, git revision or numerics fingerprint are refused unless
+``accept_stale`` (``provenance``). The ranks then take chunks of tasks from a shared counter
+(``schedule``), journal each task as started before it runs and its outcome after (``journal``;
+synced once a chunk), and stop together on a signal (``signals``); finally rank 0 assembles the
+data set from all journals (the last outcome of each task, and the provenance of every code that
+contributed) and writes it atomically. A task that raises is journaled with its status and
+message and the sweep goes on. The spec's scene kind (``kinds``) picks the task function and the
+scene validator. ``HPCONTACT_FAULTS`` injects faults for tests (``faults``).
 
-``run_command(spec, resume, output)`` is ``hpcontact run SPEC [--resume] [--output PATH]`` (exit
-status, errors reported once, MPI abort on an unexpected error); ``main(argv)`` parses those
-arguments (``python -m hpcontact.sweep``). Both run on every rank under ``mpiexec``.
+``run_command`` is ``hpcontact run`` (exit status, see ``EXIT_STATUS``; errors reported once;
+MPI abort on an unexpected error); ``dry_run`` is ``hpcontact run SPEC --dry-run``; ``main(argv)``
+parses the arguments (``python -m hpcontact.sweep``). All run on every rank under ``mpiexec``.
 """
 
 from __future__ import annotations
@@ -20,44 +30,95 @@ import datetime
 import json
 import math
 import os
-import subprocess
 import sys
 import time
 import traceback
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Callable, Mapping, Sequence, TextIO
 
-from .. import __version__
 from ..errors import ConvergenceError, InputError
 from ..operator import load_wisdom, save_wisdom
-from . import kinds
+from . import faults, kinds, provenance
+from .arguments import EXIT_FAILED_TASKS, EXIT_OK, EXIT_REFUSED, EXIT_STOPPED, EXIT_UNEXPECTED, add_run_arguments
 from .dataset import NOT_COMPUTED, build_dataset, write_netcdf
+from .guard import Refused, RunLock, usable_folder
 from .journal import (
     BAD_INPUT,
     ERROR,
     NOT_CONVERGED,
     OK,
+    RETRIED,
     Entry,
+    History,
     Journal,
     clear_journals,
-    read_journals,
+    read_history,
     session_name,
     to_json,
 )
 from .progress import Progress, Summary
-from .schedule import SLOTS, Team, claimed_chunks, report_done, totals_done, world
+from .schedule import SLOTS, LaunchError, Team, claimed_chunks, report_done, totals_done, world
+from .signals import DEFAULT_GRACE_S, STOP_NAME, Abandoned, StopControl
 from .spec import Spec, Validator, load_spec
 from .tasks import Task, enumerate_tasks, make_chunks
 
 TaskFunction = Callable[[Mapping[str, Any]], Mapping[str, Any]]
 SHOWN_FAILURES = 5
 
+class Stopped(Exception):
+    """The run stopped before its end on every rank (a signal, or a rank that could not write
+    its journal): ``status`` 4 or 1; journals intact."""
 
-def run_task(function: TaskFunction, task: Task, rank: int) -> Entry:
-    """Call ``function`` on the task's parameters; any exception becomes a failed entry."""
+    def __init__(self, message: str, status: int) -> None:
+        super().__init__(message)
+        self.status = status
+
+
+@dataclass(frozen=True)
+class Options:
+    """How a run treats existing journals and locks (``hpcontact run`` flags)."""
+
+    resume: bool = False
+    restart: bool = False
+    accept_stale: bool = False
+    retry_crashed: bool = False
+    break_lock: bool = False
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What a finished run produced: the data set and its failed tasks (crashed included)."""
+
+    path: Path
+    failures: int
+
+
+@dataclass(frozen=True)
+class Plan:
+    """Rank 0's decisions, shared with every rank."""
+
+    spec: Spec
+    tasks: list[Task]
+    isolated: list[Task]  # suspects, run by rank 0 alone
+    shared: list[Task]  # the rest of the work, in chunks for every rank
+    reused: int
+    crashed: int
+    session: str
+    provenance: dict[str, Any]
+    faults: dict[int, str]
+
+
+def run_task(function: TaskFunction, task: Task, rank: int, stop: StopControl | None = None,
+             fault: str | None = None) -> Entry:
+    """Call ``function`` on the task's parameters; any exception becomes a failed entry.
+    ``Abandoned`` (a stop request's grace is over) and other BaseExceptions propagate."""
     started = time.perf_counter()
     status, message, record = OK, "", {}
     try:
+        if stop is not None:
+            stop.running = True
+        faults.before_task(fault)
         result = function(dict(task.params))
         if not isinstance(result, Mapping):
             raise TypeError(f"the task function returned {type(result).__name__}, not a mapping")
@@ -68,6 +129,9 @@ def run_task(function: TaskFunction, task: Task, rank: int) -> Entry:
         status, message = NOT_CONVERGED, f"ConvergenceError: {exc}"
     except Exception as exc:  # noqa: BLE001 - any failure of one scene is recorded, the sweep goes on
         status, message = ERROR, f"{type(exc).__name__}: {exc}"
+    finally:
+        if stop is not None:
+            stop.running = False
     return Entry(
         key=task.key,
         params=task.params,
@@ -80,33 +144,56 @@ def run_task(function: TaskFunction, task: Task, rank: int) -> Entry:
     )
 
 
-def git_revision() -> str | None:
-    """The commit of the source checkout hpcontact runs from, if it is one."""
-    root = Path(__file__).resolve().parents[2]
-    if not (root / ".git").exists():
-        return None
-    try:
-        done = subprocess.run(
-            ["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True, text=True, timeout=10, check=True
-        )
-    except (OSError, subprocess.SubprocessError):
-        return None
-    return done.stdout.strip() or None
+def _decide(spec: Spec, tasks: list[Task], history: History, options: Options, now: Mapping[str, Any]
+            ) -> tuple[list[Task], list[Task], int, set[str]]:
+    """Suspects to isolate, the rest to share, tasks reused, and the quarantined keys."""
+    keys = {t.key for t in tasks}
+    reused = []
+    for task in tasks:
+        entry = history.entries.get(task.key)
+        if entry is not None and entry.status not in RETRIED and entry.resolved == provenance.resolved_scene(task.params):
+            reused.append(entry)
+    if not options.accept_stale:
+        mismatch = provenance.first_mismatch(reused, now)
+        if mismatch is not None:
+            raise Refused(f"stale journals in {spec.journal}: {mismatch}; pass --accept-stale to reuse such "
+                          f"results or --restart to discard them")
+    done = {e.key for e in reused}
+    suspects = {k: s for k, s in history.suspects().items() if k in keys and k not in done}
+    crashed = set() if options.retry_crashed else {k for k in history.crashed() if k in suspects}
+    todo = [t for t in tasks if t.key not in done and t.key not in crashed]
+    isolated = [t for t in todo if t.key in suspects]
+    shared = [t for t in todo if t.key not in suspects]
+    return isolated, shared, len(done), crashed
 
 
-def _setup(
-    spec_path: str | Path, resume: bool, output: str | Path | None, validate: Validator | None
-) -> tuple[Spec, list[Task], dict[tuple[int, ...], str], set[str], str]:
-    """Rank 0's preparation: checked spec, tasks, point → task map, keys already journaled, session."""
+def _prepare(spec_path: str | Path, options: Options, output: str | Path | None, validate: Validator | None,
+             ranks: int, keep: dict[str, Any]) -> Plan:
+    """Rank 0's preparation (see the module docstring); ``keep`` receives what stays on rank 0
+    (the point → task map, the lock, the quarantined keys)."""
     spec = load_spec(spec_path, output=output, validate=validate)
+    injected = faults.faults_from_environment()
     tasks, where = enumerate_tasks(spec)
-    if resume:
-        keys = {t.key for t in tasks}
-        done = {key for key in read_journals(spec.journal) if key in keys}
-    else:
-        clear_journals(spec.journal)
-        done = set()
-    return spec, tasks, where, done, session_name()
+    usable_folder(Path(spec.output).parent, "output folder")
+    usable_folder(spec.journal, "journal folder")
+    lock = RunLock(spec.journal, ranks)
+    note = lock.acquire(options.break_lock)
+    try:
+        (spec.journal / STOP_NAME).unlink(missing_ok=True)
+        history = read_history(spec.journal)
+        if history.files and not (options.resume or options.restart):
+            raise Refused(f"{len(history.entries)} finished tasks in {spec.journal}; pass --resume to continue or "
+                          f"--restart to discard them")
+        if options.restart:
+            clear_journals(spec.journal)
+            history = History()
+        now = provenance.current()
+        isolated, shared, reused, crashed = _decide(spec, tasks, history, options, now)
+    except BaseException:
+        lock.release()
+        raise
+    keep.update(where=where, lock=lock, crashed=crashed, note=note)
+    return Plan(spec, tasks, isolated, shared, reused, len(crashed), session_name(), now, injected)
 
 
 def _shared(team: Team, make: Callable[[], Any]) -> Any:
@@ -137,144 +224,260 @@ def run_sweep(
     team: Team | None = None,
     validate: Validator | None = None,
     stream: TextIO | None = None,
+    options: Options | None = None,
+    stop: StopControl | None = None,
 ) -> Path:
     """Run the sweep of ``spec_path`` on ``team`` (default: MPI world, or one process) and return
-    the path of the data set written.
+    the path of the data set written (see ``execute``)."""
+    return execute(spec_path, output, task_function, team=team, validate=validate, stream=stream,
+                   options=options if options is not None else Options(resume=resume), stop=stop).path
 
-    ``resume`` skips every task any journal of this output holds (else the journals are
-    cleared); ``output`` overrides the spec's output path; ``task_function`` solves one scene
-    and ``validate`` checks one scene's parameters (defaults: those of the spec's scene kind,
-    ``kinds``: ``hpcontact.solve.solve`` and ``hpcontact.scene.validate``, or
-    ``hpcontact.slip.solve_slip`` and ``hpcontact.slip.validate`` for ``quantities = "slip"``);
-    rank 0 prints progress and the summary to ``stream`` (default stdout). Spec errors raise
-    ``InputError`` on every rank before any work starts.
+
+def execute(
+    spec_path: str | Path,
+    output: str | Path | None = None,
+    task_function: TaskFunction | None = None,
+    *,
+    team: Team | None = None,
+    validate: Validator | None = None,
+    stream: TextIO | None = None,
+    options: Options = Options(),
+    stop: StopControl | None = None,
+) -> Outcome:
+    """Run the sweep of ``spec_path`` on ``team`` (default: MPI world, or one process).
+
+    ``options`` say what to do with existing journals and locks (module docstring); ``output``
+    overrides the spec's output path; ``task_function`` solves one scene and ``validate`` checks
+    one scene's parameters (defaults: those of the spec's scene kind, ``kinds``); rank 0 prints
+    progress and the summary to ``stream`` (default stdout); ``stop`` is this rank's stop
+    control (default: one without signal handlers, which still stops with the other ranks).
+    Spec errors and refusals raise ``InputError`` (``Refused``) on every rank before any work
+    starts; a stopped run raises ``Stopped`` on every rank.
     """
     team = team if team is not None else world()
     started = time.perf_counter()  # after the imports and MPI start-up
     stream = stream if stream is not None else sys.stdout
-    where: dict[tuple[int, ...], str] = {}  # point -> task key, on rank 0 only
+    stop = stop if stop is not None else StopControl()
+    keep: dict[str, Any] = {}  # rank 0 only
+    plan: Plan = _shared(team, lambda: _prepare(spec_path, options, output, validate, team.size, keep))
+    try:
+        return _run(team, plan, keep, task_function, stream, stop, options, started)
+    finally:
+        if team.rank == 0:
+            keep["lock"].release()
 
-    def prepare() -> tuple[Spec, list[Task], set[str], str]:
-        spec, tasks, points, done, session = _setup(spec_path, resume, output, validate)
-        where.update(points)
-        return spec, tasks, done, session
 
-    spec, tasks, done, session = _shared(team, prepare)
+def _run(team: Team, plan: Plan, keep: dict[str, Any], task_function: TaskFunction | None, stream: TextIO,
+         stop: StopControl, options: Options, started: float) -> Outcome:
+    """Every rank: the work of ``plan``, then rank 0 assembles the data set (see ``execute``)."""
+    spec, tasks = plan.spec, plan.tasks
     if task_function is None:
         task_function = kinds.task_function(spec.kind)
-    todo = [t for t in tasks if t.key not in done]
-    chunks = make_chunks(todo, team.size)
+    chunks = make_chunks(plan.shared, team.size)
     setup_s = time.perf_counter() - started
 
     progress = None
     if team.rank == 0:
+        todo = plan.isolated + plan.shared
+        if keep["note"]:
+            print(f"hpcontact: {keep['note']}", file=stream)
         print(
             f"hpcontact: {spec.title}: {len(tasks)} tasks, {len(todo)} to run"
-            f"{f' ({len(done)} from journals)' if done else ''}, {len(chunks)} chunks on {team.size} rank(s)",
+            f"{f' ({plan.reused} from journals)' if plan.reused else ''}"
+            f"{f', {len(plan.isolated)} alone on rank 0 (their last run died)' if plan.isolated else ''}"
+            f"{f', {plan.crashed} quarantined (--retry-crashed runs them)' if plan.crashed else ''}"
+            f", {len(chunks)} chunks on {team.size} rank(s)",
             file=stream,
             flush=True,
         )
-        progress = Progress(len(tasks), len(done), sum(t.cost for t in todo), spec.progress_interval, stream)
+        progress = Progress(len(tasks), plan.reused, sum(t.cost for t in todo), spec.progress_interval, stream)
 
+    index = {t.key: i for i, t in enumerate(tasks)}
     task_s = schedule_s = journal_s = 0.0
     run = 0
+    failure: str | None = None
+    stop.watch(spec.journal, team.rank)
     counter = team.counter(SLOTS)
-    journal = Journal(
-        spec.journal / f"rank{team.rank:05d}-{session}.h5",
-        team.rank,
-        {"session": session, "spec_path": str(spec.path), "hpcontact_version": __version__, "pid": os.getpid()},
-    )
+    journal = Journal(spec.journal / f"rank{team.rank:05d}-{plan.session}.jsonl", team.rank,
+                      {"session": plan.session, "spec_path": str(spec.path), **plan.provenance})
+
+    def run_one(task: Task) -> None:
+        nonlocal task_s, journal_s, run
+        fault = plan.faults.get(index[task.key])
+        mark = time.perf_counter()
+        journal.started(task.key)
+        journal_s += time.perf_counter() - mark
+        try:
+            entry = run_task(task_function, task, team.rank, stop, fault)
+        except Abandoned as exc:
+            journal.interrupted(task.key, str(exc))
+            return
+        except BaseException:
+            journal.interrupted(task.key, "the run was interrupted")
+            raise
+        entry = replace(entry, resolved=provenance.resolved_scene(task.params), provenance=plan.provenance)
+        task_s += entry.wall_time_s
+        run += 1
+        mark = time.perf_counter()
+        faults.tear(fault, journal.line(entry), journal.write_raw)
+        journal.append(entry)
+        journal_s += time.perf_counter() - mark
+
     try:
-        claim = time.perf_counter()
-        for chunk in claimed_chunks(chunks, counter):
-            schedule_s += time.perf_counter() - claim
-            for task in chunk:
-                entry = run_task(task_function, task, team.rank)
-                task_s += entry.wall_time_s
-                run += 1
-                mark = time.perf_counter()
-                journal.append(entry)
-                journal_s += time.perf_counter() - mark
-                mark = time.perf_counter()
-                report_done(counter, task.cost)
-                schedule_s += time.perf_counter() - mark
-                if progress is not None and progress.due():
-                    progress.report(*totals_done(counter))
+        try:
+            if team.rank == 0:
+                for task in plan.isolated:
+                    if stop.stopping:
+                        break
+                    run_one(task)
+                journal.sync()
             claim = time.perf_counter()
-        schedule_s += time.perf_counter() - claim
-    finally:
-        journal.close()
+            for chunk in claimed_chunks(chunks, counter):
+                schedule_s += time.perf_counter() - claim
+                if stop.stopping:
+                    break
+                for task in chunk:
+                    if stop.stopping:
+                        break
+                    run_one(task)
+                    mark = time.perf_counter()
+                    report_done(counter, task.cost)
+                    schedule_s += time.perf_counter() - mark
+                    if progress is not None and progress.due():
+                        progress.report(*totals_done(counter))
+                mark = time.perf_counter()
+                journal.sync()  # once a chunk
+                journal_s += time.perf_counter() - mark
+                claim = time.perf_counter()
+            schedule_s += time.perf_counter() - claim
+        finally:
+            journal.close()
+    except OSError as exc:  # the journal cannot be written: stop this rank cleanly, and the others
+        failure = f"cannot write {exc.filename or spec.journal}: {exc.strerror or exc}"
+        stop.request(f"rank {team.rank}: {failure}", failed=True)
     counter.close()
-    totals = team.gather((task_s, run, schedule_s, journal_s))
+    stop.close()
+    totals = team.gather((task_s, run, schedule_s, journal_s, journal.sync_s, stop.reason, stop.failed, failure))
 
-    def assemble() -> Path:
-        gather_started = time.perf_counter()
-        entries = read_journals(spec.journal)
-        keys = {t.key for t in tasks}
-        failures = [e for key, e in entries.items() if key in keys and e.status != OK]
-        dataset = build_dataset(
-            spec,
-            where,
-            entries,
-            {
-                "hpcontact_version": __version__,
-                "git_revision": git_revision(),
-                "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-                "mpi_size": team.size,
-                "history": f"hpcontact run {spec.path}{' --resume' if resume else ''}",
-            },
+    def finish() -> tuple[Outcome | None, str, int]:
+        reasons = [t for t in totals if t[5] is not None]
+        if reasons:
+            failed = [t[7] for t in totals if t[7]]
+            ran = sum(t[1] for t in totals)
+            status = EXIT_UNEXPECTED if any(t[6] for t in reasons) else EXIT_STOPPED
+            what = f"stopped ({'; '.join(failed) if failed else reasons[0][5]})"
+            return None, (f"hpcontact: {what}: {ran} tasks finished in this run; journals intact in "
+                          f"{spec.journal}; run again with --resume"), status
+        return _assemble(spec, plan, keep, team.size, totals, started, setup_s, options, stream), "", EXIT_OK
+
+    outcome, message, status = _shared(team, finish)
+    if outcome is None:
+        raise Stopped(message, status)
+    return outcome
+
+
+def _assemble(spec: Spec, plan: Plan, keep: Mapping[str, Any], ranks: int, totals: list, started: float,
+              setup_s: float, options: Options, stream: TextIO) -> Outcome:
+    """Rank 0: the data set from every journal, its summary, and the netCDF file."""
+    gather_started = time.perf_counter()
+    history = read_history(spec.journal)
+    entries: dict[str, Entry] = {}
+    for task in plan.tasks:
+        entry = history.entries.get(task.key)
+        if task.key in keep["crashed"]:
+            entries[task.key] = history.crashed_entry(task.key, task.params)
+        elif entry is not None and entry.resolved == provenance.resolved_scene(task.params):
+            entries[task.key] = entry
+    failures = [e for e in entries.values() if e.status != OK]
+    dataset = build_dataset(
+        spec,
+        keep["where"],
+        entries,
+        {
+            "hpcontact_version": plan.provenance["hpcontact_version"],
+            "git_revision": plan.provenance["git_revision"],
+            "numerics": json.dumps(provenance.numerics(), sort_keys=True),
+            "sweep_contributors": provenance.contributors(e for e in entries.values() if e.provenance),
+            "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+            "mpi_size": ranks,
+            "history": f"hpcontact run {spec.path}{' --resume' if options.resume else ''}",
+            "sweep_journal_sync_time_s": sum(t[4] for t in totals),
+        },
+    )
+    now = time.perf_counter()
+    summary = Summary(
+        tasks=len(plan.tasks),
+        points=math.prod(len(a) for a in spec.axes),
+        run=sum(t[1] for t in totals),
+        reused=plan.reused,
+        failures=len(failures),
+        ranks=ranks,
+        wall_s=now - started,
+        task_s=sum(t[0] for t in totals),
+        setup_s=setup_s,
+        schedule_s=sum(t[2] for t in totals),
+        journal_s=sum(t[3] for t in totals),
+        gather_s=now - gather_started,
+    )
+    dataset.attrs.update(summary.attrs())
+    path = write_netcdf(dataset, spec.output)
+    shown = [f"{json.dumps(dict(e.params), sort_keys=True)}: {e.message}" for e in failures[:SHOWN_FAILURES]]
+    print(summary.text(shown), file=stream)
+    missing = len(plan.tasks) - len(entries)
+    if missing:
+        print(
+            f"hpcontact: warning: {missing} tasks are in no journal (status {NOT_COMPUTED} in the data set); "
+            f"is {spec.journal} on a file system every node shares?",
+            file=stream,
         )
-        now = time.perf_counter()
-        summary = Summary(
-            tasks=len(tasks),
-            points=math.prod(len(a) for a in spec.axes),
-            run=sum(t[1] for t in totals),
-            reused=len(done),
-            failures=len(failures),
-            ranks=team.size,
-            wall_s=now - started,
-            task_s=sum(t[0] for t in totals),
-            setup_s=setup_s,
-            schedule_s=sum(t[2] for t in totals),
-            journal_s=sum(t[3] for t in totals),
-            gather_s=now - gather_started,
-        )
-        dataset.attrs.update(summary.attrs())
-        path = write_netcdf(dataset, spec.output)
-        shown = [f"{json.dumps(dict(e.params), sort_keys=True)}: {e.message}" for e in failures[:SHOWN_FAILURES]]
-        print(summary.text(shown), file=stream)
-        missing = len(keys - entries.keys())
-        if missing:
-            print(
-                f"hpcontact: warning: {missing} tasks are in no journal (status {NOT_COMPUTED} in the data set); "
-                f"is {spec.journal} on a file system every node shares?",
-                file=stream,
-            )
-        print(f"hpcontact: wrote {path} in {time.perf_counter() - now:.2f}s", file=stream, flush=True)
-        return path
-
-    return _shared(team, assemble)
+    print(f"hpcontact: wrote {path} in {time.perf_counter() - now:.2f}s", file=stream, flush=True)
+    return Outcome(path, len(failures))
 
 
-def run_command(spec: str | Path, resume: bool = False, output: str | Path | None = None) -> int:
-    """``hpcontact run`` on every rank: the exit status, 0 or 2 on a bad spec (one line on
-    stderr from rank 0, naming the key). Any other error prints its traceback and, under MPI,
-    aborts every rank (a rank left waiting in a collective would hang the job)."""
-    team = world()
+def dry_run(spec_path: str | Path, output: str | Path | None = None, stream: TextIO | None = None) -> int:
+    """``hpcontact run SPEC --dry-run``: the tasks with their 0-based indices (the order
+    ``HPCONTACT_FAULTS`` counts in), estimated cost and parameters; nothing is computed."""
+    stream = stream if stream is not None else sys.stdout
+    spec = load_spec(spec_path, output=output)
+    tasks, _ = enumerate_tasks(spec)
+    print(f"# {spec.title}: {len(tasks)} tasks -> {spec.output} (index, key, relative cost, scene)", file=stream)
+    for i, task in enumerate(tasks):
+        print(f"{i:6d}  {task.key[:12]}  {task.cost:10.3g}  {json.dumps(dict(task.params), sort_keys=True)}", file=stream)
+    return EXIT_OK
+
+
+def run_command(spec: str | Path, options: Options = Options(), output: str | Path | None = None,
+                grace_s: float | None = None) -> int:
+    """``hpcontact run`` on every rank: the exit status (``EXIT_STATUS``). Refusals and bad
+    input print one line on stderr from rank 0; any other error prints its traceback and, under
+    MPI, aborts every rank (a rank left waiting in a collective would hang the job)."""
+    try:
+        team = world()
+    except LaunchError as exc:
+        print(f"hpcontact run: error: {exc}", file=sys.stderr)
+        return EXIT_REFUSED
+    stop = StopControl(DEFAULT_GRACE_S if grace_s is None else grace_s).install()
     load_wisdom()  # FFTW plans of earlier runs: measured plans in milliseconds
     try:
-        run_sweep(spec, resume=resume, output=output, team=team)
+        outcome = execute(spec, output, team=team, options=options, stop=stop)
     except InputError as exc:
         if team.rank == 0:
             print(f"hpcontact run: error: {exc}", file=sys.stderr)
-        return 2
+        return EXIT_REFUSED
+    except Stopped as exc:
+        if team.rank == 0:
+            print(exc, file=sys.stderr)
+        return exc.status
     except Exception:  # noqa: BLE001 - reported, then every rank is ended
         traceback.print_exc()
-        team.abort(1)
-        return 1
+        team.abort(EXIT_UNEXPECTED)
+        return EXIT_UNEXPECTED
+    finally:
+        stop.close()
+        stop.uninstall()
     if team.rank == 0:
         _keep_wisdom()
-    return 0
+    return EXIT_FAILED_TASKS if outcome.failures else EXIT_OK
 
 
 def _keep_wisdom() -> None:
@@ -285,11 +488,23 @@ def _keep_wisdom() -> None:
         print(f"hpcontact: FFTW wisdom not saved ({exc})", file=sys.stderr)
 
 
+def run_from_arguments(args: argparse.Namespace) -> int:
+    """Run what ``add_run_arguments`` parsed."""
+    if args.dry_run:
+        return dry_run(args.spec, args.output)
+    if args.grace is not None and not args.grace >= 0.0:
+        raise InputError("--grace", "seconds >= 0", args.grace)
+    options = Options(resume=args.resume, restart=args.restart, accept_stale=args.accept_stale,
+                      retry_crashed=args.retry_crashed, break_lock=args.break_lock)
+    return run_command(args.spec, options, args.output, args.grace)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m hpcontact.sweep SPEC [--resume] [--output PATH]`` (see ``run_command``)."""
+    """``python -m hpcontact.sweep SPEC [options]`` (see ``add_run_arguments``)."""
     parser = argparse.ArgumentParser(prog="hpcontact run", description="Run a parameter sweep (under mpiexec or alone).")
-    parser.add_argument("spec", help="sweep spec (TOML), e.g. jobs/demo.toml")
-    parser.add_argument("--resume", action="store_true", help="skip every task the journals of this output hold")
-    parser.add_argument("--output", help="data set path (.nc), instead of the spec's [sweep].output")
-    args = parser.parse_args(argv)
-    return run_command(args.spec, resume=args.resume, output=args.output)
+    add_run_arguments(parser)
+    try:
+        return run_from_arguments(parser.parse_args(argv))
+    except InputError as exc:
+        print(f"hpcontact run: error: {exc}", file=sys.stderr)
+        return EXIT_REFUSED

@@ -1,13 +1,25 @@
-"""Per-rank HDF5 journals: every finished task is appended and flushed at once, so nothing done
-is lost when a rank dies; ``--resume`` skips what any journal holds.
+"""Per-rank journals: append-only, checksummed JSON lines that survive SIGKILL at any instant and
+truncation at any byte; ``--resume`` continues from what they hold.
 
-Each rank of each run writes its own file ``rank{rank:05d}-{session}.h5`` in the journal folder
-(one writer per file, never two processes on one file, no HDF5 file locking needed, which
-Lustre and NFS often lack). A file holds one row per task in a 1-D compound data set ``rows``
-(one resize and one write per task: ~1 ms with the flush); the ``rows`` attribute is raised
-only after a row is complete and is flushed with it, so a rank killed mid-append leaves at most
-an unfinished row that readers ignore. Results travel as JSON text (exact float64 round trip,
-any keys the task function returns).
+Each rank of each run writes its own file ``rank{rank:05d}-{session}.jsonl`` in the journal
+folder (one writer per file, no file locking, which Lustre and NFS often lack). A file is a
+sequence of lines ``CRC32 JSON\\n`` (the CRC, 8 hex digits, of the JSON bytes); each line is one
+``os.write`` on a file opened with ``O_APPEND``. A reader keeps every line whose newline and CRC
+are present and skips any other (a torn tail left by a kill or a full disk), so a file cut at
+any byte keeps every entry before the cut. Events:
+
+* ``run``: the first line, the writer's provenance (session, rank, host, pid, package version,
+  git revision, numerics fingerprint, spec path);
+* ``started``: a task is about to run (written before it runs, not synced: it survives the death
+  of the process, which is what it is for; a task started in runs that died while running it is
+  quarantined, see ``History.crashed``);
+* ``finished``: the task's outcome (``Entry``), with its fully resolved scene and provenance;
+* ``interrupted``: the task was abandoned after a stop request (a signal), not a crash.
+
+Durability: a line reaches the page cache at once (it survives the death of the process); it
+reaches the disk (``fsync``) at the end of each chunk (``sync``), on close, and at the first
+append ``SYNC_INTERVAL_S`` after the last sync, so a node failure loses at most a chunk or a few
+seconds of results. Results travel as JSON text (exact float64 round trip, NaN and inf kept).
 """
 
 from __future__ import annotations
@@ -18,34 +30,27 @@ import secrets
 import socket
 import sys
 import time
-from dataclasses import dataclass
+import zlib
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Iterator, Mapping
 
-import h5py
 import numpy as np
 
-PATTERN = "rank*.h5"
-OK, BAD_INPUT, NOT_CONVERGED, ERROR = 0, 1, 2, 3  # task status codes
-STRING = h5py.string_dtype(encoding="utf-8")
-ROW = np.dtype(
-    [
-        ("key", STRING),
-        ("params", STRING),
-        ("record", STRING),
-        ("message", STRING),
-        ("status", np.int32),
-        ("wall_time_s", np.float64),
-        ("finished", np.float64),
-    ]
-)
+PATTERN = "rank*.jsonl"
+OK, BAD_INPUT, NOT_CONVERGED, ERROR, CRASHED = 0, 1, 2, 3, 4  # task status codes
+RETRIED = (NOT_CONVERGED, ERROR)  # outcomes --resume runs again (bad input is deterministic: kept)
+SYNC_INTERVAL_S = 5.0
+CRASH_RUNS = 2  # a task started in this many runs that died while running it is quarantined
 
 
 @dataclass(frozen=True)
 class Entry:
-    """One finished task: ``status`` OK when it succeeded, else BAD_INPUT, NOT_CONVERGED or ERROR
-    and its ``message``; ``record`` is what the task function returned; ``finished`` a Unix time;
-    ``rank`` the rank that ran it."""
+    """One finished task: ``status`` OK when it succeeded, else BAD_INPUT, NOT_CONVERGED, ERROR
+    (or CRASHED, made by ``History.crashed_entry``) and its ``message``; ``record`` is what the
+    task function returned; ``finished`` a Unix time; ``rank`` and ``host`` where it ran;
+    ``resolved`` the scene with every default filled in and ``provenance`` the package version,
+    git revision and numerics fingerprint of the code that computed it (``provenance``)."""
 
     key: str
     params: Mapping[str, Any]
@@ -55,6 +60,20 @@ class Entry:
     wall_time_s: float
     finished: float
     rank: int
+    host: str = ""
+    resolved: Mapping[str, Any] = field(default_factory=dict)
+    provenance: Mapping[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Start:
+    """A task started in a run that never journaled its outcome: where and when."""
+
+    key: str
+    session: str
+    rank: int
+    host: str
+    time: float
 
 
 def json_default(value: Any) -> Any:
@@ -71,48 +90,114 @@ def to_json(value: Mapping[str, Any]) -> str:
     return json.dumps(value, default=json_default, sort_keys=True)
 
 
-class Journal:
-    """The append-only journal of one rank in one run: a new file, created with the first entry
-    (a rank with nothing to do leaves none); see the module docstring."""
+def encode_line(event: Mapping[str, Any]) -> bytes:
+    """One journal line: the CRC32 of the JSON text (8 hex digits), a space, the JSON, a newline."""
+    payload = to_json(event).encode("utf-8")
+    return b"%08x %s\n" % (zlib.crc32(payload), payload)
 
-    def __init__(self, path: Path, rank: int, attrs: Mapping[str, Any]) -> None:
+
+def decode_lines(data: bytes) -> Iterator[dict[str, Any]]:
+    """The events of a journal file's bytes: complete lines with a matching CRC; anything else
+    (a torn tail, a damaged line) is skipped."""
+    for line in data.split(b"\n")[:-1]:  # the last piece has no newline: torn or empty
+        crc, _, payload = line.partition(b" ")
+        try:
+            if int(crc, 16) != zlib.crc32(payload):
+                continue
+            event = json.loads(payload)
+        except ValueError:
+            continue
+        if isinstance(event, dict):
+            yield event
+
+
+class Journal:
+    """The append-only journal of one rank in one run: a new file, created with the first event
+    (a rank with nothing to do leaves none); see the module docstring. Write errors (a full
+    disk, a file-size limit) raise ``OSError`` naming the file."""
+
+    def __init__(self, path: Path, rank: int, header: Mapping[str, Any]) -> None:
         self.path = Path(path)
         self.rank = rank
-        self.attrs = {"rank": rank, "hostname": socket.gethostname(), **attrs}
-        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.header = {"event": "run", "rank": rank, "host": socket.gethostname(), "pid": os.getpid(), **header}
         self.rows = 0
-        self._file: h5py.File | None = None
+        self.sync_s = 0.0  # time spent in fsync (for the summary and the cost measurement)
+        self._fd: int | None = None
+        self._synced = time.monotonic()
 
-    def _create(self) -> h5py.File:
-        f = h5py.File(self.path, "w-", locking=False)
-        f.attrs.update(self.attrs)
-        f.create_dataset("rows", shape=(0,), maxshape=(None,), chunks=(64,), dtype=ROW)
-        f.attrs["rows"] = 0
-        return f
+    def _write(self, data: bytes) -> None:
+        if self._fd is None:
+            self._fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_APPEND, 0o644)
+            self._sync_folder()
+            self._write(encode_line(self.header))
+        try:
+            written = os.write(self._fd, data)
+        except OSError as exc:
+            raise OSError(exc.errno, exc.strerror, str(self.path)) from exc
+        if written != len(data):
+            raise OSError(f"short write to {self.path} ({written} of {len(data)} bytes): disk full or file-size limit")
+
+    def _sync_folder(self) -> None:
+        """Make the new file's name durable (best effort: some file systems refuse it)."""
+        try:
+            fd = os.open(self.path.parent, os.O_RDONLY)
+        except OSError:
+            return
+        try:
+            os.fsync(fd)
+        except OSError:
+            pass
+        finally:
+            os.close(fd)
+
+    def started(self, key: str) -> None:
+        """Record that task ``key`` is about to run (not synced; see the module docstring)."""
+        self._write(encode_line({"event": "started", "key": key, "time": time.time()}))
+
+    @staticmethod
+    def line(entry: Entry) -> bytes:
+        """The journal line of a task's outcome."""
+        return encode_line({
+            "event": "finished", "key": entry.key, "params": entry.params, "status": entry.status,
+            "message": entry.message, "record": entry.record, "wall_time_s": entry.wall_time_s,
+            "finished": entry.finished, "resolved": entry.resolved, "provenance": entry.provenance,
+        })
 
     def append(self, entry: Entry) -> None:
-        """Write ``entry`` as the next row and flush it to the file system."""
-        if self._file is None:
-            self._file = self._create()
-        rows, row = self._file["rows"], self.rows
-        rows.resize((row + 1,))
-        rows[row] = (
-            entry.key,
-            to_json(entry.params),
-            to_json(entry.record),
-            entry.message,
-            entry.status,
-            entry.wall_time_s,
-            entry.finished,
-        )
-        self._file.attrs["rows"] = row + 1
-        self._file.flush()
-        self.rows = row + 1
+        """Record a task's outcome; synced when the last sync is ``SYNC_INTERVAL_S`` old."""
+        self._write(self.line(entry))
+        self.rows += 1
+        if time.monotonic() - self._synced >= SYNC_INTERVAL_S:
+            self.sync()
+
+    def interrupted(self, key: str, reason: str) -> None:
+        """Record that task ``key`` was abandoned after a stop request (not a crash), and sync."""
+        self._write(encode_line({"event": "interrupted", "key": key, "reason": reason, "time": time.time()}))
+        self.sync()
+
+    def sync(self) -> None:
+        """Push everything written so far to the disk (``fsync``)."""
+        if self._fd is not None:
+            mark = time.perf_counter()
+            try:
+                os.fsync(self._fd)
+            except OSError as exc:
+                raise OSError(exc.errno, exc.strerror, str(self.path)) from exc
+            self.sync_s += time.perf_counter() - mark
+        self._synced = time.monotonic()
+
+    def write_raw(self, data: bytes) -> None:
+        """Write bytes as they are (the ``torn`` fault of ``faults`` writes half a line)."""
+        self._write(data)
 
     def close(self) -> None:
-        """Close the file (idempotent)."""
-        if self._file is not None and self._file.id.valid:
-            self._file.close()
+        """Sync and close the file (idempotent)."""
+        if self._fd is not None:
+            try:
+                self.sync()
+            finally:
+                os.close(self._fd)
+                self._fd = None
 
     def __enter__(self) -> "Journal":
         return self
@@ -126,55 +211,103 @@ def journal_files(folder: Path) -> list[Path]:
     return sorted(Path(folder).glob(PATTERN)) if Path(folder).is_dir() else []
 
 
-def read_file(path: Path) -> list[Entry]:
-    """The complete rows of one journal file."""
-    with h5py.File(path, "r", locking=False) as f:
-        rank = int(f.attrs["rank"])
-        rows = f["rows"][: int(f.attrs["rows"])]
-    return [
-        Entry(
-            key=_text(row["key"]),
-            params=json.loads(_text(row["params"])),
-            status=int(row["status"]),
-            message=_text(row["message"]),
-            record=json.loads(_text(row["record"])),
-            wall_time_s=float(row["wall_time_s"]),
-            finished=float(row["finished"]),
-            rank=rank,
+def read_file(path: Path) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+    """The header (``run`` event; empty if torn) and the other events of one journal file."""
+    events = list(decode_lines(Path(path).read_bytes()))
+    if events and events[0].get("event") == "run":
+        return events[0], events[1:]
+    return {}, events
+
+
+def _entry(event: Mapping[str, Any], header: Mapping[str, Any]) -> Entry:
+    return Entry(
+        key=event["key"], params=event["params"], status=int(event["status"]), message=event["message"],
+        record=event["record"], wall_time_s=float(event["wall_time_s"]), finished=float(event["finished"]),
+        rank=int(header.get("rank", -1)), host=str(header.get("host", "")),
+        resolved=event.get("resolved", {}), provenance=event.get("provenance", {}),
+    )
+
+
+@dataclass
+class History:
+    """What the journals of one output hold: the last outcome of each task (``entries``, by
+    finish time; the files keep every earlier one), the starts that never got an outcome
+    (``unfinished``), the headers of the runs and the number of files."""
+
+    entries: dict[str, Entry] = field(default_factory=dict)
+    unfinished: dict[str, list[Start]] = field(default_factory=dict)
+    headers: list[dict[str, Any]] = field(default_factory=list)
+    files: int = 0
+
+    def suspects(self) -> dict[str, list[Start]]:
+        """Per task, the runs that died while running it after its last outcome."""
+        out: dict[str, list[Start]] = {}
+        for key, starts in self.unfinished.items():
+            last = self.entries.get(key)
+            later = [s for s in starts if last is None or s.time > last.finished]
+            if later:
+                out[key] = sorted(later, key=lambda s: s.time)
+        return out
+
+    def crashed(self) -> dict[str, list[Start]]:
+        """Tasks quarantined: started in ``CRASH_RUNS`` runs that died while running them."""
+        return {key: starts for key, starts in self.suspects().items() if len(starts) >= CRASH_RUNS}
+
+    def crashed_entry(self, key: str, params: Mapping[str, Any]) -> Entry:
+        """The ``CRASHED`` outcome of a quarantined task (data set and summary)."""
+        starts = self.crashed()[key]
+        last = starts[-1]
+        when = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(last.time))
+        message = (
+            f"the process died while running this task in {len(starts)} runs (last: {last.host}, rank "
+            f"{last.rank}, {when}): likely out of memory or a crash"
         )
-        for row in rows
-    ]
+        return Entry(key=key, params=params, status=CRASHED, message=message, record={}, wall_time_s=float("nan"),
+                     finished=last.time, rank=last.rank, host=last.host)
 
 
-def _text(value: bytes | str) -> str:
-    return value.decode("utf-8") if isinstance(value, bytes) else value
+def read_history(folder: Path) -> History:
+    """Every journal in ``folder`` (see ``History``). A file that cannot be read is reported on
+    stderr and skipped: its tasks are simply computed again."""
+    history = History()
+    for path in journal_files(folder):
+        try:
+            header, events = read_file(path)
+        except OSError as exc:
+            print(f"hpcontact: skipping unreadable journal {path}: {exc}", file=sys.stderr)
+            continue
+        history.files += 1
+        if header:
+            history.headers.append(header)
+        rank, host, session = int(header.get("rank", -1)), str(header.get("host", "?")), str(header.get("session", path.stem))
+        open_starts: dict[str, float] = {}
+        for event in events:
+            kind, key = event.get("event"), event.get("key")
+            if kind == "started":
+                open_starts[key] = float(event["time"])
+            elif kind in ("finished", "interrupted"):
+                open_starts.pop(key, None)
+                if kind == "finished":
+                    entry = _entry(event, header)
+                    old = history.entries.get(key)
+                    if old is None or entry.finished >= old.finished:
+                        history.entries[key] = entry
+        for key, started in open_starts.items():
+            history.unfinished.setdefault(key, []).append(Start(key, session, rank, host, started))
+    return history
 
 
 def read_journals(folder: Path) -> dict[str, Entry]:
-    """Every task any journal in ``folder`` holds, by key.
-
-    A task journaled twice keeps its successful entry, else the earliest. A file that cannot be
-    read (a rank killed while creating it) is reported on stderr and skipped: its tasks are
-    simply computed again.
-    """
-    entries: dict[str, Entry] = {}
-    for path in journal_files(folder):
-        try:
-            rows = read_file(path)
-        except (OSError, KeyError, ValueError) as exc:
-            print(f"hpcontact: skipping unreadable journal {path}: {exc}", file=sys.stderr)
-            continue
-        for entry in rows:
-            old = entries.get(entry.key)
-            if old is None or (entry.status == OK, -entry.finished) > (old.status == OK, -old.finished):
-                entries[entry.key] = entry
-    return entries
+    """The last outcome of every task the journals in ``folder`` hold, by key."""
+    return read_history(folder).entries
 
 
-def clear_journals(folder: Path) -> None:
-    """Delete the journal files in ``folder`` (a fresh run of the same output)."""
-    for path in journal_files(folder):
+def clear_journals(folder: Path) -> int:
+    """Delete the journal files in ``folder`` (``--restart``); the number deleted."""
+    files = journal_files(folder)
+    for path in files:
         path.unlink()
+    return len(files)
 
 
 def session_name() -> str:

@@ -1,17 +1,26 @@
-"""The driver in one process: failures recorded, resume exact, spec errors before any work."""
+"""The driver in one process: failures recorded and retried, resume exact, refusals before any
+work (spec, lock, journals without a flag, stale journals, unusable output), stop requests."""
 
 from __future__ import annotations
 
 import io
+import json
+import os
+import socket
+import subprocess
+import sys
+import time
 
 import numpy as np
 import pytest
 import xarray as xr
 
 from hpcontact.errors import ConvergenceError, InputError
-from hpcontact.sweep.driver import main, run_sweep
-from hpcontact.sweep.journal import BAD_INPUT, ERROR, NOT_CONVERGED, OK, journal_files, read_journals
+from hpcontact.sweep.driver import Options, Stopped, execute, main, run_sweep
+from hpcontact.sweep.guard import Refused
+from hpcontact.sweep.journal import BAD_INPUT, ERROR, NOT_CONVERGED, OK, journal_files, read_history, read_journals
 from hpcontact.sweep.schedule import SerialTeam
+from hpcontact.sweep.signals import StopControl
 
 SPEC = """
 [sweep]
@@ -61,7 +70,7 @@ def test_a_sweep_runs_every_task_once_and_writes_the_data_set(write_spec, fake_s
     path = sweep(write_spec(SPEC), task_function=counting(fake_solve, calls), stream=stream)
     assert path == tmp_path / "out.nc" and len(calls) == TASKS
     with xr.open_dataset(path) as ds:
-        assert dict(ds.sizes) == {"shape": 3, "aspect": 3, "nu": 3, "angle": 5}
+        assert {a: ds.sizes[a] for a in ("shape", "aspect", "nu", "angle")} == {"shape": 3, "aspect": 3, "nu": 3, "angle": 5}
         assert (ds.status == OK).all() and ds.attrs["mpi_size"] == 1 and ds.attrs["sweep_tasks_run"] == TASKS
         for name in ("hpcontact_version", "created", "spec", "sweep_parallel_efficiency"):
             assert name in ds.attrs
@@ -127,16 +136,152 @@ def test_resume_after_an_interruption_recomputes_nothing_and_loses_nothing(write
     assert again == []
 
 
-def test_a_fresh_run_clears_old_journals_and_resume_after_an_edit_reruns_changed_scenes(write_spec, fake_solve, tmp_path):
+def test_a_second_run_without_a_flag_is_refused_and_restart_discards(write_spec, fake_solve, tmp_path):
     spec = write_spec(SPEC)
     sweep(spec, task_function=fake_solve)
-    sweep(spec, task_function=fake_solve)
-    assert len(journal_files(tmp_path / "out.nc.journal")) == 1
+    before = journal_files(tmp_path / "out.nc.journal")
+    with pytest.raises(Refused, match=rf"{TASKS} finished tasks in .*out.nc.journal; pass --resume .* --restart"):
+        sweep(spec, task_function=fake_solve)
+    assert journal_files(tmp_path / "out.nc.journal") == before  # nothing deleted
+    calls = []
+    sweep(spec, task_function=counting(fake_solve, calls), options=Options(restart=True))
+    assert len(calls) == TASKS and len(journal_files(tmp_path / "out.nc.journal")) == 1
 
     edited = write_spec(SPEC.replace("nu = [0.0, 0.25, 0.5]", "nu = [0.0, 0.25, 0.3]"))
     calls = []
     sweep(edited, resume=True, task_function=counting(fake_solve, calls))
     assert len(calls) == 1 + 3 + 1 and {p["nu"] for p in calls} == {0.3}
+
+
+def test_resume_retries_errors_and_non_convergence_and_keeps_bad_input(write_spec, fake_solve, tmp_path):
+    spec = write_spec(SPEC)
+    failing = {0.0: ConvergenceError("CG stalled", 9, 1e-3), 0.25: RuntimeError("flaky"), 0.5: InputError("nu", "x")}
+
+    def first(params):
+        if params["shape"] == "circle":
+            raise failing[params["nu"]]
+        return fake_solve(params)
+
+    outcome = execute(spec, task_function=first, team=SerialTeam(), stream=io.StringIO())
+    assert outcome.failures == 3
+    calls = []
+    outcome = execute(spec, task_function=counting(fake_solve, calls), team=SerialTeam(), stream=io.StringIO(),
+                      options=Options(resume=True))
+    assert sorted(p["nu"] for p in calls) == [0.0, 0.25] and outcome.failures == 1  # bad input is deterministic
+    with xr.open_dataset(outcome.path) as ds:
+        circle = ds.status.sel(shape="circle", aspect=1.0)
+        assert circle.values.tolist() == [OK, OK, BAD_INPUT]  # the last outcome of each task
+    history = read_history(tmp_path / "out.nc.journal")
+    statuses = [json.loads(line.split(b" ", 1)[1])["status"] for path in journal_files(tmp_path / "out.nc.journal")
+                for line in path.read_bytes().splitlines() if b'"finished"' in line and b'"circle"' in line]
+    assert sorted(statuses) == sorted([NOT_CONVERGED, ERROR, BAD_INPUT, OK, OK])  # the journals keep the history
+    assert len(history.entries) == TASKS
+
+
+def test_stale_journals_are_refused_unless_accepted_and_provenance_lists_every_contributor(
+    write_spec, fake_solve, tmp_path, monkeypatch
+):
+    spec = write_spec(SPEC)
+    monkeypatch.setenv("HPCONTACT_GIT_REVISION", "aaaa")
+
+    def dies_at_fourth(params, calls=[]):
+        if len(calls) == 3:
+            raise Interrupted
+        calls.append(params)
+        return fake_solve(params)
+
+    with pytest.raises(Interrupted):
+        sweep(spec, task_function=dies_at_fourth)
+    monkeypatch.setenv("HPCONTACT_GIT_REVISION", "bbbb-dirty")
+    with pytest.raises(Refused, match=r"computed by hpcontact .*\(git aaaa,.*this is .*\(git bbbb-dirty,.*git revision.*--accept-stale"):
+        sweep(spec, resume=True, task_function=fake_solve)
+    calls = []
+    path = sweep(spec, task_function=counting(fake_solve, calls), options=Options(resume=True, accept_stale=True))
+    assert len(calls) == TASKS - 3
+    with xr.open_dataset(path) as ds:
+        contributors = {c["git_revision"]: c["tasks"] for c in json.loads(ds.attrs["sweep_contributors"])}
+        assert contributors == {"aaaa": 3, "bbbb-dirty": TASKS - 3} and ds.attrs["git_revision"] == "bbbb-dirty"
+
+
+def test_a_changed_engine_default_changes_the_task(write_spec, fake_solve, monkeypatch):
+    from hpcontact.scene import DEFAULTS
+
+    spec = write_spec(SPEC)  # n is given, tol is left to the engine's default
+    sweep(spec, task_function=fake_solve)
+    monkeypatch.setitem(DEFAULTS, "tol", DEFAULTS["tol"] / 10)
+    calls = []
+    sweep(spec, resume=True, task_function=counting(fake_solve, calls))
+    assert len(calls) == TASKS
+
+
+def test_one_run_per_output(write_spec, fake_solve, tmp_path, monkeypatch):
+    spec = write_spec(SPEC)
+    folder = tmp_path / "out.nc.journal"
+    folder.mkdir()
+    lock = folder / "LOCK"
+    host = socket.gethostname()
+    monkeypatch.delenv("SLURM_JOB_ID", raising=False)
+
+    def hold(**holder):
+        lock.write_text(json.dumps({"host": host, "pid": os.getpid(), "ranks": 2, "started": "T", "job": None, **holder}))
+
+    hold()  # a live process on this host
+    with pytest.raises(Refused, match=rf"in use by a run on {host} \(pid {os.getpid()}, 2 ranks, since T\).*--break-lock"):
+        sweep(spec, task_function=fake_solve)
+    hold(host="elsewhere", pid=1)
+    with pytest.raises(Refused, match="elsewhere"):
+        sweep(spec, task_function=fake_solve)
+    sweep(spec, task_function=fake_solve, options=Options(restart=True, break_lock=True))
+    assert not lock.exists()  # released at the end
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    hold(pid=int(dead.stdout))  # a run on this host whose process is gone
+    stream = io.StringIO()
+    sweep(spec, task_function=fake_solve, options=Options(resume=True), stream=stream)
+    assert "took over the lock" in stream.getvalue() and "is gone" in stream.getvalue()
+    hold(host="elsewhere", job="77")  # the same batch job, requeued on another node
+    monkeypatch.setenv("SLURM_JOB_ID", "77")
+    sweep(spec, task_function=fake_solve, options=Options(resume=True))
+    assert not lock.exists()
+
+
+def test_unusable_outputs_are_refused_before_any_task(write_spec, tmp_path):
+    def never(params):
+        raise AssertionError("no task may run")
+
+    spec = write_spec(SPEC)
+    with pytest.raises(Refused, match="parent folder .* does not exist"):
+        sweep(spec, output=tmp_path / "typo" / "deeper" / "out.nc", task_function=never)
+    (tmp_path / "file").write_text("")
+    with pytest.raises(Refused, match="not a folder"):
+        sweep(spec, output=tmp_path / "file" / "out.nc", task_function=never)
+    with pytest.raises(Refused, match="cannot (write|create)"):
+        sweep(spec, output="/proc/hpcontact-test/out.nc", task_function=never)  # not writable, even by root
+
+
+def test_a_stop_request_abandons_the_task_after_the_grace_and_resume_completes(write_spec, fake_solve, tmp_path):
+    spec = write_spec(SPEC)
+    stop = StopControl(grace_s=0.3).install()
+    calls = []
+
+    def stops_then_hangs(params):
+        calls.append(params)
+        if len(calls) == 4:
+            stop.request("test stop")
+            time.sleep(60.0)  # abandoned after the grace
+        return fake_solve(params)
+
+    try:
+        started = time.monotonic()
+        with pytest.raises(Stopped, match="stopped \\(test stop\\).*journals intact") as info:
+            sweep(spec, task_function=stops_then_hangs, stop=stop)
+        assert info.value.status == 4 and time.monotonic() - started < 30.0  # the 60 s sleep was abandoned
+    finally:
+        stop.uninstall()
+    history = read_history(tmp_path / "out.nc.journal")
+    assert len(history.entries) == 3 and not history.suspects()  # abandoned: not counted as a crash
+    again = []
+    sweep(spec, resume=True, task_function=counting(fake_solve, again))
+    assert len(again) == TASKS - 3
 
 
 def test_a_bad_spec_is_refused_before_any_task(write_spec):
@@ -153,3 +298,20 @@ def test_main_exits_2_with_one_line_naming_the_key(write_spec, capsys, monkeypat
     assert main([str(write_spec(SPEC.replace("[numerics]", "[numerics]\ncolour = 1")))]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "numerics.colour" in err
+
+
+def test_dry_run_lists_the_tasks_in_order_and_computes_nothing(write_spec, capsys, monkeypatch):
+    monkeypatch.setenv("HPCONTACT_MPI", "0")
+    spec = write_spec(SPEC)
+    assert main([str(spec), "--dry-run"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == 1 + TASKS and [int(line.split()[0]) for line in lines[1:]] == list(range(TASKS))
+    assert json.loads(lines[1].split(None, 3)[3])["shape"] == "circle"
+    assert not (spec.parent / "out.nc.journal").exists()
+
+
+def test_a_malformed_fault_list_is_refused(write_spec, capsys, monkeypatch):
+    monkeypatch.setenv("HPCONTACT_MPI", "0")
+    monkeypatch.setenv("HPCONTACT_FAULTS", "3:explode")
+    assert main([str(write_spec(SPEC))]) == 2
+    assert "HPCONTACT_FAULTS" in capsys.readouterr().err

@@ -1,0 +1,39 @@
+"""The command line of ``hpcontact run``: its arguments and exit statuses (kept apart from the
+driver so that ``hpcontact --help`` and ``hpcontact solve`` do not import the sweep)."""
+
+from __future__ import annotations
+
+import argparse
+
+from .signals import STOPPED_STATUS
+
+EXIT_OK, EXIT_UNEXPECTED, EXIT_REFUSED, EXIT_FAILED_TASKS, EXIT_STOPPED = 0, 1, 2, 3, STOPPED_STATUS
+EXIT_STATUS = """exit status:
+  0  every task ok, data set written
+  1  anything unexpected (traceback on stderr), or a rank could not write its journal (disk full:
+     the message names the file; journals intact, free space and --resume)
+  2  bad input or a refusal, before any task runs: bad spec, output or journal folder not
+     writable, lock held by another run, journals without --resume/--restart, stale journals
+  3  data set written, but some tasks failed (the summary names up to 5 with their messages)
+  4  stopped by SIGTERM/SIGUSR1 to any rank: journals intact, run again with --resume"""
+
+
+def add_run_arguments(parser: argparse.ArgumentParser) -> None:
+    """The arguments of ``hpcontact run`` (shared by ``hpcontact.cli`` and ``main``)."""
+    parser.add_argument("spec", help="sweep spec (TOML), e.g. jobs/demo.toml")
+    parser.add_argument("--output", help="data set path (.nc), instead of the spec's [sweep].output")
+    journals = parser.add_mutually_exclusive_group()
+    journals.add_argument("--resume", action="store_true",
+                          help="continue from the journals: reuse finished tasks, run failed ones again")
+    journals.add_argument("--restart", action="store_true", help="discard the journals of this output first")
+    parser.add_argument("--accept-stale", action="store_true",
+                        help="reuse journal entries computed by another version, git revision or numerics")
+    parser.add_argument("--retry-crashed", action="store_true",
+                        help="run quarantined tasks (their process died in 2 runs) again")
+    parser.add_argument("--break-lock", action="store_true",
+                        help="take the output's lock from a run known to be dead")
+    parser.add_argument("--grace", type=float, default=None, metavar="SECONDS",
+                        help="after SIGTERM/SIGUSR1, let the task in flight finish this long (default 30)")
+    parser.add_argument("--dry-run", action="store_true", help="list the tasks with their indices; compute nothing")
+    parser.epilog = EXIT_STATUS
+    parser.formatter_class = argparse.RawDescriptionHelpFormatter

@@ -1,0 +1,107 @@
+"""Where a result came from: package version, git revision, numerics fingerprint, resolved scene;
+and the check that refuses to reuse journal entries computed by other code (``--accept-stale``).
+
+A task's key names its parameters as the spec gives them (``tasks.task_key``), which leave the
+engine's defaults out; the journal entry therefore also carries the *resolved* scene, every
+default filled in (contact scenes: ``hpcontact.scene.DEFAULTS`` under the given fields; slip
+scenes: the fields of the validated ``SlipScene``), so an entry whose resolved scene differs
+from the current one (a changed default) is not the same task and is computed again. The
+fingerprint covers what else decides the numbers besides the package's own code: the versions of
+numpy, scipy and pyFFTW and the machine architecture.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import os
+import platform
+import subprocess
+from functools import lru_cache
+from pathlib import Path
+from typing import Any, Iterable, Mapping
+
+from .. import __version__
+from .journal import Entry, to_json
+from .kinds import SLIP, scene_kind
+
+REVISION_VARIABLE = "HPCONTACT_GIT_REVISION"  # overrides the detected revision (installs without .git)
+FIELDS = ("hpcontact_version", "git_revision", "numerics")
+NAMES = {"hpcontact_version": "package version", "git_revision": "git revision", "numerics": "numerics fingerprint"}
+
+
+def git_revision() -> str | None:
+    """The commit of the source checkout hpcontact runs from, ``-dirty`` when tracked files have
+    changes; ``$HPCONTACT_GIT_REVISION`` when set; None outside a checkout."""
+    forced = os.environ.get(REVISION_VARIABLE)
+    if forced:
+        return forced
+    root = Path(__file__).resolve().parents[2]
+    if not (root / ".git").exists():
+        return None
+    try:
+        head = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True, text=True,
+                              timeout=10, check=True).stdout.strip()
+        changes = subprocess.run(["git", "-C", str(root), "status", "--porcelain", "--untracked-files=no"],
+                                 capture_output=True, text=True, timeout=30, check=True).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return f"{head}-dirty" if head and changes else head or None
+
+
+@lru_cache(maxsize=1)
+def numerics() -> dict[str, str]:
+    """The libraries and machine that produce the numbers besides hpcontact itself."""
+    import numpy
+    import pyfftw
+    import scipy
+
+    return {"numpy": numpy.__version__, "scipy": scipy.__version__, "pyfftw": pyfftw.__version__,
+            "machine": platform.machine()}
+
+
+def fingerprint(settings: Mapping[str, Any]) -> str:
+    """A short stable hash (12 hex digits of SHA-1) of ``settings``."""
+    return hashlib.sha1(to_json(settings).encode("utf-8")).hexdigest()[:12]
+
+
+def current() -> dict[str, Any]:
+    """The provenance of this process: package version, git revision, numerics fingerprint."""
+    return {"hpcontact_version": __version__, "git_revision": git_revision(), "numerics": fingerprint(numerics())}
+
+
+def resolved_scene(params: Mapping[str, Any]) -> dict[str, Any]:
+    """The scene ``params`` with every default filled in (see the module docstring)."""
+    if scene_kind(params) == SLIP:
+        from .kinds import validator
+
+        return json.loads(to_json(dataclasses.asdict(validator(SLIP)(params))))
+    from ..scene import DEFAULTS
+
+    return json.loads(to_json({**DEFAULTS, **params}))
+
+
+def describe(provenance: Mapping[str, Any]) -> str:
+    """``hpcontact 0.1.0 (git abc123-dirty, numerics 0123456789ab)``."""
+    return (f"hpcontact {provenance.get('hpcontact_version')} (git {provenance.get('git_revision') or 'unknown'}, "
+            f"numerics {provenance.get('numerics')})")
+
+
+def first_mismatch(entries: Iterable[Entry], now: Mapping[str, Any]) -> str | None:
+    """A one-line description of the first entry computed by other code than ``now``, or None."""
+    for entry in entries:
+        for name in FIELDS:
+            if entry.provenance.get(name) != now.get(name):
+                return (f"task {entry.key[:12]} was computed by {describe(entry.provenance)} on {entry.host or '?'}, "
+                        f"rank {entry.rank}; this is {describe(now)} (first difference: {NAMES[name]})")
+    return None
+
+
+def contributors(entries: Iterable[Entry]) -> str:
+    """JSON list of every provenance that computed the given entries, with its task count."""
+    counts: dict[str, int] = {}
+    for entry in entries:
+        text = to_json({name: entry.provenance.get(name) for name in FIELDS})
+        counts[text] = counts.get(text, 0) + 1
+    return json.dumps([{**json.loads(text), "tasks": n} for text, n in sorted(counts.items())], sort_keys=True)
