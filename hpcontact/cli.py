@@ -39,8 +39,11 @@ def _solve_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--material",
         help="library crystal by name (Cu, Al, Fe, Ni, W, Si, ...); with --quantities slip: the isotropic "
-        "body 1 (Cu, Fe/steel, Al, rigid)",
+        "body 1 (Cu, Fe/steel, Al, rigid) or a crystal as crystal:NAME",
     )
+    p.add_argument("--cubic", help='cubic crystal "C11=... C12=... C44=..." (GPa)')
+    p.add_argument("--orthotropic", help='orthotropic "E1=.. E2=.. E3=.. G12=.. G13=.. G23=.. nu12=.. nu13=.. nu23=.." (GPa)')
+    p.add_argument("--voigt", help="general 6 x 6 Voigt stiffness, 36 numbers row by row (GPa)")
     p.add_argument("--n", type=int, help="cells along the long side")
     p.add_argument("--n-across", type=int, help="cells across the short side (thin shapes)")
     p.add_argument("--tol", type=float, help="CG relative residual tolerance")
@@ -80,13 +83,20 @@ SLIP_OPTIONS = (
     ("coupling", str, "auto, both, coupled or decoupled"),
     ("tensor", bool, "add the incremental 2 x 2 tangential stiffness tensor"),
     ("history", bool, "add every load step"),
+    ("anisotropy2", float, "body 2: cubic anisotropy factor A (with --nu2 and --G2 or --E2)"),
+    ("orientation2", float, "body 2: normal along [110] -> [111] -> [001], psi in degrees (lab frame)"),
+    ("miller2", str, 'body 2: lattice direction "h k l" along the lab normal'),
+    ("azimuth2", float, "body 2: in-plane turn of the crystal (degrees)"),
+    ("cubic2", str, 'body 2: cubic crystal "C11=... C12=... C44=..." (GPa)'),
+    ("orthotropic2", str, "body 2: orthotropic engineering constants (GPa), as --orthotropic"),
+    ("voigt2", str, "body 2: general 6 x 6 Voigt stiffness, 36 numbers (GPa)"),
 )
 
 
 def _params(args: argparse.Namespace) -> dict[str, Any]:
     names = (
         "shape aspect sides shape_angle amplitude seed mask nu G anisotropy orientation miller azimuth "
-        "material n n_across tol quantities radius depth threads"
+        "material cubic orthotropic voigt n n_across tol quantities radius depth threads"
     ).split()
     params = {name: getattr(args, name) for name in names if getattr(args, name) is not None}
     if args.no_precondition:

@@ -97,9 +97,10 @@ def cubic_from_field(field: str, value: Any, gpa: float) -> Crystal:
     """Cubic stiffness from "C11=… C12=… C44=…" in GPa (× ``gpa``), checked (``crystal.cubic``)."""
     c = _named_values(field, value, CUBIC)
     try:
-        return cubic(*(c[n] * gpa for n in CUBIC), name="cubic")
+        base = cubic(*(c[n] for n in CUBIC), name="cubic")  # checked in the unit the user typed
     except InputError as exc:
         raise _renamed(exc, field) from None
+    return _in_unit(base, gpa)
 
 
 def orthotropic_from_field(field: str, value: Any, gpa: float) -> Crystal:
@@ -121,10 +122,11 @@ def orthotropic_from_field(field: str, value: Any, gpa: float) -> Crystal:
         raise InputError(f"{field}.nu12,nu13,nu23",
                          "1 - nu12 nu21 - nu23 nu32 - nu13 nu31 - 2 nu21 nu32 nu13 > 0 (positive definite)", delta)
     try:
-        return orthotropic(*(c[n] * gpa for n in ORTHOTROPIC[:3]), c["nu12"], c["nu13"], c["nu23"],
-                           *(c[n] * gpa for n in ORTHOTROPIC[3:6]), name="orthotropic")
+        base = orthotropic(*(c[n] for n in ORTHOTROPIC[:3]), c["nu12"], c["nu13"], c["nu23"],
+                           *(c[n] for n in ORTHOTROPIC[3:6]), name="orthotropic")
     except InputError as exc:
         raise _renamed(exc, field) from None
+    return _in_unit(base, gpa)
 
 
 def voigt_from_field(field: str, value: Any, gpa: float) -> Crystal:
@@ -140,9 +142,15 @@ def voigt_from_field(field: str, value: Any, gpa: float) -> Crystal:
     if len(numbers) != 36:
         raise InputError(field, allowed, f"{len(numbers)} numbers")
     try:
-        return Crystal(np.array(numbers).reshape(6, 6) * gpa, name="voigt")
+        base = Crystal(np.array(numbers).reshape(6, 6), name="voigt")
     except InputError as exc:
         raise InputError(field, exc.allowed, exc.value) from None
+    return _in_unit(base, gpa)
+
+
+def _in_unit(base: Crystal, gpa: float) -> Crystal:
+    """``base`` (GPa) in the scene's stress unit (``gpa`` units per GPa)."""
+    return base if gpa == 1.0 else Crystal(base.voigt * gpa, base.name, base.citation)
 
 
 def _orient(base: Crystal, p: Mapping[str, Any], suffix: str, cubic_frame: bool) -> Crystal:
@@ -212,8 +220,7 @@ def anisotropic_material(p: Mapping[str, Any], suffix: str = "", gpa: float = 1.
             base = crystal(named)
         except InputError as exc:
             raise InputError(f["material"], exc.allowed, name) from None
-        if gpa != 1.0:
-            base = Crystal(base.voigt * gpa, base.name, base.citation)
+        base = _in_unit(base, gpa)
     else:
         base = _nu_A(p, f, anisotropy)
     return _orient(base, p, suffix, cubic_frame=family in ("cubic", "material", "anisotropy"))
@@ -236,3 +243,12 @@ def _nu_A(p: Mapping[str, Any], f: Mapping[str, str], anisotropy: float) -> Crys
         if not scale > 0.0:
             raise InputError(f["G"], "modulus scale (C11 - C12)/2, finite and > 0", p[f["G"]])
     return cubic_from_nu_A(nu, anisotropy, scale)
+
+
+def constants_material(params: Mapping[str, Any]) -> Crystal | None:
+    """Body 1 of a punch scene when ``cubic``, ``orthotropic`` or ``voigt`` is given (GPa, like the
+    library crystals of punch scenes), else None (``scene`` reads the other descriptions)."""
+    p = {k: v for k, v in params.items() if v is not None}
+    if not any(name in p for name in FAMILIES):
+        return None
+    return anisotropic_material(p, "", 1.0, library=True)

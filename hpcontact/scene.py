@@ -8,9 +8,11 @@ allowed range. ``hpcontact.plan`` decides what to build and run for it.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any, Mapping
 
 from .crystal import Crystal, crystal, cubic_from_nu_A
+from .elastic_constants import constants_material
 from .errors import InputError, finite_number, integer
 from .geometry import SHAPES, Shape
 from .materials import Isotropic
@@ -18,6 +20,28 @@ from .materials import Isotropic
 Material = Isotropic | Crystal
 
 QUANTITIES = ("tangential", "normal", "compliance", "coupled", "indentation")
+
+#: b/a below 1e-12 is refused: the cell integrals are verified for cell aspect 1e-10 … 1e10
+#: (tests/kernels) and K_a/K_b for b/a down to 1e-12 (tests/test_hard_cases.py); by 1e-160 the
+#: cell integrals overflow and by 1e-200 the cell height underflows.
+MIN_ASPECT = 1e-12
+ASPECT_RANGE = "b/a in [1e-12, 1]"
+#: Sphere radius and approach: lengths, loads (~ E* R^1/2 d^3/2) and cell areas (~ R d) stay
+#: far from overflow and underflow for radius in [1e-30, 1e30] and d/R in [1e-15, 1).
+MIN_RADIUS = 1e-30
+MIN_DEPTH = 1e-15
+RADIUS_RANGE = "sphere radius in [1e-30, 1e30]"
+DEPTH_RANGE = "approach d with d/radius in [1e-15, 1)"
+#: Fields that act only for some shapes (``hpcontact.geometry.Shape``).
+SHAPE_FIELDS: dict[str, tuple[str, ...]] = {
+    "aspect": ("ellipse", "rectangle"),
+    "sides": ("polygon", "star"),
+    "amplitude": ("star",),
+    "seed": ("rough",),
+    "hurst": ("rough",),
+    "rms": ("rough",),
+    "mask": ("mask",),
+}
 
 DEFAULTS: dict[str, Any] = {
     "shape": "circle",
@@ -36,6 +60,9 @@ DEFAULTS: dict[str, Any] = {
     "miller": None,
     "azimuth": 0.0,
     "material": None,
+    "cubic": None,
+    "orthotropic": None,
+    "voigt": None,
     "n": 128,
     "n_across": None,
     "tol": 1e-8,
@@ -92,10 +119,10 @@ class Scene:
         G = finite_number("G", p["G"], "shear modulus, finite and > 0")
         if G <= 0.0:
             raise InputError("G", "shear modulus, finite and > 0", p["G"])
-        material = _material(p, G, nu)
-        aspect = finite_number("aspect", p["aspect"], "b/a in (0, 1]")
-        if not 0.0 < aspect <= 1.0:
-            raise InputError("aspect", "b/a in (0, 1]", p["aspect"])
+        material = constants_material(params) or _material(p, G, nu)
+        aspect = finite_number("aspect", p["aspect"], ASPECT_RANGE)
+        if not MIN_ASPECT <= aspect <= 1.0:
+            raise InputError("aspect", ASPECT_RANGE, p["aspect"])
         n = integer("n", p["n"], 2, "an integer >= 2 (cells along the long side)")
         n_across = None if p["n_across"] is None else integer(
             "n_across", p["n_across"], 1, "an integer >= 1 (cells across the short side)"
@@ -106,16 +133,17 @@ class Scene:
         if not 1e-14 <= tol <= 1e-2:
             raise InputError("tol", "CG tolerance in [1e-14, 1e-2]", p["tol"])
         quantities = _quantities(p["quantities"])
-        radius = None if p["radius"] is None else finite_number("radius", p["radius"], "sphere radius, finite and > 0")
-        depth = None if p["depth"] is None else finite_number("depth", p["depth"], "approach in (0, radius)")
+        _refuse_unused(params, quantities, p["shape"])
+        radius = None if p["radius"] is None else finite_number("radius", p["radius"], RADIUS_RANGE)
+        depth = None if p["depth"] is None else finite_number("depth", p["depth"], DEPTH_RANGE)
         if "indentation" in quantities and radius is None:
-            raise InputError("radius", "sphere radius, finite and > 0 (needed for indentation)", None)
+            raise InputError("radius", f"{RADIUS_RANGE} (needed for indentation)", None)
         if "indentation" in quantities and depth is None:
-            raise InputError("depth", "approach in (0, radius) (needed for indentation)", None)
-        if radius is not None and radius <= 0.0:
-            raise InputError("radius", "sphere radius, finite and > 0", p["radius"])
-        if depth is not None and (depth <= 0.0 or (radius is not None and depth >= radius)):
-            raise InputError("depth", "approach in (0, radius)", p["depth"])
+            raise InputError("depth", f"{DEPTH_RANGE} (needed for indentation)", None)
+        if radius is not None and not MIN_RADIUS <= radius <= 1.0 / MIN_RADIUS:
+            raise InputError("radius", RADIUS_RANGE, p["radius"])
+        if depth is not None and not (radius is not None and MIN_DEPTH * radius <= depth < radius):
+            raise InputError("depth", DEPTH_RANGE, p["depth"])
         shape = Shape(
             name=p["shape"],
             aspect=aspect,
@@ -136,11 +164,40 @@ class Scene:
             n_across=n_across,
             tol=tol,
             threads=threads,
-            precondition=bool(p["precondition"]),
+            precondition=_boolean("precondition", p["precondition"]),
             radius=radius,
             depth=depth,
             params=dict(params),
         )
+
+
+def _boolean(field_name: str, value: Any) -> bool:
+    """A true boolean only: the string "false" is not False (a spec's typo must not flip it)."""
+    if isinstance(value, bool):
+        return value
+    raise InputError(field_name, "true or false (a boolean, not a string or number)", value)
+
+
+def _refuse_unused(params: Mapping[str, Any], quantities: tuple[str, ...], shape: str) -> None:
+    """Refuse a field given for a scene that does nothing with it (no silent default).
+
+    ``radius`` and ``depth`` only act with ``indentation``; a shape-only field only with its
+    shapes (``SHAPE_FIELDS``); ``shape_angle`` does not turn a ``mask`` or ``rough`` contact
+    (an image and a generated patch have no turned version here). Orientation fields of an
+    isotropic body are accepted: a sweep over A that contains 1 gives them to every scene.
+    """
+    given = {k for k, v in params.items() if v is not None}
+    if "indentation" not in quantities:
+        for name in ("radius", "depth"):
+            if name in given:
+                raise InputError(name, "only with quantities indentation", params[name])
+    for name, shapes in SHAPE_FIELDS.items():
+        if name in given and shape not in shapes:
+            raise InputError(name, f"only with shape {' or '.join(shapes)}", params[name])
+    if shape in ("mask", "rough") and "shape_angle" in given and float(params["shape_angle"]) != 0.0:
+        raise InputError("shape_angle", "0 for shape mask or rough (they are not turned)", params["shape_angle"])
+    if shape == "mask" and "mask" in given and not Path(str(params["mask"])).is_file():
+        raise InputError("mask", "an existing .npy or .png file", params["mask"])
 
 
 def _miller(value: Any) -> tuple[int, int, int]:

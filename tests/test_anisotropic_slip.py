@@ -187,3 +187,18 @@ def test_bad_constants_name_the_field(change: dict, field: str) -> None:
     with pytest.raises(InputError) as info:
         validate({**BASE, **change})
     assert info.value.field == field
+
+
+def test_command_line_takes_both_bodies_constants(capsys: pytest.CaptureFixture) -> None:
+    """Body 1 by --orthotropic, body 2 by --cubic2 and --miller2 (GPa); a bad constant exits 2 naming it."""
+    from hpcontact.cli import main
+
+    common = ["solve", "--quantities", "slip", "--radius", "0.5", "--load", "1e5", "--mu", "0.1", "--q-ratio", "0.5",
+              "--n", "16", "--steps", "1", "--json"]
+    assert main(common + ["--orthotropic", ORTHO, "--cubic2", "C11=168.4 C12=121.4 C44=75.4", "--miller2", "1 1 1",
+                          "--radius2", "inf"]) == 0
+    assert '"coupling_size"' in capsys.readouterr().out
+    assert main(common + ["--cubic2", "C11=168.4 C12=121.4 C44=-75.4"]) == 2
+    assert "cubic2.C44 = -75.4" in capsys.readouterr().err
+    assert main(["solve", "--voigt", " ".join(["1"] * 36)]) == 2  # punch scene: singular matrix
+    assert "voigt" in capsys.readouterr().err
