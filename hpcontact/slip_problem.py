@@ -113,9 +113,11 @@ def validate(params: Mapping[str, Any]) -> SlipScene:
     load = finite_number("load", p["load"], "a normal load, finite and > 0")
     if not load > 0.0:
         raise InputError("load", "a normal load, finite and > 0", p["load"])
-    mu = finite_number("mu", p["mu"], "a friction coefficient, finite and >= 0")
-    if mu < 0.0:
-        raise InputError("mu", "a friction coefficient, finite and >= 0", p["mu"])
+    # mu below 1e-6: the tangential load q mu P falls under the solver's resolution (measured:
+    # mu = 1e-8 solves, 1e-10 stops unconverged, 1e-300 gave the bonded state without a word)
+    mu = finite_number("mu", p["mu"], "a friction coefficient, 0 or finite and >= 1e-6")
+    if mu < 0.0 or 0.0 < mu < 1e-6:
+        raise InputError("mu", "a friction coefficient, 0 or finite and >= 1e-6", p["mu"])
     q_ratio = finite_number("q_ratio", p["q_ratio"], "Q/(mu P) in [0, 1) (1 is gross sliding)")
     if not 0.0 <= q_ratio < 1.0:
         raise InputError("q_ratio", "Q/(mu P) in [0, 1) (1 is gross sliding)", p["q_ratio"])
