@@ -2,7 +2,8 @@
 
 ``python sweep_runner.py SPEC --output PATH --log DIR [--resume] [--delay S]`` (under mpiexec):
 before each task, the rank appends ``pid key`` to ``DIR/rank{R}.log`` and waits ``--delay``
-seconds, so a test can see what started where and kill a rank mid-sweep.
+seconds, so a test can see what started where and kill a rank mid-sweep. The rank is the
+team's (``MPI.COMM_WORLD``), whatever launcher started the processes.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from typing import Any, Mapping
 
 from hpcontact.solve import solve
 from hpcontact.sweep.driver import run_sweep
+from hpcontact.sweep.schedule import world
 from hpcontact.sweep.tasks import task_key
 
 
@@ -26,7 +28,8 @@ def main() -> None:
     parser.add_argument("--resume", action="store_true")
     parser.add_argument("--delay", type=float, default=0.0)
     args = parser.parse_args()
-    log = Path(args.log) / f"rank{os.environ.get('PMI_RANK', '0')}.log"
+    team = world()
+    log = Path(args.log) / f"rank{team.rank}.log"
 
     def task(params: Mapping[str, Any]) -> dict[str, Any]:
         with open(log, "a", encoding="utf-8") as fh:
@@ -34,7 +37,7 @@ def main() -> None:
         time.sleep(args.delay)
         return solve(params)
 
-    run_sweep(args.spec, resume=args.resume, output=args.output, task_function=task)
+    run_sweep(args.spec, resume=args.resume, output=args.output, task_function=task, team=team)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# Cluster MPIs (issue 15, point 4): install Debian's Open MPI and MPICH when this machine allows
+# it (root, apt-get, a reachable mirror), then run tests/cluster_mpi/drive.py: the 2-rank MPI
+# tests and the demo job under each MPI and forced transport, equal data sets, speedup >= 1.5.
+# Prints one SKIPPED line and exits 0 where the packages can't be installed; any failure of
+# the checks themselves exits non-zero. Run from anywhere; uses the repository's .venv.
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+started=$SECONDS
+packages=(openmpi-bin mpich)  # runtime only: mpi4py's wheel loads them, nothing is compiled
+
+skip() {
+    echo "cluster MPIs: SKIPPED: $1 (needs root, apt-get and a reachable Debian mirror to install ${packages[*]})"
+    exit 0
+}
+
+installed=$(dpkg-query -W -f='${Status}\n' "${packages[@]}" 2>/dev/null | grep -c "install ok installed" || true)
+if [[ $installed -eq ${#packages[@]} ]]; then
+    echo "cluster MPIs: ${packages[*]} already installed"
+else
+    [[ $(id -u) -eq 0 ]] || skip "not root"
+    command -v apt-get > /dev/null || skip "no apt-get"
+    log=$(mktemp)
+    timeout 300 apt-get update -q > "$log" 2>&1 || { tail -n 5 "$log"; rm -f "$log"; skip "apt-get update failed"; }
+    if ! DEBIAN_FRONTEND=noninteractive timeout 600 apt-get install -y -q --no-install-recommends "${packages[@]}" \
+        > "$log" 2>&1; then
+        tail -n 20 "$log"
+        rm -f "$log"
+        echo "cluster MPIs: FAILED: apt-get install ${packages[*]} failed after a successful apt-get update"
+        exit 1
+    fi
+    rm -f "$log"
+    echo "cluster MPIs: installed ${packages[*]} in $((SECONDS - started)) s"
+fi
+
+status=0
+PYTHONPATH="$PWD${PYTHONPATH:+:$PYTHONPATH}" .venv/bin/python tests/cluster_mpi/drive.py || status=$?
+echo "cluster MPIs: script took $((SECONDS - started)) s (exit status $status)"
+exit "$status"
