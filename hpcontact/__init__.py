@@ -4,6 +4,12 @@ BLAS is limited to ``HPCONTACT_BLAS_THREADS`` threads (default 1) on import: the
 BLAS calls are vector reductions, and threaded OpenBLAS on a machine whose cores are already
 busy (MPI ranks, FFTW threads) made each of them 200× slower (22 ms instead of 0.1 ms for a
 262k-entry norm, measured on 2 cores under load). FFTW threads are set separately (``threads``).
+
+The face a notebook uses (``api``): ``hpcontact.solve(shape=..., nu=..., ...)`` returns one
+scene's record, ``hpcontact.run_sweep(spec)`` runs a sweep in this process and
+``hpcontact.open_dataset(path)`` reads a sweep's data set. ``hpcontact.solve`` is also the
+engine's module (``hpcontact.solve.solve``): the module is made callable, so both spellings
+work.
 """
 
 import os as _os
@@ -14,3 +20,18 @@ from threadpoolctl import threadpool_limits as _threadpool_limits
 __version__ = "0.1.0"
 
 _threadpool_limits(limits=int(_os.environ.get("HPCONTACT_BLAS_THREADS", "1")), user_api="blas")
+
+from . import solve as _solve_module  # noqa: E402  (after the limit: the engine loads numpy's BLAS users)
+from .api import open_dataset, run_sweep  # noqa: E402,F401
+
+
+class _CallableModule(type(_solve_module)):
+    """The ``hpcontact.solve`` module, callable as ``api.solve``."""
+
+    def __call__(self, **params: object) -> dict:
+        from .api import solve
+
+        return solve(**params)
+
+
+_solve_module.__class__ = _CallableModule

@@ -1,6 +1,7 @@
 """Helpers shared by the post-processing scripts: arguments, selections, labels, saving.
 
-The scripts read a sweep data set (DESIGN §4.2) with xarray and write PNGs; run them as
+The scripts read a sweep data set (DESIGN §4.2) through ``hpcontact.open_dataset`` (the
+labelled hypercube, K_nn along the angle) and write PNGs; run them as
 ``python postprocess/<script>.py DATASET OUTDIR [options]``.
 """
 
@@ -18,6 +19,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import xarray as xr  # noqa: E402
 
+import hpcontact  # noqa: E402
+
 SYMBOLS = {"nu": "ν", "aspect": "b/a", "angle": "θ", "anisotropy": "A", "orientation": "ψ", "n": "n", "tol": "tol"}
 
 
@@ -34,8 +37,8 @@ def arguments(description: str, extra: Iterable[tuple[str, dict]] = ()) -> argpa
 
 
 def open_dataset(path: Path) -> xr.Dataset:
-    """The data set, loaded into memory and closed."""
-    with xr.open_dataset(path) as ds:
+    """The sweep data set (``hpcontact.open_dataset``), loaded into memory and closed."""
+    with hpcontact.open_dataset(path) as ds:
         return ds.load()
 
 

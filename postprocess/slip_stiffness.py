@@ -50,6 +50,7 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
+import hpcontact  # noqa: E402
 from hpcontact import analytic  # noqa: E402
 from hpcontact.bodies import pair_from_params  # noqa: E402
 from hpcontact.slip import PathSolver, SlipProblem, solve_slip, validate  # noqa: E402
@@ -62,7 +63,7 @@ UM = 1e-6  # stiffness shown in N/µm
 def open_dataset(path: Path) -> xr.Dataset:
     if not path.exists():
         sys.exit(f"{path}: no such data set; run the sweep first: mpiexec -n 2 hpcontact run jobs/sphere_pairs.toml")
-    with xr.open_dataset(path) as ds:
+    with hpcontact.open_dataset(path) as ds:
         return ds.load()
 
 

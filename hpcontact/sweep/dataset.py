@@ -26,7 +26,6 @@ from __future__ import annotations
 import json
 import numbers
 import re
-import os
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -36,11 +35,16 @@ import xarray as xr
 from ..quantities import directional_stiffness
 from .journal import BAD_INPUT, ERROR, NOT_CONVERGED, OK, Entry, to_json
 from .kinds import SLIP
+from . import netcdf
 from .spec import LABEL_AXES, Spec
+from .units import cf_attributes
+
 
 NOT_COMPUTED = -1
 STATUS_MEANINGS = {OK: "ok", BAD_INPUT: "bad_input", NOT_CONVERGED: "not_converged", ERROR: "error", NOT_COMPUTED: "not_computed"}
 
+TENSOR = ("K_xx", "K_xy", "K_yx", "K_yy")
+DIRECTIONAL = ("K_nn", "normalized_nn")  # derived from the tensor, not stored
 STIFFNESS = "G a"  # forces per unit displacement in units of G times the semi-major extent a
 AXIS_ATTRS: Mapping[str, Mapping[str, str]] = {
     "shape": {"long_name": "contact shape"},
@@ -57,9 +61,16 @@ AXIS_ATTRS: Mapping[str, Mapping[str, str]] = {
     "n": {"long_name": "grid cells along the long side", "units": "1"},
     "n_across": {"long_name": "grid cells across the short side", "units": "1"},
     "tol": {"long_name": "conjugate-gradient relative residual tolerance", "units": "1"},
-    "G": {"long_name": "shear modulus", "units": "G"},
+    "G": {"long_name": "shear modulus G: the stress unit of the scene", "units": "1"},
+    "amplitude": {"long_name": "relative lobe amplitude of the star", "units": "1"},
     "sides": {"long_name": "polygon sides or star lobes", "units": "1"},
     "shape_angle": {"long_name": "rotation of the shape on the grid", "units": "degree"},
+    "seed": {"long_name": "random seed of the rough surface", "units": "1"},
+    "hurst": {"long_name": "Hurst exponent of the rough surface", "units": "1"},
+    "rms": {"long_name": "rms height of the rough surface", "units": "a"},
+    "mask": {"long_name": "contact mask image (path)"},
+    "threads": {"long_name": "FFTW threads per solve", "units": "1"},
+    "quantities": {"long_name": "quantities solved for"},
 }
 VARIABLE_ATTRS: dict[str, Mapping[str, str]] = {
     **{
@@ -75,6 +86,8 @@ VARIABLE_ATTRS: dict[str, Mapping[str, str]] = {
     "K_max": {"long_name": "largest principal tangential stiffness", "units": STIFFNESS},
     "K_min": {"long_name": "smallest principal tangential stiffness", "units": STIFFNESS},
     "principal_angle_deg": {"long_name": "direction of K_max from the x axis", "units": "degree"},
+    "principal_angle_note": {"long_name": "why principal_angle_deg is missing (text)"},
+    "K_min_over_K_max": {"long_name": "K_min/K_max: principal stiffness ratio (frame-free anisotropy)", "units": "1"},
     "K_a_over_K_b": {"long_name": "K_a/K_b = K_xx/K_yy (a: major axis along x, b: across)", "units": "1"},
     "normalized_xx": {"long_name": "Li's normalized stiffness K_xx E*/(K_zz G*)", "units": "1"},
     "normalized_yy": {"long_name": "Li's normalized stiffness K_yy E*/(K_zz G*)", "units": "1"},
@@ -166,6 +179,9 @@ SLIP_ATTRS: Mapping[str, tuple[str, str]] = {
     "displacement": ("final tangential displacement (displacement control)", "L"),
     "n": ("grid cells across the contact's major diameter", "1"),
     "steps": ("tangential load steps", "1"),
+    "control": ("tangential load control: force or displacement", ""),
+    "path": ("tangential loading path: load, or loop (load, unload, reload)", ""),
+    "coupling": ("coupling of the normal and tangential problems: auto, both, coupled or decoupled", ""),
 }
 SI_UNITS = {"F": "N", "L": "m"}
 
@@ -203,7 +219,7 @@ def build_dataset(
     coords: dict[str, Any] = {a.name: (a.name, _coordinate(a.name, a.values)) for a in spec.axes}
     for name, value in spec.fixed.items():
         if _is_number(value) or isinstance(value, str):
-            coords[name] = ((), value)
+            coords[name] = ((), np.int32(value) if isinstance(value, numbers.Integral) else value)
     coords.update(_label_coordinates(spec))
     renamed: dict[str, str] = {}
     for name in names:
@@ -212,7 +228,7 @@ def build_dataset(
         if all(_is_number(v) for v in present):
             array = np.array([np.nan if v is None else float(v) for v in values], dtype=np.float64)
         else:
-            array = np.array(["" if v is None else v if isinstance(v, str) else to_json(v) for v in values], dtype=object)
+            array = _texts(values)
         array = array.reshape(shape)
         if name in coords:
             if _equals_coordinate(array, _coordinate_grid(coords[name], dims, shape)):
@@ -222,7 +238,6 @@ def build_dataset(
         variables[name] = (dims, array)
 
     ds = xr.Dataset(variables, coords=coords)
-    _derive_directional(ds, spec)
     table = _attribute_table(spec)
     for name in ds.variables:
         variable_attrs = dict(table.get(renamed.get(name, name), {}))
@@ -230,7 +245,7 @@ def build_dataset(
             variable_attrs["long_name"] = f"{variable_attrs['long_name']} (task record; differs from the coordinate)"
         ds[name].attrs.update(variable_attrs)
     ds.attrs.update(_global_attrs(spec, attrs))
-    return ds
+    return derive_directional(ds)
 
 
 def _label_coordinates(spec: Spec) -> dict[str, tuple[tuple[str, ...], np.ndarray]]:
@@ -254,10 +269,20 @@ def _label_coordinates(spec: Spec) -> dict[str, tuple[tuple[str, ...], np.ndarra
         present = [v for v in values if v is not None]
         if present and all(_is_number(v) for v in present):
             exact = all(isinstance(v, numbers.Integral) for v in present) and len(present) == len(values)
-            array = np.array([np.nan if v is None else v for v in values], dtype=np.int64 if exact else np.float64)
+            array = np.array([np.nan if v is None else v for v in values], dtype=np.int32 if exact else np.float64)
         else:
-            array = np.array(["" if v is None else v if isinstance(v, str) else to_json(v) for v in values], dtype=object)
+            array = _texts(values)
         out[name] = (tuple(a.name for a in setting), array.reshape(shape))
+    return out
+
+
+def _texts(values: list[Any]) -> np.ndarray:
+    """Text values (JSON for non-strings, "" for missing) as an object array in which equal
+    texts are one string object (a sweep's plans: a few distinct texts over 10^5 points)."""
+    shared: dict[str, str] = {}
+    texts = ("" if v is None else v if isinstance(v, str) else to_json(v) for v in values)
+    out = np.empty(len(values), dtype=object)
+    out[:] = [shared.setdefault(t, t) for t in texts]
     return out
 
 
@@ -297,7 +322,7 @@ def _attribute_table(spec: Spec) -> dict[str, dict[str, Any]]:
     if _indentation_only(spec):  # the record's grid is the sphere's
         for name in ("dx", "dy"):
             table[name]["units"] = "L"
-    return table
+    return {name: cf_attributes(attrs) for name, attrs in table.items()}
 
 
 def _slip_attribute_table(spec: Spec) -> dict[str, dict[str, Any]]:
@@ -306,12 +331,12 @@ def _slip_attribute_table(spec: Spec) -> dict[str, dict[str, Any]]:
     contact tables (status, message, wall time, grid counts, tol)."""
     units = SI_UNITS if _names_materials(spec) else {"F": "F", "L": "L"}
     table = {name: dict(VARIABLE_ATTRS.get(name, AXIS_ATTRS.get(name, {})))
-             for name in ("status", "message", "wall_time_s", "nx", "ny", "tol", "plan")}
+             for name in ("status", "message", "wall_time_s", "nx", "ny", "tol", "plan", "threads", "quantities")}
     for name, (long_name, unit) in SLIP_ATTRS.items():
         attrs: dict[str, Any] = {"long_name": long_name}
         if unit:
-            attrs["units"] = re.sub(r"\b([FL])(?=-?\d*\b)", lambda m: units[m.group(1)], unit)
-        table[name] = attrs
+            attrs["units"] = re.sub(r"\b([FL])(?=-?\d*\b)", lambda m: units[m.group(1)], unit).replace("N m-2", "Pa")
+        table[name] = cf_attributes(attrs)
     return table
 
 
@@ -349,27 +374,53 @@ def _coordinate(name: str, values: tuple) -> np.ndarray:
     if name in LABEL_AXES or name == "material":
         return np.array(values, dtype=object)
     if name == "n":
-        return np.array(values, dtype=np.int64)
+        return np.array(values, dtype=np.int32)
     return np.array(values, dtype=np.float64)
 
 
-def _derive_directional(ds: xr.Dataset, spec: Spec) -> None:
-    """K_nn(angle) and normalized_nn, when there is an angle axis and a tangential tensor."""
-    if spec.axis("angle") is None or not {"K_xx", "K_xy", "K_yx", "K_yy"} <= set(ds.data_vars):
-        return
-    order = [a.name for a in spec.axes]
-    if spec.angle_mode == "rotated":
-        ds["K_nn"] = ds["K_xx"]
+def derive_directional(ds: xr.Dataset) -> xr.Dataset:
+    """``ds`` with K_nn(angle) and normalized_nn (``DIRECTIONAL``) when it has an angle axis
+    and a tangential tensor: K_nn = nᵀ K n, n = (cos angle, sin angle) (Li 2017, eq. 6) in
+    tensor mode, K_xx of the shape turned by −angle in rotated mode; normalized_nn =
+    K_nn · normalized_xx / K_xx. Dimensions in the spec's axis order (the ``sweep_axes``
+    attribute); units those of K_xx. Lazy on dask arrays."""
+    if "angle" not in ds.dims or not set(TENSOR) <= set(ds.data_vars):
+        return ds
+    order = ds.attrs["sweep_axes"].split()
+    kxx = ds["K_xx"]
+    if "angle" in kxx.dims:  # rotated mode: one solve per angle
+        knn = kxx.copy()
     else:
-        tensor = xr.concat(
-            [xr.concat([ds["K_xx"], ds["K_xy"]], "j"), xr.concat([ds["K_yx"], ds["K_yy"]], "j")], "i"
-        ).transpose(..., "i", "j")
-        angle = ds["angle"]
-        values = directional_stiffness(tensor.values[..., None, :, :], angle.values)
-        ds["K_nn"] = (tensor.dims[:-2] + ("angle",), values)
-        ds["K_nn"] = ds["K_nn"].transpose(*order)
+        knn = xr.apply_ufunc(
+            _directional, *(ds[name] for name in TENSOR), ds["angle"], dask="parallelized", output_dtypes=[np.float64]
+        )
+    unit = kxx.attrs.get("scale", kxx.attrs.get("units"))
+    knn.attrs = cf_attributes({"long_name": VARIABLE_ATTRS["K_nn"]["long_name"], "units": unit})
+    out = ds.assign(K_nn=knn.transpose(*[d for d in order if d in knn.dims]))
     if "normalized_xx" in ds:
-        ds["normalized_nn"] = (ds["K_nn"] * (ds["normalized_xx"] / ds["K_xx"])).transpose(*order)
+        normalized = out["K_nn"] * (ds["normalized_xx"] / kxx)
+        normalized.attrs = dict(VARIABLE_ATTRS["normalized_nn"])
+        out["normalized_nn"] = normalized.transpose(*[d for d in order if d in normalized.dims])
+    return out
+
+
+def _directional(kxx: np.ndarray, kxy: np.ndarray, kyx: np.ndarray, kyy: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """``directional_stiffness`` on the four broadcast tensor components."""
+    tensor = np.stack([np.stack([kxx, kxy], axis=-1), np.stack([kyx, kyy], axis=-1)], axis=-2)
+    return directional_stiffness(tensor, angle)
+
+
+def write_netcdf(ds: xr.Dataset, path: Path) -> Path:
+    """Write the data set ``ds`` to ``path`` (``netcdf.write``: compact, atomic) without the
+    variables ``derive_directional`` makes from the tensor; returns ``path``."""
+    return netcdf.write(ds.drop_vars([name for name in DIRECTIONAL if name in ds]), path)
+
+
+def open_dataset(path: str | Path, **options: Any) -> xr.Dataset:
+    """The sweep data set at ``path``: the labelled hypercube over the spec's axes as
+    ``build_dataset`` made it, lazily (``options`` go to ``xarray.open_dataset``, e.g.
+    ``chunks={}`` for dask arrays), with K_nn(angle) and normalized_nn derived again."""
+    return derive_directional(netcdf.read(path, **options))
 
 
 def _global_attrs(spec: Spec, attrs: Mapping[str, Any]) -> dict[str, Any]:
@@ -378,6 +429,7 @@ def _global_attrs(spec: Spec, attrs: Mapping[str, Any]) -> dict[str, Any]:
         "Conventions": "CF-1.8",
         "scene_kind": spec.kind,
         "angle_mode": spec.angle_mode,
+        "sweep_axes": " ".join(a.name for a in spec.axes),
         "spec_path": str(spec.path),
         "spec": spec.text,
     }
@@ -397,20 +449,34 @@ def _global_attrs(spec: Spec, attrs: Mapping[str, Any]) -> dict[str, Any]:
     for name, value in spec.fixed.items():
         if not (_is_number(value) or isinstance(value, str)):
             out[f"scene_{name}"] = json.dumps(value)
-    out.update(attrs)
+    out.update({k: _attribute_value(v) for k, v in attrs.items() if v is not None})
+    out["history"] = _history(spec, attrs)
     return {k: v for k, v in out.items() if v is not None}
 
 
-def write_netcdf(ds: xr.Dataset, path: Path) -> Path:
-    """Write ``ds`` to ``path`` as netCDF4: to a temporary file in the same folder, then an atomic
-    rename, so ``path`` is always either the old file or the complete new one."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+def _attribute_value(value: Any) -> Any:
+    """A provenance value as a netCDF attribute: a list (the code versions and revisions whose
+    journal entries the data set holds, say) as one line per item, a mapping as JSON."""
+    if isinstance(value, (list, tuple)):
+        return "\n".join(v if isinstance(v, str) else json.dumps(v, sort_keys=True) for v in value)
+    if isinstance(value, Mapping):
+        return json.dumps(value, sort_keys=True)
+    return value
+
+
+def _history(spec: Spec, attrs: Mapping[str, Any]) -> str | None:
+    """The CF ``history``: one line per run, "<created>: <command>" (``attrs["created"]`` and
+    ``attrs["history"]``); a ``--resume`` run appends its line to the history of the data set
+    it replaces (``spec.output``), a fresh run starts a new one."""
+    command = attrs.get("history")
+    if not command:
+        return None
+    line = f"{attrs['created']}: {command}" if attrs.get("created") else str(command)
+    if "--resume" not in str(command).split():
+        return line
     try:
-        ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4")
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
-    return path
+        with xr.open_dataset(spec.output, engine="netcdf4") as old:
+            previous = old.attrs.get("history")
+    except (OSError, ValueError):
+        previous = None
+    return f"{previous}\n{line}" if previous else line

@@ -390,7 +390,9 @@ def _generated(key: str, raw: dict) -> list[float]:
     if num < 1:
         raise InputError(f"{key}.{kind}", "num >= 1 (the axis is empty)", args)
     make = np.linspace if kind == "linspace" else np.logspace
-    return [float(v) for v in make(float(start), float(stop), num, dtype=np.float64)]
+    # 15 significant digits drop the generator's last-bit error (0.30000000000000004 -> 0.3,
+    # 9.999999999999999e-05 -> 1e-4) so that labels select exactly: ds.sel(nu=0.3)
+    return [float(f"{v:.15g}") for v in make(float(start), float(stop), num, dtype=np.float64)]
 
 
 def _label_values(key: str, name: str, values: list) -> tuple[tuple[str, ...], tuple[Mapping[str, Any], ...]]:

@@ -1,16 +1,28 @@
-"""Entries → xarray data set → netCDF4: schema of DESIGN §4.2, derived K_nn, atomic write."""
+"""Entries → xarray data set → netCDF4 and back: schema of DESIGN §4.2, derived K_nn, CF units,
+exact labels, compact storage, history, atomic write; the CF checkers where they are installed."""
 
 from __future__ import annotations
 
+import json
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import netCDF4
 import numpy as np
 import pytest
 import xarray as xr
 
+import hpcontact
 from hpcontact.quantities import rotated_tensor
-from hpcontact.sweep.dataset import NOT_COMPUTED, build_dataset, write_netcdf
+from hpcontact.sweep.dataset import NOT_COMPUTED, SLIP_ATTRS, VARIABLE_ATTRS, build_dataset, open_dataset, write_netcdf
 from hpcontact.sweep.journal import ERROR, OK, Entry
+from hpcontact.sweep.netcdf import INT_FILL, chunk_shape
 from hpcontact.sweep.spec import parse_spec
 from hpcontact.sweep.tasks import enumerate_tasks
+
+ROOT = Path(__file__).resolve().parents[2]
 
 SPEC = """
 [sweep]
@@ -27,8 +39,8 @@ angle = { linspace = [0, 180, 7] }
 """
 
 
-def build(fake_solve, text=SPEC, fail=None, missing=None):
-    spec = parse_spec(text, validate=lambda params: None)
+def entries_of(spec, solve, fail=None, missing=None):
+    """Journal entries of every task of ``spec`` (``solve`` gives the records), and the point → key map."""
     tasks, where = enumerate_tasks(spec)
     entries = {}
     for t in tasks:
@@ -37,9 +49,15 @@ def build(fake_solve, text=SPEC, fail=None, missing=None):
         failed = t.params == fail
         entries[t.key] = Entry(
             key=t.key, params=t.params, status=ERROR if failed else OK, message="RuntimeError: x" if failed else "",
-            record={} if failed else fake_solve(t.params), wall_time_s=0.5, finished=0.0, rank=0,
+            record={} if failed else solve(t.params), wall_time_s=0.5, finished=0.0, rank=0,
         )
-    return spec, build_dataset(spec, where, entries, {"mpi_size": 2, "hpcontact_version": "0.1.0"})
+    return entries, where
+
+
+def build(fake_solve, text=SPEC, fail=None, missing=None, attrs=None):
+    spec = parse_spec(text, validate=lambda params: None)
+    entries, where = entries_of(spec, fake_solve, fail, missing)
+    return spec, build_dataset(spec, where, entries, attrs or {"mpi_size": 2, "hpcontact_version": "0.1.0"})
 
 
 def test_schema(fake_solve):
@@ -52,7 +70,8 @@ def test_schema(fake_solve):
     for name in ("K_xx", "K_xy", "K_yx", "K_yy", "K_zz", "K_a_over_K_b", "normalized_xx", "iterations", "wall_time_s"):
         assert ds[name].dims == ("shape", "aspect", "nu") and ds[name].dtype == np.float64, name
         assert "long_name" in ds[name].attrs and "units" in ds[name].attrs, name
-    assert ds["K_xx"].attrs["units"] == "G a"
+    assert ds["K_xx"].attrs["units"] == "1" and ds["K_xx"].attrs["scale"] == "G a"
+    assert ds["K_xx"].attrs["long_name"].endswith("(in units of G a)")
     assert ds["status"].dtype == np.int32 and (ds["status"] == OK).all()
     assert ds["plan"].dims == ("shape", "aspect", "nu") and '"solves": 2' in str(ds["plan"].values[0, 0, 0])
     assert ds.attrs["spec"] == SPEC and ds.attrs["title"] == "test" and ds.attrs["mpi_size"] == 2
@@ -93,7 +112,7 @@ def test_failed_and_missing_tasks(fake_solve):
 def test_netcdf_round_trip_and_atomic_replace(fake_solve, tmp_path, monkeypatch):
     _, ds = build(fake_solve)
     path = write_netcdf(ds, tmp_path / "sub" / "out.nc")
-    with xr.open_dataset(path) as back:
+    with open_dataset(path) as back:
         xr.testing.assert_identical(back.load(), ds)
     before = path.read_bytes()
 
@@ -105,3 +124,193 @@ def test_netcdf_round_trip_and_atomic_replace(fake_solve, tmp_path, monkeypatch)
         write_netcdf(ds, path)
     assert path.read_bytes() == before
     assert sorted(p.name for p in path.parent.iterdir()) == ["out.nc"]
+
+
+LABELS = """
+[sweep]
+title = "labels"
+[scene]
+quantities = ["tangential", "normal"]
+[axes]
+shape = ["ellipse", "rectangle", { label = "hexagon", shape = "polygon", sides = 6 }]
+aspect = { logspace = [0, -8, 17] }
+nu = { linspace = [0.0, 0.5, 6] }
+angle = { linspace = [0, 180, 37] }
+"""
+
+
+def test_the_hypercube_comes_back_point_by_point_from_the_file(fake_solve, tmp_path):
+    """Every point of the opened file holds the record of its task (read from the entries, not
+    from the data set): labels select exactly, failed tasks are NaN, plans are their JSON."""
+    spec = parse_spec(LABELS, validate=lambda params: None)
+    bad = spec.scene_params((0, 3, 2))
+    entries, where = entries_of(spec, fake_solve, fail=bad)
+    path = write_netcdf(build_dataset(spec, where, entries, {}), tmp_path / "labels.nc")
+    with hpcontact.open_dataset(path) as ds:
+        point = ds.sel(nu=0.3, aspect=1e-4, shape="rectangle")  # linspace/logspace values select exactly
+        assert float(point.K_xx) == fake_solve({"shape": "rectangle", "aspect": 1e-4, "nu": 0.3})["K_xx"]
+        ds = ds.load()
+    labels = [spec.axis(name).values for name in ("shape", "aspect", "nu")]
+    assert [ds[name].values.tolist() for name in ("shape", "aspect", "nu")] == [list(v) for v in labels]
+    for index, key in where.items():
+        entry = entries[key]
+        at = {name: i for name, i in zip(("shape", "aspect", "nu"), index)}
+        for name in ("K_xx", "K_yy", "K_zz", "iterations"):
+            value = float(ds[name].isel(at))
+            assert (np.isnan(value) and entry.status != OK) or value == entry.record[name], (name, index)
+        assert str(ds["plan"].isel(at).values) == ("" if entry.status != OK else
+                                                   '{"kernels": ["xx", "yy"], "solves": 2}')
+        assert int(ds["status"].isel(at)) == entry.status
+    # K_nn from the stored tensor: n K n at every angle (Li 2017, eq. 6); rounding only
+    K = ds[["K_xx", "K_xy", "K_yx", "K_yy"]].sel(shape="hexagon", aspect=1.0, nu=0.5)
+    tensor = np.array([[K.K_xx, K.K_xy], [K.K_yx, K.K_yy]], dtype=np.float64)
+    expected = [rotated_tensor(tensor, a)[0, 0] for a in ds.angle.values]
+    np.testing.assert_allclose(ds.K_nn.sel(shape="hexagon", aspect=1.0, nu=0.5), expected, rtol=1e-14)
+
+
+def test_storage_is_compact_and_typed(fake_solve, tmp_path):
+    spec = parse_spec(LABELS, validate=lambda params: None)
+    entries, where = entries_of(spec, fake_solve)
+    ds = build_dataset(spec, where, entries, {})
+    path = write_netcdf(ds, tmp_path / "x.nc")
+    with netCDF4.Dataset(path) as raw:
+        raw.set_auto_mask(False)
+        for name in ("shape", "aspect", "nu", "angle", "n" if "n" in raw.variables else "aspect"):
+            assert "_FillValue" not in raw[name].ncattrs(), name  # coordinates carry no fill value
+        for name in ("iterations", "status", "plan"):
+            assert raw[name].dtype == np.int32, name
+        assert raw["iterations"].getncattr("_FillValue") == INT_FILL
+        assert json.loads(raw["plan"].getncattr("plan_table")) == ['{"kernels": ["xx", "yy"], "solves": 2}']
+        assert "K_nn" not in raw.variables and "normalized_nn" not in raw.variables  # derived on open
+        for name in ("K_xx", "message", "plan"):
+            filters = raw[name].filters()
+            assert filters["zlib"] and filters["shuffle"], name
+        assert raw["K_xx"].chunking() == list(raw["K_xx"].shape)  # small: one chunk
+        assert raw["shape"].dtype == "S1"  # labels as char arrays (CF checkers read them)
+    # a 5 x 20 x 10^4 float64 array (8 MB): ≤ 4 MiB chunks, split along the first axis only
+    assert chunk_shape((5, 20, 10_000), 8) == (2, 20, 10_000)
+    assert chunk_shape((3, 2), 8) == (3, 2)
+
+
+def test_history_gains_a_line_per_resumed_run(fake_solve, tmp_path):
+    text = LABELS.replace('title = "labels"', f'title = "labels"\noutput = "{tmp_path / "h.nc"}"')
+    run = {"created": "2026-01-01T00:00:00+00:00", "history": "hpcontact run labels.toml"}
+    _, first = build(fake_solve, text, attrs=run)
+    write_netcdf(first, tmp_path / "h.nc")
+    resumed = {"created": "2026-01-02T00:00:00+00:00", "history": "hpcontact run labels.toml --resume"}
+    _, second = build(fake_solve, text, attrs=resumed)
+    assert second.attrs["history"].splitlines() == [
+        "2026-01-01T00:00:00+00:00: hpcontact run labels.toml",
+        "2026-01-02T00:00:00+00:00: hpcontact run labels.toml --resume",
+    ]
+    _, fresh = build(fake_solve, text, attrs=run)
+    assert fresh.attrs["history"] == "2026-01-01T00:00:00+00:00: hpcontact run labels.toml"
+
+
+def job_datasets():
+    """The data set of every shipped job, built from synthetic records that hold every key the
+    job's scene kind can record (each 1.0): every variable the job can write."""
+    for path in sorted((ROOT / "jobs").glob("*.toml")):
+        spec = parse_spec(path.read_text(), path=path, validate=lambda params: None)
+        if spec.kind == "slip":
+            names = [name for name, (_, unit) in SLIP_ATTRS.items() if unit]
+        else:
+            names = [name for name, attrs in VARIABLE_ATTRS.items() if "units" in attrs]
+        record = {name: 1.0 for name in names if name != "wall_time_s"}
+        entries, where = entries_of(spec, lambda params: dict(record, plan={"solves": 1}))
+        yield path.name, build_dataset(spec, where, entries, {})
+
+
+# The physical dimension of each kind of quantity (an independent statement, not the code's tables).
+DIMENSIONS = {
+    "K_xx": "N m-1", "K_nn": "N m-1", "dx": "m", "load": "N", "contact_area": "m2", "angle": "radian",
+    "orientation": "radian", "wall_time_s": "s", "tangential_stiffness": "N m-1", "stick_area": "m2",
+    "tangential_force": "N", "E": "Pa", "radius2": "m", "nu": "1", "iterations": "1", "max_pressure": "Pa",
+}
+# A scene's scales in SI, to check the dimension of a ``scale``: G a shear modulus, a and L lengths, F a force.
+SCALES_SI = {"G": "Pa", "a": "m", "L": "m", "F": "N"}
+
+
+def test_every_unit_of_every_shipped_job_parses_to_its_dimension():
+    cf_units = pytest.importorskip("cf_units", reason="cf-units (UDUNITS) is not installed: pip install cf-units")
+    checked = set()
+    for job, ds in job_datasets():
+        for name, var in ds.variables.items():
+            assert "long_name" in var.attrs, (job, name)
+            if var.dtype.kind in "OU":
+                continue  # text: labels, messages, JSON
+            assert "units" in var.attrs or "flag_values" in var.attrs, (job, name)
+            if "units" not in var.attrs:
+                continue
+            unit = cf_units.Unit(var.attrs["units"])  # raises on a string UDUNITS cannot read
+            assert not unit.is_unknown(), (job, name)
+            if "scale" in var.attrs:  # a ratio to the scene's scale: dimensionless, the scale in the name
+                assert var.attrs["units"] == "1" and var.attrs["scale"] in var.attrs["long_name"], (job, name)
+                unit = cf_units.Unit(re.sub(r"\b([GaLF])(?=-?\d*\b)", lambda m: SCALES_SI[m.group(1)], var.attrs["scale"]))
+            if name in DIMENSIONS:
+                assert unit.is_convertible(cf_units.Unit(DIMENSIONS[name])), (job, name, var.attrs)
+                checked.add(name)
+    assert checked == set(DIMENSIONS)
+
+
+def test_every_unit_parses_with_pint_as_udunits_reads_it():
+    units = pytest.importorskip("cf_xarray.units", reason="cf_xarray and pint are not installed").units
+    cf_units = pytest.importorskip("cf_units", reason="cf-units (UDUNITS) is not installed")
+    for job, ds in job_datasets():
+        for name, var in ds.variables.items():
+            if "units" in var.attrs:
+                quantity = units.Quantity(1.0, var.attrs["units"]).to_base_units()
+                reference = cf_units.Unit(var.attrs["units"])
+                si = {"1": "1", "degree": "radian"}.get(var.attrs["units"], var.attrs["units"])
+                assert np.isclose(quantity.magnitude, reference.convert(1.0, cf_units.Unit(si))
+                                  * units.Quantity(1.0, si).to_base_units().magnitude, rtol=1e-12), (job, name)
+
+
+def _stub_tables(folder: Path) -> list[str]:
+    """cfchecks' three XML tables as empty stubs (the data sets use no standard names, area
+    types or regions), so the checker runs offline."""
+    tables = {"-s": ("standard_name_table", "s.xml"), "-a": ("standard_area_type_table", "a.xml"),
+              "-r": ("standardized_region_list", "r.xml")}
+    args = []
+    for flag, (root, name) in tables.items():
+        (folder / name).write_text(f'<?xml version="1.0"?>\n<{root}><version_number>0</version_number>'
+                                   f"<date>none</date><last_modified>none</last_modified></{root}>\n")
+        args += [flag, str(folder / name)]
+    return args
+
+
+@pytest.fixture(scope="module")
+def real_demo(tmp_path_factory) -> Path:
+    """The demo job's shapes at two b/a, two nu and n = 16, solved by the engine (~2 s)."""
+    folder = tmp_path_factory.mktemp("demo")
+    text = (ROOT / "jobs" / "demo.toml").read_text()
+    text = text.replace("n = 128", "n = 16").replace("{ logspace = [0, -8, 17] }", "[1.0, 1e-4]")
+    text = text.replace("{ linspace = [0.0, 0.5, 6] }", "[0.0, 0.3]").replace("tol = 1e-10", "tol = 1e-8")
+    spec = parse_spec(text, path=ROOT / "jobs" / "demo.toml", validate=lambda params: None)
+    entries, where = entries_of(spec, hpcontact.solve.solve)
+    attrs = {"created": "2026-01-01T00:00:00+00:00", "history": "hpcontact run jobs/demo.toml", "mpi_size": 1}
+    return write_netcdf(build_dataset(spec, where, entries, attrs), folder / "demo.nc")
+
+
+def test_the_engine_records_have_names_and_units(real_demo):
+    with hpcontact.open_dataset(real_demo) as ds:
+        for name, var in ds.variables.items():
+            assert "long_name" in var.attrs, name
+            assert var.dtype == object or "units" in var.attrs or "flag_values" in var.attrs, name
+
+
+def test_cfchecks_reports_no_error(real_demo, tmp_path):
+    if shutil.which("cfchecks") is None:
+        pytest.skip("cfchecks is not installed (pip install cfchecker; needs the UDUNITS C library, "
+                    "Debian: libudunits2-0)")
+    done = subprocess.run(["cfchecks", "-v", "1.8", *_stub_tables(tmp_path), str(real_demo)],
+                          capture_output=True, text=True, timeout=120)
+    assert "ERRORS detected: 0" in done.stdout, done.stdout + done.stderr
+
+
+def test_compliance_checker_cf_suite_has_no_failure(real_demo):
+    if shutil.which("compliance-checker") is None:
+        pytest.skip("compliance-checker is not installed (pip install compliance-checker)")
+    done = subprocess.run(["compliance-checker", "--test=cf:1.8", "--criteria=strict", str(real_demo)],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stdout + done.stderr

@@ -155,12 +155,14 @@ def test_units_follow_the_scene_kind():
     moduli = SPEC.replace('material = "Fe", material2 = "Fe"', "E = 2.0, E2 = 2.0").replace(
         'material = "Cu", material2 = "Fe"', "E = 1.0, E2 = 2.0")
     plain = _dataset(slip_spec(moduli), lambda p: {"contact_area": 1.0})
-    assert plain["contact_area"].attrs["units"] == "L2" and plain["radius"].attrs["units"] == "L"
+    # input units F and L: ratios to them (units "1", the scale named)
+    assert plain["contact_area"].attrs["scale"] == "L2" and plain["radius"].attrs["scale"] == "L"
+    assert plain["contact_area"].attrs["units"] == "1" and plain["radius"].attrs["units"] == "1"
     indentation = parse_spec(
         '[scene]\nquantities = ["indentation"]\nradius = 1.0\ndepth = 1e-3\n[axes]\nnu = [0.3]\n', validate=lambda p: None
     )
     ds = _dataset(indentation, lambda p: {"contact_area": 1e-3, "load": 1e-4})
-    assert ds["contact_area"].attrs["units"] == "L2" and ds["load"].attrs["units"] == "G L2"
+    assert ds["contact_area"].attrs["scale"] == "L2" and ds["load"].attrs["scale"] == "G L2"
     assert ds.attrs["scene_kind"] == "contact"
 
 
