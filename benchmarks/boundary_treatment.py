@@ -134,7 +134,8 @@ def accuracy_runs(targets: tuple[float, ...], results: dict) -> list[dict]:
     for label, (shape, aspect, _, _) in CASES.items():
         ref = references(shape, aspect)
         for target in targets:
-            r = solve_to_accuracy({"shape": shape, "aspect": aspect, "nu": NU, "quantities": "tangential,normal"}, target)
+            r = solve_to_accuracy({"shape": shape, "aspect": aspect, "nu": NU, "quantities": "tangential,normal"}, target,
+                                  strict=False)
             errs = {f"err_{q}": abs(r[q] / ref[q] - 1.0) for q in QUANTITIES}
             honest = all(errs[f"err_{q}"] <= r["estimated_errors"][q] for q in QUANTITIES)
             true = max(errs.values())

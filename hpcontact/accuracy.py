@@ -83,9 +83,9 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from . import quantities as q
-from .errors import InputError
+from .errors import ConvergenceError, InputError
 from .engine import Engine
-from .geometry import Grid, Shape, grid_for
+from .geometry import Grid, Shape, crop_to_support, grid_for, load_mask, mask_grid
 from .materials import Isotropic
 from .operator import COMPONENT_INDEX
 from .plan import Plan, Solve, make_plan
@@ -259,8 +259,11 @@ def covered_solve(params: Mapping[str, Any]) -> dict[str, Any]:
     unsupported = [x for x in scene.quantities if x not in SUPPORTED]
     if unsupported:
         raise InputError("quantities", f"{', '.join(SUPPORTED)} with coverage-weighted cells", unsupported[0])
-    full_grid = grid_for(scene.shape, scene.n, scene.n_across)
-    f, grid = _crop(_thresholded(coverage(scene.shape, full_grid)), full_grid)
+    if scene.shape.name == "mask":
+        f, grid = _refined_mask(scene.shape.mask_path, scene.n)
+    else:
+        full_grid = grid_for(scene.shape, scene.n, scene.n_across)
+        f, grid = _crop(_thresholded(coverage(scene.shape, full_grid)), full_grid)
     mask = f > 0.0
     plan = make_plan(scene, mask, grid)
     symmetric = grid.dx == grid.dy and f.shape[0] == f.shape[1] and float(np.max(np.abs(f - f.T))) <= COVERAGE_ROUNDING
@@ -304,6 +307,29 @@ def covered_solve(params: Mapping[str, Any]) -> dict[str, Any]:
         if isinstance(value, float) and not math.isfinite(value):
             raise FloatingPointError(f"{key} is not finite ({value})")
     return record
+
+
+def _mask_cells(path: str | None) -> tuple[np.ndarray, Grid]:
+    """The contact of a mask file cropped to its bounding box, on its own grid (unit a: half
+    the long side of the contact, ``geometry.mask_grid``)."""
+    mask = load_mask(path)
+    return crop_to_support(mask, mask_grid(mask))
+
+
+def _refined_mask(path: str | None, n: int) -> tuple[np.ndarray, Grid]:
+    """Coverage of a mask's contact on a grid of ``n`` cells along its long side.
+
+    A mask is a union of square pixels: each pixel is split into k × k cells (k = n / the
+    pixels along the long side, an integer), so the coverage is exact (0 or 1) and the
+    sequence of grids converges to the pixelated contact itself.
+    """
+    pixels, grid = _mask_cells(path)
+    long_side = max(pixels.shape)
+    if n % long_side:
+        raise InputError("n", f"a multiple of the mask contact's long side ({long_side} pixels)", n)
+    k = n // long_side
+    f = np.kron(pixels, np.ones((k, k))).astype(np.float64)
+    return f, Grid(nx=f.shape[0], ny=f.shape[1], dx=grid.dx / k, dy=grid.dy / k)
 
 
 def _thresholded(f: np.ndarray) -> np.ndarray:
@@ -377,7 +403,12 @@ def grid_sequence(shape: Shape, n0: int = N0, n_across0: int | None = None, max_
     The first grid has n₀ cells along x and, unless given, as many across as square cells
     allow but at least ``MIN_ACROSS`` (thin shapes: elongated cells, their aspect then fixed).
     """
-    X, Y = shape.half_extents()
+    if shape.name == "mask":  # pixels split 2^k ways: n0 is the contact's long side in pixels
+        pixels, _ = _mask_cells(shape.mask_path)
+        n0, n_across0 = max(pixels.shape), min(pixels.shape)
+        X, Y = 1.0, 1.0
+    else:
+        X, Y = shape.half_extents()
     if n_across0 is None:
         n_across0 = max(MIN_ACROSS, int(round(n0 * Y / X)))
     out = []
@@ -429,9 +460,15 @@ def solve_to_accuracy(
     n0: int | None = None,
     n_across0: int | None = None,
     max_cells: int = MAX_CELLS,
+    strict: bool = True,
 ) -> dict[str, Any]:
     """Solve ``params`` on refined coverage-weighted grids until the estimated relative error
     of every reported stiffness is ≤ ``accuracy``; return the extrapolated record.
+
+    A request the grids cannot meet follows the rule of every solver here (README: a missed
+    tolerance is an error, exit status 1): :class:`AccuracyNotMet` names the finest grid and
+    the one that would exceed ``max_cells``; ``strict=False`` returns the record instead
+    (``accuracy_met`` False), for studies that chart the miss.
 
     The record has the keys of ``hpcontact.solve.solve`` (extrapolated ``K_*`` and the
     quantities derived from them; ``nx ny dx dy`` of the finest grid), and
@@ -446,8 +483,9 @@ def solve_to_accuracy(
 
     ``params`` are those of ``solve``; ``n`` and ``n_across`` there are ignored (the sequence
     starts at ``n0`` (default 32) and ``n_across0``). The CG tolerance is tightened to at most
-    accuracy/100 so that it never limits the answer. Shapes rough and mask cannot be refined
-    and are refused (InputError), as are quantities other than tangential, normal, coupled.
+    accuracy/100 so that it never limits the answer. A mask is refined by splitting its pixels
+    (the sequence starts at the contact's long side in pixels); a rough patch cannot be refined
+    and is refused (InputError), as are quantities other than tangential, normal, coupled.
     """
     started = time.perf_counter()
     if not (isinstance(accuracy, (int, float)) and math.isfinite(accuracy) and 1e-9 <= accuracy < 1.0):
@@ -488,7 +526,25 @@ def solve_to_accuracy(
     record["residual"] = max(r["residual"] for r in levels)
     record["plan"] = {**finest["plan"], "extrapolation": "Richardson p=1 over grids ratio 2, Roache GCI Fs=1.25"}
     record["wall_time_s"] = time.perf_counter() - started
+    if strict and not record["accuracy_met"]:
+        raise AccuracyNotMet(record, max_cells)
     return record
+
+
+class AccuracyNotMet(ConvergenceError):
+    """``--accuracy`` ran out of grids: the estimate on the finest grid is above the request.
+
+    ``record`` is the extrapolated record (``accuracy_met`` False)."""
+
+    def __init__(self, record: Mapping[str, Any], max_cells: int) -> None:
+        self.record = dict(record)
+        finest = f"{record['grids'][-1]} x {record['grids_across'][-1]}"
+        super().__init__(
+            f"accuracy {record['accuracy']:g} not met: estimated error {record['estimated_error']:.3g} on the finest "
+            f"grid {finest} (the next grid, twice as fine, exceeds the {max_cells} cells allowed)",
+            int(record["iterations"]),
+            float(record["residual"]),
+        )
 
 
 # ------------------------------------------------------------------------------------------

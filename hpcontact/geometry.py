@@ -195,9 +195,13 @@ def load_mask(path: str | Path) -> np.ndarray:
 
 
 def mask_grid(mask: np.ndarray) -> Grid:
-    """Square cells, semi-major extent 1 along the longer side of the mask's array."""
+    """Square cells; the length unit a is half the longer side of the contact's bounding box
+    (not of the image array: empty margins do not change the answer)."""
+    if not mask.any():
+        raise InputError("mask", "at least one contact cell", "an empty mask")
     nx, ny = mask.shape
-    h = 2.0 / max(nx, ny)
+    extent = max(np.ptp(np.flatnonzero(mask.any(axis=1))), np.ptp(np.flatnonzero(mask.any(axis=0)))) + 1
+    h = 2.0 / extent
     return Grid(nx=nx, ny=ny, dx=h, dy=h)
 
 

@@ -181,8 +181,8 @@ def _boolean(field_name: str, value: Any) -> bool:
 def _refuse_unused(params: Mapping[str, Any], quantities: tuple[str, ...], shape: str) -> None:
     """Refuse a field given for a scene that does nothing with it (no silent default).
 
-    ``radius`` and ``depth`` only act with ``indentation``; a shape-only field only with its
-    shapes (``SHAPE_FIELDS``); ``shape_angle`` does not turn a ``mask`` or ``rough`` contact
+    ``radius`` and ``depth`` only act with ``indentation``; a shape-only field other than its
+    default only with its shapes (``SHAPE_FIELDS``); ``shape_angle`` does not turn a ``mask`` or ``rough`` contact
     (an image and a generated patch have no turned version here). Orientation fields of an
     isotropic body are accepted: a sweep over A that contains 1 gives them to every scene.
     """
@@ -191,8 +191,8 @@ def _refuse_unused(params: Mapping[str, Any], quantities: tuple[str, ...], shape
         for name in ("radius", "depth"):
             if name in given:
                 raise InputError(name, "only with quantities indentation", params[name])
-    for name, shapes in SHAPE_FIELDS.items():
-        if name in given and shape not in shapes:
+    for name, shapes in SHAPE_FIELDS.items():  # at its default value a field changes nothing
+        if name in given and shape not in shapes and params[name] != DEFAULTS[name]:
             raise InputError(name, f"only with shape {' or '.join(shapes)}", params[name])
     if shape in ("mask", "rough") and "shape_angle" in given and float(params["shape_angle"]) != 0.0:
         raise InputError("shape_angle", "0 for shape mask or rough (they are not turned)", params["shape_angle"])

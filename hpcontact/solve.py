@@ -153,7 +153,7 @@ def _indentation(scene: Scene) -> tuple[dict[str, float], Solution, Grid]:
     grid = Grid(scene.n, scene.n, h, h)
     x, y = grid.centres()
     r2 = np.minimum(x * x + y * y, R * R)
-    gap = R - np.sqrt(R * R - r2) - d
+    gap = r2 / (R + np.sqrt(R * R - r2)) - d  # = R − sqrt(R² − r²) without cancellation (d/R ≥ 1e-15)
     engine = Engine(scene.material, grid, ("zz",), scene.threads)
     solution = polonsky_keer(engine.operator("z").apply, gap, tol=scene.tol)
     p = solution.traction[0]

@@ -197,10 +197,13 @@ def test_solve_to_accuracy_meets_and_bounds(shape: str, aspect: float, nu: float
 
 
 def test_accuracy_not_reachable_is_reported_not_hidden() -> None:
-    """A grid budget too small for the request: the record says so (accuracy_met False) and
-    still carries an honest estimate (measured 4.8e-3 > requested 1e-6, true 1.6e-5)."""
-    r = acc.solve_to_accuracy({"shape": "circle", "nu": 0.3}, 1e-6, max_cells=256 * 256)
-    assert not r["accuracy_met"]
+    """A grid budget too small for the request is an error naming the finest grid (the rule of
+    every missed tolerance, exit 1 on the command line); the record it carries still has an
+    honest estimate (measured 4.8e-3 > requested 1e-6, true 1.6e-5)."""
+    with pytest.raises(acc.AccuracyNotMet, match="finest grid 256 x 256") as caught:
+        acc.solve_to_accuracy({"shape": "circle", "nu": 0.3}, 1e-6, max_cells=256 * 256)
+    r = caught.value.record
+    assert not r["accuracy_met"] and r["grids"][-1] == 256
     assert r["estimated_error"] > 1e-6
     exact = analytic.circle_tangential_stiffness(1.0, 1.0, 0.3)
     assert abs(r["K_xx"] / exact - 1.0) <= r["estimated_errors"]["K_xx"]

@@ -145,7 +145,7 @@ def test_nu_half_reduction_of_coupled_joins_the_general_path():
 def test_mirror_shortcut_equals_a_real_y_solve():
     """A mask symmetric under x ↔ y skips the y solve; a real y solve gives the same column
     (measured 1.1e-15 relative, round-off of the CG; bound 1e-13 at CG tol 1e-13)."""
-    scene = Scene.from_params({**BASE, "shape": "circle", "quantities": "tangential,coupled"})
+    scene = Scene.from_params({**BASE, "shape": "circle", "aspect": 1.0, "quantities": "tangential,coupled"})
     grid, mask = discretize(scene)
     plan = make_plan(scene, mask, grid)
     assert [s.name for s in plan.solves] == ["coupled_x", "coupled_z", "tangential_x"]
@@ -160,23 +160,23 @@ def test_mirror_shortcut_equals_a_real_y_solve():
 def test_mask_one_cell_off_symmetry_has_no_step(tmp_path):
     """Masks M0 (symmetric: mirror shortcut), M1 = M0 + one cell c (general path),
     M2 = M1 + the mirror cell cᵀ (symmetric again). The trace K_xx + K_yy does not see a
-    transpose, so adding c and adding cᵀ change it alike: measured |Δ₁ − Δ₂| = 1.5e-2 |Δ₁|
-    (the interaction of the two cells, 4 cells apart); bound 4.5e-2. A step between the paths
-    of the size of the old A = 1 step (1 % of K, 0.05 here) would be about |Δ₁| itself."""
-    m0 = np.zeros((14, 14), dtype=bool)
-    i, j = np.meshgrid(np.arange(14) - 6.5, np.arange(14) - 6.5, indexing="ij")
-    m0 |= i * i + j * j <= 30.0
+    transpose, so adding c and adding cᵀ change it alike: measured |Δ₁ − Δ₂| = 3.2e-3 |Δ₁|
+    (the interaction of the two corner cells); bound 1e-2. A step between the paths of the size
+    of the old A = 1 step (1 % of K, 0.10 here) would exceed Δ₁ (0.074) itself."""
+    m0 = np.ones((10, 10), dtype=bool)
+    m0[0, 9] = m0[9, 0] = False  # symmetric under x <-> y
     m1 = m0.copy()
-    m1[1, 5] = True
+    m1[0, 9] = True  # c: a corner far from its mirror cell (the unit a stays put)
     m2 = m1.copy()
-    m2[5, 1] = True
+    m2[9, 0] = True  # c and its mirror: symmetric again
     assert np.array_equal(m0, m0.T) and not np.array_equal(m1, m1.T) and np.array_equal(m2, m2.T)
     traces = []
     for k, m in enumerate((m0, m1, m2)):
         path = tmp_path / f"m{k}.npy"
         np.save(path, m)
-        r = solve({"shape": "mask", "mask": str(path), "nu": 0.3, "tol": 1e-12, "n": 14})
+        r = solve({"shape": "mask", "mask": str(path), "nu": 0.3, "tol": 1e-12})
         traces.append(r["K_xx"] + r["K_yy"])
+        assert r["dx"] == 2.0 / 10
         assert (len(r["plan"]["solves"]) == 1) == (k != 1)  # the mirror shortcut where it applies
     d1, d2 = traces[1] - traces[0], traces[2] - traces[1]
-    assert d1 > 0.0 and abs(d2 - d1) <= 4.5e-2 * d1
+    assert d1 > 0.0 and abs(d2 - d1) <= 1e-2 * d1

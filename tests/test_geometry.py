@@ -292,7 +292,8 @@ def test_load_mask_npy(tmp_path):
     loaded = load_mask(path)
     assert loaded.dtype == bool and np.array_equal(loaded, m)
     g = mask_grid(loaded)
-    assert (g.nx, g.ny) == (7, 5) and g.dx == g.dy == pytest.approx(2.0 / 7)
+    # the contact spans 5 × 3 of the 7 × 5 cells: the unit a is half its long side, 2.5 cells
+    assert (g.nx, g.ny) == (7, 5) and g.dx == g.dy == 2.0 / 5
 
 
 def test_load_mask_png_orientation(tmp_path):

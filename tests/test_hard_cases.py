@@ -284,10 +284,10 @@ def test_mask_touching_the_edge_equals_padded_mask(tmp_path: Path) -> None:
     """The engine crops to the support and zero-pads the convolution, so a contact touching its
     array's edge is solved exactly like the same contact with empty rows and columns around it.
 
-    Padding the short side (40 → 64 columns, same cell size h = 2/64): identical result, bound
-    1e-12 relative (measured bit-identical: the cropped problem is the same). Padding both
-    sides (→ 80 × 80) shrinks h to 2/80; the operator is homogeneous of degree 1 in length, so
-    K scales by h: K_padded/h_padded = K/h, bound 1e-9 (CG tolerance 1e-8 squared, with margin).
+    The length unit a is half the long side of the contact (issue 14), so padding either side
+    (40 → 64 columns, or → 80 × 80) changes neither the cell size h = 2/64 nor the answer:
+    identical results, bound 1e-12 relative (measured bit-identical: the cropped problem is the
+    same). (With the old unit, half the array's long side, the 80 × 80 padding was 0.8 × off.)
     """
     mask = _edge_mask()
     base = {"shape": "mask", "nu": 0.3, "quantities": "tangential,normal"}
@@ -298,10 +298,10 @@ def test_mask_touching_the_edge_equals_padded_mask(tmp_path: Path) -> None:
     bigger = np.zeros((80, 80), dtype=bool)
     bigger[7:47, 9:73] = mask
     r_big = strict_solve({**base, "mask": _mask_file(tmp_path, bigger, "big.npy")})
-    h, h_big = 2.0 / 64, 2.0 / 80
     for key in ("K_xx", "K_xy", "K_yx", "K_yy", "K_zz"):
         scale = max(r["K_xx"], r["K_yy"])
         assert abs(r_same[key] - r[key]) <= 1e-12 * scale, key
-        assert abs(r_big[key] / h_big - r[key] / h) <= 1e-9 * scale / h, key
+        assert abs(r_big[key] - r[key]) <= 1e-12 * scale, key
+    assert r["dx"] == r_same["dx"] == r_big["dx"] == 2.0 / 64
     assert r["contact_cells"] == r_same["contact_cells"] == r_big["contact_cells"] == int(mask.sum())
     assert_spd(r)

@@ -1,0 +1,98 @@
+"""No traceback, no silent default (issue 14, point 5): bad input exits 2 naming the field and
+the allowed range; a request the grids cannot meet exits 1 saying which grid ran out;
+``--accuracy`` works for crystals and masks."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from hpcontact import accuracy as acc
+from hpcontact.cli import main
+from hpcontact.errors import InputError
+from hpcontact.scene import Scene
+from hpcontact.slip import validate as slip_scene
+
+
+def _solve(capsys, *args: str) -> tuple[int, str, str]:
+    code = main(["solve", *args])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.mark.parametrize("args, field, allowed", [
+    (["--shape", "ellipse", "--aspect", "1e-300"], "aspect", "[1e-12, 1]"),
+    (["--quantities", "indentation", "--radius", "1e-300", "--depth", "1e-301"], "radius", "[1e-30, 1e30]"),
+    (["--quantities", "indentation", "--radius", "1", "--depth", "1e-300"], "depth", "[1e-15, 1)"),
+    (["--radius", "2"], "radius", "only with quantities indentation"),
+    (["--shape", "circle", "--sides", "6"], "sides", "only with shape polygon or star"),
+    (["--shape", "rough", "--shape-angle", "30"], "shape_angle", "0 for shape mask or rough"),
+    (["--shape", "mask", "--mask", "/nonexistent/contact.npy"], "mask", "an existing .npy or .png file"),
+])
+def test_bad_input_exits_2_naming_field_and_range(capsys, args, field, allowed):
+    code, out, err = _solve(capsys, *args, "--n", "16", "--json")
+    assert code == 2 and out == "" and "Traceback" not in err
+    assert err.startswith(f"hpcontact: error: {field}") and allowed in err
+
+
+def test_spec_fields_are_checked_not_coerced(tmp_path):
+    """precondition = "false" in a spec was True (bool of a non-empty string); a missing mask
+    file was accepted and failed in every task; both are refused by the scene validation the
+    sweep runs before any rank starts."""
+    with pytest.raises(InputError, match="precondition"):
+        Scene.from_params({"precondition": "false"})
+    assert Scene.from_params({"precondition": False}).precondition is False
+    with pytest.raises(InputError, match="^mask"):
+        Scene.from_params({"shape": "mask", "mask": str(tmp_path / "missing.npy")})
+
+
+def test_friction_too_small_for_the_load_is_refused():
+    """mu = 1e-300 gave the bonded state without a word; mu = 0 (frictionless) stays allowed."""
+    base = {"radius": 1.0, "load": 1.0, "q_ratio": 0.5, "nu": 0.3}
+    with pytest.raises(InputError, match="^mu"):
+        slip_scene({**base, "mu": 1e-300})
+    slip_scene({**base, "mu": 0.0})
+    slip_scene({**base, "mu": 1e-6})
+
+
+def test_accuracy_not_met_exits_1_naming_the_grid(capsys, monkeypatch):
+    """The README's rule for a missed tolerance, for --accuracy too: exit 1, say which grid ran
+    out (a budget of 64 x 64 cells cannot give 1e-6)."""
+    monkeypatch.setattr(acc, "MAX_CELLS", 64 * 64)
+    monkeypatch.setattr(acc.solve_to_accuracy, "__kwdefaults__", {**acc.solve_to_accuracy.__kwdefaults__,
+                                                                  "max_cells": 64 * 64, "n0": 8})
+    code, out, err = _solve(capsys, "--accuracy", "1e-6", "--json")
+    assert code == 1 and out == ""
+    assert "accuracy 1e-06 not met" in err and "finest grid 64 x 64" in err
+
+
+def test_accuracy_for_a_crystal(capsys):
+    """--accuracy on a crystal (was AttributeError: no E_star): extrapolated tensor, no Li
+    normalization (needs isotropic E*, G*). Checked against the single-grid solve: the first
+    level of the sequence is that solve on coverage-weighted cells."""
+    code, out, err = _solve(capsys, "--shape", "ellipse", "--aspect", "0.5", "--anisotropy", "2", "--orientation", "20",
+                            "--quantities", "tangential,normal", "--accuracy", "1e-2", "--json")
+    assert code == 0, err
+    r = json.loads(out)
+    assert r["accuracy_met"] and r["estimated_error"] <= 1e-2 and "normalized_xx" not in r
+    assert r["plan"]["kernel_source"].startswith("anisotropic")
+    assert r["K_a_over_K_b"] == pytest.approx(r["K_xx"] / r["K_yy"], rel=1e-15)
+
+
+def test_accuracy_for_a_mask_meets_the_same_rectangle(tmp_path):
+    """A full 16 × 8 pixel mask is the rectangle b/a = 0.5 (unit: half the contact's long side).
+    Refining its pixels and extrapolating must meet the rectangle's own extrapolation (exact
+    coverage) within the sum of the two estimates: measured difference 5.6e-5 of K_xx, 5.4e-5
+    of K_yy, where the estimates sum to 3.1e-4 and 3.0e-4 (a wrong unit would be ~2e-1 off)."""
+    path = tmp_path / "rect.npy"
+    mask = np.zeros((20, 12), dtype=bool)
+    mask[2:18, 2:10] = True  # empty margins do not change the unit or the answer
+    np.save(path, mask)
+    pixels = acc.solve_to_accuracy({"shape": "mask", "mask": str(path), "nu": 0.3}, 1e-3)
+    assert pixels["grids"][0] == 16
+    shape = acc.solve_to_accuracy({"shape": "rectangle", "aspect": 0.5, "nu": 0.3}, 1e-3)
+    for key in ("K_xx", "K_yy"):
+        bound = (pixels["estimated_errors"][key] + shape["estimated_errors"][key]) * abs(shape[key])
+        assert abs(pixels[key] - shape[key]) <= bound, key
