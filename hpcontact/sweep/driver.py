@@ -12,7 +12,7 @@ it. Existing journals need ``resume`` (continue) or ``restart`` (discard them); 
 by another package version, git revision or numerics fingerprint are refused unless
 ``accept_stale`` (``provenance``). The ranks then take chunks of tasks from a shared counter
 (``schedule``), journal each task as started before it runs and its outcome after (``journal``;
-synced once a chunk), and stop together on a signal (``signals``); finally rank 0 assembles the
+synced every few seconds), and stop together on a signal (``signals``); finally rank 0 assembles the
 data set from all journals (the last outcome of each task, and the provenance of every code that
 contributed) and writes it atomically. A task that raises is journaled with its status and
 message and the sweep goes on. The spec's scene kind (``kinds``) picks the task function and the
@@ -330,7 +330,6 @@ def _run(team: Team, plan: Plan, keep: dict[str, Any], task_function: TaskFuncti
                     if stop.stopping:
                         break
                     run_one(task)
-                journal.sync()
             claim = time.perf_counter()
             for chunk in claimed_chunks(chunks, counter):
                 schedule_s += time.perf_counter() - claim
@@ -345,9 +344,6 @@ def _run(team: Team, plan: Plan, keep: dict[str, Any], task_function: TaskFuncti
                     schedule_s += time.perf_counter() - mark
                     if progress is not None and progress.due():
                         progress.report(*totals_done(counter))
-                mark = time.perf_counter()
-                journal.sync()  # once a chunk
-                journal_s += time.perf_counter() - mark
                 claim = time.perf_counter()
             schedule_s += time.perf_counter() - claim
         finally:

@@ -17,13 +17,15 @@ any byte keeps every entry before the cut. Events:
 * ``interrupted``: the task was abandoned after a stop request (a signal), not a crash.
 
 Durability: a line reaches the page cache at once (it survives the death of the process); it
-reaches the disk (``fsync``) at the end of each chunk (``sync``), on close, and at the first
-append ``SYNC_INTERVAL_S`` after the last sync, so a node failure loses at most a chunk or a few
-seconds of results. Results travel as JSON text (exact float64 round trip, NaN and inf kept).
+reaches the disk (``fsync``) at the first outcome ``SYNC_INTERVAL_S`` after the last sync, after
+an interruption and on close, so a node failure loses at most the last few seconds of results.
+Syncing every chunk instead cost 8 ms per fsync on the CI machine's disk, 17 % of the 37 ms
+tasks of the fault tests' sweep; every 2 s it costs at most 0.4 % of any rank's time. Results travel as JSON text (exact float64 round trip, NaN and inf kept).
 """
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 import secrets
@@ -40,7 +42,7 @@ import numpy as np
 PATTERN = "rank*.jsonl"
 OK, BAD_INPUT, NOT_CONVERGED, ERROR, CRASHED = 0, 1, 2, 3, 4  # task status codes
 RETRIED = (NOT_CONVERGED, ERROR)  # outcomes --resume runs again (bad input is deterministic: kept)
-SYNC_INTERVAL_S = 5.0
+SYNC_INTERVAL_S = 2.0
 CRASH_RUNS = 2  # a task started in this many runs that died while running it is quarantined
 
 
@@ -130,12 +132,15 @@ class Journal:
             self._fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_APPEND, 0o644)
             self._sync_folder()
             self._write(encode_line(self.header))
-        try:
-            written = os.write(self._fd, data)
-        except OSError as exc:
-            raise OSError(exc.errno, exc.strerror, str(self.path)) from exc
-        if written != len(data):
-            raise OSError(f"short write to {self.path} ({written} of {len(data)} bytes): disk full or file-size limit")
+        view = memoryview(data)
+        while view:  # a short write (the disk filled up) is retried, so the real error is reported
+            try:
+                written = os.write(self._fd, view)
+            except OSError as exc:
+                raise OSError(exc.errno, exc.strerror, str(self.path)) from exc
+            if written == 0:
+                raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(self.path))
+            view = view[written:]
 
     def _sync_folder(self) -> None:
         """Make the new file's name durable (best effort: some file systems refuse it)."""
