@@ -62,12 +62,12 @@ def figure(ds, shape: str, choose: dict, outdir) -> None:
         source = "points: RᵀKR of the solved tensor"
     lines = transformation_law(K0, fine)
     fig, axes = panels(4, size=3.6, columns=2)
-    unit = ds["K_xx"].attrs.get("units", "")
+    unit = ds["K_xx"].attrs.get("scale", ds["K_xx"].attrs.get("units", ""))  # scaled: "G a"
     for ax, name, line, point in zip(axes, NAMES, lines, points):
         ax.plot(fine, line, "-", lw=1.2, color="C0", label="transformation law (eq. 6)")
         ax.plot(angles, point, "o", ms=3.5, color="C1", label=source)
         ax.set_xlabel(label(ds["angle"], "load direction θ"))
-        ax.set_ylabel(f"{name} [{unit}]" if unit else name)
+        ax.set_ylabel(f"{name} [{unit}]" if unit and unit != "1" else name)
         ax.set_xticks(np.arange(0.0, 181.0, 45.0))
         ax.grid(True, alpha=0.3)
     handles, labels = axes[0].get_legend_handles_labels()

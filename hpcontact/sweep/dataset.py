@@ -188,30 +188,35 @@ SI_UNITS = {"F": "N", "L": "m"}
 
 
 def _is_number(value: Any) -> bool:
-    return isinstance(value, numbers.Real) and not isinstance(value, bool)
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
 
 
 def build_dataset(
     spec: Spec, where: Mapping[tuple[int, ...], str], entries: Mapping[str, Entry], attrs: Mapping[str, Any]
 ) -> xr.Dataset:
     """The data set of ``spec`` from the journal ``entries``; ``where`` maps each point of the
-    task axes to its task key (``tasks.enumerate_tasks``); ``attrs`` are global attributes."""
+    task axes to its task key (``tasks.enumerate_tasks``); ``attrs`` are global attributes.
+    Values are gathered once per task and spread to the task's points by index."""
     axes = spec.task_axes
     dims = tuple(a.name for a in axes)
     shape = tuple(len(a) for a in axes)
-    keys = np.empty(shape, dtype=object)
+    position: dict[str, int] = {}
+    task_of = np.empty(shape, dtype=np.intp)
     for index, key in where.items():
-        keys[index] = key
-    flat = keys.ravel()
-    found = [entries.get(key) for key in flat]
+        task_of[index] = position.setdefault(key, len(position))
+    found = [entries.get(key) for key in position]
+
+    def spread(values: np.ndarray) -> np.ndarray:
+        return values[task_of]
 
     status = np.array([NOT_COMPUTED if e is None else e.status for e in found], dtype=np.int32)
-    message = np.array(["not computed" if e is None else e.message for e in found], dtype=object)
+    message = np.empty(len(found), dtype=object)
+    message[:] = ["not computed" if e is None else e.message for e in found]
     wall = np.array([np.nan if e is None else e.wall_time_s for e in found], dtype=np.float64)
     variables: dict[str, tuple[tuple[str, ...], np.ndarray]] = {
-        "status": (dims, status.reshape(shape)),
-        "message": (dims, message.reshape(shape)),
-        "wall_time_s": (dims, wall.reshape(shape)),
+        "status": (dims, spread(status)),
+        "message": (dims, spread(message)),
+        "wall_time_s": (dims, spread(wall)),
     }
     names: dict[str, None] = {}
     for e in found:
@@ -225,12 +230,10 @@ def build_dataset(
     renamed: dict[str, str] = {}
     for name in names:
         values = [None if e is None or e.status != OK else e.record.get(name) for e in found]
-        present = [v for v in values if v is not None]
-        if all(_is_number(v) for v in present):
-            array = np.array([np.nan if v is None else float(v) for v in values], dtype=np.float64)
+        if all(v is None or _is_number(v) for v in values):
+            array = spread(np.array([np.nan if v is None else float(v) for v in values], dtype=np.float64))
         else:
-            array = _texts(values)
-        array = array.reshape(shape)
+            array = spread(_texts(values))
         if name in coords:
             if _equals_coordinate(array, _coordinate_grid(coords[name], dims, shape)):
                 continue  # the coordinate already says it

@@ -1,15 +1,21 @@
-"""The post-processing scripts run on a sweep data set and write their PNGs."""
+"""The post-processing scripts plot the data set's numbers: each script runs as from the command
+line (in this process, its figures captured as they are saved) on a sweep of the stand-in
+solver, and the plotted points are checked against the data set and against the stand-in's
+closed form (tests/sweep/conftest.py: K_a = (1 + nu)(1 + 0.01 sides), K_b = K_a / (b/a)^0.05,
+K_xy = K_yx = 0 for unturned shapes, normalized_xx = 0.5)."""
 
 from __future__ import annotations
 
 import io
-import os
-import subprocess
+import runpy
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+import hpcontact
+from hpcontact.quantities import rotated_tensor
 from hpcontact.sweep.driver import run_sweep
 from hpcontact.sweep.schedule import SerialTeam
 
@@ -23,6 +29,7 @@ aspect = [1.0, 0.1, 0.01]
 nu = [0.1, 0.3, 0.5]
 angle = { linspace = [0, 180, 7] }
 """
+EXACT = 1e-12  # the scripts plot stored values and closed forms in float64: rounding only
 
 
 @pytest.fixture(scope="module")
@@ -35,22 +42,85 @@ def dataset(tmp_path_factory, fake_solve) -> Path:
     )
 
 
-@pytest.mark.parametrize(
-    ("script", "figures"),
-    [
-        ("anisotropy_map.py", ["anisotropy_curves.png", "anisotropy_map_ellipse.png"]),
-        ("polar.py", ["polar.png", "knn_vs_angle.png"]),
-        ("tensor_components.py", ["tensor_components_ellipse.png", "tensor_components_hexagon.png"]),
-    ],
-)
-def test_script_writes_its_figures(script, figures, dataset, tmp_path):
-    env = {**os.environ, "PYTHONPATH": f"{ROOT}{os.pathsep}{os.environ.get('PYTHONPATH', '')}", "MPLBACKEND": "Agg"}
-    done = subprocess.run(
-        [sys.executable, str(ROOT / "postprocess" / script), str(dataset), str(tmp_path / "fig")],
-        env=env, capture_output=True, text=True, timeout=120,
-    )
-    assert done.returncode == 0, done.stderr
-    for name in figures:
-        path = tmp_path / "fig" / name
-        assert path.stat().st_size > 10_000, name
+@pytest.fixture
+def plotted(monkeypatch, tmp_path):
+    """Run ``postprocess/<script>`` with arguments; returns {file name: [(panel title,
+    [(x, y, marker) per plotted line])]} of the figures it saved (and it saved them)."""
+    monkeypatch.syspath_prepend(str(ROOT / "postprocess"))
+    import common
+
+    figures: dict[str, list] = {}
+    save = common.save
+
+    def capture(fig, outdir, name):
+        figures[name] = [
+            (ax.get_title(), [(np.asarray(line.get_xdata(), dtype=float), np.asarray(line.get_ydata(), dtype=float),
+                               line.get_marker()) for line in ax.get_lines()])
+            for ax in fig.axes if ax.get_lines()
+        ]
+        path = save(fig, outdir, name)
         assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        return path
+
+    monkeypatch.setattr(common, "save", capture)
+
+    def run(script: str, *args: str) -> dict[str, list]:
+        monkeypatch.setattr(sys, "argv", [script, *args, str(tmp_path / "fig")])
+        runpy.run_path(str(ROOT / "postprocess" / script), run_name="__main__")
+        return figures
+
+    return run
+
+
+def points(panel):
+    """The marker lines of a panel (the data set's points), in plotting order."""
+    return [(x, y) for x, y, marker in panel[1] if marker not in ("None", "", None)]
+
+
+def test_anisotropy_curves_plot_K_a_over_K_b_of_the_data_set(plotted, dataset):
+    figures = plotted("anisotropy_map.py", str(dataset))
+    assert set(figures) == {"anisotropy_curves.png", "anisotropy_map_ellipse.png"}  # the hexagon ignores b/a
+    (title, _), = figures["anisotropy_curves.png"]
+    assert title == "ellipse"
+    with hpcontact.open_dataset(dataset) as ds:
+        ratio = ds.K_a_over_K_b.sel(shape="ellipse").load()
+    curves = points(figures["anisotropy_curves.png"][0])
+    assert len(curves) == 3  # one per nu
+    for nu, (x, y) in zip(ratio.nu.values, curves):
+        np.testing.assert_array_equal(x, ratio.aspect.values)
+        np.testing.assert_allclose(y, ratio.sel(nu=nu).values, rtol=EXACT)
+        np.testing.assert_allclose(y, x**0.05, rtol=EXACT)  # the stand-in: K_a/K_b = (b/a)^0.05
+
+
+def test_polar_plots_normalized_K_nn_at_the_nearest_aspect(plotted, dataset):
+    figures = plotted("polar.py", str(dataset))  # default --aspect 0.2: nearest is 0.1
+    panels = dict(figures["knn_vs_angle.png"])
+    assert set(panels) == {"ellipse", "hexagon"} and len(figures["polar.png"]) == 2
+    with hpcontact.open_dataset(dataset) as ds:
+        normalized = ds.normalized_nn.load()
+    for shape, aspect in (("ellipse", 0.1), ("hexagon", 1.0)):
+        curves = points(("", panels[shape]))
+        assert len(curves) == 3
+        for nu, (x, y) in zip((0.1, 0.3, 0.5), curves):
+            np.testing.assert_array_equal(x, np.linspace(0.0, 180.0, 7))
+            np.testing.assert_allclose(y, normalized.sel(shape=shape, aspect=aspect, nu=nu).values, rtol=EXACT)
+            # Li's eq. 6 on the stand-in: normalized_nn = 0.5 K_nn/K_xx = 0.5 (cos² + sin² K_yy/K_xx),
+            # K_yy/K_xx = (b/a)^-0.05 for the ellipse, 1 for the hexagon (it ignores b/a)
+            t = np.radians(x)
+            expected = 0.5 * (np.cos(t) ** 2 + np.sin(t) ** 2 * (aspect if shape == "ellipse" else 1.0) ** -0.05)
+            np.testing.assert_allclose(y, expected, rtol=EXACT)
+
+
+def test_tensor_components_plot_the_turned_tensor(plotted, dataset):
+    figures = plotted("tensor_components.py", str(dataset))  # nu: the largest (0.5), b/a nearest 0.2
+    assert set(figures) == {"tensor_components_ellipse.png", "tensor_components_hexagon.png"}
+    with hpcontact.open_dataset(dataset) as ds:
+        point = ds.sel(shape="ellipse", nu=0.5, aspect=0.1).load()
+    K = np.array([[point.K_xx, point.K_xy], [point.K_yx, point.K_yy]], dtype=float)
+    panels = figures["tensor_components_ellipse.png"]
+    assert len(panels) == 4
+    for k, (_, lines) in enumerate(panels):
+        (x, y), = points(("", lines))
+        np.testing.assert_allclose(y, [rotated_tensor(K, a).ravel()[k] for a in x], rtol=EXACT, atol=EXACT * K.max())
+        if k == 0:  # K_nn: the data set's own K_nn(angle)
+            np.testing.assert_allclose(y, point.K_nn.values, rtol=EXACT)

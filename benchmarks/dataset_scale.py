@@ -1,0 +1,131 @@
+"""Data set assembly at scale: a six-axis sweep of 2·10^5 task points from synthetic journal entries.
+
+    python benchmarks/dataset_scale.py [--folder DIR] [--keep]
+
+The sweep of issue 13: 10 shapes × 37 load angles (tensor mode: free) × 6 nu × 17 b/a × 11
+anisotropy factors × 19 orientations = 213 180 task points (7.9 million points with the angle).
+Shapes that ignore b/a and isotropic bodies (A = 1) that ignore the orientation share tasks, as
+in a real sweep. Each task gets a synthetic crystal-tangential record (smooth functions of the
+scene at full float64 precision, so they compress like solver output, and one of four plans);
+rank 0's work is then timed: ``build_dataset`` (entries → labelled hypercube), ``write_netcdf``
+(compressed file) and ``hpcontact.open_dataset`` with the full hypercube loaded. Printed: the
+times, the peak resident memory of this process (rank 0 holds every entry, as the driver's
+assembly does), the file size and the in-memory size of the opened hypercube. Targets
+(issue 13): assembly ≤ 60 s, peak memory ≤ 2 GB, file ≤ 60 MB. Reading journals is not part
+of it (the journal format belongs to the driver).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import resource
+import shutil
+import tempfile
+import time
+from pathlib import Path
+
+import hpcontact
+from hpcontact.sweep.dataset import build_dataset, write_netcdf
+from hpcontact.sweep.journal import OK, Entry
+from hpcontact.sweep.spec import parse_spec
+from hpcontact.sweep.tasks import enumerate_tasks
+
+SPEC = """
+[sweep]
+title = "dataset scale: six axes, 2e5 task points"
+[scene]
+quantities = ["tangential", "normal"]
+[numerics]
+n = 64
+[axes]
+shape = [
+    "ellipse", "rectangle",
+    { label = "triangle", shape = "polygon", sides = 3 }, { label = "square", shape = "polygon", sides = 4 },
+    { label = "pentagon", shape = "polygon", sides = 5 }, { label = "hexagon", shape = "polygon", sides = 6 },
+    { label = "heptagon", shape = "polygon", sides = 7 }, { label = "octagon", shape = "polygon", sides = 8 },
+    { label = "star5", shape = "star", sides = 5, amplitude = 0.3 }, { label = "star6", shape = "star", sides = 6, amplitude = 0.3 },
+]
+angle = { linspace = [0, 180, 37] }
+nu = { linspace = [0.0, 0.5, 6] }
+aspect = { logspace = [0, -8, 17] }
+anisotropy = { linspace = [0.5, 3.0, 11] }
+orientation = { linspace = [0, 90, 19] }
+"""
+PLANS = [{"kernels": ["xx", "xy", "yx", "yy", "zz"], "solves": s, "preconditioner": p} for s in (3, 4) for p in (True, False)]
+
+
+def record(key: str, params: dict) -> dict:
+    """A synthetic crystal-tangential record: smooth in the scene, with a relative perturbation
+    of up to 1e-6 drawn from the task key standing in for discretization error, so that the
+    low mantissa bits are as incompressible as a solver's."""
+    noise = 1.0 + 1e-6 * int(key[:8], 16) / 2**32
+    nu = params.get("nu", 0.3)
+    aspect = params.get("aspect", 1.0)
+    a = params.get("anisotropy", 1.0)
+    psi = math.radians(params.get("orientation", 0.0))
+    sides = params.get("sides", 0)
+    kxx = (1.0 + nu) * (1.0 + 0.01 * sides) * (1.0 + 0.1 * (a - 1.0) * math.cos(2.0 * psi)) * aspect**0.01 * noise
+    kyy = kxx / aspect**0.05 * (1.0 + 0.05 * (a - 1.0) * math.sin(psi))
+    kxy = 1e-3 * (a - 1.0) * math.sin(2.0 * psi)
+    return {
+        "K_xx": kxx, "K_xy": kxy, "K_yx": kxy * (1.0 + 1e-9), "K_yy": kyy, "K_zz": 2.0 * kxx / (1.0 - nu / 2),
+        "K_max": max(kxx, kyy) + abs(kxy), "K_min": min(kxx, kyy) - abs(kxy), "principal_angle_deg": math.degrees(psi),
+        "K_a_over_K_b": kxx / kyy, "K_min_over_K_max": min(kxx, kyy) / max(kxx, kyy), "asymmetry": 1e-9 * abs(kxy),
+        "iterations": 40 + sides + int(10 * a), "residual": 1e-9 * (1.0 + nu), "nx": 64,
+        "ny": max(16, round(64 * aspect)), "dx": 2.0 / 64, "dy": 2.0 * aspect / max(16, round(64 * aspect)),
+        "contact_cells": int(3000 * aspect**0.5) + sides, "plan": PLANS[(sides + int(a == 1.0)) % len(PLANS)],
+    }
+
+
+def peak_rss_mb() -> float:
+    """Peak resident memory of this process so far, MB (Linux: ru_maxrss in KiB)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--folder", type=Path, help="where to write the data set (default: a temporary folder)")
+    parser.add_argument("--keep", action="store_true", help="keep the data set")
+    args = parser.parse_args()
+    folder = args.folder or Path(tempfile.mkdtemp(prefix="dataset_scale-"))
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / "scale.nc"
+
+    started = time.perf_counter()
+    spec = parse_spec(SPEC, validate=lambda params: None)
+    tasks, where = enumerate_tasks(spec)
+    entries = {t.key: Entry(key=t.key, params=t.params, status=OK, message="", record=record(t.key, dict(t.params)),
+                            wall_time_s=1.0, finished=0.0, rank=0) for t in tasks}
+    setup_s = time.perf_counter() - started
+    setup_mb = peak_rss_mb()
+    points = math.prod(len(a) for a in spec.axes)
+    print(f"{len(where)} task points, {len(tasks)} distinct tasks, {points} points with the angle; "
+          f"synthetic entries in {setup_s:.1f} s, {setup_mb:.0f} MB resident")
+
+    mark = time.perf_counter()
+    ds = build_dataset(spec, where, entries, {"history": "benchmarks/dataset_scale.py", "mpi_size": 1})
+    build_s = time.perf_counter() - mark
+    mark = time.perf_counter()
+    write_netcdf(ds, path)
+    write_s = time.perf_counter() - mark
+    assembly_mb = peak_rss_mb()
+    del ds
+    mark = time.perf_counter()
+    with hpcontact.open_dataset(path) as back:
+        full = back.load()
+    open_s = time.perf_counter() - mark
+    size_mb = path.stat().st_size / 1e6
+
+    print(f"assembly: build {build_s:.1f} s + write {write_s:.1f} s = {build_s + write_s:.1f} s (target <= 60 s)")
+    print(f"peak memory of rank 0: {assembly_mb:.0f} MB (target <= 2048 MB; {setup_mb:.0f} MB before assembly: "
+          f"interpreter, spec, entries)")
+    print(f"file: {size_mb:.1f} MB on disk (target <= 60 MB)")
+    print(f"open_dataset + load: {open_s:.1f} s, {full.nbytes / 1e6:.0f} MB in memory "
+          f"(K_nn, normalized_nn over {points} points derived on open); peak {peak_rss_mb():.0f} MB")
+    if not args.keep and args.folder is None:
+        shutil.rmtree(folder)
+
+
+if __name__ == "__main__":
+    main()
