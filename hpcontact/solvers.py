@@ -101,8 +101,10 @@ def polonsky_keer(
     (displacement control), else the initial separation alone with the approach found so that
     Σ p · cell_area = load (load control, PK eq. 13's mean-gap shift). ``apply`` maps a
     pressure (1, nx, ny) to displacements (1, nx, ny). Converged when the relative change of p
-    is ≤ tol and the complementarity error ‖p·g‖ is negligible. Returns p as (1, nx, ny);
-    ``residual`` is the final relative change.
+    is ≤ tol and the residuals of the problem itself are too (:func:`contact_residuals`): the
+    gap on the contact (complementarity, p g = 0 with p > 0), the penetration outside it and,
+    under load control, the load. Returns p as (1, nx, ny); ``residual`` is the largest of the
+    four. A search direction of zero curvature before those are met raises ConvergenceError.
     """
     h = np.asarray(gap, dtype=np.float64)
     if not np.all(np.isfinite(h)):
@@ -135,8 +137,11 @@ def polonsky_keer(
         if load is not None:
             r -= r[contact].mean()
         denominator = float(np.sum(r[contact] * t[contact]))
-        if denominator == 0.0:
-            return Solution(p[None], iteration, 0.0)
+        if denominator == 0.0:  # no search direction left: converged only if the residuals say so
+            worst = max(contact_residuals(apply(p[None])[0], h, p, load, cell_area))
+            if worst <= tol:
+                return Solution(p[None], iteration, worst)
+            raise ConvergenceError("Polonsky-Keer search direction of zero curvature", iteration, worst)
         tau = float(np.sum(g[contact] * t[contact])) / denominator
         p_old = p.copy()
         p = p - tau * t
@@ -154,5 +159,28 @@ def polonsky_keer(
         if not math.isfinite(change):
             raise ConvergenceError("non-finite pressure in Polonsky-Keer iteration", iteration, change)
         if change <= tol:
-            return Solution(p[None], iteration, change)
+            worst = max(contact_residuals(apply(p[None])[0], h, p, load, cell_area))
+            if worst <= tol:
+                return Solution(p[None], iteration, max(change, worst))
     raise ConvergenceError(f"Polonsky-Keer did not reach tol={tol:g}", maxiter, change)
+
+
+def contact_residuals(
+    u: np.ndarray, h: np.ndarray, p: np.ndarray, load: float | None, cell_area: float
+) -> tuple[float, float, float]:
+    """Residuals of the Signorini conditions at pressure ``p`` with displacement u = A p:
+    (largest |gap| on the contact, largest penetration −g outside it, both relative to the
+    largest displacement on the contact; relative load error |Σ p · cell_area − load|/load,
+    0 under displacement control). Under load control the gap is taken after the mean-gap
+    shift (the unknown approach)."""
+    contact = p > 0.0
+    if not contact.any():
+        return 0.0, max(0.0, float(-np.min(h))), 0.0
+    g = u + h
+    if load is not None:
+        g = g - g[contact].mean()
+    scale = max(float(np.max(np.abs(u[contact]))), 1e-300)
+    gap = float(np.max(np.abs(g[contact]))) / scale
+    penetration = max(0.0, float(-np.min(g[~contact]))) / scale if (~contact).any() else 0.0
+    load_error = 0.0 if load is None else abs(float(np.sum(p)) * cell_area - load) / load
+    return gap, penetration, load_error
