@@ -43,7 +43,7 @@ import numpy as np
 
 from .bodies import SIMILARITY_TOL, Pair
 from .crystal import Crystal
-from .kernels.anisotropic import anisotropic_offset_blocks, indentation_modulus, kernel_for
+from .kernels.anisotropic import anisotropic_offset_blocks, indentation_modulus, surface_green_fourier
 from .kernels.isotropic import isotropic_block, isotropic_surface_green
 from .materials import Isotropic
 from .geometry import Grid
@@ -75,7 +75,7 @@ def surface_green(material: Material, phi: np.ndarray) -> np.ndarray:
     """H(m(φ)) of one body as an upper half-space (lab-frame stiffness), shape (len(φ), 3, 3)."""
     if isinstance(material, Isotropic):
         return isotropic_surface_green(material, phi)
-    return kernel_for(material).fourier(phi)
+    return surface_green_fourier(material, phi)
 
 
 @dataclass(frozen=True, eq=False)

@@ -252,3 +252,17 @@ def constants_material(params: Mapping[str, Any]) -> Crystal | None:
     if not any(name in p for name in FAMILIES):
         return None
     return anisotropic_material(p, "", 1.0, library=True)
+
+
+def describes_crystal(p: Mapping[str, Any]) -> bool:
+    """Whether slip-scene fields ``p`` make either body a crystal (``anisotropic_material`` with
+    ``library=False``): a crystal family or A ≠ 1, with or without the suffix 2, or "crystal:NAME"."""
+    for suffix in ("", "2"):
+        if any(p.get(f"{name}{suffix}") is not None for name in FAMILIES):
+            return True
+        if crystal_name(p.get(f"material{suffix}")) is not None:
+            return True
+        a = p.get(f"anisotropy{suffix}")
+        if a is not None and a != 1.0 and a != 1:
+            return True
+    return False

@@ -42,6 +42,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .anisotropic_pair import PairCompliance, PairEngine
 from .crystal import Crystal, voigt_to_tensor
 from .errors import InputError
 from .geometry import Grid
@@ -101,10 +102,11 @@ class CylinderContact:
 
 
 def finite_cylinder(
-    material: Isotropic | Crystal, modulus: float, radius: float, half_width: float, widths: float,
+    material: Isotropic | Crystal | PairCompliance, modulus: float, radius: float, half_width: float, widths: float,
     n: int, tol: float = 1e-10, end_radius: float | None = None, threads: int = 1,
 ) -> CylinderContact:
-    """A rigid cylinder (axis y, radius ``radius``, length ``widths`` × 2·``half_width``, rounded
+    """A rigid cylinder (or, for a ``PairCompliance``, an elastic one on an elastic flat: the
+    interface compliance of both bodies) (axis y, radius ``radius``, length ``widths`` × 2·``half_width``, rounded
     ends of radius ``end_radius``, default ``radius``) on ``material``; load from the plane-strain
     estimate P′ = π a² E*/(4R) with ``modulus`` E*_2D and a = ``half_width``, times the length;
     ``n`` cells across 2a. Returns the centre section with the plane-strain reference of its own
@@ -122,7 +124,9 @@ def finite_cylinder(
     gap = x * x / (2.0 * radius) + over * over / (2.0 * end)
     line_load = math.pi * half_width**2 * modulus / (4.0 * radius)
     total = line_load * length
-    op = Engine(material, grid, ("zz",), threads).operator("z")
+    engine = (PairEngine(material, grid, ("zz",), threads) if isinstance(material, PairCompliance)
+              else Engine(material, grid, ("zz",), threads))
+    op = engine.operator("z")
     solution = polonsky_keer(op.apply, gap, tol=tol, load=total, cell_area=grid.cell_area)
     p = solution.traction[0]
     if (p[0, :] > 0).any() or (p[-1, :] > 0).any() or (p[:, 0] > 0).any() or (p[:, -1] > 0).any():

@@ -56,10 +56,12 @@ import math
 import time
 from typing import Any, Mapping
 
+import numpy as np
+
 from . import analytic
 from .bodies import HertzEllipse
 from .materials import Isotropic
-from .slip_path import PathResult, PathSolver, run_path
+from .slip_path import PathResult, PathSolver, rotation, run_path
 from .slip_problem import SlipProblem, SlipScene, validate
 
 __all__ = ["solve_slip", "validate", "SlipProblem", "PathSolver"]
@@ -115,12 +117,14 @@ def solve_slip(params: Mapping[str, Any]) -> dict[str, Any]:
     ``residual`` (largest final relative KKT residual), ``wall_time_s``, ``nx ny dx dy`` (cell
     sizes in input length units), ``plan``; and the references: ``no_slip_stiffness`` (k_t at
     Q = 0 on the grid), ``stiffness_ratio`` (k_t over it), ``force_ratio`` (Q/(mu P) reached),
-    ``stick_radius`` (sqrt(stick_area/π)), ``hertz_a hertz_b contact_angle_deg``
+    ``stick_radius`` (sqrt(stick_area/π)), ``stick_centroid_x stick_centroid_y`` (scene frame),
+    ``hertz_a hertz_b contact_angle_deg``
     (analytic Hertz ellipse), ``normal_stiffness`` (Hertz dP/dd = 3P/(2d)),
     ``mindlin_no_slip_stiffness`` (Mindlin's bonded ellipse along the load), for circular
     contacts ``mindlin_stiffness`` and ``mindlin_displacement`` (Cattaneo–Mindlin /
     Mindlin–Deresiewicz closed forms at the same Q and path) and ``mindlin_stick_radius``;
-    ``dundurs_beta``; for a dissimilar pair solved both ways the Goodman (decoupled) answers as
+    ``dundurs_beta`` and ``coupling_size`` (|β|; for crystal pairs only ``coupling_size``, and no
+    Hertz/Mindlin closed forms: ``hertz_*`` is then the indentation-modulus estimate); for a dissimilar pair solved both ways the Goodman (decoupled) answers as
     ``decoupled_*`` and the relative differences ``coupling_effect_stiffness``,
     ``coupling_effect_displacement``, ``coupling_effect_stick_area``; ``history`` (every step)
     when asked. Bad input raises ``InputError`` naming the field.
@@ -151,6 +155,7 @@ def solve_slip(params: Mapping[str, Any]) -> dict[str, Any]:
     limit = scene.mu * scene.load
     record["force_ratio"] = last.force / limit if limit > 0.0 else 0.0
     record["stick_radius"] = math.sqrt(last.stick_area / math.pi)
+    record.update(_stick_centroid(problem, main))
     record["hertz_a"], record["hertz_b"] = hertz.a, hertz.b
     record["contact_angle_deg"] = hertz.angle_deg
     record["normal_stiffness"] = hertz.normal_stiffness
@@ -187,6 +192,18 @@ def solve_slip(params: Mapping[str, Any]) -> dict[str, Any]:
     record["wall_time_s"] = time.perf_counter() - started
     _check_finite(record)
     return record
+
+
+def _stick_centroid(problem: SlipProblem, path: PathResult) -> dict[str, float]:
+    """Centroid of the stick zone at the path's end (scene frame, input length unit; 0 when the
+    whole contact slides or mu = 0): off the contact centre for dissimilar pairs (Rodríguez-
+    Tembleque et al. 2011, Fig. 6d) and for crystals without a symmetric frame."""
+    stick = path.final.stick
+    if problem.scene.mu == 0.0 or not stick.any():
+        return {"stick_centroid_x": 0.0, "stick_centroid_y": 0.0}
+    local = np.array([problem.x[stick].mean(), problem.y[stick].mean()]) * problem.L
+    x, y = rotation(problem.hertz.angle_deg) @ local
+    return {"stick_centroid_x": float(x), "stick_centroid_y": float(y)}
 
 
 def _relative(a: float, b: float, zero: float = 0.0) -> float:

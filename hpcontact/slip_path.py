@@ -212,7 +212,8 @@ class PathSolver:
 # ------------------------------------------------------------------------------------------
 # load paths and the record
 # ------------------------------------------------------------------------------------------
-def _rotation(angle_deg: float) -> np.ndarray:
+def rotation(angle_deg: float) -> np.ndarray:
+    """2 × 2 rotation by ``angle_deg`` (counter-clockwise)."""
     t = math.radians(angle_deg)
     return np.array([[math.cos(t), -math.sin(t)], [math.sin(t), math.cos(t)]])
 
@@ -271,7 +272,7 @@ def run_path(problem: SlipProblem, coupled: bool) -> PathResult:
     solver = PathSolver(problem, coupled)
     theta = math.radians(scene.angle_deg - problem.hertz.angle_deg)
     n = np.array([math.cos(theta), math.sin(theta)])
-    R = _rotation(problem.hertz.angle_deg)
+    R = rotation(problem.hertz.angle_deg)
     L, Fu, Ku = problem.L, problem.force_unit, problem.stiffness_unit
     area = problem.grid.cell_area * L * L
 

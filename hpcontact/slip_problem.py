@@ -163,8 +163,8 @@ def slip_pair(p: Mapping[str, Any]) -> Pair:
     with nu and G or E, ``cubic``, ``orthotropic``, ``voigt``; GPa; both in the lab frame)."""
     crystals = [anisotropic_material(p, suffix, GPA, library=False) for suffix in ("", "2")]
     if crystals == [None, None]:
-        return pair_from_params(p)
-    iso = dict(p)
+        return pair_from_params(p)  # (A = 1 exactly: the isotropic body, as in punch scenes)
+    iso = {k: v for k, v in p.items() if k.rstrip("2") not in CONSTANT_FIELDS}
     for suffix, c in zip(("", "2"), crystals):
         if c is not None:  # the crystal replaces the isotropic description of this body
             for name in ("material", "E", "G", "nu"):

@@ -1,0 +1,196 @@
+"""Rodríguez-Tembleque et al. 2011, §6.1–6.2: line contact, orthotropic pairs and friction (issue 11).
+
+    mpiexec -n 2 hpcontact run jobs/tembleque2011_friction.toml
+    python postprocess/tembleque2011_friction.py results/tembleque2011_friction.nc results/figures/tembleque2011/
+
+Figures (PNG in OUTDIR):
+
+* ``line_contact.png`` — §6.1, Fig. 3b: the centre-section pressure of a rigid cylinder (R = 0.5 m,
+  semi-width 50 mm, length 20 contact widths, rounded ends) on the orthotropic block, x1 across
+  and along the cylinder, against the plane-strain Hertz pressure of Hwu & Fan with E*_2D from
+  the Stroh solution (``hpcontact.line_contact``); right: the peak and width errors against n.
+* ``normal_load_ratio.png`` — Fig. 5: the load at a fixed contact semi-width of an orthotropic
+  cylinder on the orthotropic block against E1(punch)/E1(block): plane strain (P′ ∝ E*_2D of the
+  pair, 2/E* = H_zz,1 + H_zz,2) as a line, the 3-D finite cylinder between the two elastic bodies
+  as markers. The paper: "the load increases a 4 % until a constant value".
+* ``tangential_ratio.png`` — Fig. 7: the tangential force Q at the paper's tangential
+  displacement (0.15 mm, mu = 0.1) against the modulus ratio, from the data set (ellipsoidal
+  punch at fixed load; coupled and decoupled), with the contact area. The paper: Q shows a
+  significant reduction.
+* ``tractions.png`` — Fig. 6: pressure and tangential traction t_x along the centre line across
+  the contact (along x1) for the similar (ratio 1) and the dissimilar (ratio 2) pair, solved
+  here with the data set's scene fields (coupled).
+
+Printed: the numbers behind each figure.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+import numpy as np  # noqa: E402
+
+from postprocess.common import arguments, open_dataset, plt  # noqa: E402
+
+from hpcontact.anisotropic_pair import PairCompliance  # noqa: E402
+from hpcontact.elastic_constants import anisotropic_material  # noqa: E402
+from hpcontact.line_contact import finite_cylinder, plane_strain_modulus  # noqa: E402
+from hpcontact.slip import SlipProblem, validate  # noqa: E402
+from hpcontact.slip_path import rotation, run_path  # noqa: E402
+
+ORTHO = "E1=25 E2=1 E3=1 G12=0.5 G13=0.5 G23=0.2 nu12=0.25 nu13=0.25 nu23=0.25"
+RATIOS = (1, 2, 4, 8, 16, 32)
+R, A = 0.5, 0.05  # the paper's punch radius and contact semi-width, m
+
+
+def _ortho(ratio: float, azimuth: float = 0.0):
+    return anisotropic_material({"orthotropic": ORTHO.replace("E1=25", f"E1={25 * ratio:g}"), "azimuth": azimuth})
+
+
+def line_contact(outdir: Path) -> None:
+    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.2))
+    for azimuth, name, colour in ((0.0, "x1 across the axis", "C0"), (90.0, "x1 along the axis", "C1")):
+        body = _ortho(1, azimuth)
+        modulus = plane_strain_modulus(body.voigt, 0.0)
+        errors = []
+        for n in (8, 16, 32):
+            s = finite_cylinder(body, modulus, R, A, 20.0, n)
+            width = math.sqrt(4.0 * float(np.sum(s.x**2 * s.pressure)) / float(np.sum(s.pressure)))
+            errors.append((n, s.pressure.max() / s.peak - 1.0, width / s.half_width - 1.0))
+        xs = np.linspace(-1.0, 1.0, 201) * s.half_width
+        left.plot(xs / A, s.peak * np.sqrt(1 - (xs / s.half_width) ** 2) / 1e6, color=colour, lw=1,
+                  label=f"plane strain (Hwu & Fan), {name}: E*_2D = {modulus:.3f} GPa")
+        left.plot(s.x / A, s.pressure / 1e6, "o", ms=3, color=colour, label=f"3-D BEM centre section, n = 32")
+        e = np.array(errors)
+        right.semilogy(e[:, 0], np.abs(e[:, 1]), "o-", color=colour, label=f"peak, {name}")
+        right.semilogy(e[:, 0], np.abs(e[:, 2]), "s--", color=colour, label=f"width, {name}")
+        print(f"line contact, {name}: E*_2D = {modulus:.6g} GPa; (n, peak error, width error) = "
+              + ", ".join(f"({n}, {p:+.1e}, {w:+.1e})" for n, p, w in errors))
+    left.set_xlabel("x / 50 mm")
+    left.set_ylabel("pressure [MPa per GPa of modulus]")
+    left.legend(fontsize=7)
+    left.set_title("§6.1, Fig. 3b: rigid cylinder on the orthotropic block")
+    right.axhline(0.01, color="k", lw=0.8, ls=":")
+    right.set_xlabel("n (cells across the contact width)")
+    right.set_ylabel("|relative error| against plane strain")
+    right.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(outdir / "line_contact.png", dpi=110)
+    plt.close(fig)
+
+
+def normal_load(outdir: Path) -> None:
+    block = _ortho(1)
+    plane, bem = [], []
+    for ratio in RATIOS:
+        pair = PairCompliance(_ortho(ratio), block)
+        E2d = 2.0 / float(pair.fourier(np.array([0.0]))[0, 2, 2].real)
+        plane.append(E2d)
+        s = finite_cylinder(pair, E2d, R, A, 20.0, 16)
+        width = math.sqrt(4.0 * float(np.sum(s.x**2 * s.pressure)) / float(np.sum(s.pressure)))
+        bem.append(s.line_load / width**2)  # P′ at a fixed width: P′ ∝ a² E*
+    plane, bem = np.array(plane) / plane[0], np.array(bem) / bem[0]
+    fig, ax = plt.subplots(figsize=(6, 4))
+    ax.semilogx(RATIOS, plane, "-", label="plane strain, 2/E* = H_zz(punch) + H_zz(block)")
+    ax.semilogx(RATIOS, bem, "o", label="3-D BEM, finite cylinder, n = 16")
+    ax.axhline(1.04, color="k", lw=0.8, ls=":", label="paper: +4 % to a constant")
+    ax.set_xlabel("E1(punch) / E1(block)")
+    ax.set_ylabel("P at fixed semi-width / P(ratio 1)")
+    ax.set_title("§6.1, Fig. 5: orthotropic–orthotropic normal contact")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(outdir / "normal_load_ratio.png", dpi=110)
+    plt.close(fig)
+    print("normal load at fixed width / ratio 1: plane strain " + ", ".join(f"{r}: {v:.4f}" for r, v in zip(RATIOS, plane)))
+    print("                                       3-D BEM      " + ", ".join(f"{r}: {v:.4f}" for r, v in zip(RATIOS, bem)))
+
+
+def tangential(ds, outdir: Path) -> None:
+    labels = [str(v) for v in ds["pair"].values]
+    ortho = [(float(lab.split()[-1]), i) for i, lab in enumerate(labels) if lab.startswith("ortho")]
+    ratios = np.array([r for r, _ in ortho])
+    index = [i for _, i in ortho]
+    Q = ds["tangential_force"].values[index]
+    Qd = ds["decoupled_tangential_force"].values[index]
+    area = ds["contact_area"].values[index]
+    fig, ax = plt.subplots(figsize=(6, 4))
+    ax.semilogx(ratios, Q / Q[0], "o-", label="Q, coupled (Panagiotopoulos)")
+    ax.semilogx(ratios, np.where(np.isnan(Qd), Q, Qd) / Q[0], "x--", label="Q, decoupled (Goodman)")
+    ax.semilogx(ratios, area / area[0], "s:", label="contact area")
+    ax.set_xlabel("E1(punch) / E1(block)")
+    ax.set_ylabel("relative to ratio 1")
+    ax.set_title("§6.2, Fig. 7: Q at δ = 0.15 mm, mu = 0.1, fixed P")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(outdir / "tangential_ratio.png", dpi=110)
+    plt.close(fig)
+    print("Q / Q(ratio 1): " + ", ".join(f"{r:g}: {q:.4f}" for r, q in zip(ratios, Q / Q[0])))
+    iso = labels.index("isotropic") if "isotropic" in labels else None
+    if iso is not None:
+        print(f"isotropic punch: Q = {float(ds['tangential_force'].values[iso]):.6g} N, "
+              f"coupling size {float(ds['coupling_size'].values[iso]):.4f}")
+    print("stick centroid x [m]: " + ", ".join(f"{lab}: {float(v):.2e}" for lab, v in zip(labels, ds["stick_centroid_x"].values)))
+
+
+def _scene(ds, label: str) -> dict:
+    """The data set's scene fields for one pair label (fixed fields plus the pair table)."""
+    keys = ("radius", "radius_b", "orthotropic2", "load", "mu", "q_ratio", "control", "displacement", "angle",
+            "steps", "n", "tol", "quantities")
+    params = {k: ds[k].values.item() for k in keys if k in ds.coords or k in ds}
+    point = ds.sel(pair=label)
+    for k in ("orthotropic", "E", "nu"):
+        if k in point.coords:
+            v = point[k].values.item()
+            if v is not None and v == v and v != "":
+                params[k] = v
+    params["coupling"] = "coupled"
+    return params
+
+
+def tractions(ds, outdir: Path) -> None:
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4), sharey=True)
+    for ax, label in zip(axes, ("ortho E1 ratio 1", "ortho E1 ratio 2")):
+        problem = SlipProblem(validate(_scene(ds, label)))
+        state = run_path(problem, True).final
+        rot = rotation(problem.hertz.angle_deg)
+        xs = rot[0, 0] * problem.x + rot[0, 1] * problem.y
+        ys = rot[1, 0] * problem.x + rot[1, 1] * problem.y
+        tx = rot[0, 0] * state.t[0] + rot[0, 1] * state.t[1]
+        row = np.abs(ys) < 0.5 * max(problem.grid.dx, problem.grid.dy) * 1.0001
+        order = np.argsort(xs[row])
+        x = xs[row][order] * problem.L / A
+        unit = problem.G_ref
+        ax.plot(x, state.p[row][order] * unit / 1e6, "k-", label="pressure p")
+        ax.plot(x, problem.scene.mu * state.p[row][order] * unit / 1e6, "k:", lw=0.8, label="mu p")
+        ax.plot(x, tx[row][order] * unit / 1e6, "C3o-", ms=3, label="t_x")
+        stick = state.stick[row][order]
+        ax.plot(x[stick], np.zeros(stick.sum()), "C2|", ms=10, label="stick cells")
+        ax.set_title(f"§6.2, Fig. 6: {label}")
+        ax.set_xlabel("x / 50 mm (along x1)")
+        ax.legend(fontsize=7)
+        centre = float(np.mean(x[stick])) if stick.any() else float("nan")
+        print(f"tractions, {label}: stick cells on the centre line from x/50mm = {x[stick].min():.3f} to "
+              f"{x[stick].max():.3f} (centre {centre:+.4f})")
+    axes[0].set_ylabel("traction [MPa]")
+    fig.tight_layout()
+    fig.savefig(outdir / "tractions.png", dpi=110)
+    plt.close(fig)
+
+
+def main() -> None:
+    args = arguments(__doc__.splitlines()[0])
+    ds = open_dataset(args.dataset)
+    line_contact(args.outdir)
+    normal_load(args.outdir)
+    tangential(ds, args.outdir)
+    tractions(ds, args.outdir)
+
+
+if __name__ == "__main__":
+    main()
