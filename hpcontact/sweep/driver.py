@@ -29,7 +29,6 @@ import argparse
 import datetime
 import json
 import math
-import os
 import sys
 import time
 import traceback

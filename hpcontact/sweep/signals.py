@@ -2,7 +2,9 @@
 sends ahead of a time limit), or a rank that cannot write its journal.
 
 A rank that receives the signal (or fails) records the reason and drops a stop file ``STOP`` in
-the journal folder; a light daemon thread on every rank polls for that file (every
+the journal folder (the signal also reaches the polling thread below through
+``signal.set_wakeup_fd``, so a rank whose main thread is blocked in an MPI call, where Python
+runs no signal handler, still passes the request on); a light daemon thread on every rank polls for that file (every
 ``POLL_S``), so the request reaches every rank without MPI calls from a second thread (the MPI
 library may grant no more than ``MPI_THREAD_SERIALIZED``) and without any rank having to enter
 MPI. A stopping rank claims no more work and lets the task in flight finish for ``grace_s``
@@ -55,6 +57,8 @@ class StopControl:
         self._done = threading.Event()
         self._thread: threading.Thread | None = None
         self._previous: dict[int, object] = {}
+        self._wakeup: tuple[int, int] | None = None  # pipe the C-level handler writes signal numbers to
+        self._previous_wakeup = -1
 
     @property
     def stopping(self) -> bool:
@@ -66,6 +70,10 @@ class StopControl:
         for signum in SIGNALS:
             self._previous[signum] = signal.signal(signum, self._on_signal)
         self._previous[ABANDON] = signal.signal(ABANDON, self._on_abandon)
+        self._wakeup = os.pipe()
+        for fd in self._wakeup:
+            os.set_blocking(fd, False)
+        self._previous_wakeup = signal.set_wakeup_fd(self._wakeup[1], warn_on_full_buffer=False)
         return self
 
     def watch(self, folder: Path, rank: int) -> None:
@@ -96,6 +104,11 @@ class StopControl:
         for signum, handler in self._previous.items():
             signal.signal(signum, handler)  # type: ignore[arg-type]
         self._previous.clear()
+        if self._wakeup is not None:
+            signal.set_wakeup_fd(self._previous_wakeup)
+            for fd in self._wakeup:
+                os.close(fd)
+            self._wakeup = None
 
     def _on_signal(self, signum: int, frame: FrameType | None) -> None:
         self.request(f"{signal.Signals(signum).name} on rank {self.rank} ({socket.gethostname()})")
@@ -129,10 +142,21 @@ class StopControl:
         if self.reason is None:
             self.reason, self.failed, self._stopped_at = reason or "stop file", kind == "failed", time.monotonic()
 
+    def _signalled(self) -> None:
+        """A stop signal the C-level handler recorded in the wakeup pipe, if any."""
+        try:
+            received = os.read(self._wakeup[0], 64) if self._wakeup is not None else b""
+        except (BlockingIOError, OSError):
+            return
+        for signum in received:
+            if signum in SIGNALS:
+                self._on_signal(signum, None)
+
     def _poll(self) -> None:
         abandoned = False
         while not self._done.wait(POLL_S):
             if self.reason is None:
+                self._signalled()
                 self._read_file()
                 continue
             late = time.monotonic() - self._stopped_at - self.grace_s

@@ -180,6 +180,16 @@ def test_concurrent_run_refused_sigterm_stops_within_the_grace_and_resume_comple
     ranks = started_by_rank(tmp_path)
     hung_rank = next(r for r, (_, started) in ranks.items() if keys[hang] in started)
     other = ranks[1 - hung_rank][0]
+    # the other rank runs out of work (the hung chunk's other tasks wait behind the hang) and then
+    # waits in the scheduler's close, inside MPI, where Python runs no signal handler
+    counts = [-1]
+
+    def settled():
+        time.sleep(1.0)
+        counts.append(len(read_history(tmp_path / "out.nc.journal").entries))
+        return counts[-1] == counts[-2]
+
+    wait_for(settled, first)
     signalled = time.monotonic()
     os.kill(other, signal.SIGTERM)  # to the rank that is not hanging: the stop must reach the other one
     out, err = first.communicate(timeout=GRACE_S + 60.0)
@@ -189,7 +199,7 @@ def test_concurrent_run_refused_sigterm_stops_within_the_grace_and_resume_comple
     assert "stopped (SIGTERM on rank" in err and "run again with --resume" in err
     (session,) = sessions(tmp_path).values()
     assert keys[hang] in session["interrupted"] and not (tmp_path / "out.nc").exists()
-    print(f"SIGTERM to exit 4: {elapsed:.2f} s with a {GRACE_S:g} s grace")
+    print(f"SIGTERM to exit 4: {elapsed:.2f} s with a {GRACE_S:g} s grace (rank {hung_rank} hung)")
 
     code, out, err = run(tmp_path, "--resume")
     assert code == 0, out + err

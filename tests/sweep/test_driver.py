@@ -184,7 +184,9 @@ def test_stale_journals_are_refused_unless_accepted_and_provenance_lists_every_c
     spec = write_spec(SPEC)
     monkeypatch.setenv("HPCONTACT_GIT_REVISION", "aaaa")
 
-    def dies_at_fourth(params, calls=[]):
+    calls = []
+
+    def dies_at_fourth(params):
         if len(calls) == 3:
             raise Interrupted
         calls.append(params)
@@ -195,9 +197,9 @@ def test_stale_journals_are_refused_unless_accepted_and_provenance_lists_every_c
     monkeypatch.setenv("HPCONTACT_GIT_REVISION", "bbbb-dirty")
     with pytest.raises(Refused, match=r"computed by hpcontact .*\(git aaaa,.*this is .*\(git bbbb-dirty,.*git revision.*--accept-stale"):
         sweep(spec, resume=True, task_function=fake_solve)
-    calls = []
-    path = sweep(spec, task_function=counting(fake_solve, calls), options=Options(resume=True, accept_stale=True))
-    assert len(calls) == TASKS - 3
+    resumed = []
+    path = sweep(spec, task_function=counting(fake_solve, resumed), options=Options(resume=True, accept_stale=True))
+    assert len(resumed) == TASKS - 3
     with xr.open_dataset(path) as ds:
         contributors = {c["git_revision"]: c["tasks"] for c in json.loads(ds.attrs["sweep_contributors"])}
         assert contributors == {"aaaa": 3, "bbbb-dirty": TASKS - 3} and ds.attrs["git_revision"] == "bbbb-dirty"
