@@ -7,9 +7,12 @@ allowed range. ``hpcontact.plan`` decides what to build and run for it.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
+
+import numpy as np
 
 from .crystal import Crystal, crystal, cubic_from_nu_A
 from .elastic_constants import constants_material
@@ -119,7 +122,7 @@ class Scene:
         G = finite_number("G", p["G"], "shear modulus, finite and > 0")
         if G <= 0.0:
             raise InputError("G", "shear modulus, finite and > 0", p["G"])
-        material = constants_material(params) or _material(p, G, nu)
+        material = _turned_with_shape(constants_material(params) or _material(p, G, nu), p["shape_angle"])
         aspect = finite_number("aspect", p["aspect"], ASPECT_RANGE)
         if not MIN_ASPECT <= aspect <= 1.0:
             raise InputError("aspect", ASPECT_RANGE, p["aspect"])
@@ -244,6 +247,21 @@ def _material(p: Mapping[str, Any], G: float, nu: float) -> Material:
     if orientation is not None:
         return base.oriented(psi_deg=orientation, azimuth_deg=azimuth)
     return base.oriented(miller=miller or (0, 0, 1), azimuth_deg=azimuth)
+
+
+def _turned_with_shape(material: Material, shape_angle: Any) -> Material:
+    """A crystal turns with the shape: ``shape_angle`` β turns the whole contact (shape and
+    lattice) by β counter-clockwise on the grid, so the physical problem is the same and the
+    tensor transforms as K(β) = R(β) K(0) R(β)ᵀ — what Li's rotated-shape check (a sweep's
+    ``angle_mode = "rotated"``) relies on. The lattice relative to the shape is set by
+    ``azimuth`` (or the orientation fields). The frame turned by −β has axes (rows of R)
+    (cos β, −sin β, 0) and (sin β, cos β, 0) in the current one (``Crystal.rotated``).
+    """
+    beta = math.radians(finite_number("shape_angle", shape_angle, "a finite angle in degrees"))
+    if isinstance(material, Isotropic) or beta == 0.0:
+        return material
+    c, s = math.cos(beta), math.sin(beta)
+    return material.rotated(np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]))
 
 
 def validate(params: Mapping[str, Any]) -> None:
