@@ -153,6 +153,7 @@ SLIP_ATTRS: Mapping[str, tuple[str, str]] = {
     "coupling_effect_stiffness": ("coupled / decoupled k_t - 1", "1"),
     "coupling_effect_displacement": ("coupled / decoupled delta - 1", "1"),
     "coupling_effect_stick_area": ("coupled / decoupled stick area - 1", "1"),
+    "coupling_size": ("size of the pair's normal-tangential coupling (|Dundurs beta| for isotropic bodies)", "1"),
     "iterations": ("operator applications (slip solver, CG, Polonsky-Keer), all paths", "1"),
     "residual": ("largest final relative KKT residual", "1"),
     "dx": ("cell size along the contact ellipse's major axis", "L"),
@@ -169,8 +170,13 @@ SLIP_ATTRS: Mapping[str, tuple[str, str]] = {
     "radius2": ("radius of curvature of body 2 (inf: flat)", "L"),
     "radius2_b": ("second principal radius of curvature of body 2", "L"),
     "body2_angle": ("angle between the principal axes of the bodies", "degree"),
-    "material": ("material of body 1 (hpcontact.bodies library, isotropic)", ""),
-    "material2": ("material of body 2 (hpcontact.bodies library, isotropic)", ""),
+    "material": ("material of body 1 (hpcontact.bodies library, or crystal:NAME)", ""),
+    "material2": ("material of body 2 (hpcontact.bodies library, or crystal:NAME)", ""),
+    "orthotropic": ("orthotropic engineering constants of body 1", ""),
+    "orthotropic2": ("orthotropic engineering constants of body 2", ""),
+    "orientation": ("surface normal of the crystal along [110] -> [111] -> [001]", "degree"),
+    "azimuth": ("in-plane turn of the crystal about the surface normal", "degree"),
+    "miller": ("surface normal (h k l) of the crystal", ""),
     "E": ("Young's modulus of body 1", "F L-2"),
     "G": ("shear modulus of body 1", "F L-2"),
     "nu": ("Poisson ratio of body 1", "1"),
@@ -388,7 +394,7 @@ def derive_directional(ds: xr.Dataset) -> xr.Dataset:
     tensor mode, K_xx of the shape turned by −angle in rotated mode; normalized_nn =
     K_nn · normalized_xx / K_xx. Dimensions in the spec's axis order (the ``sweep_axes``
     attribute); units those of K_xx. Lazy on dask arrays."""
-    if "angle" not in ds.dims or not set(TENSOR) <= set(ds.data_vars):
+    if not _directional(ds):
         return ds
     order = ds.attrs["sweep_axes"].split()
     kxx = ds["K_xx"]
@@ -396,7 +402,7 @@ def derive_directional(ds: xr.Dataset) -> xr.Dataset:
         knn = kxx.copy()
     else:
         knn = xr.apply_ufunc(
-            _directional, *(ds[name] for name in TENSOR), ds["angle"], dask="parallelized", output_dtypes=[np.float64]
+            _turned, *(ds[name] for name in TENSOR), ds["angle"], dask="parallelized", output_dtypes=[np.float64]
         )
     unit = kxx.attrs.get("scale", kxx.attrs.get("units"))
     knn.attrs = cf_attributes({"long_name": VARIABLE_ATTRS["K_nn"]["long_name"], "units": unit})
@@ -408,7 +414,12 @@ def derive_directional(ds: xr.Dataset) -> xr.Dataset:
     return out
 
 
-def _directional(kxx: np.ndarray, kxy: np.ndarray, kyx: np.ndarray, kyy: np.ndarray, angle: np.ndarray) -> np.ndarray:
+def _directional(ds: xr.Dataset) -> bool:
+    """Whether ``ds`` has an angle axis and a tangential tensor (``derive_directional`` applies)."""
+    return "angle" in ds.dims and set(TENSOR) <= set(ds.data_vars)
+
+
+def _turned(kxx: np.ndarray, kxy: np.ndarray, kyx: np.ndarray, kyy: np.ndarray, angle: np.ndarray) -> np.ndarray:
     """``directional_stiffness`` on the four broadcast tensor components."""
     tensor = np.stack([np.stack([kxx, kxy], axis=-1), np.stack([kyx, kyy], axis=-1)], axis=-2)
     return directional_stiffness(tensor, angle)
@@ -417,7 +428,8 @@ def _directional(kxx: np.ndarray, kxy: np.ndarray, kyx: np.ndarray, kyy: np.ndar
 def write_netcdf(ds: xr.Dataset, path: Path) -> Path:
     """Write the data set ``ds`` to ``path`` (``netcdf.write``: compact, atomic) without the
     variables ``derive_directional`` makes from the tensor; returns ``path``."""
-    return netcdf.write(ds.drop_vars([name for name in DIRECTIONAL if name in ds]), path)
+    derived = [name for name in DIRECTIONAL if name in ds] if _directional(ds) else []
+    return netcdf.write(ds.drop_vars(derived), path)
 
 
 def open_dataset(path: str | Path, **options: Any) -> xr.Dataset:
