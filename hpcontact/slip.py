@@ -283,7 +283,9 @@ def _plan(problem: SlipProblem, modes: list[bool], paths: Mapping[bool, PathResu
         "operator_applications": [],
         "pair": _pair_lines(problem, coupling),
         "method": [
-            "normal pressure: discrete Hertz, Polonsky-Keer on the slip grid at the load, applied without friction",
+            "normal load: Polonsky-Keer on the slip grid, applied "
+            + (f"in {scene.steps} steps with friction (Spence), coupled path" if scene.normal_friction
+               else "without friction"),
             "slip: semismooth Newton (primal-dual active set, linearized slip directions), PCG inner solves, "
             "MPRGP fallback",
             "tangent: consistent (stick cells stuck, slip cells slide along their traction); "

@@ -102,19 +102,42 @@ class PathSolver:
         # Panagiotopoulos' process stops when the pressure changes by less than this (relative
         # L1); it contracts by ~1e-2 per pass (measured, Cu-Fe and Fe on rigid), so 2-4 passes
         self.outer_tol = 10.0 * self.tol
-        normal = problem.normal()
-        self.count.pk += normal.iterations
-        p0 = normal.traction[0]
-        zero = np.zeros((2,) + p0.shape)
-        s0 = -problem.coupling_tangential(p0) if coupled else zero.copy()
-        contact = p0 > 0.0
-        self.initial = SlipState(np.zeros(2), zero.copy(), p0, s0, np.zeros(2), contact.copy(), contact)
+        if coupled and problem.scene.normal_friction and self.mu > 0.0:
+            self.initial = self._normal_loading_with_friction()
+        else:
+            normal = problem.normal()
+            self.count.pk += normal.iterations
+            p0 = normal.traction[0]
+            zero = np.zeros((2,) + p0.shape)
+            s0 = -problem.coupling_tangential(p0) if coupled else zero.copy()
+            contact = p0 > 0.0
+            self.initial = SlipState(np.zeros(2), zero.copy(), p0, s0, np.zeros(2), contact.copy(), contact)
         self.initial.K = None
         self.K0 = self.tangent(self.initial)
         self._last_increment: np.ndarray | None = None
 
-    def equilibrium(self, prev: SlipState, delta: np.ndarray, warm: SlipState | None = None) -> SlipState:
-        """The state reached from ``prev`` when the rigid displacement becomes ``delta``.
+    def _normal_loading_with_friction(self) -> SlipState:
+        """Spence's problem (Johnson 1985, §5.5): the normal load applied in ``steps`` equal
+        increments with friction acting and the bodies held tangentially (δ = 0), each step the
+        coupled process of ``equilibrium`` at its load. A dissimilar pair's pressure pulls the
+        surfaces tangentially by different amounts (A_tz p), friction resists it in a central
+        stick zone: the residual shear that a later tangential load adds to on one side and
+        subtracts from on the other (the shifted stick zone of Rodríguez-Tembleque et al. 2011,
+        Fig. 6d). Zero for an elastically similar pair (A_tz = 0)."""
+        pb = self.problem
+        shape = pb.gap.shape
+        zero2, zero = np.zeros((2,) + shape), np.zeros(shape)
+        none = np.zeros(shape, dtype=bool)
+        state = SlipState(np.zeros(2), zero2, zero, zero2.copy(), np.zeros(2), none, none)
+        steps = pb.scene.steps
+        for k in range(1, steps + 1):
+            state = self.equilibrium(state, np.zeros(2), load=pb.P * k / steps)
+        return state
+
+    def equilibrium(self, prev: SlipState, delta: np.ndarray, warm: SlipState | None = None,
+                    load: float | None = None) -> SlipState:
+        """The state reached from ``prev`` when the rigid displacement becomes ``delta`` (and, in
+        coupled mode, the normal load ``load``, grid units; default the scene's).
 
         ``warm`` (a nearby state, e.g. the previous Newton iterate) only seeds the iteration.
         """
@@ -133,7 +156,7 @@ class PathSolver:
             t = result.traction
             if not self.coupled or p_change <= self.outer_tol:
                 break  # (coupled: this last slip solve used the settled pressure)
-            normal = pb.normal(pb.coupling_normal(t))
+            normal = pb.normal(pb.coupling_normal(t), load)
             self.count.pk += normal.iterations
             p_new = normal.traction[0]
             p_change = float(np.abs(p_new - p).sum()) / float(np.abs(p_new).sum())

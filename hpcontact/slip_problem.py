@@ -7,10 +7,17 @@ pair on its contact grid (scaled units) and gives the operators the load steps n
 Normal contact: Polonsky–Keer under load control on the same grid (``solvers.polonsky_keer``);
 the normal pressure for the Mindlin checks is therefore the *discrete* Hertz solution of the
 grid, not the analytic one. The normal load is applied first without friction (the
-reference state s = −A_tz p0, t = 0; friction during normal loading — Spence's problem for
-dissimilar pairs, Johnson 1985 §5.5 — is not modelled).
+reference state s = −A_tz p0, t = 0), or, with ``normal_friction``, in ``steps`` increments with
+friction acting on the coupled path (Spence's problem for dissimilar pairs, Johnson 1985 §5.5;
+``slip_path.PathSolver``).
 
-Units: lengths are scaled by the Hertz semi-axis a and stresses by G_eq inside.
+Crystal bodies (``anisotropic_pair``, ``elastic_constants``): a pair with a crystal is solved on
+the pair's interface compliance (``PairEngine``: all tangential blocks, the coupling blocks when
+they do not cancel); the Hertz ellipse that sizes the grid uses the indentation-modulus estimate
+of E* and the grid grows by sqrt(max/min H_zz) so that a non-elliptical contact fits.
+
+Units: lengths are scaled by the Hertz semi-axis a and stresses by G_eq (G_ref for a crystal
+pair) inside.
 """
 
 from __future__ import annotations
@@ -39,7 +46,7 @@ FIELDS = (
     "quantities", "radius", "radius_b", "radius2", "radius2_b", "body2_angle",
     "material", "material2", "E", "G", "nu", "E2", "G2", "nu2",
     "load", "mu", "q_ratio", "angle", "n", "tol", "steps", "control", "displacement", "path",
-    "tensor", "history", "coupling", "threads", "precondition",
+    "tensor", "history", "coupling", "threads", "precondition", "normal_friction",
 ) + CONSTANT_FIELDS + tuple(f"{name}2" for name in CONSTANT_FIELDS)
 #: Crystal constants are given in GPa (``elastic_constants``); slip scenes are in SI units.
 GPA = 1e9
@@ -69,6 +76,7 @@ class SlipScene:
     path: str
     tensor: bool
     history: bool
+    normal_friction: bool
     coupling: str
     threads: int
     precondition: bool
@@ -89,14 +97,16 @@ def validate(params: Mapping[str, Any]) -> SlipScene:
 
     Required: ``radius`` (> 0), ``load`` (> 0), ``mu`` (≥ 0), ``q_ratio`` (0 ≤ Q/(mu P) < 1).
     Optional: ``radius_b radius2 radius2_b body2_angle`` (geometry, see ``bodies``),
-    ``material material2`` (names) or ``E G nu E2 G2 nu2``; ``angle`` (load direction, degrees
+    ``material material2`` (names; "crystal:NAME" for a library crystal) or ``E G nu E2 G2 nu2``;
+    crystals by the fields of ``elastic_constants`` (``anisotropy cubic orthotropic voigt
+    orientation miller azimuth`` and the same with suffix 2; GPa); ``angle`` (load direction, degrees
     from the scene's x axis, default 0); ``n`` (cells across the contact's major axis, 8–4096,
     default 64); ``tol`` (1e-14–1e-4, default 1e-8); ``steps`` (load steps to Q, 1–1000,
     default 10); ``control`` (force | displacement); ``displacement`` (final tangential
     displacement, required with control = displacement); ``path`` (load | loop);
     ``tensor`` and ``history`` (booleans: add the 2 × 2 tensor / the whole curve);
     ``coupling`` (auto | both | coupled | decoupled; auto = both for a dissimilar pair);
-    ``threads``; ``precondition``.
+    ``threads``; ``precondition``; ``normal_friction`` (boolean: Spence's normal loading).
     """
     unknown = sorted(set(params) - set(FIELDS) - set(IGNORED))
     if unknown:
@@ -153,6 +163,7 @@ def validate(params: Mapping[str, Any]) -> SlipScene:
         pair=pair, load=load, mu=mu, q_ratio=q_ratio, angle_deg=angle, n=n, tol=tol, steps=steps,
         control=control, displacement=displacement, path=path,
         tensor=_flag("tensor", p.get("tensor", False)), history=_flag("history", p.get("history", False)),
+        normal_friction=_flag("normal_friction", p.get("normal_friction", False)),
         coupling=coupling, threads=threads, precondition=_flag("precondition", p.get("precondition", True)),
     )
 
@@ -309,12 +320,13 @@ class SlipProblem:
         field3[:2] = t
         return self.coupling_operator.apply(field3)[2]
 
-    def normal(self, extra_gap: np.ndarray | None = None) -> Solution:
-        """Polonsky–Keer at the load P on the gap (plus ``extra_gap``); raises if the contact
-        reaches the grid edge."""
+    def normal(self, extra_gap: np.ndarray | None = None, load: float | None = None) -> Solution:
+        """Polonsky–Keer at the load P (or ``load``, grid units) on the gap (plus ``extra_gap``);
+        raises if the contact reaches the grid edge."""
         gap = self.gap if extra_gap is None else self.gap + extra_gap
         solution = polonsky_keer(
-            self.op_z.apply, gap, tol=min(self.scene.tol, 1e-10), load=self.P, cell_area=self.grid.cell_area
+            self.op_z.apply, gap, tol=min(self.scene.tol, 1e-10), load=self.P if load is None else load,
+            cell_area=self.grid.cell_area,
         )
         contact = solution.traction[0] > 0.0
         if contact[0, :].any() or contact[-1, :].any() or contact[:, 0].any() or contact[:, -1].any():

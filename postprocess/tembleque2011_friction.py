@@ -141,7 +141,7 @@ def tangential(ds, outdir: Path) -> None:
 def _scene(ds, label: str) -> dict:
     """The data set's scene fields for one pair label (fixed fields plus the pair table)."""
     keys = ("radius", "radius_b", "orthotropic2", "load", "mu", "q_ratio", "control", "displacement", "angle",
-            "steps", "n", "tol", "quantities")
+            "steps", "n", "tol", "quantities", "normal_friction")
     params = {k: ds[k].values.item() for k in keys if k in ds.coords or k in ds}
     point = ds.sel(pair=label)
     for k in ("orthotropic", "E", "nu"):

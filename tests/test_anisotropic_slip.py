@@ -202,3 +202,30 @@ def test_command_line_takes_both_bodies_constants(capsys: pytest.CaptureFixture)
     assert "cubic2.C44 = -75.4" in capsys.readouterr().err
     assert main(["solve", "--voigt", " ".join(["1"] * 36)]) == 2  # punch scene: singular matrix
     assert "voigt" in capsys.readouterr().err
+
+
+def test_normal_loading_with_friction() -> None:
+    """Spence's problem (``normal_friction``): for an elastically similar pair forced through the
+    coupled path it changes nothing (A_tz = 0: no shear arises; measured 1.4e-12, the Polonsky–Keer
+    tolerance of the load steps); for Cu on Fe it leaves a radial shear with a
+    central stick zone and a thin slip annulus (β/μ = 0.11: Spence's c/a is near 1), and a later tangential load finds the stick zone off
+    centre (measured −4.8 μm = −0.5 cell along the load at n = 32, where it is 0 without)."""
+    similar = {**BASE, "material": "Fe", "material2": "Fe", "coupling": "coupled", "n": 16}
+    plain, spence = (solve_slip({**similar, "normal_friction": f}) for f in (False, True))
+    assert _relative(plain, spence, KEYS) < 5e-12  # measured 1.4e-12
+    pair = {"radius": 8e-3, "radius2": 9e-3, "load": 100.0, "mu": 0.3, "q_ratio": 0.5, "n": 32, "steps": 4,
+            "material": "Cu", "material2": "Fe", "coupling": "coupled", "normal_friction": True}
+    problem = SlipProblem(validate(pair))
+    initial = PathSolver(problem, True).initial
+    t, x, y = initial.t, problem.x, problem.y
+    mag = np.hypot(t[0], t[1])
+    assert mag.max() > 0.1 * problem.scene.mu * initial.p.max()  # a real residual shear
+    r = np.where(np.hypot(x, y) > 0.0, np.hypot(x, y), 1.0)
+    radial, hoop = (t[0] * x + t[1] * y) / r, (t[1] * x - t[0] * y) / r
+    # radial up to the square grid's 4-fold staircase: measured ‖hoop‖/‖radial‖ = 0.018
+    assert np.linalg.norm(hoop) < 0.05 * np.linalg.norm(radial)
+    assert np.max(np.abs(t[0] + t[0][::-1, :])) < 1e-9 * mag.max()  # odd in x: measured 3e-11
+    assert 0 < initial.stick.sum() < initial.contact.sum()  # central stick zone, slip annulus (804 of 812)
+    record = solve_slip(pair)
+    dx = problem.grid.dx * problem.L
+    assert record["stick_centroid_x"] < -0.2 * dx  # measured -0.5 dx
