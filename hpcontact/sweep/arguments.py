@@ -10,8 +10,8 @@ from .signals import STOPPED_STATUS
 EXIT_OK, EXIT_UNEXPECTED, EXIT_REFUSED, EXIT_FAILED_TASKS, EXIT_STOPPED = 0, 1, 2, 3, STOPPED_STATUS
 EXIT_STATUS = """exit status:
   0  every task ok, data set written
-  1  anything unexpected (traceback on stderr), or a rank could not write its journal (disk full:
-     the message names the file; journals intact, free space and --resume)
+  1  anything unexpected (traceback on stderr), or a journal or the data set could not be
+     written (disk full: the message names the file; journals intact, free space and --resume)
   2  bad input or a refusal, before any task runs: bad spec, output or journal folder not
      writable, lock held by another run, journals without --resume/--restart, stale journals
   3  data set written, but some tasks failed (the summary names up to 5 with their messages)

@@ -40,7 +40,6 @@ from ..errors import ConvergenceError, InputError
 from ..operator import load_wisdom, save_wisdom
 from . import faults, kinds, provenance
 from .arguments import EXIT_FAILED_TASKS, EXIT_OK, EXIT_REFUSED, EXIT_STOPPED, EXIT_UNEXPECTED, add_run_arguments
-from .dataset import NOT_COMPUTED, build_dataset, write_netcdf
 from .guard import Refused, RunLock, usable_folder
 from .journal import (
     BAD_INPUT,
@@ -66,8 +65,8 @@ TaskFunction = Callable[[Mapping[str, Any]], Mapping[str, Any]]
 SHOWN_FAILURES = 5
 
 class Stopped(Exception):
-    """The run stopped before its end on every rank (a signal, or a rank that could not write
-    its journal): ``status`` 4 or 1; journals intact."""
+    """The run ended without a data set on every rank: stopped by a signal (``status`` 4), or a
+    journal or the data set could not be written (a full disk; ``status`` 1); journals intact."""
 
     def __init__(self, message: str, status: int) -> None:
         super().__init__(message)
@@ -262,6 +261,7 @@ def execute(
     try:
         return _run(team, plan, keep, task_function, stream, stop, options, started)
     finally:
+        stop.close()
         if team.rank == 0:
             keep["lock"].release()
 
@@ -363,7 +363,11 @@ def _run(team: Team, plan: Plan, keep: dict[str, Any], task_function: TaskFuncti
             what = f"stopped ({'; '.join(failed) if failed else reasons[0][5]})"
             return None, (f"hpcontact: {what}: {ran} tasks finished in this run; journals intact in "
                           f"{spec.journal}; run again with --resume"), status
-        return _assemble(spec, plan, keep, team.size, totals, started, setup_s, options, stream), "", EXIT_OK
+        try:
+            return _assemble(spec, plan, keep, team.size, totals, started, setup_s, options, stream), "", EXIT_OK
+        except OSError as exc:  # a full disk at the end: the journals hold everything
+            return None, (f"hpcontact: cannot write the data set {exc.filename or spec.output}: {exc.strerror or exc}; "
+                          f"journals intact in {spec.journal}; free space and run again with --resume"), EXIT_UNEXPECTED
 
     outcome, message, status = _shared(team, finish)
     if outcome is None:
@@ -373,7 +377,10 @@ def _run(team: Team, plan: Plan, keep: dict[str, Any], task_function: TaskFuncti
 
 def _assemble(spec: Spec, plan: Plan, keep: Mapping[str, Any], ranks: int, totals: list, started: float,
               setup_s: float, options: Options, stream: TextIO) -> Outcome:
-    """Rank 0: the data set from every journal, its summary, and the netCDF file."""
+    """Rank 0: the data set from every journal, its summary, and the netCDF file (xarray is
+    imported here: the other ranks, and runs that stop, never need it)."""
+    from .dataset import NOT_COMPUTED, build_dataset, write_netcdf
+
     gather_started = time.perf_counter()
     history = read_history(spec.journal)
     entries: dict[str, Entry] = {}

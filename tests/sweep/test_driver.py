@@ -302,6 +302,17 @@ def test_main_exits_2_with_one_line_naming_the_key(write_spec, capsys, monkeypat
     assert err.count("\n") == 1 and "numerics.colour" in err
 
 
+def test_a_data_set_that_cannot_be_written_stops_cleanly_and_resume_writes_it(write_spec, fake_solve, tmp_path):
+    spec = write_spec(SPEC)
+    (tmp_path / "out.nc").mkdir()  # in the way of the data set's final rename
+    with pytest.raises(Stopped, match="cannot write the data set .*out.nc.*journals intact.*--resume") as info:
+        sweep(spec, task_function=fake_solve)
+    assert info.value.status == 1 and len(read_journals(tmp_path / "out.nc.journal")) == TASKS
+    (tmp_path / "out.nc").rmdir()
+    calls = []
+    assert sweep(spec, resume=True, task_function=counting(fake_solve, calls)).is_file() and calls == []
+
+
 def test_dry_run_lists_the_tasks_in_order_and_computes_nothing(write_spec, capsys, monkeypatch):
     monkeypatch.setenv("HPCONTACT_MPI", "0")
     spec = write_spec(SPEC)
