@@ -19,9 +19,10 @@ any byte keeps every entry before the cut. Events:
 Durability: a line reaches the page cache at once (it survives the death of the process); it
 reaches the disk (``fsync``) at the first outcome ``SYNC_INTERVAL_S`` after the last sync, after
 an interruption and on close, so a node failure loses at most the last few seconds of results.
-Measured on the demo (228 tasks of 37 ms in 108 chunks, 2 ranks, ext4): 0.008 s of fsync for
-8.5 s of task time (0.09 %; every journal write together 0.8 %); a sync per chunk would cost
-108 fsyncs of 2.7–8 ms, 3–10 % of the task time, over the 2 % budget. Results travel as JSON text (exact float64 round trip, NaN and inf kept).
+Measured on the demo (228 tasks in 108 chunks, 2 ranks, ext4): 0.008 s of fsync for 8.5 s of
+task time on an idle machine, 0.11 s for 27 s on a busy one (0.09–0.4 %; every journal write
+together 0.8–1.2 %); a sync per chunk would cost 108 fsyncs of 2.7–8 ms, 3–10 % of the task time,
+over the 2 % budget. Results travel as JSON text (exact float64 round trip, NaN and inf kept).
 """
 
 from __future__ import annotations
