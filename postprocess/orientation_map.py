@@ -177,7 +177,10 @@ def tangential_map(ds, outdir, nu: float | None) -> None:
     for ax, aspect in zip(axes, aspects):
         da = ratio.sel(aspect=aspect) if aspect is not None else ratio
         for colour, A in zip(colours(len(anis)), anis):
-            ax.plot(da["orientation"], da.sel(anisotropy=A), "o-", ms=3, lw=0.8, color=colour, label=f"A = {A:.3g}")
+            (line,) = ax.plot(da["orientation"], da.sel(anisotropy=A), "o-", ms=3, lw=0.8, color=colour, label=f"A = {A:.3g}")
+            # what is drawn, for checks against the data set: psi then K_min/K_max per point
+            print(f"plotted b/a = {1.0 if aspect is None else aspect:.12g}, A = {A:.12g}: "
+                  + " ".join(f"{x:.12g}:{y:.12g}" for x, y in zip(line.get_xdata(), line.get_ydata())))
         pole_ticks(ax)
         ax.set_xlabel(PSI_LABEL, fontsize=8)
         ax.set_ylabel("K_min / K_max")

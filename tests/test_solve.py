@@ -36,8 +36,9 @@ def test_circle_converges_to_closed_forms(nu: float) -> None:
         errors.append((e_xx, e_zz))
         if n == 256:
             assert e_xx < 5e-3 and e_zz < 5e-3  # issue target: 0.5 % at n = 256
-        # circle symmetry: the plan derives K_yy from K_xx, and K_xy vanishes by mirror symmetry
-        assert r["K_yy"] == r["K_xx"]
+        # circle symmetry: the plan derives K_yy from K_xx (that shortcut is checked against a
+        # real y solve in test_conventions), and K_xy vanishes by mirror symmetry
+        assert any("x <-> y" in d for d in r["plan"]["derived"])
         assert abs(r["K_xy"]) < 1e-6 * r["K_xx"]  # CG tol 1e-8 on the residual bounds it
     for (a, b), (c, d) in zip(errors, errors[1:]):
         assert c < a and d < b
@@ -46,11 +47,13 @@ def test_circle_converges_to_closed_forms(nu: float) -> None:
 @pytest.mark.parametrize("aspect", [0.5, 0.1])
 @pytest.mark.parametrize("nu", [0.3, 0.5])
 def test_ellipse_ratio_matches_mindlin(aspect: float, nu: float) -> None:
-    """K_a/K_b within 0.05 % of Mindlin's no-slip ellipse at n = 512 (measured ≤ 3.0e-5)."""
+    """K_a/K_b against Mindlin's no-slip ellipse at n = 512: measured 3.6e-6, 8.5e-6 (b/a = 0.5,
+    nu = 0.3, 0.5), 8.8e-6, 3.0e-5 (b/a = 0.1); bound 9e-5 (3× the worst). Asymmetry |K_xy −
+    K_yx|/K at CG tol 1e-8: measured 7.4e-11 … 1.1e-9; bound 3.5e-9."""
     r = solve({"shape": "ellipse", "aspect": aspect, "nu": nu, "n": 512})
     reference = analytic.mindlin_ellipse_stiffness_ratio(aspect, nu)
-    assert abs(r["K_a_over_K_b"] / reference - 1.0) < 5e-4
-    assert r["asymmetry"] < 1e-6  # issue target; measured ≤ 1e-9
+    assert abs(r["K_a_over_K_b"] / reference - 1.0) < 9e-5
+    assert r["asymmetry"] < 3.5e-9
 
 
 @pytest.mark.parametrize("sides", range(3, 9))
@@ -63,7 +66,8 @@ def test_regular_polygons_are_isotropic(sides: int) -> None:
     r = solve({"shape": "polygon", "sides": sides, "nu": 0.5, "n": 512})
     spread = (r["K_max"] - r["K_min"]) / (0.5 * (r["K_max"] + r["K_min"]))
     assert spread < 5e-4
-    assert r["asymmetry"] < 1e-6
+    if not any("x <-> y" in d for d in r["plan"]["derived"]):  # a mirrored tensor is symmetric by construction
+        assert r["asymmetry"] < 1e-6
 
 
 def test_tensor_transformation_matches_rotated_shape() -> None:
