@@ -42,7 +42,9 @@ class Abandoned(BaseException):
 
 class StopControl:
     """One run's stop state on one rank (see the module docstring). ``install`` sets the signal
-    handlers (main thread only: the command line); ``watch`` starts the polling thread."""
+    handlers (main thread only: the command line); ``watch`` starts the polling thread. Without
+    ``install`` (``run_sweep`` called from a program) the rank still stops claiming work when
+    another rank asks, but its task in flight runs to its end and the process is never ended."""
 
     def __init__(self, grace_s: float = DEFAULT_GRACE_S) -> None:
         if not grace_s >= 0.0:
@@ -159,6 +161,8 @@ class StopControl:
                 self._signalled()
                 self._read_file()
                 continue
+            if self._wakeup is None:
+                continue  # not installed (a library call): no abandoning, no forced exit
             late = time.monotonic() - self._stopped_at - self.grace_s
             if late >= 0.0 and self.running and not abandoned:
                 abandoned = True
