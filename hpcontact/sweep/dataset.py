@@ -85,7 +85,6 @@ VARIABLE_ATTRS: dict[str, Mapping[str, str]] = {
     },
     "K_max": {"long_name": "largest principal tangential stiffness", "units": STIFFNESS},
     "K_min": {"long_name": "smallest principal tangential stiffness", "units": STIFFNESS},
-    "K_min_over_K_max": {"long_name": "K_min/K_max, principal tangential stiffnesses (frame-free)", "units": "1"},
     "principal_angle_deg": {"long_name": "direction of K_max from the x axis", "units": "degree"},
     "principal_angle_note": {"long_name": "why principal_angle_deg is missing (text)"},
     "K_min_over_K_max": {"long_name": "K_min/K_max: principal stiffness ratio (frame-free anisotropy)", "units": "1"},
