@@ -83,6 +83,7 @@ SLIP_OPTIONS = (
     ("coupling", str, "auto, both, coupled or decoupled"),
     ("tensor", bool, "add the incremental 2 x 2 tangential stiffness tensor"),
     ("history", bool, "add every load step"),
+    ("normal_friction", bool, "apply the normal load in steps with friction (Spence; coupled path)"),
     ("anisotropy2", float, "body 2: cubic anisotropy factor A (with --nu2 and --G2 or --E2)"),
     ("orientation2", float, "body 2: normal along [110] -> [111] -> [001], psi in degrees (lab frame)"),
     ("miller2", str, 'body 2: lattice direction "h k l" along the lab normal'),

@@ -17,9 +17,11 @@ Figures (PNG in OUTDIR):
   displacement (0.15 mm, mu = 0.1) against the modulus ratio, from the data set (ellipsoidal
   punch at fixed load; coupled and decoupled), with the contact area. The paper: Q shows a
   significant reduction.
-* ``tractions.png`` — Fig. 6: pressure and tangential traction t_x along the centre line across
-  the contact (along x1) for the similar (ratio 1) and the dissimilar (ratio 2) pair, solved
-  here with the data set's scene fields (coupled).
+* ``tractions.png`` — Fig. 6: tangential traction t_x, ±mu p and the pressure along the centre
+  line across the contact (along x1) for the similar (ratio 1), the dissimilar (ratio 2) and the
+  isotropic–orthotropic pair at the end of the tangential displacement, solved here with the
+  data set's scene fields (coupled path with friction during the normal loading for the
+  dissimilar pairs).
 
 Printed: the numbers behind each figure.
 """
@@ -64,16 +66,16 @@ def line_contact(outdir: Path) -> None:
             width = math.sqrt(4.0 * float(np.sum(s.x**2 * s.pressure)) / float(np.sum(s.pressure)))
             errors.append((n, s.pressure.max() / s.peak - 1.0, width / s.half_width - 1.0))
         xs = np.linspace(-1.0, 1.0, 201) * s.half_width
-        left.plot(xs / A, s.peak * np.sqrt(1 - (xs / s.half_width) ** 2) / 1e6, color=colour, lw=1,
+        left.plot(xs / A, s.peak * np.sqrt(1 - (xs / s.half_width) ** 2) * 1e3, color=colour, lw=1,
                   label=f"plane strain (Hwu & Fan), {name}: E*_2D = {modulus:.3f} GPa")
-        left.plot(s.x / A, s.pressure / 1e6, "o", ms=3, color=colour, label=f"3-D BEM centre section, n = 32")
+        left.plot(s.x / A, s.pressure * 1e3, "o", ms=3, color=colour, label="3-D BEM centre section, n = 32")
         e = np.array(errors)
         right.semilogy(e[:, 0], np.abs(e[:, 1]), "o-", color=colour, label=f"peak, {name}")
         right.semilogy(e[:, 0], np.abs(e[:, 2]), "s--", color=colour, label=f"width, {name}")
         print(f"line contact, {name}: E*_2D = {modulus:.6g} GPa; (n, peak error, width error) = "
               + ", ".join(f"({n}, {p:+.1e}, {w:+.1e})" for n, p, w in errors))
     left.set_xlabel("x / 50 mm")
-    left.set_ylabel("pressure [MPa per GPa of modulus]")
+    left.set_ylabel("pressure [MPa] (constants in GPa)")
     left.legend(fontsize=7)
     left.set_title("§6.1, Fig. 3b: rigid cylinder on the orthotropic block")
     right.axhline(0.01, color="k", lw=0.8, ls=":")
@@ -154,10 +156,11 @@ def _scene(ds, label: str) -> dict:
 
 
 def tractions(ds, outdir: Path) -> None:
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4), sharey=True)
-    for ax, label in zip(axes, ("ortho E1 ratio 1", "ortho E1 ratio 2")):
+    labels = ("ortho E1 ratio 1", "ortho E1 ratio 2", "isotropic")
+    fig, axes = plt.subplots(1, len(labels), figsize=(15, 4))
+    for ax, label in zip(axes, labels):
         problem = SlipProblem(validate(_scene(ds, label)))
-        state = run_path(problem, True).final
+        state = run_path(problem, not problem.pair.similar).final
         rot = rotation(problem.hertz.angle_deg)
         xs = rot[0, 0] * problem.x + rot[0, 1] * problem.y
         ys = rot[1, 0] * problem.x + rot[1, 1] * problem.y
@@ -165,19 +168,23 @@ def tractions(ds, outdir: Path) -> None:
         row = np.abs(ys) < 0.5 * max(problem.grid.dx, problem.grid.dy) * 1.0001
         order = np.argsort(xs[row])
         x = xs[row][order] * problem.L / A
-        unit = problem.G_ref
-        ax.plot(x, state.p[row][order] * unit / 1e6, "k-", label="pressure p")
-        ax.plot(x, problem.scene.mu * state.p[row][order] * unit / 1e6, "k:", lw=0.8, label="mu p")
-        ax.plot(x, tx[row][order] * unit / 1e6, "C3o-", ms=3, label="t_x")
+        mpa = problem.G_ref / 1e6
+        p = state.p[row][order] * mpa
+        ax.plot(x, problem.scene.mu * p, "k:", lw=0.8, label="±mu p")
+        ax.plot(x, -problem.scene.mu * p, "k:", lw=0.8)
+        ax.plot(x, tx[row][order] * mpa, "C3o-", ms=3, label="t_x")
         stick = state.stick[row][order]
         ax.plot(x[stick], np.zeros(stick.sum()), "C2|", ms=10, label="stick cells")
-        ax.set_title(f"§6.2, Fig. 6: {label}")
+        twin = ax.twinx()
+        twin.plot(x, p, color="0.6", lw=1)
+        twin.set_ylabel("pressure p [MPa] (grey)")
+        ax.set_title(f"§6.2, Fig. 6: {label}", fontsize=9)
         ax.set_xlabel("x / 50 mm (along x1)")
-        ax.legend(fontsize=7)
+        ax.set_ylabel("t_x [MPa]")
+        ax.legend(fontsize=7, loc="lower center")
         centre = float(np.mean(x[stick])) if stick.any() else float("nan")
         print(f"tractions, {label}: stick cells on the centre line from x/50mm = {x[stick].min():.3f} to "
               f"{x[stick].max():.3f} (centre {centre:+.4f})")
-    axes[0].set_ylabel("traction [MPa]")
     fig.tight_layout()
     fig.savefig(outdir / "tractions.png", dpi=110)
     plt.close(fig)
