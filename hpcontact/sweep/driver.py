@@ -51,6 +51,7 @@ from .journal import (
     History,
     Journal,
     clear_journals,
+    legacy_journals,
     read_history,
     session_name,
     to_json,
@@ -185,6 +186,9 @@ def _prepare(spec_path: str | Path, options: Options, output: str | Path | None,
         if options.restart:
             clear_journals(spec.journal)
             history = History()
+        elif legacy_journals(spec.journal):
+            raise Refused(f"{spec.journal} holds HDF5 journals of an earlier hpcontact (rank*.h5), which carry no "
+                          f"provenance and cannot be reused; pass --restart to discard them")
         now = provenance.current()
         isolated, shared, reused, crashed = _decide(spec, tasks, history, options, now)
     except BaseException:

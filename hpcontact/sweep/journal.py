@@ -42,6 +42,7 @@ from typing import Any, Iterator, Mapping
 import numpy as np
 
 PATTERN = "rank*.jsonl"
+LEGACY_PATTERN = "rank*.h5"  # HDF5 journals of hpcontact before these journals: never reused
 OK, BAD_INPUT, NOT_CONVERGED, ERROR, CRASHED = 0, 1, 2, 3, 4  # task status codes
 RETRIED = (NOT_CONVERGED, ERROR)  # outcomes --resume runs again (bad input is deterministic: kept)
 SYNC_INTERVAL_S = 2.0
@@ -309,9 +310,15 @@ def read_journals(folder: Path) -> dict[str, Entry]:
     return read_history(folder).entries
 
 
+def legacy_journals(folder: Path) -> list[Path]:
+    """HDF5 journals an earlier hpcontact left in ``folder`` (no provenance: never reused)."""
+    return sorted(Path(folder).glob(LEGACY_PATTERN)) if Path(folder).is_dir() else []
+
+
 def clear_journals(folder: Path) -> int:
-    """Delete the journal files in ``folder`` (``--restart``); the number deleted."""
-    files = journal_files(folder)
+    """Delete the journal files in ``folder``, legacy ones included (``--restart``); the number
+    deleted."""
+    files = journal_files(folder) + legacy_journals(folder)
     for path in files:
         path.unlink()
     return len(files)

@@ -147,6 +147,12 @@ def test_a_second_run_without_a_flag_is_refused_and_restart_discards(write_spec,
     sweep(spec, task_function=counting(fake_solve, calls), options=Options(restart=True))
     assert len(calls) == TASKS and len(journal_files(tmp_path / "out.nc.journal")) == 1
 
+    (tmp_path / "out.nc.journal" / "rank00000-old.h5").write_bytes(b"HDF5 journal of an earlier hpcontact")
+    with pytest.raises(Refused, match="HDF5 journals of an earlier hpcontact.*--restart"):
+        sweep(spec, resume=True, task_function=fake_solve)
+    sweep(spec, task_function=fake_solve, options=Options(restart=True))
+    assert not list((tmp_path / "out.nc.journal").glob("*.h5"))
+
     edited = write_spec(SPEC.replace("nu = [0.0, 0.25, 0.5]", "nu = [0.0, 0.25, 0.3]"))
     calls = []
     sweep(edited, resume=True, task_function=counting(fake_solve, calls))
