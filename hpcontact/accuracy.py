@@ -83,8 +83,8 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from . import quantities as q
-from .errors import ConvergenceError, InputError
 from .engine import Engine
+from .errors import ConvergenceError, InputError
 from .geometry import Grid, Shape, crop_to_support, grid_for, load_mask, mask_grid
 from .materials import Isotropic
 from .operator import COMPONENT_INDEX

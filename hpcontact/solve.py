@@ -13,15 +13,19 @@ from typing import Any, Mapping
 import numpy as np
 
 from . import quantities as q
+from .engine import Engine
 from .errors import InputError
 from .geometry import Grid, crop_to_support, grid_for, load_mask, mask_grid, rasterize, self_affine_surface
-from .engine import Engine
 from .materials import Isotropic
 from .operator import COMPONENT_INDEX
 from .plan import Solve, make_plan
 from .preconditioner import FourierPreconditioner
 from .scene import Scene
 from .solvers import Solution, conjugate_gradient, polonsky_keer
+
+
+#: The length unit of a mask scene (``geometry.mask_grid``), recorded with its results.
+MASK_LENGTH_UNIT = "a = half the long side of the contact's bounding box (not of the image array)"
 
 
 def discretize(scene: Scene) -> tuple[Grid, np.ndarray]:
@@ -90,6 +94,8 @@ def solve(params: Mapping[str, Any]) -> dict[str, Any]:
         engine = Engine(scene.material, grid, plan.kernels, scene.threads)
         record.update(_grid_fields(grid))
         record["contact_cells"] = int(mask.sum())
+        if scene.shape.name == "mask":  # the data set then says which length a is
+            record["length_unit"] = MASK_LENGTH_UNIT
         forces: dict[str, np.ndarray] = {}
         for s in plan.solves:
             if s.name == "indentation_polonsky_keer":

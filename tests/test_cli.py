@@ -106,6 +106,7 @@ def test_mask_file(capsys, tmp_path):
     r = _json(capsys, "--shape", "mask", "--mask", str(path))
     assert (r["nx"], r["ny"]) == (7, 4)  # cropped to the support
     assert r["dx"] == r["dy"] == 2.0 / 7  # unit a: half the contact's long side (7 cells), not the array's
+    assert r["length_unit"].startswith("a = half the long side of the contact")
 
 
 def test_plain_text_output(capsys):

@@ -12,7 +12,6 @@
 from __future__ import annotations
 
 import math
-
 from functools import partial
 
 import numpy as np
@@ -21,10 +20,9 @@ import pytest
 from hpcontact import analytic
 from hpcontact.errors import ConvergenceError
 from hpcontact.geometry import Grid, Shape, rasterize
-from hpcontact.kernels.isotropic import isotropic_block
+from hpcontact.kernels.isotropic import isotropic_block, isotropic_surface_green
 from hpcontact.materials import Isotropic
 from hpcontact.operator import ConvolutionOperator, kernel_spectrum, padded_shape
-from hpcontact.kernels.isotropic import isotropic_surface_green
 from hpcontact.preconditioner import FourierPreconditioner
 from hpcontact.solvers import conjugate_gradient, contact_residuals, polonsky_keer
 
@@ -215,7 +213,7 @@ def test_polonsky_keer_zero_curvature_is_an_error_not_a_solution():
     """An operator with no stiffness (A = 0) gives a zero denominator at once; the pressure is
     then no solution (the gap is the initial interference), and PK must say so instead of
     returning it with residual 0."""
-    grid, _, h0 = _hertz_setup(16)
+    _, _, h0 = _hertz_setup(16)
     with pytest.raises(ConvergenceError, match="zero curvature"):
         polonsky_keer(lambda t: np.zeros_like(t), h0 - DEPTH, tol=1e-10)
 
