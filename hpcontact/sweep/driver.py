@@ -453,10 +453,11 @@ def dry_run(spec_path: str | Path, output: str | Path | None = None, stream: Tex
 
 
 def run_command(spec: str | Path, options: Options = Options(), output: str | Path | None = None,
-                grace_s: float | None = None) -> int:
+                grace_s: float | None = None, task_function: TaskFunction | None = None) -> int:
     """``hpcontact run`` on every rank: the exit status (``EXIT_STATUS``). Refusals and bad
     input print one line on stderr from rank 0; any other error prints its traceback and, under
-    MPI, aborts every rank (a rank left waiting in a collective would hang the job)."""
+    MPI, aborts every rank (a rank left waiting in a collective would hang the job).
+    ``task_function`` replaces the scene kind's solver (``python -m hpcontact.accuracy``)."""
     try:
         team = world()
     except LaunchError as exc:
@@ -465,7 +466,7 @@ def run_command(spec: str | Path, options: Options = Options(), output: str | Pa
     stop = StopControl(DEFAULT_GRACE_S if grace_s is None else grace_s).install()
     load_wisdom()  # FFTW plans of earlier runs: measured plans in milliseconds
     try:
-        outcome = execute(spec, output, team=team, options=options, stop=stop)
+        outcome = execute(spec, output, task_function, team=team, options=options, stop=stop)
     except InputError as exc:
         if team.rank == 0:
             print(f"hpcontact run: error: {exc}", file=sys.stderr)
