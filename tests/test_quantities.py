@@ -151,3 +151,18 @@ def test_li_normalization_huge_and_tiny_moduli(G):
     with np.errstate(all="ignore"):
         value = q.li_normalization(k_t, k_n, m.E_star, m.G_star)
     assert value == pytest.approx(1.0, abs=1e-14)
+
+
+def test_principal_angle_of_an_isotropic_tensor_is_missing_not_noise():
+    """A tensor isotropic within its own accuracy has no principal direction: the angle is None
+    (NaN in a data set) with a note, where the eigenvectors of 2.5 I + noise gave any angle
+    (45.0 for a circle). Accuracy: max(noise asked, |K_xy − K_yx|/K, 64 eps)."""
+    iso = {"K_xx": 2.5, "K_xy": 1e-17, "K_yx": -1e-17, "K_yy": 2.5 * (1 + 1e-15)}
+    out = q.derived_quantities(iso, None)
+    assert out["principal_angle_deg"] is None and "isotropic" in out["principal_angle_note"]
+    assert out["K_min_over_K_max"] == pytest.approx(1.0, abs=2e-15)
+    # a spread above the stated accuracy keeps its angle: 1e-6 apart with noise 1e-8
+    aniso = {**iso, "K_yy": 2.5 * (1 + 1e-6)}
+    out = q.derived_quantities(aniso, None, noise=1e-8)
+    assert out["principal_angle_deg"] == pytest.approx(90.0, abs=1e-6) and "principal_angle_note" not in out
+    assert q.derived_quantities(aniso, None, noise=1e-5)["principal_angle_deg"] is None
