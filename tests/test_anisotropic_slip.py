@@ -13,7 +13,7 @@ against independent paths:
 * Q → 0: the no-slip tensor of a crystal on a rigid flat equals the bonded tensor of the punch
   path (``solve.Engine`` on the crystal alone, CG on the same contact cells).
 
-Grids are coarse (n = 16–24 cells across the contact) because every comparison is made on the
+Grids are coarse (n = 16 cells across the contact) because every comparison is made on the
 same grid: agreement is to round-off or to the CG tolerance, not to discretization error.
 """
 
@@ -33,7 +33,7 @@ from hpcontact.solvers import conjugate_gradient
 
 pytestmark = pytest.mark.filterwarnings("error")
 
-BASE = {"radius": 8e-3, "radius2": 9e-3, "load": 100.0, "mu": 0.3, "q_ratio": 0.6, "n": 24, "steps": 3}
+BASE = {"radius": 8e-3, "radius2": 9e-3, "load": 100.0, "mu": 0.3, "q_ratio": 0.6, "n": 16, "steps": 2}
 #: The orthotropic body of Rodríguez-Tembleque et al. 2011, §6.1 (Batra & Jiang 2008), GPa.
 ORTHO = "E1=25 E2=1 E3=1 G12=0.5 G13=0.5 G23=0.2 nu12=0.25 nu13=0.25 nu23=0.25"
 KEYS = ("tangential_force", "tangential_displacement", "tangential_stiffness", "stick_area", "contact_area")
@@ -65,20 +65,20 @@ def test_mirrored_body2_gives_sum_and_difference_of_isotropic_blocks() -> None:
 
 def test_identical_isotropic_bodies_as_general_matrices() -> None:
     """Issue 11: two identical isotropic bodies as 6 × 6 matrices reproduce today's pair to 1e-10
-    (measured 2e-16: the same grid, the kernels agree to 1e-14, DESIGN §2.5)."""
+    (measured 1.1e-14 at n = 16: the same grid, the kernels agree to 1e-14, DESIGN §2.5)."""
     iso = solve_slip({**BASE, "E": 200e9, "nu": 0.3, "E2": 200e9, "nu2": 0.3})
     general = solve_slip({**BASE, "voigt": _voigt_text(200e9, 0.3), "voigt2": _voigt_text(200e9, 0.3)})
     assert "similar=True" in general["plan"]["pair"]
-    assert _relative(iso, general, KEYS) < 1e-12  # measured 2e-16
+    assert _relative(iso, general, KEYS) < 5e-14  # measured 1.1e-14
 
 
 def test_dissimilar_isotropic_bodies_as_general_matrices() -> None:
     """Cu on Fe as 6 × 6 matrices: coupled (Panagiotopoulos) and decoupled paths and the coupling
-    size (= Dundurs' |β|) as the isotropic pair (measured ≤ 2e-15)."""
+    size (= Dundurs' |β|) as the isotropic pair (measured 1.2e-13 at n = 16)."""
     iso = solve_slip({**BASE, "E": 130e9, "nu": 0.343, "E2": 212e9, "nu2": 0.293})
     general = solve_slip({**BASE, "voigt": _voigt_text(130e9, 0.343), "voigt2": _voigt_text(212e9, 0.293)})
     keys = KEYS + tuple(f"decoupled_{k}" for k in KEYS) + ("coupling_size",)
-    assert _relative(iso, general, keys) < 1e-12  # measured 2e-15
+    assert _relative(iso, general, keys) < 5e-13  # measured 1.2e-13
     assert general["coupling_size"] == pytest.approx(abs(iso["dundurs_beta"]), rel=1e-12)
 
 
@@ -111,9 +111,9 @@ def test_swapping_the_bodies_leaves_the_record_unchanged() -> None:
     """The scene turned upside down (180° about x, M = diag(1, −1, −1)): body 1 becomes body 2 with
     lab stiffness M C M, and a load along +x on the crystal is a load along −x (angle 180°) on the
     partner. k_t, δ along the load and the areas must not change; a low-symmetry crystal (A = 3,
-    ψ = 20°, azimuth 10°) against Fe, coupled (Panagiotopoulos) and decoupled. Measured 4e-13 (CG
+    ψ = 20°, azimuth 10°) against Fe, coupled (Panagiotopoulos) and decoupled. Measured 4e-14 (CG
     tolerance 1e-10 of the steps; the grid is its own mirror image). The load along +x on Fe
-    instead differs by 2e-4 in the coupled δ: with coupling, loading along +Q and −Q is not
+    instead differs by 1.7e-4 in the coupled δ: with coupling, loading along +Q and −Q is not
     symmetric for this crystal (no 2-fold axis along the normal), so the angle matters here."""
     crystal = cubic_from_nu_A(0.3, 3.0, scale=40.0).oriented(psi_deg=20.0, azimuth_deg=10.0)  # GPa
     turned = rotate_voigt(crystal.voigt, np.diag([1.0, -1.0, -1.0]))
@@ -123,7 +123,7 @@ def test_swapping_the_bodies_leaves_the_record_unchanged() -> None:
     two = solve_slip({**base, "voigt2": text(turned), "material": "Fe", "angle": 180.0})
     keys = KEYS + tuple(f"decoupled_{k}" for k in KEYS) + ("coupling_size",)
     assert one["coupling_size"] > 0.05  # a coupled pair: the signs of the coupling matter
-    assert _relative(one, two, keys) < 2e-12  # measured 4e-13
+    assert _relative(one, two, keys) < 2e-13  # measured 4e-14 (n = 16)
 
 
 def _punch_tensor(material, grid, mask: np.ndarray, components: str, tol: float) -> np.ndarray:
