@@ -91,7 +91,7 @@ SWEEP_KEYS = ("title", "output", "journal", "angle_mode", "progress_interval")
 NUMERIC_KEYS = ("n", "n_across", "tol")
 AXIS_NAMES = (
     "shape", "angle", "nu", "aspect", "anisotropy", "orientation", "material", "n", "tol",
-    "pair", "load", "mu", "q_ratio",
+    "pair", "load", "mu", "q_ratio", "orientation2", "anisotropy2",
 )
 # Axes whose values may be tables with a ``label`` (the coordinate) and scene fields, and the
 # field a plain string value sets (None: tables only).
@@ -102,7 +102,7 @@ FLOAT_FIELDS = frozenset(
     {"angle", "nu", "aspect", "anisotropy", "orientation", "tol", "G", "shape_angle", "amplitude",
      "hurst", "rms", "radius", "depth", "azimuth",
      "load", "mu", "q_ratio", "radius_b", "radius2", "radius2_b", "body2_angle", "E", "E2", "G2", "nu2",
-     "displacement"}
+     "displacement", "anisotropy2", "orientation2", "azimuth2"}
 )
 # Radii that may be infinite (a flat direction): inf, or the strings "inf" / "flat".
 FLAT_FIELDS = frozenset({"radius_b", "radius2", "radius2_b"})
