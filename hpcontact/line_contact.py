@@ -25,7 +25,8 @@ kernels:
   orthotropic body of the paper (``tests/test_line_contact.py``).
 
 Finite cylinder (``finite_cylinder``): length ``length`` with rounded ends (gap
-x²/(2R) + max(|y| − length/2, 0)²/(2 R_end)), pressed by a total load under Polonsky–Keer
+x²/(2R) + max(|y| − length/2, 0)²/(2 R_end)) or flat ends (R_end = 0: no contact beyond the
+ends, the pressure is singular at the end edges), pressed by a total load under Polonsky–Keer
 on the 3-D kernel of the body (``solve.Engine``); the centre section is compared with the
 plane-strain pressure of its own load per unit length.
 
@@ -107,7 +108,7 @@ def finite_cylinder(
 ) -> CylinderContact:
     """A rigid cylinder (or, for a ``PairCompliance``, an elastic one on an elastic flat: the
     interface compliance of both bodies) (axis y, radius ``radius``, length ``widths`` × 2·``half_width``, rounded
-    ends of radius ``end_radius``, default ``radius``) on ``material``; load from the plane-strain
+    ends of radius ``end_radius``, default ``radius``; 0: flat ends) on ``material``; load from the plane-strain
     estimate P′ = π a² E*/(4R) with ``modulus`` E*_2D and a = ``half_width``, times the length;
     ``n`` cells across 2a. Returns the centre section with the plane-strain reference of its own
     load per unit length (E*_2D = ``modulus``)."""
@@ -116,12 +117,17 @@ def finite_cylinder(
     end = radius if end_radius is None else end_radius
     h = 2.0 * half_width / n
     length = widths * 2.0 * half_width
-    nx = 2 * math.ceil(1.3 * half_width / h)
+    nx = 2 * math.ceil((1.3 if end > 0.0 else 2.0) * half_width / h)  # flat ends: the contact widens there
     ny = 2 * math.ceil((0.5 * length + 2.0 * half_width) / h)
     grid = Grid(nx, ny, h, h)
     x, y = grid.centres()
     over = np.maximum(np.abs(y) - 0.5 * length, 0.0)
-    gap = x * x / (2.0 * radius) + over * over / (2.0 * end)
+    if end > 0.0:
+        gap = x * x / (2.0 * radius) + over * over / (2.0 * end)
+    elif end == 0.0:  # flat ends: beyond them the gap is far beyond any approach of the load
+        gap = x * x / (2.0 * radius) + np.where(over > 0.0, 1e3 * half_width * half_width / radius, 0.0)
+    else:
+        raise InputError("end_radius", "a radius >= 0 (0: flat ends)", end_radius)
     line_load = math.pi * half_width**2 * modulus / (4.0 * radius)
     total = line_load * length
     engine = (PairEngine(material, grid, ("zz",), threads) if isinstance(material, PairCompliance)
