@@ -24,6 +24,11 @@ Duvaut & Lions 1976 for the "Tresca" problem with given bound). History enters o
 s_prev, so loading, unloading and reloading follow one algorithm and trace the
 Mindlin–Deresiewicz loop (Mindlin & Deresiewicz 1953).
 
+Either body may be a crystal (cubic, orthotropic or a general 6 × 6 stiffness, oriented;
+``hpcontact.elastic_constants``): the pair then acts through its interface compliance
+H_pair(φ) = H_1(φ) + H_2(φ + π) (``hpcontact.anisotropic_pair``), with no closed-form Hertz or
+Mindlin references in the record.
+
 The programme and its solvers live in ``hpcontact.friction_qp``, the validated scene and the
 discretized pair in ``hpcontact.slip_problem``, the load steps in ``hpcontact.slip_path``; this
 module turns a scene into its record.
