@@ -25,6 +25,7 @@ with every rank computing (tasks per rank from the journals) and the same data s
 
 from __future__ import annotations
 
+import argparse
 import importlib.util
 import os
 import re
@@ -34,9 +35,9 @@ import sys
 import tempfile
 import time
 from collections import Counter
-from dataclasses import dataclass, field
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Mapping, Sequence
 
 import xarray as xr
 
@@ -151,10 +152,11 @@ def run(command: Sequence[str], env: Mapping[str, str]) -> tuple[int, float, str
 
 
 def tail(output: str) -> str:
+    """The last ``TAIL_LINES`` lines of ``output``, indented."""
     return "\n".join("    " + line for line in output.strip().splitlines()[-TAIL_LINES:])
 
 
-def load_comparison():
+def load_comparison() -> Callable[[xr.Dataset, xr.Dataset], None]:
     """``_assert_same_results`` of the MPI tests (one comparison for tests and this script)."""
     spec = importlib.util.spec_from_file_location("mpi_conftest", ROOT / "tests" / "mpi" / "conftest.py")
     module = importlib.util.module_from_spec(spec)
@@ -172,31 +174,45 @@ def tasks_per_rank(output: Path, ranks: int) -> list[int]:
     return [counts.get(rank, 0) for rank in range(ranks)]
 
 
-def check_parallel_demo(row: Row, launch: Sequence[str], ranks: int, work: Path, env: Mapping[str, str],
-                        reference: Path, compare) -> None:
-    """The demo on ``ranks`` ranks: wall time, same data set as ``reference``, tasks per rank."""
-    output = work / f"demo-{re.sub(r'[^A-Za-z0-9]+', '-', row.name).strip('-')}-{ranks}.nc"
-    status, row.parallel_s, log = demo([*launch, "-n", str(ranks)], output, env)
-    if status != 0:
-        row.failures.append(f"demo on {ranks} ranks exited {status}:\n{tail(log)}")
-        row.parallel_s = None
-        return
-    with xr.open_dataset(output) as a, xr.open_dataset(reference) as b:
-        try:
-            compare(a, b)
-            row.equal = True
-        except AssertionError as exc:
-            row.equal = False
-            row.failures.append(f"data set differs from the one-process run: {exc}")
-    counts = tasks_per_rank(output, ranks)
-    row.tasks = "/".join(map(str, counts))
-    if not all(counts):
-        row.failures.append(f"a rank computed nothing (tasks per rank {row.tasks})")
+@dataclass(frozen=True)
+class Context:
+    """The work folder, the one-process data set every run must equal, the comparison of the
+    MPI tests, and how often each demo is timed (the shortest counts)."""
+
+    work: Path
+    reference: Path
+    compare: Callable[[xr.Dataset, xr.Dataset], None]
+    repeat: int
 
 
-def check_setup(setup: Setup, work: Path, serial_s: float, reference: Path, compare) -> Row:
+def check_parallel_demo(row: Row, launch: Sequence[str], ranks: int, env: Mapping[str, str], ctx: Context) -> None:
+    """The demo on ``ranks`` ranks, ``ctx.repeat`` times: shortest wall time; every run's data
+    set equal to the reference and every rank with tasks (the last run's counts shown)."""
+    times = []
+    for attempt in range(ctx.repeat):
+        output = ctx.work / f"demo-{re.sub(r'[^A-Za-z0-9]+', '-', row.name).strip('-')}-{ranks}-{attempt}.nc"
+        status, seconds, log = demo([*launch, "-n", str(ranks)], output, env)
+        if status != 0:
+            row.failures.append(f"demo on {ranks} ranks exited {status}:\n{tail(log)}")
+            return
+        times.append(seconds)
+        with xr.open_dataset(output) as a, xr.open_dataset(ctx.reference) as b:
+            try:
+                ctx.compare(a, b)
+                row.equal = row.equal is not False
+            except AssertionError as exc:
+                row.equal = False
+                row.failures.append(f"data set differs from the one-process run: {exc}")
+        counts = tasks_per_rank(output, ranks)
+        row.tasks = "/".join(map(str, counts))
+        if not all(counts):
+            row.failures.append(f"a rank computed nothing (tasks per rank {row.tasks})")
+    row.parallel_s = min(times)
+
+
+def check_setup(setup: Setup, ctx: Context, serial_s: float) -> Row:
     row = Row(setup.name, serial_s)
-    env = {**base_environment(work), **setup.env}
+    env = {**base_environment(ctx.work), **setup.env}
     status, _, log = run([*setup.launcher, "-n", "2", PYTHON, "-c", CHECK], env)
     lines = [line for line in log.splitlines() if line.count("|") == 3]
     if status != 0 or len(lines) != 1:
@@ -204,17 +220,17 @@ def check_setup(setup: Setup, work: Path, serial_s: float, reference: Path, comp
         return row
     size, level, libraries, version = lines[0].split("|")
     row.library = f"{version.strip()}; {libraries}; thread level {level}"
-    if size != "2" or not libraries or not all(Path(lib).is_relative_to(setup.library_dir.resolve()) for lib in libraries.split(",")):
-        row.failures.append(f"wrong MPI: {size} ranks, libmpi {libraries!r}, expected under {setup.library_dir}")
+    expected = setup.library_dir.resolve()
+    if size != "2" or not libraries or not all(Path(lib).is_relative_to(expected) for lib in libraries.split(",")):
+        row.failures.append(f"wrong MPI: {size} ranks, libmpi {libraries!r}, expected under {expected}")
         return row
     if setup.run_tests:
         status, seconds, log = run([*setup.launcher, "-n", "2", PYTHON, "-m", "pytest", "-q", "-p", "no:cacheprovider",
                                     "tests/mpi"], env)
-        summary = log.strip().splitlines()[-1] if log.strip() else ""
         row.tests = f"{'pass' if status == 0 else 'FAIL'} ({seconds:.0f} s)"
         if status != 0:
-            row.failures.append(f"MPI tests exited {status} ({summary}):\n{tail(log)}")
-    check_parallel_demo(row, setup.launcher, 2, work, env, reference, compare)
+            row.failures.append(f"MPI tests exited {status}:\n{tail(log)}")
+    check_parallel_demo(row, setup.launcher, 2, env, ctx)
     if row.speedup is not None and row.speedup < MIN_SPEEDUP:
         row.failures.append(f"speedup {row.speedup:.2f} < {MIN_SPEEDUP} on 2 ranks")
     return row
@@ -237,30 +253,35 @@ def print_table(rows: Sequence[Row]) -> None:
             print(f"{row.name}: {row.library}")
 
 
-def main() -> int:
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=1,
+                        help="time each demo this many times and keep the shortest (for a machine others use)")
+    args = parser.parse_args(argv)
     started = time.perf_counter()
-    compare = load_comparison()
     with tempfile.TemporaryDirectory(prefix="hpcontact-cluster-mpi-") as folder:
         work = Path(folder)
+        ctx = Context(work, work / "demo-serial-0.nc", load_comparison(), max(1, args.repeat))
         env = {**base_environment(work), "HPCONTACT_MPI": "0"}
-        # Two one-process runs: the first writes the FFTW wisdom every later run reads (planning
-        # must not count against the one-process time), the second is timed and the reference.
-        reference = work / "demo-serial.nc"
-        for _ in range(2):
-            status, serial_s, log = demo([], reference, env)
+        # One untimed one-process run first: it writes the FFTW wisdom every later run reads
+        # (planning must not count against the one-process time).
+        times = []
+        for name in ("warm-up", *(f"{i}" for i in range(ctx.repeat))):
+            status, seconds, log = demo([], work / f"demo-serial-{name}.nc", env)
             if status != 0:
                 print(f"cluster MPIs: FAILED: the one-process demo exited {status}:\n{tail(log)}")
                 return 1
+            times.append(seconds)
+        serial_s = min(times[1:])
         print(f"cluster MPIs: one process without MPI: demo in {serial_s:.1f} s", flush=True)
-        rows = []
         all_setups = setups(work)
+        rows = []
         for setup in all_setups:
-            rows.append(check_setup(setup, work, serial_s, reference, compare))
-            row = rows[-1]
-            print(f"cluster MPIs: {setup.name}: {'ok' if not row.failures else 'FAILED'}", flush=True)
+            rows.append(check_setup(setup, ctx, serial_s))
+            print(f"cluster MPIs: {setup.name}: {'ok' if not rows[-1].failures else 'FAILED'}", flush=True)
         ucx = next(s for s in all_setups if "osc ucx" in s.name)
         row = Row(f"{ucx.name}, 8 ranks on {os.cpu_count()} cores", serial_s)
-        check_parallel_demo(row, ucx.launcher, 8, work, {**base_environment(work), **ucx.env}, reference, compare)
+        check_parallel_demo(row, ucx.launcher, 8, {**base_environment(work), **ucx.env}, replace(ctx, repeat=1))
         rows.append(row)
         print(f"cluster MPIs: {row.name}: {'ok' if not row.failures else 'FAILED'}", flush=True)
     print_table(rows)

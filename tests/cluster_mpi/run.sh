@@ -3,7 +3,8 @@
 # it (root, apt-get, a reachable mirror), then run tests/cluster_mpi/drive.py: the 2-rank MPI
 # tests and the demo job under each MPI and forced transport, equal data sets, speedup >= 1.5.
 # Prints one SKIPPED line and exits 0 where the packages can't be installed; any failure of
-# the checks themselves exits non-zero. Run from anywhere; uses the repository's .venv.
+# the checks themselves exits non-zero. Run from anywhere; uses the repository's .venv; arguments
+# go to drive.py (--repeat N: time each demo N times, keep the shortest).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 started=$SECONDS
@@ -34,6 +35,6 @@ else
 fi
 
 status=0
-PYTHONPATH="$PWD${PYTHONPATH:+:$PYTHONPATH}" .venv/bin/python tests/cluster_mpi/drive.py || status=$?
+PYTHONPATH="$PWD${PYTHONPATH:+:$PYTHONPATH}" .venv/bin/python tests/cluster_mpi/drive.py "$@" || status=$?
 echo "cluster MPIs: script took $((SECONDS - started)) s (exit status $status)"
 exit "$status"

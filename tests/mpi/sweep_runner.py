@@ -11,8 +11,9 @@ from __future__ import annotations
 import argparse
 import os
 import time
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 from hpcontact.solve import solve
 from hpcontact.sweep.driver import run_sweep

@@ -4,14 +4,14 @@ grids: equal to the 1-rank sweep to 1e-12, failures recorded, data set schema of
 from __future__ import annotations
 
 import io
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 import pytest
-import xarray as xr
 
-from hpcontact import __version__
+from hpcontact import __version__, open_dataset
 from hpcontact.errors import ConvergenceError
 from hpcontact.solve import solve
 from hpcontact.sweep.driver import run_sweep
@@ -63,7 +63,7 @@ def test_parallel_sweep_equals_one_rank(runs, team, assert_same_results):
     parallel, serial = runs
     if team.rank != 0:
         return
-    with xr.open_dataset(parallel) as a, xr.open_dataset(serial) as b:
+    with open_dataset(parallel) as a, open_dataset(serial) as b:
         assert a.attrs["mpi_size"] == team.size and b.attrs["mpi_size"] == 1
         assert_same_results(a, b)
 
@@ -72,7 +72,7 @@ def test_failing_task_is_recorded_and_the_others_complete(runs, team):
     parallel, _ = runs
     if team.rank != 0:
         return
-    with xr.open_dataset(parallel) as ds:
+    with open_dataset(parallel) as ds:
         bad = ds.sel(**FAILING)
         assert int(bad.status) == NOT_CONVERGED and "test failure" in str(bad.message.values)
         assert np.isnan(bad.K_xx) and np.isnan(bad.K_nn).all()
@@ -85,7 +85,7 @@ def test_data_set_schema(runs, team):
     parallel, _ = runs
     if team.rank != 0:
         return
-    with xr.open_dataset(parallel) as ds:
+    with open_dataset(parallel) as ds:
         assert dict(ds.sizes) == {"shape": 4, "aspect": 3, "nu": 3, "angle": 13}
         for axis in ("aspect", "nu", "angle"):
             assert ds[axis].dtype == np.float64 and {"units", "long_name"} <= set(ds[axis].attrs)
