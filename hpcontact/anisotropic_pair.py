@@ -37,12 +37,14 @@ Hertz estimate (contact grid sizing only): E* from the indentation moduli of the
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any, Mapping
 from functools import cached_property
 
 import numpy as np
 
-from .bodies import SIMILARITY_TOL, Pair
+from .bodies import SIMILARITY_TOL, Body, Pair, pair_from_params
 from .crystal import Crystal
+from .elastic_constants import CONSTANT_FIELDS, anisotropic_material
 from .kernels.anisotropic import anisotropic_offset_blocks, indentation_modulus, surface_green_fourier
 from .kernels.isotropic import isotropic_block, isotropic_surface_green
 from .materials import Isotropic
@@ -51,6 +53,8 @@ from .operator import COMPONENT_INDEX
 from .solve import Engine
 
 Material = Isotropic | Crystal
+#: Crystal constants are given in GPa (``elastic_constants``); pairs (slip scenes) are in SI units.
+GPA = 1e9
 #: In-plane directions sampled for the coupling size (H is a trigonometric series of low degree
 #: for the materials met; 256 directions resolve its maximum to < 1e-4 relative).
 N_DIRECTIONS = 256
@@ -160,6 +164,27 @@ class AnisotropicPair(Pair):
     def scaled(self, G_ref: float) -> PairCompliance:
         """The pair's compliance with stresses in units of ``G_ref``."""
         return PairCompliance(_scaled(self.body1.material, G_ref), _scaled(self.body2.material, G_ref))
+
+
+def crystal_pair(p: Mapping[str, Any]) -> AnisotropicPair:
+    """The pair of solver fields ``p`` (``bodies.pair_from_params``) with a crystal in place of each
+    body whose fields describe one (``elastic_constants.anisotropic_material``: "crystal:NAME",
+    ``anisotropy`` ≠ 1 with nu and G or E, ``cubic``, ``orthotropic``, ``voigt``; GPa, converted to
+    SI; both in the lab frame). Geometry and the isotropic partner come from ``pair_from_params``."""
+    crystals = [anisotropic_material(p, suffix, GPA, library=False) for suffix in ("", "2")]
+    if crystals == [None, None]:
+        raise ValueError("crystal_pair: no crystal among the fields")  # callers check describes_crystal
+    iso = {k: v for k, v in p.items() if k.rstrip("2") not in CONSTANT_FIELDS}
+    for suffix, c in zip(("", "2"), crystals):
+        if c is not None:  # the crystal replaces the isotropic description of this body
+            for name in ("material", "E", "G", "nu"):
+                iso.pop(f"{name}{suffix}", None)
+    if crystals[1] is not None:
+        iso["G2"] = 1.0  # a placeholder elastic body 2 (not rigid), replaced below
+    base = pair_from_params(iso)
+    bodies = [b if c is None else Body(c, b.radius_a, b.radius_b, b.angle_deg)
+              for b, c in zip((base.body1, base.body2), crystals)]
+    return AnisotropicPair(*bodies)
 
 
 def _indentation(material: Material) -> float:

@@ -353,14 +353,14 @@ def pair_from_params(p: Mapping[str, Any]) -> Pair:
     rigid, DESIGN §2: one elastic body against a rigid one unless a scene names two bodies);
     radii ``radius2`` and ``radius2_b`` (default: flat), turned by ``body2_angle`` degrees.
     Fields that make a body a crystal (``elastic_constants.describes_crystal``) give the
-    ``anisotropic_pair.AnisotropicPair`` of ``slip_problem.slip_pair``.
+    ``anisotropic_pair.AnisotropicPair`` of ``anisotropic_pair.crystal_pair``.
     """
     from .elastic_constants import describes_crystal
 
     if describes_crystal(p):
-        from .slip_problem import slip_pair  # the crystal reader of slip scenes (issue 11)
+        from .anisotropic_pair import crystal_pair  # crystals (issue 11); imports this module
 
-        return slip_pair(p)
+        return crystal_pair(p)
     if p.get("material") is not None:
         if any(p.get(k) is not None for k in ("E", "G", "nu")):
             key = next(k for k in ("E", "G", "nu") if p.get(k) is not None)

@@ -29,8 +29,8 @@ from typing import Any, Mapping
 import numpy as np
 
 from .anisotropic_pair import AnisotropicPair, PairCompliance, PairEngine
-from .bodies import Body, HertzEllipse, Pair, pair_from_params
-from .elastic_constants import CONSTANT_FIELDS, anisotropic_material
+from .bodies import HertzEllipse, Pair, pair_from_params
+from .elastic_constants import CONSTANT_FIELDS
 from .errors import ConvergenceError, InputError, finite_number, integer
 from .friction_qp import Operator
 from .geometry import Grid
@@ -48,8 +48,6 @@ FIELDS = (
     "load", "mu", "q_ratio", "angle", "n", "tol", "steps", "control", "displacement", "path",
     "tensor", "history", "coupling", "threads", "precondition", "normal_friction",
 ) + CONSTANT_FIELDS + tuple(f"{name}2" for name in CONSTANT_FIELDS)
-#: Crystal constants are given in GPa (``elastic_constants``); slip scenes are in SI units.
-GPA = 1e9
 #: Fields of the generic ``hpcontact solve`` parser that a slip scene does not use: the contact
 #: shape follows from the bodies. Accepted (so the CLI may pass its defaults) and ignored.
 IGNORED = ("shape",)
@@ -131,7 +129,7 @@ def validate(params: Mapping[str, Any]) -> SlipScene:
     q_ratio = finite_number("q_ratio", p["q_ratio"], "Q/(mu P) in [0, 1) (1 is gross sliding)")
     if not 0.0 <= q_ratio < 1.0:
         raise InputError("q_ratio", "Q/(mu P) in [0, 1) (1 is gross sliding)", p["q_ratio"])
-    pair = slip_pair(p)
+    pair = pair_from_params(p)
     angle = finite_number("angle", p.get("angle", 0.0), "a finite angle in degrees")
     n = integer("n", p.get("n", 64), 8, "an integer in [8, 4096] (cells across the contact)", 4096)
     tol = finite_number("tol", p.get("tol", 1e-8), "a tolerance in [1e-14, 1e-4]")
@@ -166,26 +164,6 @@ def validate(params: Mapping[str, Any]) -> SlipScene:
         normal_friction=_flag("normal_friction", p.get("normal_friction", False)),
         coupling=coupling, threads=threads, precondition=_flag("precondition", p.get("precondition", True)),
     )
-
-
-def slip_pair(p: Mapping[str, Any]) -> Pair:
-    """The scene's pair: ``bodies.pair_from_params``, with a crystal in place of a body whose fields
-    describe one (``elastic_constants.anisotropic_material``: "crystal:NAME", ``anisotropy`` ≠ 1
-    with nu and G or E, ``cubic``, ``orthotropic``, ``voigt``; GPa; both in the lab frame)."""
-    crystals = [anisotropic_material(p, suffix, GPA, library=False) for suffix in ("", "2")]
-    if crystals == [None, None]:
-        return pair_from_params(p)  # (A = 1 exactly: the isotropic body, as in punch scenes)
-    iso = {k: v for k, v in p.items() if k.rstrip("2") not in CONSTANT_FIELDS}
-    for suffix, c in zip(("", "2"), crystals):
-        if c is not None:  # the crystal replaces the isotropic description of this body
-            for name in ("material", "E", "G", "nu"):
-                iso.pop(f"{name}{suffix}", None)
-    if crystals[1] is not None:
-        iso["G2"] = 1.0  # a placeholder elastic body 2 (not rigid), replaced below
-    base = pair_from_params(iso)
-    bodies = [b if c is None else Body(c, b.radius_a, b.radius_b, b.angle_deg)
-              for b, c in zip((base.body1, base.body2), crystals)]
-    return AnisotropicPair(*bodies)
 
 
 class SlipProblem:
