@@ -1,9 +1,11 @@
-"""Journal entries → labelled xarray Dataset (DESIGN §4.2) → netCDF4, written atomically.
+"""Journal entries → labelled xarray Dataset (DESIGN §4.2, README "The data set") → netCDF4.
 
 Dimensions are the spec's axes in spec order, each a coordinate with CF ``units`` and
 ``long_name``; fixed scalar fields of the spec become scalar coordinates. Data variables are the
 keys of the task records (float64, NaN where a task failed; non-numeric values such as ``plan``
-as JSON text), plus ``status`` (0 ok), ``message`` and ``wall_time_s`` per task. A record key
+as JSON text), plus ``status`` (0 ok; ``flag_values``/``flag_meanings``), ``message`` and
+``wall_time_s`` per task. Values are gathered once per task and spread to every point the task
+serves (points that share a scene share its record). A record key
 that names a coordinate (a slip record's ``load`` on a ``load`` axis, say) is left out where it
 equals the coordinate at every point, and kept as ``record_<key>`` where it does not (a label
 table overrode the field). ``material`` and ``pair`` axes are string coordinates. A field that
@@ -13,12 +15,18 @@ coordinate along the label axes that set it (the table's value, else the fixed o
 follow the spec's scene kind (``kinds``). Contact scenes: stresses in G (the shear modulus,
 (C11 − C12)/2 of a cubic crystal from (nu, A)), or GPa when the scenes name library crystals;
 punch lengths in a (the semi-major extent, 1 on the grid); indentation lengths in L, the unit
-the spec gives the sphere's radius and depth in. Points that
-share a scene share its record. With an ``angle`` axis the stiffness along the load direction
-``K_nn`` (and Li's normalized ``normalized_nn``) is derived from the tensor, K_nn = nᵀ K n, in
-tensor mode, and is K_xx of the shape turned by −angle in rotated mode. Slip scenes
-(``hpcontact.slip``): forces in N, lengths in m, stiffnesses in N/m, areas in m² when the scenes
-name library materials (SI), else in the force and length units of the input (F, L).
+the spec gives the sphere's radius and depth in. Slip scenes (``hpcontact.slip``): forces in N,
+lengths in m, stiffnesses in N/m, areas in m² when the scenes name library materials (SI), else
+in the force and length units of the input (F, L). The tables below write units that way;
+``units.cf_attributes`` turns a unit in scene scales (G, a, L, F) into ``units = "1"`` with the
+scale in ``scale`` and ``long_name``, so every unit parses with UDUNITS as what it means.
+
+With an ``angle`` axis and a tangential tensor, ``derive_directional`` adds the stiffness along
+the load direction ``K_nn`` (and Li's ``normalized_nn``): K_nn = nᵀ K n in tensor mode, K_xx of
+the shape turned by −angle in rotated mode. ``write_netcdf`` stores the data set without them
+(``netcdf.write``: compressed, typed, atomic); ``open_dataset`` reads it back and derives them
+again, giving the data set ``build_dataset`` made. ``history`` gets one line per run; a
+``--resume`` run appends its line to the history of the data set it replaces.
 """
 
 from __future__ import annotations
