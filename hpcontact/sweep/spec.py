@@ -83,6 +83,7 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
+from ..elastic_constants import FAMILIES as CONSTANT_FAMILIES
 from ..errors import InputError
 from .kinds import CONTACT, SLIP, scene_kind, validator
 
@@ -216,8 +217,10 @@ class Spec:
 
 
 def _drop_ignored_material_fields(params: dict[str, Any]) -> None:
-    """Leave out the material fields ``hpcontact.scene`` ignores for these parameters."""
-    if params.get("material") is not None:
+    """Leave out the material fields ``hpcontact.scene`` ignores for these parameters: nu, G
+    and A of a body given otherwise (a library crystal or elastic constants), the orientation
+    of an isotropic body (A = 1 and neither a library crystal nor constants)."""
+    if any(params.get(name) is not None for name in ("material", *CONSTANT_FAMILIES)):
         for name in ISOTROPIC_CONSTANTS:
             params.pop(name, None)
     elif params.get("anisotropy", 1.0) == 1.0:

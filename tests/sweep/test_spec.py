@@ -170,3 +170,18 @@ def test_load_spec_reads_a_file_and_refuses_a_missing_one(tmp_path):
     with pytest.raises(InputError) as info:
         load_spec(tmp_path / "missing.toml", validate=accept)
     assert info.value.field == "spec"
+
+
+@pytest.mark.parametrize("constants", ["cubic = [168.4, 121.4, 75.4]", 'material = "Cu"', "anisotropy = 2.0"])
+def test_an_anisotropic_body_keeps_its_orientation_axis(constants):
+    # A body given by elastic constants has A = 1 by default; its orientation must still make
+    # distinct scenes (it was dropped as if the body were isotropic: one scene for every psi).
+    spec = parse(f"[scene]\n{constants}\n[axes]\norientation = [0.0, 90.0]\n", validate=None)
+    scenes = [spec.scene_params(index) for index in spec.points()]
+    assert [s["orientation"] for s in scenes] == [0.0, 90.0]
+    assert all("nu" not in s and "G" not in s for s in scenes) or constants.startswith("anisotropy")
+
+
+def test_an_isotropic_body_drops_its_orientation():
+    spec = parse("[scene]\nnu = 0.3\n[axes]\norientation = [0.0, 90.0]\n", validate=None)
+    assert [spec.scene_params(index) for index in spec.points()] == [{"nu": 0.3}, {"nu": 0.3}]
