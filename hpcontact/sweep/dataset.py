@@ -403,7 +403,7 @@ def derive_directional(ds: xr.Dataset) -> xr.Dataset:
     attribute); units those of K_xx. Lazy on dask arrays."""
     if not _directional(ds):
         return ds
-    order = ds.attrs["sweep_axes"].split()
+    order = ds.attrs.get("sweep_axes", " ".join(map(str, ds.dims))).split()  # files before sweep_axes: as read
     kxx = ds["K_xx"]
     if "angle" in kxx.dims:  # rotated mode: one solve per angle
         knn = kxx.copy()

@@ -169,6 +169,15 @@ def test_the_hypercube_comes_back_point_by_point_from_the_file(fake_solve, tmp_p
     np.testing.assert_allclose(ds.K_nn.sel(shape="hexagon", aspect=1.0, nu=0.5), expected, rtol=1e-14)
 
 
+def test_open_dataset_is_lazy_with_dask(fake_solve, tmp_path):
+    pytest.importorskip("dask", reason="dask is not installed (xarray's chunks={} needs it)")
+    _, ds = build(fake_solve, LABELS.replace('title = "labels"', 'title = "labels"\nangle_mode = "tensor"'))
+    path = write_netcdf(ds, tmp_path / "lazy.nc")
+    with hpcontact.open_dataset(path, chunks={}) as lazy:
+        assert lazy.K_xx.chunks is not None and lazy.K_nn.chunks is not None  # dask arrays, not read yet
+        xr.testing.assert_identical(lazy.load(), ds)
+
+
 def test_storage_is_compact_and_typed(fake_solve, tmp_path):
     spec = parse_spec(LABELS, validate=lambda params: None)
     entries, where = entries_of(spec, fake_solve)
