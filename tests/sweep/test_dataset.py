@@ -171,7 +171,7 @@ def test_the_hypercube_comes_back_point_by_point_from_the_file(fake_solve, tmp_p
 
 def test_open_dataset_is_lazy_with_dask(fake_solve, tmp_path):
     pytest.importorskip("dask", reason="dask is not installed (xarray's chunks={} needs it)")
-    _, ds = build(fake_solve, LABELS.replace('title = "labels"', 'title = "labels"\nangle_mode = "tensor"'))
+    _, ds = build(fake_solve, LABELS)
     path = write_netcdf(ds, tmp_path / "lazy.nc")
     with hpcontact.open_dataset(path, chunks={}) as lazy:
         assert lazy.K_xx.chunks is not None and lazy.K_nn.chunks is not None  # dask arrays, not read yet
