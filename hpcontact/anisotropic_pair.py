@@ -50,7 +50,7 @@ from .kernels.isotropic import isotropic_block, isotropic_surface_green
 from .materials import Isotropic
 from .geometry import Grid
 from .operator import COMPONENT_INDEX
-from .solve import Engine
+from .engine import Engine
 
 Material = Isotropic | Crystal
 #: Crystal constants are given in GPa (``elastic_constants``); pairs (slip scenes) are in SI units.
@@ -194,7 +194,7 @@ def _indentation(material: Material) -> float:
 
 
 class PairEngine(Engine):
-    """``solve.Engine`` on the pair's compliance: spectra and operators of u_1 − u_2 (scaled units)."""
+    """``engine.Engine`` on the pair's compliance: spectra and operators of u_1 − u_2 (scaled units)."""
 
     def __init__(self, compliance: PairCompliance, grid: Grid, kernels: tuple[str, ...], threads: int = 1) -> None:
         super().__init__(compliance, grid, kernels, threads)  # type: ignore[arg-type]

@@ -27,7 +27,7 @@ kernels:
 Finite cylinder (``finite_cylinder``): length ``length`` with rounded ends (gap
 x²/(2R) + max(|y| − length/2, 0)²/(2 R_end)) or flat ends (R_end = 0: no contact beyond the
 ends, the pressure is singular at the end edges), pressed by a total load under Polonsky–Keer
-on the 3-D kernel of the body (``solve.Engine``); the centre section is compared with the
+on the 3-D kernel of the body (``engine.Engine``); the centre section is compared with the
 plane-strain pressure of its own load per unit length.
 
 References: C. Hwu and C. W. Fan, Proc. R. Soc. A 454 (1998) 1949 (contact of anisotropic
@@ -48,7 +48,7 @@ from .crystal import Crystal, voigt_to_tensor
 from .errors import InputError
 from .geometry import Grid
 from .materials import Isotropic
-from .solve import Engine
+from .engine import Engine
 from .solvers import polonsky_keer
 
 

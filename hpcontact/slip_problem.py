@@ -38,7 +38,7 @@ from .kernels.isotropic import isotropic_surface_green
 from .materials import Isotropic
 from .operator import ConvolutionOperator, cached_spectrum
 from .preconditioner import FourierPreconditioner
-from .solve import Engine
+from .engine import Engine
 from .solvers import Solution, polonsky_keer
 
 
