@@ -34,7 +34,7 @@ import xarray as xr
 COUNTS = frozenset({"iterations", "nx", "ny", "contact_cells", "sides", "n", "n_across", "steps", "seed", "threads"})
 INT_FILL = -2147483647  # NC_FILL_INT, netCDF's default fill of int32
 CHUNK_BYTES = 4 * 2**20
-COMPLEVEL = 4  # zlib: level 4 is within 2 % of level 9's size on sweep data at a third of the time
+COMPLEVEL = 4  # zlib: level 9 made the demo's file 1.5 % smaller (263 against 267 kB), level 1 0.5 % larger
 PLAN = "plan"
 PLAN_TABLE = "plan_table"  # attribute of the stored codes: the distinct plans
 TEXT_ATTRS = "text_attributes"  # attribute of the stored codes: the attributes of the text
@@ -77,8 +77,9 @@ def read(path: str | Path, **options: Any) -> xr.Dataset:
     if PLAN not in ds.data_vars or PLAN_TABLE not in ds[PLAN].attrs:
         return ds
     codes = ds[PLAN]
-    table = np.empty(len(json.loads(codes.attrs[PLAN_TABLE])) + 1, dtype=object)
-    table[:] = [*json.loads(codes.attrs[PLAN_TABLE]), ""]  # the last: no plan (NaN code)
+    plans = json.loads(codes.attrs[PLAN_TABLE])
+    table = np.empty(len(plans) + 1, dtype=object)
+    table[:] = [*plans, ""]  # the last: no plan (NaN code)
     values = codes.values
     text = table[np.where(np.isnan(values), len(table) - 1, values).astype(np.intp)]
     return ds.assign({PLAN: xr.Variable(codes.dims, text, json.loads(codes.attrs[TEXT_ATTRS]))})
@@ -111,7 +112,7 @@ def _encoding(ds: xr.Dataset, name: str) -> dict[str, Any]:
         # xarray reads trailing digits of the name as the length: name the length there
         width = max((len(str(v).encode("utf-8")) for v in np.ravel(var.values)), default=0)
         encoding.update(dtype="S1", char_dim_name=f"{name}_strlen{max(width, 1)}")
-    elif var.dtype.kind == "f" and name in COUNTS or name == PLAN:
+    elif (var.dtype.kind == "f" and name in COUNTS) or name == PLAN:
         encoding.update(dtype="int32", _FillValue=None if dimension else INT_FILL)
     elif var.dtype.kind in "iu":
         encoding.update(dtype="int32", _FillValue=None)
