@@ -20,8 +20,9 @@ What it does, in order:
    a task is a new task in kernel group "group#r"), and a six-axis job: 10 shapes × 37 angles ×
    6 nu × 17 b/a × 11 A × 19 ψ (the load angle derived; isotropic points share their
    orientation-free scene, polygons ignore b/a: 48 132 distinct tasks) — the tasks are chunked and
-   ordered by the real ``make_chunks`` for R ranks (kernel groups included) and run by a discrete-event model of the
-   scheduler: every rank computes; a worker's claim waits for the server (FIFO, measured service
+   ordered by the real ``make_chunks`` for R ranks (kernel groups included) and run by the
+   discrete-event model of the scheduler, ``hpcontact.sweep.costmodel.replay`` (the one the
+   dry-run uses): every rank computes; a worker's claim waits for the server (FIFO, measured service
    time) plus the measured wake-up latency; rank 0 claims without messages; rank 0 alone
    prepares (setup) and assembles (gather) the data set while the others wait. The six-axis
    job's task seconds are its estimated costs times the seconds per cost unit measured for its
@@ -35,7 +36,6 @@ lost to the tail (last rank to finish vs mean), to claims, and to setup + gather
 from __future__ import annotations
 
 import argparse
-import heapq
 import math
 import os
 import statistics
@@ -43,19 +43,18 @@ import subprocess
 import sys
 import tempfile
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
-from typing import Any, Mapping
 
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from hpcontact.sweep.costmodel import Overheads, replay, task_kind  # noqa: E402
 from hpcontact.sweep.journal import OK, read_journals  # noqa: E402
-from hpcontact.sweep.kinds import SLIP, scene_kind  # noqa: E402
 from hpcontact.sweep.spec import Spec, load_spec, parse_spec  # noqa: E402
-from hpcontact.sweep.tasks import Task, enumerate_tasks, make_chunks  # noqa: E402
+from hpcontact.sweep.tasks import Task, enumerate_tasks  # noqa: E402
 
 SMALL_SWEEPS = {
     "thin shapes": """
@@ -136,14 +135,6 @@ class Distribution:
 
     tasks: list[Task]
     seconds: np.ndarray
-
-
-def task_kind(params: Mapping[str, Any]) -> str:
-    """'slip', 'crystal' (a named material or A != 1) or 'contact' — the calibration groups."""
-    if scene_kind(params) == SLIP:
-        return "slip"
-    crystal = params.get("material") is not None or float(params.get("anisotropy", 1.0)) != 1.0
-    return "crystal" if crystal else "contact"
 
 
 def measured(spec: Spec) -> Distribution:
@@ -229,43 +220,6 @@ def measure_latency() -> dict[str, float]:
     return values
 
 
-def replay(case: Distribution, ranks: int, overhead: dict[str, float]) -> dict[str, float]:
-    """Discrete-event model of one sweep on ``ranks`` ranks (see the module docstring)."""
-    seconds = dict(zip((t.key for t in case.tasks), case.seconds))
-    chunks = make_chunks(case.tasks, ranks)
-    chunk_seconds = [sum(seconds[t.key] + overhead["driver_s"] for t in chunk) for chunk in chunks]
-    n = len(case.tasks)
-    setup = overhead["setup_s"] * n
-    free = [(setup, r) for r in range(ranks)]  # every rank starts after rank 0's setup
-    heapq.heapify(free)
-    server_free = setup
-    claim_wait = 0.0
-    finish = [setup] * ranks
-    for work in chunk_seconds:
-        t, rank = heapq.heappop(free)
-        if rank == 0:
-            start = t
-        else:
-            served = max(t, server_free) + overhead["service_s"]
-            server_free = served
-            start = served + overhead["wake_s"]
-            claim_wait += start - t
-        finish[rank] = start + work
-        heapq.heappush(free, (finish[rank], rank))
-    last = max(finish)
-    makespan = last + overhead["gather_s"] * n
-    work_total = float(case.seconds.sum())
-    mean_finish = statistics.fmean(finish)
-    return {
-        "chunks": len(chunks),
-        "makespan_s": makespan,
-        "efficiency": work_total / (ranks * makespan),
-        "tail": (last - mean_finish) / makespan,
-        "claims": claim_wait / (ranks * makespan),
-        "setup_gather": (setup + overhead["gather_s"] * n) / makespan,
-    }
-
-
 def replicated(case: Distribution, count: int) -> Distribution:
     """``case`` copied until it has at least ``count`` tasks (copies share no kernels)."""
     copies = math.ceil(count / len(case.tasks))
@@ -336,9 +290,11 @@ def main() -> None:
     cases["six-axis job"] = big
     print(f"\n{'distribution':22s} {'tasks':>7s} {'ranks':>6s} {'chunks':>7s} {'wall s':>9s} {'efficiency':>10s}"
           f" {'tail':>6s} {'claims':>7s} {'setup+gather':>12s}")
+    model = Overheads(**{f.name: overhead[f.name] for f in fields(Overheads)})
     for name, case in cases.items():
+        seconds = dict(zip((t.key for t in case.tasks), case.seconds))
         for ranks in args.ranks:
-            r = replay(case, ranks, overhead)
+            r = replay(case.tasks, seconds, ranks, model)
             print(f"{name:22s} {len(case.tasks):7d} {ranks:6d} {r['chunks']:7d} {r['makespan_s']:9.2f} {r['efficiency']:10.3f}"
                   f" {r['tail']:6.3f} {r['claims']:7.4f} {r['setup_gather']:12.3f}", flush=True)
 

@@ -13,7 +13,8 @@ EXIT_STATUS = """exit status:
   1  anything unexpected (traceback on stderr), or a journal or the data set could not be
      written (disk full: the message names the file; journals intact, free space and --resume)
   2  bad input or a refusal, before any task runs: bad spec, output or journal folder not
-     writable, lock held by another run, journals without --resume/--restart, stale journals
+     writable, lock held by another run, journals without --resume/--restart, stale journals,
+     a task whose estimated memory exceeds --mem-per-rank
   3  data set written, but some tasks failed (the summary names up to 5 with their messages)
   4  stopped by SIGTERM/SIGUSR1 to any rank: journals intact, run again with --resume"""
 
@@ -34,6 +35,13 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
                         help="take the output's lock from a run known to be dead")
     parser.add_argument("--grace", type=float, default=None, metavar="SECONDS",
                         help="after SIGTERM/SIGUSR1, let the task in flight finish this long (default 30)")
-    parser.add_argument("--dry-run", action="store_true", help="list the tasks with their indices; compute nothing")
+    parser.add_argument("--dry-run", action="store_true",
+                        help="list the tasks with their indices and estimated cost (core-seconds, peak memory, wall "
+                        "time at 1, 64, 1024 ranks); compute nothing")
+    parser.add_argument("--json", action="store_true", help="with --dry-run: print one JSON object")
+    parser.add_argument("--mem-per-rank", metavar="SIZE",
+                        help="memory one rank may use (4G, 512M, bytes): a run refuses a spec with a task that needs "
+                        "more, a dry run warns (default: SLURM_MEM_PER_CPU, or SLURM_MEM_PER_NODE / tasks per node, "
+                        "else the machine's memory per core)")
     parser.epilog = EXIT_STATUS
     parser.formatter_class = argparse.RawDescriptionHelpFormatter

@@ -83,6 +83,7 @@ class Options:
     accept_stale: bool = False
     retry_crashed: bool = False
     break_lock: bool = False
+    mem_per_rank: tuple[int, str] | None = None  # bytes a rank may use and where that comes from: checked if set
 
 
 @dataclass(frozen=True)
@@ -173,6 +174,10 @@ def _prepare(spec_path: str | Path, options: Options, output: str | Path | None,
     spec = load_spec(spec_path, output=output, validate=validate)
     injected = faults.faults_from_environment()
     tasks, where = enumerate_tasks(spec)
+    if options.mem_per_rank is not None:
+        from .costmodel import check_memory
+
+        check_memory(tasks, *options.mem_per_rank)
     usable_folder(Path(spec.output).parent, "output folder")
     usable_folder(spec.journal, "journal folder")
     lock = RunLock(spec.journal, ranks)
@@ -440,16 +445,75 @@ def _assemble(spec: Spec, plan: Plan, keep: Mapping[str, Any], ranks: int, total
     return Outcome(path, len(failures))
 
 
-def dry_run(spec_path: str | Path, output: str | Path | None = None, stream: TextIO | None = None) -> int:
+def dry_run(spec_path: str | Path, output: str | Path | None = None, stream: TextIO | None = None, *,
+            as_json: bool = False, mem_per_rank: int | None = None, calibration: Any = None) -> int:
     """``hpcontact run SPEC --dry-run``: the tasks with their 0-based indices (the order
-    ``HPCONTACT_FAULTS`` counts in), estimated cost and parameters; nothing is computed."""
+    ``HPCONTACT_FAULTS`` counts in), relative cost, estimated seconds and peak memory and
+    parameters; the distinct grids and kernel sets; the totals (core-seconds, core-hours, peak
+    memory) and the wall time on 1, 64 and 1024 ranks (``costmodel``); a warning on stderr for
+    tasks over ``mem_per_rank`` bytes (default: ``costmodel.default_memory_per_rank``). With
+    ``as_json``, one JSON object instead. Nothing is computed but the cost model's calibration
+    (once per host and version, ``costmodel.load_calibration``)."""
+    from . import costmodel
+
     stream = stream if stream is not None else sys.stdout
     spec = load_spec(spec_path, output=output)
     tasks, _ = enumerate_tasks(spec)
-    print(f"# {spec.title}: {len(tasks)} tasks -> {spec.output} (index, key, relative cost, scene)", file=stream)
+    limit, source = (mem_per_rank, "--mem-per-rank") if mem_per_rank is not None else costmodel.default_memory_per_rank()
+    if calibration is None:
+        calibration = costmodel.load_calibration(stream=sys.stderr)
+    est = costmodel.estimate(tasks, calibration)
+    over = est.over(limit)
+    peak_task = max(range(len(tasks)), key=lambda i: est.bytes[i], default=None)
+    if over:
+        shown = ", ".join(map(str, over[:SHOWN_FAILURES])) + (", ..." if len(over) > SHOWN_FAILURES else "")
+        print(f"hpcontact: warning: {len(over)} task(s) need more memory than {limit / 2**20:.0f} MiB per rank "
+              f"({source}): {shown}; hpcontact run refuses this spec", file=sys.stderr)
+    if as_json:
+        print(json.dumps({
+            "title": spec.title,
+            "output": str(spec.output),
+            "tasks": len(tasks),
+            "estimated_task_seconds": est.total_seconds,
+            "estimated_core_hours": est.total_seconds / 3600.0,
+            "estimated_peak_memory_bytes": est.peak_bytes,
+            "peak_memory_task": peak_task,
+            "wall_time_s": {str(r): w for r, w in est.wall_s.items()},
+            "efficiency": {str(r): e for r, e in est.efficiency.items()},
+            "grids": est.grids(),
+            "kernel_sets": est.kernel_sets(),
+            "mem_per_rank_bytes": limit,
+            "mem_per_rank_source": source,
+            "tasks_over_memory": over,
+            "calibration": {"host": calibration.host, "version": calibration.version},
+            "tasks_list": [
+                {"index": i, "key": t.key, "cost": t.cost, "estimated_seconds": s, "estimated_peak_memory_bytes": b}
+                for i, (t, s, b) in enumerate(zip(tasks, est.seconds, est.bytes))
+            ],
+        }), file=stream)
+        return EXIT_OK
+    print(f"# {spec.title}: {len(tasks)} tasks -> {spec.output} (index, key, relative cost, estimated seconds, "
+          f"estimated peak MiB, scene)", file=stream)
     for i, task in enumerate(tasks):
-        print(f"{i:6d}  {task.key[:12]}  {task.cost:10.3g}  {json.dumps(dict(task.params), sort_keys=True)}", file=stream)
+        print(f"{i:6d}  {task.key[:12]}  {task.cost:10.3g}  {est.seconds[i]:9.3g}  {est.bytes[i] / 2**20:7.0f}  "
+              f"{json.dumps(dict(task.params), sort_keys=True)}", file=stream)
+    grids = "; ".join(f"{label}: {count} tasks" for label, count in est.grids().items())
+    print(f"# {len(est.grids())} grid(s) ({grids}); {est.kernel_sets()} kernel set(s)", file=stream)
+    print(f"# estimated: {est.total_seconds:.4g} core-seconds = {est.total_seconds / 3600.0:.3g} core-hours; peak memory "
+          f"{est.peak_bytes / 2**20:.0f} MiB (task {peak_task}); limit {limit / 2**20:.0f} MiB per rank ({source})",
+          file=stream)
+    walls = ", ".join(f"{r} rank(s) {_duration(w)} (efficiency {est.efficiency[r]:.2f})"
+                      for r, w in est.wall_s.items())
+    print(f"# wall time: {walls}; cost model calibrated on {calibration.host} by hpcontact {calibration.version}",
+          file=stream)
     return EXIT_OK
+
+
+def _duration(seconds: float) -> str:
+    """``seconds`` as the dry-run prints a wall time: s below 2 minutes, else min, else h."""
+    if seconds < 120.0:
+        return f"{seconds:.3g} s"
+    return f"{seconds / 60.0:.3g} min" if seconds < 7200.0 else f"{seconds / 3600.0:.3g} h"
 
 
 def run_command(spec: str | Path, options: Options = Options(), output: str | Path | None = None,
@@ -497,12 +561,18 @@ def _keep_wisdom() -> None:
 
 def run_from_arguments(args: argparse.Namespace) -> int:
     """Run what ``add_run_arguments`` parsed."""
+    from .costmodel import default_memory_per_rank, parse_memory
+
+    memory = (parse_memory(args.mem_per_rank), "--mem-per-rank") if args.mem_per_rank is not None else None
     if args.dry_run:
-        return dry_run(args.spec, args.output)
+        return dry_run(args.spec, args.output, as_json=args.json, mem_per_rank=None if memory is None else memory[0])
+    if args.json:
+        raise InputError("--json", "only with --dry-run", True)
     if args.grace is not None and not args.grace >= 0.0:
         raise InputError("--grace", "seconds >= 0", args.grace)
     options = Options(resume=args.resume, restart=args.restart, accept_stale=args.accept_stale,
-                      retry_crashed=args.retry_crashed, break_lock=args.break_lock)
+                      retry_crashed=args.retry_crashed, break_lock=args.break_lock,
+                      mem_per_rank=memory if memory is not None else default_memory_per_rank())
     return run_command(args.spec, options, args.output, args.grace)
 
 

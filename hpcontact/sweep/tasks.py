@@ -102,15 +102,8 @@ def estimated_cost(params: Mapping[str, Any]) -> float:
     ``slip_cost``."""
     if scene_kind(params) == SLIP:
         return slip_cost(params)
-    n = int(params.get("n", DEFAULT_N))
     quantities = quantity_names(params.get("quantities", DEFAULT_QUANTITIES))
-    if params.get("n_across") is not None:
-        across = int(params["n_across"])
-    elif set(quantities) == {"indentation"}:
-        across = n
-    else:
-        across = max(min(n, 16), round(n * float(params.get("aspect", 1.0))))
-    size = 4.0 * n * across
+    size = padded_cells(params)
     crystal = params.get("material") is not None or float(params.get("anisotropy", 1.0)) != 1.0
     solves = sum(
         CRYSTAL_TANGENTIAL_SOLVES if crystal and q == "tangential" else SOLVES_PER_QUANTITY.get(q, 1.0)
@@ -122,6 +115,24 @@ def estimated_cost(params: Mapping[str, Any]) -> float:
     return size * math.log2(size) * max(solves, 0.1) * digits * (CRYSTAL_FACTOR if crystal else 1.0)
 
 
+def padded_cells(params: Mapping[str, Any]) -> float:
+    """Cells of the scene's padded FFT grid (about twice the contact grid each way): 4 n × n_across
+    for a contact scene (the grid rule of ``geometry.grid_for``; an indentation-only scene is
+    solved on an n × n grid around the sphere's contact), (2 × 1.1 n)² for a slip scene."""
+    if scene_kind(params) == SLIP:
+        side = 2.0 * SLIP_GRID_MARGIN * int(params.get("n", SLIP_DEFAULT_N))
+        return side * side
+    n = int(params.get("n", DEFAULT_N))
+    quantities = quantity_names(params.get("quantities", DEFAULT_QUANTITIES))
+    if params.get("n_across") is not None:
+        across = int(params["n_across"])
+    elif set(quantities) == {"indentation"}:
+        across = n
+    else:
+        across = max(min(n, 16), round(n * float(params.get("aspect", 1.0))))
+    return 4.0 * n * across
+
+
 def slip_cost(params: Mapping[str, Any]) -> float:
     """Relative cost of a slip scene: padded FFT size · log × (1 + 8 × steps solves) × digits
     of tolerance, on the n × n contact grid with its margin; a loop path has 5 × steps steps;
@@ -129,9 +140,7 @@ def slip_cost(params: Mapping[str, Any]) -> float:
     auto/both). Same units as ``estimated_cost``."""
     from ..bodies import pair_from_params
 
-    n = int(params.get("n", SLIP_DEFAULT_N))
-    side = 2.0 * SLIP_GRID_MARGIN * n  # padded FFT grid: twice the contact grid
-    size = side * side
+    size = padded_cells(params)
     steps = int(params.get("steps", SLIP_DEFAULT_STEPS)) * (5 if params.get("path") == "loop" else 1)
     tangential = SLIP_SOLVES_PER_STEP * steps if float(params.get("mu", 1.0)) > 0.0 else 0.0
     coupling = params.get("coupling", "auto")

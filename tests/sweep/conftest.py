@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import socket
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
@@ -44,6 +45,24 @@ def write_spec(tmp_path: Path) -> Callable[[str], Path]:
         return path
 
     return write
+
+
+@pytest.fixture(scope="session")
+def cost_calibration(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A cost-model calibration file for this host and version with round numbers (1e-6 s per
+    cost unit for every kind, 100 MiB base), so no test spends seconds calibrating."""
+    from hpcontact import __version__
+    from hpcontact.sweep.costmodel import KINDS, Calibration, Rate, save_calibration
+
+    rates = {kind: Rate(rate_s=1e-6, solve_s=0.0) for kind in KINDS}
+    calibration = Calibration(socket.gethostname(), __version__, rates, base_bytes=100.0 * 2**20)
+    return save_calibration(calibration, tmp_path_factory.mktemp("costmodel") / "costmodel.json")
+
+
+@pytest.fixture(autouse=True)
+def _cached_cost_calibration(cost_calibration: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every sweep test's dry run reads ``cost_calibration`` (``--dry-run`` never calibrates)."""
+    monkeypatch.setenv("HPCONTACT_COSTMODEL", str(cost_calibration))
 
 
 @pytest.fixture(scope="session")

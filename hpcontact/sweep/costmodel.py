@@ -1,0 +1,443 @@
+"""Cost model of a sweep: core-seconds, peak memory and wall time before it runs (``--dry-run``).
+
+**Seconds.** A task of kind k (``task_kind``: ``contact``, ``crystal`` or ``slip``) takes, on one
+core of this machine,
+
+    seconds = rate_k × cost + solve_k × cost / (S log2 S)
+
+with ``cost = hpcontact.sweep.tasks.estimated_cost(params)`` as the cost units (padded FFT cells
+S · log2 S × solves × digits of tolerance) and S = ``tasks.padded_cells(params)``: the first
+term is the FFT work, the second the work per solve and digit that does not grow with the grid
+(Python, CG bookkeeping, set-up: cost / (S log2 S) is the number of solves × digits).
+``rate_k`` (seconds per cost unit) and ``solve_k`` (seconds per solve-digit) are measured by
+``calibrate``: two real solves per kind on a small and a larger grid (each run once untimed
+first, so that FFT plans are warm as in a sweep, then timed with the kernel cache cleared, as a
+sweep's first task of a kernel group runs) give the two coefficients. A pure rate misses by
+2-4x: measured 0.115, 0.049, 0.029 µs per unit for an isotropic ellipse at n = 32, 64, 128; a
+constant per task instead of the per-solve term misses the slip tasks (whose time follows the
+steps and passes more than the grid) by 2-3x. The calibration takes ~15-30 s and is cached like
+FFTW wisdom, in ``costmodel-HOST.json`` beside the wisdom file ($HPCONTACT_COSTMODEL overrides),
+keyed by host and package version: a file of another host or version, or one that cannot be
+read as a calibration, is ignored with a warning and replaced.
+
+**Memory.** The peak resident memory of a rank running a task is
+
+    bytes = base + fixed_k + per_cell_k × padded_cells(params)
+
+``base`` is this process's peak resident set (``resource.getrusage``) after importing what a
+run imports (the solvers, MPI, xarray); ``padded_cells`` is the padded FFT grid
+(``tasks.padded_cells``). ``fixed_k`` and ``per_cell_k`` are float64 array sizes (no machine
+dependence), fitted to ``tracemalloc`` peaks of single solves with cold kernel caches
+(tangential + normal for contact; this machine, 2026-11-22):
+
+* contact: n = 64 … 1024, b/a 1 … 1e-3: 2.1 MiB at 8 192 cells, 22.8 MiB at 131 072,
+  89.3 MiB at 524 288, 177.9 MiB at 1 048 576 → 178-182 B/cell (kernels xx, xy, yy, zz
+  spectra, traction and CG vectors for 2 components, FFT buffers) + ~1 MiB;
+* crystal (A = 2, ψ = 30°, tangential): 45.1, 53.2, 77.8 MiB at 1 024, 16 384, 65 536 cells
+  → 525 B/cell (nine complex kernel blocks, 3 components) + 45 MiB (quadrature tables);
+* slip (Cu on Fe, coupled): 2.7 and 12.5 MiB at 1 239 and 19 825 cells → 530 B/cell + 2 MiB.
+
+The kernel-spectrum cache (``HPCONTACT_KERNEL_CACHE_MB``, default 1 GiB) can hold more than one
+task's kernels on a rank; the model counts one task's, as the refusal must (a task that does not
+fit alone cannot run; the cache evicts before it).
+
+**Wall time on R ranks** (``replay``): a discrete-event model of the scheduler
+(``hpcontact.sweep.schedule``): the tasks are chunked and ordered by the real ``make_chunks`` for R
+ranks; every rank computes; a worker's claim of the next chunk waits for the server (FIFO,
+``Overheads.service_s`` per message) plus the wake-up latency ``wake_s``; rank 0 claims without
+messages; every task pays ``driver_s`` (journal, progress, scheduling); rank 0 alone prepares
+(``setup_s`` per task) and assembles the data set (``gather_s`` per task) while the others wait.
+Wall time = makespan; efficiency = Σ task seconds / (R × makespan).
+``benchmarks/sweep_scale.py`` measures the overheads and replays real task costs with this model.
+"""
+
+from __future__ import annotations
+
+import heapq
+import json
+import math
+import os
+import resource
+import socket
+import statistics
+import sys
+import time
+import warnings
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+from ..errors import InputError
+from .kinds import SLIP, scene_kind
+from .tasks import Task, estimated_cost, make_chunks, padded_cells
+
+KINDS = ("contact", "crystal", "slip")
+FORMAT = 1  # version of the calibration file's layout
+MIB = 2**20
+# Memory per kind: (fixed bytes, bytes per padded cell), fitted as stated in the module docstring.
+MEMORY_MODEL = {
+    "contact": (1.0 * MIB, 182.0),
+    "crystal": (45.0 * MIB, 525.0),
+    "slip": (2.0 * MIB, 530.0),
+}
+_TANGENTIAL_NORMAL = ["tangential", "normal"]
+# Calibration scenes: (small, larger) per kind, with the fields a sweep of that kind sets.
+CALIBRATION_SCENES: dict[str, tuple[dict[str, Any], dict[str, Any]]] = {
+    "contact": (
+        {"shape": "ellipse", "aspect": 0.5, "nu": 0.3, "n": 64, "quantities": _TANGENTIAL_NORMAL, "tol": 1e-10},
+        {"shape": "ellipse", "aspect": 0.5, "nu": 0.3, "n": 256, "quantities": _TANGENTIAL_NORMAL, "tol": 1e-10},
+    ),
+    "crystal": (
+        {"shape": "circle", "nu": 0.3, "anisotropy": 2.0, "orientation": 30.0, "n": 32, "quantities": ["tangential"],
+         "tol": 1e-10},
+        {"shape": "circle", "nu": 0.3, "anisotropy": 2.0, "orientation": 30.0, "n": 64, "quantities": ["tangential"],
+         "tol": 1e-10},
+    ),
+    "slip": tuple(
+        {"quantities": "slip", "material": "Cu", "material2": "Cu", "radius": 8e-3, "radius2": 9e-3, "load": 10.0,
+         "mu": 0.3, "q_ratio": 0.6, "steps": 3, "n": n, "tol": 1e-8}
+        for n in (32, 64)
+    ),
+}
+
+
+def task_kind(params: Mapping[str, Any]) -> str:
+    """'slip', 'crystal' (a named material or A != 1) or 'contact': the calibration groups."""
+    if scene_kind(params) == SLIP:
+        return "slip"
+    crystal = params.get("material") is not None or float(params.get("anisotropy", 1.0)) != 1.0
+    return "crystal" if crystal else "contact"
+
+
+@dataclass(frozen=True)
+class Rate:
+    """Seconds of a task of one kind: ``rate_s × cost + solve_s × solve_units`` (module docstring)."""
+
+    rate_s: float
+    solve_s: float
+
+
+def solve_units(params: Mapping[str, Any], cost: float) -> float:
+    """Solves × digits of the scene ``params`` of estimated ``cost``: cost / (S log2 S)."""
+    cells = padded_cells(params)
+    return cost / (cells * math.log2(cells))
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """This machine's seconds per kind and the base memory of a run, with where they were
+    measured (``host``, package ``version``) and how long the calibration took."""
+
+    host: str
+    version: str
+    rates: dict[str, Rate]
+    base_bytes: float
+    seconds: float = 0.0
+
+    def task_seconds(self, params: Mapping[str, Any], cost: float | None = None) -> float:
+        """Estimated seconds of the scene ``params`` on one core."""
+        rate = self.rates[task_kind(params)]
+        cost = estimated_cost(params) if cost is None else cost
+        return rate.rate_s * cost + rate.solve_s * solve_units(params, cost)
+
+    def task_bytes(self, params: Mapping[str, Any]) -> float:
+        """Estimated peak resident bytes of a rank running the scene ``params``."""
+        return self.base_bytes + task_array_bytes(params)
+
+
+def task_array_bytes(params: Mapping[str, Any]) -> float:
+    """The arrays of one task of ``params``: fixed_k + per_cell_k × padded cells (bytes)."""
+    fixed, per_cell = MEMORY_MODEL[task_kind(params)]
+    return fixed + per_cell * padded_cells(params)
+
+
+def base_memory_bytes() -> float:
+    """Peak resident bytes of this process after importing what a run imports (module
+    docstring); ru_maxrss is in KiB on Linux, bytes on macOS."""
+    import mpi4py.MPI  # noqa: F401 - imported for its resident size, as a run does
+    import xarray  # noqa: F401
+
+    from ..slip import solve_slip  # noqa: F401
+    from ..solve import solve  # noqa: F401
+
+    scale = 1 if sys.platform == "darwin" else 1024
+    return float(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * scale)
+
+
+def _timed(params: Mapping[str, Any]) -> float:
+    """Wall seconds of a solve of ``params`` with warm FFT plans (an untimed solve first) and a
+    cold kernel cache."""
+    from ..operator import clear_cache
+    from .kinds import task_function
+
+    function = task_function(scene_kind(params))
+    function(dict(params))
+    clear_cache()
+    started = time.perf_counter()
+    function(dict(params))
+    return time.perf_counter() - started
+
+
+def fit_rate(scenes: Sequence[Mapping[str, Any]], seconds: Sequence[float]) -> Rate:
+    """The ``Rate`` through two timed scenes (a 2 × 2 solve); a negative coefficient is set to
+    zero and the other fitted to both points by least squares."""
+    (c1, c2) = (estimated_cost(p) for p in scenes)
+    (u1, u2) = (solve_units(p, c) for p, c in zip(scenes, (c1, c2)))
+    (t1, t2) = seconds
+    det = c1 * u2 - c2 * u1
+    if det != 0.0:
+        rate, solve = (t1 * u2 - t2 * u1) / det, (c1 * t2 - c2 * t1) / det
+        if rate >= 0.0 and solve >= 0.0:
+            return Rate(rate, solve)
+    by_cost = (c1 * t1 + c2 * t2) / (c1 * c1 + c2 * c2)
+    by_units = (u1 * t1 + u2 * t2) / (u1 * u1 + u2 * u2)
+    miss_cost = (t1 - by_cost * c1) ** 2 + (t2 - by_cost * c2) ** 2
+    miss_units = (t1 - by_units * u1) ** 2 + (t2 - by_units * u2) ** 2
+    return Rate(by_cost, 0.0) if miss_cost <= miss_units else Rate(0.0, by_units)
+
+
+def calibrate(scenes: Mapping[str, Sequence[Mapping[str, Any]]] = CALIBRATION_SCENES) -> Calibration:
+    """Measure ``Rate`` per kind on this machine (module docstring) and the base memory."""
+    from .. import __version__
+
+    started = time.perf_counter()
+    base = base_memory_bytes()
+    rates = {kind: fit_rate(pair, [_timed(p) for p in pair]) for kind, pair in scenes.items()}
+    return Calibration(socket.gethostname(), __version__, rates, base, time.perf_counter() - started)
+
+
+def calibration_path() -> Path:
+    """$HPCONTACT_COSTMODEL, else ``costmodel-HOST.json`` beside the FFTW wisdom file."""
+    from ..operator import wisdom_path
+
+    env = os.environ.get("HPCONTACT_COSTMODEL")
+    return Path(env) if env else wisdom_path().with_name(f"costmodel-{socket.gethostname()}.json")
+
+
+def save_calibration(calibration: Calibration, path: Path | None = None) -> Path:
+    """Write ``calibration`` as JSON, atomically (temporary file, then rename)."""
+    path = calibration_path() if path is None else Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    record = {"format": FORMAT, **asdict(calibration)}
+    tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
+    try:
+        tmp.write_text(json.dumps(record, indent=1, sort_keys=True))
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return path
+
+
+def read_calibration(path: Path) -> Calibration:
+    """The calibration in ``path``; ``ValueError`` if it is not one (wrong format, missing or
+    non-finite numbers, a negative rate)."""
+    record = json.loads(path.read_text())
+    if not isinstance(record, dict) or record.get("format") != FORMAT:
+        raise ValueError("not a calibration file of this format")
+    rates = {}
+    for kind in KINDS:
+        entry = record["rates"][kind]
+        rates[kind] = Rate(float(entry["rate_s"]), float(entry["solve_s"]))
+        if not all(math.isfinite(v) and v >= 0.0 for v in (rates[kind].rate_s, rates[kind].solve_s)):
+            raise ValueError(f"{kind}: rates must be finite and >= 0")
+        if rates[kind].rate_s + rates[kind].solve_s <= 0.0:
+            raise ValueError(f"{kind}: a task must take time")
+    base = float(record["base_bytes"])
+    if not (math.isfinite(base) and base >= 0.0):
+        raise ValueError("base_bytes must be finite and >= 0")
+    return Calibration(str(record["host"]), str(record["version"]), rates, base, float(record.get("seconds", 0.0)))
+
+
+def load_calibration(path: Path | None = None, stream: Any = None) -> Calibration:
+    """This machine's calibration: the cached one when it was measured here by this version,
+    else a new one (saved for next time; ``stream`` is told). A corrupt or foreign file is
+    ignored with a ``RuntimeWarning`` and replaced."""
+    from .. import __version__
+
+    path = calibration_path() if path is None else Path(path)
+    host = socket.gethostname()
+    if path.exists():
+        try:
+            cached = read_calibration(path)
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            warnings.warn(f"cost calibration {path} ignored: {exc}", RuntimeWarning, stacklevel=2)
+        else:
+            if cached.host == host and cached.version == __version__:
+                return cached
+            warnings.warn(f"cost calibration {path} ignored: measured on {cached.host} by hpcontact {cached.version}, "
+                          f"not {host} / {__version__}", RuntimeWarning, stacklevel=2)
+    if stream is not None:
+        print(f"hpcontact: calibrating the cost model on {host} (once per host and version; cached in {path})",
+              file=stream, flush=True)
+    calibration = calibrate()
+    try:
+        save_calibration(calibration, path)
+    except OSError as exc:
+        warnings.warn(f"cost calibration not saved to {path}: {exc}", RuntimeWarning, stacklevel=2)
+    return calibration
+
+
+@dataclass(frozen=True)
+class Overheads:
+    """Seconds the scheduler and driver add (module docstring). Defaults: measured on the
+    development machine (2 cores, MPICH, shared with other jobs, 2026-11-22) by
+    ``benchmarks/sweep_scale.py``."""
+
+    driver_s: float = 2.0e-3
+    service_s: float = 4.5e-5  # server time per message on a full queue
+    wake_s: float = 8.0e-3  # claim round trip while rank 0 computes (median), less service_s
+    setup_s: float = 3.0e-3  # six-axis spec cut to 2 orientations: validation and enumeration
+    gather_s: float = 1.0e-3
+
+
+def replay(tasks: Sequence[Task], seconds: Mapping[str, float], ranks: int,
+           overheads: Overheads = Overheads()) -> dict[str, float]:
+    """Discrete-event model of one sweep of ``tasks`` (their one-core ``seconds`` by key) on
+    ``ranks`` ranks (module docstring): makespan, efficiency and where the time goes (shares of
+    the makespan lost to the tail, to claims, and to setup + gather)."""
+    if ranks < 1:
+        raise InputError("ranks", "an integer >= 1", ranks)
+    chunks = make_chunks(list(tasks), ranks)
+    chunk_seconds = [sum(seconds[t.key] + overheads.driver_s for t in chunk) for chunk in chunks]
+    n = len(tasks)
+    setup = overheads.setup_s * n
+    free = [(setup, r) for r in range(ranks)]  # every rank starts after rank 0's setup
+    heapq.heapify(free)
+    server_free = setup
+    claim_wait = 0.0
+    finish = [setup] * ranks
+    for work in chunk_seconds:
+        t, rank = heapq.heappop(free)
+        if rank == 0:
+            start = t
+        else:
+            served = max(t, server_free) + overheads.service_s
+            server_free = served
+            start = served + overheads.wake_s
+            claim_wait += start - t
+        finish[rank] = start + work
+        heapq.heappush(free, (finish[rank], rank))
+    last = max(finish)
+    makespan = last + overheads.gather_s * n
+    work_total = float(sum(seconds[t.key] for t in tasks))
+    return {
+        "chunks": len(chunks),
+        "makespan_s": makespan,
+        "efficiency": work_total / (ranks * makespan) if makespan > 0 else 1.0,
+        "tail": (last - statistics.fmean(finish)) / makespan if makespan > 0 else 0.0,
+        "claims": claim_wait / (ranks * makespan) if makespan > 0 else 0.0,
+        "setup_gather": (setup + overheads.gather_s * n) / makespan if makespan > 0 else 0.0,
+    }
+
+
+_SIZE_UNITS = {"": 1, "B": 1, "K": 2**10, "M": 2**20, "G": 2**30, "T": 2**40}
+
+
+def parse_memory(text: str, field_name: str = "--mem-per-rank") -> int:
+    """Bytes of a size such as ``4G``, ``512M``, ``2.5GiB`` or ``1000000`` (binary units, as
+    SLURM's ``--mem``); ``InputError`` naming ``field_name`` otherwise."""
+    value = str(text).strip().upper().removesuffix("IB").removesuffix("B")
+    unit = value[-1:] if value[-1:] in _SIZE_UNITS else ""
+    try:
+        number = float(value[: len(value) - len(unit)])
+    except ValueError:
+        number = float("nan")
+    if not (math.isfinite(number) and number > 0):
+        raise InputError(field_name, "a size > 0 such as 4G, 512M or a number of bytes", text)
+    return int(number * _SIZE_UNITS[unit])
+
+
+def _slurm_tasks_per_node(environ: Mapping[str, str]) -> int | None:
+    """Tasks on this node from SLURM_NTASKS_PER_NODE, else the first count of
+    SLURM_TASKS_PER_NODE (``"4(x2),3"``)."""
+    for name in ("SLURM_NTASKS_PER_NODE", "SLURM_TASKS_PER_NODE"):
+        text = environ.get(name, "").split(",")[0].split("(")[0]
+        if text.isdigit() and int(text) > 0:
+            return int(text)
+    return None
+
+
+def default_memory_per_rank(environ: Mapping[str, str] | None = None) -> tuple[int, str]:
+    """Bytes one rank may use and where that number comes from: SLURM_MEM_PER_CPU (MiB) ×
+    SLURM_CPUS_PER_TASK, else SLURM_MEM_PER_NODE (MiB) ÷ tasks per node, else this machine's
+    physical memory ÷ its cores."""
+    environ = os.environ if environ is None else environ
+    per_cpu = environ.get("SLURM_MEM_PER_CPU", "")
+    if per_cpu.isdigit():
+        cpus = environ.get("SLURM_CPUS_PER_TASK", "1")
+        return int(per_cpu) * MIB * (int(cpus) if cpus.isdigit() else 1), "SLURM_MEM_PER_CPU"
+    per_node, tasks = environ.get("SLURM_MEM_PER_NODE", ""), _slurm_tasks_per_node(environ)
+    if per_node.isdigit() and int(per_node) > 0 and tasks:
+        return int(per_node) * MIB // tasks, "SLURM_MEM_PER_NODE / tasks per node"
+    total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    return total // (os.cpu_count() or 1), "physical memory / cores"
+
+
+@dataclass
+class Estimate:
+    """A sweep's estimate: per task (in sweep order) seconds and bytes; totals; wall time by
+    ranks; the distinct grids (padded cells → tasks) and kernel sets; tasks over the limit."""
+
+    tasks: list[Task]
+    seconds: list[float]
+    bytes: list[float]
+    wall_s: dict[int, float] = field(default_factory=dict)
+    efficiency: dict[int, float] = field(default_factory=dict)
+
+    @property
+    def total_seconds(self) -> float:
+        return float(sum(self.seconds))
+
+    @property
+    def peak_bytes(self) -> float:
+        return max(self.bytes, default=0.0)
+
+    def grids(self) -> dict[str, int]:
+        """Distinct grids: label → number of tasks."""
+        counts: dict[str, int] = {}
+        for task in self.tasks:
+            counts[grid_label(task.params)] = counts.get(grid_label(task.params), 0) + 1
+        return counts
+
+    def kernel_sets(self) -> int:
+        """Distinct kernel sets (the tasks' kernel groups)."""
+        return len({t.group for t in self.tasks})
+
+    def over(self, limit: float) -> list[int]:
+        """Indices of the tasks whose memory exceeds ``limit`` bytes."""
+        return [i for i, b in enumerate(self.bytes) if b > limit]
+
+
+def grid_label(params: Mapping[str, Any]) -> str:
+    """A grid, as the dry-run names it: the kind's FFT grid in padded cells."""
+    return f"{task_kind(params)} {padded_cells(params):.0f} padded cells"
+
+
+def estimate(tasks: Sequence[Task], calibration: Calibration, ranks: Sequence[int] = (1, 64, 1024),
+             overheads: Overheads = Overheads()) -> Estimate:
+    """Seconds and bytes of every task, and the replayed wall time on each of ``ranks``."""
+    seconds = [calibration.task_seconds(t.params, t.cost) for t in tasks]
+    result = Estimate(list(tasks), seconds, [calibration.task_bytes(t.params) for t in tasks])
+    by_key = {t.key: s for t, s in zip(tasks, seconds)}
+    for r in ranks:
+        replayed = replay(tasks, by_key, r, overheads) if tasks else {"makespan_s": 0.0, "efficiency": 1.0}
+        result.wall_s[r], result.efficiency[r] = replayed["makespan_s"], replayed["efficiency"]
+    return result
+
+
+def check_memory(tasks: Sequence[Task], limit: float, source: str) -> None:
+    """``InputError`` (field --mem-per-rank) when a task's estimated peak memory exceeds
+    ``limit`` bytes; the base memory is this process's (no calibration needed)."""
+    base = base_memory_bytes()
+    worst = max(range(len(tasks)), key=lambda i: task_array_bytes(tasks[i].params), default=None)
+    if worst is None:
+        return
+    need = base + task_array_bytes(tasks[worst].params)
+    if need > limit:
+        over = sum(1 for t in tasks if base + task_array_bytes(t.params) > limit)
+        raise InputError(
+            "--mem-per-rank",
+            f"at least the largest task's estimated peak memory {need / MIB:.0f} MiB (task {worst}; {over} task(s) "
+            f"over the limit; see hpcontact run SPEC --dry-run)",
+            f"{limit / MIB:.0f} MiB ({source})",
+        )

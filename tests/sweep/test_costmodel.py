@@ -1,0 +1,157 @@
+"""The cost model (``hpcontact.sweep.costmodel``) and ``hpcontact run --dry-run`` / ``--mem-per-rank``."""
+
+from __future__ import annotations
+
+import json
+import socket
+
+import pytest
+
+from hpcontact import __version__
+from hpcontact.errors import InputError
+from hpcontact.sweep import costmodel
+from hpcontact.sweep.costmodel import Calibration, Overheads, Rate, replay
+from hpcontact.sweep.driver import main
+from hpcontact.sweep.tasks import Task, estimated_cost, padded_cells
+
+SPEC = """
+[sweep]
+title = "cost model test"
+[scene]
+quantities = ["tangential"]
+[numerics]
+n = 32
+tol = 1e-6
+[axes]
+shape = ["circle", "ellipse"]
+aspect = [1.0, 0.5]
+nu = [0.0, 0.3]
+"""
+TASKS = 2 + 2 * 2  # the circle ignores the aspect
+NO_OVERHEADS = Overheads(driver_s=0.0, service_s=0.0, wake_s=0.0, setup_s=0.0, gather_s=0.0)
+
+
+def toy(seconds: list[float]) -> tuple[list[Task], dict[str, float]]:
+    """Tasks costed as their seconds, each its own kernel group."""
+    tasks = [Task(key=f"t{i}", params={}, cost=s, group=f"g{i}") for i, s in enumerate(seconds)]
+    return tasks, {t.key: s for t, s in zip(tasks, seconds)}
+
+
+def test_four_equal_tasks_on_two_ranks_take_two_tasks_time():
+    tasks, seconds = toy([1.0] * 4)
+    r = replay(tasks, seconds, 2, NO_OVERHEADS)
+    assert r["chunks"] == 4 and r["makespan_s"] == 2.0 and r["efficiency"] == 1.0
+    assert replay(tasks, seconds, 1, NO_OVERHEADS)["makespan_s"] == 4.0
+
+
+def test_replay_with_overheads_matches_a_hand_computation():
+    tasks, seconds = toy([1.0] * 4)
+    o = Overheads(driver_s=0.1, service_s=0.01, wake_s=0.02, setup_s=0.05, gather_s=0.025)
+    # setup 4 x 0.05 = 0.2. Rank 0 takes chunk 1 at 0.2, ends 1.3. Rank 1 is served at 0.21,
+    # starts 0.23, ends 1.33. Rank 0 claims at 1.3 (no message), ends 2.4; rank 1 is served at
+    # 1.34, starts 1.36, ends 2.46. Gather 4 x 0.025 = 0.1: makespan 2.56.
+    r = replay(tasks, seconds, 2, o)
+    assert r["makespan_s"] == pytest.approx(2.56, rel=1e-12)  # float sums of the numbers above
+    assert r["efficiency"] == pytest.approx(4.0 / (2 * 2.56), rel=1e-12)
+    assert r["claims"] == pytest.approx((0.03 + 0.03) / (2 * 2.56), rel=1e-12)
+
+
+def test_longest_first_order_bounds_the_tail():
+    # 3, 2, 2, 1 on 2 ranks, largest first: rank 0 takes 3, rank 1 takes 2 then 2, rank 0 takes 1 → 4.
+    tasks, seconds = toy([1.0, 2.0, 3.0, 2.0])
+    assert replay(tasks, seconds, 2, NO_OVERHEADS)["makespan_s"] == 4.0
+
+
+def test_task_estimate_is_rate_times_cost_plus_per_solve_and_memory_grows_with_the_grid():
+    rates = {kind: Rate(rate_s=2e-6, solve_s=0.5) for kind in costmodel.KINDS}
+    calibration = Calibration("h", "v", rates, base_bytes=1000.0)
+    params = {"shape": "circle", "n": 32, "quantities": ["tangential"], "tol": 1e-6}
+    # S = 4 x 32 x 32 = 4096 padded cells, log2 S = 12; 2 solves x 6 digits = 12 solve units
+    assert padded_cells(params) == 4096 and estimated_cost(params) == 4096 * 12 * 12
+    assert calibration.task_seconds(params) == pytest.approx(2e-6 * 4096 * 12 * 12 + 0.5 * 12, rel=1e-15)
+    fixed, per_cell = costmodel.MEMORY_MODEL["contact"]
+    assert calibration.task_bytes(params) == 1000.0 + fixed + per_cell * 4096
+    crystal = {**params, "anisotropy": 2.0}
+    assert costmodel.task_kind(crystal) == "crystal" and calibration.task_bytes(crystal) > calibration.task_bytes(params)
+
+
+def test_the_fit_recovers_the_rates_of_two_scenes():
+    small = {"shape": "circle", "n": 32, "quantities": ["tangential"], "tol": 1e-6}
+    large = {**small, "n": 128, "tol": 1e-10}
+    true = Rate(rate_s=3e-8, solve_s=0.02)
+    seconds = [Calibration("h", "v", {"contact": true}, 0.0).task_seconds(p) for p in (small, large)]
+    fitted = costmodel.fit_rate([small, large], seconds)
+    # a 2 x 2 solve of exact data: rounding only
+    assert fitted.rate_s == pytest.approx(true.rate_s, rel=1e-9) and fitted.solve_s == pytest.approx(0.02, rel=1e-9)
+    # time proportional to cost alone: the fit's solve term would be negative, so it is dropped
+    assert costmodel.fit_rate([small, large], [1e-7 * estimated_cost(p) for p in (small, large)]).solve_s == 0.0
+
+
+def test_calibration_cache_round_trips_and_is_used_without_calibrating(tmp_path, monkeypatch):
+    rates = {kind: Rate(rate_s=1e-7 * (i + 1), solve_s=0.25 * i) for i, kind in enumerate(costmodel.KINDS)}
+    saved = Calibration(socket.gethostname(), __version__, rates, base_bytes=123456789.0, seconds=9.5)
+    path = costmodel.save_calibration(saved, tmp_path / "cm.json")
+    assert costmodel.read_calibration(path) == saved
+    monkeypatch.setattr(costmodel, "calibrate", lambda: pytest.fail("the cache was not used"))
+    assert costmodel.load_calibration(path) == saved
+
+
+@pytest.mark.parametrize("content", [
+    "{not json",
+    '{"format": 1}',
+    '{"format": 1, "host": "h", "version": "v", "base_bytes": 1.0, "rates": {"contact": {"solve_s": "NaN", '
+    '"rate_s": 1e-7}, "crystal": {"solve_s": 0, "rate_s": 1e-7}, "slip": {"solve_s": 0, "rate_s": 1e-7}}}',
+    "FOREIGN",
+])
+def test_a_corrupt_or_foreign_cache_is_ignored_with_a_warning_and_replaced(tmp_path, monkeypatch, content):
+    path = tmp_path / "cm.json"
+    fresh = Calibration(socket.gethostname(), __version__, {k: Rate(1e-7, 0.0) for k in costmodel.KINDS}, 1.0)
+    if content == "FOREIGN":
+        costmodel.save_calibration(Calibration("another-host", __version__, fresh.rates, 1.0), path)
+    else:
+        path.write_text(content)
+    monkeypatch.setattr(costmodel, "calibrate", lambda: fresh)
+    with pytest.warns(RuntimeWarning, match="cost calibration .* ignored"):
+        assert costmodel.load_calibration(path) == fresh
+    assert costmodel.read_calibration(path) == fresh  # replaced
+
+
+def test_dry_run_json_has_the_totals_and_one_entry_per_task(write_spec, capsys, monkeypatch):
+    monkeypatch.setenv("HPCONTACT_MPI", "0")
+    spec = write_spec(SPEC)
+    assert main([str(spec), "--dry-run", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)  # one JSON object, nothing else on stdout
+    assert out["tasks"] == TASKS and [t["index"] for t in out["tasks_list"]] == list(range(TASKS))
+    listed = [t["estimated_seconds"] for t in out["tasks_list"]]
+    assert listed == [1e-6 * t["cost"] for t in out["tasks_list"]]  # conftest's calibration: 1e-6 s per unit
+    assert out["estimated_task_seconds"] == pytest.approx(sum(listed), rel=1e-12)
+    assert out["estimated_peak_memory_bytes"] == max(t["estimated_peak_memory_bytes"] for t in out["tasks_list"])
+    assert out["wall_time_s"]["1"] >= out["estimated_task_seconds"] > out["wall_time_s"]["64"]
+    # grids: the circle and the b/a = 1 ellipse share 4 x 32 x 32 cells, b/a = 0.5 has 4 x 32 x 16; kernel
+    # sets: a circle has no aspect field, so its 2 nu values are 2 sets beside the ellipse's 2 nu x 2 b/a
+    assert sorted(out["grids"].values()) == [2, 4] and out["kernel_sets"] == 6
+    assert not (spec.parent / "out.nc.journal").exists()
+
+
+def test_a_task_over_the_memory_per_rank_is_warned_by_dry_run_and_refused_by_run(write_spec, capsys, monkeypatch):
+    monkeypatch.setenv("HPCONTACT_MPI", "0")
+    spec = write_spec(SPEC)
+    assert main([str(spec), "--dry-run", "--mem-per-rank", "1M"]) == 0
+    assert f"{TASKS} task(s) need more memory than 1 MiB per rank (--mem-per-rank)" in capsys.readouterr().err
+    assert main([str(spec), "--mem-per-rank", "1M"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--mem-per-rank" in err and "1 MiB (--mem-per-rank)" in err
+    assert not (spec.parent / "out.nc.journal").exists()  # refused before any work
+
+
+def test_memory_sizes_and_the_batch_systems_share():
+    assert costmodel.parse_memory("4G") == 4 * 2**30 and costmodel.parse_memory("512MiB") == 512 * 2**20
+    assert costmodel.parse_memory("1000") == 1000
+    for bad in ("", "-1G", "lots", "0"):
+        with pytest.raises(InputError, match="--mem-per-rank"):
+            costmodel.parse_memory(bad)
+    slurm = {"SLURM_MEM_PER_CPU": "2000", "SLURM_CPUS_PER_TASK": "2"}
+    assert costmodel.default_memory_per_rank(slurm) == (4000 * 2**20, "SLURM_MEM_PER_CPU")
+    node = {"SLURM_MEM_PER_NODE": "64000", "SLURM_TASKS_PER_NODE": "16(x4)"}
+    assert costmodel.default_memory_per_rank(node) == (4000 * 2**20, "SLURM_MEM_PER_NODE / tasks per node")
+    assert costmodel.default_memory_per_rank({})[1] == "physical memory / cores"
