@@ -3,7 +3,9 @@
 Modules, one job each: ``spec`` (TOML → checked axes and fixed fields), ``tasks`` (distinct
 scenes, keys, cost estimates, chunks), ``kinds`` (the solver and validator of a scene kind:
 contact or slip), ``schedule`` (MPI team and the shared atomic counter),
-``journal`` (per-rank append-only journals), ``dataset`` (entries → netCDF4), ``progress``
+``journal`` (per-rank append-only journals), ``dataset`` (entries → labelled data set and
+back: ``open_dataset``), ``netcdf`` (its compact, CF-checkable file), ``units`` (CF units of
+scaled quantities), ``progress``
 (progress lines, summary), ``guard`` (unusable outputs, the run lock), ``provenance`` (version,
 revision, numerics fingerprint, resolved scenes), ``signals`` (stopping every rank), ``faults``
 (fault injection for tests), ``arguments`` (the ``hpcontact run`` flags and exit statuses) and
