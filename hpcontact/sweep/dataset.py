@@ -41,7 +41,8 @@ import numpy as np
 import xarray as xr
 
 from ..quantities import directional_stiffness
-from .journal import BAD_INPUT, ERROR, NOT_CONVERGED, OK, Entry, to_json
+from ..elastic_constants import FAMILIES
+from .journal import BAD_INPUT, CRASHED, ERROR, NOT_CONVERGED, OK, Entry, to_json
 from .kinds import SLIP
 from . import netcdf
 from .spec import LABEL_AXES, Spec
@@ -49,7 +50,8 @@ from .units import cf_attributes
 
 
 NOT_COMPUTED = -1
-STATUS_MEANINGS = {OK: "ok", BAD_INPUT: "bad_input", NOT_CONVERGED: "not_converged", ERROR: "error", NOT_COMPUTED: "not_computed"}
+STATUS_MEANINGS = {OK: "ok", BAD_INPUT: "bad_input", NOT_CONVERGED: "not_converged", ERROR: "error", CRASHED: "crashed",
+                   NOT_COMPUTED: "not_computed"}
 
 TENSOR = ("K_xx", "K_xy", "K_yx", "K_yy")
 DIRECTIONAL = ("K_nn", "normalized_nn")  # derived from the tensor, not stored
@@ -96,7 +98,7 @@ VARIABLE_ATTRS: dict[str, Mapping[str, str]] = {
     "principal_angle_deg": {"long_name": "direction of K_max from the x axis", "units": "degree"},
     "principal_angle_note": {"long_name": "why principal_angle_deg is missing (text)"},
     "K_min_over_K_max": {"long_name": "K_min/K_max: principal stiffness ratio (frame-free anisotropy)", "units": "1"},
-    "K_a_over_K_b": {"long_name": "K_a/K_b = K_xx/K_yy (a: major axis along x, b: across)", "units": "1"},
+    "K_a_over_K_b": {"long_name": "K_a/K_b = K_xx/K_yy in the lab frame (a: major axis along x, b: across)", "units": "1"},
     "normalized_xx": {"long_name": "Li's normalized stiffness K_xx E*/(K_zz G*)", "units": "1"},
     "normalized_yy": {"long_name": "Li's normalized stiffness K_yy E*/(K_zz G*)", "units": "1"},
     "K_nn": {"long_name": "tangential stiffness along the load direction K_nn(angle)", "units": STIFFNESS},
@@ -358,11 +360,14 @@ def _slip_attribute_table(spec: Spec) -> dict[str, dict[str, Any]]:
 
 
 def _names_materials(spec: Spec) -> bool:
-    """Whether a slip sweep names elastic library materials (their constants are in Pa: SI)."""
+    """Whether a slip sweep gives an elastic body by library name or by elastic constants (GPa):
+    moduli then have units, and the sweep's inputs and results are SI."""
     tables = [spec.fixed] + [fields for axis in spec.axes for fields in axis.fields]
-    return any(
+    named = any(
         isinstance(t.get(key), str) and t[key].strip().lower() != "rigid" for t in tables for key in ("material", "material2")
     )
+    constants = any(t.get(f"{family}{suffix}") is not None for t in tables for family in FAMILIES for suffix in ("", "2"))
+    return named or constants
 
 
 def _names_crystals(spec: Spec) -> bool:
@@ -467,7 +472,8 @@ def _global_attrs(spec: Spec, attrs: Mapping[str, Any]) -> dict[str, Any]:
         out.update({
             "stiffness_units": f"forces per unit displacement in units of {'GPa' if gpa else 'G'} a (a semi-major extent of the punch = 1)",
             "stress_units": stress,
-            "length_units": "a: semi-major extent of the punch (= 1 on the grid); L: unit of the sphere's radius and depth",
+            "length_units": "a: semi-major extent of the punch (= 1 on the grid; for a mask, half the long side of the contact); "
+                            "L: unit of the sphere's radius and depth",
         })
     for name, value in spec.fixed.items():
         if not (_is_number(value) or isinstance(value, str)):

@@ -158,6 +158,12 @@ def test_units_follow_the_scene_kind():
     # input units F and L: ratios to them (units "1", the scale named)
     assert plain["contact_area"].attrs["scale"] == "L2" and plain["radius"].attrs["scale"] == "L"
     assert plain["contact_area"].attrs["units"] == "1" and plain["radius"].attrs["units"] == "1"
+    # bodies by elastic constants (GPa) are SI like library materials
+    iron, copper = "cubic = [230.0, 135.0, 117.0]", "cubic = [168.4, 121.4, 75.4]"
+    constants = SPEC.replace('material = "Fe", material2 = "Fe"', f"{iron}, {iron.replace('cubic', 'cubic2')}").replace(
+        'material = "Cu", material2 = "Fe"', f"{copper}, {iron.replace('cubic', 'cubic2')}")
+    crystal = _dataset(slip_spec(constants), lambda p: {"contact_area": 1e-8})
+    assert crystal["contact_area"].attrs["units"] == "m2" and "SI" in crystal.attrs["units"]
     indentation = parse_spec(
         '[scene]\nquantities = ["indentation"]\nradius = 1.0\ndepth = 1e-3\n[axes]\nnu = [0.3]\n', validate=lambda p: None
     )
