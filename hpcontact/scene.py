@@ -7,6 +7,7 @@ allowed range. ``hpcontact.plan`` decides what to build and run for it.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -215,7 +216,29 @@ def _miller(value: Any) -> tuple[int, int, int]:
     return hkl  # type: ignore[return-value]
 
 
+MATERIAL_FIELDS = ("material", "anisotropy", "azimuth", "orientation", "miller")
+
+
 def _material(p: Mapping[str, Any], G: float, nu: float) -> Material:
+    """``_built_material`` of these fields, built once per distinct value (a sweep validates
+    every scene, and its crystals repeat across shapes, b/a and grids: rotating one costs ~1 ms).
+    Materials are immutable, so scenes may share one."""
+    fields = [(name, p[name]) for name in MATERIAL_FIELDS] + [("G", G), ("nu", nu)]
+    try:  # the type is part of the key: True == 1, but a bool is no anisotropy factor
+        key = tuple((name, type(v).__name__, tuple(v) if isinstance(v, list) else v) for name, v in fields)
+        hash(key)
+    except TypeError:  # an unhashable value: the builder names the field
+        return _built_material(p, G, nu)
+    return _cached_material(key)
+
+
+@functools.lru_cache(maxsize=4096)
+def _cached_material(key: tuple) -> Material:
+    fields = {name: list(v) if type_name == "list" else v for name, type_name, v in key}
+    return _built_material(fields, fields["G"], fields["nu"])
+
+
+def _built_material(p: Mapping[str, Any], G: float, nu: float) -> Material:
     """The half-space: isotropic (closed-form kernels) unless a crystal or A ≠ 1 is asked.
 
     ``material`` names a library crystal (GPa; G and nu are then ignored); otherwise a cubic

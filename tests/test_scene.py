@@ -149,3 +149,15 @@ def test_validate_raises_like_from_params():
     with pytest.raises(InputError) as info:
         validate({"nu": math.nan})
     assert info.value.field == "nu"
+
+
+def test_a_crystal_is_built_once_per_distinct_material():
+    # a sweep validates every scene; its crystals repeat across shapes and b/a (rotating one ~1 ms)
+    crystal = {"shape": "ellipse", "nu": 0.3, "anisotropy": 2.0, "orientation": 20.0}
+    first = Scene.from_params({**crystal, "aspect": 0.5}).material
+    assert Scene.from_params({**crystal, "aspect": 0.25, "n": 32}).material is first
+    assert Scene.from_params({**crystal, "orientation": 21.0}).material != first
+    Scene.from_params({"nu": 0.3, "anisotropy": 1})
+    with pytest.raises(InputError) as info:  # True == 1 must not hit the cached A = 1 body
+        Scene.from_params({"nu": 0.3, "anisotropy": True})
+    assert info.value.field == "anisotropy"
