@@ -1,5 +1,5 @@
 """Scheduling without MPI: the serial team, the local counter, the claim loop and the launch
-check (the served counter on 2 ranks: ``tests/mpi/test_schedule.py``)."""
+check (the served counter on 2 ranks: ``tests/mpi/test_served_counter.py``)."""
 
 from __future__ import annotations
 
