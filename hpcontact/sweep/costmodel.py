@@ -11,11 +11,16 @@ term is the FFT work, the second the work per solve and digit that does not grow
 (Python, CG bookkeeping, set-up: cost / (S log2 S) is the number of solves × digits).
 ``rate_k`` (seconds per cost unit) and ``solve_k`` (seconds per solve-digit) are measured by
 ``calibrate``: two real solves per kind on a small and a larger grid (each run once untimed
-first, so that FFT plans are warm as in a sweep, then timed with the kernel cache cleared, as a
-sweep's first task of a kernel group runs) give the two coefficients. A pure rate misses by
+first, so that FFT plans are warm as in a sweep, then timed twice with the kernel cache cleared,
+as a sweep's first task of a kernel group runs; the lesser time counts) give the two
+coefficients. Times are CPU seconds of
+the process (``time.process_time``; the solvers run one thread unless a scene asks for more):
+the time on a core of its own, as a batch system gives one per rank, and unlike wall time not
+inflated by whatever else shares the machine while it calibrates (measured on this shared
+2-core machine: wall-time calibrations of the same scenes differ by 2x from minute to minute). A pure rate misses by
 2-4x: measured 0.115, 0.049, 0.029 µs per unit for an isotropic ellipse at n = 32, 64, 128; a
 constant per task instead of the per-solve term misses the slip tasks (whose time follows the
-steps and passes more than the grid) by 2-3x. The calibration takes ~15-30 s and is cached like
+steps and passes more than the grid) by 2-3x. The calibration takes ~10-30 s and is cached like
 FFTW wisdom, in ``costmodel-HOST.json`` beside the wisdom file ($HPCONTACT_COSTMODEL overrides),
 keyed by host and package version: a file of another host or version, or one that cannot be
 read as a calibration, is ignored with a warning and replaced.
@@ -35,7 +40,9 @@ dependence), fitted to ``tracemalloc`` peaks of single solves with cold kernel c
   spectra, traction and CG vectors for 2 components, FFT buffers) + ~1 MiB;
 * crystal (A = 2, ψ = 30°, tangential): 45.1, 53.2, 77.8 MiB at 1 024, 16 384, 65 536 cells
   → 525 B/cell (nine complex kernel blocks, 3 components) + 45 MiB (quadrature tables);
-* slip (Cu on Fe, coupled): 2.7 and 12.5 MiB at 1 239 and 19 825 cells → 530 B/cell + 2 MiB.
+* slip (Cu on Fe, coupled): 2.7 and 12.5 MiB at 1 239 and 19 825 cells → 530 B/cell + 2 MiB;
+  with a crystal body, the crystal's 45 MiB instead of 2 (a Cu crystal under a sphere, n = 32:
+  measured peak 183 MiB against 148 MiB estimated without it).
 
 The kernel-spectrum cache (``HPCONTACT_KERNEL_CACHE_MB``, default 1 GiB) can hold more than one
 task's kernels on a rank; the model counts one task's, as the refusal must (a task that does not
@@ -146,8 +153,14 @@ class Calibration:
 
 
 def task_array_bytes(params: Mapping[str, Any]) -> float:
-    """The arrays of one task of ``params``: fixed_k + per_cell_k × padded cells (bytes)."""
-    fixed, per_cell = MEMORY_MODEL[task_kind(params)]
+    """The arrays of one task of ``params``: fixed_k + per_cell_k × padded cells (bytes); a slip
+    scene with a crystal body has the crystal's fixed part (its kernels' quadrature tables)."""
+    from ..elastic_constants import describes_crystal
+
+    kind = task_kind(params)
+    fixed, per_cell = MEMORY_MODEL[kind]
+    if kind == "slip" and describes_crystal(params):
+        fixed = MEMORY_MODEL["crystal"][0]
     return fixed + per_cell * padded_cells(params)
 
 
@@ -164,18 +177,22 @@ def base_memory_bytes() -> float:
     return float(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * scale)
 
 
-def _timed(params: Mapping[str, Any]) -> float:
-    """Wall seconds of a solve of ``params`` with warm FFT plans (an untimed solve first) and a
-    cold kernel cache."""
+def _timed(params: Mapping[str, Any], repeats: int = 2) -> float:
+    """CPU seconds of a solve of ``params`` with warm FFT plans (an untimed solve first) and a
+    cold kernel cache: the time on a core of its own, whatever else shares the machine; the
+    least of ``repeats`` timings (the others carry interference)."""
     from ..operator import clear_cache
     from .kinds import task_function
 
     function = task_function(scene_kind(params))
     function(dict(params))
-    clear_cache()
-    started = time.perf_counter()
-    function(dict(params))
-    return time.perf_counter() - started
+    best = math.inf
+    for _ in range(repeats):
+        clear_cache()
+        started = time.process_time()
+        function(dict(params))
+        best = min(best, time.process_time() - started)
+    return best
 
 
 def fit_rate(scenes: Sequence[Mapping[str, Any]], seconds: Sequence[float]) -> Rate:
