@@ -233,7 +233,9 @@ def check_setup(setup: Setup, ctx: Context, serial_s: float) -> Row:
             row.failures.append(f"MPI tests exited {status}:\n{tail(log)}")
     check_parallel_demo(row, setup.launcher, 2, env, ctx)
     if row.speedup is not None and row.speedup < MIN_SPEEDUP:
-        row.failures.append(f"speedup {row.speedup:.2f} < {MIN_SPEEDUP} on 2 ranks")
+        load = os.getloadavg()[0]
+        row.failures.append(f"speedup {row.speedup:.2f} < {MIN_SPEEDUP} on 2 ranks (load average {load:.1f} on "
+                            f"{os.cpu_count()} cores: other work on the machine takes from the 2 ranks first)")
     return row
 
 
