@@ -15,11 +15,11 @@ Why not ``mpi4py.futures.MPICommExecutor``. It dedicates rank 0 to serving (half
 job idle) and funnels every result through it.
 
 The choice. Rank 0 runs a server thread that answers requests (``fetch_add``: the next chunk
-index; ``add``: progress counts, no answer, sent at most once a second per worker) with ``Iprobe`` + ``Recv``, sleeping 1–16 ms
+index; ``add``: progress counts, no answer, sent at most once a second per worker) with ``Iprobe`` + ``Recv``, sleeping 0.5–4 ms
 between empty polls; its main thread computes chunks like every other rank and takes its own
 chunk indices from the same counter under a lock, without MPI. Point-to-point messages progress
 on every transport as soon as the server thread polls, so a worker waits at most ``IDLE_POLL_S`` plus
-one GIL switch interval (5 ms) for a chunk, whatever rank 0 computes (FFTW and numpy release the
+one GIL switch interval (1 ms while serving) for a chunk, whatever rank 0 computes (FFTW and numpy release the
 GIL). A server blocked in ``Recv`` would be simpler, but Open MPI's blocking receive busy-polls
 a core, which takes it from rank 0's own solves (measured on 2 cores: speedup 1.26 with a
 blocking server thread, 1.55–1.66 with a sleeping poll, 1.67 for a static split of the same
@@ -75,11 +75,15 @@ BATCH_LAUNCHES = (
     ("PBS pbsdsh", "PBS_TASKNUM", ("PBS_NP",)),
 )
 # The server thread sleeps between empty polls: POLL_S after a message, doubling while none
-# comes, up to IDLE_POLL_S. A worker's claim waits at most IDLE_POLL_S + one GIL switch interval
-# (5 ms) — small against a chunk (≥ 1/(4·ranks) of the sweep) — and rank 0's solves are
-# interrupted ≤ 1/IDLE_POLL_S times a second while no one asks.
-POLL_S = 0.001
-IDLE_POLL_S = 0.016
+# comes, up to IDLE_POLL_S; while it runs, rank 0's GIL switch interval is SWITCH_INTERVAL_S
+# (Python's default, 5 ms, is how long a waking server waits for a main thread busy in Python
+# code). A worker's claim then waits at most ~IDLE_POLL_S + SWITCH_INTERVAL_S, and rank 0's own
+# work is interrupted at most 1/IDLE_POLL_S times a second (one GIL hand-over, ~µs, each).
+# Measured, demo on 2 ranks (228 tasks, ~100 claims): 16 ms polls and the default interval cost
+# the ranks 1.1 s of waiting in all.
+POLL_S = 0.0005
+IDLE_POLL_S = 0.004
+SWITCH_INTERVAL_S = 0.001
 # A worker's ``add``s are summed locally and sent at most every ADD_EVERY_S seconds (and before
 # each claim and at close): rank 0 answers O(ranks) messages a second, not one per task, so its
 # own solves do not pay for 1000 ranks' progress counts; progress lines lag by ≤ ADD_EVERY_S.
@@ -198,6 +202,8 @@ class ServedCounter:
             self._local = LocalCounter(slots)
             self._workers = comm.size - 1  # ranks that have not left yet
             if threaded and self._workers:
+                self._switch_interval = sys.getswitchinterval()
+                sys.setswitchinterval(min(self._switch_interval, SWITCH_INTERVAL_S))
                 self._server = threading.Thread(target=self._serve, name="hpcontact-scheduler", daemon=True)
                 self._server.start()
         self._threaded = threaded
@@ -279,6 +285,7 @@ class ServedCounter:
         if self._comm.rank == 0:
             if self._server is not None:
                 self._server.join()
+                sys.setswitchinterval(self._switch_interval)
             else:
                 self._serve()
         elif not self._left:
