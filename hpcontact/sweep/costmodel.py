@@ -307,13 +307,14 @@ def load_calibration(path: Path | None = None, stream: Any = None) -> Calibratio
 @dataclass(frozen=True)
 class Overheads:
     """Seconds the scheduler and driver add (module docstring). Defaults: measured on the
-    development machine (2 cores, MPICH, shared with other jobs, 2026-11-22): the claim and the
-    server by ``benchmarks/sweep_scale.py``'s probe, the driver's per-task time (scheduling 1.3
+    development machine (2 cores, MPICH, shared with other jobs, 2026-11-22): the claim round
+    trip as the scheduler's commit 856c639 measured it, the server's time per message by
+    ``benchmarks/sweep_scale.py``'s probe, the driver's per-task time (scheduling 1.3
     ms + journal 3.0 ms) and rank 0's gather by ``benchmarks/sweep_scaling.py`` (README)."""
 
     driver_s: float = 4.3e-3
     service_s: float = 4.5e-5  # server time per message on a full queue
-    wake_s: float = 8.0e-3  # claim round trip while rank 0 computes (median), less service_s
+    wake_s: float = 2.5e-3  # claim round trip while rank 0 computes in Python (scheduler of 856c639), less service_s
     setup_s: float = 3.0e-3  # six-axis spec cut to 2 orientations: validation and enumeration
     gather_s: float = 0.4e-3
 
