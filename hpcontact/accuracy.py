@@ -570,36 +570,16 @@ def cold_solve(params: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def run_study(argv: Sequence[str] | None = None) -> int:
-    """``[mpiexec -n N] python -m hpcontact.accuracy SPEC [--resume] [--output PATH]``.
+    """``[mpiexec -n N] python -m hpcontact.accuracy SPEC [hpcontact run options]``.
 
-    ``hpcontact run`` with :func:`cold_solve` as the task function (MPI, resumable journals,
-    the same data set); used for ``jobs/accuracy_cost.toml``.
+    ``hpcontact run`` with :func:`cold_solve` as the task function (MPI, locks, resumable
+    journals, signals, exit statuses and the data set of ``hpcontact run``); used for
+    ``jobs/accuracy_cost.toml``.
     """
-    import argparse
-    import sys
-    import traceback
+    from .sweep.driver import main
 
-    from .sweep.driver import run_sweep
-    from .sweep.schedule import world
-
-    parser = argparse.ArgumentParser(prog="python -m hpcontact.accuracy",
-                                     description="Run an accuracy-versus-cost sweep, every scene timed with cold kernel caches.")
-    parser.add_argument("spec", help="sweep spec (TOML), e.g. jobs/accuracy_cost.toml")
-    parser.add_argument("--resume", action="store_true", help="skip every task the journals of this output hold")
-    parser.add_argument("--output", help="data set path (.nc), instead of the spec's [sweep].output")
-    args = parser.parse_args(argv)
-    team = world()
-    try:
-        run_sweep(args.spec, resume=args.resume, output=args.output, task_function=cold_solve, team=team)
-    except InputError as exc:
-        if team.rank == 0:
-            print(f"hpcontact: error: {exc}", file=sys.stderr)
-        return 2
-    except Exception:  # noqa: BLE001 - reported, then every rank is ended (as hpcontact run does)
-        traceback.print_exc()
-        team.abort(1)
-        return 1
-    return 0
+    return main(argv, prog="python -m hpcontact.accuracy", task_function=cold_solve,
+                description="Run an accuracy-versus-cost sweep, every scene timed with cold kernel caches.")
 
 
 if __name__ == "__main__":

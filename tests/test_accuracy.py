@@ -229,3 +229,16 @@ def test_nu_zero_extrapolation_keeps_isotropy() -> None:
 def test_solve_to_accuracy_refuses_bad_requests(params: dict, accuracy: float) -> None:
     with pytest.raises(InputError):
         acc.solve_to_accuracy(params, accuracy)
+
+
+def test_the_study_runner_is_hpcontact_run_with_cold_solves(tmp_path, capsys):
+    """``python -m hpcontact.accuracy`` takes ``hpcontact run``'s options and exit statuses."""
+    from hpcontact.accuracy import run_study
+
+    spec = tmp_path / "study.toml"
+    spec.write_text('[scene]\nquantities = ["tangential"]\nshape = "circle"\n[numerics]\ntol = 1e-8\n[axes]\nn = [8, 16]\n')
+    output = tmp_path / "study.nc"
+    assert run_study([str(spec), "--output", str(output)]) == 0 and output.exists()
+    assert run_study([str(spec), "--output", str(output)]) == 2  # journals exist: --resume or --restart
+    assert "--resume" in capsys.readouterr().err
+    assert run_study([str(spec), "--output", str(output), "--resume"]) == 0

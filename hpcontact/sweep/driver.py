@@ -559,8 +559,8 @@ def _keep_wisdom() -> None:
         print(f"hpcontact: FFTW wisdom not saved ({exc})", file=sys.stderr)
 
 
-def run_from_arguments(args: argparse.Namespace) -> int:
-    """Run what ``add_run_arguments`` parsed."""
+def run_from_arguments(args: argparse.Namespace, task_function: TaskFunction | None = None) -> int:
+    """Run what ``add_run_arguments`` parsed (``task_function``: see ``run_command``)."""
     from .costmodel import default_memory_per_rank, parse_memory
 
     memory = (parse_memory(args.mem_per_rank), "--mem-per-rank") if args.mem_per_rank is not None else None
@@ -573,15 +573,18 @@ def run_from_arguments(args: argparse.Namespace) -> int:
     options = Options(resume=args.resume, restart=args.restart, accept_stale=args.accept_stale,
                       retry_crashed=args.retry_crashed, break_lock=args.break_lock,
                       mem_per_rank=memory if memory is not None else default_memory_per_rank())
-    return run_command(args.spec, options, args.output, args.grace)
+    return run_command(args.spec, options, args.output, args.grace, task_function)
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m hpcontact.sweep SPEC [options]`` (see ``add_run_arguments``)."""
-    parser = argparse.ArgumentParser(prog="hpcontact run", description="Run a parameter sweep (under mpiexec or alone).")
+def main(argv: Sequence[str] | None = None, prog: str = "hpcontact run",
+         description: str = "Run a parameter sweep (under mpiexec or alone).", task_function: TaskFunction | None = None) -> int:
+    """``python -m hpcontact.sweep SPEC [options]`` (see ``add_run_arguments``); another
+    ``task_function`` makes another command with the same options and exit statuses
+    (``python -m hpcontact.accuracy``)."""
+    parser = argparse.ArgumentParser(prog=prog, description=description)
     add_run_arguments(parser)
     try:
-        return run_from_arguments(parser.parse_args(argv))
+        return run_from_arguments(parser.parse_args(argv), task_function)
     except InputError as exc:
         print(f"hpcontact run: error: {exc}", file=sys.stderr)
         return EXIT_REFUSED
