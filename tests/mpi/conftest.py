@@ -15,7 +15,10 @@ rank to rank).
 
 from __future__ import annotations
 
+import os
 import shutil
+import signal
+import subprocess
 import tempfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -81,3 +84,15 @@ def _assert_same_results(a: xr.Dataset, b: xr.Dataset, rtol: float = 1e-12) -> N
 def assert_same_results() -> Callable[[xr.Dataset, xr.Dataset], None]:
     """Compare two sweep data sets (see ``_assert_same_results``)."""
     return _assert_same_results
+
+
+@pytest.fixture
+def launched():
+    """Processes a test starts itself (mpiexec runs, each in its own session); any still running
+    at the end are killed with their ranks."""
+    procs: list[subprocess.Popen] = []
+    yield procs
+    for proc in procs:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.communicate()

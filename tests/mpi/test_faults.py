@@ -77,17 +77,6 @@ def reference(tmp_path_factory) -> Path:
     return run_sweep(folder / "spec.toml", output=folder / "out.nc", team=SerialTeam(), stream=io.StringIO())
 
 
-@pytest.fixture
-def launched():
-    """Processes started by a test; any still running at the end are killed with their ranks."""
-    procs: list[subprocess.Popen] = []
-    yield procs
-    for proc in procs:
-        if proc.poll() is None:
-            os.killpg(proc.pid, signal.SIGKILL)
-            proc.communicate()
-
-
 def start(folder: Path, *options: str, revision: str = "a", faults: str | None = None,
           procs: list | None = None) -> subprocess.Popen:
     """``mpiexec -n 2 hpcontact run spec.toml OPTIONS`` in ``folder``."""

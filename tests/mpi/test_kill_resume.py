@@ -60,17 +60,6 @@ def launch(spec: Path, output: Path, log: Path, *extra: str) -> subprocess.Popen
     )
 
 
-@pytest.fixture
-def launched():
-    """Processes started by the test; any still running at the end are killed with their ranks."""
-    procs: list[subprocess.Popen] = []
-    yield procs
-    for proc in procs:
-        if proc.poll() is None:
-            os.killpg(proc.pid, signal.SIGKILL)
-            proc.communicate()
-
-
 def started(log: Path, rank: int) -> list[tuple[int, str]]:
     """(pid, task key) of each task the rank started, in order."""
     path = log / f"rank{rank}.log"
