@@ -4,7 +4,7 @@
                                             [--figure results/boundary_treatment.png] [--full]
 
 Before (the engine, ``hpcontact.solve``): a cell is in the contact when its centre is inside
-the shape. After (``hpcontact.accuracy.covered_solve``): every cell that the shape touches is
+the shape. After (``hpcontact.boundary_cells.covered_solve``): every cell that the shape touches is
 in, with its exact covered fraction f, and its self-compliance raised to A_ii/f (diagonal
 D_ii = A_ii (1 − f)/f; the FFT operator, CG and preconditioner are unchanged).
 
@@ -34,7 +34,8 @@ from pathlib import Path
 import numpy as np
 
 from hpcontact import analytic
-from hpcontact.accuracy import covered_solve, solve_to_accuracy
+from hpcontact.accuracy import solve_to_accuracy
+from hpcontact.boundary_cells import covered_solve
 from hpcontact.solve import solve
 
 NU = 0.3
