@@ -36,6 +36,7 @@ Hertz estimate (contact grid sizing only): E* from the indentation moduli of the
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any, Mapping
 from functools import cached_property
@@ -60,12 +61,16 @@ GPA = 1e9
 N_DIRECTIONS = 256
 
 
-def _scaled(material: Material | None, G_ref: float) -> Material | None:
+def _scaled(material: Material | None, G_ref: float, angle_deg: float) -> Material | None:
     if material is None:
         return None
     if isinstance(material, Isotropic):
         return Isotropic(G=material.G / G_ref, nu=material.nu)
-    return Crystal(material.voigt / G_ref, material.name, material.citation)
+    crystal = Crystal(material.voigt / G_ref, material.name, material.citation)
+    if angle_deg == 0.0:
+        return crystal
+    c, s = math.cos(math.radians(angle_deg)), math.sin(math.radians(angle_deg))
+    return crystal.rotated(np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]]))
 
 
 def shear_modulus(material: Material) -> float:
@@ -161,9 +166,11 @@ class AnisotropicPair(Pair):
         """The coupling blocks vanish (coupling_size below ``SIMILARITY_TOL``)."""
         return self.coupling_size <= SIMILARITY_TOL
 
-    def scaled(self, G_ref: float) -> PairCompliance:
-        """The pair's compliance with stresses in units of ``G_ref``."""
-        return PairCompliance(_scaled(self.body1.material, G_ref), _scaled(self.body2.material, G_ref))
+    def scaled(self, G_ref: float, angle_deg: float = 0.0) -> PairCompliance:
+        """The pair's compliance with stresses in units of ``G_ref``, seen in the frame turned by
+        ``angle_deg`` about the normal from the lab (the contact grid's frame: its x axis at
+        ``angle_deg`` from lab x; crystals rotated, C′ = R⁴C with rows of R the grid axes)."""
+        return PairCompliance(*(_scaled(b.material, G_ref, angle_deg) for b in (self.body1, self.body2)))
 
 
 def crystal_pair(p: Mapping[str, Any]) -> AnisotropicPair:

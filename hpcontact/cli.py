@@ -80,7 +80,7 @@ SLIP_OPTIONS = (
     ("steps", int, "tangential load steps"),
     ("control", str, "force or displacement"),
     ("displacement", float, "final tangential displacement (with --control displacement)"),
-    ("path", str, "load (monotonic) or loop (load, unload, reload)"),
+    ("path", str, "load (monotonic), loop (load, unload, reload) or proportional (normal load with the displacement)"),
     ("coupling", str, "auto, both, coupled or decoupled"),
     ("tensor", bool, "add the incremental 2 x 2 tangential stiffness tensor"),
     ("history", bool, "add every load step"),

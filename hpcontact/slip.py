@@ -131,7 +131,8 @@ def solve_slip(params: Mapping[str, Any]) -> dict[str, Any]:
     ``dundurs_beta`` and ``coupling_size`` (|β|; for crystal pairs only ``coupling_size``, and no
     Hertz/Mindlin closed forms: ``hertz_*`` is then the indentation-modulus estimate); for a dissimilar pair solved both ways the Goodman (decoupled) answers as
     ``decoupled_*`` and the relative differences ``coupling_effect_stiffness``,
-    ``coupling_effect_displacement``, ``coupling_effect_stick_area``; ``history`` (every step)
+    ``coupling_effect_displacement``, ``coupling_effect_stick_area`` (absent when the decoupled
+    contact slides entirely: displacement control past its sliding limit); ``history`` (every step)
     when asked. Bad input raises ``InputError`` naming the field.
     """
     started = time.perf_counter()
@@ -183,7 +184,8 @@ def solve_slip(params: Mapping[str, Any]) -> dict[str, Any]:
         record["coupling_effect_displacement"] = _relative(
             last.displacement, decoupled.last.displacement, scene.tol * limit / k0 if k0 > 0.0 else 0.0
         )
-        record["coupling_effect_stick_area"] = _relative(last.stick_area, decoupled.last.stick_area)
+        if decoupled.last.stick_area > 0.0:  # else the decoupled contact slides: no relative change of 0
+            record["coupling_effect_stick_area"] = _relative(last.stick_area, decoupled.last.stick_area)
     counters = [p.counters for p in paths.values()]
     record["iterations"] = int(sum(c.total() for c in counters))
     record["residual"] = float(max(c.residual for c in counters))
@@ -290,7 +292,8 @@ def _plan(problem: SlipProblem, modes: list[bool], paths: Mapping[bool, PathResu
         "method": [
             "normal load: Polonsky-Keer on the slip grid, applied "
             + (f"in {scene.steps} steps with friction (Spence), coupled path" if scene.normal_friction
-               else "without friction"),
+               else f"with the tangential displacement in {scene.steps} proportional steps, friction acting"
+               if scene.path == "proportional" else "without friction"),
             "slip: semismooth Newton (primal-dual active set, linearized slip directions), PCG inner solves, "
             "MPRGP fallback",
             "tangent: consistent (stick cells stuck, slip cells slide along their traction); "

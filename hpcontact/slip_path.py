@@ -125,24 +125,32 @@ class PathSolver:
         subtracts from on the other (the shifted stick zone of Rodríguez-Tembleque et al. 2011,
         Fig. 6d). Zero for an elastically similar pair (A_tz = 0)."""
         pb = self.problem
-        shape = pb.gap.shape
-        zero2, zero = np.zeros((2,) + shape), np.zeros(shape)
-        none = np.zeros(shape, dtype=bool)
-        state = SlipState(np.zeros(2), zero2, zero, zero2.copy(), np.zeros(2), none, none)
+        state = self.unloaded()
         steps = pb.scene.steps
         for k in range(1, steps + 1):
             state = self.equilibrium(state, np.zeros(2), load=pb.P * k / steps)
         return state
 
+    def unloaded(self) -> SlipState:
+        """The bodies before any load: no contact, no traction, no slip."""
+        shape = self.problem.gap.shape
+        zero2, none = np.zeros((2,) + shape), np.zeros(shape, dtype=bool)
+        return SlipState(np.zeros(2), zero2, np.zeros(shape), zero2.copy(), np.zeros(2), none, none)
+
     def equilibrium(self, prev: SlipState, delta: np.ndarray, warm: SlipState | None = None,
                     load: float | None = None) -> SlipState:
-        """The state reached from ``prev`` when the rigid displacement becomes ``delta`` (and, in
-        coupled mode, the normal load ``load``, grid units; default the scene's).
+        """The state reached from ``prev`` when the rigid displacement becomes ``delta`` and the
+        normal load ``load`` (grid units; default: coupled, the scene's; decoupled, the pressure
+        of ``prev`` is kept; with ``load`` given the decoupled pressure is the frictionless one at it).
 
         ``warm`` (a nearby state, e.g. the previous Newton iterate) only seeds the iteration.
         """
         pb = self.problem
         p, t = (prev.p, prev.t) if warm is None else (warm.p, warm.t)
+        if not self.coupled and load is not None:
+            normal = pb.normal(None, load)
+            self.count.pk += normal.iterations
+            p = normal.traction[0]
         shift = np.asarray(delta, dtype=np.float64)[:, None, None]
         c = 1.0 / pb.self_compliance
         p_change = math.inf
@@ -193,8 +201,8 @@ class PathSolver:
             state.K_stick = K
         return state.K_stick
 
-    def to_displacement(self, prev: SlipState, delta: np.ndarray) -> SlipState:
-        state = self.equilibrium(prev, delta)
+    def to_displacement(self, prev: SlipState, delta: np.ndarray, load: float | None = None) -> SlipState:
+        state = self.equilibrium(prev, delta, load=load)
         self.tangent(state)
         return state
 
@@ -290,7 +298,12 @@ def _targets(scene: SlipScene, limit: float) -> list[tuple[str, float]]:
 
 
 def run_path(problem: SlipProblem, coupled: bool) -> PathResult:
-    """Normal contact, then the scene's tangential steps, in one coupling mode."""
+    """Normal contact, then the scene's tangential steps, in one coupling mode; ``proportional``
+    path: the normal load and the tangential displacement grow together from the unloaded bodies
+    in ``steps`` equal increments, friction acting throughout (one step: the single static
+    problem of Rodríguez-Tembleque et al. 2011, §6.2, slip measured from the unloaded state). The
+    first point is the frictionless normal contact at the full load (the record's no-slip
+    reference) on every path."""
     scene = problem.scene
     solver = PathSolver(problem, coupled)
     theta = math.radians(scene.angle_deg - problem.hertz.angle_deg)
@@ -316,10 +329,14 @@ def run_path(problem: SlipProblem, coupled: bool) -> PathResult:
     state = solver.initial
     points = [point("initial", state)]
     if scene.mu > 0.0:
-        for branch, target in _targets(scene, scene.mu * scene.load):
+        proportional = scene.path == "proportional"
+        if proportional:  # the reference point stays the frictionless contact at the full load
+            state = solver.unloaded()
+        for k, (branch, target) in enumerate(_targets(scene, scene.mu * scene.load), start=1):
             if scene.control == "force":
                 state = solver.to_force(state, n * (target / Fu))
             else:
-                state = solver.to_displacement(state, n * (target / L))
+                load = problem.P * k / scene.steps if proportional else None
+                state = solver.to_displacement(state, n * (target / L), load)
             points.append(point(branch, state))
     return PathResult(points, solver.count, state, solver.initial)

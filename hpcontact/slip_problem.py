@@ -13,7 +13,8 @@ friction acting on the coupled path (Spence's problem for dissimilar pairs, John
 
 Crystal bodies (``anisotropic_pair``, ``elastic_constants``): a pair with a crystal is solved on
 the pair's interface compliance (``PairEngine``: all tangential blocks, the coupling blocks when
-they do not cancel); the Hertz ellipse that sizes the grid uses the indentation-modulus estimate
+they do not cancel), its stiffnesses turned from the lab into the grid's frame (x along the
+contact ellipse's major axis, at ``hertz.angle_deg`` from lab x); the Hertz ellipse that sizes the grid uses the indentation-modulus estimate
 of E* and the grid grows by sqrt(max/min H_zz) so that a non-elliptical contact fits.
 
 Units: lengths are scaled by the Hertz semi-axis a and stresses by G_eq (G_ref for a crystal
@@ -52,7 +53,7 @@ FIELDS = (
 #: shape follows from the bodies. Accepted (so the CLI may pass its defaults) and ignored.
 IGNORED = ("shape",)
 CONTROLS = ("force", "displacement")
-PATHS = ("load", "loop")
+PATHS = ("load", "loop", "proportional")
 COUPLINGS = ("auto", "both", "coupled", "decoupled")
 GRID_MARGIN = 1.1  # the grid spans ±1.1 Hertz semi-axes: contact growth under coupling fits
 MIN_CELLS_ACROSS = 16
@@ -101,7 +102,8 @@ def validate(params: Mapping[str, Any]) -> SlipScene:
     from the scene's x axis, default 0); ``n`` (cells across the contact's major axis, 8–4096,
     default 64); ``tol`` (1e-14–1e-4, default 1e-8); ``steps`` (load steps to Q, 1–1000,
     default 10); ``control`` (force | displacement); ``displacement`` (final tangential
-    displacement, required with control = displacement); ``path`` (load | loop);
+    displacement, required with control = displacement); ``path`` (load | loop | proportional:
+    normal load and tangential displacement applied together, control = displacement);
     ``tensor`` and ``history`` (booleans: add the 2 × 2 tensor / the whole curve);
     ``coupling`` (auto | both | coupled | decoupled; auto = both for a dissimilar pair);
     ``threads``; ``precondition``; ``normal_friction`` (boolean: Spence's normal loading).
@@ -153,6 +155,11 @@ def validate(params: Mapping[str, Any]) -> SlipScene:
         raise InputError("path", f"one of {', '.join(PATHS)}", path)
     if path == "loop" and control != "force":
         raise InputError("path", "loop needs control = force (it reverses at +-q_ratio mu P)", path)
+    if path == "proportional" and control != "displacement":
+        raise InputError("path", "proportional needs control = displacement (normal load and displacement ramp together)", path)
+    normal_friction = _flag("normal_friction", p.get("normal_friction", False))
+    if path == "proportional" and normal_friction:
+        raise InputError("normal_friction", "false with path = proportional (its normal load already meets friction)", True)
     coupling = p.get("coupling", "auto")
     if coupling not in COUPLINGS:
         raise InputError("coupling", f"one of {', '.join(COUPLINGS)}", coupling)
@@ -161,7 +168,7 @@ def validate(params: Mapping[str, Any]) -> SlipScene:
         pair=pair, load=load, mu=mu, q_ratio=q_ratio, angle_deg=angle, n=n, tol=tol, steps=steps,
         control=control, displacement=displacement, path=path,
         tensor=_flag("tensor", p.get("tensor", False)), history=_flag("history", p.get("history", False)),
-        normal_friction=_flag("normal_friction", p.get("normal_friction", False)),
+        normal_friction=normal_friction,
         coupling=coupling, threads=threads, precondition=_flag("precondition", p.get("precondition", True)),
     )
 
@@ -184,7 +191,7 @@ class SlipProblem:
         self.anisotropic = isinstance(pair, AnisotropicPair)
         if self.anisotropic:
             self.G_ref = pair.reference_modulus
-            self.compliance = pair.scaled(self.G_ref)
+            self.compliance = pair.scaled(self.G_ref, self.hertz.angle_deg)  # crystals in the grid frame
             self.material: Isotropic | None = None
         else:
             self.G_ref = pair.equivalent.G

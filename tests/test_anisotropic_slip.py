@@ -256,3 +256,63 @@ def test_crystal_pair_at_unit_anisotropy_follows_the_isotropic_loop() -> None:
     for key in ("tangential_stiffness", "contact_area", "tangential_force", "tangential_displacement"):
         a, b = np.array(iso["history"][key]), np.array(crystal["history"][key])
         assert np.max(np.abs(b - a)) <= 1e-9 * np.max(np.abs(a)), key
+
+
+#: §6.2 of Rodríguez-Tembleque et al. 2011 on a coarse grid: the job's ellipsoid (contact semi-axes
+#: 50 mm across x1 and 100 mm along), mu = 0.1, the punch displaced by 0.15 mm along +x1
+#: relative to the block (our δ is body 2's displacement relative to body 1: angle 180°).
+PAPER = {"radius": 0.5, "radius_b": 1.1, "load": 0.37e6, "mu": 0.1, "q_ratio": 0.5, "control": "displacement",
+         "displacement": 0.15e-3, "angle": 180.0, "n": 16, "steps": 1, "tol": 1e-10, "orthotropic2": ORTHO}
+
+
+def test_crystal_pair_turns_with_its_scene() -> None:
+    """The whole scene turned by 90° about the normal (radii swapped, both bodies' azimuths and the
+    load direction +90°) is the same problem: the contact grid follows the ellipse's major axis, so
+    both scenes are solved on one grid and must agree to the solver tolerance (measured 7e-13 with
+    tol = 1e-10; before the crystals were turned into the grid's frame, E1 of the orthotropic pair
+    lay along the contact's long axis in one of them and Q differed by a factor 2-5)."""
+    pair = {**PAPER, "orthotropic": ORTHO.replace("E1=25", "E1=50"), "path": "proportional", "coupling": "coupled"}
+    one = solve_slip({**pair, "angle": 0.0})
+    two = solve_slip({**pair, "radius": 1.1, "radius_b": 0.5, "angle": 90.0, "azimuth": 90.0, "azimuth2": 90.0})
+    assert one["contact_angle_deg"] == 90.0 and two["contact_angle_deg"] == 0.0  # grids turned with the ellipse
+    assert _relative(one, two, KEYS[:4]) < 1e-11  # measured 7.4e-13
+    assert abs(two["stick_centroid_y"] - one["stick_centroid_x"]) < 1e-12 * one["dx"]
+
+
+def test_proportional_path_of_a_similar_pair_is_the_one_step_path() -> None:
+    """``path = proportional`` (normal load and displacement together, friction acting) on an
+    elastically similar pair: no shear arises from the pressure, so one proportional step from the
+    unloaded bodies is one tangential step from the frictionless contact (both end at the same
+    Cattaneo problem; measured 0, the same arithmetic once the pressure is found)."""
+    similar = {**PAPER, "orthotropic": ORTHO}
+    one_step = solve_slip({**similar, "path": "proportional"})
+    sequential = solve_slip({**similar, "path": "load"})
+    assert _relative(one_step, sequential, KEYS) < 1e-11  # measured 0
+    assert 0.0 < one_step["stick_area"] < one_step["contact_area"]  # partial slip
+
+
+def test_proportional_path_shifts_the_stick_zone_of_the_dissimilar_pair() -> None:
+    """The dissimilar orthotropic pair (punch E1 = 50 GPa, §6.2, Fig. 6d): the pressure pulls the
+    two surfaces apart tangentially (coupling_size 0.011), which the applied displacement adds to
+    on one side and cancels on the other. The paper finds "the main part of the stick zone ... on
+    the x1 < 0 region" with the punch moved along +x1: so do we (measured −3.9 cells across, −27 mm,
+    at n = 16; the grid study of the README). Mirroring the load (the pair is symmetric about
+    x = 0) mirrors the stick zone exactly and keeps Q (measured 7e-13, tol = 1e-10)."""
+    dissimilar = {**PAPER, "orthotropic": ORTHO.replace("E1=25", "E1=50"), "path": "proportional", "coupling": "coupled"}
+    minus = solve_slip(dissimilar)
+    plus = solve_slip({**dissimilar, "angle": 0.0})
+    assert minus["stick_centroid_x"] < -2.0 * minus["dy"]  # the grid's y is the scene's x here (-3.9)
+    assert abs(minus["stick_centroid_x"] + plus["stick_centroid_x"]) < 1e-9 * minus["dy"]
+    assert _relative(minus, plus, KEYS) < 1e-11  # measured 7.4e-13
+
+
+@pytest.mark.parametrize(
+    "change, field",
+    [({"control": "force", "displacement": None}, "path"), ({"normal_friction": True}, "normal_friction")],
+)
+def test_proportional_path_needs_displacement_control_and_no_separate_normal_loading(change: dict, field: str) -> None:
+    from hpcontact.errors import InputError
+
+    with pytest.raises(InputError) as info:
+        validate({**PAPER, "path": "proportional", **change})
+    assert info.value.field == field
