@@ -3,11 +3,13 @@
 u_i[a] = Σ_j Σ_b K_ij[a − b] t_j[b] over an nx × ny grid is a linear (non-periodic) convolution:
 zero-pad to N1 × N2 with N1 ≥ 2nx − 1, N2 ≥ 2ny − 1 (FFTW-friendly sizes), transform with
 real-to-complex FFTs, multiply by the kernel spectra, transform back and crop (DESIGN §2.2).
-Only the blocks a scene needs are given; a missing block is zero. Plans are built once per
-operator (by default from FFTW wisdom when there is some, else FFTW_ESTIMATE, upgraded to
-FFTW_MEASURE for operators applied many times; see ``AUTO_MEASURE_AFTER``), with FFTW wisdom
-reused across operators and processes (``load_wisdom``/``save_wisdom``); kernel spectra are
-cached per (material, grid, block).
+Only the blocks a scene needs are given; a missing block is zero. The FFT buffers and plans
+belong to the process, one set per layout (components, data rows, padded shape, threads; see
+``Transforms``), shared by every operator of that layout: a sweep's many scenes on one grid plan
+once. Plans come from FFTW wisdom when there is some, else FFTW_ESTIMATE, upgraded to
+FFTW_MEASURE once the layout has been applied long enough for the planning to pay (see
+``MEASURE_AFTER_SECONDS``); wisdom is kept across processes and merged between them
+(``load_wisdom``/``save_wisdom``); kernel spectra are cached per (material, grid, block).
 
 Units: t in stress, u in length (the blocks carry length/stress).
 """
@@ -15,10 +17,13 @@ Units: t in stress, u in length (the blocks carry length/stress).
 from __future__ import annotations
 
 import os
+import fcntl
 import threading
 import time
 import warnings
+import weakref
 from collections import OrderedDict
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Mapping
 
@@ -29,13 +34,24 @@ import scipy.fft
 COMPONENT_INDEX = {"x": 0, "y": 1, "z": 2}
 _SPECTRUM_CACHE: "OrderedDict[tuple, np.ndarray]" = OrderedDict()
 _SPECTRUM_CACHE_BYTES = int(os.environ.get("HPCONTACT_KERNEL_CACHE_MB", "1024")) * 2**20
+_TRANSFORMS: "dict[tuple, Transforms]" = {}  # FFT buffers and plans per layout (transforms_for)
+_USAGE: "dict[tuple, Usage]" = {}  # per layout, kept when its buffers are dropped (clear_cache forgets)
 _LOCK = threading.Lock()
-# planner_effort="auto": plans come from FFTW wisdom at FFTW_MEASURE when there is some (planning
-# then takes milliseconds), else from FFTW_ESTIMATE; an operator applied AUTO_MEASURE_AFTER times
-# is re-planned with FFTW_MEASURE (which costs ~20-300 transforms of planning and makes each
-# transform ~1.4-1.8x faster, so it pays off only for long runs; the new wisdom then serves
-# every later operator of the same problem in the process, and across processes via save_wisdom).
-AUTO_MEASURE_AFTER = 100
+# planner_effort="auto": a layout's plans come from FFTW wisdom at FFTW_MEASURE when there is some
+# (planning then takes milliseconds), else from FFTW_ESTIMATE; they are re-planned with
+# FFTW_MEASURE once the layout's applications (all operators of the process together) number at
+# least MEASURE_AFTER_APPLICATIONS and have taken MEASURE_AFTER_SECONDS + that many mean
+# applications' time, i.e. after n = 35 + 1.3 s / (time of one application) applications. That is
+# ski rental (buy once the rent paid would have bought): measured on a 2-core EPYC, one thread,
+# FFTW_MEASURE planning of the four plans takes ~0.3 s + ~8 ESTIMATE transforms (0.53 s at 512²
+# padded cells, 0.78 s at 1024², 1.5 s at 2048², two components) and makes a transform
+# 1.15-1.45x faster, a break-even of ~670, ~140 and ~46 applications (benchmarks/solve_speed.py
+# prints it); the rule re-plans after ~280, ~70 and ~45, never later than the break-even, so a
+# run that stops right after re-planning pays at most twice the best choice made in hindsight.
+# Small grids (break-even in the thousands) keep their ESTIMATE plans unless a long run
+# applies them; the measured wisdom then serves later processes via save_wisdom.
+MEASURE_AFTER_APPLICATIONS = 35
+MEASURE_AFTER_SECONDS = 1.3
 
 
 def padded_shape(nx: int, ny: int) -> tuple[int, int]:
@@ -82,9 +98,20 @@ def cached_spectrum(key: tuple, build: Callable[[], np.ndarray], shape: tuple[in
 
 
 def clear_cache() -> None:
-    """Forget every cached kernel spectrum (tests and memory-bound sweeps)."""
+    """Forget every cached kernel spectrum and the FFT buffers and plans no operator uses
+    (tests and memory-bound sweeps; FFTW's wisdom stays)."""
     with _LOCK:
         _SPECTRUM_CACHE.clear()
+        for key in _drop_unused_transforms():
+            del _USAGE[key]
+
+
+def _drop_unused_transforms() -> list[tuple]:
+    """Forget the ``Transforms`` no live operator holds (call with ``_LOCK`` held); their keys."""
+    unused = [k for k, t in _TRANSFORMS.items() if not t.users]
+    for key in unused:
+        del _TRANSFORMS[key]
+    return unused
 
 
 WISDOM_MAX_BYTES = 64 * 2**20  # a wisdom file is a few kB to a few MB of text
@@ -98,20 +125,33 @@ def wisdom_path() -> Path:
     return Path(env) if env else Path.home() / ".cache" / "hpcontact" / "fftw_wisdom"
 
 
+def _read_wisdom(path: Path) -> bytes | None:
+    """The wisdom text at ``path``, None if there is no file; OSError if it cannot be read."""
+    try:
+        with open(path, "rb") as fh:
+            return fh.read(WISDOM_MAX_BYTES + 1)
+    except FileNotFoundError:
+        return None
+
+
+def _import_wisdom(data: bytes) -> bool:
+    """Add ``data`` to this process's FFTW wisdom (FFTW keeps the union); False if FFTW refuses it."""
+    return len(data) <= WISDOM_MAX_BYTES and data.startswith(b"(fftw-") and pyfftw.import_wisdom((data, b"", b""))[0]
+
+
 def load_wisdom() -> bool:
     """Import saved FFTW wisdom (plans then build in milliseconds); False if there is none. A
     file that cannot be read or that FFTW does not accept (another format, another FFTW, a
     truncated file) is ignored with a warning."""
     path = wisdom_path()
     try:
-        with open(path, "rb") as fh:
-            data = fh.read(WISDOM_MAX_BYTES + 1)
-    except FileNotFoundError:
-        return False
+        data = _read_wisdom(path)
     except OSError as exc:
         warnings.warn(f"FFTW wisdom {path} ignored: {exc.strerror or exc}", RuntimeWarning, stacklevel=2)
         return False
-    if len(data) > WISDOM_MAX_BYTES or not data.startswith(b"(fftw-") or not pyfftw.import_wisdom((data, b"", b""))[0]:
+    if data is None:
+        return False
+    if not _import_wisdom(data):
         warnings.warn(f"FFTW wisdom {path} ignored: not double-precision wisdom this FFTW accepts", RuntimeWarning,
                       stacklevel=2)
         return False
@@ -119,16 +159,142 @@ def load_wisdom() -> bool:
 
 
 def save_wisdom() -> None:
-    """Export the double-precision FFTW wisdom as FFTW writes it, atomically (temporary file,
-    then rename)."""
+    """Merge this process's double-precision FFTW wisdom into the wisdom file.
+
+    Under an exclusive lock on ``<file>.lock`` (``flock``; where the file system has no locks,
+    unlocked), the file's wisdom is imported first (FFTW keeps the union, so plans that other
+    processes or ranks saved meanwhile survive; a file FFTW refuses is replaced), then the union
+    is written as FFTW exports it, atomically (temporary file, then rename): every rank of a
+    sweep can save, and a reader never sees a partial file."""
     path = wisdom_path()
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
-    try:
-        tmp.write_bytes(pyfftw.export_wisdom()[0])
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
+    with open(path.with_name(f"{path.name}.lock"), "ab") as lock:
+        try:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+        except OSError:  # no locks on this file system: a concurrent writer may drop our plans, no more
+            pass
+        try:
+            data = _read_wisdom(path)
+        except OSError:
+            data = None  # unreadable: replaced below
+        if data is not None:
+            _import_wisdom(data)
+        tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
+        try:
+            tmp.write_bytes(pyfftw.export_wisdom()[0])
+            os.replace(tmp, path)
+        finally:
+            tmp.unlink(missing_ok=True)
+
+
+@dataclass
+class Usage:
+    """Applications of one layout in this process, and the seconds they took with ESTIMATE plans."""
+
+    applications: int = 0
+    estimate_seconds: float = 0.0
+
+
+class Transforms:
+    """Zero-padded FFT buffers and the four FFTW plans of one layout: ``c`` components of ``nx``
+    data rows on the padded ``shape`` (N1, N2), ``threads`` FFTW threads.
+
+    The 2-D transforms are split into row (axis 2) and column (axis 1) passes so that the zero
+    padding is skipped where it is known: the padded input is zero in rows nx … N1−1, so the
+    forward row transforms run on the nx data rows only, and only rows 0 … nx−1 of the result are
+    kept, so the inverse row transforms run on those nx rows only. The column passes are full
+    length N1. This is the same arithmetic as the full 2-D transforms (bitwise, with FFTW's
+    row-column algorithm) at ~3/4 of the work.
+
+    One instance serves every operator of the process with this layout and planner effort
+    (``transforms_for``): buffers are scratch within one ``apply``, so operators applied one at a
+    time can share them. ``effort`` is the effort of the plans in use; ``usage`` counts the
+    layout's applications (all operators together, also those of earlier instances of the
+    layout in this process); ``users`` are the operators holding it.
+    """
+
+    def __init__(self, c: int, nx: int, shape: tuple[int, int], threads: int, effort: str, usage: Usage) -> None:
+        n1, n2 = shape
+        half = n2 // 2 + 1
+        self.nx, self.threads, self.auto = nx, threads, effort == "auto"
+        # real buffers hold the nx data rows only; spectra are full (N1 rows) for the columns
+        self.real_in = pyfftw.zeros_aligned((c, nx, n2), dtype=np.float64)
+        self.real_out = pyfftw.zeros_aligned((c, nx, n2), dtype=np.float64)
+        self.spec_in = pyfftw.zeros_aligned((c, n1, half), dtype=np.complex128)
+        # one component: the product is taken in place; several: a separate output
+        self.spec_out = self.spec_in if c == 1 else pyfftw.zeros_aligned((c, n1, half), dtype=np.complex128)
+        self.users: "weakref.WeakSet[ConvolutionOperator]" = weakref.WeakSet()
+        self.usage, self.planning_time_s = usage, 0.0
+        self.effort = self.plan("FFTW_MEASURE", wisdom_only=True) if self.auto else self.plan(effort)
+
+    def plan(self, effort: str, wisdom_only: bool = False) -> str:
+        """Build the four FFTW plans at ``effort``; with ``wisdom_only``, each plan that FFTW has no
+        wisdom for at that effort is made with FFTW_ESTIMATE instead. Returns the effort in use
+        ("FFTW_ESTIMATE" if any plan fell back). Planning overwrites the buffers: they are cleared.
+        """
+        t0 = time.perf_counter()
+        nx, threads = self.nx, self.threads
+        fell_back = False
+
+        def make(input_array, output_array, axis, direction, extra=()):
+            nonlocal fell_back
+            kwargs = dict(axes=(axis,), direction=direction, threads=threads)
+            if wisdom_only:
+                try:
+                    return pyfftw.FFTW(input_array, output_array, flags=(effort, "FFTW_WISDOM_ONLY") + extra, **kwargs)
+                except RuntimeError:  # no wisdom for this problem
+                    fell_back = True
+                    return pyfftw.FFTW(input_array, output_array, flags=("FFTW_ESTIMATE",) + extra, **kwargs)
+            return pyfftw.FFTW(input_array, output_array, flags=(effort,) + extra, **kwargs)
+
+        # rows: axis 2 of the nx data rows; columns: axis 1, full length N1, in place
+        self._rows_forward = make(self.real_in, self.spec_in[:, :nx, :], 2, "FFTW_FORWARD")
+        self._columns_forward = make(self.spec_in, self.spec_in, 1, "FFTW_FORWARD")
+        self._columns_inverse = make(self.spec_out, self.spec_out, 1, "FFTW_BACKWARD")
+        self._rows_inverse = make(
+            self.spec_out[:, :nx, :], self.real_out, 2, "FFTW_BACKWARD", ("FFTW_DESTROY_INPUT",)
+        )
+        self.real_in[...] = 0.0  # planning may scribble on the arrays
+        self.spec_out[...] = 0.0
+        self.planning_time_s += time.perf_counter() - t0
+        return "FFTW_ESTIMATE" if fell_back else effort
+
+    def forward(self) -> None:
+        """Spectra of the zero-padded ``real_in`` into ``spec_in`` (unnormalized)."""
+        self._rows_forward.execute()
+        self.spec_in[:, self.nx :, :] = 0.0  # the padding rows (the column pass overwrote them)
+        self._columns_forward.execute()
+
+    def inverse(self) -> None:
+        """Rows 0 … nx−1 of the inverse transform of ``spec_out`` into ``real_out`` (× N1·N2)."""
+        self._columns_inverse.execute()
+        self._rows_inverse.execute()
+
+    def count(self, seconds: float) -> None:
+        """Record one application that took ``seconds``; with effort "auto", re-plan with
+        FFTW_MEASURE when the rule of ``MEASURE_AFTER_SECONDS`` says it pays."""
+        usage = self.usage
+        usage.applications += 1
+        if not self.auto or self.effort != "FFTW_ESTIMATE":
+            return
+        usage.estimate_seconds += seconds
+        n, wait = usage.applications, MEASURE_AFTER_APPLICATIONS
+        if n >= wait and usage.estimate_seconds * (1.0 - wait / n) >= MEASURE_AFTER_SECONDS:  # n ≥ 35 + 1.3 s / mean
+            self.effort = self.plan("FFTW_MEASURE")
+
+
+def transforms_for(c: int, nx: int, shape: tuple[int, int], threads: int, effort: str) -> Transforms:
+    """The process's ``Transforms`` of this layout and planner effort, made on first use. Making
+    a new one first drops those no operator uses any more (their buffers would otherwise stay
+    allocated: a sweep moving from grid to grid holds one grid's buffers, as before sharing)."""
+    key = (c, nx, tuple(shape), threads, effort)
+    with _LOCK:
+        transforms = _TRANSFORMS.get(key)
+        if transforms is None:
+            _drop_unused_transforms()
+            usage = _USAGE.setdefault(key, Usage())
+            transforms = _TRANSFORMS[key] = Transforms(c, nx, shape, threads, effort, usage)
+        return transforms
 
 
 class ConvolutionOperator:
@@ -136,20 +302,16 @@ class ConvolutionOperator:
 
     ``spectra`` maps block names ("xx", "xy", ... displacement component first) to kernel
     spectra on ``padded_shape(nx, ny)``; absent blocks are zero. ``threads`` FFTW threads.
-    ``apply`` takes and returns arrays of shape (len(components), nx, ny).
-
-    The 2-D transforms are split into row (axis 2) and column (axis 1) passes so that the zero
-    padding is skipped where it is known: the padded input is zero in rows nx … N1−1, so the
-    forward row transforms run on the nx data rows only, and only rows 0 … nx−1 of the result are
-    kept, so the inverse row transforms run on those nx rows only. The column passes are full
-    length N1. This is the same arithmetic as the full 2-D transforms (bitwise, with FFTW's
-    row-column algorithm) at ~3/4 of the work; the 1/(N1·N2) normalization of the inverse is
-    folded into the final crop instead of a separate pass over the padded array.
+    ``apply`` takes and returns arrays of shape (len(components), nx, ny). The transforms
+    (``Transforms``: pruned row passes, full column passes) are shared with the other operators
+    of the process on the same layout; the 1/(N1·N2) normalization of the inverse is folded into
+    the final crop instead of a separate pass over the padded array.
 
     ``planner_effort`` is an FFTW planner flag ("FFTW_ESTIMATE", "FFTW_MEASURE", ...) or "auto"
     (default): FFTW_MEASURE plans from wisdom if FFTW has it for these problems, else
-    FFTW_ESTIMATE plans, re-planned with FFTW_MEASURE after ``AUTO_MEASURE_AFTER`` applications.
-    ``plan_effort`` says which plans are in use; ``planning_time_s`` is the planning time so far.
+    FFTW_ESTIMATE plans, re-planned with FFTW_MEASURE once the layout has been applied long
+    enough (``MEASURE_AFTER_SECONDS``). ``plan_effort`` says which plans are in use;
+    ``planning_time_s`` is the planning time of its layout so far.
     """
 
     def __init__(
@@ -172,12 +334,6 @@ class ConvolutionOperator:
                 raise ValueError(f"block {block!r} does not act within components {components!r}")
         n1, n2 = self.shape
         half = n2 // 2 + 1
-        # real buffers hold the nx data rows only; spectra are full (N1 rows) for the columns
-        self._real_in = pyfftw.zeros_aligned((c, nx, n2), dtype=np.float64)
-        self._real_out = pyfftw.zeros_aligned((c, nx, n2), dtype=np.float64)
-        self._spec_in = pyfftw.zeros_aligned((c, n1, half), dtype=np.complex128)
-        # one component: the product is taken in place; several: a separate output
-        self._spec_out = self._spec_in if c == 1 else pyfftw.zeros_aligned((c, n1, half), dtype=np.complex128)
         # Products with real spectra (even-even and odd-odd kernels) are taken on the float64
         # view of the complex planes against a copy of the spectrum with every value doubled
         # (re and im factors side by side): a contiguous float multiply, ~2x faster than numpy's
@@ -207,61 +363,23 @@ class ConvolutionOperator:
         self._band = max(1, 2**19 // (16 * half)) if sums else n1
         self._scratch = pyfftw.zeros_aligned((self._band, half), dtype=np.complex128) if sums else None
         self._scale = 1.0 / (n1 * n2)
-        self._threads = threads
         self.applications = 0
-        t0 = time.perf_counter()
-        if planner_effort == "auto":
-            self.plan_effort = self._plan("FFTW_MEASURE", wisdom_only=True)
-            self._measure_at = AUTO_MEASURE_AFTER if self.plan_effort != "FFTW_MEASURE" else None
-        else:
-            self.plan_effort = self._plan(planner_effort)
-            self._measure_at = None
-        self.planning_time_s = time.perf_counter() - t0
+        self.transforms = transforms_for(c, nx, self.shape, threads, planner_effort)
+        self.transforms.users.add(self)
 
-    def _plan(self, effort: str, wisdom_only: bool = False) -> str:
-        """Build the four FFTW plans at ``effort``; with ``wisdom_only``, each plan that FFTW has no
-        wisdom for at that effort is made with FFTW_ESTIMATE instead. Returns the effort in use
-        ("FFTW_ESTIMATE" if any plan fell back). Planning overwrites the buffers: they are cleared.
-        """
-        nx, threads = self.nx, self._threads
-        fell_back = False
+    @property
+    def plan_effort(self) -> str:
+        """The FFTW planner effort of the plans in use ("FFTW_ESTIMATE", "FFTW_MEASURE", ...)."""
+        return self.transforms.effort
 
-        def make(input_array, output_array, axis, direction, extra=()):
-            nonlocal fell_back
-            kwargs = dict(axes=(axis,), direction=direction, threads=threads)
-            if wisdom_only:
-                try:
-                    return pyfftw.FFTW(input_array, output_array, flags=(effort, "FFTW_WISDOM_ONLY") + extra, **kwargs)
-                except RuntimeError:  # no wisdom for this problem
-                    fell_back = True
-                    return pyfftw.FFTW(input_array, output_array, flags=("FFTW_ESTIMATE",) + extra, **kwargs)
-            return pyfftw.FFTW(input_array, output_array, flags=(effort,) + extra, **kwargs)
-
-        # rows: axis 2 of the nx data rows; columns: axis 1, full length N1, in place
-        self._rows_forward = make(self._real_in, self._spec_in[:, :nx, :], 2, "FFTW_FORWARD")
-        self._columns_forward = make(self._spec_in, self._spec_in, 1, "FFTW_FORWARD")
-        self._columns_inverse = make(self._spec_out, self._spec_out, 1, "FFTW_BACKWARD")
-        self._rows_inverse = make(
-            self._spec_out[:, :nx, :], self._real_out, 2, "FFTW_BACKWARD", ("FFTW_DESTROY_INPUT",)
-        )
-        self._real_in[...] = 0.0  # planning may scribble on the arrays
-        self._spec_out[...] = 0.0
-        return "FFTW_ESTIMATE" if fell_back else effort
-
-    def _forward(self) -> None:
-        """Spectra of the zero-padded ``_real_in`` into ``_spec_in`` (unnormalized)."""
-        self._rows_forward.execute()
-        self._spec_in[:, self.nx :, :] = 0.0  # the padding rows (the column pass overwrote them)
-        self._columns_forward.execute()
-
-    def _inverse(self) -> None:
-        """Rows 0 … nx−1 of the inverse transform of ``_spec_out`` into ``_real_out`` (× N1·N2)."""
-        self._columns_inverse.execute()
-        self._rows_inverse.execute()
+    @property
+    def planning_time_s(self) -> float:
+        """FFTW planning time of this operator's layout so far (seconds)."""
+        return self.transforms.planning_time_s
 
     def _product(self) -> None:
-        """_spec_out[i] = Σ_j K_ij · _spec_in[j] (in place when there is one component)."""
-        spec_in, spec_out, scratch = self._spec_in, self._spec_out, self._scratch
+        """spec_out[i] = Σ_j K_ij · spec_in[j] (in place when there is one component)."""
+        spec_in, spec_out, scratch = self.transforms.spec_in, self.transforms.spec_out, self._scratch
         n1, band = self.shape[0], self._band
         for r0 in range(0, n1, band):
             rows = slice(r0, r0 + band)
@@ -285,20 +403,18 @@ class ConvolutionOperator:
 
     def apply(self, traction: np.ndarray) -> np.ndarray:
         """Displacements (c, nx, ny) of tractions (c, nx, ny) on the grid (non-periodic)."""
-        if self._measure_at is not None and self.applications >= self._measure_at:
-            t0 = time.perf_counter()  # applied often enough for FFTW_MEASURE plans to pay off
-            self.plan_effort = self._plan("FFTW_MEASURE")
-            self._measure_at = None
-            self.planning_time_s += time.perf_counter() - t0
-        ny = self.ny
-        self._real_in[:, :, :ny] = traction
-        self._forward()
+        t0 = time.perf_counter()
+        transforms, ny = self.transforms, self.ny
+        transforms.real_in[:, :, :ny] = traction
+        transforms.forward()
         self._product()
-        self._inverse()
+        transforms.inverse()
+        u = np.multiply(transforms.real_out[:, :, :ny], self._scale)
         self.applications += 1
-        return np.multiply(self._real_out[:, :, :ny], self._scale)
+        transforms.count(time.perf_counter() - t0)
+        return u
 
     def fft_only(self) -> None:
         """One forward and one inverse transform of all components: the floor of ``apply``."""
-        self._forward()
-        self._inverse()
+        self.transforms.forward()
+        self.transforms.inverse()

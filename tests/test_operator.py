@@ -9,6 +9,7 @@ of u on these grids; 1e-12 leaves two decades of margin.
 
 from __future__ import annotations
 
+import multiprocessing
 import pickle
 
 import numpy as np
@@ -128,6 +129,58 @@ def test_odd_kernel_sign_convention():
     assert np.all(u[1] > 0)
 
 
+def _random_operator(seed: int, nx: int, ny: int, components: str, **kwargs) -> tuple[ConvolutionOperator, dict]:
+    rng = np.random.default_rng(seed)
+    blocks = {a + b: rng.normal(size=(2 * nx - 1, 2 * ny - 1)) for a in components for b in components}
+    return ConvolutionOperator(nx, ny, components, spectra_of(blocks, nx, ny), **kwargs), blocks
+
+
+def test_operators_of_one_layout_share_buffers_and_plans():
+    """Two operators on one layout (a sweep's scenes on one grid) share one Transforms; applied
+    in turn, each still equals its direct sum (REL, module docstring)."""
+    nx, ny = 7, 5
+    a, blocks_a = _random_operator(1, nx, ny, "xy")
+    b, blocks_b = _random_operator(2, nx, ny, "xy")
+    assert a.transforms is b.transforms
+    t = np.random.default_rng(3).normal(size=(2, nx, ny))
+    for op, blocks in ((a, blocks_a), (b, blocks_b), (a, blocks_a)):
+        assert _rel(op.apply(t), direct_sum(blocks, "xy", t)) <= REL
+    other, _ = _random_operator(4, nx, ny, "xy", planner_effort="FFTW_ESTIMATE")  # a fixed effort: its own plans
+    assert other.transforms is not a.transforms
+    layout = a.transforms
+    del a, b, other, op
+    _random_operator(5, nx + 1, ny, "xy")  # a new layout drops the buffers no operator uses
+    assert layout not in op_mod._TRANSFORMS.values()
+    again, _ = _random_operator(6, nx, ny, "xy")  # new buffers; the layout's count goes on
+    assert again.transforms is not layout and again.transforms.usage is layout.usage
+    assert layout.usage.applications >= 3
+
+
+def test_auto_plans_are_measured_once_the_layout_ran_long_enough(monkeypatch):
+    """The re-planning rule counts the applications of every operator of a layout together; the
+    FFTW_MEASURE plans then serve all of them and results stay the direct sum (REL)."""
+    pyfftw.forget_wisdom()
+    clear_cache()
+    nx, ny = 6, 5
+    monkeypatch.setattr(op_mod, "MEASURE_AFTER_SECONDS", 1e9)  # never pays
+    a, blocks_a = _random_operator(1, nx, ny, "xy")
+    t = np.random.default_rng(3).normal(size=(2, nx, ny))
+    for _ in range(50):
+        a.apply(t)
+    assert a.plan_effort == "FFTW_ESTIMATE"
+    monkeypatch.setattr(op_mod, "MEASURE_AFTER_SECONDS", 0.0)
+    monkeypatch.setattr(op_mod, "MEASURE_AFTER_APPLICATIONS", 53)
+    b, blocks_b = _random_operator(2, nx, ny, "xy")
+    planned = a.planning_time_s
+    a.apply(t), b.apply(t)
+    assert b.plan_effort == "FFTW_ESTIMATE"  # 52 applications
+    assert _rel(b.apply(t), direct_sum(blocks_b, "xy", t)) <= REL  # the 53rd re-plans, after its transforms
+    assert a.plan_effort == b.plan_effort == "FFTW_MEASURE"
+    assert a.planning_time_s > planned
+    assert _rel(a.apply(t), direct_sum(blocks_a, "xy", t)) <= REL
+    assert _rel(b.apply(t), direct_sum(blocks_b, "xy", t)) <= REL
+
+
 def test_block_outside_components_is_refused():
     nx, ny = 3, 3
     with pytest.raises(ValueError):
@@ -203,6 +256,7 @@ def test_wisdom_roundtrip(tmp_path, monkeypatch):
     monkeypatch.setenv("HPCONTACT_WISDOM", str(path))
     assert wisdom_path() == path
     assert load_wisdom() is False  # none yet
+    clear_cache()  # plans of earlier tests would serve without planning
     ConvolutionOperator(10, 6, "xy", {}, planner_effort="FFTW_MEASURE")  # creates some wisdom
     saved = pyfftw.export_wisdom()
     assert _entries(saved[0])  # something to round-trip (double precision is all the engine plans)
@@ -215,6 +269,53 @@ def test_wisdom_roundtrip(tmp_path, monkeypatch):
     assert load_wisdom() is True
     # FFTW may re-export the same entries in another order: compare the entries
     assert _entries(pyfftw.export_wisdom()[0]) == _entries(saved[0])
+
+
+def test_save_wisdom_merges_with_the_file(tmp_path, monkeypatch):
+    """Another process's (or rank's) saved plans survive this process's save: the file holds the
+    union of both, as FFTW exports it."""
+    monkeypatch.setenv("HPCONTACT_WISDOM", str(tmp_path / "wisdom"))
+    pyfftw.forget_wisdom()
+    clear_cache()  # plans of earlier tests would serve without planning
+    ConvolutionOperator(10, 6, "xy", {}, planner_effort="FFTW_MEASURE")
+    first = _entries(pyfftw.export_wisdom()[0])
+    save_wisdom()  # "the other process"
+    pyfftw.forget_wisdom()
+    clear_cache()
+    ConvolutionOperator(9, 4, "z", {}, planner_effort="FFTW_MEASURE")
+    second = _entries(pyfftw.export_wisdom()[0])
+    assert first - second and second - first  # each process has plans the other lacks
+    save_wisdom()
+    assert _entries((tmp_path / "wisdom").read_bytes()) == first | second
+    assert not list(tmp_path.glob("*.tmp"))
+
+
+def _plan_and_save(nx: int) -> None:
+    pyfftw.forget_wisdom()
+    clear_cache()
+    ConvolutionOperator(nx, 5, "z", {}, planner_effort="FFTW_MEASURE")
+    save_wisdom()
+
+
+def test_concurrent_saves_keep_every_process_plans(tmp_path, monkeypatch):
+    """Four processes save at once (the ranks of a sweep at its end): the lock serializes the
+    read-merge-replace, so the file ends with every process's plans: a process that loads it
+    plans every layout from wisdom."""
+    monkeypatch.setenv("HPCONTACT_WISDOM", str(tmp_path / "wisdom"))
+    sizes = (6, 7, 11, 13)
+    context = multiprocessing.get_context("fork")
+    workers = [context.Process(target=_plan_and_save, args=(nx,)) for nx in sizes]
+    for w in workers:
+        w.start()
+    for w in workers:
+        w.join()
+    assert [w.exitcode for w in workers] == [0] * len(sizes)
+    pyfftw.forget_wisdom()
+    clear_cache()
+    assert load_wisdom() is True
+    for nx in sizes:  # "auto" plans at FFTW_MEASURE only if FFTW has wisdom for all four plans
+        assert ConvolutionOperator(nx, 5, "z", {}).plan_effort == "FFTW_MEASURE", nx
+    assert ConvolutionOperator(17, 5, "z", {}).plan_effort == "FFTW_ESTIMATE"  # no process planned it
 
 
 def test_foreign_or_unreadable_wisdom_is_ignored_with_a_warning(tmp_path, monkeypatch):
