@@ -29,12 +29,22 @@ Measured, per run:
   spectra, kernel blocks and CG vectors alike (tracemalloc would miss the FFTW allocations);
   the operator's own arrays are also counted from their ``nbytes`` ("op MB").
 
+Cold, as users run it (``--cold also|only|no``; circle_tangential, PCG): for each n and each
+source tree of ``--code`` (e.g. ``git worktree add /tmp/before <commit>`` and this checkout, to
+compare before and after in one run), the best-plan CG ms/iteration (FFTW_MEASURE plans made
+before the solves, best of ``--repeat``; with the planning time and the applications after
+which it pays) side by side with the CG ms/iteration of fresh processes running the CLI as a
+user does: one ``hpcontact solve`` without FFTW wisdom, a ``hpcontact run`` sweep of
+``--scenes`` scenes on one grid (nu = 0 … 0.45) without wisdom, and that sweep again with the
+wisdom the first one saved. Use ``--clock cpu`` on a shared machine.
+
 BLAS threads (OpenBLAS/MKL/OMP) are set to ``--threads`` in the child before numpy loads: the
 CG's dot products and norms call BLAS, and a multi-threaded BLAS on a loaded machine costs more
 than the FFTs (see README).
 
     python benchmarks/solve_speed.py                    # 256, 512, 1024; 1 thread
     python benchmarks/solve_speed.py --n 256 512 --threads 2 --json out.json
+    python benchmarks/solve_speed.py --cold only --clock cpu --n 512 1024 --code /tmp/before .
 """
 
 from __future__ import annotations
@@ -137,7 +147,14 @@ def _full_fft_seconds(c: int, shape: tuple[int, int], threads: int, repeat: int)
     return _best(lambda: (fwd.execute(), inv.execute()), repeat)
 
 
+def _use_code(spec: dict) -> None:
+    """Import hpcontact from the source tree ``spec["code"]`` (another checkout) if given."""
+    if spec.get("code"):
+        sys.path.insert(0, os.path.abspath(spec["code"]))
+
+
 def child(spec: dict) -> dict:
+    _use_code(spec)
     import numpy as np
 
     from hpcontact import operator as opm
@@ -199,6 +216,14 @@ def child(spec: dict) -> dict:
     fft_s, apply_s = _best(op.fft_only, 10), _best(lambda: op.apply(t), 10)
     pc_fft_s = _pc_fft_seconds(pc, len(comps), grid.nx, grid.ny, 10) if pc is not None else 0.0
     pc_s = _best(lambda: pc.apply(t), 10) if pc is not None else 0.0
+    # with FFTW_MEASURE plans (no wisdom: plan_s is the planning), what ESTIMATE plans cost per
+    # application: the applications after which measuring pays for itself
+    estimate_ms = break_even = float("nan")
+    if spec.get("planner") == "FFTW_MEASURE" and not spec["wisdom"]:
+        rough = opm.ConvolutionOperator(grid.nx, grid.ny, comps, spectra, threads=threads, planner_effort="FFTW_ESTIMATE")
+        estimate_ms = 1e3 * _best(lambda: rough.apply(t), 10)
+        del rough
+        break_even = setup["plan_s"] / max(1e-3 * estimate_ms - apply_s, 1e-12)
     full_fft_s = _full_fft_seconds(len(comps), shape, threads, 5) if spec["full_fft"] else float("nan")
     per_iter = solve_s / solution.iterations
     return {
@@ -221,6 +246,8 @@ def child(spec: dict) -> dict:
         "pc_fft_ms": 1e3 * pc_fft_s,
         "ratio": per_iter / (fft_s + pc_fft_s),
         "apply_ms": 1e3 * apply_s,
+        "apply_estimate_ms": estimate_ms,
+        "break_even": break_even,
         "pc_apply_ms": 1e3 * pc_s,
         "cg_other_ms": 1e3 * (per_iter - apply_s - pc_s),
         "full_fft_ms": 1e3 * full_fft_s,
@@ -228,6 +255,91 @@ def child(spec: dict) -> dict:
         "op_mb": _array_mb(op),
         "force": force,
     }
+
+
+SWEEP_SPEC = """[sweep]
+title = "solve_speed: {scenes} scenes on one grid (nu axis)"
+output = "{output}"
+
+[scene]
+shape = "circle"
+quantities = ["{quantities}"]
+threads = {threads}
+
+[numerics]
+n = {n}
+tol = {tol!r}
+
+[axes]
+nu = {nu}
+"""
+
+
+def cold_child(spec: dict) -> dict:
+    """A user's run in this fresh process: ``hpcontact solve`` of the case, or ``hpcontact run``
+    of a sweep of ``scenes`` values of nu (0 … 0.45) on the case's grid, through the CLI's own
+    entry point, FFTW wisdom from ``spec["wisdom_file"]`` (absent: a machine without wisdom).
+    The CG calls are timed where ``hpcontact.solve`` makes them (setup, kernels and the data set
+    are outside): ms/iteration = CG time / CG iterations, plans upgraded inside the CG included."""
+    import contextlib
+    import io
+    import tempfile
+
+    _use_code(spec)
+    os.environ["HPCONTACT_WISDOM"] = spec["wisdom_file"]
+    import hpcontact.solve as solve_module
+    from hpcontact import cli
+    from hpcontact import operator as opm
+
+    global CLOCK
+    CLOCK = time.process_time if spec["clock"] == "cpu" else time.perf_counter
+    cg = {"s": 0.0, "iterations": 0, "solves": 0}
+    conjugate_gradient = solve_module.conjugate_gradient
+
+    def timed(*args, **kwargs):
+        t0 = CLOCK()
+        solution = conjugate_gradient(*args, **kwargs)
+        cg["s"] += CLOCK() - t0
+        cg["iterations"] += solution.iterations
+        cg["solves"] += 1
+        return solution
+
+    solve_module.conjugate_gradient = timed
+    # FFTW planning, wherever it happens: per layout (Transforms.plan) or, in older trees, per operator
+    owner = getattr(opm, "Transforms", opm.ConvolutionOperator)
+    name = "plan" if hasattr(owner, "plan") else "_plan"
+    plan = getattr(owner, name)
+    planning = [0.0]
+
+    def timed_plan(*args, **kwargs):
+        t0 = CLOCK()
+        effort = plan(*args, **kwargs)
+        planning[0] += CLOCK() - t0
+        return effort
+
+    setattr(owner, name, timed_plan)
+    params = CASES[spec["case"]]
+    with tempfile.TemporaryDirectory() as work:
+        if spec["mode"] == "solve":
+            argv = ["solve", "--shape", params["shape"], "--nu", str(params["nu"]), "--quantities", params["quantities"],
+                    "--n", str(spec["n"]), "--tol", repr(spec["tol"]), "--threads", str(spec["threads"])]
+        else:
+            nus = [round(0.45 * i / max(spec["scenes"] - 1, 1), 6) for i in range(spec["scenes"])]
+            path = os.path.join(work, "sweep.toml")
+            with open(path, "w") as fh:
+                fh.write(SWEEP_SPEC.format(scenes=spec["scenes"], output=os.path.join(work, "out.nc"), n=spec["n"],
+                                           quantities=params["quantities"], threads=spec["threads"], tol=spec["tol"],
+                                           nu=json.dumps(nus)))
+            argv = ["run", path]
+        t0 = CLOCK()
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+            status = cli.main(argv)
+        wall = CLOCK() - t0
+    if status != 0:
+        raise RuntimeError(f"hpcontact {' '.join(argv)} exited with {status}")
+    return {**spec, "status": status, "cg_s": cg["s"], "iterations": cg["iterations"], "solves": cg["solves"],
+            "per_iter_ms": 1e3 * cg["s"] / max(cg["iterations"], 1), "wall_s": wall,
+            "planning_s": planning[0]}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -307,16 +419,23 @@ def main(argv: list[str] | None = None) -> int:
                    help="planner effort for the operator (default: ConvolutionOperator's default)")
     p.add_argument("--wisdom", action="store_true", help="load and save FFTW wisdom (planning then takes ms)")
     p.add_argument("--no-full-fft", dest="full_fft", action="store_false", help="skip the unpruned 2-D FFT reference")
+    p.add_argument("--cold", choices=["also", "only", "no"], default="also",
+                   help="the cold-versus-best-plan table (circle_tangential, PCG): also (default), only, no")
+    p.add_argument("--scenes", type=int, default=10, help="scenes of the cold sweep (default 10)")
+    p.add_argument("--code", nargs="+", default=[os.path.dirname(os.path.dirname(os.path.abspath(__file__)))],
+                   help="source trees to compare in the cold table, e.g. a `git worktree` of an older commit and "
+                        "this checkout (default: this checkout)")
     add_run_options(p, timeout=1800.0)
     args = p.parse_args(argv)
     if args.child:
-        print(json.dumps(child(json.loads(args.child))))
+        spec = json.loads(args.child)
+        print(json.dumps(cold_child(spec) if spec.get("kind") == "cold" else child(spec)))
         return 0
 
     print(f"hpcontact solve_speed: {host_line(args.threads)}; tol {args.tol:g}; {args.clock} clock; "
           f"FFTW planning: {args.planner or 'default effort'}, {'with' if args.wisdom else 'without'} saved wisdom")
     rows = []
-    for n in args.n:
+    for n in args.n if args.cold != "only" else []:
         for case in args.cases:
             for solver in args.solvers:
                 spec = {"case": case, "n": n, "solver": solver, "threads": args.threads, "tol": args.tol,
@@ -330,11 +449,68 @@ def main(argv: list[str] | None = None) -> int:
                     print(f"  {case} n={n} {solver}: {r['iterations']} iterations, {r['per_iter_ms']:.2f} ms/iter "
                           f"(floor {r['fft_floor_ms']:.2f}), setup {r['setup_s']:.2f} s, solve {r['solve_s']:.3f} s",
                           file=sys.stderr, flush=True)
-    print_tables(rows)
+    if rows:
+        print_tables(rows)
+    cold = cold_table(args) if args.cold != "no" else []
     if args.json:
         with open(args.json, "w") as fh:
-            json.dump({"host": host_line(args.threads), "clock": args.clock, "rows": rows}, fh, indent=1)
-    return 0 if all("error" not in r for r in rows) else 1
+            json.dump({"host": host_line(args.threads), "clock": args.clock, "rows": rows, "cold": cold}, fh, indent=1)
+    return 0 if all("error" not in r for r in rows + cold) else 1
+
+
+def cold_table(args: argparse.Namespace) -> list[dict]:
+    """For each n and source tree, side by side: the best-plan CG ms/iteration (FFTW_MEASURE
+    plans made before the solves, best of ``--repeat``) and the ms/iteration users get in fresh
+    processes: one ``hpcontact solve`` and a ``--scenes``-scene sweep on one grid, both without
+    FFTW wisdom, and the same sweep again with the wisdom the first one saved."""
+    import tempfile
+
+    case, results = "circle_tangential", []
+    with tempfile.TemporaryDirectory() as work:
+        for n in args.n:
+            for index, code in enumerate(args.code):
+                common = {"case": case, "n": n, "threads": args.threads, "tol": args.tol, "clock": args.clock,
+                          "code": code, "scenes": args.scenes}
+                best = run_child(__file__, {**common, "solver": "PCG", "repeat": args.repeat, "wisdom": False,
+                                            "full_fft": False, "planner": "FFTW_MEASURE"}, args.timeout)
+                wisdom = os.path.join(work, f"wisdom-{n}-{index}")
+                runs = {"solve": {"mode": "solve", "wisdom_file": os.path.join(work, f"none-{n}-{index}")},
+                        "sweep": {"mode": "sweep", "wisdom_file": wisdom},
+                        "again": {"mode": "sweep", "wisdom_file": wisdom}}
+                row = {"n": n, "code": code, "best": best}
+                for name, extra in runs.items():
+                    row[name] = run_child(__file__, {**common, "kind": "cold", **extra}, args.timeout)
+                errors = "; ".join(f"{k}: {row[k]['error']}" for k in ("best", *runs) if "error" in row[k])
+                if errors:
+                    row["error"] = errors
+                results.append(row)
+                print(f"  cold table n={n} {code}: " + ", ".join(
+                    f"{k} {row[k].get('per_iter_ms', float('nan')):.1f} ms/iter" for k in ("best", *runs)),
+                    file=sys.stderr, flush=True)
+    print(f"\nCold, as users run it ({case}, PCG, tol {args.tol:g}): CG ms per iteration in fresh processes, "
+          f"against the best plans")
+    print(f"{'code':>24s} {'n':>5s} {'best':>7s} {'plan s':>6s} {'b-even':>6s} | {'solve':>7s} {'ratio':>5s} | "
+          f"{'sweep':>7s} {'ratio':>5s} {'iters':>5s} {'plan s':>6s} | {'again':>7s} {'ratio':>5s}")
+    for row in results:
+        b = row["best"]
+        if "error" in row:
+            print(f"{row['code'][-24:]:>24s} {row['n']:5d} FAILED: {row['error']}")
+            continue
+
+        def cell(name: str) -> str:
+            r = row[name]
+            return f"{r['per_iter_ms']:7.1f} {r['per_iter_ms'] / b['per_iter_ms']:5.2f}"
+
+        print(f"{row['code'][-24:]:>24s} {row['n']:5d} {b['per_iter_ms']:7.1f} {b['plan_s']:6.2f} {b['break_even']:6.0f} | "
+              f"{cell('solve')} | {cell('sweep')} {row['sweep']['iterations']:5d} {row['sweep']['planning_s']:6.2f} | "
+              f"{cell('again')}")
+    print("best = CG ms/iteration with FFTW_MEASURE plans made before the solves (best of the repeats); plan s = that"
+          "\nplanning; b-even = applications after which it pays (plan s / (ESTIMATE − MEASURE time per application));"
+          "\nsolve = one `hpcontact solve` on a machine without FFTW wisdom; sweep = `hpcontact run` of"
+          f" {args.scenes} scenes (nu 0 … 0.45)"
+          "\non one grid, no wisdom (plan s: all FFTW planning of that process, inside the CG or not);"
+          "\nagain = the same sweep with the wisdom the first saved; ratio = / best; each in its own fresh process.")
+    return results
 
 
 if __name__ == "__main__":
