@@ -31,11 +31,13 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
 from . import quantities as q
+from . import singular_cells
 from .engine import Engine
 from .errors import InputError
 from .geometry import Grid, Shape, crop_to_support, grid_for, load_mask, mask_grid
@@ -46,12 +48,24 @@ from .preconditioner import FourierPreconditioner
 from .scene import Scene
 from .solvers import conjugate_gradient
 
-__all__ = ["MIN_COVERAGE", "COVERAGE_ROUNDING", "SUBSAMPLES", "SUPPORTED", "coverage", "covered_solve", "mask_cells"]
+__all__ = [
+    "COVERAGE_ROUNDING",
+    "MIN_COVERAGE",
+    "SINGULAR_SUPPORTED",
+    "STRATEGIES",
+    "SUBSAMPLES",
+    "SUPPORTED",
+    "coverage",
+    "covered_solve",
+    "mask_cells",
+]
 
 MIN_COVERAGE = 1e-12  # cells covered less than this are left out (D_ii would overflow)
 COVERAGE_ROUNDING = 1e-9  # closed-form coverage loses ~n²·eps to differences (measured 5.7e-11 at n = 1024)
 SUBSAMPLES = 32  # sub-samples per cell side where the coverage has no closed form
 SUPPORTED = ("tangential", "normal", "coupled")
+SINGULAR_SUPPORTED = ("tangential", "normal")  # one scalar block per load direction
+STRATEGIES = ("auto", "singular", "coverage")
 
 
 # ------------------------------------------------------------------------------------------
@@ -175,18 +189,72 @@ def _with_all_solves(plan: Plan, scene: Scene) -> Plan:
     return dataclasses.replace(plan, solves=tuple(solves), derived=derived)
 
 
-def covered_solve(params: Mapping[str, Any]) -> dict[str, Any]:
-    """``hpcontact.solve.solve`` on coverage-weighted cells (see the module docstring).
+def covered_solve(params: Mapping[str, Any], strategy: str = "coverage") -> dict[str, Any]:
+    """``hpcontact.solve.solve`` on boundary cells that follow the contact's edge.
+
+    ``strategy``: ``"coverage"`` — coverage-weighted cells (module docstring), every shape and
+    material; ``"singular"`` — cells that carry the edge singularity w = (1 − x²/a² − y²/b²)^(−½)
+    (``hpcontact.singular_cells``: unturned circles and ellipses on an isotropic half-space,
+    quantities tangential and normal); ``"auto"`` — singular where it applies, coverage
+    otherwise. The default stays ``"coverage"`` until ``hpcontact.accuracy``'s estimator handles
+    the singular cells' error (a bound |error| ≲ C/n without a steady sign, not an expansion
+    that Richardson can use: ``hpcontact.singular_cells``).
 
     Same record keys (``K_*``, ``K_max``, ``K_a_over_K_b``, ``normalized_*``, ``iterations``,
     ``residual``, ``wall_time_s``, ``nx ny dx dy``, ``plan``) plus ``contact_area`` = Σ f dA,
-    which is exact where the coverage is. Quantities: tangential, normal, coupled.
+    which is exact where the coverage is, and ``boundary`` (the strategy used).
     """
     started = time.perf_counter()
+    if strategy not in STRATEGIES:
+        raise InputError("strategy", f"one of {', '.join(STRATEGIES)}", strategy)
     scene = Scene.from_params(params)
+    grid = grid_for(scene.shape, scene.n, scene.n_across) if scene.shape.name != "mask" else None
+    singular = grid is not None and singular_cells.supports(scene.shape, scene.material, grid)
+    singular = singular and set(scene.quantities) <= set(SINGULAR_SUPPORTED)
+    if strategy == "singular" and not singular:
+        raise InputError(
+            "strategy",
+            "singular only for unturned circles and ellipses, isotropic, cells dy/dx in [1/2, 2], quantities tangential/normal",
+            strategy,
+        )
+    if strategy == "auto":
+        strategy = "singular" if singular else "coverage"
     unsupported = [x for x in scene.quantities if x not in SUPPORTED]
     if unsupported:
         raise InputError("quantities", f"{', '.join(SUPPORTED)} with coverage-weighted cells", unsupported[0])
+    solved = _singular_forces(scene) if strategy == "singular" else _coverage_forces(scene)
+    grid, f, mask = solved.grid, solved.coverage, solved.mask
+    record: dict[str, Any] = {"nx": grid.nx, "ny": grid.ny, "dx": grid.dx, "dy": grid.dy}
+    record["contact_cells"] = int(mask.sum())
+    record["contact_area"] = float(f.sum() * grid.cell_area)
+    record.update(q.stiffness_record(solved.forces, scene.quantities, scene.material, noise=scene.tol))
+    record["iterations"] = solved.iterations
+    record["residual"] = solved.residual
+    record["plan"] = {**solved.plan.as_dict(), "boundary": solved.description}
+    record["boundary"] = strategy
+    record["wall_time_s"] = time.perf_counter() - started
+    for key, value in record.items():
+        if isinstance(value, float) and not math.isfinite(value):
+            raise FloatingPointError(f"{key} is not finite ({value})")
+    return record
+
+
+@dataclasses.dataclass
+class _Solved:
+    """What a boundary strategy hands to the record: resultant forces per solve and the grid."""
+
+    grid: Grid
+    coverage: np.ndarray
+    mask: np.ndarray
+    plan: Plan
+    forces: dict[str, np.ndarray]
+    iterations: int
+    residual: float
+    description: str
+
+
+def _coverage_forces(scene: Scene) -> _Solved:
+    """Coverage-weighted cells: (A + D) t = u, D_ii = A_ii (1 − f_i)/f_i (module docstring)."""
     if scene.shape.name == "mask":
         f, grid = _refined_mask(scene.shape.mask_path, scene.n)
     else:
@@ -213,7 +281,7 @@ def covered_solve(params: Mapping[str, Any]) -> dict[str, Any]:
         precondition = None
         if scene.precondition:
             fourier = FourierPreconditioner(grid, engine.green_function(s.green), s.components).apply
-            precondition = lambda r, fourier=fourier, w=weights: w * fourier(w * r)  # noqa: E731
+            precondition = lambda r, fourier=fourier, w=weights: w * fourier(w * r)
         solution = conjugate_gradient(
             lambda t, op=op, d=damping: op.apply(t) + d * t, rhs, mask, tol=scene.tol, precondition=precondition
         )
@@ -223,18 +291,43 @@ def covered_solve(params: Mapping[str, Any]) -> dict[str, Any]:
         forces[s.name] = force
         iterations += solution.iterations
         residual = max(residual, solution.residual)
-    record: dict[str, Any] = {"nx": grid.nx, "ny": grid.ny, "dx": grid.dx, "dy": grid.dy}
-    record["contact_cells"] = int(mask.sum())
-    record["contact_area"] = float(f.sum() * grid.cell_area)
-    record.update(q.stiffness_record(forces, scene.quantities, scene.material, noise=scene.tol))
-    record["iterations"] = iterations
-    record["residual"] = residual
-    record["plan"] = {**plan.as_dict(), "boundary": "coverage-weighted cells, D_ii = A_ii (1 - f)/f"}
-    record["wall_time_s"] = time.perf_counter() - started
-    for key, value in record.items():
-        if isinstance(value, float) and not math.isfinite(value):
-            raise FloatingPointError(f"{key} is not finite ({value})")
-    return record
+    return _Solved(grid, f, mask, plan, forces, iterations, residual, "coverage-weighted cells, D_ii = A_ii (1 - f)/f")
+
+
+def _singular_forces(scene: Scene) -> _Solved:
+    """Singular cells (``hpcontact.singular_cells``): one Galerkin solve per load direction.
+
+    For the circle and ellipse the cross entries vanish exactly (the traction c·w along x gives
+    no y displacement in the contact, Mindlin 1949), so each direction is one scalar block.
+    """
+    solves = []
+    if "tangential" in scene.quantities:
+        solves += [("tangential_x", "xx"), ("tangential_y", "yy")]
+    if "normal" in scene.quantities:
+        solves.append(("normal_z", "zz"))
+    cells = singular_cells.SingularCells(scene.shape, scene.n, scene.n_across, scene.material)
+    green = Engine(scene.material, cells.grid, ()).green_function("H")
+    forces: dict[str, np.ndarray] = {}
+    iterations, residual = 0, 0.0
+    for name, block in solves:
+        system = cells.system(block)
+        precondition = None
+        if scene.precondition:  # Fourier preconditioner, rows scaled to a common diagonal
+            fourier = FourierPreconditioner(cells.grid, green, block[0]).apply
+            typical = float(np.median(system.diagonal[cells.mask]))
+            w = np.where(cells.mask, np.sqrt(typical / np.where(cells.mask, system.diagonal, 1.0)), 0.0)
+            precondition = lambda r, fourier=fourier, w=w: w * fourier(w * r)
+        rhs = np.ones((1,) + cells.mask.shape)
+        solution = conjugate_gradient(system.apply, rhs, cells.mask, tol=scene.tol, precondition=precondition)
+        force = np.zeros(3)
+        force[COMPONENT_INDEX[block[0]]] = cells.force(solution.traction)
+        forces[name] = force
+        iterations += solution.iterations
+        residual = max(residual, solution.residual)
+    f = coverage(scene.shape, cells.grid)
+    plan = make_plan(scene, cells.mask, cells.grid)
+    description = "singular cells: Galerkin on w = (1 - x^2/a^2 - y^2/b^2)^(-1/2) per cell, precorrected FFT"
+    return _Solved(cells.grid, f, cells.mask, plan, forces, iterations, residual, description)
 
 
 def mask_cells(path: str | None) -> tuple[np.ndarray, Grid]:

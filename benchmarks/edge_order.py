@@ -1,0 +1,128 @@
+"""Observed convergence orders and error against time: coverage-weighted cells versus singular cells.
+
+    python benchmarks/edge_order.py [--quick] [--nmax 512] [--out results/edge_order.json]
+
+Before: ``covered_solve(..., strategy="coverage")`` (piecewise-constant traction, covered
+fraction f per cell, self-compliance A_ii/f). After: ``strategy="auto"`` — singular cells
+(``hpcontact.singular_cells``: Galerkin on w = (1 − x²/a² − y²/b²)^(−½) per cell) where they
+apply (unturned circles and ellipses on cells with dy/dx in [1/2, 2]), coverage otherwise; the
+``boundary`` column says which ran.
+
+Per case (nu = 0.3, K_xx; grids n = 32·2^k with ``accuracy.grid_sequence``'s n_across) it prints
+for every grid: the relative error of the raw value, n·error (a constant for a clean first-order
+method), the observed order of the raw sequence p = log2(|Q_{k−1} − Q_{k−2}| / |Q_k − Q_{k−1}|),
+the error of the order-1 Richardson extrapolant R_k = 2 Q_k − Q_{k−1} and its observed order,
+the solve's time and the time of the sequence so far (the cost of the extrapolant). Errors are
+against Mindlin's closed form (circle, ellipses); for the square (polygon, 4 sides, turned 45°),
+the hexagon and the 1e-8 rectangle against a reference: the order-1 Richardson extrapolant of
+coverage-weighted solves at n = 2·nmax and 4·nmax (finer than any grid of the sequence), whose
+own uncertainty |R(4 nmax) − R(2 nmax)| is printed with it (``--quick`` leaves these out).
+
+Timings are wall-clock on whatever machine runs it, both strategies in the same process, one
+after the other per case: compare them as ratios.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import time
+from pathlib import Path
+
+from hpcontact import analytic
+from hpcontact.accuracy import grid_sequence
+from hpcontact.boundary_cells import covered_solve
+from hpcontact.geometry import Shape
+
+NU = 0.3
+CASES = {
+    # label: (params, Shape for the grid sequence, closed form K_xx or None)
+    "circle": ({"shape": "circle"}, Shape("circle"), analytic.circle_tangential_stiffness(1.0, 1.0, NU)),
+    "ellipse 0.7": ({"shape": "ellipse", "aspect": 0.7}, Shape("ellipse", 0.7), analytic.mindlin_ellipse_stiffness(1.0, 0.7, 1.0, NU)[0]),
+    "ellipse 0.5": ({"shape": "ellipse", "aspect": 0.5}, Shape("ellipse", 0.5), analytic.mindlin_ellipse_stiffness(1.0, 0.5, 1.0, NU)[0]),
+    "ellipse 0.05": ({"shape": "ellipse", "aspect": 0.05}, Shape("ellipse", 0.05), analytic.mindlin_ellipse_stiffness(1.0, 0.05, 1.0, NU)[0]),
+    "ellipse 1e-3": ({"shape": "ellipse", "aspect": 1e-3}, Shape("ellipse", 1e-3), analytic.mindlin_ellipse_stiffness(1.0, 1e-3, 1.0, NU)[0]),
+    "ellipse 1e-6": ({"shape": "ellipse", "aspect": 1e-6}, Shape("ellipse", 1e-6), analytic.mindlin_ellipse_stiffness(1.0, 1e-6, 1.0, NU)[0]),
+    "square": ({"shape": "polygon", "sides": 4, "shape_angle": 45.0}, Shape("polygon", sides=4, angle_deg=45.0), None),
+    "hexagon": ({"shape": "polygon", "sides": 6}, Shape("polygon", sides=6), None),
+    "rectangle 1e-8": ({"shape": "rectangle", "aspect": 1e-8}, Shape("rectangle", 1e-8), None),
+}
+QUICK = ("circle", "ellipse 0.7")
+
+
+def run(params: dict, n: int, n_across: int, strategy: str) -> dict:
+    record = covered_solve({**params, "nu": NU, "n": n, "n_across": n_across, "tol": 1e-12, "quantities": "tangential"}, strategy)
+    return {"n": n, "n_across": n_across, "K_xx": record["K_xx"], "time_s": record["wall_time_s"], "boundary": record["boundary"]}
+
+
+def reference(params: dict, shape: Shape, nmax: int) -> tuple[float, float]:
+    """Order-1 Richardson of coverage-weighted solves on grids 2·nmax and 4·nmax (and the
+    difference to the one on nmax and 2·nmax as its uncertainty)."""
+    grids = grid_sequence(shape, 32, max_cells=2**40)
+    chosen = [g for g in grids if g[0] in (nmax, 2 * nmax, 4 * nmax)]
+    K = [run(params, n, na, "coverage")["K_xx"] for n, na in chosen]
+    r1, r2 = 2 * K[1] - K[0], 2 * K[2] - K[1]
+    return r2, abs(r2 - r1)
+
+
+def order(q0: float, q1: float, q2: float) -> float:
+    d1, d2 = abs(q1 - q0), abs(q2 - q1)
+    return math.log2(d1 / d2) if d1 > 0 and d2 > 0 else float("nan")
+
+
+def table(label: str, levels: list[dict], exact: float) -> list[dict]:
+    rows, total = [], 0.0
+    for k, level in enumerate(levels):
+        total += level["time_s"]
+        Q = [lv["K_xx"] for lv in levels[: k + 1]]
+        R = [2 * Q[i] - Q[i - 1] for i in range(1, len(Q))]
+        row = {
+            **level,
+            "error": Q[-1] / exact - 1.0,
+            "order": order(*Q[-3:]) if k >= 2 else float("nan"),
+            "richardson_error": R[-1] / exact - 1.0 if R else float("nan"),
+            "richardson_order": order(*R[-3:]) if len(R) >= 3 else float("nan"),
+            "sequence_time_s": total,
+        }
+        rows.append(row)
+        print(
+            f"{label:15s} {level['boundary']:9s} {level['n']:5d} {level['n_across']:5d} {row['error']:+10.2e} "
+            f"{level['n'] * row['error']:+9.5f} {row['order']:6.2f} {row['richardson_error']:+10.2e} "
+            f"{row['richardson_order']:6.2f} {level['time_s']:7.2f} {total:7.2f}",
+            flush=True,
+        )
+    return rows
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="circle and ellipse 0.7 only, up to n = 256")
+    parser.add_argument("--nmax", type=int, default=512, help="finest grid of the sequence (power of two ≥ 128)")
+    parser.add_argument("--out", type=Path, default=None, help="JSON with every number")
+    args = parser.parse_args()
+    nmax = 256 if args.quick else args.nmax
+    labels = QUICK if args.quick else tuple(CASES)
+    print(f"nu = {NU}, K_xx; order: observed order of the raw sequence; R: order-1 Richardson on consecutive grids")
+    print(f"{'case':15s} {'boundary':9s} {'n':>5s} {'ny':>5s} {'error':>10s} {'n*error':>9s} {'order':>6s} {'R error':>10s} {'R ord':>6s} {'time':>7s} {'seq.':>7s}")
+    out = {}
+    for label in labels:
+        params, shape, exact = CASES[label]
+        note = "closed form"
+        if exact is None:
+            started = time.perf_counter()
+            exact, spread = reference(params, shape, nmax)
+            note = f"reference {exact:.12g} ± {spread:.1e} (coverage, Richardson on n = {2 * nmax}, {4 * nmax}; {time.perf_counter() - started:.0f} s)"
+        print(f"# {label}: {note}")
+        grids = [g for g in grid_sequence(shape, 32, max_cells=2**40) if g[0] <= nmax]
+        out[label] = {"reference": exact, "note": note}
+        for strategy in ("coverage", "auto"):
+            levels = [run(params, n, na, strategy) for n, na in grids]
+            out[label][strategy] = table(label, levels, exact)
+    if args.out:
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        args.out.write_text(json.dumps(out, indent=1))
+
+
+if __name__ == "__main__":
+    main()

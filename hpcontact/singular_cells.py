@@ -1,0 +1,397 @@
+r"""Boundary cells that carry the square-root edge singularity of the bonded punch (Galerkin).
+
+Why
+---
+Piecewise-constant tractions on coverage-weighted cells (``hpcontact.boundary_cells``) converge
+at first order: the bonded punch's traction is t = g(x) w(x) with w ∝ d^(−1/2) at distance d from
+the edge, which no constant per cell resolves (relative K error ≈ −0.1 h for an ellipse, h the
+cell size over the semi-axis a). Here the edge behaviour is built into the basis, as in the
+singular (quarter-point) boundary elements and product integration of fracture mechanics
+(Barsoum 1976; Henshell & Shaw 1975; for screen/punch problems Stephan & Wendland 1984, whose
+h-version on d^(−1/2)-enriched bases recovers the smooth-solution order).
+
+Discretization (circle and ellipse x²/a² + y²/b² ≤ 1, unturned; isotropic half-space)
+-------------------------------------------------------------------------------------
+Trial and test functions on cell i are w(x) restricted to the covered part Ωᵢ = cellᵢ ∩ Ω,
+
+    w(x, y) = (1 − x²/a² − y²/b²)^(−1/2),        t(x) = Σᵢ gᵢ w(x) 1_Ωᵢ(x),
+
+the traction of Mindlin's (1949) and Boussinesq/Galin's elliptical punch (Johnson 1985 §3.7,
+§7.2): g is constant there, so the exact solution lies in the trial space. The Galerkin equations
+
+    Σᵢ Bⱼᵢ gᵢ = u₀ Wⱼ,    Bⱼᵢ = ∫_Ωⱼ ∫_Ωᵢ w(x) G(x − y) w(y) dy dx,    Wⱼ = ∫_Ωⱼ w dA,
+
+(G the half-space Green's function of the block, Johnson 1985 eq. 3.19–3.20) are symmetric
+positive definite; the stiffness is K = Σ gᵢ Wᵢ / u₀. In the unknowns sᵢ = gᵢ Wᵢ/(dx dy)
+(force per cell area) the system is Ã s = u₀ with Ãⱼᵢ = dx dy Bⱼᵢ/(Wⱼ Wᵢ), split as in the
+precorrected-FFT method (Phillips & White 1997, IEEE TCAD 16, 1059):
+
+* far field Pᵀ K* P: K* is the uniform-cell kernel averaged over the target cell as well
+  (the Galerkin double average; Love's rectangle integral averaged by graded Gauss–Legendre
+  within ``EXACT_OFFSETS`` cells, by its Taylor series through fourth differences beyond), applied
+  by the engine's FFT convolution; P spreads each cell's w-distribution onto the 3 × 3 cell
+  centres around it so that its moments through second order are matched (weights from the
+  closed-form W and centroid, second moments from the sub-cells below; quadratic Lagrange
+  weights where those are not computed);
+* near field: for cell pairs within ``NEAR`` cells (Chebyshev) of each other, one of them within
+  ``BAND`` cells of a cut cell, Ã − Pᵀ K* P is added as a sparse correction, B from m × m
+  sub-cells with exact ∫w (a closed form, :func:`sphere_area`) and Love's sub-cell integral,
+  extrapolated in m (2 B_m − B_{m/2}).
+
+Closed forms: ∫∫ (1 − u² − v²)^(−1/2) du dv over [0, U] × [0, V] is the area of the unit
+hemisphere above it, F = U asin(V/√(1−U²)) + V asin(U/√(1−V²)) − atan(UV/√(1−U²−V²)) inside
+the disc, π(U + V − 1)/2 beyond; first moments through ∫ √(c² − v²) dv.
+
+Error expansion (measured, ``benchmarks/edge_order.py``)
+-------------------------------------------------------
+See the table printed by the benchmark; the leading terms are stated in the report of issue 12.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from functools import lru_cache
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.ndimage import binary_dilation
+
+from .errors import InputError
+from .geometry import Grid, Shape, grid_for
+from .kernels.cells import cell_integrals
+from .kernels.isotropic import isotropic_block
+from .materials import Isotropic
+from .operator import ConvolutionOperator, kernel_spectrum, padded_shape
+
+__all__ = [
+    "BAND",
+    "EXACT_OFFSETS",
+    "MAX_CELL_ASPECT",
+    "NEAR",
+    "SUBCELLS",
+    "BlockSystem",
+    "SingularCells",
+    "double_average_kernel",
+    "sphere_area",
+    "supports",
+]
+
+NEAR = 2  # pairs within this many cells (Chebyshev) get the exact near-field integral
+BAND = 2  # ... when one of the two lies within this many cells of a cut cell
+EXACT_OFFSETS = 6  # K* by quadrature within this many cells, by its Taylor series beyond
+SUBCELLS = (16, 16)  # sub-cells per side for adjacent pairs (|offset| ≤ 1) and farther pairs
+GRADED_LEVELS, GRADED_POINTS = 10, 6  # graded Gauss–Legendre for K* (error ≲ 1e-9 relative)
+BLOCKS = ("xx", "yy", "zz")
+MAX_CELL_ASPECT = 2.0  # dy/dx within [1/2, 2]
+MIN_WEIGHT = 1e-9  # cells with W below this fraction of their area are left out (W is a difference of O(1) closed forms: ~1e-16 absolute)
+
+
+def supports(shape: Shape, material: object, grid: Grid) -> bool:
+    """Whether the singular treatment applies: an unturned circle or ellipse (w is known in
+    closed form there) on an isotropic half-space, on cells no more elongated than
+    ``MAX_CELL_ASPECT`` (the near field and K*'s exact table are sized in cells; elongated cells
+    would need them over ~6/aspect cells across)."""
+    aspect = grid.dy / grid.dx
+    shaped = shape.name in ("circle", "ellipse") and shape.angle_deg == 0.0
+    return isinstance(material, Isotropic) and shaped and 1.0 / MAX_CELL_ASPECT <= aspect <= MAX_CELL_ASPECT
+
+
+# ------------------------------------------------------------------------------------------
+# closed-form integrals of w over rectangles (coordinates scaled by the semi-axes)
+# ------------------------------------------------------------------------------------------
+def _hemisphere(U: np.ndarray, V: np.ndarray) -> np.ndarray:
+    U = np.minimum(np.abs(U), 1.0)
+    V = np.minimum(np.abs(V), 1.0)
+    s2 = 1.0 - U * U - V * V
+    cu = np.sqrt(np.maximum(1.0 - U * U, 1e-300))
+    cv = np.sqrt(np.maximum(1.0 - V * V, 1e-300))
+    inside = U * np.arcsin(np.minimum(V / cu, 1.0)) + V * np.arcsin(np.minimum(U / cv, 1.0))
+    inside -= np.arctan2(U * V, np.sqrt(np.maximum(s2, 0.0)))
+    return np.where(s2 > 0.0, inside, 0.5 * math.pi * (U + V - 1.0))
+
+
+def sphere_area(U: np.ndarray, V: np.ndarray) -> np.ndarray:
+    """F(U, V) = ∫₀^U ∫₀^V (1 − u² − v²)^(−1/2) 1[u² + v² < 1] dv du (odd in U and in V).
+
+    The area of the unit hemisphere above the rectangle (dA_sphere = dA/z); closed form in the
+    module docstring, derived by integrating asin(V/√(1 − u²)) by parts. Dimensionless.
+    """
+    return np.sign(U) * np.sign(V) * _hemisphere(np.asarray(U, float), np.asarray(V, float))
+
+
+def _rect(F: Callable[[np.ndarray, np.ndarray], np.ndarray], u1, u2, v1, v2) -> np.ndarray:
+    return F(u2, v2) - F(u1, v2) - F(u2, v1) + F(u1, v1)
+
+
+def _half_disc(t: np.ndarray) -> np.ndarray:
+    t = np.clip(t, -1.0, 1.0)
+    return 0.5 * (t * np.sqrt((1.0 - t) * (1.0 + t)) + np.arcsin(t))
+
+
+def _column(u: np.ndarray, v1: np.ndarray, v2: np.ndarray) -> np.ndarray:
+    """∫_{v1}^{v2} √(max(0, 1 − u² − v²)) dv."""
+    c2 = np.maximum(1.0 - u * u, 0.0)
+    c = np.sqrt(c2)
+    safe = np.where(c > 0.0, c, 1.0)
+    return np.where(c > 0.0, c2 * (_half_disc(v2 / safe) - _half_disc(v1 / safe)), 0.0)
+
+
+def _first_moment(u1, u2, v1, v2) -> np.ndarray:
+    """∫∫ u (1 − u² − v²)^(−1/2) over [u1, u2] × [v1, v2] ∩ disc (∂/∂u of −√(1 − u² − v²))."""
+    return _column(u1, v1, v2) - _column(u2, v1, v2)
+
+
+# ------------------------------------------------------------------------------------------
+# kernels: the uniform-cell kernel averaged over the target cell (Galerkin double average)
+# ------------------------------------------------------------------------------------------
+def _block_integral(nu: float, block: str, x: np.ndarray, y: np.ndarray, hx: float, hy: float) -> np.ndarray:
+    """Love's integral of block's Green's function (G = 1) over [−hx, hx] × [−hy, hy] at (x, y)."""
+    if block == "zz":
+        return (1.0 - nu) / (2.0 * math.pi) * cell_integrals(x, y, hx, hy, ["one_over_r"])["one_over_r"]
+    name = "xx_over_r3" if block == "xx" else "yy_over_r3"
+    I = cell_integrals(x, y, hx, hy, ["one_over_r", name])
+    return ((1.0 - nu) * I["one_over_r"] + nu * I[name]) / (2.0 * math.pi)
+
+
+def _graded_rule(levels: int, points: int) -> tuple[np.ndarray, np.ndarray]:
+    """Composite Gauss–Legendre on [−½, ½] with intervals halving toward both ends (the
+    x log x behaviour of Love's integral on the source cell's edge lines)."""
+    t, w = np.polynomial.legendre.leggauss(points)
+    b = np.concatenate([0.5 - 0.5 ** np.arange(1, levels + 1), [0.5]])
+    b = np.concatenate([-b[::-1], b[1:]])
+    lo, hi = b[:-1], b[1:]
+    return ((0.5 * (lo + hi))[:, None] + 0.5 * (hi - lo)[:, None] * t).ravel(), (0.5 * (hi - lo)[:, None] * w).ravel()
+
+
+@lru_cache(maxsize=32)
+def _exact_table(nu: float, block: str, ratio: float, reach: int) -> np.ndarray:
+    """K* at offsets (P, Q), 0 ≤ P, Q ≤ reach, for dx = 1, dy = ratio and G = 1 (read-only)."""
+    graded = _graded_rule(GRADED_LEVELS, GRADED_POINTS)
+    t, w = np.polynomial.legendre.leggauss(10)
+    plain = (0.5 * t, 0.5 * w)
+    out = np.empty((reach + 1, reach + 1))
+    for P in range(reach + 1):
+        ux, wx = graded if P <= 1 else plain
+        for Q in range(reach + 1):
+            uy, wy = graded if Q <= 1 else plain
+            k = _block_integral(nu, block, P + ux[:, None], ratio * (Q + uy[None, :]), 0.5, 0.5 * ratio)
+            out[P, Q] = wx @ k @ wy
+    out.setflags(write=False)
+    return out
+
+
+def double_average_kernel(material: Isotropic, nx: int, ny: int, dx: float, dy: float, block: str) -> np.ndarray:
+    """K*(p dx, q dy): displacement averaged over the target cell per unit uniform traction on
+    the source cell, centred offset grid (2nx−1, 2ny−1) as ``isotropic_block`` [length/stress].
+
+    K* = K + (δ²ₓ + δ²ᵧ)K/24 − 17(δ⁴ₓ + δ⁴ᵧ)K/5760 + δ²ₓδ²ᵧK/576 (the cell average of the Taylor
+    series in central differences δ of the collocation kernel K), replaced within
+    ``EXACT_OFFSETS`` cells by graded Gauss–Legendre quadrature of Love's integral.
+    """
+    Kb = isotropic_block(material, nx + 2, ny + 2, dx, dy, block)
+    c = Kb[2:-2, 2:-2]
+    d2x = Kb[3:-1, 2:-2] - 2.0 * c + Kb[1:-3, 2:-2]
+    d2y = Kb[2:-2, 3:-1] - 2.0 * c + Kb[2:-2, 1:-3]
+    d4x = Kb[4:, 2:-2] - 4.0 * Kb[3:-1, 2:-2] + 6.0 * c - 4.0 * Kb[1:-3, 2:-2] + Kb[:-4, 2:-2]
+    d4y = Kb[2:-2, 4:] - 4.0 * Kb[2:-2, 3:-1] + 6.0 * c - 4.0 * Kb[2:-2, 1:-3] + Kb[2:-2, :-4]
+    edges = Kb[3:-1, 2:-2] + Kb[1:-3, 2:-2] + Kb[2:-2, 3:-1] + Kb[2:-2, 1:-3]
+    dxy = Kb[3:-1, 3:-1] + Kb[1:-3, 3:-1] + Kb[3:-1, 1:-3] + Kb[1:-3, 1:-3] - 2.0 * edges + 4.0 * c
+    K = c + (d2x + d2y) / 24.0 - 17.0 * (d4x + d4y) / 5760.0 + dxy / 576.0
+    rx, ry = min(EXACT_OFFSETS, nx - 1), min(EXACT_OFFSETS, ny - 1)
+    table = dx / material.G * _exact_table(material.nu, block, dy / dx, max(rx, ry))[: rx + 1, : ry + 1]
+    full = np.concatenate([table[:0:-1], table], 0)
+    K[nx - 1 - rx : nx + rx, ny - 1 - ry : ny + ry] = np.concatenate([full[:, :0:-1], full], 1)
+    return K
+
+
+@lru_cache(maxsize=64)
+def _subcell_block(nu: float, block: str, ratio: float, m: int, P: int, Q: int) -> np.ndarray:
+    """M[s, s'] = (Love integral of sub-cell s' at the centre of sub-cell s) / sub-cell area, for
+    target cell at offset (P, Q) from the source, m × m sub-cells, dx = 1, dy = ratio, G = 1."""
+    k = np.arange(1 - m, m)  # distinct sub-cell offsets (the matrix is Toeplitz-block-Toeplitz)
+    table = _block_integral(nu, block, (P + k[:, None] / m), ratio * (Q + k[None, :] / m), 0.5 / m, 0.5 * ratio / m)
+    sa, sb = np.meshgrid(np.arange(m), np.arange(m), indexing="ij")
+    sa, sb = sa.ravel(), sb.ravel()
+    M = table[m - 1 + sa[:, None] - sa[None, :], m - 1 + sb[:, None] - sb[None, :]] * (m * m / ratio)
+    M.setflags(write=False)
+    return M
+
+
+# ------------------------------------------------------------------------------------------
+# one grid: weights, moment-matched spreading, near-field correction, operator
+# ------------------------------------------------------------------------------------------
+class SingularCells:
+    """The cells of one (shape, grid, material): weights, spreading, sub-cells (module docstring).
+
+    ``grid`` is the cropped grid padded by one cell on every side (room for the 3 × 3 spreading),
+    ``mask`` the cells with W > 0, ``W`` their ∫w dA [area], ``beta`` the spreading weights P
+    per stencil offset; ``system(block)`` the Galerkin system of one block (``BlockSystem``);
+    ``force(s)`` = Σ s dx dy.
+    """
+
+    def __init__(self, shape: Shape, n: int, n_across: int | None, material: Isotropic) -> None:
+        full = grid_for(shape, n, n_across)
+        if not supports(shape, material, full):
+            raise InputError(
+                "shape", f"an unturned circle or ellipse, isotropic, cells dy/dx within 1/{MAX_CELL_ASPECT:g} … {MAX_CELL_ASPECT:g}", shape.name
+            )
+        a, b = 1.0, (shape.aspect if shape.name == "ellipse" else 1.0)
+        dx, dy = full.dx, full.dy
+        # cells any part of which is inside: |x| < a + dx/2 etc.; crop to them, pad by one
+        ix = np.flatnonzero(np.abs(full.x) - 0.5 * dx < a)
+        jy = np.flatnonzero(np.abs(full.y) - 0.5 * dy < b)
+        x = full.x[ix[0]] + (np.arange(ix.size + 2) - 1) * dx
+        y = full.y[jy[0]] + (np.arange(jy.size + 2) - 1) * dy
+        nx, ny = x.size, y.size
+        self.grid = Grid(nx=nx, ny=ny, dx=dx, dy=dy)
+        u1, u2 = ((x - 0.5 * dx) / a)[:, None], ((x + 0.5 * dx) / a)[:, None]
+        v1, v2 = ((y - 0.5 * dy) / b)[None, :], ((y + 0.5 * dy) / b)[None, :]
+        Wuv = _rect(sphere_area, u1, u2, v1, v2)
+        full_cell = (u1 ** 2 + v1 ** 2 < 1) & (u1 ** 2 + v2 ** 2 < 1) & (u2 ** 2 + v1 ** 2 < 1) & (u2 ** 2 + v2 ** 2 < 1)
+        mask = Wuv > MIN_WEIGHT * dx * dy / (a * b)  # barely touched cells (W ~ rounding) are left out
+        safe = np.where(mask, Wuv, 1.0)
+        xi = np.where(mask, (a * _first_moment(u1, u2, v1, v2) / safe - x[:, None]) / dx, 0.0)
+        eta = np.where(mask, (b * _first_moment(v1.T, v2.T, u1.T, u2.T).T / safe - y[None, :]) / dy, 0.0)
+        self.mask = mask
+        self.W = np.where(mask, a * b * Wuv, 0.0)
+        self.material = material
+
+        # near set: cells within BAND of a cut cell (band), and cells within NEAR of the band
+        cut = mask & ~full_cell
+        square = np.ones((3, 3), dtype=bool)
+        band = binary_dilation(cut, square, iterations=BAND) & mask
+        near = binary_dilation(band, square, iterations=NEAR) & mask
+        cells = np.argwhere(near)
+        index = -np.ones((nx, ny), dtype=np.int64)
+        index[near] = np.arange(len(cells))
+        in_band = band[cells[:, 0], cells[:, 1]]
+
+        self.cells, self.index, self.in_band = cells, index, in_band
+        self._x, self._y, self._axes = x, y, (a, b)
+        self._sub: dict[int, np.ndarray] = {}
+
+        # second moments about the cell centre (units dx², dy², dx dy): uniform-cell values
+        # where w is smooth, sub-cell sums extrapolated in m on the near set
+        mxx, myy, mxy = 1.0 / 12.0 + xi ** 2, 1.0 / 12.0 + eta ** 2, xi * eta
+        m = SUBCELLS[0]
+        Wn = self.Wn = self.W[cells[:, 0], cells[:, 1]]
+        moments = np.zeros((3, len(cells)))
+        for mm, weight in ((m, 2.0), (m // 2, -1.0)):
+            ex = np.repeat((np.arange(mm) + 0.5) / mm - 0.5, mm)
+            ey = np.tile((np.arange(mm) + 0.5) / mm - 0.5, mm)
+            Ws = self.subcells(mm)
+            moments += weight * np.stack([Ws @ (ex ** 2 + 1.0 / (12 * mm * mm)), Ws @ (ey ** 2 + 1.0 / (12 * mm * mm)), Ws @ (ex * ey)]) / Wn
+        mxx[near], myy[near], mxy[near] = moments
+        sx, sy = mxx - 1.0 / 12.0, myy - 1.0 / 12.0
+        bx = ((sx - xi) / 2.0, 1.0 - sx, (sx + xi) / 2.0)
+        by = ((sy - eta) / 2.0, 1.0 - sy, (sy + eta) / 2.0)
+        corner = (mxy - xi * eta) / 4.0
+        self.beta = {}
+        for p in (-1, 0, 1):
+            for q in (-1, 0, 1):
+                weight = bx[p + 1] * by[q + 1] + (p * q * corner if p and q else 0.0)
+                self.beta[(p, q)] = np.where(mask, weight, 0.0)
+
+    def subcells(self, m: int) -> np.ndarray:
+        """Sub-cell weights ∫w dA of the near set's cells on m × m sub-cells, shape (cells, m²)."""
+        if m not in self._sub:
+            (a, b), cells, g = self._axes, self.cells, self.grid
+            e = np.arange(m + 1) / m - 0.5
+            F = sphere_area(((self._x[cells[:, 0], None] + e * g.dx) / a)[:, :, None], ((self._y[cells[:, 1], None] + e * g.dy) / b)[:, None, :])
+            self._sub[m] = (a * b * (F[:, 1:, 1:] - F[:, :-1, 1:] - F[:, 1:, :-1] + F[:, :-1, :-1])).reshape(len(cells), m * m)
+        return self._sub[m]
+
+    def system(self, block: str) -> BlockSystem:
+        """The Galerkin system Ã s = u₀ of ``block`` ("xx", "yy" or "zz") on these cells."""
+        if block not in BLOCKS:
+            raise InputError("block", f"one of {BLOCKS}", block)
+        return BlockSystem(self, block)
+
+    def force(self, s: np.ndarray) -> float:
+        """Resultant Σ gᵢ Wᵢ = Σ sᵢ dx dy of the solution s (force per unit displacement u₀ = 1)."""
+        return float(s.sum() * self.grid.cell_area)
+
+
+class BlockSystem:
+    """Ã = Pᵀ K* P + N for one block: ``apply(s)`` on arrays (1, nx, ny), ``diagonal`` of Ã
+    (for the preconditioner), ``mask`` the unknowns."""
+
+    def __init__(self, cells: SingularCells, block: str) -> None:
+        self.cells, self.grid, self.mask, self.beta = cells, cells.grid, cells.mask, cells.beta
+        material, mask = cells.material, cells.mask
+        nx, ny, dx, dy = self.grid.nx, self.grid.ny, self.grid.dx, self.grid.dy
+        nu, ratio = material.nu, dy / dx
+        index, in_band, Wn = cells.index, cells.in_band, cells.Wn
+        near_cells = cells.cells
+
+        Kstar = double_average_kernel(material, nx, ny, dx, dy, block)
+        self.operator = ConvolutionOperator(nx, ny, block[0], {block: kernel_spectrum(Kstar, padded_shape(nx, ny))})
+
+        # near-field correction: exact Galerkin entries minus what the far field gives them
+        rows, cols, vals = [], [], []
+        for P in range(-NEAR, NEAR + 1):
+            for Q in range(-NEAR, NEAR + 1):
+                if (P, Q) < (0, 0):
+                    continue  # the transpose of (−P, −Q)
+                target = near_cells + (P, Q)
+                ok = (target[:, 0] >= 0) & (target[:, 0] < nx) & (target[:, 1] >= 0) & (target[:, 1] < ny)
+                src = np.flatnonzero(ok)
+                tgt = index[target[src, 0], target[src, 1]]
+                keep = tgt >= 0
+                src, tgt = src[keep], tgt[keep]
+                keep = in_band[src] | in_band[tgt]
+                src, tgt = src[keep], tgt[keep]
+                if src.size == 0:
+                    continue
+                mm = SUBCELLS[0] if max(abs(P), abs(Q)) <= 1 else SUBCELLS[1]
+                B = np.zeros(src.size)
+                for level, weight in ((mm, 2.0), (mm // 2, -1.0)):
+                    Ws = cells.subcells(level)
+                    M = _subcell_block(nu, block, ratio, level, P, Q)
+                    B += weight * np.einsum("pa,pa->p", Ws[tgt] @ M, Ws[src])
+                B /= dx * material.G
+                cs, ct = near_cells[src], near_cells[tgt]
+                exact = dx * dy * B / (Wn[tgt] * Wn[src])
+                far = np.zeros(src.size)
+                for (p, q), bt in self.beta.items():
+                    wt = bt[ct[:, 0], ct[:, 1]]
+                    for (pp, qq), bs in self.beta.items():
+                        far += wt * bs[cs[:, 0], cs[:, 1]] * Kstar[nx - 1 + P + p - pp, ny - 1 + Q + q - qq]
+                flat_s, flat_t = cs[:, 0] * ny + cs[:, 1], ct[:, 0] * ny + ct[:, 1]
+                rows.append(flat_t)
+                cols.append(flat_s)
+                vals.append(exact - far)
+                if (P, Q) != (0, 0):
+                    rows.append(flat_s)
+                    cols.append(flat_t)
+                    vals.append(exact - far)
+        self.near = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(nx * ny, nx * ny))
+        far_diagonal = sum(
+            bt * bs * Kstar[nx - 1 + p - pp, ny - 1 + q - qq] for (p, q), bt in self.beta.items() for (pp, qq), bs in self.beta.items()
+        )
+        self.diagonal = np.where(mask, far_diagonal + self.near.diagonal().reshape(nx, ny), 0.0)
+
+    def spread(self, s: np.ndarray) -> np.ndarray:
+        """Grid tractions P s: each cell's share on the 3 × 3 cell centres around it."""
+        nx, ny = s.shape
+        out = np.zeros_like(s)
+        for (p, q), bw in self.beta.items():
+            out[max(p, 0) : nx + min(p, 0), max(q, 0) : ny + min(q, 0)] += (bw * s)[max(-p, 0) : nx - max(p, 0), max(-q, 0) : ny - max(q, 0)]
+        return out
+
+    def gather(self, u: np.ndarray) -> np.ndarray:
+        """Pᵀ u: each cell's w-weighted mean of the grid displacements (moments matched)."""
+        nx, ny = u.shape
+        out = np.zeros_like(u)
+        for (p, q), bw in self.beta.items():
+            out[max(-p, 0) : nx - max(p, 0), max(-q, 0) : ny - max(q, 0)] += (
+                bw[max(-p, 0) : nx - max(p, 0), max(-q, 0) : ny - max(q, 0)] * u[max(p, 0) : nx + min(p, 0), max(q, 0) : ny + min(q, 0)]
+            )
+        return out
+
+    def apply(self, s: np.ndarray) -> np.ndarray:
+        """Ã s for s of shape (1, nx, ny) supported on ``mask``."""
+        nx, ny = self.grid.nx, self.grid.ny
+        far = self.gather(self.operator.apply(self.spread(s[0])[None])[0])
+        return (far + (self.near @ s[0].ravel()).reshape(nx, ny))[None]

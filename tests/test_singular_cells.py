@@ -1,0 +1,110 @@
+"""Singular boundary cells (``hpcontact.singular_cells``) and ``covered_solve(strategy=...)``.
+
+Closed forms: the hemisphere area behind ∫∫ (1 − u² − v²)^(−½) (checked against adaptive
+quadrature), Mindlin's ellipse K_a, K_b (1949), the elliptical punch K_zz (Galin/Johnson §3.7).
+Every tolerance states where it comes from.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy import integrate
+
+from hpcontact import analytic
+from hpcontact import boundary_cells as bc
+from hpcontact import singular_cells as sc
+from hpcontact.errors import InputError
+from hpcontact.geometry import Shape
+from hpcontact.kernels.isotropic import isotropic_block
+from hpcontact.materials import Isotropic
+
+pytestmark = pytest.mark.filterwarnings("error")
+
+
+@pytest.mark.parametrize(
+    "u1, u2, v1, v2",
+    [(0.1, 0.3, 0.2, 0.5), (0.5, 0.9, 0.3, 0.7), (-0.2, 0.1, 0.9, 1.2), (0.6, 1.1, -0.1, 0.5), (-1.5, 1.5, -0.3, 0.2)],
+)
+def test_sphere_area_is_the_integral_of_w(u1: float, u2: float, v1: float, v2: float) -> None:
+    """F's rectangle sums against scipy's adaptive quadrature of (1 − u² − v²)^(−½) over the
+    rectangle ∩ disc, integrated in v analytically-free form (inner limits at the circle so the
+    singularity sits on an endpoint). Bound 1e-7: quad's tolerance (epsabs 1e-10) with room."""
+
+    def inner(u: float) -> float:
+        c2 = 1.0 - u * u
+        if c2 <= 0.0:
+            return 0.0
+        c = math.sqrt(c2)
+        lo, hi = max(v1, -c), min(v2, c)
+        if hi <= lo:
+            return 0.0
+        return math.asin(hi / c) - math.asin(lo / c)  # ∫ (c² − v²)^(−½) dv, exact
+
+    expected = integrate.quad(inner, u1, u2, epsabs=1e-12, limit=200, points=[-1.0, 1.0] if u1 < -1 < 1 < u2 else None)[0]
+    got = float(sc.sphere_area(u2, v2) - sc.sphere_area(u1, v2) - sc.sphere_area(u2, v1) + sc.sphere_area(u1, v1))
+    assert got == pytest.approx(expected, abs=1e-7)
+
+
+def test_cell_weights_sum_to_the_hemisphere() -> None:
+    """Σ W over the cells of an ellipse is 2π a b (the whole hemisphere, telescoping sums;
+    bound 1e-12 relative: each W is a difference of O(1) closed forms, ~n²·eps) and the
+    spreading weights keep every cell's force (Σ β = 1 on the contact, 1e-12)."""
+    cells = sc.SingularCells(Shape("ellipse", 0.7), 32, 22, Isotropic(1.0, 0.3))
+    system = cells.system("xx")
+    assert cells.W.sum() == pytest.approx(2.0 * math.pi * 0.7, rel=1e-12)
+    total = sum(cells.beta.values())
+    assert np.max(np.abs(total - cells.mask)) < 1e-12
+    assert abs(system.near - system.near.T).max() == 0.0  # the near correction is symmetric (built so)
+
+
+def test_double_average_kernel_series_meets_the_quadrature() -> None:
+    """Beyond ``EXACT_OFFSETS`` K* comes from the Taylor series in central differences; at the
+    first offset past the table it must agree with the graded quadrature of the table (computed
+    here with a larger reach). Bound 2e-6 relative: the series' first neglected (sixth-order)
+    term, measured 7.6e-7 at offset 7 along x (1e-7 on the diagonal), falling as offset^(−7)."""
+    material = Isotropic(1.0, 0.3)
+    n, d = 16, sc.EXACT_OFFSETS + 1
+    series = sc.double_average_kernel(material, n, n, 1.0, 1.0, "xx")[n - 1 + d, n - 1]
+    exact = sc._exact_table(0.3, "xx", 1.0, d)[d, 0]
+    assert series == pytest.approx(exact, rel=2e-6)
+    collocation = isotropic_block(material, n, n, 1.0, 1.0, "xx")[n - 1 + d, n - 1]
+    assert abs(collocation / exact - 1.0) > 1e-4  # the average differs from the centre value
+
+
+@pytest.mark.parametrize("aspect", [1.0, 0.7])
+def test_singular_cells_against_mindlin_and_galin(aspect: float) -> None:
+    """n = 64: K_xx, K_yy, K_zz against the closed forms. Bound 2.5e-5 relative: the convergence
+    study (``benchmarks/edge_order.py``, circle and ellipse 0.7, nu = 0.3, n = 32 … 512) measured
+    |error| ≤ 1.3e-3/n, i.e. ≤ 2.0e-5 at n = 64 (measured here 5.5e-6 and 7.1e-6, 3.5e-6,
+    5.3e-6); coverage weighting on the same grid errs by 3.3e-3 … 4.1e-3 — asserted ≥ 100× worse."""
+    shape = "circle" if aspect == 1.0 else "ellipse"
+    na = 64 if aspect == 1.0 else 44
+    params = {"shape": shape, "aspect": aspect, "nu": 0.3, "n": 64, "n_across": na, "tol": 1e-12, "quantities": "tangential,normal"}
+    singular = bc.covered_solve(params, strategy="singular")
+    coverage = bc.covered_solve(params, strategy="coverage")
+    K_a, K_b = analytic.mindlin_ellipse_stiffness(1.0, aspect, 1.0, 0.3)
+    exact = {"K_xx": K_a, "K_yy": K_b, "K_zz": analytic.elliptical_punch_normal_stiffness(1.0, aspect, 1.0, 0.3)}
+    assert singular["boundary"] == "singular" and coverage["boundary"] == "coverage"
+    for key, value in exact.items():
+        error = abs(singular[key] / value - 1.0)
+        assert error < 2.5e-5, (key, error)
+        assert abs(coverage[key] / value - 1.0) > 100.0 * error, key
+    assert singular["K_xy"] == 0.0 and singular["K_yx"] == 0.0  # exact for the ellipse (Mindlin)
+    assert singular["contact_area"] == pytest.approx(math.pi * aspect, rel=1e-12)
+
+
+def test_strategy_choice_and_refusals() -> None:
+    """``auto`` takes singular cells only where they apply; ``singular`` elsewhere is refused."""
+    square = {"shape": "polygon", "sides": 4, "n": 16, "quantities": "tangential"}
+    assert bc.covered_solve(square, strategy="auto")["boundary"] == "coverage"
+    with pytest.raises(InputError):
+        bc.covered_solve(square, strategy="singular")
+    with pytest.raises(InputError):  # elongated cells (dy/dx = 1/4): the near field is sized in cells
+        bc.covered_solve({"shape": "ellipse", "aspect": 0.25, "n": 32, "n_across": 32}, strategy="singular")
+    with pytest.raises(InputError):
+        bc.covered_solve({"shape": "circle", "n": 16, "quantities": "coupled"}, strategy="singular")
+    with pytest.raises(InputError):
+        bc.covered_solve({"shape": "circle", "n": 16}, strategy="exact")
