@@ -3,27 +3,43 @@
 **Seconds.** A task of kind k (``task_kind``: ``contact``, ``crystal``, ``crystal_indentation``
 or ``slip``) takes, on one core of this machine,
 
-    seconds = rate_k × cost + solve_k × cost / (S log2 S)
+    seconds = rate_k × cost + solve_k × cost / (S log2 S) [+ node_s × ω nodes, slip scenes]
 
 with ``cost = hpcontact.sweep.tasks.estimated_cost(params)`` as the cost units (padded FFT cells
-S · log2 S × solves × digits of tolerance) and S = ``tasks.padded_cells(params)``: the first
-term is the FFT work, the second the work per solve and digit that does not grow with the grid
-(Python, CG bookkeeping, set-up: cost / (S log2 S) is the number of solves × digits).
-``rate_k`` (seconds per cost unit) and ``solve_k`` (seconds per solve-digit) are measured by
+S · log2 S × solves × CG iterations, the iterations as digits of tolerance × the grid's
+iteration factor 1 + 0.3 log2 ρ, ρ the contact grid's aspect in cells: ``taskgrid``; a slip
+scene's solves follow its load path, ``tasks.slip_cost``) and S = ``tasks.padded_cells(params)``
+(the grid of the turned shape's bounding box, ``taskgrid.contact_grid``): the first term is the
+FFT work, the second the work per solve-iteration that does not grow with the grid (Python, CG
+bookkeeping, set-up: cost / (S log2 S)). A slip scene with anisotropic bodies (a crystal, an
+orthotropic body) evaluates their surface Green's functions by the Barnett–Lothe integrals
+several times per task (the grid's kernels, the preconditioner, the coupling size, the Hertz
+estimate), at a cost proportional to the ω nodes the adaptive rule needs for that body
+(``omega_nodes``: 64 for Cu, Ni, Si crystals; 256-1024 for the orthotropic bodies of
+Rodríguez-Tembleque et al. 2011, E1/E2 = 25-800), twice when both the coupled and the
+decoupled path are solved (each builds its preconditioner from them), and independent of the
+grid and the load steps: the third term. ``rate_k`` (seconds per cost unit) and ``solve_k`` are measured by
 ``calibrate``: two real solves per kind on a small and a larger grid (each run once untimed
 first, so that FFT plans are warm as in a sweep, then timed twice with the kernel cache cleared,
 as a sweep's first task of a kernel group runs; the lesser time counts) give the two
-coefficients. Times are CPU seconds of
-the process (``time.process_time``; the solvers run one thread unless a scene asks for more):
-the time on a core of its own, as a batch system gives one per rank, and unlike wall time not
-inflated by whatever else shares the machine while it calibrates (measured on this shared
-2-core machine: wall-time calibrations of the same scenes differ by 2x from minute to minute). A pure rate misses by
-2-4x: measured 0.115, 0.049, 0.029 µs per unit for an isotropic ellipse at n = 32, 64, 128; a
-constant per task instead of the per-solve term misses the slip tasks (whose time follows the
-steps and passes more than the grid) by 2-3x. The calibration takes ~10-30 s and is cached like
-FFTW wisdom, in ``costmodel-HOST.json`` beside the wisdom file ($HPCONTACT_COSTMODEL overrides),
-keyed by host and package version: a file of another host or version, or one that cannot be
-read as a calibration, is ignored with a warning and replaced.
+coefficients; ``node_s`` is what a small slip scene of two orthotropic bodies
+(``ANISOTROPIC_SLIP_SCENE``) takes beyond the slip kind's two terms, per ω node. Times are CPU
+seconds of the process (``time.process_time``; the solvers run one thread unless a scene asks
+for more): the time on a core of its own, as a batch system gives one per rank, and unlike wall
+time not inflated by whatever else shares the machine while it calibrates (measured on this
+shared 2-core machine: wall-time calibrations of the same scenes differ by 2x from minute to
+minute). A pure rate misses by 2-4x: measured 0.115, 0.049, 0.029 µs per unit for an isotropic
+ellipse at n = 32, 64, 128; a constant per task instead of the per-solve term misses the slip
+tasks (whose time follows the steps and passes more than the grid) by 2-3x; without the
+iteration factor, a square on 512 × 32 cells (li2017_aspect) took 2-3x its estimate (59-81
+iterations against 33 on 128 × 128 cells of the same padded size); without the ω-node term
+and the normal-friction passes, the orthotropic pairs took 3.8x theirs. The calibration takes
+~15-35 s and is cached like FFTW wisdom, in ``costmodel-HOST.json`` beside the wisdom file
+($HPCONTACT_COSTMODEL overrides), keyed by host and package version: a file of another host or
+version, or one that cannot be read as a calibration, is ignored with a warning and replaced.
+``hpcontact run`` prints the estimate of the tasks it will compute before it starts
+(``start_line``), from the cached calibration only: without one it says so rather than make
+every rank wait for a calibration.
 
 **Memory.** The peak resident memory of a rank running a task is
 
@@ -60,6 +76,7 @@ Wall time = makespan; efficiency = Σ task seconds / (R × makespan).
 
 from __future__ import annotations
 
+import functools
 import heapq
 import json
 import math
@@ -79,7 +96,7 @@ from .kinds import SLIP, quantity_names, scene_kind
 from .tasks import Task, estimated_cost, make_chunks, padded_cells
 
 KINDS = ("contact", "crystal", "crystal_indentation", "slip")
-FORMAT = 1  # version of the calibration file's layout
+FORMAT = 2  # version of the calibration file's layout (2: node_s, the slip scenes' Barnett–Lothe term)
 MIB = 2**20
 # Memory per kind: (fixed bytes, bytes per padded cell), fitted as stated in the module docstring.
 MEMORY_MODEL = {
@@ -114,6 +131,16 @@ CALIBRATION_SCENES: dict[str, tuple[dict[str, Any], dict[str, Any]]] = {
 }
 
 
+# A slip scene with two anisotropic bodies (the orthotropic pair of Rodríguez-Tembleque et al.
+# 2011, §6.2; 256 ω nodes each), small: what it takes beyond the isotropic slip rates is the
+# Barnett–Lothe cost, per ω node.
+_ORTHOTROPIC = "E1=25 E2=1 E3=1 G12=0.5 G13=0.5 G23=0.2 nu12=0.25 nu13=0.25 nu23=0.25"
+ANISOTROPIC_SLIP_SCENE: dict[str, Any] = {
+    "quantities": "slip", "orthotropic": _ORTHOTROPIC, "orthotropic2": _ORTHOTROPIC, "radius": 0.5, "radius_b": 2.0,
+    "load": 1.0e6, "mu": 0.1, "q_ratio": 0.5, "steps": 1, "n": 16, "tol": 1e-8,
+}
+
+
 def task_kind(params: Mapping[str, Any]) -> str:
     """The calibration group: 'slip'; 'crystal' (a named material or A != 1), or
     'crystal_indentation' when a crystal scene asks for the indentation alone (one normal kernel
@@ -128,10 +155,12 @@ def task_kind(params: Mapping[str, Any]) -> str:
 
 @dataclass(frozen=True)
 class Rate:
-    """Seconds of a task of one kind: ``rate_s × cost + solve_s × solve_units`` (module docstring)."""
+    """Seconds of a task of one kind: ``rate_s × cost + solve_s × solve_units + node_s ×
+    omega_nodes`` (module docstring; ``node_s`` is measured for slip scenes only)."""
 
     rate_s: float
     solve_s: float
+    node_s: float = 0.0
 
 
 def solve_units(params: Mapping[str, Any], cost: float) -> float:
@@ -153,13 +182,48 @@ class Calibration:
 
     def task_seconds(self, params: Mapping[str, Any], cost: float | None = None) -> float:
         """Estimated seconds of the scene ``params`` on one core."""
-        rate = self.rates[task_kind(params)]
+        kind = task_kind(params)
+        rate = self.rates[kind]
         cost = estimated_cost(params) if cost is None else cost
-        return rate.rate_s * cost + rate.solve_s * solve_units(params, cost)
+        nodes = omega_nodes(params) if kind == "slip" else 0
+        return rate.rate_s * cost + rate.solve_s * solve_units(params, cost) + rate.node_s * nodes
 
     def task_bytes(self, params: Mapping[str, Any]) -> float:
         """Estimated peak resident bytes of a rank running the scene ``params``."""
         return self.base_bytes + task_array_bytes(params)
+
+
+def omega_nodes(params: Mapping[str, Any]) -> int:
+    """Barnett–Lothe ω nodes of the anisotropic bodies of the slip scene ``params`` (0 for
+    isotropic bodies): the nodes the adaptive trapezoidal rule of
+    ``kernels.anisotropic._surface_green`` needs on 32 in-plane directions, summed over the
+    bodies, times the load paths solved (2 for a dissimilar pair under coupling auto or both:
+    each path builds its preconditioner from the pair's Green's function — measured 4.6 of
+    6.3 s of Barnett–Lothe time for an orthotropic pair of Rodríguez-Tembleque et al. 2011)."""
+    from ..anisotropic_pair import GPA
+    from ..bodies import pair_from_params
+    from ..elastic_constants import anisotropic_material
+    from ..kernels.anisotropic import as_voigt
+
+    nodes = 0
+    for suffix in ("", "2"):
+        crystal = anisotropic_material(params, suffix, GPA, library=False)
+        if crystal is not None:
+            nodes += _omega_nodes(as_voigt(crystal).tobytes())
+    if nodes and params.get("coupling", "auto") in ("auto", "both") and not pair_from_params(params).similar:
+        nodes *= 2
+    return nodes
+
+
+@functools.lru_cache(maxsize=1024)
+def _omega_nodes(voigt: bytes) -> int:
+    """ω nodes for the 6 × 6 stiffness ``voigt`` (its bytes: a cache key), 32 directions."""
+    import numpy as np
+
+    from ..kernels.anisotropic import _surface_green
+
+    stiffness = np.frombuffer(voigt, dtype=np.float64).reshape(6, 6)
+    return _surface_green(stiffness, np.linspace(0.0, 2.0 * math.pi, 32, endpoint=False))[1]
 
 
 def task_array_bytes(params: Mapping[str, Any]) -> float:
@@ -240,6 +304,10 @@ def calibrate(scenes: Mapping[str, Sequence[Mapping[str, Any]]] = CALIBRATION_SC
     started = time.perf_counter()
     base = base_memory_bytes()
     rates = {kind: fit_rate(pair, [_timed(p) for p in pair]) for kind, pair in scenes.items()}
+    slip, scene = rates["slip"], ANISOTROPIC_SLIP_SCENE
+    cost = estimated_cost(scene)
+    rest = _timed(scene) - slip.rate_s * cost - slip.solve_s * solve_units(scene, cost)
+    rates["slip"] = Rate(slip.rate_s, slip.solve_s, max(0.0, rest) / omega_nodes(scene))
     return Calibration(socket.gethostname(), __version__, rates, base, time.perf_counter() - started)
 
 
@@ -274,8 +342,8 @@ def read_calibration(path: Path) -> Calibration:
     rates = {}
     for kind in KINDS:
         entry = record["rates"][kind]
-        rates[kind] = Rate(float(entry["rate_s"]), float(entry["solve_s"]))
-        if not all(math.isfinite(v) and v >= 0.0 for v in (rates[kind].rate_s, rates[kind].solve_s)):
+        rates[kind] = Rate(float(entry["rate_s"]), float(entry["solve_s"]), float(entry["node_s"]))
+        if not all(math.isfinite(v) and v >= 0.0 for v in asdict(rates[kind]).values()):
             raise ValueError(f"{kind}: rates must be finite and >= 0")
         if rates[kind].rate_s + rates[kind].solve_s <= 0.0:
             raise ValueError(f"{kind}: a task must take time")
@@ -285,33 +353,58 @@ def read_calibration(path: Path) -> Calibration:
     return Calibration(str(record["host"]), str(record["version"]), rates, base, float(record.get("seconds", 0.0)))
 
 
-def load_calibration(path: Path | None = None, stream: Any = None) -> Calibration:
-    """This machine's calibration: the cached one when it was measured here by this version,
-    else a new one (saved for next time; ``stream`` is told). A corrupt or foreign file is
-    ignored with a ``RuntimeWarning`` and replaced."""
+def cached_calibration(path: Path | None = None) -> tuple[Calibration | None, str]:
+    """The cached calibration when it was measured on this host by this package version, else
+    None and why not (no file, a corrupt one, another host or version)."""
     from .. import __version__
 
     path = calibration_path() if path is None else Path(path)
     host = socket.gethostname()
+    if not path.exists():
+        return None, f"no calibration cached in {path}"
+    try:
+        cached = read_calibration(path)
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        return None, f"cost calibration {path} ignored: {exc}"
+    if cached.host != host or cached.version != __version__:
+        return None, (f"cost calibration {path} ignored: measured on {cached.host} by hpcontact {cached.version}, "
+                      f"not {host} / {__version__}")
+    return cached, ""
+
+
+def load_calibration(path: Path | None = None, stream: Any = None) -> Calibration:
+    """This machine's calibration: the cached one when it was measured here by this version,
+    else a new one (saved for next time; ``stream`` is told). A corrupt or foreign file is
+    ignored with a ``RuntimeWarning`` and replaced."""
+    path = calibration_path() if path is None else Path(path)
+    cached, why = cached_calibration(path)
+    if cached is not None:
+        return cached
     if path.exists():
-        try:
-            cached = read_calibration(path)
-        except (OSError, ValueError, KeyError, TypeError) as exc:
-            warnings.warn(f"cost calibration {path} ignored: {exc}", RuntimeWarning, stacklevel=2)
-        else:
-            if cached.host == host and cached.version == __version__:
-                return cached
-            warnings.warn(f"cost calibration {path} ignored: measured on {cached.host} by hpcontact {cached.version}, "
-                          f"not {host} / {__version__}", RuntimeWarning, stacklevel=2)
+        warnings.warn(why, RuntimeWarning, stacklevel=2)
     if stream is not None:
-        print(f"hpcontact: calibrating the cost model on {host} (once per host and version; cached in {path})",
-              file=stream, flush=True)
+        print(f"hpcontact: calibrating the cost model on {socket.gethostname()} (once per host and version; cached in "
+              f"{path})", file=stream, flush=True)
     calibration = calibrate()
     try:
         save_calibration(calibration, path)
     except OSError as exc:
         warnings.warn(f"cost calibration not saved to {path}: {exc}", RuntimeWarning, stacklevel=2)
     return calibration
+
+
+def start_line(tasks: Sequence[Task], ranks: int) -> str:
+    """The line ``hpcontact run`` prints on rank 0 before work starts: the estimated core-seconds
+    of ``tasks`` (those this run computes) and the replayed wall time on ``ranks`` ranks, from the
+    cached calibration. It never calibrates (that takes ~30 s, which a run must not wait for):
+    without a usable cache the line says so and how to get one."""
+    calibration, why = cached_calibration()
+    if calibration is None:
+        return f"hpcontact: no cost estimate ({why}; hpcontact run SPEC --dry-run calibrates once, ~30 s)"
+    seconds = {t.key: calibration.task_seconds(t.params, t.cost) for t in tasks}
+    wall = replay(tasks, seconds, ranks)["makespan_s"] if tasks else 0.0
+    return (f"hpcontact: estimated {sum(seconds.values()):.4g} core-seconds, {wall:.3g} s on {ranks} rank(s) "
+            f"(cost model of {calibration.host}; --dry-run for each task)")
 
 
 @dataclass(frozen=True)

@@ -298,6 +298,9 @@ def _run(team: Team, plan: Plan, keep: dict[str, Any], task_function: TaskFuncti
             file=stream,
             flush=True,
         )
+        from .costmodel import start_line  # the dry run's estimate, from the cached calibration only
+
+        print(start_line(todo, team.size), file=stream, flush=True)
         progress = Progress(len(tasks), plan.reused, sum(t.cost for t in todo), spec.progress_interval, stream)
 
     index = {t.key: i for i, t in enumerate(tasks)}

@@ -26,6 +26,7 @@ from typing import Any, Mapping
 
 from .kinds import SLIP, quantity_names, scene_kind
 from .spec import Spec, canonical_json
+from .taskgrid import contact_grid, iteration_factor
 
 # Fields that change a scene's outline or its solves but not its material or grid spacing:
 # tasks differing only in these may share kernels (when their bounding boxes match).
@@ -56,6 +57,7 @@ CRYSTAL_FACTOR = 2.0
 # (≈ 1.1 n cells a side). A dissimilar pair solved coupled (Panagiotopoulos passes) costs ~3x
 # the decoupled path, and "auto" runs both (measured ~4x a similar pair at n = 64).
 SLIP_SOLVES_PER_STEP = 8.0
+SLIP_TENSOR_SOLVES_PER_STEP = 2.0  # a step without tangential load: the 2 x 2 tangent tensor only
 SLIP_GRID_MARGIN = 1.1
 SLIP_COUPLED_FACTOR = 3.0
 SLIP_DEFAULT_N = 64
@@ -96,10 +98,10 @@ def enumerate_tasks(spec: Spec) -> tuple[list[Task], dict[tuple[int, ...], str]]
 
 def estimated_cost(params: Mapping[str, Any]) -> float:
     """Relative cost of a scene: padded FFT size · log (per operator application) × solves ×
-    digits of tolerance (CG iterations). Mirrors the grid rule of ``geometry.grid_for``; an
-    indentation-only scene is solved on an n × n grid around the sphere's contact; crystal
-    scenes cost more (``CRYSTAL_FACTOR``, coupled tangential solves); slip scenes see
-    ``slip_cost``."""
+    digits of tolerance × the iteration factor of the grid's aspect in cells (CG iterations:
+    ``taskgrid.iteration_factor``, 1 + 0.3 log2 ρ). The grid is ``taskgrid.contact_grid``'s
+    (the rule of ``geometry.grid_for`` on the turned shape); crystal scenes cost more
+    (``CRYSTAL_FACTOR``, coupled tangential solves); slip scenes see ``slip_cost``."""
     if scene_kind(params) == SLIP:
         return slip_cost(params)
     quantities = quantity_names(params.get("quantities", DEFAULT_QUANTITIES))
@@ -112,44 +114,48 @@ def estimated_cost(params: Mapping[str, Any]) -> float:
     if params.get("shape") == "rough":
         solves += 1.0  # the contact patch comes from a normal contact solve
     digits = max(1.0, -math.log10(float(params.get("tol", DEFAULT_TOL))))
-    return size * math.log2(size) * max(solves, 0.1) * digits * (CRYSTAL_FACTOR if crystal else 1.0)
+    iterations = digits * iteration_factor(params)
+    return size * math.log2(size) * max(solves, 0.1) * iterations * (CRYSTAL_FACTOR if crystal else 1.0)
 
 
 def padded_cells(params: Mapping[str, Any]) -> float:
-    """Cells of the scene's padded FFT grid (about twice the contact grid each way): 4 n × n_across
-    for a contact scene (the grid rule of ``geometry.grid_for``; an indentation-only scene is
-    solved on an n × n grid around the sphere's contact), (2 × 1.1 n)² for a slip scene."""
+    """Cells of the scene's padded FFT grid (twice the contact grid each way): 4 nx × ny for a
+    contact scene (``taskgrid.contact_grid``: the turned shape's bounding box, n × n for an
+    indentation-only scene), (2 × 1.1 n)² for a slip scene."""
     if scene_kind(params) == SLIP:
         side = 2.0 * SLIP_GRID_MARGIN * int(params.get("n", SLIP_DEFAULT_N))
         return side * side
-    n = int(params.get("n", DEFAULT_N))
-    quantities = quantity_names(params.get("quantities", DEFAULT_QUANTITIES))
-    if params.get("n_across") is not None:
-        across = int(params["n_across"])
-    elif set(quantities) == {"indentation"}:
-        across = n
-    else:
-        across = max(min(n, 16), round(n * float(params.get("aspect", 1.0))))
-    return 4.0 * n * across
+    nx, ny = contact_grid(params)
+    return 4.0 * nx * ny
 
 
 def slip_cost(params: Mapping[str, Any]) -> float:
-    """Relative cost of a slip scene: padded FFT size · log × (1 + 8 × steps solves) × digits
-    of tolerance, on the n × n contact grid with its margin; a loop path has 5 × steps steps;
-    a dissimilar pair pays for its coupled path (and the decoupled one with coupling
-    auto/both). Same units as ``estimated_cost``."""
+    """Relative cost of a slip scene: padded FFT size · log × (1 + solves per step × steps ×
+    passes) × digits of tolerance, on the n × n contact grid with its margin. A step under a
+    tangential load (q_ratio > 0, or displacement control) costs ~8 CG-sized solves (semismooth
+    Newton steps and the tangent tensor); without one (q_ratio = 0 under force control) only the
+    tangent tensor's 2 (measured: 0.64 s against 2.5 s for q_ratio = 0.5, Cu crystal, n = 32);
+    a loop path has 5 × steps steps. A dissimilar pair pays for its coupled path (3 passes; and
+    the decoupled one with coupling auto/both); with ``normal_friction`` the normal load too is
+    applied in ``steps`` coupled steps, so the coupled path's work doubles (measured iterations
+    with/without: 3182/1614 … 4206/1733 for the orthotropic pairs of Rodríguez-Tembleque et al.
+    2011). Same units as ``estimated_cost``; the Barnett–Lothe cost of anisotropic bodies is
+    a per-task term of the cost model (``costmodel``)."""
     from ..bodies import pair_from_params
 
     size = padded_cells(params)
     steps = int(params.get("steps", SLIP_DEFAULT_STEPS)) * (5 if params.get("path") == "loop" else 1)
-    tangential = SLIP_SOLVES_PER_STEP * steps if float(params.get("mu", 1.0)) > 0.0 else 0.0
+    loaded = float(params.get("q_ratio", 0.0)) > 0.0 or params.get("control") == "displacement"
+    per_step = SLIP_SOLVES_PER_STEP if loaded else SLIP_TENSOR_SOLVES_PER_STEP
+    tangential = per_step * steps if float(params.get("mu", 1.0)) > 0.0 else 0.0
     coupling = params.get("coupling", "auto")
+    coupled = SLIP_COUPLED_FACTOR * (2.0 if params.get("normal_friction") else 1.0)
     if coupling == "decoupled" or pair_from_params(params).similar:
         passes = 1.0
     elif coupling == "coupled":
-        passes = SLIP_COUPLED_FACTOR
+        passes = coupled
     else:
-        passes = 1.0 + SLIP_COUPLED_FACTOR
+        passes = 1.0 + coupled
     digits = max(1.0, -math.log10(float(params.get("tol", DEFAULT_TOL))))
     return size * math.log2(size) * (1.0 + tangential * passes) * digits
 

@@ -155,3 +155,53 @@ def test_memory_sizes_and_the_batch_systems_share():
     node = {"SLURM_MEM_PER_NODE": "64000", "SLURM_TASKS_PER_NODE": "16(x4)"}
     assert costmodel.default_memory_per_rank(node) == (4000 * 2**20, "SLURM_MEM_PER_NODE / tasks per node")
     assert costmodel.default_memory_per_rank({})[1] == "physical memory / cores"
+
+
+SIMILAR_SLIP = {"quantities": "slip", "material": "Cu", "material2": "Cu", "radius": 8e-3, "radius2": 9e-3, "load": 10.0,
+                "mu": 0.3, "q_ratio": 0.6, "steps": 5, "n": 32, "tol": 1e-8}
+
+
+def test_slip_work_follows_the_load_path():
+    similar = estimated_cost(SIMILAR_SLIP)
+    # a step without tangential load costs the tangent tensor's 2 solves, not 8: (1 + 2·5)/(1 + 8·5)
+    assert estimated_cost({**SIMILAR_SLIP, "q_ratio": 0.0}) == pytest.approx(similar * 11.0 / 41.0, rel=1e-12)
+    assert estimated_cost({**SIMILAR_SLIP, "q_ratio": 0.0, "control": "displacement", "displacement": 1e-6}) == similar
+    # a similar pair has no coupled path: normal friction changes nothing
+    assert estimated_cost({**SIMILAR_SLIP, "normal_friction": True}) == similar
+    # a dissimilar pair, coupled: the normal load in `steps` coupled steps doubles the coupled work
+    coupled = {**SIMILAR_SLIP, "material2": "Al", "coupling": "coupled"}
+    assert estimated_cost({**coupled, "normal_friction": True}) == pytest.approx(
+        estimated_cost(coupled) * (1.0 + 40.0 * 6.0) / (1.0 + 40.0 * 3.0), rel=1e-12)
+
+
+ORTHOTROPIC = costmodel.ANISOTROPIC_SLIP_SCENE["orthotropic"]
+
+
+def test_the_barnett_lothe_term_counts_the_omega_nodes_of_each_anisotropic_body():
+    assert costmodel.omega_nodes(SIMILAR_SLIP) == 0
+    crystal = {**SIMILAR_SLIP, "material": "crystal:Cu"}  # on polycrystalline Cu: a dissimilar pair
+    one = costmodel.omega_nodes({**crystal, "coupling": "coupled"})
+    assert one > 0
+    assert costmodel.omega_nodes(crystal) == 2 * one  # coupling auto: the coupled and the decoupled path
+    assert costmodel.omega_nodes({**crystal, "material2": "crystal:Cu"}) == 2 * one  # similar: one path, two bodies
+    # the adaptive ω rule needs more nodes for a more anisotropic body (E1/E2 = 800 against 25)
+    stiffer = ORTHOTROPIC.replace("E1=25", "E1=800")
+    scene = costmodel.ANISOTROPIC_SLIP_SCENE
+    assert costmodel.omega_nodes({**scene, "orthotropic": stiffer}) > costmodel.omega_nodes(scene)
+    rates = {kind: Rate(rate_s=0.0, solve_s=0.0, node_s=1e-3) for kind in costmodel.KINDS}
+    calibration = Calibration("h", "v", rates, base_bytes=0.0)
+    assert calibration.task_seconds(scene) == pytest.approx(1e-3 * costmodel.omega_nodes(scene), rel=1e-15)
+    # the term is the slip scenes': a crystal punch has its own calibration kind
+    assert calibration.task_seconds({"shape": "circle", "anisotropy": 2.0, "n": 16}) == 0.0
+
+
+def test_the_start_line_uses_the_cached_calibration_and_never_calibrates(tmp_path, monkeypatch):
+    monkeypatch.setenv("HPCONTACT_COSTMODEL", str(tmp_path / "cm.json"))
+    monkeypatch.setattr(costmodel, "calibrate", lambda: pytest.fail("a run must not wait for a calibration"))
+    tasks = [Task(key="a", params={"shape": "circle", "n": 32, "tol": 1e-6}, cost=4096 * 12 * 6.0, group="g")]
+    assert costmodel.start_line(tasks, 2).startswith("hpcontact: no cost estimate (no calibration cached in")
+    rates = {kind: Rate(rate_s=1e-6, solve_s=0.0) for kind in costmodel.KINDS}
+    costmodel.save_calibration(Calibration(socket.gethostname(), __version__, rates, 1.0))
+    # 1e-6 s per unit x 294 912 units = 0.2949 s of one task; on 2 ranks the makespan adds the
+    # replayed overheads, so only the core-seconds are exact
+    assert "estimated 0.2949 core-seconds" in costmodel.start_line(tasks, 2)

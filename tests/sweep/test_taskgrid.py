@@ -1,0 +1,43 @@
+"""The cost model's grid and iteration factor (``hpcontact.sweep.taskgrid``)."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from hpcontact.geometry import grid_for
+from hpcontact.scene import Scene
+from hpcontact.sweep.taskgrid import ITERATIONS_PER_DOUBLING, contact_grid, iteration_factor
+
+SCENES = [
+    {"shape": "rectangle", "aspect": 0.2, "shape_angle": -90.0, "n": 128},  # turned: 128 x 640, not 128 x 26
+    {"shape": "rectangle", "aspect": 0.2, "shape_angle": -30.0, "n": 64},
+    {"shape": "ellipse", "aspect": 1e-8, "n": 128},
+    {"shape": "polygon", "sides": 3, "n": 64},
+    {"shape": "star", "sides": 2, "amplitude": 0.3, "shape_angle": 30.0},
+    {"shape": "ellipse", "aspect": 1e-4, "n": 512, "n_across": 32},
+    {"shape": "circle"},
+]
+
+
+@pytest.mark.parametrize("params", SCENES)
+def test_the_grid_is_the_engines(params):
+    # the engine's own path: the validated scene's shape through geometry.grid_for (exact integers)
+    scene = Scene.from_params({**params, "quantities": ["tangential"]})
+    grid = grid_for(scene.shape, scene.n, scene.n_across)
+    assert contact_grid(params) == (grid.nx, grid.ny)
+
+
+def test_an_indentation_scene_is_solved_on_n_by_n_cells():
+    assert contact_grid({"quantities": ["indentation"], "n": 96, "shape": "ellipse", "aspect": 0.1}) == (96, 96)
+
+
+def test_iterations_grow_with_the_aspect_in_cells_not_with_the_shape_alone():
+    assert iteration_factor({"shape": "circle", "n": 64}) == 1.0
+    # a square on 512 x 32 cells and a 1e-8 strip on the same cells: the same index-space aspect 16
+    square = iteration_factor({"shape": "rectangle", "aspect": 1.0, "n": 512, "n_across": 32})
+    strip = iteration_factor({"shape": "rectangle", "aspect": 1e-8, "n": 512, "n_across": 32})
+    assert square == strip == pytest.approx(1.0 + ITERATIONS_PER_DOUBLING * math.log2(16.0), rel=1e-15)
+    # a turned thin rectangle (128 x 640 cells) iterates more than the same one along x (128 x 26)
+    assert iteration_factor(SCENES[0]) > iteration_factor({**SCENES[0], "shape_angle": 0.0}) > 1.0
