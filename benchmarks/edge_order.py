@@ -12,11 +12,17 @@ Per case (nu = 0.3, K_xx; grids n = 32·2^k with ``accuracy.grid_sequence``'s n_
 for every grid: the relative error of the raw value, n·error (a constant for a clean first-order
 method), the observed order of the raw sequence p = log2(|Q_{k−1} − Q_{k−2}| / |Q_k − Q_{k−1}|),
 the error of the order-1 Richardson extrapolant R_k = 2 Q_k − Q_{k−1} and its observed order,
-the solve's time and the time of the sequence so far (the cost of the extrapolant). Errors are
+the solve's time and the time of the sequence so far (the cost of the extrapolant). "ellipse 0.05
+sq" starts at 128 × 8 cells (dy/dx = 0.8, where singular cells apply) instead of 32 × 8 (dy/dx =
+0.2, where they do not) and runs to 4 × 128 along x. Errors are
 against Mindlin's closed form (circle, ellipses); for the square (polygon, 4 sides, turned 45°),
 the hexagon and the 1e-8 rectangle against a reference: the order-1 Richardson extrapolant of
 coverage-weighted solves at n = 2·nmax and 4·nmax (finer than any grid of the sequence), whose
 own uncertainty |R(4 nmax) − R(2 nmax)| is printed with it (``--quick`` leaves these out).
+
+``--bound``: the singular cells' error over K_xx, K_yy, K_zz for the circle and the ellipses 0.7
+and 0.5 at nu = 0, 0.3, 0.5 and n = 32 … 256; prints n·error per entry and the largest |n·error|
+(the constant C of the bound |error| ≤ C/n in ``hpcontact.singular_cells``).
 
 Timings are wall-clock on whatever machine runs it, both strategies in the same process, one
 after the other per case: compare them as ratios.
@@ -42,6 +48,7 @@ CASES = {
     "ellipse 0.7": ({"shape": "ellipse", "aspect": 0.7}, Shape("ellipse", 0.7), analytic.mindlin_ellipse_stiffness(1.0, 0.7, 1.0, NU)[0]),
     "ellipse 0.5": ({"shape": "ellipse", "aspect": 0.5}, Shape("ellipse", 0.5), analytic.mindlin_ellipse_stiffness(1.0, 0.5, 1.0, NU)[0]),
     "ellipse 0.05": ({"shape": "ellipse", "aspect": 0.05}, Shape("ellipse", 0.05), analytic.mindlin_ellipse_stiffness(1.0, 0.05, 1.0, NU)[0]),
+    "ellipse 0.05 sq": ({"shape": "ellipse", "aspect": 0.05}, Shape("ellipse", 0.05), analytic.mindlin_ellipse_stiffness(1.0, 0.05, 1.0, NU)[0]),
     "ellipse 1e-3": ({"shape": "ellipse", "aspect": 1e-3}, Shape("ellipse", 1e-3), analytic.mindlin_ellipse_stiffness(1.0, 1e-3, 1.0, NU)[0]),
     "ellipse 1e-6": ({"shape": "ellipse", "aspect": 1e-6}, Shape("ellipse", 1e-6), analytic.mindlin_ellipse_stiffness(1.0, 1e-6, 1.0, NU)[0]),
     "square": ({"shape": "polygon", "sides": 4, "shape_angle": 45.0}, Shape("polygon", sides=4, angle_deg=45.0), None),
@@ -49,6 +56,7 @@ CASES = {
     "rectangle 1e-8": ({"shape": "rectangle", "aspect": 1e-8}, Shape("rectangle", 1e-8), None),
 }
 QUICK = ("circle", "ellipse 0.7")
+FIRST_GRID = {"ellipse 0.05 sq": (128, 8)}  # cells dy/dx = 0.8 (singular cells need 1/2 … 2); default (32, 8)
 
 
 def run(params: dict, n: int, n_across: int, strategy: str) -> dict:
@@ -95,12 +103,34 @@ def table(label: str, levels: list[dict], exact: float) -> list[dict]:
     return rows
 
 
+def bound() -> None:
+    """n·error of singular cells over shapes, nu and tensor entries (module docstring)."""
+    worst = 0.0
+    for shape, aspect, na0 in (("circle", 1.0, 32), ("ellipse", 0.7, 22), ("ellipse", 0.5, 16)):
+        for nu in (0.0, 0.3, 0.5):
+            K_a, K_b = analytic.mindlin_ellipse_stiffness(1.0, aspect, 1.0, nu)
+            exact = {"K_xx": K_a, "K_yy": K_b, "K_zz": analytic.elliptical_punch_normal_stiffness(1.0, aspect, 1.0, nu)}
+            for k in range(4):
+                n, na = 32 * 2**k, na0 * 2**k
+                params = {"shape": shape, "aspect": aspect, "nu": nu, "n": n, "n_across": na, "tol": 1e-12, "quantities": "tangential,normal"}
+                record = covered_solve(params, "singular")
+                scaled = {key: n * (record[key] / value - 1.0) for key, value in exact.items()}
+                worst = max(worst, *(abs(v) for v in scaled.values()))
+                print(f"{shape:8s} {aspect:4.2f} nu {nu:3.1f} n {n:4d} " + " ".join(f"{k} {v:+.5f}" for k, v in scaled.items())
+                      + f"  {record['wall_time_s']:.2f} s", flush=True)
+    print(f"largest |n·error| = {worst:.5f}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="circle and ellipse 0.7 only, up to n = 256")
     parser.add_argument("--nmax", type=int, default=512, help="finest grid of the sequence (power of two ≥ 128)")
     parser.add_argument("--out", type=Path, default=None, help="JSON with every number")
+    parser.add_argument("--bound", action="store_true", help="the singular cells' error bound study instead")
     args = parser.parse_args()
+    if args.bound:
+        bound()
+        return
     nmax = 256 if args.quick else args.nmax
     labels = QUICK if args.quick else tuple(CASES)
     print(f"nu = {NU}, K_xx; order: observed order of the raw sequence; R: order-1 Richardson on consecutive grids")
@@ -114,7 +144,8 @@ def main() -> None:
             exact, spread = reference(params, shape, nmax)
             note = f"reference {exact:.12g} ± {spread:.1e} (coverage, Richardson on n = {2 * nmax}, {4 * nmax}; {time.perf_counter() - started:.0f} s)"
         print(f"# {label}: {note}")
-        grids = [g for g in grid_sequence(shape, 32, max_cells=2**40) if g[0] <= nmax]
+        n0, na0 = FIRST_GRID.get(label, (32, None))
+        grids = [g for g in grid_sequence(shape, n0, na0, max_cells=2**40) if g[0] <= max(nmax, 4 * n0)]
         out[label] = {"reference": exact, "note": note}
         for strategy in ("coverage", "auto"):
             levels = [run(params, n, na, strategy) for n, na in grids]

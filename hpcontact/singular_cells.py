@@ -6,9 +6,10 @@ Piecewise-constant tractions on coverage-weighted cells (``hpcontact.boundary_ce
 at first order: the bonded punch's traction is t = g(x) w(x) with w ∝ d^(−1/2) at distance d from
 the edge, which no constant per cell resolves (relative K error ≈ −0.1 h for an ellipse, h the
 cell size over the semi-axis a). Here the edge behaviour is built into the basis, as in the
-singular (quarter-point) boundary elements and product integration of fracture mechanics
-(Barsoum 1976; Henshell & Shaw 1975; for screen/punch problems Stephan & Wendland 1984, whose
-h-version on d^(−1/2)-enriched bases recovers the smooth-solution order).
+singular (quarter-point) elements of fracture mechanics (Henshell & Shaw, IJNME 9, 495, 1975;
+Barsoum, IJNME 10, 25, 1976) and the augmented Galerkin method for screen and crack problems
+(Stephan & Wendland, Applicable Analysis 18, 183, 1984), where singular functions of the edge
+added to the trial space restore the convergence rate of smooth solutions.
 
 Discretization (circle and ellipse x²/a² + y²/b² ≤ 1, unturned; isotropic half-space)
 -------------------------------------------------------------------------------------
@@ -42,9 +43,26 @@ Closed forms: ∫∫ (1 − u² − v²)^(−1/2) du dv over [0, U] × [0, V] is
 hemisphere above it, F = U asin(V/√(1−U²)) + V asin(U/√(1−V²)) − atan(UV/√(1−U²−V²)) inside
 the disc, π(U + V − 1)/2 beyond; first moments through ∫ √(c² − v²) dv.
 
-Error expansion (measured, ``benchmarks/edge_order.py``)
--------------------------------------------------------
-See the table printed by the benchmark; the leading terms are stated in the report of issue 12.
+Error (measured, ``benchmarks/edge_order.py``; nu = 0, 0.3, 0.5; K_xx, K_yy, K_zz)
+------------------------------------------------------------------------------------
+Not a clean power series in h. What is left is the sub-cell quadrature of the cut cells (the
+relative error is the same for every block at nu = 0 and within ±0.0002/n of it otherwise), a
+first-order term with a small, geometry-dependent constant that changes sign:
+
+    n·(K_xx/K_exact − 1), nu = 0.3, n = 32, 64, 128, 256, 512 (cells along the major axis 2a)
+    circle       +0.00047  +0.00039  −0.00003  −0.00011  −0.00007
+    ellipse 0.7  +0.00128  +0.00049  +0.00053  −0.00000  +0.00008
+    ellipse 0.5  +0.00141  +0.00112  +0.00104  +0.00042  +0.00026
+
+i.e. |error| ≤ 1.48e-3/n measured over K_xx, K_yy, K_zz, nu = 0, 0.3, 0.5, n ≤ 256 (512 for
+K_xx at nu = 0.3; the largest is ellipse 0.5, nu = 0.5, K_xx at n = 32; ``edge_order.py
+--bound``); coverage weighting errs by 0.20/n … 0.30/n on the same grids, with a clean
+first-order expansion. For an estimator: |e(n)| ≤ C/n with C ≈ 2e-3, typically falling faster
+(≈ h^1.5 on average) but with no steady sign, so order-1 Richardson does not apply and
+the difference of two grids can be small by accident (circle: 1.9e-7 between n = 128 and 256
+while the error at 256 is 4.3e-7). Raising the sub-cell count does not help reliably (16 → 32
+sub-cells for adjacent pairs moved the circle's n·error from +0.0004 to −0.0014): the cut
+sub-cells are first order in their own size, and their extrapolation in m is not smooth.
 """
 
 from __future__ import annotations
