@@ -49,6 +49,7 @@ def _solve_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--n-across", type=int, help="cells across the short side (thin shapes)")
     p.add_argument("--tol", type=float, help="CG relative residual tolerance")
     p.add_argument("--accuracy", type=float, help="extrapolate over grids until the estimated relative error <= REL")
+    p.add_argument("--memory", help="memory budget of --accuracy, e.g. 2G (default: this machine's memory per core)")
     p.add_argument("--quantities", help="comma list: tangential, normal, compliance, coupled, indentation; or slip")
     p.add_argument("--radius", type=float, help="rigid sphere radius (indentation)")
     p.add_argument("--depth", type=float, help="rigid sphere approach (indentation)")
@@ -133,10 +134,18 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     elif slip_given:
         field = next(iter(slip_given))
         raise InputError(field, "only with --quantities slip", slip_given[field])
+    if args.memory is not None and args.accuracy is None:
+        raise InputError("--memory", "only with --accuracy", args.memory)
     if args.accuracy is not None and kind != SLIP:
         from .accuracy import solve_to_accuracy
+        from .sweep.costmodel import parse_memory
 
-        record = solve_to_accuracy(params, args.accuracy)
+        budget = None if args.memory is None else parse_memory(args.memory, "--memory")
+        record = solve_to_accuracy(params, args.accuracy, memory_budget=budget)
+    elif kind != SLIP:  # no --n: the extrapolated default where it applies (hpcontact.accuracy)
+        from .accuracy import default_solve
+
+        record = default_solve(params)
     else:
         record = task_function(kind)(params)
     if args.json:

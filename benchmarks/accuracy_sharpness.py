@@ -1,0 +1,182 @@
+"""Sharpness and honesty of ``--accuracy``'s error estimate over (case, request) pairs.
+
+    python benchmarks/accuracy_sharpness.py [--cache results/accuracy_sharpness.jsonl]
+        [--max-n 1024] [--collect] [--set SAFETY=3 ...] [--table]
+
+Cases with closed forms (``hpcontact.analytic``): the circle (8Ga/(2 − nu), 2aE*) and Mindlin's
+bonded ellipse with the elliptical punch (K_a, K_b, K_zz, K_a/K_b) for b/a = 0.7, 0.5, 0.1,
+0.05, 1e-3, 1e-6, 1e-8; nu = 0, 0.3, 0.5 (24 cases). Requests 1e-3, 3e-4, …, 1e-6 (7); grid
+sequences starting at n₀ = 16 and 32 (2): 336 (case, request) pairs.
+
+``--collect`` solves every (case, grid) once with ``covered_solve`` (tangential and normal,
+CG tol 1e-12) up to ``--max-n`` and appends the raw stiffnesses to the cache (JSON lines, keyed
+by the boundary treatment named in the record's plan, so a new treatment gets its own
+sequences); already cached grids are skipped. The replay then runs the loop of
+``solve_to_accuracy`` itself (``hpcontact.accuracy.refine``) on the cached levels: the grid
+limit is the cache's finest grid. Printed:
+
+* per record: the reported ``estimated_error`` against the largest true error of K_xx, K_yy,
+  K_zz, K_a/K_b — worst true/estimate (honest when ≤ 1), worst estimate/true, and the
+  fraction with true ≥ estimate/30 (sharp);
+* per quantity: the same for each quantity's own estimate (true errors below 1e-13 are exact by
+  symmetry — K_a/K_b of a circle or at nu = 0 — and left out);
+* with ``--table``: every pair.
+
+``--set NAME=VALUE`` overrides a constant of ``hpcontact.accuracy`` (SAFETY, FASTEST_FALL,
+OSCILLATION_FALL, RATIO_SHARE, LEAD_SLACK …) for the replay: the calibration's trade-off.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from hpcontact import accuracy as acc
+from hpcontact import analytic
+from hpcontact.boundary_cells import covered_solve
+
+NUS = (0.0, 0.3, 0.5)
+ASPECTS = (1.0, 0.7, 0.5, 0.1, 0.05, 1e-3, 1e-6, 1e-8)
+REQUESTS = (1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6, 1e-6)
+STARTS = (16, 32)
+QUANTITIES = ("K_xx", "K_yy", "K_zz", "K_a_over_K_b", "normalized_xx", "normalized_yy")
+SYMMETRY = 1e-13  # true errors below this are exact by symmetry, not discretization
+
+
+def references(shape: str, aspect: float, nu: float) -> dict[str, float]:
+    """Closed-form K_xx, K_yy, K_zz, K_a/K_b and K_xx/K_zz, K_yy/K_zz (G = 1, semi-major axis 1;
+    Li's normalized stiffnesses are these ratios times E*/G*)."""
+    if shape == "circle":
+        k = analytic.circle_tangential_stiffness(1.0, 1.0, nu)
+        out = {"K_xx": k, "K_yy": k, "K_zz": analytic.circle_normal_stiffness(1.0, 1.0, nu), "K_a_over_K_b": 1.0}
+    else:
+        K_a, K_b = analytic.mindlin_ellipse_stiffness(1.0, aspect, 1.0, nu)
+        out = {"K_xx": K_a, "K_yy": K_b, "K_zz": analytic.elliptical_punch_normal_stiffness(1.0, aspect, 1.0, nu),
+               "K_a_over_K_b": analytic.mindlin_ellipse_stiffness_ratio(aspect, nu)}
+    return {**out, "normalized_xx": out["K_xx"] / out["K_zz"], "normalized_yy": out["K_yy"] / out["K_zz"]}
+
+
+def case_params(aspect: float, nu: float) -> dict[str, Any]:
+    params: dict[str, Any] = {"shape": "circle" if aspect == 1.0 else "ellipse", "nu": nu, "tol": 1e-12,
+                              "quantities": ["tangential", "normal"]}
+    if aspect != 1.0:
+        params["aspect"] = aspect
+    return params
+
+
+def grids(aspect: float, n0: int, max_n: int) -> list[tuple[int, int]]:
+    """The grid sequence of ``solve_to_accuracy`` from n₀ (cells across: those of n₀ = 32 scaled,
+    so that both starts share one cell aspect and one cache)."""
+    shape = case_params(aspect, 0.0)
+    from hpcontact.geometry import Shape
+
+    across32 = acc.grid_sequence(Shape(shape["shape"], aspect=aspect), 32, None, 2**40)[0][1]
+    return [(n, round(across32 * n / 32)) for n in (n0 * 2**k for k in range(20)) if n <= max_n]
+
+
+def key_of(treatment: str, aspect: float, nu: float, n: int, na: int) -> str:
+    return json.dumps([treatment, aspect, nu, n, na])
+
+
+def load(cache: Path) -> dict[str, dict[str, Any]]:
+    out = {}
+    if cache.exists():
+        for line in cache.read_text().splitlines():
+            r = json.loads(line)
+            out[key_of(r["treatment"], r["aspect"], r["nu"], r["n"], r["n_across"])] = r
+    return out
+
+
+def treatment_name() -> str:
+    """The boundary treatment ``covered_solve`` uses now (its plan's ``boundary`` entry)."""
+    return covered_solve({**case_params(1.0, 0.3), "n": 8, "tol": 1e-6})["plan"].get("boundary", "")
+
+
+def collect(cache: Path, max_n: int) -> None:
+    cached = load(cache)
+    treatment = treatment_name()
+    cache.parent.mkdir(parents=True, exist_ok=True)
+    for n, _ in grids(1.0, min(STARTS), max_n):
+        for aspect in ASPECTS:
+            na = dict(grids(aspect, min(STARTS), max_n))[n]
+            for nu in NUS:
+                if key_of(treatment, aspect, nu, n, na) in cached:
+                    continue
+                started = time.perf_counter()
+                r = covered_solve({**case_params(aspect, nu), "n": n, "n_across": na})
+                row = {"treatment": treatment, "aspect": aspect, "nu": nu, "n": n, "n_across": na,
+                       "wall_time_s": time.perf_counter() - started, "iterations": r["iterations"],
+                       **{k: r[k] for k in acc.TENSOR_KEYS if k in r}}
+                with cache.open("a") as f:
+                    f.write(json.dumps(row) + "\n")
+                print(f"  solved b/a={aspect:g} nu={nu} {n} x {na}: {row['wall_time_s']:.2f} s", flush=True)
+
+
+def replay(cache: Path, treatment: str) -> tuple[list[tuple], list[tuple]]:
+    """Records (case, n0, request, worst true, estimate, stopped_by, finest n) and per-quantity
+    pairs (case, n0, request, quantity, true, estimate)."""
+    cached = load(cache)
+    records, pairs = [], []
+    for aspect in ASPECTS:
+        for nu in NUS:
+            ref = references(case_params(aspect, nu)["shape"], aspect, nu)
+            for n0 in STARTS:
+                sequence = [g for g in grids(aspect, n0, 2**20) if key_of(treatment, aspect, nu, *g) in cached]
+                if len(sequence) < acc.MIN_GRIDS:
+                    continue
+                for request in REQUESTS:
+                    done = acc.refine(sequence, lambda n, na: cached[key_of(treatment, aspect, nu, n, na)], request)
+                    v = done.values
+                    values = {**v, "K_a_over_K_b": v["K_xx"] / v["K_yy"], "normalized_xx": v["K_xx"] / v["K_zz"],
+                              "normalized_yy": v["K_yy"] / v["K_zz"]}
+                    true = {k: abs(values[k] / ref[k] - 1.0) for k in QUANTITIES}
+                    case = f"{'circle' if aspect == 1.0 else f'ellipse b/a={aspect:g}'} nu={nu:g}"
+                    records.append((case, n0, request, max(true.values()), max(done.relative.values()),
+                                    done.stopped_by or "cache", done.levels and sequence[len(done.levels) - 1][0]))
+                    pairs.extend((case, n0, request, k, true[k], done.relative[k]) for k in QUANTITIES if true[k] >= SYMMETRY)
+    return records, pairs
+
+
+def summary(label: str, true: np.ndarray, estimated: np.ndarray) -> str:
+    ratio = true / estimated
+    return (f"{label}: {len(ratio)}; worst true/estimate {ratio.max():.2f} (honest when <= 1; "
+            f"{int((ratio > 1).sum())} above 1); worst estimate/true {1 / ratio.min():.0f}; "
+            f"true >= estimate/30 in {100 * (ratio >= 1 / 30).mean():.1f} %")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--cache", type=Path, default=Path("results/accuracy_sharpness.jsonl"))
+    parser.add_argument("--max-n", type=int, default=1024)
+    parser.add_argument("--collect", action="store_true")
+    parser.add_argument("--table", action="store_true")
+    parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
+    args = parser.parse_args()
+    for item in args.set:
+        name, value = item.split("=")
+        if not hasattr(acc, name):
+            raise SystemExit(f"hpcontact.accuracy has no constant {name}")
+        setattr(acc, name, float(value))
+    if args.collect:
+        collect(args.cache, args.max_n)
+    treatment = treatment_name()
+    records, pairs = replay(args.cache, treatment)
+    print(f"boundary treatment: {treatment}")
+    print(summary("records (case, request, start grid)", np.array([r[3] for r in records]), np.array([r[4] for r in records])))
+    print(summary("quantities", np.array([p[4] for p in pairs]), np.array([p[5] for p in pairs])))
+    met = [r for r in records if r[5] == "met"]
+    print(f"requests met: {len(met)} of {len(records)}; stopped by: "
+          + ", ".join(f"{s} {sum(r[5] == s for r in records)}" for s in sorted({r[5] for r in records})))
+    if args.table:
+        print(f"{'case':28s} {'n0':>3s} {'request':>8s} {'true':>9s} {'estimate':>9s} {'ratio':>6s} {'stopped':>11s} {'n':>5s}")
+        for case, n0, request, true, est, stopped, n in records:
+            print(f"{case:28s} {n0:3d} {request:8.0e} {true:9.2e} {est:9.2e} {est / true:6.1f} {stopped:>11s} {n:5d}")
+
+
+if __name__ == "__main__":
+    main()
