@@ -549,8 +549,7 @@ def run_command(spec: str | Path, options: Options = Options(), output: str | Pa
     finally:
         stop.close()
         stop.uninstall()
-    if team.rank == 0:
-        _keep_wisdom()
+    _keep_wisdom()  # every rank: save_wisdom merges the ranks' plans into one file
     return EXIT_FAILED_TASKS if outcome.failures else EXIT_OK
 
 
