@@ -151,7 +151,7 @@ class AnisotropicPair(Pair):
         """G_ref = 1/Σ 1/G_i with G of ``shear_modulus`` (= G_eq of ``Pair`` for isotropic bodies)."""
         return 1.0 / sum(1.0 / shear_modulus(b.material) for b in (self.body1, self.body2) if b.material is not None)
 
-    @property
+    @cached_property
     def E_star(self) -> float:
         """1/E* = Σ 1/M_i, M_i the indentation modulus (Vlassak & Nix 1994); the Hertz estimate."""
         return 1.0 / sum(1.0 / _indentation(b.material) for b in (self.body1, self.body2) if b.material is not None)

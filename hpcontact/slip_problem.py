@@ -189,6 +189,7 @@ class SlipProblem:
         self.hertz: HertzEllipse = pair.hertz(scene.load)
         self.L = self.hertz.a
         self.anisotropic = isinstance(pair, AnisotropicPair)
+        self._green_memo: tuple[bytes, np.ndarray] | None = None
         if self.anisotropic:
             self.G_ref = pair.reference_modulus
             self.compliance = pair.scaled(self.G_ref, self.hertz.angle_deg)  # crystals in the grid frame
@@ -244,7 +245,12 @@ class SlipProblem:
         crystal pair; else the equivalent body's tangential and normal blocks, coupling ±i c m/2
         with c = G_eq[(1−2nu1)/G1 − (1−2nu2)/G2]."""
         if self.material is None:
-            return self.compliance.fourier(phi)
+            # the Barnett-Lothe sums dominate a crystal scene's set-up: the tangential and the
+            # coupled preconditioner ask for the same directions, evaluated once
+            key = np.asarray(phi, dtype=np.float64).tobytes()
+            if self._green_memo is None or self._green_memo[0] != key:
+                self._green_memo = (key, self.compliance.fourier(phi))
+            return self._green_memo[1].copy()
         H = isotropic_surface_green(self.material, phi)
         c = self.pair.coupling_modulus * self.G_ref
         m = np.stack([np.cos(phi), np.sin(phi)], axis=-1)

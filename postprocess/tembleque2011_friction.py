@@ -11,17 +11,26 @@ Figures (PNG in OUTDIR):
   the Stroh solution (``hpcontact.line_contact``); right: the peak and width errors against n.
 * ``normal_load_ratio.png`` — Fig. 5: the load at a fixed contact semi-width of an orthotropic
   cylinder on the orthotropic block against E1(punch)/E1(block): plane strain (P′ ∝ E*_2D of the
-  pair, 2/E* = H_zz,1 + H_zz,2) as a line, the 3-D finite cylinder between the two elastic bodies
-  as markers. The paper: "the load increases a 4 % until a constant value".
-* ``tangential_ratio.png`` — Fig. 7: the tangential force Q at the paper's tangential
-  displacement (0.15 mm, mu = 0.1) against the modulus ratio, from the data set (ellipsoidal
-  punch at fixed load; coupled and decoupled), with the contact area. The paper: Q shows a
-  significant reduction.
+  pair, 2/E* = H_zz,1 + H_zz,2, Stroh) as a line up to a rigid-in-x1 punch, the paper's own closed
+  form (its eq. 24 with A = A1 + A2, as we read the extracted text) dashed, the 3-D finite
+  cylinder between the two elastic bodies as markers. The paper: "the load increases a 4 %
+  until a constant value".
+* ``tangential_ratio.png`` — Fig. 7: from the data set (the paper's single static problem:
+  normal load and 0.15 mm along +x1 at once, mu = 0.1; ellipsoidal punch at fixed P), Q coupled
+  (the paper's problem) and decoupled (Goodman), and the load at a fixed approach, (d(1)/d)^1.5
+  from the frictionless approach d of each pair; right: the stick zone's centroid. The paper:
+  P rises "close to 4 %" to a constant, Q "presents a significant reduction".
 * ``tractions.png`` — Fig. 6: tangential traction t_x, ±mu p and the pressure along the centre
   line across the contact (along x1) for the similar (ratio 1), the dissimilar (ratio 2) and the
-  isotropic–orthotropic pair at the end of the tangential displacement, solved here with the
-  data set's scene fields (coupled path with friction during the normal loading for the
-  dissimilar pairs).
+  isotropic–orthotropic pair, solved here with the data set's scene fields. The paper: Fig. 6c
+  symmetric with a central stick zone, Fig. 6d "the main part of the stick zone is situated on the
+  x1 < 0 region".
+* ``stick_shift.png`` — the stick zone's centroid of the three pairs against the cell size
+  (n = 32 … 96): the shift of the dissimilar pair against the grid's resolution.
+
+The paper's figures are not in the text we have (extracted PDF text, the plots lost): its values
+here are the ones its text states (4 % in Figs. 5 and 7, the side of the stick zone in Fig. 6d)
+and its eq. 24; Q's "significant reduction" has no number.
 
 Printed: the numbers behind each figure.
 """
@@ -43,12 +52,14 @@ from postprocess.common import arguments, open_dataset, plt  # noqa: E402
 from hpcontact.anisotropic_pair import PairCompliance  # noqa: E402
 from hpcontact.elastic_constants import anisotropic_material  # noqa: E402
 from hpcontact.line_contact import finite_cylinder, plane_strain_modulus  # noqa: E402
-from hpcontact.slip import SlipProblem, validate  # noqa: E402
+from hpcontact.slip import SlipProblem, solve_slip, validate  # noqa: E402
 from hpcontact.slip_path import rotation, run_path  # noqa: E402
 
 ORTHO = "E1=25 E2=1 E3=1 G12=0.5 G13=0.5 G23=0.2 nu12=0.25 nu13=0.25 nu23=0.25"
 RATIOS = (1, 2, 4, 8, 16, 32)
+PLANE_RATIOS = np.geomspace(1.0, 1e4, 41)
 R, A = 0.5, 0.05  # the paper's punch radius and contact semi-width, m
+GRIDS = (32, 48, 64, 96)
 
 
 def _ortho(ratio: float, azimuth: float = 0.0):
@@ -87,21 +98,38 @@ def line_contact(outdir: Path) -> None:
     plt.close(fig)
 
 
+def paper_eq24_compliance(E1: float, E3: float = 1.0, G13: float = 0.5, E2: float = 1.0, nu12: float = 0.25,
+                          nu13: float = 0.25, nu23: float = 0.25) -> float:
+    """A = 1/(a3 k3 E3) of the paper's eq. 24 (Hwu & Fan 1998), 1/GPa, as we read the extracted
+    text: k3 = (E3/G13 + 2 f1 sqrt(E3/E1))^(-1/2), a3 = (1 − nu23 nu32)^(-1/2),
+    f1 = sqrt((1 − nu12 nu21)(1 − nu32 nu23)) − sqrt((nu31 − nu21 nu32)(nu13 − nu23 nu12)),
+    nu_ji = nu_ij E_j/E_i. p0 = a/(A R): A = 2/E*_2D (0.2 % above the Stroh value at E1 = 25)."""
+    nu21, nu31, nu32 = nu12 * E2 / E1, nu13 * E3 / E1, nu23 * E3 / E2
+    f1 = math.sqrt((1 - nu12 * nu21) * (1 - nu32 * nu23)) - math.sqrt((nu31 - nu21 * nu32) * (nu13 - nu23 * nu12))
+    k3 = (E3 / G13 + 2.0 * f1 * math.sqrt(E3 / E1)) ** -0.5
+    return math.sqrt(1.0 - nu23 * nu32) / (k3 * E3)
+
+
 def normal_load(outdir: Path) -> None:
     block = _ortho(1)
-    plane, bem = [], []
+    H_block = 2.0 / plane_strain_modulus(block.voigt, 0.0)
+    plane = np.array([2.0 * H_block / (H_block + 2.0 / plane_strain_modulus(_ortho(r).voigt, 0.0)) for r in PLANE_RATIOS])
+    rigid_x1 = 2.0 * H_block / (H_block + 2.0 / plane_strain_modulus(_ortho(1e8).voigt, 0.0))
+    A1 = paper_eq24_compliance(25.0)
+    paper = np.array([2.0 * A1 / (A1 + paper_eq24_compliance(25.0 * r)) for r in PLANE_RATIOS])
+    bem = []
     for ratio in RATIOS:
         pair = PairCompliance(_ortho(ratio), block)
         E2d = 2.0 / float(pair.fourier(np.array([0.0]))[0, 2, 2].real)
-        plane.append(E2d)
         s = finite_cylinder(pair, E2d, R, A, 20.0, 16)
         width = math.sqrt(4.0 * float(np.sum(s.x**2 * s.pressure)) / float(np.sum(s.pressure)))
         bem.append(s.line_load / width**2)  # P′ at a fixed width: P′ ∝ a² E*
-    plane, bem = np.array(plane) / plane[0], np.array(bem) / bem[0]
+    bem = np.array(bem) / bem[0]
     fig, ax = plt.subplots(figsize=(6, 4))
-    ax.semilogx(RATIOS, plane, "-", label="plane strain, 2/E* = H_zz(punch) + H_zz(block)")
+    ax.semilogx(PLANE_RATIOS, plane, "-", label="plane strain (Stroh), 2/E* = H_zz(punch) + H_zz(block)")
+    ax.semilogx(PLANE_RATIOS, paper, "--", label="paper's eq. 24, A = A1 + A2")
     ax.semilogx(RATIOS, bem, "o", label="3-D BEM, finite cylinder, n = 16")
-    ax.axhline(1.04, color="k", lw=0.8, ls=":", label="paper: +4 % to a constant")
+    ax.axhline(1.04, color="k", lw=0.8, ls=":", label="paper, Fig. 5: +4 % to a constant")
     ax.set_xlabel("E1(punch) / E1(block)")
     ax.set_ylabel("P at fixed semi-width / P(ratio 1)")
     ax.set_title("§6.1, Fig. 5: orthotropic–orthotropic normal contact")
@@ -109,8 +137,22 @@ def normal_load(outdir: Path) -> None:
     fig.tight_layout()
     fig.savefig(outdir / "normal_load_ratio.png", dpi=110)
     plt.close(fig)
-    print("normal load at fixed width / ratio 1: plane strain " + ", ".join(f"{r}: {v:.4f}" for r, v in zip(RATIOS, plane)))
+    at = [int(np.argmin(np.abs(PLANE_RATIOS - r))) for r in (2, 32, 1e3)]
+    print("normal load at fixed width / ratio 1: plane strain "
+          + ", ".join(f"{PLANE_RATIOS[i]:g}: {plane[i]:.4f}" for i in at) + f", rigid in x1: {rigid_x1:.4f}")
+    print("                                       paper eq. 24 "
+          + ", ".join(f"{PLANE_RATIOS[i]:g}: {paper[i]:.4f}" for i in at)
+          + f", rigid in x1: {2.0 * A1 / (A1 + paper_eq24_compliance(25e8)):.4f}")
     print("                                       3-D BEM      " + ", ".join(f"{r}: {v:.4f}" for r, v in zip(RATIOS, bem)))
+
+
+def approach(params: dict) -> float:
+    """Frictionless approach d of a scene's pair at its load (m): Polonsky–Keer on the slip grid,
+    d = h + A_zz p on the contact (equal there to the solver's tolerance)."""
+    problem = SlipProblem(validate(params))
+    p = problem.normal().traction[0]
+    u = problem.op_z.apply(p[None])[0] + problem.gap
+    return float(np.mean(u[p > 0.0])) * problem.L
 
 
 def tangential(ds, outdir: Path) -> None:
@@ -120,30 +162,44 @@ def tangential(ds, outdir: Path) -> None:
     index = [i for _, i in ortho]
     Q = ds["tangential_force"].values[index]
     Qd = ds["decoupled_tangential_force"].values[index]
-    area = ds["contact_area"].values[index]
-    fig, ax = plt.subplots(figsize=(6, 4))
-    ax.semilogx(ratios, Q / Q[0], "o-", label="Q, coupled (Panagiotopoulos)")
+    centroid = ds["stick_centroid_x"].values[index]
+    d = np.array([approach(_scene(ds, labels[i])) for i in index])
+    P_fixed = (d[0] / d) ** 1.5
+    fig, (ax, right) = plt.subplots(1, 2, figsize=(11, 4))
+    ax.semilogx(ratios, Q / Q[0], "o-", label="Q, coupled (the paper's problem)")
     ax.semilogx(ratios, np.where(np.isnan(Qd), Q, Qd) / Q[0], "x--", label="Q, decoupled (Goodman)")
-    ax.semilogx(ratios, area / area[0], "s:", label="contact area")
+    ax.semilogx(ratios, P_fixed, "s-", label="P at a fixed approach (ellipsoid)")
+    ax.axhline(1.04, color="k", lw=0.8, ls=":", label="paper, Fig. 7: P +4 % to a constant")
+    ax.annotate("paper, Fig. 7: Q 'a significant reduction'", (0.03, 0.05), xycoords="axes fraction", fontsize=8)
     ax.set_xlabel("E1(punch) / E1(block)")
     ax.set_ylabel("relative to ratio 1")
-    ax.set_title("§6.2, Fig. 7: Q at δ = 0.15 mm, mu = 0.1, fixed P")
+    ax.set_title("§6.2, Fig. 7: δ = 0.15 mm along +x1 with P, mu = 0.1")
     ax.legend(fontsize=8)
+    right.semilogx(ratios, centroid / A, "o-", label="stick-zone centroid x / 50 mm")
+    right.axhline(0.0, color="k", lw=0.8)
+    right.set_xlabel("E1(punch) / E1(block)")
+    right.set_ylabel("x / 50 mm")
+    right.set_title("stick zone (paper, Fig. 6d, ratio 2: mainly x1 < 0)")
+    right.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(outdir / "tangential_ratio.png", dpi=110)
     plt.close(fig)
     print("Q / Q(ratio 1): " + ", ".join(f"{r:g}: {q:.4f}" for r, q in zip(ratios, Q / Q[0])))
+    print("decoupled Q / Q(ratio 1): " + ", ".join(f"{r:g}: {q:.4f}" for r, q in zip(ratios, Qd / Q[0])))
+    print(f"Q(ratio 1) = {Q[0]:.6g} N, Q/(mu P) = {float(ds['force_ratio'].values[index[0]]):.4f}")
+    print("P at a fixed approach / ratio 1: " + ", ".join(f"{r:g}: {v:.4f}" for r, v in zip(ratios, P_fixed)))
+    print("coupling size: " + ", ".join(f"{r:g}: {float(ds['coupling_size'].values[i]):.4f}" for r, i in zip(ratios, index)))
     iso = labels.index("isotropic") if "isotropic" in labels else None
     if iso is not None:
         print(f"isotropic punch: Q = {float(ds['tangential_force'].values[iso]):.6g} N, "
               f"coupling size {float(ds['coupling_size'].values[iso]):.4f}")
-    print("stick centroid x [m]: " + ", ".join(f"{lab}: {float(v):.2e}" for lab, v in zip(labels, ds["stick_centroid_x"].values)))
+    print("stick centroid x [m]: " + ", ".join(f"{lab}: {float(v):.4e}" for lab, v in zip(labels, ds["stick_centroid_x"].values)))
 
 
 def _scene(ds, label: str) -> dict:
     """The data set's scene fields for one pair label (fixed fields plus the pair table)."""
     keys = ("radius", "radius_b", "orthotropic2", "load", "mu", "q_ratio", "control", "displacement", "angle",
-            "steps", "n", "tol", "quantities", "normal_friction")
+            "steps", "n", "tol", "quantities", "path")
     params = {k: ds[k].values.item() for k in keys if k in ds.coords or k in ds}
     point = ds.sel(pair=label)
     for k in ("orthotropic", "E", "nu"):
@@ -180,13 +236,37 @@ def tractions(ds, outdir: Path) -> None:
         twin.set_ylabel("pressure p [MPa] (grey)")
         ax.set_title(f"§6.2, Fig. 6: {label}", fontsize=9)
         ax.set_xlabel("x / 50 mm (along x1)")
-        ax.set_ylabel("t_x [MPa]")
+        ax.set_ylabel("t_x [MPa] (punch moved along +x1: t_x < 0 on it)")
         ax.legend(fontsize=7, loc="lower center")
         centre = float(np.mean(x[stick])) if stick.any() else float("nan")
         print(f"tractions, {label}: stick cells on the centre line from x/50mm = {x[stick].min():.3f} to "
               f"{x[stick].max():.3f} (centre {centre:+.4f})")
     fig.tight_layout()
     fig.savefig(outdir / "tractions.png", dpi=110)
+    plt.close(fig)
+
+
+def stick_shift(ds, outdir: Path) -> None:
+    """The stick zone's centroid of the similar, dissimilar and isotropic-orthotropic pairs at
+    n = 32 … 96: the shift against the cell size (the similar pair's is 0 by symmetry; the
+    spread over the grids is the resolution of the dissimilar pair's)."""
+    fig, ax = plt.subplots(figsize=(6, 4))
+    for label, marker in (("ortho E1 ratio 1", "o"), ("ortho E1 ratio 2", "s"), ("isotropic", "^")):
+        rows = []
+        for n in GRIDS:
+            record = solve_slip({**_scene(ds, label), "n": n})
+            rows.append((n, record["dx"], record["stick_centroid_x"]))  # square cells at these n
+        r = np.array(rows)
+        ax.plot(r[:, 1] * 1e3, r[:, 2] * 1e3, marker + "-", label=label)
+        print(f"stick centroid x, {label}: " + ", ".join(f"n = {n:.0f} (cell {c * 1e3:.2f} mm): {x * 1e3:+.2f} mm"
+                                                         for n, c, x in rows))
+    ax.axhline(0.0, color="k", lw=0.8)
+    ax.set_xlabel("cell size [mm]")
+    ax.set_ylabel("stick-zone centroid x [mm]")
+    ax.set_title("§6.2, Fig. 6d: stick-zone shift against the grid")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(outdir / "stick_shift.png", dpi=110)
     plt.close(fig)
 
 
@@ -197,6 +277,7 @@ def main() -> None:
     normal_load(args.outdir)
     tangential(ds, args.outdir)
     tractions(ds, args.outdir)
+    stick_shift(ds, args.outdir)
 
 
 if __name__ == "__main__":
