@@ -56,11 +56,18 @@ def value_text(ds: xr.Dataset, name: str) -> str:
     return f"{SYMBOLS.get(name, name)} = {shown}"
 
 
+# Values taken for a dimension a figure does not show, when the data set has them: the isotropic
+# body (A = 1; its orientation is then irrelevant, DESIGN §2.5), so that the isotropic figures of
+# a sweep with crystal axes (jobs/demo.toml) show the isotropic body whatever the axis order.
+PREFERRED = {"anisotropy": 1.0}
+
+
 def select_rest(da: xr.DataArray, keep: Iterable[str], choose: dict[str, float] | None = None) -> tuple[xr.DataArray, str]:
     """``da`` reduced to the dimensions ``keep``: every other dimension at the value ``choose``
-    gives (nearest), else its first; also a note naming the values taken."""
+    gives (nearest), else at ``PREFERRED``'s value where the axis has it, else its first; also a
+    note naming the values taken."""
     keep = set(keep)
-    choose = choose or {}
+    choose = {**{d: v for d, v in PREFERRED.items() if d in da.dims and np.any(da[d].values == v)}, **(choose or {})}
     notes = []
     for dim in [d for d in da.dims if d not in keep]:
         if dim in choose and da[dim].dtype.kind == "f":

@@ -2,6 +2,7 @@
 
     python postprocess/orientation_map.py results/tembleque2011_sphere.nc figures/ [--fine 61]
     python postprocess/orientation_map.py results/crystal_tangential.nc figures/ [--nu 0.3]
+    python postprocess/orientation_map.py results/demo.nc figures/ [--nu 0.25] [--shape ellipse]
 
 What is drawn depends on the data set (both need ``anisotropy`` and ``orientation`` axes; ψ runs
 along [110] (0°) -> [111] (35.26°) -> [001] (90°), DESIGN §2.5):
@@ -16,7 +17,9 @@ along [110] (0°) -> [111] (35.26°) -> [001] (90°), DESIGN §2.5):
 * a tangential sweep (``K_min``, ``K_max``; jobs/crystal_tangential.toml) gives
   ``orientation_tangential_map.png``: filled map of K_min/K_max (principal values of the 2 x 2
   tangential stiffness, README convention table: Re H for a crystal) over ψ × A, one panel per contact b/a, and
-  ``orientation_tangential_curves.png``: the same ratio versus ψ, one colour per A.
+  ``orientation_tangential_curves.png``: the same ratio versus ψ, one colour per A. With a nu axis
+  the map is drawn at ``--nu`` (default: the value nearest 0.3, crystal_tangential's); with a
+  shape axis (jobs/demo.toml) for ``--shape`` (default: the first).
 """
 
 from __future__ import annotations
@@ -133,23 +136,31 @@ def willis_loads(load, R: float, d: float, G: float):
     return out
 
 
-def tangential_ratio(ds, nu: float | None):
-    """K_min/K_max over (aspect?, anisotropy, orientation), other axes at ``nu`` or their first."""
+DEFAULT_NU = 0.3  # the tangential map's Poisson ratio when the data set has a nu axis
+
+
+def tangential_ratio(ds, nu: float | None, shape: str | None):
+    """K_min/K_max over (aspect?, anisotropy, orientation), nu at ``nu`` (default: nearest 0.3),
+    shape at ``shape`` (default: the first), other axes at their first value."""
     ratio = ds["K_min"] / ds["K_max"]
     keep = ["anisotropy", "orientation"] + (["aspect"] if "aspect" in ratio.dims else [])
-    return select_rest(ratio, keep, {"nu": nu} if nu is not None else None)
+    choose = {"nu": DEFAULT_NU if nu is None else nu}
+    if shape is not None:
+        choose["shape"] = shape
+    return select_rest(ratio, keep, choose)
 
 
-def aspect_title(ds, aspect) -> str:
-    shape = str(ds["shape"].values) if "shape" in ds.coords and ds["shape"].ndim == 0 else "contact"
+def aspect_title(da, aspect) -> str:
+    """Panel title: the shape (a scalar coordinate of ``da``: fixed or selected) and b/a."""
+    shape = str(da["shape"].values) if "shape" in da.coords and da["shape"].ndim == 0 else "contact"
     if aspect is None or aspect == 1.0:
         return "circle" if shape in ("ellipse", "circle") else shape
     return f"{shape}, b/a = {aspect:g} (major axis along x = [1̄10])"
 
 
-def tangential_map(ds, outdir, nu: float | None) -> None:
+def tangential_map(ds, outdir, nu: float | None, shape: str | None) -> None:
     """Filled map of K_min/K_max over ψ × A, one panel per b/a; and curves versus ψ."""
-    ratio, note = tangential_ratio(ds, nu)
+    ratio, note = tangential_ratio(ds, nu, shape)
     aspects = list(ratio["aspect"].values) if "aspect" in ratio.dims else [None]
     notes = ", ".join(filter(None, [note, scalar_notes(ds, ("nu", "n", "tol"))]))
     lowest = float(ratio.min())
@@ -167,7 +178,7 @@ def tangential_map(ds, outdir, nu: float | None) -> None:
         pole_ticks(ax)
         ax.set_xlabel(PSI_LABEL, fontsize=8)
         ax.set_ylabel(label(ds["anisotropy"], "cubic anisotropy A = 2 C44/(C11 - C12)"), fontsize=8)
-        ax.set_title(aspect_title(ds, aspect), fontsize=9)
+        ax.set_title(aspect_title(ratio, aspect), fontsize=9)
     fig.colorbar(filled, ax=axes, label="K_min / K_max (principal tangential stiffnesses)")
     fig.suptitle(f"Tangential stiffness anisotropy of a bonded punch on a cubic crystal\n{notes}", fontsize=10)
     save(fig, outdir, "orientation_tangential_map.png")
@@ -184,7 +195,7 @@ def tangential_map(ds, outdir, nu: float | None) -> None:
         pole_ticks(ax)
         ax.set_xlabel(PSI_LABEL, fontsize=8)
         ax.set_ylabel("K_min / K_max")
-        ax.set_title(aspect_title(ds, aspect), fontsize=9)
+        ax.set_title(aspect_title(ratio, aspect), fontsize=9)
         ax.grid(True, alpha=0.3)
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside right center", fontsize=8)
@@ -197,7 +208,8 @@ def main() -> None:
         __doc__.splitlines()[0],
         [
             ("--fine", {"type": int, "default": 61, "help": "ψ points of the Willis lines (default 61)"}),
-            ("--nu", {"type": float, "help": "Poisson ratio of the tangential map (default: the first)"}),
+            ("--nu", {"type": float, "help": f"Poisson ratio of the tangential map (default: nearest {DEFAULT_NU})"}),
+            ("--shape", {"help": "shape label of the tangential map (default: the first)"}),
         ],
     )
     ds = open_dataset(args.dataset)
@@ -209,7 +221,7 @@ def main() -> None:
         sphere_curves(ds, args.outdir, args.fine)
         done = True
     if {"K_min", "K_max"} <= set(ds.data_vars):
-        tangential_map(ds, args.outdir, args.nu)
+        tangential_map(ds, args.outdir, args.nu, args.shape)
         done = True
     if not done:
         raise SystemExit(f"{args.dataset}: neither an indentation sweep (load, ellipse_b_over_a) nor a tangential one (K_min, K_max)")

@@ -305,11 +305,14 @@ def _stub_tables(folder: Path) -> list[str]:
 
 @pytest.fixture(scope="module")
 def real_demo(tmp_path_factory) -> Path:
-    """The demo job's shapes at two b/a, two nu and n = 16, solved by the engine (~2 s)."""
+    """The demo job's shapes at two b/a, two nu, A = 1 and 2, one ψ and n = 16, solved by the
+    engine (~3 s)."""
     folder = tmp_path_factory.mktemp("demo")
     text = (ROOT / "jobs" / "demo.toml").read_text()
-    text = text.replace("n = 128", "n = 16").replace("{ logspace = [0, -8, 17] }", "[1.0, 1e-4]")
-    text = text.replace("{ linspace = [0.0, 0.5, 6] }", "[0.0, 0.3]").replace("tol = 1e-10", "tol = 1e-8")
+    for key, value in (("n", "16"), ("tol", "1e-8"), ("aspect", "[1.0, 1e-4]"), ("nu", "[0.0, 0.3]"),
+                       ("anisotropy", "[1.0, 2.0]"), ("orientation", "[20.0]")):
+        text, count = re.subn(rf"(?m)^{key} = .*$", f"{key} = {value}", text)
+        assert count == 1, key
     spec = parse_spec(text, path=ROOT / "jobs" / "demo.toml", validate=lambda params: None)
     entries, where = entries_of(spec, hpcontact.solve.solve)
     attrs = {"created": "2026-01-01T00:00:00+00:00", "history": "hpcontact run jobs/demo.toml", "mpi_size": 1}
