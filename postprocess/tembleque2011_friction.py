@@ -46,6 +46,8 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 import numpy as np  # noqa: E402
+from scipy.integrate import quad  # noqa: E402
+from scipy.optimize import brentq  # noqa: E402
 
 from postprocess.common import arguments, open_dataset, plt  # noqa: E402
 
@@ -211,8 +213,10 @@ def _scene(ds, label: str) -> dict:
     return params
 
 
-def tractions(ds, outdir: Path) -> None:
+def tractions(ds, outdir: Path) -> dict[str, tuple[float, float]]:
+    """Fig. 6 panels; returns each pair's stick band on the centre line (x/50 mm, first and last cell)."""
     labels = ("ortho E1 ratio 1", "ortho E1 ratio 2", "isotropic")
+    bands = {}
     fig, axes = plt.subplots(1, len(labels), figsize=(15, 4))
     for ax, label in zip(axes, labels):
         problem = SlipProblem(validate(_scene(ds, label)))
@@ -241,16 +245,46 @@ def tractions(ds, outdir: Path) -> None:
         centre = float(np.mean(x[stick])) if stick.any() else float("nan")
         print(f"tractions, {label}: stick cells on the centre line from x/50mm = {x[stick].min():.3f} to "
               f"{x[stick].max():.3f} (centre {centre:+.4f})")
+        bands[label] = (float(x[stick].min()), float(x[stick].max()))
     fig.tight_layout()
     fig.savefig(outdir / "tractions.png", dpi=110)
     plt.close(fig)
+    return bands
 
 
-def stick_shift(ds, outdir: Path) -> None:
+def plane_strain_shift(beta: float, mu: float, c: float) -> float:
+    r"""|e|/a of a stick band of half-width ``c`` (units of a) in the plane-strain contact of Hertz
+    pressure p0 sqrt(1 − x²/a²) whose normal–tangential coupling is β′ = |H_xz|/H_xx along the
+    load (the two bodies' surface compliances, Barnett–Lothe; the paper's single static problem).
+
+    In the stick band the relative slip is constant: H_xx (1/π)∫q/(x−ξ)dξ ± |H_xz| p = 0, with
+    q = mu p in the slip zones (both slipping along the load). With q = mu p − q*, the band's
+    tractions q* are bounded at both ends only if (Muskhelishvili 1953, §88; Hills, Nowell &
+    Sackfield 1993, ch. 5)
+
+        mu (e/a) π = β′ ∫_{-π/2}^{π/2} sqrt(1 − (e/a + c sin t)²) dt,
+
+    (1/π)∫p/(x−ξ) = p0 x/a on the contact. Solved for e here; for small c, e/a = (β′/mu)/sqrt(1 + (β′/mu)²)."""
+    def condition(e: float) -> float:
+        return mu * e * math.pi - beta * quad(lambda t: math.sqrt(max(0.0, 1.0 - (e + c * math.sin(t)) ** 2)),
+                                              -0.5 * math.pi, 0.5 * math.pi)[0]
+    return brentq(condition, 0.0, 1.0 - c)
+
+
+def stick_shift(ds, outdir: Path, bands: dict[str, tuple[float, float]]) -> None:
     """The stick zone's centroid of the similar, dissimilar and isotropic-orthotropic pairs at
     n = 32 … 96: the shift against the cell size (the similar pair's is 0 by symmetry; the
-    spread over the grids is the resolution of the dissimilar pair's)."""
+    spread over the grids is the resolution of the dissimilar pair's), and the dissimilar pair's
+    plane-strain estimate (``plane_strain_shift`` with the centre line's stick band)."""
     fig, ax = plt.subplots(figsize=(6, 4))
+    label = "ortho E1 ratio 2"
+    H = validate(_scene(ds, label)).pair.compliance.fourier(np.array([0.0]))[0]  # lab frame, along x1
+    beta = abs(H[0, 2]) / H[0, 0].real
+    low, high = bands[label]
+    estimate = plane_strain_shift(beta, float(ds["mu"].values), 0.5 * (high - low))
+    ax.axhline(-estimate * A * 1e3, color="C1", ls="--", lw=0.8, label=f"{label}: plane-strain estimate, β′ = {beta:.3f}")
+    print(f"plane-strain estimate, {label}: beta' = |H_xz|/H_xx = {beta:.4f}, stick half-width {0.5 * (high - low):.3f} a "
+          f"(centre line): |e| = {estimate:.3f} a = {estimate * A * 1e3:.1f} mm")
     for label, marker in (("ortho E1 ratio 1", "o"), ("ortho E1 ratio 2", "s"), ("isotropic", "^")):
         rows = []
         for n in GRIDS:
@@ -276,8 +310,7 @@ def main() -> None:
     line_contact(args.outdir)
     normal_load(args.outdir)
     tangential(ds, args.outdir)
-    tractions(ds, args.outdir)
-    stick_shift(ds, args.outdir)
+    stick_shift(ds, args.outdir, tractions(ds, args.outdir))
 
 
 if __name__ == "__main__":
