@@ -122,8 +122,9 @@ class PathSolver:
         coupled process of ``equilibrium`` at its load. A dissimilar pair's pressure pulls the
         surfaces tangentially by different amounts (A_tz p), friction resists it in a central
         stick zone: the residual shear that a later tangential load adds to on one side and
-        subtracts from on the other (the shifted stick zone of Rodríguez-Tembleque et al. 2011,
-        Fig. 6d). Zero for an elastically similar pair (A_tz = 0)."""
+        subtracts from on the other. Zero for an elastically similar pair (A_tz = 0). The paper of
+        the shifted stick zone (Rodríguez-Tembleque et al. 2011, Fig. 6d) applies both loads at
+        once instead: ``path = "proportional"``."""
         pb = self.problem
         state = self.unloaded()
         steps = pb.scene.steps
