@@ -1,7 +1,8 @@
 """Sharpness and honesty of ``--accuracy``'s error estimate over (case, request) pairs.
 
     python benchmarks/accuracy_sharpness.py [--cache results/accuracy_sharpness.jsonl]
-        [--max-n 1024] [--collect] [--set SAFETY=3 ...] [--table]
+        [--max-n 1024] [--collect] [--strategy coverage|singular] [--set SAFETY=3 ...]
+        [--table] [--cost] [--defaults]
 
 Cases with closed forms (``hpcontact.analytic``): the circle (8Ga/(2 − nu), 2aE*) and Mindlin's
 bonded ellipse with the elliptical punch (K_a, K_b, K_zz, K_a/K_b) for b/a = 0.7, 0.5, 0.1,
@@ -9,9 +10,11 @@ bonded ellipse with the elliptical punch (K_a, K_b, K_zz, K_a/K_b) for b/a = 0.7
 sequences starting at n₀ = 16 and 32 (2): 336 (case, request) pairs.
 
 ``--collect`` solves every (case, grid) once with ``covered_solve`` (tangential and normal,
-CG tol 1e-12) up to ``--max-n`` and appends the raw stiffnesses to the cache (JSON lines, keyed
-by the boundary treatment named in the record's plan, so a new treatment gets its own
-sequences); already cached grids are skipped. The replay then runs the loop of
+CG tol 1e-12) up to ``--max-n`` and appends the raw stiffnesses and the solve's CPU seconds
+(``time.process_time``, one thread: the time on a core of its own, not inflated by whatever
+else shares the machine) to the cache (JSON lines, keyed by the boundary treatment named in the
+record's plan, so a new treatment gets its own sequences); grids cached with their CPU time
+are skipped (a later line for the same grid replaces an earlier one). The replay then runs the loop of
 ``solve_to_accuracy`` itself (``hpcontact.accuracy.refine``) on the cached levels: the grid
 limit is the cache's finest grid. Printed:
 
@@ -20,7 +23,12 @@ limit is the cache's finest grid. Printed:
   fraction with true ≥ estimate/30 (sharp);
 * per quantity: the same for each quantity's own estimate (true errors below 1e-13 are exact by
   symmetry — K_a/K_b of a circle or at nu = 0 — and left out);
-* with ``--table``: every pair.
+* with ``--table``: every pair;
+* with ``--cost``: per case (nu = 0.3, 0.5) and treatment (coverage-weighted cells, singular
+  cells where they apply), the time ``--accuracy`` 1e-3 … 1e-6 takes from n₀ = 32 (sum of the
+  cached solve times), true / estimated error, or the limit that stopped it;
+* with ``--defaults``: ``hpcontact solve`` without n (``accuracy.default_solve``) on every
+  ellipse b/a and nu, the square and the hexagon: true and estimated error, time.
 
 ``--set NAME=VALUE`` overrides a constant of ``hpcontact.accuracy`` (SAFETY, FASTEST_FALL,
 OSCILLATION_FALL, RATIO_SHARE, LEAD_SLACK …) for the replay: the calibration's trade-off.
@@ -92,29 +100,37 @@ def load(cache: Path) -> dict[str, dict[str, Any]]:
     return out
 
 
-def treatment_name() -> str:
-    """The boundary treatment ``covered_solve`` uses now (its plan's ``boundary`` entry)."""
-    return covered_solve({**case_params(1.0, 0.3), "n": 8, "tol": 1e-6})["plan"].get("boundary", "")
+def treatment_name(strategy: str) -> str:
+    """The boundary treatment ``covered_solve`` uses with ``strategy`` (its plan's ``boundary``)."""
+    return covered_solve({**case_params(1.0, 0.3), "n": 16, "tol": 1e-6}, strategy)["plan"].get("boundary", "")
 
 
-def collect(cache: Path, max_n: int) -> None:
+def collect(cache: Path, max_n: int, strategy: str) -> None:
+    """Solve every (case, grid) not yet cached that ``strategy`` supports (singular cells: cells
+    dy/dx within [1/2, 2], so not the thin ellipses) and append it to ``cache``."""
+    from hpcontact.errors import InputError
+
     cached = load(cache)
-    treatment = treatment_name()
+    treatment = treatment_name(strategy)
     cache.parent.mkdir(parents=True, exist_ok=True)
     for n, _ in grids(1.0, min(STARTS), max_n):
         for aspect in ASPECTS:
             na = dict(grids(aspect, min(STARTS), max_n))[n]
             for nu in NUS:
-                if key_of(treatment, aspect, nu, n, na) in cached:
+                if "cpu_s" in cached.get(key_of(treatment, aspect, nu, n, na), {}):
                     continue
-                started = time.perf_counter()
-                r = covered_solve({**case_params(aspect, nu), "n": n, "n_across": na})
+                started, cpu = time.perf_counter(), time.process_time()
+                try:
+                    r = covered_solve({**case_params(aspect, nu), "n": n, "n_across": na}, strategy)
+                except InputError:  # the strategy does not apply to this case
+                    continue
                 row = {"treatment": treatment, "aspect": aspect, "nu": nu, "n": n, "n_across": na,
-                       "wall_time_s": time.perf_counter() - started, "iterations": r["iterations"],
+                       "wall_time_s": time.perf_counter() - started, "cpu_s": time.process_time() - cpu,
+                       "iterations": r["iterations"],
                        **{k: r[k] for k in acc.TENSOR_KEYS if k in r}}
                 with cache.open("a") as f:
                     f.write(json.dumps(row) + "\n")
-                print(f"  solved b/a={aspect:g} nu={nu} {n} x {na}: {row['wall_time_s']:.2f} s", flush=True)
+                print(f"  solved b/a={aspect:g} nu={nu} {n} x {na}: {row['cpu_s']:.2f} s", flush=True)
 
 
 def replay(cache: Path, treatment: str) -> tuple[list[tuple], list[tuple]]:
@@ -142,6 +158,65 @@ def replay(cache: Path, treatment: str) -> tuple[list[tuple], list[tuple]]:
     return records, pairs
 
 
+def cost_table(cache: Path, strategies: tuple[str, ...] = ("coverage", "singular"), n0: int = 32) -> None:
+    """Markdown: per case and boundary treatment, what ``--accuracy`` 1e-3 … 1e-6 costs from the
+    default start (the sum of the cached grids' CPU seconds up to where it stops; ``*``: a grid
+    cached with its wall time only), the true against the estimated error, and what stopped it
+    ("cache": the finest cached grid)."""
+    cached = load(cache)
+    print("| case | cells | 1e-3 | 1e-4 | 1e-5 | 1e-6 |")
+    print("|---|---|---|---|---|---|")
+    for strategy in strategies:
+        treatment = treatment_name(strategy)
+        for aspect in ASPECTS:
+            for nu in (0.3, 0.5):
+                sequence = [g for g in grids(aspect, n0, 2**20) if key_of(treatment, aspect, nu, *g) in cached]
+                if len(sequence) < acc.MIN_GRIDS:
+                    continue
+                ref = references(case_params(aspect, nu)["shape"], aspect, nu)
+                cells = []
+                for request in (1e-3, 1e-4, 1e-5, 1e-6):
+                    done = acc.refine(sequence, lambda n, na: cached[key_of(treatment, aspect, nu, n, na)], request)
+                    v = done.values
+                    values = {**v, "K_a_over_K_b": v["K_xx"] / v["K_yy"], "normalized_xx": v["K_xx"] / v["K_zz"],
+                              "normalized_yy": v["K_yy"] / v["K_zz"]}
+                    true = max(abs(values[k] / ref[k] - 1.0) for k in QUANTITIES)
+                    seconds = sum(level.get("cpu_s", level["wall_time_s"]) for level in done.levels)
+                    wall = "" if all("cpu_s" in level for level in done.levels) else "*"  # a wall time of the cache
+                    n = sequence[len(done.levels) - 1][0]
+                    status = f"{seconds:.1f}{wall} s, n={n}" if done.stopped_by == "met" else f"not met ({done.stopped_by or 'cache'}, n={n})"
+                    cells.append(f"{status}: {true:.1e} / {max(done.relative.values()):.1e}")
+                name = "circle" if aspect == 1.0 else f"ellipse {aspect:g}"
+                print(f"| {name}, nu {nu} | {strategy} | " + " | ".join(cells) + " |")
+
+
+def defaults_table() -> None:
+    """Markdown: ``hpcontact solve`` without n (``accuracy.default_solve``) on ellipses b/a = 1 …
+    1e-8 and nu = 0, 0.3, 0.5 (true and estimated relative error of K_a/K_b and of the record,
+    CPU seconds of the call, one thread), and the square and hexagon (estimate and time only:
+    no closed form)."""
+    print("| shape | nu | K_a/K_b true | K_xx, K_yy true | estimated_error | grids | time |")
+    print("|---|---|---|---|---|---|---|")
+    shapes = [case_params(a, 0.0) | {"aspect": a} for a in ASPECTS]
+    for params in shapes + [{"shape": "rectangle", "aspect": 1.0}, {"shape": "polygon", "sides": 6}]:
+        for nu in NUS:
+            scene = {k: v for k, v in params.items() if k not in ("tol", "quantities")} | {"nu": nu}
+            if scene["shape"] == "circle":
+                scene.pop("aspect")
+            started = time.process_time()
+            r = acc.default_solve(scene)
+            seconds = time.process_time() - started
+            ratio, both = "—", "—"
+            if scene["shape"] in ("circle", "ellipse"):
+                ref = references(scene["shape"], scene.get("aspect", 1.0), nu)
+                ratio = f"{abs(r['K_a_over_K_b'] / ref['K_a_over_K_b'] - 1.0):.1e}"
+                both = f"{max(abs(r[k] / ref[k] - 1.0) for k in ('K_xx', 'K_yy')):.1e}"
+            name = scene["shape"] + (f" b/a={scene['aspect']:g}" if scene["shape"] == "ellipse" else "")
+            name += f" {scene['sides']} sides" if scene["shape"] == "polygon" else ""
+            print(f"| {name} | {nu} | {ratio} | {both} | {r['estimated_error']:.1e} | {r['grids'][0]}–{r['grids'][-1]} | "
+                  f"{seconds:.2f} s |")
+
+
 def summary(label: str, true: np.ndarray, estimated: np.ndarray) -> str:
     ratio = true / estimated
     return (f"{label}: {len(ratio)}; worst true/estimate {ratio.max():.2f} (honest when <= 1; "
@@ -155,6 +230,9 @@ def main() -> None:
     parser.add_argument("--max-n", type=int, default=1024)
     parser.add_argument("--collect", action="store_true")
     parser.add_argument("--table", action="store_true")
+    parser.add_argument("--cost", action="store_true", help="print the time-to-accuracy table (both treatments)")
+    parser.add_argument("--defaults", action="store_true", help="run and print the default discretization's table")
+    parser.add_argument("--strategy", default="coverage", help="covered_solve's boundary treatment: coverage or singular")
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
     args = parser.parse_args()
     for item in args.set:
@@ -163,8 +241,8 @@ def main() -> None:
             raise SystemExit(f"hpcontact.accuracy has no constant {name}")
         setattr(acc, name, float(value))
     if args.collect:
-        collect(args.cache, args.max_n)
-    treatment = treatment_name()
+        collect(args.cache, args.max_n, args.strategy)
+    treatment = treatment_name(args.strategy)
     records, pairs = replay(args.cache, treatment)
     print(f"boundary treatment: {treatment}")
     print(summary("records (case, request, start grid)", np.array([r[3] for r in records]), np.array([r[4] for r in records])))
@@ -172,6 +250,10 @@ def main() -> None:
     met = [r for r in records if r[5] == "met"]
     print(f"requests met: {len(met)} of {len(records)}; stopped by: "
           + ", ".join(f"{s} {sum(r[5] == s for r in records)}" for s in sorted({r[5] for r in records})))
+    if args.cost:
+        cost_table(args.cache)
+    if args.defaults:
+        defaults_table()
     if args.table:
         print(f"{'case':28s} {'n0':>3s} {'request':>8s} {'true':>9s} {'estimate':>9s} {'ratio':>6s} {'stopped':>11s} {'n':>5s}")
         for case, n0, request, true, est, stopped, n in records:

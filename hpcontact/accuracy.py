@@ -398,6 +398,7 @@ def solve_to_accuracy(
     max_cells: int = MAX_CELLS,
     memory_budget: float | None = None,
     max_grids: int | None = None,
+    strategy: str = "coverage",
     strict: bool = True,
 ) -> dict[str, Any]:
     """Solve ``params`` on refined coverage-weighted grids until the estimated relative error
@@ -427,7 +428,8 @@ def solve_to_accuracy(
       per-grid stiffnesses, wall times and iterations; ``wall_time_s``: the total.
 
     ``params`` are those of ``solve``; ``n`` and ``n_across`` there are ignored (the sequence
-    starts at ``n0`` (default 32) and ``n_across0``). The CG tolerance is tightened to at most
+    starts at ``n0`` (default 32) and ``n_across0``). ``strategy`` is the boundary treatment of
+    ``covered_solve`` (coverage, singular, auto). The CG tolerance is tightened to at most
     accuracy/100 so that it never limits the answer. A mask is refined by splitting its pixels
     (the sequence starts at the contact's long side in pixels); a rough patch cannot be refined
     and is refused (InputError), as are quantities other than tangential, normal, coupled.
@@ -452,7 +454,7 @@ def solve_to_accuracy(
                          plan.budget if plan.limit == "memory budget" else sequence[:1])
 
     def solve_level(n: int, na: int) -> dict[str, Any]:
-        level = covered_solve({**base, "n": n, "n_across": na})
+        level = covered_solve({**base, "n": n, "n_across": na}, strategy)
         clear_cache()  # this grid's kernels serve no other grid: the budget counts one grid's
         return level
 
