@@ -13,9 +13,15 @@ What it does, in order:
 2. **Overheads, measured.** Under ``mpiexec -n 2``, the real ``ServedCounter``: a worker's claim
    round trip while rank 0 computes in pure Python (holding the GIL: the worst case) and the
    server's time per message on a full queue; from the small sweeps, the driver's own time per
-   task (journal write, progress, scheduling) and rank 0's gather time per task (journals →
-   data set); rank 0's setup time per task (spec check with every distinct scene validated,
-   task enumeration) from the six-axis spec cut to 2 orientations.
+   task (journal write, progress, scheduling). On the six-axis job itself (48 132 tasks, below),
+   with the driver's own functions in this process as 64 ranks would run them: the setup spread
+   over the ranks (each share of the points enumerated with every distinct scene validated,
+   ``driver._share``: the sum over shares) and the setup on the critical path (every rank
+   unpickles and joins all shares; rank 0 checks the journals and decides; the decision pickled
+   and unpickled as its broadcast does; every rank makes the chunks for 1024 ranks); the gather spread over the ranks (synthetic solver-like outcomes,
+   ``dataset_scale.record``, turned into columns, ``columns.to_columns``) and rank 0's serial
+   gather (the columns unpickled and joined, the data set built and written). Best of
+   ``--repeats`` (the machine is shared).
 3. **Replay.** For each distribution — each small sweep copied to a job of 10^5 tasks (copy r of
    a task is a new task in kernel group "group#r"), and a six-axis job: 10 shapes × 37 angles ×
    6 nu × 17 b/a × 11 A × 19 ψ (the load angle derived; isotropic points share their
@@ -23,14 +29,17 @@ What it does, in order:
    ordered by the real ``make_chunks`` for R ranks (kernel groups included) and run by the
    discrete-event model of the scheduler, ``hpcontact.sweep.costmodel.replay`` (the one the
    dry-run uses): every rank computes; a worker's claim waits for the server (FIFO, measured service
-   time) plus the measured wake-up latency; rank 0 claims without messages; rank 0 alone
-   prepares (setup) and assembles (gather) the data set while the others wait. The six-axis
+   time) plus the measured wake-up latency; rank 0 claims without messages; the ranks share the
+   enumeration and the columns, rank 0 alone joins them (serial setup and gather) while the
+   others wait. The six-axis
    job's task seconds are its estimated costs times the seconds per cost unit measured for its
    kind (isotropic contact, crystal), times a residual drawn from the measured ones — so the
    estimate's scatter is replayed too.
 
 Efficiency = Σ task seconds / (R × makespan). Printed per distribution and R, with the share
-lost to the tail (last rank to finish vs mean), to claims, and to setup + gather.
+lost to the tail (last rank to finish vs mean), to claims, and to setup + gather; with
+``--before``, the same replay with the setup and gather all on rank 0 at the per-task times the
+driver of commit ab7d7f9 was measured at (README: 0.24 and 0.35 ms), side by side.
 """
 
 from __future__ import annotations
@@ -38,6 +47,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import pickle
 import statistics
 import subprocess
 import sys
@@ -54,7 +64,7 @@ sys.path.insert(0, str(ROOT))
 from hpcontact.sweep.costmodel import Overheads, replay, task_kind  # noqa: E402
 from hpcontact.sweep.journal import OK, read_journals  # noqa: E402
 from hpcontact.sweep.spec import Spec, load_spec, parse_spec  # noqa: E402
-from hpcontact.sweep.tasks import Task, enumerate_tasks  # noqa: E402
+from hpcontact.sweep.tasks import Task, enumerate_tasks, make_chunks  # noqa: E402
 
 SMALL_SWEEPS = {
     "thin shapes": """
@@ -152,7 +162,7 @@ def run_small_sweeps(folder: Path) -> tuple[dict[str, Distribution], dict[str, f
     import xarray as xr
 
     out: dict[str, Distribution] = {}
-    overhead = {"driver_s": [], "gather_s": []}
+    overhead = {"driver_s": []}
     for name, text in SMALL_SWEEPS.items():
         spec = folder / f"{name.replace(' ', '_')}.toml"
         spec.write_text(text)
@@ -164,7 +174,6 @@ def run_small_sweeps(folder: Path) -> tuple[dict[str, Distribution], dict[str, f
         out[name] = measured(load_spec(spec, output=output))
         n = len(out[name].tasks)
         overhead["driver_s"].append((attrs["sweep_journal_time_s"] + attrs["sweep_schedule_time_s"]) / n)
-        overhead["gather_s"].append(attrs["sweep_gather_time_s"] / n)
         print(f"  {name:12s} {n:4d} tasks, {out[name].seconds.sum():7.1f} s of solves "
               f"({time.perf_counter() - started:.1f} s with the driver)", flush=True)
     return out, {k: statistics.median(v) for k, v in overhead.items()}
@@ -223,23 +232,69 @@ def measure_latency() -> dict[str, float]:
 def replicated(case: Distribution, count: int) -> Distribution:
     """``case`` copied until it has at least ``count`` tasks (copies share no kernels)."""
     copies = math.ceil(count / len(case.tasks))
-    tasks = [replace(t, key=f"{t.key}#{r}", group=f"{t.group}#{r}") for r in range(copies) for t in case.tasks]
+    tasks = [t._replace(key=f"{t.key}#{r}", group=f"{t.group}#{r}") for r in range(copies) for t in case.tasks]
     return Distribution(tasks, np.tile(case.seconds, copies))
 
 
-def setup_seconds_per_task() -> float:
-    """Rank 0's setup per task, measured: the six-axis spec cut to 2 orientations, parsed with
-    every distinct scene validated, and its tasks enumerated."""
-    text = SIX_AXIS.replace("orientation = { linspace = [0, 90, 19] }", "orientation = [0.0, 35.26438968275465]")
-    started = time.perf_counter()
-    tasks, _ = enumerate_tasks(parse_spec(text, Path("six_axis_cut.toml")))
-    return (time.perf_counter() - started) / len(tasks)
+BEFORE = {"setup_s": 0.24e-3, "gather_s": 0.35e-3}  # rank 0 alone, per task: commit ab7d7f9 (README)
+SHARES = 64  # ranks the six-axis setup and gather are split over when measured
+
+
+def best(function, repeats: int) -> tuple[float, object]:
+    """The least wall time of ``repeats`` calls of ``function`` and its last value."""
+    times = []
+    for _ in range(repeats):
+        started = time.perf_counter()
+        value = function()
+        times.append(time.perf_counter() - started)
+    return min(times), value
+
+
+def setup_and_gather(folder: Path, repeats: int) -> dict[str, float]:
+    """Per task of the six-axis job: the setup and gather spread over the ranks (summed over
+    ``SHARES`` shares) and rank 0's serial setup and gather (module docstring, point 2)."""
+    from dataset_scale import record
+    from hpcontact.sweep import driver
+    from hpcontact.sweep.columns import join, to_columns
+    from hpcontact.sweep.dataset import FIXED_VARIABLES, dataset_of, write_netcdf
+    from hpcontact.sweep.journal import Entry
+
+    spec = parse_spec(SIX_AXIS, folder / "six_axis.toml", output=folder / "six_axis.nc", check_scenes=False)
+    options = driver.Options(restart=True)
+    spread_setup, shares = best(lambda: [driver._share(spec, r, SHARES, None, options) for r in range(SHARES)], repeats)
+    sent = [pickle.dumps(share, protocol=pickle.HIGHEST_PROTOCOL) for share in shares]
+
+    def prepare() -> tuple[list[Task], driver.Decision, dict]:
+        tasks, task_of, over = driver._joined(spec, [pickle.loads(b) for b in sent])  # every rank
+        keep: dict = {}
+        decision = driver._prepare(spec, tasks, task_of, over, options, 1024, keep)  # rank 0
+        keep["lock"].release()
+        decision = pickle.loads(pickle.dumps(decision, protocol=pickle.HIGHEST_PROTOCOL))  # its broadcast
+        make_chunks([tasks[i] for i in decision.shared], 1024)  # every rank
+        return tasks, decision, keep
+
+    serial_setup, (tasks, decision, keep) = best(prepare, repeats)
+    n = len(tasks)
+    entries = [Entry(key=t.key, params=t.params, status=OK, message="", record=record(t.key, dict(t.params)),
+                     wall_time_s=1.0, finished=0.0, rank=i % SHARES, provenance=decision.provenance)
+               for i, t in enumerate(tasks)]
+    spread_gather, columns = best(lambda: [to_columns(entries[r::SHARES], list(range(r, n, SHARES)))
+                                           for r in range(SHARES)], repeats)
+    sent = [pickle.dumps(c, protocol=pickle.HIGHEST_PROTOCOL) for c in columns]
+
+    def gather() -> None:
+        joined = join([to_columns([], [])] + [pickle.loads(b) for b in sent], n, FIXED_VARIABLES)
+        write_netcdf(dataset_of(spec, keep["task_of"], joined, {"mpi_size": 1024}, derive=False), spec.output)
+
+    serial_gather, _ = best(gather, repeats)
+    return {"spread_setup_s": spread_setup / n, "setup_s": serial_setup / n,
+            "spread_gather_s": spread_gather / n, "gather_s": serial_gather / n, "six_axis_tasks": n}
 
 
 def six_axis(calibration: dict[str, tuple[float, np.ndarray]], rng: np.random.Generator) -> Distribution:
     """The six-axis job's tasks with modelled seconds: estimated cost × the measured seconds per
     cost unit of the task's kind × a measured residual of that kind drawn at random."""
-    spec = parse_spec(SIX_AXIS, Path("six_axis.toml"), validate=lambda params: None)
+    spec = parse_spec(SIX_AXIS, Path("six_axis.toml"), check_scenes=False)
     tasks, _ = enumerate_tasks(spec)
     seconds = np.empty(len(tasks))
     for i, task in enumerate(tasks):
@@ -253,6 +308,8 @@ def main() -> None:
     parser.add_argument("--specs", nargs="*", default=[], help="specs of real jobs already run: replay their journals too")
     parser.add_argument("--ranks", nargs="*", type=int, default=[2, 16, 64, 256, 1024, 4096])
     parser.add_argument("--keep", help="keep the small sweeps' outputs in this folder")
+    parser.add_argument("--repeats", type=int, default=2, help="best of this many timings of setup and gather")
+    parser.add_argument("--before", action="store_true", help="also replay with setup and gather all on rank 0 (ab7d7f9)")
     args = parser.parse_args()
     os.environ.setdefault("OMP_NUM_THREADS", "1")
 
@@ -262,14 +319,17 @@ def main() -> None:
     distributions, overhead = run_small_sweeps(folder)
     for path in args.specs:
         distributions[Path(path).stem] = measured(load_spec(path))
-    overhead.update(measure_latency(), setup_s=setup_seconds_per_task())
+    overhead.update(measure_latency())
+    overhead.update(setup_and_gather(folder, args.repeats))
     overhead["wake_s"] = max(overhead["claim_busy_s"] - overhead["service_s"], 0.0)
     print(
         "measured overheads: claim round trip with rank 0 computing {:.2f} ms (median; worst {:.2f} ms), "
-        "server time per message {:.3f} ms; driver {:.2f} ms/task; rank 0 setup {:.2f} ms/task, "
-        "gather {:.2f} ms/task".format(
+        "server time per message {:.3f} ms; driver {:.2f} ms/task; six-axis job ({} tasks), per task: setup "
+        "spread over the ranks {:.3f} ms, on rank 0 alone {:.4f} ms; gather spread {:.4f} ms, on rank 0 alone "
+        "{:.4f} ms".format(
             overhead["claim_busy_s"] * 1e3, overhead["claim_worst_s"] * 1e3, overhead["service_s"] * 1e3,
-            overhead["driver_s"] * 1e3, overhead["setup_s"] * 1e3, overhead["gather_s"] * 1e3,
+            overhead["driver_s"] * 1e3, overhead["six_axis_tasks"], overhead["spread_setup_s"] * 1e3,
+            overhead["setup_s"] * 1e3, overhead["spread_gather_s"] * 1e3, overhead["gather_s"] * 1e3,
         )
     )
 
@@ -289,14 +349,17 @@ def main() -> None:
              for name, case in distributions.items()}
     cases["six-axis job"] = big
     print(f"\n{'distribution':22s} {'tasks':>7s} {'ranks':>6s} {'chunks':>7s} {'wall s':>9s} {'efficiency':>10s}"
-          f" {'tail':>6s} {'claims':>7s} {'setup+gather':>12s}")
+          f" {'tail':>6s} {'claims':>7s} {'setup+gather':>12s}"
+          + (f" {'before':>7s}" if args.before else ""))
     model = Overheads(**{f.name: overhead[f.name] for f in fields(Overheads)})
+    before = replace(model, spread_setup_s=0.0, spread_gather_s=0.0, **BEFORE)
     for name, case in cases.items():
         seconds = dict(zip((t.key for t in case.tasks), case.seconds))
         for ranks in args.ranks:
             r = replay(case.tasks, seconds, ranks, model)
+            old = f" {replay(case.tasks, seconds, ranks, before)['efficiency']:7.3f}" if args.before else ""
             print(f"{name:22s} {len(case.tasks):7d} {ranks:6d} {r['chunks']:7d} {r['makespan_s']:9.2f} {r['efficiency']:10.3f}"
-                  f" {r['tail']:6.3f} {r['claims']:7.4f} {r['setup_gather']:12.3f}", flush=True)
+                  f" {r['tail']:6.3f} {r['claims']:7.4f} {r['setup_gather']:12.3f}{old}", flush=True)
 
 
 if __name__ == "__main__":

@@ -68,9 +68,13 @@ fit alone cannot run; the cache evicts before it).
 (``hpcontact.sweep.schedule``): the tasks are chunked and ordered by the real ``make_chunks`` for R
 ranks; every rank computes; a worker's claim of the next chunk waits for the server (FIFO,
 ``Overheads.service_s`` per message) plus the wake-up latency ``wake_s``; rank 0 claims without
-messages; every task pays ``driver_s`` (journal, progress, scheduling); rank 0 alone prepares
-(``setup_s`` per task) and assembles the data set (``gather_s`` per task) while the others wait.
-Wall time = makespan; efficiency = Σ task seconds / (R × makespan).
+messages; every task pays ``driver_s`` (journal, progress, scheduling) and ``spread_gather_s``
+(its outcome turned into columns by the rank that ran it); before any rank computes, every rank
+enumerates and validates 1/R of the parameter space (``spread_setup_s`` per task, divided by R)
+and rank 0 alone joins the shares, decides what to run and broadcasts the plan (``setup_s`` per
+task); at the end rank 0 alone joins the ranks' columns and writes the data set (``gather_s``
+per task) while the others wait. Wall time = makespan; efficiency = Σ task seconds / (R ×
+makespan).
 ``benchmarks/sweep_scale.py`` measures the overheads and replays real task costs with this model.
 """
 
@@ -413,13 +417,17 @@ class Overheads:
     development machine (2 cores, MPICH, shared with other jobs, 2026-11-22): the claim round
     trip as the scheduler's commit 856c639 measured it, the server's time per message by
     ``benchmarks/sweep_scale.py``'s probe, the driver's per-task time (scheduling 1.3
-    ms + journal 3.0 ms) and rank 0's gather by ``benchmarks/sweep_scaling.py`` (README)."""
+    ms + journal 3.0 ms) by ``benchmarks/sweep_scaling.py`` (README), rank 0's setup and gather
+    and their shares spread over the ranks by ``benchmarks/sweep_scale.py`` on the six-axis job
+    (48 132 tasks; 2026-11-23, load average 12-15 on the 2 cores: slow by ~3x)."""
 
     driver_s: float = 4.3e-3
     service_s: float = 4.5e-5  # server time per message on a full queue
     wake_s: float = 2.5e-3  # claim round trip while rank 0 computes in Python (scheduler of 856c639), less service_s
-    setup_s: float = 3.0e-3  # six-axis spec cut to 2 orientations: validation and enumeration
-    gather_s: float = 0.4e-3
+    setup_s: float = 4.8e-5  # rank 0 alone: join the shares, decide, broadcast the plan, chunk
+    gather_s: float = 5.3e-5  # rank 0 alone: join the ranks' columns, build and write the data set
+    spread_setup_s: float = 1.0e-3  # enumeration and validation, 1/R of it on each rank
+    spread_gather_s: float = 1.7e-4  # an outcome turned into columns, on the rank that ran it
 
 
 def replay(tasks: Sequence[Task], seconds: Mapping[str, float], ranks: int,
@@ -430,10 +438,11 @@ def replay(tasks: Sequence[Task], seconds: Mapping[str, float], ranks: int,
     if ranks < 1:
         raise InputError("ranks", "an integer >= 1", ranks)
     chunks = make_chunks(list(tasks), ranks)
-    chunk_seconds = [sum(seconds[t.key] + overheads.driver_s for t in chunk) for chunk in chunks]
+    per_task = overheads.driver_s + overheads.spread_gather_s
+    chunk_seconds = [sum(seconds[t.key] + per_task for t in chunk) for chunk in chunks]
     n = len(tasks)
-    setup = overheads.setup_s * n
-    free = [(setup, r) for r in range(ranks)]  # every rank starts after rank 0's setup
+    setup = overheads.setup_s * n + overheads.spread_setup_s * n / ranks
+    free = [(setup, r) for r in range(ranks)]  # every rank starts after the setup
     heapq.heapify(free)
     server_free = setup
     claim_wait = 0.0

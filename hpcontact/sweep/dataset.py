@@ -42,6 +42,7 @@ import xarray as xr
 
 from ..quantities import directional_stiffness
 from ..elastic_constants import FAMILIES
+from .columns import NOT_COMPUTED, Joined, is_number as _is_number, join, task_positions, to_columns
 from .journal import BAD_INPUT, CRASHED, ERROR, NOT_CONVERGED, OK, Entry, to_json
 from .kinds import SLIP
 from . import netcdf
@@ -49,7 +50,7 @@ from .spec import LABEL_AXES, Spec
 from .units import cf_attributes
 
 
-NOT_COMPUTED = -1
+FIXED_VARIABLES = ("status", "message", "wall_time_s")  # per task, whatever its record holds
 STATUS_MEANINGS = {OK: "ok", BAD_INPUT: "bad_input", NOT_CONVERGED: "not_converged", ERROR: "error", CRASHED: "crashed",
                    NOT_COMPUTED: "not_computed"}
 
@@ -202,53 +203,43 @@ SLIP_ATTRS: Mapping[str, tuple[str, str]] = {
 SI_UNITS = {"F": "N", "L": "m"}
 
 
-def _is_number(value: Any) -> bool:
-    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
-
-
 def build_dataset(
     spec: Spec, where: Mapping[tuple[int, ...], str], entries: Mapping[str, Entry], attrs: Mapping[str, Any]
 ) -> xr.Dataset:
     """The data set of ``spec`` from the journal ``entries``; ``where`` maps each point of the
-    task axes to its task key (``tasks.enumerate_tasks``); ``attrs`` are global attributes.
-    Values are gathered once per task and spread to the task's points by index."""
+    task axes to its task key (``tasks.enumerate_tasks``); ``attrs`` are global attributes."""
+    keys, task_of = task_positions(where, tuple(len(a) for a in spec.task_axes))
+    found = [(entries[key], at) for at, key in enumerate(keys) if key in entries]
+    parts = [to_columns([e for e, _ in found], [at for _, at in found])] if found else []
+    return dataset_of(spec, task_of, join(parts, len(keys), FIXED_VARIABLES), attrs)
+
+
+def dataset_of(spec: Spec, task_of: np.ndarray, joined: Joined, attrs: Mapping[str, Any],
+               derive: bool = True) -> xr.Dataset:
+    """The data set of ``spec`` from the per-task arrays ``joined`` (``columns.join``);
+    ``task_of`` gives each point of the task axes its task (0-based position), ``attrs`` are
+    global attributes; with ``derive``, K_nn and normalized_nn (``derive_directional``, which
+    ``write_netcdf`` leaves out). Values are spread from tasks to points by index."""
     axes = spec.task_axes
     dims = tuple(a.name for a in axes)
     shape = tuple(len(a) for a in axes)
-    position: dict[str, int] = {}
-    task_of = np.empty(shape, dtype=np.intp)
-    for index, key in where.items():
-        task_of[index] = position.setdefault(key, len(position))
-    found = [entries.get(key) for key in position]
 
     def spread(values: np.ndarray) -> np.ndarray:
         return values[task_of]
 
-    status = np.array([NOT_COMPUTED if e is None else e.status for e in found], dtype=np.int32)
-    message = np.empty(len(found), dtype=object)
-    message[:] = ["not computed" if e is None else e.message for e in found]
-    wall = np.array([np.nan if e is None else e.wall_time_s for e in found], dtype=np.float64)
     variables: dict[str, tuple[tuple[str, ...], np.ndarray]] = {
-        "status": (dims, spread(status)),
-        "message": (dims, spread(message)),
-        "wall_time_s": (dims, spread(wall)),
+        "status": (dims, spread(joined.status)),
+        "message": (dims, spread(joined.message)),
+        "wall_time_s": (dims, spread(joined.wall_time_s)),
     }
-    names: dict[str, None] = {}
-    for e in found:
-        if e is not None and e.status == OK:
-            names.update(dict.fromkeys(k for k in e.record if k not in variables))
     coords: dict[str, Any] = {a.name: (a.name, _coordinate(a.name, a.values)) for a in spec.axes}
     for name, value in spec.fixed.items():
         if _is_number(value) or isinstance(value, str):
             coords[name] = ((), np.int32(value) if isinstance(value, numbers.Integral) else value)
     coords.update(_label_coordinates(spec))
     renamed: dict[str, str] = {}
-    for name in names:
-        values = [None if e is None or e.status != OK else e.record.get(name) for e in found]
-        if all(v is None or _is_number(v) for v in values):
-            array = spread(np.array([np.nan if v is None else float(v) for v in values], dtype=np.float64))
-        else:
-            array = spread(_texts(values))
+    for name, values in joined.records.items():
+        array = spread(values)
         if name in coords:
             if _equals_coordinate(array, _coordinate_grid(coords[name], dims, shape)):
                 continue  # the coordinate already says it
@@ -264,7 +255,7 @@ def build_dataset(
             variable_attrs["long_name"] = f"{variable_attrs['long_name']} (task record; differs from the coordinate)"
         ds[name].attrs.update(variable_attrs)
     ds.attrs.update(_global_attrs(spec, attrs))
-    return derive_directional(ds)
+    return derive_directional(ds) if derive else ds
 
 
 def _label_coordinates(spec: Spec) -> dict[str, tuple[tuple[str, ...], np.ndarray]]:

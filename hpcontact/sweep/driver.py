@@ -1,7 +1,9 @@
 """The sweep driver: spec → tasks → ranks → journals → data set (``hpcontact run``).
 
-``run_sweep`` is collective: every rank of the team calls it. Rank 0 reads and checks the spec
-(every distinct scene is validated before any rank starts work), refuses an unusable output
+``run_sweep`` is collective: every rank of the team calls it. Rank 0 reads and checks the spec;
+every rank enumerates the tasks of its share of the parameter space and validates each distinct
+scene of it, and rank 0 joins the shares (``tasks.join_parts``), so a bad scene is refused, naming
+its spec key, before any rank starts work, at a cost spread over the ranks. Rank 0 refuses an unusable output
 (``guard``), takes the output's lock, reads the journals of earlier runs and decides what to
 run: a task whose last outcome is ok or bad input (deterministic) is reused, one that failed
 (error, non-convergence) is run again, one started in ``journal.CRASH_RUNS`` runs that died
@@ -12,9 +14,10 @@ it. Existing journals need ``resume`` (continue) or ``restart`` (discard them); 
 by another package version, git revision or numerics fingerprint are refused unless
 ``accept_stale`` (``provenance``). The ranks then take chunks of tasks from a shared counter
 (``schedule``), journal each task as started before it runs and its outcome after (``journal``;
-synced every few seconds), and stop together on a signal (``signals``); finally rank 0 assembles the
-data set from all journals (the last outcome of each task, and the provenance of every code that
-contributed) and writes it atomically. A task that raises is journaled with its status and
+synced every few seconds), and stop together on a signal (``signals``); finally every rank turns
+the outcomes it journaled into columns (``columns``) and rank 0 joins them with the outcomes
+reused from earlier journals into the data set (the last outcome of each task, and the
+provenance of every code that contributed) and writes it atomically. A task that raises is journaled with its status and
 message and the sweep goes on. The spec's scene kind (``kinds``) picks the task function and the
 scene validator. ``HPCONTACT_FAULTS`` injects faults for tests (``faults``).
 
@@ -29,12 +32,15 @@ import argparse
 import datetime
 import json
 import math
+import pickle
 import sys
 import time
 import traceback
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Callable, Mapping, Sequence, TextIO
+
+import numpy as np
 
 from ..errors import ConvergenceError, InputError
 from ..operator import load_wisdom, save_wisdom
@@ -60,7 +66,7 @@ from .progress import Progress, Summary
 from .schedule import SLOTS, LaunchError, Team, claimed_chunks, report_done, totals_done, world
 from .signals import DEFAULT_GRACE_S, STOP_NAME, Abandoned, StopControl
 from .spec import Spec, Validator, load_spec
-from .tasks import Task, enumerate_tasks, make_chunks
+from .tasks import Part, Task, enumerate_tasks, enumerate_part, join_parts, make_chunks, points
 
 TaskFunction = Callable[[Mapping[str, Any]], Mapping[str, Any]]
 SHOWN_FAILURES = 5
@@ -95,8 +101,22 @@ class Outcome:
 
 
 @dataclass(frozen=True)
+class Decision:
+    """Rank 0's decisions, broadcast to every rank: tasks by position (0-based, task order)."""
+
+    isolated: list[int]  # suspects, run by rank 0 alone
+    shared: list[int]  # the rest of the work, in chunks for every rank
+    reused: int
+    crashed: int
+    session: str
+    provenance: dict[str, Any]
+    faults: dict[int, str]
+
+
+@dataclass(frozen=True)
 class Plan:
-    """Rank 0's decisions, shared with every rank."""
+    """The work of every rank: the spec, its tasks (every rank joins them from the ranks'
+    shares) and rank 0's decisions."""
 
     spec: Spec
     tasks: list[Task]
@@ -145,8 +165,9 @@ def run_task(function: TaskFunction, task: Task, rank: int, stop: StopControl | 
 
 
 def _decide(spec: Spec, tasks: list[Task], history: History, options: Options, now: Mapping[str, Any]
-            ) -> tuple[list[Task], list[Task], int, set[str]]:
-    """Suspects to isolate, the rest to share, tasks reused, and the quarantined keys."""
+            ) -> tuple[list[int], list[int], set[str], set[str]]:
+    """Suspects to isolate and the rest to share (positions), the reused keys, and the
+    quarantined keys."""
     keys = {t.key for t in tasks}
     reused = []
     for task in tasks:
@@ -161,23 +182,57 @@ def _decide(spec: Spec, tasks: list[Task], history: History, options: Options, n
     done = {e.key for e in reused}
     suspects = {k: s for k, s in history.suspects().items() if k in keys and k not in done}
     crashed = set() if options.retry_crashed else {k for k in history.crashed() if k in suspects}
-    todo = [t for t in tasks if t.key not in done and t.key not in crashed]
-    isolated = [t for t in todo if t.key in suspects]
-    shared = [t for t in todo if t.key not in suspects]
-    return isolated, shared, len(done), crashed
+    todo = [i for i, t in enumerate(tasks) if t.key not in done and t.key not in crashed]
+    isolated = [i for i in todo if tasks[i].key in suspects]
+    shared = [i for i in todo if tasks[i].key not in suspects]
+    return isolated, shared, done, crashed
 
 
-def _prepare(spec_path: str | Path, options: Options, output: str | Path | None, validate: Validator | None,
-             ranks: int, keep: dict[str, Any]) -> Plan:
+Share = tuple[Part | None, bool, tuple[str, Any] | None]  # a rank's tasks, over memory, its error
+
+
+def _share(spec: Spec, rank: int, ranks: int, validate: Validator | None, options: Options) -> Share:
+    """This rank's share of the points (a contiguous 1/ranks of them in C order): its tasks with
+    every distinct scene validated, whether one exceeds the memory per rank, or the error."""
+    total = points(spec)
+    try:
+        part = enumerate_part(spec, total * rank // ranks, total * (rank + 1) // ranks, validate, check=True)
+        over = False
+        if options.mem_per_rank is not None:
+            from .costmodel import check_memory
+
+            try:
+                check_memory([Task(*row) for row in part.rows], *options.mem_per_rank)
+            except InputError:
+                over = True  # rank 0 checks every task again and names the largest
+        return part, over, None
+    except InputError as exc:
+        return None, False, ("input", (exc.field, exc.allowed, exc.value))
+    except Exception as exc:  # noqa: BLE001 - raised by rank 0 on every rank
+        return None, False, ("other", f"{type(exc).__name__} on rank {rank}: {exc}")
+
+
+def _joined(spec: Spec, shares: list[Share]) -> tuple[list[Task], Any, bool]:
+    """Every rank: the tasks and each point's task from every rank's ``_share`` (in rank order:
+    the first bad scene in point order is the one raised, on every rank alike), and whether a
+    task may exceed the memory per rank."""
+    for _, _, error in shares:
+        if error is not None:
+            kind, detail = error
+            raise InputError(*detail) if kind == "input" else RuntimeError(detail)
+    tasks, task_of = join_parts(spec, [part for part, _, _ in shares])
+    return tasks, task_of, any(over for _, over, _ in shares)
+
+
+def _prepare(spec: Spec, tasks: list[Task], task_of: Any, over: bool, options: Options, ranks: int,
+             keep: dict[str, Any]) -> Decision:
     """Rank 0's preparation (see the module docstring); ``keep`` receives what stays on rank 0
-    (the point → task map, the lock, the quarantined keys)."""
-    spec = load_spec(spec_path, output=output, validate=validate)
-    injected = faults.faults_from_environment()
-    tasks, where = enumerate_tasks(spec)
-    if options.mem_per_rank is not None:
+    (each point's task, the lock, the history, the reused and quarantined keys)."""
+    if over:
         from .costmodel import check_memory
 
         check_memory(tasks, *options.mem_per_rank)
+    injected = faults.faults_from_environment()
     usable_folder(Path(spec.output).parent, "output folder")
     usable_folder(spec.journal, "journal folder")
     lock = RunLock(spec.journal, ranks)
@@ -199,8 +254,8 @@ def _prepare(spec_path: str | Path, options: Options, output: str | Path | None,
     except BaseException:
         lock.release()
         raise
-    keep.update(where=where, lock=lock, crashed=crashed, note=note)
-    return Plan(spec, tasks, isolated, shared, reused, len(crashed), session_name(), now, injected)
+    keep.update(task_of=task_of, lock=lock, history=history, reused=reused, crashed=crashed, note=note)
+    return Decision(isolated, shared, len(reused), len(crashed), session_name(), now, injected)
 
 
 def _shared(team: Team, make: Callable[[], Any]) -> Any:
@@ -266,7 +321,12 @@ def execute(
     stream = stream if stream is not None else sys.stdout
     stop = stop if stop is not None else StopControl()
     keep: dict[str, Any] = {}  # rank 0 only
-    plan: Plan = _shared(team, lambda: _prepare(spec_path, options, output, validate, team.size, keep))
+    spec = _shared(team, lambda: load_spec(spec_path, output=output, validate=validate, check_scenes=False))
+    mine = pickle.dumps(_share(spec, team.rank, team.size, validate, options), protocol=pickle.HIGHEST_PROTOCOL)
+    tasks, task_of, over = _joined(spec, [pickle.loads(b) for b in team.bcast(team.gather(mine))])
+    d: Decision = _shared(team, lambda: _prepare(spec, tasks, task_of, over, options, team.size, keep))
+    plan = Plan(spec, tasks, [tasks[i] for i in d.isolated], [tasks[i] for i in d.shared], d.reused, d.crashed,
+                d.session, d.provenance, d.faults)
     try:
         return _run(team, plan, keep, task_function, stream, stop, options, started)
     finally:
@@ -309,8 +369,10 @@ def _run(team: Team, plan: Plan, keep: dict[str, Any], task_function: TaskFuncti
     failure: str | None = None
     stop.watch(spec.journal, team.rank)
     counter = team.counter(SLOTS)
-    journal = Journal(spec.journal / f"rank{team.rank:05d}-{plan.session}.jsonl", team.rank,
+    journal = Journal(_journal_path(spec, team.rank, plan.session), team.rank,
                       {"session": plan.session, "spec_path": str(spec.path), **plan.provenance})
+    done: list[Entry] = []  # this rank's outcomes, and their tasks' positions
+    done_at: list[int] = []
 
     def run_one(task: Task) -> None:
         nonlocal task_s, journal_s, run
@@ -333,6 +395,8 @@ def _run(team: Team, plan: Plan, keep: dict[str, Any], task_function: TaskFuncti
         faults.tear(fault, journal.line(entry), journal.write_raw)
         journal.append(entry)
         journal_s += time.perf_counter() - mark
+        done.append(entry)
+        done_at.append(index[task.key])
 
     try:
         try:
@@ -364,7 +428,10 @@ def _run(team: Team, plan: Plan, keep: dict[str, Any], task_function: TaskFuncti
         stop.request(f"rank {team.rank}: {failure}", failed=True)
     counter.close()
     stop.close()
-    totals = team.gather((task_s, run, schedule_s, journal_s, journal.sync_s, stop.reason, stop.failed, failure))
+    from .columns import to_columns
+
+    totals = team.gather((task_s, run, schedule_s, journal_s, journal.sync_s, stop.reason, stop.failed, failure,
+                          None if stop.reason is not None else to_columns(done, done_at)))
 
     def finish() -> tuple[Outcome | None, str, int]:
         reasons = [t for t in totals if t[5] is not None]
@@ -387,36 +454,41 @@ def _run(team: Team, plan: Plan, keep: dict[str, Any], task_function: TaskFuncti
     return outcome
 
 
+def _journal_path(spec: Spec, rank: int, session: str) -> Path:
+    """The journal of ``rank`` in the run ``session``."""
+    return spec.journal / f"rank{rank:05d}-{session}.jsonl"
+
+
 def _assemble(spec: Spec, plan: Plan, keep: Mapping[str, Any], ranks: int, totals: list, started: float,
               setup_s: float, options: Options, stream: TextIO) -> Outcome:
-    """Rank 0: the data set from every journal, its summary, and the netCDF file (xarray is
-    imported here: the other ranks, and runs that stop, never need it)."""
-    from .dataset import NOT_COMPUTED, build_dataset, write_netcdf
+    """Rank 0: the data set from the ranks' columns of this run and the outcomes reused from
+    earlier journals, its summary, and the netCDF file (xarray is imported here: the other
+    ranks, and runs that stop, never need it)."""
+    from .columns import NOT_COMPUTED, join, to_columns
+    from .dataset import FIXED_VARIABLES, dataset_of, write_netcdf
 
     gather_started = time.perf_counter()
-    history = read_history(spec.journal)
-    entries: dict[str, Entry] = {}
-    for task in plan.tasks:
-        entry = history.entries.get(task.key)
-        if task.key in keep["crashed"]:
-            entries[task.key] = history.crashed_entry(task.key, task.params)
-        elif entry is not None and entry.resolved == provenance.resolved_scene(task.params):
-            entries[task.key] = entry
-    failures = [e for e in entries.values() if e.status != OK]
-    dataset = build_dataset(
+    history: History = keep["history"]
+    earlier = [(history.crashed_entry(t.key, t.params) if t.key in keep["crashed"] else history.entries[t.key], i)
+               for i, t in enumerate(plan.tasks) if t.key in keep["crashed"] or t.key in keep["reused"]]
+    parts = [to_columns([e for e, _ in earlier], [i for _, i in earlier])] + [t[8] for t in totals]
+    joined = join(parts, len(plan.tasks), FIXED_VARIABLES)
+    failed = [int(i) for i in np.flatnonzero((joined.status != OK) & (joined.status != NOT_COMPUTED))]
+    dataset = dataset_of(
         spec,
-        keep["where"],
-        entries,
+        keep["task_of"],
+        joined,
         {
             "hpcontact_version": plan.provenance["hpcontact_version"],
             "git_revision": plan.provenance["git_revision"],
             "numerics": json.dumps(provenance.numerics(), sort_keys=True),
-            "sweep_contributors": provenance.contributors(e for e in entries.values() if e.provenance),
+            "sweep_contributors": joined.provenance,
             "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
             "mpi_size": ranks,
             "history": f"hpcontact run {spec.path}{' --resume' if options.resume else ''}",
             "sweep_journal_sync_time_s": sum(t[4] for t in totals),
         },
+        derive=False,  # write_netcdf leaves K_nn out: open_dataset derives it
     )
     now = time.perf_counter()
     summary = Summary(
@@ -424,7 +496,7 @@ def _assemble(spec: Spec, plan: Plan, keep: Mapping[str, Any], ranks: int, total
         points=math.prod(len(a) for a in spec.axes),
         run=sum(t[1] for t in totals),
         reused=plan.reused,
-        failures=len(failures),
+        failures=len(failed),
         ranks=ranks,
         wall_s=now - started,
         task_s=sum(t[0] for t in totals),
@@ -435,17 +507,18 @@ def _assemble(spec: Spec, plan: Plan, keep: Mapping[str, Any], ranks: int, total
     )
     dataset.attrs.update(summary.attrs())
     path = write_netcdf(dataset, spec.output)
-    shown = [f"{json.dumps(dict(e.params), sort_keys=True)}: {e.message}" for e in failures[:SHOWN_FAILURES]]
+    shown = [f"{json.dumps(dict(plan.tasks[i].params), sort_keys=True)}: {joined.message[i]}"
+             for i in failed[:SHOWN_FAILURES]]
     print(summary.text(shown), file=stream)
-    missing = len(plan.tasks) - len(entries)
-    if missing:
+    unseen = [r for r, t in enumerate(totals) if t[1] and not _journal_path(spec, r, plan.session).exists()]
+    if unseen:
         print(
-            f"hpcontact: warning: {missing} tasks are in no journal (status {NOT_COMPUTED} in the data set); "
-            f"is {spec.journal} on a file system every node shares?",
+            f"hpcontact: warning: rank 0 does not see the journals of rank(s) {', '.join(map(str, unseen[:10]))} in "
+            f"{spec.journal} (a --resume would compute their tasks again); is it on a file system every node shares?",
             file=stream,
         )
     print(f"hpcontact: wrote {path} in {time.perf_counter() - now:.2f}s", file=stream, flush=True)
-    return Outcome(path, len(failures))
+    return Outcome(path, len(failed))
 
 
 def dry_run(spec_path: str | Path, output: str | Path | None = None, stream: TextIO | None = None, *,

@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pandas as pd
 import xarray as xr
 
 COUNTS = frozenset({"iterations", "nx", "ny", "contact_cells", "sides", "n", "n_across", "steps", "seed", "threads"})
@@ -90,13 +91,16 @@ def _with_plan_codes(ds: xr.Dataset) -> xr.Dataset:
     int32) into the JSON list of the distinct plans in its attribute ``plan_table``."""
     if PLAN not in ds.data_vars or ds[PLAN].dtype != object:
         return ds
-    index: dict[str, int] = {}
     text = ds[PLAN].values
-    codes = np.array([index.setdefault(t, len(index)) if t else np.nan for t in text.ravel()], dtype=np.float64)
+    flat = text.ravel()
+    present = flat != ""
+    found, distinct = pd.factorize(flat[present])  # codes in first-appearance order
+    codes = np.full(flat.shape, np.nan)
+    codes[present] = found
     attrs = {
         "long_name": f"plan of the task: position in the JSON list {PLAN_TABLE} of the distinct plans",
         "units": "1",
-        PLAN_TABLE: json.dumps(list(index)),
+        PLAN_TABLE: json.dumps(list(distinct)),
         TEXT_ATTRS: json.dumps(ds[PLAN].attrs),
     }
     return ds.assign({PLAN: xr.Variable(ds[PLAN].dims, codes.reshape(text.shape), attrs)})
@@ -110,7 +114,7 @@ def _encoding(ds: xr.Dataset, name: str) -> dict[str, Any]:
     encoding: dict[str, Any] = {}
     if var.dtype == object or var.dtype.kind == "U":
         # xarray reads trailing digits of the name as the length: name the length there
-        width = max((len(str(v).encode("utf-8")) for v in np.ravel(var.values)), default=0)
+        width = max((len(str(v).encode("utf-8")) for v in pd.unique(np.ravel(var.values))), default=0)
         encoding.update(dtype="S1", char_dim_name=f"{name}_strlen{max(width, 1)}")
     elif (var.dtype.kind == "f" and name in COUNTS) or name == PLAN:
         encoding.update(dtype="int32", _FillValue=None if dimension else INT_FILL)

@@ -79,7 +79,7 @@ import math
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Any, Callable, Iterator, Mapping
 
 import numpy as np
 
@@ -233,25 +233,29 @@ def canonical_json(params: Mapping[str, Any]) -> str:
     return json.dumps(params, sort_keys=True, separators=(",", ":"))
 
 
-def load_spec(path: str | Path, output: str | Path | None = None, validate: Validator | None = None) -> Spec:
+def load_spec(path: str | Path, output: str | Path | None = None, validate: Validator | None = None,
+              check_scenes: bool = True) -> Spec:
     """Read and check the spec at ``path``; ``output`` overrides [sweep].output.
 
     ``validate`` checks one scene's parameters (default: the validator of the spec's scene kind,
     ``kinds.validator``); it runs on every distinct scene of the sweep, so impossible values are
-    refused up front.
+    refused up front. With ``check_scenes`` false the scenes are left to the caller (``scenes``:
+    the driver spreads them over the ranks and checks them while it enumerates the tasks).
     """
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")
     except OSError as exc:
         raise InputError("spec", f"a readable TOML file ({exc.strerror})", str(path)) from None
-    return parse_spec(text, path=path, output=output, validate=validate)
+    return parse_spec(text, path=path, output=output, validate=validate, check_scenes=check_scenes)
 
 
 def parse_spec(
-    text: str, path: str | Path = "<string>", output: str | Path | None = None, validate: Validator | None = None
+    text: str, path: str | Path = "<string>", output: str | Path | None = None, validate: Validator | None = None,
+    check_scenes: bool = True,
 ) -> Spec:
-    """Check the TOML ``text`` of a spec and build the ``Spec`` (see the module docstring)."""
+    """Check the TOML ``text`` of a spec and build the ``Spec`` (see the module docstring and
+    ``load_spec``)."""
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -315,7 +319,9 @@ def parse_spec(
         axes=axes,
         kind=kind,
     )
-    _check_scenes(spec, validate)
+    if check_scenes:
+        for _ in scenes(spec, validate):
+            pass
     return spec
 
 
@@ -430,24 +436,31 @@ def _label_values(key: str, name: str, values: list) -> tuple[tuple[str, ...], t
     return tuple(coords), tuple(fields)
 
 
-def _check_scenes(spec: Spec, validate: Validator | None) -> None:
-    """Run the scene validator once per distinct scene; name the spec key of a bad field.
+def scenes(spec: Spec, validate: Validator | None = None, start: int = 0, stop: int | None = None,
+           check: bool = True) -> Iterator[tuple[tuple[int, ...], dict[str, Any]]]:
+    """The points ``start`` … ``stop - 1`` of the task axes (0-based positions in the C order of
+    ``Spec.points``) with their scene parameters (``Spec.scene_params``); with ``check``, the
+    validator (``validate``, default: the scene kind's) runs once per distinct scene of the range
+    first, and a bad field raises ``InputError`` naming the spec key it came from.
 
     Scenes are validated before ignored material fields are dropped, so an impossible
     orientation is refused even at A = 1."""
-    if validate is None:
+    if check and validate is None:
         validate = validator(spec.kind)
     seen: set[str] = set()
-    for index in spec.points():
+    for index in itertools.islice(spec.points(), start, stop):
         params = spec.scene_params(index, reduce_material=False)
-        text = canonical_json(params)
-        if text in seen:
-            continue
-        seen.add(text)
-        try:
-            validate(params)
-        except InputError as exc:
-            raise InputError(_locate(spec, index, exc.field), exc.allowed, exc.value) from None
+        if check:
+            text = canonical_json(params)
+            if text not in seen:
+                seen.add(text)
+                try:
+                    validate(dict(params))
+                except InputError as exc:
+                    raise InputError(_locate(spec, index, exc.field), exc.allowed, exc.value) from None
+        if spec.kind == CONTACT:
+            _drop_ignored_material_fields(params)
+        yield index, params
 
 
 def _locate(spec: Spec, index: tuple[int, ...], name: str) -> str:

@@ -22,10 +22,12 @@ from __future__ import annotations
 import hashlib
 import math
 from dataclasses import dataclass
-from typing import Any, Mapping
+from typing import Any, Mapping, NamedTuple, Sequence
+
+import numpy as np
 
 from .kinds import SLIP, quantity_names, scene_kind
-from .spec import Spec, canonical_json
+from .spec import Spec, Validator, canonical_json, scenes
 from .taskgrid import contact_grid, iteration_factor
 
 # Fields that change a scene's outline or its solves but not its material or grid spacing:
@@ -64,10 +66,10 @@ SLIP_DEFAULT_N = 64
 SLIP_DEFAULT_STEPS = 10
 
 
-@dataclass(frozen=True)
-class Task:
+class Task(NamedTuple):
     """One scene to solve: ``key`` (SHA-1 of its canonical JSON), ``params``, estimated ``cost``
-    (arbitrary units, for ordering only) and kernel ``group``."""
+    (arbitrary units, for ordering only) and kernel ``group``. A named tuple: every rank makes
+    10^5 of them at start: a tuple is cheaper to make and to pickle than a frozen dataclass."""
 
     key: str
     params: Mapping[str, Any]
@@ -80,20 +82,69 @@ def task_key(params: Mapping[str, Any]) -> str:
     return hashlib.sha1(canonical_json(params).encode("utf-8")).hexdigest()
 
 
+@dataclass(frozen=True)
+class Part:
+    """The tasks of a range of points (``enumerate_part``): ``rows`` (key, params, cost, group)
+    of the tasks in first-appearance order within the range, and ``task_of``, each point's row.
+    Plain tuples and one string object per distinct group: cheap to send between ranks."""
+
+    rows: list[tuple[str, dict[str, Any], float, str]]
+    task_of: np.ndarray
+
+
+def points(spec: Spec) -> int:
+    """Number of points of the task axes."""
+    return math.prod(len(a) for a in spec.task_axes)
+
+
+def enumerate_part(spec: Spec, start: int = 0, stop: int | None = None, validate: Validator | None = None,
+                   check: bool = False) -> Part:
+    """The tasks of the points ``start`` … ``stop - 1`` (``spec.scenes``; with ``check`` every
+    distinct scene of the range validated first): each distinct scene once, its key, estimated
+    cost and kernel group. Ranges are independent: the driver gives each rank one and joins
+    them with ``join_parts``."""
+    ignored = SLIP_KERNEL_NEUTRAL_FIELDS if spec.kind == SLIP else KERNEL_NEUTRAL_FIELDS
+    rows: dict[str, tuple[str, dict[str, Any], float, str]] = {}
+    row_of: dict[str, int] = {}
+    groups: dict[str, str] = {}
+    stop = points(spec) if stop is None else stop
+    task_of = np.empty(max(stop - start, 0), dtype=np.intp)
+    for i, (_, params) in enumerate(scenes(spec, validate, start, stop, check)):
+        key = task_key(params)
+        if key not in row_of:
+            group = canonical_json({k: v for k, v in params.items() if k not in ignored})
+            row_of[key] = len(rows)
+            rows[key] = (key, params, estimated_cost(params), groups.setdefault(group, group))
+        task_of[i] = row_of[key]
+    return Part(list(rows.values()), task_of)
+
+
+def join_parts(spec: Spec, parts: Sequence[Part]) -> tuple[list[Task], np.ndarray]:
+    """The tasks of consecutive ``parts`` covering every point, in first-appearance order (C
+    order over the task axes), and the task (0-based position) of every point, an integer
+    array shaped like the task axes."""
+    position: dict[str, int] = {}
+    groups: dict[str, str] = {}
+    tasks: list[Task] = []
+    joined = []
+    for part in parts:
+        local = np.empty(len(part.rows), dtype=np.intp)
+        for j, (key, params, cost, group) in enumerate(part.rows):
+            at = position.get(key)
+            if at is None:
+                at = position[key] = len(tasks)
+                tasks.append(Task(key, params, cost, groups.setdefault(group, group)))
+            local[j] = at
+        joined.append(local[part.task_of])
+    task_of = np.concatenate(joined) if joined else np.empty(0, dtype=np.intp)
+    return tasks, task_of.reshape(tuple(len(a) for a in spec.task_axes))
+
+
 def enumerate_tasks(spec: Spec) -> tuple[list[Task], dict[tuple[int, ...], str]]:
     """The distinct tasks of ``spec`` in first-appearance order (C order over the task axes),
     and the task key of every point (index tuple over ``spec.task_axes``)."""
-    tasks: dict[str, Task] = {}
-    where: dict[tuple[int, ...], str] = {}
-    for index in spec.points():
-        params = spec.scene_params(index)
-        key = task_key(params)
-        if key not in tasks:
-            ignored = SLIP_KERNEL_NEUTRAL_FIELDS if spec.kind == SLIP else KERNEL_NEUTRAL_FIELDS
-            neutral = {k: v for k, v in params.items() if k not in ignored}
-            tasks[key] = Task(key=key, params=params, cost=estimated_cost(params), group=canonical_json(neutral))
-        where[index] = key
-    return list(tasks.values()), where
+    tasks, task_of = join_parts(spec, [enumerate_part(spec)])
+    return tasks, {index: tasks[task_of[index]].key for index in np.ndindex(task_of.shape)}
 
 
 def estimated_cost(params: Mapping[str, Any]) -> float:
@@ -162,22 +213,28 @@ def slip_cost(params: Mapping[str, Any]) -> float:
 
 def make_chunks(tasks: list[Task], ranks: int) -> list[tuple[Task, ...]]:
     """Tasks grouped by kernel and split at 1/(CHUNKS_PER_RANK·ranks) of the total cost; chunks
-    in decreasing cost (ties: first appearance), the order the ranks take them in."""
+    in decreasing cost (ties: first appearance), the order the ranks take them in. Within a
+    group (groups in first-appearance order) tasks go largest first (ties: first appearance)
+    and a chunk closes before the task that would take it over the cap."""
     if not tasks:
         return []
     cap = sum(t.cost for t in tasks) / (CHUNKS_PER_RANK * ranks)
-    groups: dict[str, list[Task]] = {}
-    for task in tasks:
-        groups.setdefault(task.group, []).append(task)
+    ids: dict[str, int] = {}
+    group = [ids.setdefault(t.group, len(ids)) for t in tasks]
+    order = np.lexsort((-np.array([t.cost for t in tasks], dtype=np.float64), np.array(group)))  # stable
     chunks: list[tuple[Task, ...]] = []
-    for members in groups.values():
-        members = sorted(members, key=lambda t: -t.cost)
-        current: list[Task] = []
-        for task in members:
-            if current and sum(t.cost for t in current) + task.cost > cap:
-                chunks.append(tuple(current))
-                current = []
-            current.append(task)
-        chunks.append(tuple(current))
-    order = sorted(range(len(chunks)), key=lambda i: (-sum(t.cost for t in chunks[i]), i))
-    return [chunks[i] for i in order]
+    costs: list[float] = []
+    current: list[Task] = []
+    total, last = 0.0, -1
+    for i in order.tolist():
+        task = tasks[i]
+        if current and (group[i] != last or total + task.cost > cap):
+            chunks.append(tuple(current))
+            costs.append(total)
+            current, total = [], 0.0
+        current.append(task)
+        total += task.cost
+        last = group[i]
+    chunks.append(tuple(current))
+    costs.append(total)
+    return [chunks[i] for i in np.argsort(-np.array(costs), kind="stable").tolist()]

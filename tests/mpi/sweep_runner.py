@@ -1,14 +1,16 @@
-"""A sweep run for ``test_kill_resume``: the real solver, with each task's start logged per rank.
+"""A sweep run for ``test_kill_resume`` and ``test_oversubscribed``: the real solver (or, with
+``--synthetic``, ``synthetic``), with each task's start logged per rank.
 
-``python sweep_runner.py SPEC --output PATH --log DIR [--resume] [--delay S]`` (under mpiexec):
-before each task, the rank appends ``pid key`` to ``DIR/rank{R}.log`` and waits ``--delay``
-seconds, so a test can see what started where and kill a rank mid-sweep. The rank is the
-team's (``MPI.COMM_WORLD``), whatever launcher started the processes.
+``python sweep_runner.py SPEC --output PATH --log DIR [--resume] [--delay S] [--synthetic]``
+(under mpiexec): before each task, the rank appends ``pid key`` to ``DIR/rank{R}.log`` and waits
+``--delay`` seconds, so a test can see what started where and kill a rank mid-sweep. The rank is
+the team's (``MPI.COMM_WORLD``), whatever launcher started the processes.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import time
 from collections.abc import Mapping
@@ -21,6 +23,20 @@ from hpcontact.sweep.schedule import world
 from hpcontact.sweep.tasks import task_key
 
 
+def synthetic(params: Mapping[str, Any]) -> dict[str, Any]:
+    """A record computed exactly from the scene (the same bits in any process): numbers, an
+    integer, a text only some records have and a JSON plan; the rectangle at nu = 0.3 raises
+    (an error status with its message)."""
+    shape, nu, aspect = params.get("shape"), float(params.get("nu", 0.0)), float(params.get("aspect", 1.0))
+    if shape == "rectangle" and nu == 0.3:
+        raise RuntimeError(f"synthetic failure at b/a = {aspect}")
+    record: dict[str, Any] = {"K_xx": (1.0 + nu) * math.sqrt(aspect), "K_yy": math.log1p(aspect) / (2.0 - nu),
+                              "iterations": 10 + int(params.get("sides", 0)), "plan": {"shape": shape, "thin": aspect < 0.1}}
+    if aspect < 0.1:
+        record["note"] = f"thin: b/a = {aspect}"
+    return record
+
+
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("spec")
@@ -28,6 +44,7 @@ def main() -> None:
     parser.add_argument("--log", required=True)
     parser.add_argument("--resume", action="store_true")
     parser.add_argument("--delay", type=float, default=0.0)
+    parser.add_argument("--synthetic", action="store_true", help="tasks return ``synthetic`` records")
     args = parser.parse_args()
     team = world()
     log = Path(args.log) / f"rank{team.rank}.log"
@@ -36,7 +53,7 @@ def main() -> None:
         with open(log, "a", encoding="utf-8") as fh:
             fh.write(f"{os.getpid()} {task_key(params)}\n")
         time.sleep(args.delay)
-        return solve(params)
+        return synthetic(params) if args.synthetic else solve(params)
 
     run_sweep(args.spec, resume=args.resume, output=args.output, task_function=task, team=team)
 

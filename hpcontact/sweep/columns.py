@@ -1,0 +1,182 @@
+"""Task outcomes as columns: what each rank pre-assembles from its own results, rank 0 joins.
+
+At the end of a sweep every rank turns the journal entries it wrote (``journal.Entry``) into one
+array per variable (``to_columns``): the entries' task positions (0-based, task order), status,
+message, wall time, and every record key of its successful entries: float64 with NaN where a
+value is missing, or coded text when a value is not a number (JSON for non-strings, "" where
+missing; numbers beside text as JSON floats). Rank 0 then only scatters arrays (``join``): one
+vectorized assignment per variable and rank into per-task arrays, instead of per-entry Python
+work on 10^5 entries while every other rank waits. Later parts win where they name the same task
+(the journals of earlier runs first, then this run's ranks). The join of any split of the
+entries is the same (the 1-rank and the n-rank data sets are equal): record keys are ordered by
+their first appearance in task order, then by their place in the record; equal texts become one
+string object.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from .journal import OK, Entry, to_json
+from .provenance import contributors
+
+NOT_COMPUTED = -1  # status of a task no journal holds
+
+
+@dataclass(frozen=True)
+class Texts:
+    """Coded texts: the distinct ``texts`` and the ``codes`` (int32) indexing them."""
+
+    texts: list[str]
+    codes: np.ndarray
+
+    @classmethod
+    def of(cls, values: Iterable[str]) -> Texts:
+        """``values`` coded in first-appearance order."""
+        index: dict[str, int] = {}
+        codes = np.fromiter((index.setdefault(v, len(index)) for v in values), dtype=np.int32)
+        return cls(list(index), codes)
+
+    def decoded(self, shared: dict[str, str]) -> np.ndarray:
+        """The texts as an object array, equal texts one object (``shared`` across calls)."""
+        table = np.empty(len(self.texts), dtype=object)
+        table[:] = [shared.setdefault(t, t) for t in self.texts]
+        return table[self.codes] if len(self.codes) else np.empty(0, dtype=object)
+
+
+@dataclass(frozen=True)
+class Columns:
+    """Entries of some tasks as columns (module docstring). ``records`` maps each record key of
+    the ok entries to float64 values or ``Texts``; ``first`` gives each key's first appearance
+    (task position, place in its record); ``provenance`` is ``provenance.contributors`` of the
+    entries that carry one (JSON), ``with_provenance`` how many do."""
+
+    position: np.ndarray
+    status: np.ndarray
+    message: Texts
+    wall_time_s: np.ndarray
+    records: dict[str, np.ndarray | Texts] = field(default_factory=dict)
+    first: dict[str, tuple[int, int]] = field(default_factory=dict)
+    provenance: str = "[]"
+
+
+@dataclass(frozen=True)
+class Joined:
+    """Per-task arrays of every task of a sweep (``join``): ``status`` (int32, ``NOT_COMPUTED``
+    where no entry), ``message`` and ``wall_time_s``, the record keys in order with float64 or
+    object (text) values, and the merged provenance JSON (``provenance.contributors``)."""
+
+    status: np.ndarray
+    message: np.ndarray
+    wall_time_s: np.ndarray
+    records: dict[str, np.ndarray]
+    provenance: str
+
+
+def is_number(value: Any) -> bool:
+    """Whether ``value`` is a number (not a bool)."""
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+
+
+def _text(value: Any) -> str:
+    """A record value as text: strings as they are, numbers as JSON floats ("" for NaN, as a
+    missing number), anything else as JSON, missing as ""."""
+    if value is None:
+        return ""
+    if isinstance(value, str):
+        return value
+    if is_number(value):
+        number = float(value)
+        return "" if math.isnan(number) else to_json(number)
+    return to_json(value)
+
+
+def to_columns(entries: Sequence[Entry], positions: Sequence[int]) -> Columns:
+    """The ``entries`` (of the tasks at ``positions``) as columns (module docstring)."""
+    names: dict[str, tuple[int, int]] = {}
+    for entry, at in zip(entries, positions):
+        if entry.status == OK:
+            for place, name in enumerate(entry.record):
+                if name not in names:
+                    names[name] = (int(at), place)
+    records: dict[str, np.ndarray | Texts] = {}
+    for name in names:
+        values = [e.record.get(name) if e.status == OK else None for e in entries]
+        if all(v is None or is_number(v) for v in values):
+            records[name] = np.array([np.nan if v is None else float(v) for v in values], dtype=np.float64)
+        else:
+            records[name] = Texts.of(_text(v) for v in values)
+    return Columns(
+        position=np.asarray(positions, dtype=np.intp),
+        status=np.array([e.status for e in entries], dtype=np.int32),
+        message=Texts.of(e.message for e in entries),
+        wall_time_s=np.array([e.wall_time_s for e in entries], dtype=np.float64),
+        records=records,
+        first=names,
+        provenance=contributors(e for e in entries if e.provenance),
+    )
+
+
+def join(parts: Sequence[Columns], tasks: int, excluded: Iterable[str] = ()) -> Joined:
+    """Per-task arrays of ``tasks`` tasks from ``parts`` (later parts win); record keys in
+    ``excluded`` (the names of the fixed variables) are left out."""
+    shared: dict[str, str] = {}
+    status = np.full(tasks, NOT_COMPUTED, dtype=np.int32)
+    message = np.full(tasks, shared.setdefault("not computed", "not computed"), dtype=object)
+    wall = np.full(tasks, np.nan, dtype=np.float64)
+    firsts: dict[str, tuple[int, int]] = {}
+    for part in parts:
+        status[part.position] = part.status
+        message[part.position] = part.message.decoded(shared)
+        wall[part.position] = part.wall_time_s
+        for name, first in part.first.items():
+            firsts[name] = min(first, firsts.get(name, first))
+    skip = set(excluded)
+    records: dict[str, np.ndarray] = {}
+    for name in sorted((n for n in firsts if n not in skip), key=firsts.__getitem__):
+        if any(isinstance(p.records.get(name), Texts) for p in parts):
+            values = np.full(tasks, shared.setdefault("", ""), dtype=object)
+            for part in parts:
+                column = part.records.get(name)
+                if isinstance(column, Texts):
+                    values[part.position] = column.decoded(shared)
+                elif column is not None:
+                    values[part.position] = Texts.of(map(_text, column.tolist())).decoded(shared)
+                else:
+                    values[part.position] = ""
+        else:
+            values = np.full(tasks, np.nan, dtype=np.float64)
+            for part in parts:
+                column = part.records.get(name)
+                values[part.position] = column if column is not None else np.nan
+        records[name] = values
+    return Joined(status, message, wall, records, _merged_provenance(p.provenance for p in parts))
+
+
+def _merged_provenance(parts: Iterable[str]) -> str:
+    """``provenance.contributors`` of the union of the entries behind the JSON lists ``parts``:
+    the task counts of equal provenances added."""
+    counts: dict[str, int] = {}
+    for text in parts:
+        for item in json.loads(text):
+            tasks = item.pop("tasks")
+            key = to_json(item)
+            counts[key] = counts.get(key, 0) + tasks
+    return json.dumps([{**json.loads(key), "tasks": n} for key, n in sorted(counts.items())], sort_keys=True)
+
+
+def task_positions(where: Mapping[tuple[int, ...], str], shape: tuple[int, ...]) -> tuple[list[str], np.ndarray]:
+    """The task keys in first-appearance order of the point → key map ``where``, and each
+    point's task position (an integer array of ``shape``)."""
+    position: dict[str, int] = {}
+    task_of = np.empty(shape, dtype=np.intp)
+    for index, key in where.items():
+        task_of[index] = position.setdefault(key, len(position))
+    return list(position), task_of
+
