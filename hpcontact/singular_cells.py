@@ -46,23 +46,25 @@ the disc, π(U + V − 1)/2 beyond; first moments through ∫ √(c² − v²) d
 Error (measured, ``benchmarks/edge_order.py``; nu = 0, 0.3, 0.5; K_xx, K_yy, K_zz)
 ------------------------------------------------------------------------------------
 Not a clean power series in h. What is left is the sub-cell quadrature of the cut cells (the
-relative error is the same for every block at nu = 0 and within ±0.0002/n of it otherwise), a
-first-order term with a small, geometry-dependent constant that changes sign:
+relative error is the same for K_xx, K_yy and K_zz at nu = 0, and within ±0.00025/n_across of
+K_zz's otherwise), a first-order term with a small, geometry-dependent constant that changes sign:
 
     n·(K_xx/K_exact − 1), nu = 0.3, n = 32, 64, 128, 256, 512 (cells along the major axis 2a)
     circle       +0.00047  +0.00039  −0.00003  −0.00011  −0.00007
     ellipse 0.7  +0.00128  +0.00049  +0.00053  −0.00000  +0.00008
     ellipse 0.5  +0.00141  +0.00112  +0.00104  +0.00042  +0.00026
 
-i.e. |error| ≤ 1.48e-3/n measured over K_xx, K_yy, K_zz, nu = 0, 0.3, 0.5, n ≤ 256 (512 for
-K_xx at nu = 0.3; the largest is ellipse 0.5, nu = 0.5, K_xx at n = 32; ``edge_order.py
---bound``); coverage weighting errs by 0.20/n … 0.30/n on the same grids, with a clean
-first-order expansion. For an estimator: |e(n)| ≤ C/n with C ≈ 2e-3, typically falling faster
-(≈ h^1.5 on average) but with no steady sign, so order-1 Richardson does not apply and
-the difference of two grids can be small by accident (circle: 1.9e-7 between n = 128 and 256
-while the error at 256 is 4.3e-7). Raising the sub-cell count does not help reliably (16 → 32
-sub-cells for adjacent pairs moved the circle's n·error from +0.0004 to −0.0014): the cut
-sub-cells are first order in their own size, and their extrapolation in m is not smooth.
+Bound for an estimator: |error| ≤ C/n_across, n_across the cells across the minor axis 2b,
+measured C = 1.07e-3 (largest of all 135 values of ``edge_order.py --bound``: circle, ellipses
+0.7, 0.5 on n = 32 … 256 and 0.05 on 128 × 8 … 512 × 32, i.e. 8 … 32 cells across; the
+largest is ellipse 0.05, nu = 0.5, K_xx at 128 × 8); coverage weighting errs by 0.20/n … 0.30/n
+on the same grids (1.4/n at b/a = 0.05), with a clean first-order expansion. The error falls
+about as fast as 1/n_across, at times faster, with no steady sign at b/a ≥ 0.5, so order-1
+Richardson does not apply there and the difference of two grids can be small by accident
+(circle: 1.9e-7 between n = 128 and 256 while the error at 256 is 4.3e-7). Raising the sub-cell
+count does not help reliably (16 → 32 sub-cells for adjacent pairs moved the circle's n·error
+from +0.0004 to −0.0014): the cut sub-cells are first order in their own size, and their
+extrapolation in m is not smooth.
 """
 
 from __future__ import annotations

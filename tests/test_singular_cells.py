@@ -77,10 +77,10 @@ def test_double_average_kernel_series_meets_the_quadrature() -> None:
 @pytest.mark.parametrize("aspect", [1.0, 0.7])
 def test_singular_cells_against_mindlin_and_galin(aspect: float) -> None:
     """n = 64: K_xx, K_yy, K_zz against the closed forms. Bound 2.5e-5 relative: the convergence
-    study (``benchmarks/edge_order.py`` and the singular_cells docstring: circle, ellipses 0.7 and
-    0.5, nu = 0, 0.3, 0.5, n = 32 … 512) measured |error| ≤ 1.48e-3/n, i.e. ≤ 2.3e-5 at n = 64
-    (measured here 6.0e-6; 7.7e-6, 3.5e-6, 5.3e-6); coverage weighting on the same grid errs by
-    3.3e-3 … 4.1e-3 — asserted ≥ 100× worse."""
+    study (``benchmarks/edge_order.py --bound``, the singular_cells docstring) measured
+    |error| ≤ 1.07e-3/n_across, i.e. ≤ 2.4e-5 on 44 cells across (ellipse 0.7), ≤ 1.7e-5 on 64
+    (circle) (measured here 6.0e-6; 7.7e-6, 4.1e-6, 5.9e-6); coverage weighting on the same grid
+    errs by 3.3e-3 … 4.1e-3 — asserted ≥ 100× worse."""
     shape = "circle" if aspect == 1.0 else "ellipse"
     na = 64 if aspect == 1.0 else 44
     params = {"shape": shape, "aspect": aspect, "nu": 0.3, "n": 64, "n_across": na, "tol": 1e-12, "quantities": "tangential,normal"}
