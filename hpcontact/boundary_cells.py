@@ -30,8 +30,7 @@ Singular cells
 ``covered_solve(params, strategy="singular")`` (or ``"auto"``) solves unturned circles and
 ellipses instead with cells that carry the punch's edge singularity, a Galerkin discretization
 whose error is 200 to several thousand times smaller per grid (measured) but not a smooth
-expansion in h
-(``hpcontact.singular_cells``; ``benchmarks/edge_order.py`` compares the two).
+expansion in h (``hpcontact.singular_cells``; ``benchmarks/edge_order.py`` compares the two).
 """
 
 from __future__ import annotations

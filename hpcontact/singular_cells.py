@@ -87,6 +87,7 @@ from .operator import ConvolutionOperator, kernel_spectrum, padded_shape
 __all__ = [
     "BAND",
     "EXACT_OFFSETS",
+    "ERROR_CONSTANT",
     "MAX_CELL_ASPECT",
     "NEAR",
     "SUBCELLS",
@@ -104,6 +105,7 @@ SUBCELLS = (16, 16)  # sub-cells per side for adjacent pairs (|offset| ≤ 1) an
 GRADED_LEVELS, GRADED_POINTS = 10, 6  # graded Gauss–Legendre for K* (error ≲ 1e-9 relative)
 BLOCKS = ("xx", "yy", "zz")
 MAX_CELL_ASPECT = 2.0  # dy/dx within [1/2, 2]
+ERROR_CONSTANT = 1.07e-3  # |relative K error| ≤ this / (cells across the minor axis): largest of edge_order.py --bound
 MIN_WEIGHT = 1e-9  # cells with W below this fraction of their area are left out (W is a difference of O(1) closed forms: ~1e-16 absolute)
 
 
