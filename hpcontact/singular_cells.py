@@ -86,8 +86,8 @@ from .operator import ConvolutionOperator, kernel_spectrum, padded_shape
 
 __all__ = [
     "BAND",
-    "EXACT_OFFSETS",
     "ERROR_CONSTANT",
+    "EXACT_OFFSETS",
     "MAX_CELL_ASPECT",
     "NEAR",
     "SUBCELLS",
