@@ -3,7 +3,8 @@
 Modules, one job each: ``spec`` (TOML → checked axes and fixed fields), ``tasks`` (distinct
 scenes, keys, cost estimates, chunks), ``kinds`` (the solver and validator of a scene kind:
 contact or slip), ``schedule`` (MPI team and the shared atomic counter),
-``journal`` (per-rank append-only journals), ``dataset`` (entries → labelled data set and
+``journal`` (per-rank append-only journals), ``columns`` (a rank's outcomes as arrays per
+variable, joined by rank 0), ``dataset`` (entries → labelled data set and
 back: ``open_dataset``), ``netcdf`` (its compact, CF-checkable file), ``units`` (CF units of
 scaled quantities), ``progress``
 (progress lines, summary), ``guard`` (unusable outputs, the run lock), ``provenance`` (version,
