@@ -37,8 +37,9 @@ of m + 1 consecutive grids is computed. How E_j moves from window to window is t
 (:func:`spread`): with d_j = E_j − E_{j−1},
 
 * d_k, d_{k−1} of opposite sign (oscillation): s = max(|d_k|, |d_{k−1}|/4);
-* else the fall ρ = |d_{k−1}/d_k| is credited only when it shows twice (ρ = the smaller of the
-  last two ratios, within [2, 16]; 2 otherwise), and s = max(|d_k|/(ρ − 1), |d_{k−1}|/max(16, ρ^1.5)):
+* else the fall ρ = |d_{k−1}/d_k| is credited only when it shows twice and no more than its
+  trend predicts (ρ = min(ρ₁, ρ₂, ρ₂²/ρ₁) of the last two ratios, within [2, 16]; 2 otherwise),
+  and s = max(|d_k|/(ρ − 1), |d_{k−1}|/max(16, ρ^1.5)):
   the geometric tail of a sequence falling by ρ per level, guarded against a last difference
   small by accident (a zero crossing).
 
@@ -162,8 +163,9 @@ def spread(extrapolants: Sequence[float]) -> float:
 
     With the differences d_j = E_j − E_{j−1} (the last three at most): if the last two have
     opposite signs, the swing max(|d_k|, |d_{k−1}|/``OSCILLATION_FALL``); else the fall
-    ρ = |d_{k−1}/d_k| is credited only when it shows twice (ρ = min of the last two ratios,
-    within [2, ``FASTEST_FALL``], 2 otherwise), and the error is
+    ρ = |d_{k−1}/d_k| is credited only when it shows twice and no more than its trend predicts
+    for the next level (with ρ₁ = |d_{k−2}/d_{k−1}|, ρ₂ = |d_{k−1}/d_k|: ρ = min(ρ₁, ρ₂, ρ₂²/ρ₁)
+    within [2, ``FASTEST_FALL``]; 2 with fewer than three differences), and the error is
 
         max(|d_k| / (ρ − 1),  |d_{k−1}| / max(FASTEST_FALL, 2ρ)):
 
@@ -176,7 +178,8 @@ def spread(extrapolants: Sequence[float]) -> float:
         return max(abs(last), abs(before) / OSCILLATION_FALL)
     fall = 2.0
     if len(d) == 3 and d[0] * d[1] > 0.0 and last != 0.0:
-        fall = max(2.0, min(abs(d[0] / d[1]), abs(before / last), FASTEST_FALL))
+        early, late = abs(d[0] / d[1]), abs(before / last)
+        fall = max(2.0, min(early, late, late * late / early, FASTEST_FALL))
     return max(abs(last) / (fall - 1.0), abs(before) / max(FASTEST_FALL, fall**GUARD_EXPONENT))
 
 
