@@ -419,15 +419,15 @@ class Overheads:
     ``benchmarks/sweep_scale.py``'s probe, the driver's per-task time (scheduling 1.3
     ms + journal 3.0 ms) by ``benchmarks/sweep_scaling.py`` (README), rank 0's setup and gather
     and their shares spread over the ranks by ``benchmarks/sweep_scale.py`` on the six-axis job
-    (48 132 tasks; 2026-11-23, load average 12-15 on the 2 cores: slow by ~3x)."""
+    (48 132 tasks; 2026-11-23, load average ~10 on the 2 cores: slow by ~3x)."""
 
     driver_s: float = 4.3e-3
     service_s: float = 4.5e-5  # server time per message on a full queue
     wake_s: float = 2.5e-3  # claim round trip while rank 0 computes in Python (scheduler of 856c639), less service_s
-    setup_s: float = 4.8e-5  # rank 0 alone: join the shares, decide, broadcast the plan, chunk
-    gather_s: float = 5.3e-5  # rank 0 alone: join the ranks' columns, build and write the data set
-    spread_setup_s: float = 1.0e-3  # enumeration and validation, 1/R of it on each rank
-    spread_gather_s: float = 1.7e-4  # an outcome turned into columns, on the rank that ran it
+    setup_s: float = 3.2e-5  # rank 0 alone: join the shares, decide, broadcast the plan, chunk
+    gather_s: float = 3.4e-5  # rank 0 alone: join the ranks' columns, build and write the data set
+    spread_setup_s: float = 6.7e-4  # enumeration and validation, 1/R of it on each rank
+    spread_gather_s: float = 1.2e-4  # an outcome turned into columns, on the rank that ran it
 
 
 def replay(tasks: Sequence[Task], seconds: Mapping[str, float], ranks: int,
