@@ -148,6 +148,24 @@ def normal_load(outdir: Path) -> None:
     print("                                       3-D BEM      " + ", ".join(f"{r}: {v:.4f}" for r, v in zip(RATIOS, bem)))
 
 
+def contact_size(ds) -> None:
+    """Semi-axes and peak pressure of the similar pair's frictionless contact at the job's load
+    (n = 64): the edges where the centre lines' p² (linear in x² for Hertz pressure) vanishes."""
+    problem = SlipProblem(validate({**_scene(ds, "ortho E1 ratio 1"), "n": 64}))
+    p = problem.normal().traction[0]
+    i, j = int(np.argmin(np.abs(problem.x[:, 0]))), int(np.argmin(np.abs(problem.y[0])))
+
+    def edge(coord: np.ndarray, line: np.ndarray) -> float:
+        inside = line > 0.0
+        slope, offset = np.polyfit(coord[inside] ** 2, line[inside] ** 2, 1)
+        return math.sqrt(-offset / slope) * problem.L
+
+    along, across = edge(problem.x[:, j], p[:, j]), edge(problem.y[i], p[i])  # grid x: the major axis
+    print(f"similar pair's contact at {float(ds['load'].values):.3g} N (n = 64): semi-axes {across * 1e3:.1f} mm across x1, "
+          f"{along * 1e3:.1f} mm along; p0 = {p.max() * problem.G_ref / 1e6:.1f} MPa "
+          f"(plane strain at a = 50 mm: {A * plane_strain_modulus(_ortho(1).voigt, 0.0) / 2.0 / (2.0 * R) * 1e3:.1f} MPa)")
+
+
 def approach(params: dict) -> float:
     """Frictionless approach d of a scene's pair at its load (m): Polonsky–Keer on the slip grid,
     d = h + A_zz p on the contact (equal there to the solver's tolerance)."""
@@ -165,6 +183,7 @@ def tangential(ds, outdir: Path) -> None:
     Q = ds["tangential_force"].values[index]
     Qd = ds["decoupled_tangential_force"].values[index]
     centroid = ds["stick_centroid_x"].values[index]
+    contact_size(ds)
     d = np.array([approach(_scene(ds, labels[i])) for i in index])
     P_fixed = (d[0] / d) ** 1.5
     fig, (ax, right) = plt.subplots(1, 2, figsize=(11, 4))
