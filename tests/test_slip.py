@@ -336,3 +336,16 @@ def test_record_keys_and_units() -> None:
     assert 1e-4 < r["hertz_a"] < 3e-4 and 1e-7 < r["tangential_displacement"] < 1e-5  # metres
     assert r["wall_time_s"] <= time.perf_counter() - t0
     assert all(math.isfinite(v) for v in r.values() if isinstance(v, float))
+
+
+def test_record_without_relative_stick_area_when_the_decoupled_contact_slides() -> None:
+    """Displacement control past the decoupled (Goodman) sliding limit while the coupled contact
+    still sticks (steel on E = 120 GPa, β = 0.105, mu = 0.1, 0.6 µm with the load, one
+    proportional step: measured stick area 3.6e-9 m² coupled, 0 decoupled): the relative change
+    of a zero area is undefined, so the record leaves coupling_effect_stick_area out (it raised
+    FloatingPointError on an infinite value before)."""
+    r = solve_slip({"radius": 8e-3, "load": 100.0, "mu": 0.1, "q_ratio": 0.5, "n": 16, "steps": 1,
+                    "E": 200e9, "nu": 0.3, "E2": 120e9, "nu2": 0.25, "control": "displacement",
+                    "displacement": 6e-7, "path": "proportional"})
+    assert r["stick_area"] > 0.0 and r["decoupled_stick_area"] == 0.0
+    assert "coupling_effect_stick_area" not in r
