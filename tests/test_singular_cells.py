@@ -78,8 +78,8 @@ def test_double_average_kernel_series_meets_the_quadrature() -> None:
 def test_singular_cells_against_mindlin_and_galin(aspect: float) -> None:
     """n = 64: K_xx, K_yy, K_zz against the closed forms. Bound ``ERROR_CONSTANT``/n_across: the
     convergence study (``benchmarks/edge_order.py --bound``, the singular_cells docstring)
-    measured |error| ≤ 1.07e-3/n_across, i.e. ≤ 2.4e-5 on 44 cells across (ellipse 0.7), ≤ 1.7e-5
-    on 64 (circle) (measured here 6.0e-6; 7.7e-6, 4.1e-6, 5.9e-6); coverage weighting on the same
+    measured |error| ≤ 1.03e-3/n_across, i.e. ≤ 2.3e-5 on 44 cells across (ellipse 0.7), ≤ 1.6e-5
+    on 64 (circle) (measured: circle 6.6e-6, ellipse K_xx 8.4e-6); coverage weighting on the same
     grid errs by 3.3e-3 … 4.1e-3 — asserted ≥ 100× worse."""
     shape = "circle" if aspect == 1.0 else "ellipse"
     na = 64 if aspect == 1.0 else 44
