@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import json
+import math
 import socket
 from dataclasses import replace
 
 import pytest
 
 from hpcontact import __version__
+from hpcontact.bodies import pair_from_params
 from hpcontact.errors import InputError
 from hpcontact.sweep import costmodel
 from hpcontact.sweep.costmodel import Calibration, Overheads, Rate, replay
@@ -179,10 +181,17 @@ def test_slip_work_follows_the_load_path():
     assert estimated_cost({**SIMILAR_SLIP, "q_ratio": 0.0, "control": "displacement", "displacement": 1e-6}) == similar
     # a similar pair has no coupled path: normal friction changes nothing
     assert estimated_cost({**SIMILAR_SLIP, "normal_friction": True}) == similar
-    # a dissimilar pair, coupled: the normal load in `steps` coupled steps doubles the coupled work
+    # a dissimilar pair, coupled: passes converge at the rate of Dundurs' beta (8 digits), each
+    # half a decoupled step; the normal load in `steps` coupled steps doubles the coupled work
     coupled = {**SIMILAR_SLIP, "material2": "Al", "coupling": "coupled"}
+    passes = 0.5 * 8.0 / -math.log10(abs(pair_from_params(coupled).dundurs_beta))
+    assert passes > 1.0
+    assert estimated_cost(coupled) == pytest.approx(similar * (1.0 + 40.0 * passes) / 41.0, rel=1e-12)
     assert estimated_cost({**coupled, "normal_friction": True}) == pytest.approx(
-        estimated_cost(coupled) * (1.0 + 40.0 * 6.0) / (1.0 + 40.0 * 3.0), rel=1e-12)
+        estimated_cost(coupled) * (1.0 + 40.0 * 2.0 * passes) / (1.0 + 40.0 * passes), rel=1e-12)
+    # a stronger coupling (a Cu crystal under a rigid sphere, beta ~ 0.3) needs more passes
+    crystal = {**SIMILAR_SLIP, "material": "crystal:Cu", "material2": "rigid", "coupling": "coupled"}
+    assert estimated_cost(crystal) > estimated_cost(coupled)
 
 
 ORTHOTROPIC = costmodel.ANISOTROPIC_SLIP_SCENE["orthotropic"]
