@@ -6,10 +6,12 @@ For each job (default: every jobs/*.toml), two fresh child processes:
 
 * **time**: the job's tasks are solved in sweep order with the real task function (the kernel
   cache kept as a sweep's rank keeps it) and their CPU time summed (``time.process_time``, one
-  thread: a core's time, as the estimate is; their wall time is printed beside it); then the cost model is
-  calibrated in that same process (``costmodel.calibrate``, timed under the same load as the
-  tasks, which matters on a shared machine) and the estimate of exactly the tasks that ran is
-  compared with their measured time. A job whose estimated total exceeds ``--budget`` seconds is
+  thread: a core's time, as the estimate is; their wall time is printed beside it); the cost model is
+  calibrated in that same process just before and just after the tasks (``costmodel.calibrate``,
+  timed under the same load as the tasks, which matters on a shared machine: a load that comes or
+  goes between the tasks and one calibration moved a job's ratio by 1.5-2x) and the mean of the
+  two estimates of exactly the tasks that ran is compared with their measured time; the ratio of
+  the two estimates (after/before) is printed as "drift". A job whose estimated total exceeds ``--budget`` seconds is
   cut: every k-th task in sweep order runs (k chosen to fit the budget) — the table says so. The
   process's peak resident set after these tasks is printed too (a rank that ran many tasks).
 * **memory**: the task of largest estimated memory alone, after a run's imports; its process's
@@ -46,8 +48,8 @@ def measure_time(job: Path, budget_s: float) -> dict:
 
     spec = load_spec(job)
     tasks, _ = enumerate_tasks(spec)
-    cached = costmodel.load_calibration()  # only to choose the cut; the comparison uses a fresh one
-    step = max(1, math.ceil(sum(cached.task_seconds(t.params, t.cost) for t in tasks) / budget_s))
+    before = costmodel.calibrate()
+    step = max(1, math.ceil(sum(before.task_seconds(t.params, t.cost) for t in tasks) / budget_s))
     chosen = list(range(0, len(tasks), step))
     function = task_function(spec.kind)
     measured = 0.0
@@ -61,16 +63,18 @@ def measure_time(job: Path, budget_s: float) -> dict:
         measured += time.process_time() - cpu
         wall += time.perf_counter() - started
     rss = peak_rss_bytes()
-    fresh = costmodel.calibrate()
+    after = costmodel.calibrate()
+    estimates = [sum(c.task_seconds(tasks[i].params, tasks[i].cost) for i in chosen) for c in (before, after)]
     return {
         "job": job.stem,
         "tasks": len(tasks),
         "ran": len(chosen),
-        "estimated_s": sum(fresh.task_seconds(tasks[i].params, tasks[i].cost) for i in chosen),
+        "estimated_s": 0.5 * (estimates[0] + estimates[1]),
+        "drift": estimates[1] / estimates[0],
         "measured_s": measured,
         "measured_wall_s": wall,
         "run_peak_bytes": rss,
-        "calibration_s": fresh.seconds,
+        "calibration_s": after.seconds,
     }
 
 
@@ -111,7 +115,7 @@ def main() -> None:
         print(json.dumps(measure_time(job, args.budget) if args.child == "time" else measure_memory(job)), flush=True)
         return
     print(f"{'job':24s} {'tasks run':>11s} {'estimated s':>11s} {'measured s':>10s} {'ratio':>6s} "
-          f"{'est. MiB':>8s} {'meas. MiB':>9s} {'ratio':>6s} {'run MiB':>8s} {'wall s':>7s}", flush=True)
+          f"{'est. MiB':>8s} {'meas. MiB':>9s} {'ratio':>6s} {'run MiB':>8s} {'wall s':>7s} {'drift':>6s}", flush=True)
     for job in args.jobs:
         try:
             r = {**child("time", job, args.budget), **child("memory", job, args.budget)}
@@ -121,7 +125,7 @@ def main() -> None:
         print(f"{r['job']:24s} {r['ran']:5d}/{r['tasks']:<5d} {r['estimated_s']:11.1f} {r['measured_s']:10.1f} "
               f"{r['estimated_s'] / r['measured_s']:6.2f} {r['estimated_peak_bytes'] / 2**20:8.0f} "
               f"{r['measured_peak_bytes'] / 2**20:9.0f} {r['estimated_peak_bytes'] / r['measured_peak_bytes']:6.2f} "
-              f"{r['run_peak_bytes'] / 2**20:8.0f} {r['measured_wall_s']:7.1f}", flush=True)
+              f"{r['run_peak_bytes'] / 2**20:8.0f} {r['measured_wall_s']:7.1f} {r['drift']:6.2f}", flush=True)
 
 
 if __name__ == "__main__":
