@@ -3,7 +3,7 @@
 **Seconds.** A task of kind k (``task_kind``: ``contact``, ``crystal``, ``crystal_indentation``
 or ``slip``) takes, on one core of this machine,
 
-    seconds = rate_k × cost + solve_k × cost / (S log2 S) [+ node_s × ω nodes, slip scenes]
+    seconds = rate_k × cost + solve_k × cost / (S log2 S) + cell_k × S [+ node_s × ω nodes, slip]
 
 with ``cost = hpcontact.sweep.tasks.estimated_cost(params)`` as the cost units (padded FFT cells
 S · log2 S × solves × CG iterations, the iterations as digits of tolerance × the grid's
@@ -22,7 +22,14 @@ grid and the load steps: the third term. ``rate_k`` (seconds per cost unit) and 
 ``calibrate``: two real solves per kind on a small and a larger grid (each run once untimed
 first, so that FFT plans are warm as in a sweep, then timed twice with the kernel cache cleared,
 as a sweep's first task of a kernel group runs; the lesser time counts) give the two
-coefficients; ``node_s`` is what a small slip scene of two orthotropic bodies
+coefficients. ``cell_k`` is the task's kernel set (influence coefficients on the padded grid and
+their spectra, built once per task whatever its tolerance): the larger contact scene is timed
+again at tol = 1e-2, and the time extrapolated to zero digits, divided by its S, is cell_k
+(measured: a circle at n = 1024 took 3.5 s at tol = 1e-2, 8 iterations, and 8.4 s at 1e-10,
+42: ~2.4 s of it the kernels, which the other terms, proportional to the iterations, gave as
+0.6 s; accuracy_cost's loose-tolerance tasks on large grids came out at 0.62 without it);
+calibrated for the isotropic contact kind (0 for the others, whose kernel work the two
+coefficients absorb). ``node_s`` is what a small slip scene of two orthotropic bodies
 (``ANISOTROPIC_SLIP_SCENE``) takes beyond the slip kind's two terms, per ω node. Times are CPU
 seconds of the process (``time.process_time``; the solvers run one thread unless a scene asks
 for more): the time on a core of its own, as a batch system gives one per rank, and unlike wall
@@ -100,7 +107,7 @@ from .kinds import SLIP, quantity_names, scene_kind
 from .tasks import Task, estimated_cost, make_chunks, padded_cells
 
 KINDS = ("contact", "crystal", "crystal_indentation", "slip")
-FORMAT = 2  # version of the calibration file's layout (2: node_s, the slip scenes' Barnett–Lothe term)
+FORMAT = 3  # version of the calibration file's layout (2: node_s, Barnett–Lothe; 3: cell_s, kernels)
 MIB = 2**20
 # Memory per kind: (fixed bytes, bytes per padded cell), fitted as stated in the module docstring.
 MEMORY_MODEL = {
@@ -159,12 +166,14 @@ def task_kind(params: Mapping[str, Any]) -> str:
 
 @dataclass(frozen=True)
 class Rate:
-    """Seconds of a task of one kind: ``rate_s × cost + solve_s × solve_units + node_s ×
-    omega_nodes`` (module docstring; ``node_s`` is measured for slip scenes only)."""
+    """Seconds of a task of one kind: ``rate_s × cost + solve_s × solve_units + cell_s ×
+    padded cells + node_s × omega_nodes`` (module docstring; ``cell_s`` is measured for the
+    isotropic contact kind, ``node_s`` for slip scenes)."""
 
     rate_s: float
     solve_s: float
     node_s: float = 0.0
+    cell_s: float = 0.0
 
 
 def solve_units(params: Mapping[str, Any], cost: float) -> float:
@@ -190,7 +199,8 @@ class Calibration:
         rate = self.rates[kind]
         cost = estimated_cost(params) if cost is None else cost
         nodes = omega_nodes(params) if kind == "slip" else 0
-        return rate.rate_s * cost + rate.solve_s * solve_units(params, cost) + rate.node_s * nodes
+        return (rate.rate_s * cost + rate.solve_s * solve_units(params, cost) + rate.cell_s * padded_cells(params)
+                + rate.node_s * nodes)
 
     def task_bytes(self, params: Mapping[str, Any]) -> float:
         """Estimated peak resident bytes of a rank running the scene ``params``."""
@@ -301,13 +311,27 @@ def fit_rate(scenes: Sequence[Mapping[str, Any]], seconds: Sequence[float]) -> R
     return Rate(by_cost, 0.0) if miss_cost <= miss_units else Rate(0.0, by_units)
 
 
+def _fit_with_kernels(pair: Sequence[Mapping[str, Any]]) -> Rate:
+    """``Rate`` with ``cell_s`` for the contact kind: the larger scene timed at its tolerance and
+    at 1e-2 gives the kernels' time (extrapolated to zero digits), the rest is fitted as usual."""
+    small, large = pair
+    loose = {**large, "tol": 1e-2}
+    t_small, t_large, t_loose = (_timed(p) for p in (small, large, loose))
+    digits = [max(1.0, -math.log10(float(p["tol"]))) for p in (large, loose)]
+    per_digit = (t_large - t_loose) / (digits[0] - digits[1])
+    cell_s = max(0.0, t_loose - per_digit * digits[1]) / padded_cells(large)
+    fitted = fit_rate(pair, [t - cell_s * padded_cells(p) for t, p in ((t_small, small), (t_large, large))])
+    return Rate(fitted.rate_s, fitted.solve_s, 0.0, cell_s)
+
+
 def calibrate(scenes: Mapping[str, Sequence[Mapping[str, Any]]] = CALIBRATION_SCENES) -> Calibration:
     """Measure ``Rate`` per kind on this machine (module docstring) and the base memory."""
     from .. import __version__
 
     started = time.perf_counter()
     base = base_memory_bytes()
-    rates = {kind: fit_rate(pair, [_timed(p) for p in pair]) for kind, pair in scenes.items()}
+    rates = {kind: fit_rate(pair, [_timed(p) for p in pair]) for kind, pair in scenes.items() if kind != "contact"}
+    rates["contact"] = _fit_with_kernels(scenes["contact"])
     slip, scene = rates["slip"], ANISOTROPIC_SLIP_SCENE
     cost = estimated_cost(scene)
     rest = _timed(scene) - slip.rate_s * cost - slip.solve_s * solve_units(scene, cost)
@@ -346,7 +370,7 @@ def read_calibration(path: Path) -> Calibration:
     rates = {}
     for kind in KINDS:
         entry = record["rates"][kind]
-        rates[kind] = Rate(float(entry["rate_s"]), float(entry["solve_s"]), float(entry["node_s"]))
+        rates[kind] = Rate(*(float(entry[name]) for name in ("rate_s", "solve_s", "node_s", "cell_s")))
         if not all(math.isfinite(v) and v >= 0.0 for v in asdict(rates[kind]).values()):
             raise ValueError(f"{kind}: rates must be finite and >= 0")
         if rates[kind].rate_s + rates[kind].solve_s <= 0.0:

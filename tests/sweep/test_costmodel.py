@@ -225,3 +225,12 @@ def test_the_start_line_uses_the_cached_calibration_and_never_calibrates(tmp_pat
     # 1e-6 s per unit x 294 912 units = 0.2949 s of one task; on 2 ranks the makespan adds the
     # replayed overheads, so only the core-seconds are exact
     assert "estimated 0.2949 core-seconds" in costmodel.start_line(tasks, 2)
+
+
+def test_the_kernel_term_is_per_padded_cell_whatever_the_tolerance():
+    rates = {kind: Rate(rate_s=0.0, solve_s=0.0, cell_s=1e-7) for kind in costmodel.KINDS}
+    calibration = Calibration("h", "v", rates, base_bytes=0.0)
+    circle = {"shape": "circle", "n": 64, "quantities": ["tangential"], "tol": 1e-10}
+    # 4 x 64 x 64 padded cells, once per task: the kernel set is built before any iteration
+    assert calibration.task_seconds(circle) == calibration.task_seconds({**circle, "tol": 1e-2}) == pytest.approx(
+        1e-7 * 16384, rel=1e-15)
