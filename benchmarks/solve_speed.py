@@ -220,10 +220,14 @@ def child(spec: dict) -> dict:
     # application: the applications after which measuring pays for itself
     estimate_ms = break_even = float("nan")
     if spec.get("planner") == "FFTW_MEASURE" and not spec["wisdom"]:
+        import pyfftw
+
+        pyfftw.forget_wisdom()  # else FFTW_ESTIMATE planning would reuse the measured plans' wisdom
         rough = opm.ConvolutionOperator(grid.nx, grid.ny, comps, spectra, threads=threads, planner_effort="FFTW_ESTIMATE")
         estimate_ms = 1e3 * _best(lambda: rough.apply(t), 10)
         del rough
-        break_even = setup["plan_s"] / max(1e-3 * estimate_ms - apply_s, 1e-12)
+        gain = 1e-3 * estimate_ms - apply_s
+        break_even = setup["plan_s"] / gain if gain > 0.0 else float("inf")
     full_fft_s = _full_fft_seconds(len(comps), shape, threads, 5) if spec["full_fft"] else float("nan")
     per_iter = solve_s / solution.iterations
     return {
@@ -422,6 +426,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--cold", choices=["also", "only", "no"], default="also",
                    help="the cold-versus-best-plan table (circle_tangential, PCG): also (default), only, no")
     p.add_argument("--scenes", type=int, default=10, help="scenes of the cold sweep (default 10)")
+    p.add_argument("--rounds", type=int, default=1, help="cold table: repeat it, keep each run's fastest (default 1)")
     p.add_argument("--code", nargs="+", default=[os.path.dirname(os.path.dirname(os.path.abspath(__file__)))],
                    help="source trees to compare in the cold table, e.g. a `git worktree` of an older commit and "
                         "this checkout (default: this checkout)")
@@ -465,33 +470,40 @@ def cold_table(args: argparse.Namespace) -> list[dict]:
     FFTW wisdom, and the same sweep again with the wisdom the first one saved."""
     import tempfile
 
-    case, results = "circle_tangential", []
-    with tempfile.TemporaryDirectory() as work:
-        for n in args.n:
-            for index, code in enumerate(args.code):
-                common = {"case": case, "n": n, "threads": args.threads, "tol": args.tol, "clock": args.clock,
-                          "code": code, "scenes": args.scenes}
-                best = run_child(__file__, {**common, "solver": "PCG", "repeat": args.repeat, "wisdom": False,
-                                            "full_fft": False, "planner": "FFTW_MEASURE"}, args.timeout)
-                wisdom = os.path.join(work, f"wisdom-{n}-{index}")
-                runs = {"solve": {"mode": "solve", "wisdom_file": os.path.join(work, f"none-{n}-{index}")},
-                        "sweep": {"mode": "sweep", "wisdom_file": wisdom},
-                        "again": {"mode": "sweep", "wisdom_file": wisdom}}
-                row = {"n": n, "code": code, "best": best}
-                for name, extra in runs.items():
-                    row[name] = run_child(__file__, {**common, "kind": "cold", **extra}, args.timeout)
-                errors = "; ".join(f"{k}: {row[k]['error']}" for k in ("best", *runs) if "error" in row[k])
-                if errors:
-                    row["error"] = errors
-                results.append(row)
-                print(f"  cold table n={n} {code}: " + ", ".join(
-                    f"{k} {row[k].get('per_iter_ms', float('nan')):.1f} ms/iter" for k in ("best", *runs)),
-                    file=sys.stderr, flush=True)
+    case, results = "circle_tangential", {}
+    for round_ in range(args.rounds):
+        with tempfile.TemporaryDirectory() as work:
+            for n in args.n:
+                for index, code in enumerate(args.code):
+                    common = {"case": case, "n": n, "threads": args.threads, "tol": args.tol, "clock": args.clock,
+                              "code": code, "scenes": args.scenes}
+                    best = run_child(__file__, {**common, "solver": "PCG", "repeat": args.repeat, "wisdom": False,
+                                                "full_fft": False, "planner": "FFTW_MEASURE"}, args.timeout)
+                    wisdom = os.path.join(work, f"wisdom-{n}-{index}")
+                    runs = {"solve": {"mode": "solve", "wisdom_file": os.path.join(work, f"none-{n}-{index}")},
+                            "sweep": {"mode": "sweep", "wisdom_file": wisdom},
+                            "again": {"mode": "sweep", "wisdom_file": wisdom}}
+                    row = {"n": n, "code": code, "best": best}
+                    for name, extra in runs.items():
+                        row[name] = run_child(__file__, {**common, "kind": "cold", **extra}, args.timeout)
+                    errors = "; ".join(f"{k}: {row[k]['error']}" for k in ("best", *runs) if "error" in row[k])
+                    if errors:
+                        row["error"] = errors
+                    print(f"  round {round_ + 1} n={n} {code}: " + ", ".join(
+                        f"{k} {row[k].get('per_iter_ms', float('nan')):.1f} ms/iter" for k in ("best", *runs)),
+                        file=sys.stderr, flush=True)
+                    kept = results.get((n, code))
+                    if kept is None or "error" in row:
+                        results[(n, code)] = row if kept is None or "error" not in kept else kept
+                    else:  # each run the fastest of the rounds: a shared machine only ever slows a run down
+                        for name in ("best", *runs):
+                            if row[name]["per_iter_ms"] < kept[name]["per_iter_ms"]:
+                                kept[name] = row[name]
     print(f"\nCold, as users run it ({case}, PCG, tol {args.tol:g}): CG ms per iteration in fresh processes, "
-          f"against the best plans")
+          f"against the best plans; fastest of {args.rounds} round(s)")
     print(f"{'code':>24s} {'n':>5s} {'best':>7s} {'plan s':>6s} {'b-even':>6s} | {'solve':>7s} {'ratio':>5s} | "
           f"{'sweep':>7s} {'ratio':>5s} {'iters':>5s} {'plan s':>6s} | {'again':>7s} {'ratio':>5s}")
-    for row in results:
+    for row in results.values():
         b = row["best"]
         if "error" in row:
             print(f"{row['code'][-24:]:>24s} {row['n']:5d} FAILED: {row['error']}")
@@ -510,7 +522,7 @@ def cold_table(args: argparse.Namespace) -> list[dict]:
           f" {args.scenes} scenes (nu 0 … 0.45)"
           "\non one grid, no wisdom (plan s: all FFTW planning of that process, inside the CG or not);"
           "\nagain = the same sweep with the wisdom the first saved; ratio = / best; each in its own fresh process.")
-    return results
+    return list(results.values())
 
 
 if __name__ == "__main__":
