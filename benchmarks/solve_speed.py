@@ -38,6 +38,10 @@ user does: one ``hpcontact solve`` without FFTW wisdom, a ``hpcontact run`` swee
 ``--scenes`` scenes on one grid (nu = 0 … 0.45) without wisdom, and that sweep again with the
 wisdom the first one saved. Use ``--clock cpu`` on a shared machine.
 
+Warm starts (``--warm-start N``, alone): CG iterations of neighbouring scenes of a continuation
+(nu on a circle, orientation ψ of a crystal) started from zero and from the previous scene's
+traction, and how far the two results differ.
+
 BLAS threads (OpenBLAS/MKL/OMP) are set to ``--threads`` in the child before numpy loads: the
 CG's dot products and norms call BLAS, and a multi-threaded BLAS on a loaded machine costs more
 than the FFTs (see README).
@@ -346,6 +350,52 @@ def cold_child(spec: dict) -> dict:
             "planning_s": planning[0]}
 
 
+WARM_CHAINS = (  # (label, scene, axis, values): neighbouring scenes of a continuation
+    ("circle, nu", {"shape": "circle", "quantities": "tangential"}, "nu", [0.05 * i for i in range(1, 11)]),
+    ("ellipse b/a = 0.3, A = 2, psi", {"shape": "ellipse", "aspect": 0.3, "quantities": "tangential",
+                                       "anisotropy": 2.0}, "orientation", [0.0, 10.0, 20.0, 30.0, 40.0]),
+)
+
+
+def warm_start(n: int, tol: float) -> None:
+    """CG iterations of each scene of a continuation from zero and from the previous scene's
+    traction (the correction d of A d = b − A x0 by the same preconditioned CG, to the same
+    ‖r‖ ≤ tol ‖b‖), and how far the warm result's force is from the cold one's."""
+    import numpy as np
+
+    from hpcontact.plan import make_plan
+    from hpcontact.preconditioner import FourierPreconditioner
+    from hpcontact.scene import Scene
+    from hpcontact.solve import Engine, discretize
+    from hpcontact.solvers import conjugate_gradient
+
+    print(f"\nWarm starts (n = {n}, tol {tol:g}, preconditioned CG, tangential x solve): iterations cold -> warm")
+    for label, base, axis, values in WARM_CHAINS:
+        previous, cold_total, warm_total, worst = None, 0, 0, 0.0
+        for value in values:
+            scene = Scene.from_params({**base, "n": n, "tol": tol, axis: value})
+            grid, mask = discretize(scene)
+            plan = make_plan(scene, mask, grid)
+            solve = [s for s in plan.solves if s.name.startswith("tangential")][0]
+            engine = Engine(scene.material, grid, plan.kernels, 1)
+            op = engine.operator(solve.components, solve.green)
+            pc = FourierPreconditioner(grid, engine.green_function(solve.green), solve.components).apply
+            b = np.zeros((len(solve.components),) + mask.shape)
+            b[solve.components.index(solve.load)] = 1.0
+            cold = conjugate_gradient(op.apply, b, mask, tol=tol, precondition=pc)
+            if previous is not None and previous.shape == cold.traction.shape:
+                x0 = previous * mask
+                r0 = (b - op.apply(x0)) * mask
+                d = conjugate_gradient(op.apply, r0, mask, tol=tol * np.linalg.norm(b * mask) / np.linalg.norm(r0),
+                                       precondition=pc)
+                load = solve.components.index(solve.load)
+                worst = max(worst, abs((x0 + d.traction)[load].sum() / cold.traction[load].sum() - 1.0))
+                cold_total, warm_total = cold_total + cold.iterations, warm_total + d.iterations
+            previous = cold.traction
+        print(f"  {label} {values[0]:g} … {values[-1]:g}: {cold_total} -> {warm_total} iterations "
+              f"({warm_total / cold_total:.2f}); force differs by up to {worst:.1e} relative")
+
+
 # ---------------------------------------------------------------------------------------------
 # parent: run the children, print the tables
 # ---------------------------------------------------------------------------------------------
@@ -427,6 +477,8 @@ def main(argv: list[str] | None = None) -> int:
                    help="the cold-versus-best-plan table (circle_tangential, PCG): also (default), only, no")
     p.add_argument("--scenes", type=int, default=10, help="scenes of the cold sweep (default 10)")
     p.add_argument("--rounds", type=int, default=1, help="cold table: repeat it, keep each run's fastest (default 1)")
+    p.add_argument("--warm-start", type=int, metavar="N",
+                   help="only the warm-start experiment on N cells across (CG from the previous scene's traction)")
     p.add_argument("--code", nargs="+", default=[os.path.dirname(os.path.dirname(os.path.abspath(__file__)))],
                    help="source trees to compare in the cold table, e.g. a `git worktree` of an older commit and "
                         "this checkout (default: this checkout)")
@@ -435,6 +487,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.child:
         spec = json.loads(args.child)
         print(json.dumps(cold_child(spec) if spec.get("kind") == "cold" else child(spec)))
+        return 0
+    if args.warm_start:
+        warm_start(args.warm_start, args.tol)
         return 0
 
     print(f"hpcontact solve_speed: {host_line(args.threads)}; tol {args.tol:g}; {args.clock} clock; "
