@@ -61,9 +61,8 @@ reported estimate is above the largest true error of K_xx, K_yy, K_zz, K_a/K_b, 
 K_yy/K_zz in all 336 (worst true/estimate 0.63) and within 30× of it in 94 %. Per quantity
 (1652 pairs) one K_yy estimate (b/a = 0.05, nu = 0.5, from n₀ = 16 with 4 cells across, request
 1e-3) is 1.18× below its true error. On the singular cells' sequences (``hpcontact.singular_cells``;
-circle, b/a = 0.7, 0.5, n ≤ 1024) it is honest on all 126 records (worst 0.50) and within 30× in
-81 %; per quantity 8 of 602 pairs are below their true error (worst 2.8×: K_yy of b/a = 0.7 and
-K_xx of 0.5 at n = 1024, errors of 1e-7 … 5e-7 without a steady sign).
+circle, b/a = 0.7, 0.5, n ≤ 1024) it is honest on all 126 records (worst 0.37) and all 602
+per-quantity pairs (worst 0.72), within 30× in 85 % of the records.
 
 The refinement stops when the request is met, when the planned grids run out (``max_cells``
 cells, or the memory budget: :func:`plan_grids` counts this process's peak resident set plus the
