@@ -42,14 +42,14 @@ _LOCK = threading.Lock()
 # FFTW_MEASURE once the layout's applications (all operators of the process together) number at
 # least MEASURE_AFTER_APPLICATIONS and have taken MEASURE_AFTER_SECONDS + that many mean
 # applications' time, i.e. after n = 35 + 1.3 s / (time of one application) applications. That is
-# ski rental (buy once the rent paid would have bought): measured on a 2-core EPYC, one thread,
-# FFTW_MEASURE planning of the four plans takes ~0.3 s + ~8 ESTIMATE transforms (0.53 s at 512²
-# padded cells, 0.78 s at 1024², 1.5 s at 2048², two components) and makes a transform
-# 1.15-1.45x faster, a break-even of ~670, ~140 and ~46 applications (benchmarks/solve_speed.py
-# prints it); the rule re-plans after ~280, ~70 and ~45, never later than the break-even, so a
-# run that stops right after re-planning pays at most twice the best choice made in hindsight.
-# Small grids (break-even in the thousands) keep their ESTIMATE plans unless a long run
-# applies them; the measured wisdom then serves later processes via save_wisdom.
+# ski rental (buy about when the rent paid would have bought). Measured by benchmarks/solve_speed.py
+# (2-core EPYC, one thread, two components, `b-even`): FFTW_MEASURE planning of the four plans
+# takes 0.71 s at n = 512 (1024² padded cells) and 1.5 s at n = 1024, and makes an application
+# 1.35x (30.4 -> 22.6 ms) and 1.46x (154 -> 105 ms) faster: it pays after ~90 and ~31
+# applications; the rule re-plans after ~78 and ~43 (late by ~12 applications, ~0.6 s, at
+# n = 1024). At n = 256 planning (0.53 s) pays after ~670 applications and the rule waits ~280.
+# Small grids keep their ESTIMATE plans unless a long run applies them; measured plans then
+# serve later processes through the wisdom file (save_wisdom).
 MEASURE_AFTER_APPLICATIONS = 35
 MEASURE_AFTER_SECONDS = 1.3
 
