@@ -116,17 +116,19 @@ class Decision:
 @dataclass(frozen=True)
 class Plan:
     """The work of every rank: the spec, its tasks (every rank joins them from the ranks'
-    shares) and rank 0's decisions."""
+    shares) and rank 0's decisions, with the suspects (run by rank 0 alone) and the rest of the
+    work (in chunks for every rank) as tasks."""
 
     spec: Spec
     tasks: list[Task]
-    isolated: list[Task]  # suspects, run by rank 0 alone
-    shared: list[Task]  # the rest of the work, in chunks for every rank
-    reused: int
-    crashed: int
-    session: str
-    provenance: dict[str, Any]
-    faults: dict[int, str]
+    decision: Decision
+    isolated: list[Task]
+    shared: list[Task]
+
+    @classmethod
+    def of(cls, spec: Spec, tasks: list[Task], decision: Decision) -> "Plan":
+        """The plan of ``decision``, its task positions turned into tasks."""
+        return cls(spec, tasks, decision, [tasks[i] for i in decision.isolated], [tasks[i] for i in decision.shared])
 
 
 def run_task(function: TaskFunction, task: Task, rank: int, stop: StopControl | None = None,
@@ -325,8 +327,7 @@ def execute(
     mine = pickle.dumps(_share(spec, team.rank, team.size, validate, options), protocol=pickle.HIGHEST_PROTOCOL)
     tasks, task_of, over = _joined(spec, [pickle.loads(b) for b in team.bcast(team.gather(mine))])
     d: Decision = _shared(team, lambda: _prepare(spec, tasks, task_of, over, options, team.size, keep))
-    plan = Plan(spec, tasks, [tasks[i] for i in d.isolated], [tasks[i] for i in d.shared], d.reused, d.crashed,
-                d.session, d.provenance, d.faults)
+    plan = Plan.of(spec, tasks, d)
     try:
         return _run(team, plan, keep, task_function, stream, stop, options, started)
     finally:
@@ -351,9 +352,9 @@ def _run(team: Team, plan: Plan, keep: dict[str, Any], task_function: TaskFuncti
             print(f"hpcontact: {keep['note']}", file=stream)
         print(
             f"hpcontact: {spec.title}: {len(tasks)} tasks, {len(todo)} to run"
-            f"{f' ({plan.reused} from journals)' if plan.reused else ''}"
+            f"{f' ({plan.decision.reused} from journals)' if plan.decision.reused else ''}"
             f"{f', {len(plan.isolated)} alone on rank 0 (their last run died)' if plan.isolated else ''}"
-            f"{f', {plan.crashed} quarantined (--retry-crashed runs them)' if plan.crashed else ''}"
+            f"{f', {plan.decision.crashed} quarantined (--retry-crashed runs them)' if plan.decision.crashed else ''}"
             f", {len(chunks)} chunks on {team.size} rank(s)",
             file=stream,
             flush=True,
@@ -361,7 +362,7 @@ def _run(team: Team, plan: Plan, keep: dict[str, Any], task_function: TaskFuncti
         from .costmodel import start_line  # the dry run's estimate, from the cached calibration only
 
         print(start_line(todo, team.size), file=stream, flush=True)
-        progress = Progress(len(tasks), plan.reused, sum(t.cost for t in todo), spec.progress_interval, stream)
+        progress = Progress(len(tasks), plan.decision.reused, sum(t.cost for t in todo), spec.progress_interval, stream)
 
     index = {t.key: i for i, t in enumerate(tasks)}
     task_s = schedule_s = journal_s = 0.0
@@ -369,14 +370,14 @@ def _run(team: Team, plan: Plan, keep: dict[str, Any], task_function: TaskFuncti
     failure: str | None = None
     stop.watch(spec.journal, team.rank)
     counter = team.counter(SLOTS)
-    journal = Journal(_journal_path(spec, team.rank, plan.session), team.rank,
-                      {"session": plan.session, "spec_path": str(spec.path), **plan.provenance})
+    journal = Journal(_journal_path(spec, team.rank, plan.decision.session), team.rank,
+                      {"session": plan.decision.session, "spec_path": str(spec.path), **plan.decision.provenance})
     done: list[Entry] = []  # this rank's outcomes, and their tasks' positions
     done_at: list[int] = []
 
     def run_one(task: Task) -> None:
         nonlocal task_s, journal_s, run
-        fault = plan.faults.get(index[task.key])
+        fault = plan.decision.faults.get(index[task.key])
         mark = time.perf_counter()
         journal.started(task.key)
         journal_s += time.perf_counter() - mark
@@ -388,7 +389,7 @@ def _run(team: Team, plan: Plan, keep: dict[str, Any], task_function: TaskFuncti
         except BaseException:
             journal.interrupted(task.key, "the run was interrupted")
             raise
-        entry = replace(entry, resolved=provenance.resolved_scene(task.params), provenance=plan.provenance)
+        entry = replace(entry, resolved=provenance.resolved_scene(task.params), provenance=plan.decision.provenance)
         task_s += entry.wall_time_s
         run += 1
         mark = time.perf_counter()
@@ -479,8 +480,8 @@ def _assemble(spec: Spec, plan: Plan, keep: Mapping[str, Any], ranks: int, total
         keep["task_of"],
         joined,
         {
-            "hpcontact_version": plan.provenance["hpcontact_version"],
-            "git_revision": plan.provenance["git_revision"],
+            "hpcontact_version": plan.decision.provenance["hpcontact_version"],
+            "git_revision": plan.decision.provenance["git_revision"],
             "numerics": json.dumps(provenance.numerics(), sort_keys=True),
             "sweep_contributors": joined.provenance,
             "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
@@ -495,7 +496,7 @@ def _assemble(spec: Spec, plan: Plan, keep: Mapping[str, Any], ranks: int, total
         tasks=len(plan.tasks),
         points=math.prod(len(a) for a in spec.axes),
         run=sum(t[1] for t in totals),
-        reused=plan.reused,
+        reused=plan.decision.reused,
         failures=len(failed),
         ranks=ranks,
         wall_s=now - started,
@@ -510,7 +511,7 @@ def _assemble(spec: Spec, plan: Plan, keep: Mapping[str, Any], ranks: int, total
     shown = [f"{json.dumps(dict(plan.tasks[i].params), sort_keys=True)}: {joined.message[i]}"
              for i in failed[:SHOWN_FAILURES]]
     print(summary.text(shown), file=stream)
-    unseen = [r for r, t in enumerate(totals) if t[1] and not _journal_path(spec, r, plan.session).exists()]
+    unseen = [r for r, t in enumerate(totals) if t[1] and not _journal_path(spec, r, plan.decision.session).exists()]
     if unseen:
         print(
             f"hpcontact: warning: rank 0 does not see the journals of rank(s) {', '.join(map(str, unseen[:10]))} in "
