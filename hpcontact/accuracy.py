@@ -103,6 +103,8 @@ __all__ = [
     "refine",
     "solve_to_accuracy",
     "default_solve",
+    "default_grids",
+    "extrapolates_by_default",
     "AccuracyNotMet",
 ]
 
@@ -515,13 +517,29 @@ def extrapolates_by_default(params: Mapping[str, Any]) -> bool:
             and all(x in SUPPORTED for x in scene.quantities))
 
 
+def default_grids(params: Mapping[str, Any]) -> list[tuple[int, int]]:
+    """The grids (n, n_across) :func:`default_solve` solves ``params`` on at most: grids 16, 32,
+    … (``DEFAULT_N0``, ``DEFAULT_GRIDS`` of them, ``grid_sequence``'s cells across), or [] when
+    ``params`` give ``n`` or do not :func:`extrapolate by default <extrapolates_by_default>`.
+    It stops earlier when the estimate is met on fewer (never before ``MIN_GRIDS``); the memory
+    plan never cuts grids this small. The sweep's cost model sums its tasks' cost over these
+    (``hpcontact.sweep.tasks.solved_grids``)."""
+    if not extrapolates_by_default(params):
+        return []
+    return grid_sequence(Scene.from_params(params).shape, DEFAULT_N0)[:DEFAULT_GRIDS]
+
+
 def default_solve(params: Mapping[str, Any]) -> dict[str, Any]:
     """One scene with the default discretization: ``hpcontact.solve.solve`` when ``params`` give
     ``n`` (one grid, centre-in-cell, as always) or the scene is not one that
     :func:`extrapolates_by_default`; else ``solve_to_accuracy`` on grids 16, 32, … , 256
     (``DEFAULT_GRIDS``), stopping once the estimate is ≤ ``DEFAULT_ACCURACY`` = 1e-4, never an
     error: the record's ``estimated_error`` says what was reached (README, "What accuracy
-    costs": 0.03–0.3 s, true errors ≤ 3e-5 on ellipses b/a 1 … 1e-8)."""
+    costs": 0.3–1.1 s CPU, true errors ≤ 9e-5 on ellipses b/a 1 … 1e-8). Its ``nx``, ``ny``,
+    ``dx``, ``dy`` are the finest grid's, ``grids`` and ``grids_across`` list every grid.
+
+    A sweep's contact tasks run this too (``hpcontact.sweep.kinds.task_function``): a spec
+    without ``n`` gets the extrapolated default and its data set ``estimated_error``."""
     if not extrapolates_by_default(params):
         from .solve import solve
 

@@ -21,6 +21,15 @@ in the force and length units of the input (F, L). The tables below write units 
 ``units.cf_attributes`` turns a unit in scene scales (G, a, L, F) into ``units = "1"`` with the
 scale in ``scale`` and ``long_name``, so every unit parses with UDUNITS as what it means.
 
+A contact spec without ``n`` (neither fixed nor an axis) is solved by ``hpcontact solve``'s
+extrapolated default (``accuracy.default_solve``, ``kinds``) wherever it applies: the data set
+then has no ``n`` coordinate; ``nx``, ``ny``, ``dx``, ``dy`` are the *finest* grid's (256 cells
+along the long side, ``grid_sequence``'s across: 256 × 128 for b/a = 0.5), ``grids`` and
+``grids_across`` the JSON lists of every grid solved, ``estimated_error`` the estimated relative
+error of the extrapolated K (NaN for tasks solved on one grid), ``accuracy_met`` whether it is
+≤ 1e-4 and ``stopped_by`` why the sequence ended. A task the default does not extrapolate (a
+rough patch, a mask, a crystal) is one grid of n = 128 as before.
+
 With an ``angle`` axis and a tangential tensor, ``derive_directional`` adds the stiffness along
 the load direction ``K_nn`` (and Li's ``normalized_nn``): K_nn = nᵀ K n in tensor mode, K_xx of
 the shape turned by −angle in rotated mode. ``write_netcdf`` stores the data set without them

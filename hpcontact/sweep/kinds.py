@@ -3,7 +3,12 @@
 A sweep runs one kind of scene, named by its [scene] ``quantities``:
 
 * ``contact`` (every other ``quantities``): a flat punch or a rigid sphere on one body,
-  ``hpcontact.solve.solve`` checked by ``hpcontact.scene.validate``;
+  ``hpcontact.accuracy.default_solve`` checked by ``hpcontact.scene.validate``: a scene with
+  ``n`` is one grid (``hpcontact.solve.solve``, as ``hpcontact solve --n``); a scene without it
+  gets the extrapolated default of ``hpcontact solve`` without ``--n`` where
+  ``accuracy.extrapolates_by_default`` holds (grids 16 … 256, coverage-weighted cells, stop at
+  an estimate ≤ 1e-4; its record's ``estimated_error`` and the finest grid's ``nx``, ``ny`` go
+  into the data set), else one grid of the engine's default n = 128;
 * ``slip`` (``quantities = "slip"`` or ``["slip"]``): two bodies pressed together and loaded
   tangentially with Coulomb friction, ``hpcontact.slip.solve_slip`` checked by
   ``hpcontact.slip.validate``.
@@ -44,9 +49,9 @@ def task_function(kind: str) -> TaskFunction:
         from ..slip import solve_slip
 
         return solve_slip
-    from ..solve import solve
+    from ..accuracy import default_solve
 
-    return solve
+    return default_solve
 
 
 def validator(kind: str) -> Validator:

@@ -19,6 +19,7 @@ coefficient or the loading path: its tasks group by pair, radii and grid.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import math
 from dataclasses import dataclass
@@ -150,14 +151,45 @@ def enumerate_tasks(spec: Spec) -> tuple[list[Task], dict[tuple[int, ...], str]]
     return tasks, {index: tasks[task_of[index]].key for index in np.ndindex(task_of.shape)}
 
 
+def solved_grids(params: Mapping[str, Any]) -> list[Mapping[str, Any]]:
+    """The one-grid scenes a task of ``params`` solves: ``[params]`` for a scene with ``n`` (or
+    one that ``accuracy.extrapolates_by_default`` refuses, or a slip scene); for a contact scene
+    without ``n`` that extrapolates by default (``accuracy.default_solve``, which the sweep's
+    task function runs), one scene per grid of ``accuracy.default_grids`` (16 … 256 along the
+    long side, five grids) with that grid's ``n``, ``n_across`` and the CG tolerance
+    ``solve_to_accuracy`` uses (at most the default accuracy / 100). Cached per scene."""
+    if scene_kind(params) == SLIP or params.get("n") is not None:
+        return [params]
+    grids = _default_grids(canonical_json(params))
+    return [{**params, "n": n, "n_across": na, "tol": tol} for n, na, tol in grids] if grids else [params]
+
+
+@functools.lru_cache(maxsize=4096)
+def _default_grids(text: str) -> tuple[tuple[int, int, float], ...]:
+    """(n, n_across, tol) of every grid ``accuracy.default_solve`` solves the scene ``text``
+    (canonical JSON) on; () when it solves one grid."""
+    import json
+
+    from ..accuracy import DEFAULT_ACCURACY, default_grids
+
+    params = json.loads(text)
+    tol = max(min(float(params.get("tol", DEFAULT_TOL)), DEFAULT_ACCURACY * 1e-2), 1e-14)
+    return tuple((n, na, tol) for n, na in default_grids(params))
+
+
 def estimated_cost(params: Mapping[str, Any]) -> float:
     """Relative cost of a scene: padded FFT size · log (per operator application) × solves ×
     digits of tolerance × the iteration factor of the grid's aspect in cells (CG iterations:
-    ``taskgrid.iteration_factor``, 1 + 0.3 log2 ρ). The grid is ``taskgrid.contact_grid``'s
+    ``taskgrid.iteration_factor``, (1 + 0.3 log2 ρ) log2 S / 18). The grid is ``taskgrid.contact_grid``'s
     (the rule of ``geometry.grid_for`` on the turned shape); crystal scenes cost more
-    (``CRYSTAL_FACTOR``, coupled tangential solves); slip scenes see ``slip_cost``."""
+    (``CRYSTAL_FACTOR``, coupled tangential solves); slip scenes see ``slip_cost``. A contact
+    scene without ``n`` that is extrapolated by default costs the sum over the grids it solves
+    (``solved_grids``)."""
     if scene_kind(params) == SLIP:
         return slip_cost(params)
+    levels = solved_grids(params)
+    if len(levels) > 1:
+        return sum(estimated_cost(level) for level in levels)
     quantities = quantity_names(params.get("quantities", DEFAULT_QUANTITIES))
     size = padded_cells(params)
     crystal = params.get("material") is not None or float(params.get("anisotropy", 1.0)) != 1.0
@@ -175,11 +207,12 @@ def estimated_cost(params: Mapping[str, Any]) -> float:
 def padded_cells(params: Mapping[str, Any]) -> float:
     """Cells of the scene's padded FFT grid (twice the contact grid each way): 4 nx × ny for a
     contact scene (``taskgrid.contact_grid``: the turned shape's bounding box, n × n for an
-    indentation-only scene), (2 × 1.1 n)² for a slip scene."""
+    indentation-only scene; the finest of ``solved_grids`` for a scene extrapolated by
+    default), (2 × 1.1 n)² for a slip scene."""
     if scene_kind(params) == SLIP:
         side = 2.0 * SLIP_GRID_MARGIN * int(params.get("n", SLIP_DEFAULT_N))
         return side * side
-    nx, ny = contact_grid(params)
+    nx, ny = contact_grid(solved_grids(params)[-1])
     return 4.0 * nx * ny
 
 
