@@ -3,11 +3,11 @@
 **Seconds.** A task of kind k (``task_kind``: ``contact``, ``crystal``, ``crystal_indentation``
 or ``slip``) takes, on one core of this machine,
 
-    seconds = rate_k × cost + solve_k × cost / (S log2 S) + cell_k × S [+ node_s × ω nodes, slip]
+    seconds = rate_k × cost + solve_k × cost / (S log2 S) + cell_k × S + task_k [+ node_s × ω nodes, slip]
 
 with ``cost = hpcontact.sweep.tasks.estimated_cost(params)`` as the cost units (padded FFT cells
 S · log2 S × solves × CG iterations, the iterations as digits of tolerance × the grid's
-iteration factor 1 + 0.3 log2 ρ, ρ the contact grid's aspect in cells: ``taskgrid``; a slip
+iteration factor (1 + 0.3 log2 ρ) log2 S / 18, ρ the contact grid's aspect in cells: ``taskgrid``; a slip
 scene's solves follow its load path, ``tasks.slip_cost``) and S = ``tasks.padded_cells(params)``
 (the grid of the turned shape's bounding box, ``taskgrid.contact_grid``): the first term is the
 FFT work, the second the work per solve-iteration that does not grow with the grid (Python, CG
@@ -29,7 +29,16 @@ again at tol = 1e-2, and the time extrapolated to zero digits, divided by its S,
 42: ~2.4 s of it the kernels, which the other terms, proportional to the iterations, gave as
 0.6 s; accuracy_cost's loose-tolerance tasks on large grids came out at 0.62 without it);
 calibrated for the isotropic contact kind (0 for the others, whose kernel work the two
-coefficients absorb). ``node_s`` is what a small slip scene of two orthotropic bodies
+coefficients absorb). Since 2026-11-23 the kernels' time is the loose solve less its CG
+iterations at the time per iteration of the two solves (their difference over the difference of
+their iterations), not an extrapolation in digits (iterations are not proportional to digits:
+10 at 1e-2, 56 at 1e-10): the extrapolation gave 4e-9 to 9e-8 s per cell from run to run, the
+iterations 1.6e-7 (measured: 1.2e-7, 2.1e-7, 3.3e-7 at n = 256, 512, 1024, the arrays leaving
+the caches). ``task_k`` is what any task takes whatever its grid (scene, plan, kernels' set-up,
+record): a 16 × 16 circle at tol 1e-2 (``TINY_CONTACT_SCENE``, 4-6 ms), subtracted from the
+other timings before they are fitted; contact kind only. With the iterations' log2 S growth
+(``taskgrid``), kernels by iterations and ``task_k``, accuracy_cost's estimate went from 0.62-0.63
+of the measured time to 0.92 (same machine, same day). ``node_s`` is what a small slip scene of two orthotropic bodies
 (``ANISOTROPIC_SLIP_SCENE``) takes beyond the slip kind's two terms, per ω node. Times are CPU
 seconds of the process (``time.process_time``; the solvers run one thread unless a scene asks
 for more): the time on a core of its own, as a batch system gives one per rank, and unlike wall
@@ -107,7 +116,7 @@ from .kinds import SLIP, quantity_names, scene_kind
 from .tasks import Task, estimated_cost, make_chunks, padded_cells
 
 KINDS = ("contact", "crystal", "crystal_indentation", "slip")
-FORMAT = 3  # version of the calibration file's layout (2: node_s, Barnett–Lothe; 3: cell_s, kernels)
+FORMAT = 4  # version of the calibration file's layout (2: node_s, Barnett–Lothe; 3: cell_s, kernels; 4: task_s)
 MIB = 2**20
 # Memory per kind: (fixed bytes, bytes per padded cell), fitted as stated in the module docstring.
 MEMORY_MODEL = {
@@ -142,6 +151,11 @@ CALIBRATION_SCENES: dict[str, tuple[dict[str, Any], dict[str, Any]]] = {
 }
 
 
+# The smallest contact task (16 × 16 cells, tol 1e-2): what any contact task takes beyond its
+# grid's work (scene, plan, kernels' set-up, record; measured 10-15 ms, 2026-11-23).
+TINY_CONTACT_SCENE: dict[str, Any] = {"shape": "circle", "nu": 0.3, "n": 16, "quantities": _TANGENTIAL_NORMAL, "tol": 1e-2}
+
+
 # A slip scene with two anisotropic bodies (the orthotropic pair of Rodríguez-Tembleque et al.
 # 2011, §6.2; 256 ω nodes each), small: what it takes beyond the isotropic slip rates is the
 # Barnett–Lothe cost, per ω node.
@@ -167,13 +181,14 @@ def task_kind(params: Mapping[str, Any]) -> str:
 @dataclass(frozen=True)
 class Rate:
     """Seconds of a task of one kind: ``rate_s × cost + solve_s × solve_units + cell_s ×
-    padded cells + node_s × omega_nodes`` (module docstring; ``cell_s`` is measured for the
-    isotropic contact kind, ``node_s`` for slip scenes)."""
+    padded cells + node_s × omega_nodes + task_s`` (module docstring; ``cell_s`` and
+    ``task_s`` are measured for the isotropic contact kind, ``node_s`` for slip scenes)."""
 
     rate_s: float
     solve_s: float
     node_s: float = 0.0
     cell_s: float = 0.0
+    task_s: float = 0.0
 
 
 def solve_units(params: Mapping[str, Any], cost: float) -> float:
@@ -200,7 +215,7 @@ class Calibration:
         cost = estimated_cost(params) if cost is None else cost
         nodes = omega_nodes(params) if kind == "slip" else 0
         return (rate.rate_s * cost + rate.solve_s * solve_units(params, cost) + rate.cell_s * padded_cells(params)
-                + rate.node_s * nodes)
+                + rate.node_s * nodes + rate.task_s)
 
     def task_bytes(self, params: Mapping[str, Any]) -> float:
         """Estimated peak resident bytes of a rank running the scene ``params``."""
@@ -276,21 +291,26 @@ def base_memory_bytes() -> float:
 
 
 def _timed(params: Mapping[str, Any], repeats: int = 2) -> float:
+    """CPU seconds of a solve of ``params`` (``_timed_solve``)."""
+    return _timed_solve(params, repeats)[0]
+
+
+def _timed_solve(params: Mapping[str, Any], repeats: int = 2) -> tuple[float, int]:
     """CPU seconds of a solve of ``params`` with warm FFT plans (an untimed solve first) and a
     cold kernel cache: the time on a core of its own, whatever else shares the machine; the
-    least of ``repeats`` timings (the others carry interference)."""
+    least of ``repeats`` timings (the others carry interference); and its CG iterations."""
     from ..operator import clear_cache
     from .kinds import task_function
 
     function = task_function(scene_kind(params))
-    function(dict(params))
+    record = function(dict(params))
     best = math.inf
     for _ in range(repeats):
         clear_cache()
         started = time.process_time()
         function(dict(params))
         best = min(best, time.process_time() - started)
-    return best
+    return best, int(record.get("iterations", 0))
 
 
 def fit_rate(scenes: Sequence[Mapping[str, Any]], seconds: Sequence[float]) -> Rate:
@@ -312,16 +332,21 @@ def fit_rate(scenes: Sequence[Mapping[str, Any]], seconds: Sequence[float]) -> R
 
 
 def _fit_with_kernels(pair: Sequence[Mapping[str, Any]]) -> Rate:
-    """``Rate`` with ``cell_s`` for the contact kind: the larger scene timed at its tolerance and
-    at 1e-2 gives the kernels' time (extrapolated to zero digits), the rest is fitted as usual."""
+    """``Rate`` with ``cell_s`` and ``task_s`` for the contact kind: ``TINY_CONTACT_SCENE`` gives
+    the time of a task whatever its grid (``task_s``); the larger scene timed at its tolerance
+    and at 1e-2 gives the time per CG iteration (the difference of the two over the difference
+    of their iterations) and so the kernels' time (the loose solve less its iterations); the
+    rest is fitted as usual, all of them less ``task_s``."""
     small, large = pair
     loose = {**large, "tol": 1e-2}
-    t_small, t_large, t_loose = (_timed(p) for p in (small, large, loose))
-    digits = [max(1.0, -math.log10(float(p["tol"]))) for p in (large, loose)]
-    per_digit = (t_large - t_loose) / (digits[0] - digits[1])
-    cell_s = max(0.0, t_loose - per_digit * digits[1]) / padded_cells(large)
+    task_s = _timed(TINY_CONTACT_SCENE)
+    t_small = max(0.0, _timed(small) - task_s)
+    (t_large, it_large), (t_loose, it_loose) = (_timed_solve(p) for p in (large, loose))
+    t_large, t_loose = max(0.0, t_large - task_s), max(0.0, t_loose - task_s)
+    per_iteration = (t_large - t_loose) / max(1, it_large - it_loose)
+    cell_s = max(0.0, t_loose - per_iteration * it_loose) / padded_cells(large)
     fitted = fit_rate(pair, [t - cell_s * padded_cells(p) for t, p in ((t_small, small), (t_large, large))])
-    return Rate(fitted.rate_s, fitted.solve_s, 0.0, cell_s)
+    return Rate(fitted.rate_s, fitted.solve_s, 0.0, cell_s, task_s)
 
 
 def calibrate(scenes: Mapping[str, Sequence[Mapping[str, Any]]] = CALIBRATION_SCENES) -> Calibration:
@@ -370,7 +395,7 @@ def read_calibration(path: Path) -> Calibration:
     rates = {}
     for kind in KINDS:
         entry = record["rates"][kind]
-        rates[kind] = Rate(*(float(entry[name]) for name in ("rate_s", "solve_s", "node_s", "cell_s")))
+        rates[kind] = Rate(*(float(entry[name]) for name in ("rate_s", "solve_s", "node_s", "cell_s", "task_s")))
         if not all(math.isfinite(v) and v >= 0.0 for v in asdict(rates[kind]).values()):
             raise ValueError(f"{kind}: rates must be finite and >= 0")
         if rates[kind].rate_s + rates[kind].solve_s <= 0.0:

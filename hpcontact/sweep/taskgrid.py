@@ -20,6 +20,14 @@ tol = 1e-10; iterations of the three solves): ρ = 1: 33, 36, 39 (circle n = 128
 it(ρ = 1) × (1 + 0.3 log2 ρ) fits these within ±25 % (a least-squares slope of 0.25–0.4 per
 doubling, depending on the points kept), while the time per iteration stays S log S (3.1 ms on
 256 × 256 padded cells, 3.3–3.7 ms on 1024 × 64).
+
+They grow with the grid as well, in proportion to log2 S (S = 4 nx ny the padded cells):
+measured (this machine, 2026-11-23, tol = 1e-10, tangential + normal) ellipse b/a = 0.5 at
+n = 64, 128, 256, 512, 1024: 42, 50, 56, 61, 68 iterations against 43, 49, 56, 63, 69 for
+56 × log2 S / 17; circle n = 32, 128, 512: 22, 33, 39 against 25, 33, 41. Without it the
+estimate of a 1024² grid, calibrated on 256², missed its iterations by 1.2-1.3×
+(``jobs/accuracy_cost.toml``). The factor is relative to ``REFERENCE_LOG2_CELLS`` = 18 (a
+square contact of 256 cells a side): iteration_factor = (1 + 0.3 log2 ρ) log2 S / 18.
 """
 
 from __future__ import annotations
@@ -32,6 +40,7 @@ from ..scene import DEFAULTS
 from .kinds import quantity_names
 
 ITERATIONS_PER_DOUBLING = 0.3  # relative growth of CG iterations per doubling of ρ (module docstring)
+REFERENCE_LOG2_CELLS = 18.0  # log2 of the padded cells at which the grid's own factor is 1 (module docstring)
 
 
 def contact_grid(params: Mapping[str, Any]) -> tuple[int, int]:
@@ -56,7 +65,9 @@ def _grid(name: str, aspect: float, sides: int, angle: float, amplitude: float, 
 
 
 def iteration_factor(params: Mapping[str, Any]) -> float:
-    """CG iterations of the contact scene ``params`` relative to a grid of square aspect in cells:
-    1 + 0.3 log2 ρ, ρ = max(nx, ny) / min(nx, ny) (module docstring)."""
+    """CG iterations of the contact scene ``params`` relative to a square grid of 256 × 256 cells:
+    (1 + 0.3 log2 ρ) × log2 S / 18, ρ = max(nx, ny) / min(nx, ny), S = 4 nx ny the padded cells
+    (module docstring)."""
     nx, ny = contact_grid(params)
-    return 1.0 + ITERATIONS_PER_DOUBLING * math.log2(max(nx, ny) / min(nx, ny))
+    aspect = 1.0 + ITERATIONS_PER_DOUBLING * math.log2(max(nx, ny) / min(nx, ny))
+    return aspect * math.log2(4.0 * nx * ny) / REFERENCE_LOG2_CELLS

@@ -79,9 +79,10 @@ def test_task_estimate_is_rate_times_cost_plus_per_solve_and_memory_grows_with_t
     rates = {kind: Rate(rate_s=2e-6, solve_s=0.5) for kind in costmodel.KINDS}
     calibration = Calibration("h", "v", rates, base_bytes=1000.0)
     params = {"shape": "circle", "n": 32, "quantities": ["tangential"], "tol": 1e-6}
-    # S = 4 x 32 x 32 = 4096 padded cells, log2 S = 12; 2 solves x 6 digits = 12 solve units
-    assert padded_cells(params) == 4096 and estimated_cost(params) == 4096 * 12 * 12
-    assert calibration.task_seconds(params) == pytest.approx(2e-6 * 4096 * 12 * 12 + 0.5 * 12, rel=1e-15)
+    # S = 4 x 32 x 32 = 4096 padded cells, log2 S = 12; 2 solves x 6 digits x the grid's
+    # iteration factor 12/18 (taskgrid.REFERENCE_LOG2_CELLS) = 8 solve units
+    assert padded_cells(params) == 4096 and estimated_cost(params) == pytest.approx(4096 * 12 * 8, rel=1e-15)
+    assert calibration.task_seconds(params) == pytest.approx(2e-6 * 4096 * 12 * 8 + 0.5 * 8, rel=1e-15)
     fixed, per_cell = costmodel.MEMORY_MODEL["contact"]
     assert calibration.task_bytes(params) == 1000.0 + fixed + per_cell * 4096
     crystal = {**params, "anisotropy": 2.0}
@@ -225,6 +226,14 @@ def test_the_start_line_uses_the_cached_calibration_and_never_calibrates(tmp_pat
     # 1e-6 s per unit x 294 912 units = 0.2949 s of one task; on 2 ranks the makespan adds the
     # replayed overheads, so only the core-seconds are exact
     assert "estimated 0.2949 core-seconds" in costmodel.start_line(tasks, 2)
+
+
+def test_the_task_term_is_the_same_for_every_contact_task():
+    rates = {kind: Rate(rate_s=0.0, solve_s=0.0, task_s=0.01) for kind in costmodel.KINDS}
+    calibration = Calibration("h", "v", rates, base_bytes=0.0)
+    small = {"shape": "circle", "n": 16, "quantities": ["tangential"], "tol": 1e-2}
+    large = {"shape": "ellipse", "aspect": 0.1, "n": 512, "quantities": ["tangential", "normal"], "tol": 1e-10}
+    assert calibration.task_seconds(small) == calibration.task_seconds(large) == 0.01
 
 
 def test_the_kernel_term_is_per_padded_cell_whatever_the_tolerance():

@@ -34,10 +34,18 @@ def test_an_indentation_scene_is_solved_on_n_by_n_cells():
 
 
 def test_iterations_grow_with_the_aspect_in_cells_not_with_the_shape_alone():
-    assert iteration_factor({"shape": "circle", "n": 64}) == 1.0
-    # a square on 512 x 32 cells and a 1e-8 strip on the same cells: the same index-space aspect 16
+    # a square contact of 256 cells a side is the reference: 512 x 512 = 2^18 padded cells
+    assert iteration_factor({"shape": "circle", "n": 256}) == 1.0
+    # a square on 512 x 32 cells and a 1e-8 strip on the same cells: the same index-space aspect
+    # 16 and the same 2^16 padded cells
     square = iteration_factor({"shape": "rectangle", "aspect": 1.0, "n": 512, "n_across": 32})
     strip = iteration_factor({"shape": "rectangle", "aspect": 1e-8, "n": 512, "n_across": 32})
-    assert square == strip == pytest.approx(1.0 + ITERATIONS_PER_DOUBLING * math.log2(16.0), rel=1e-15)
+    assert square == strip == pytest.approx((1.0 + ITERATIONS_PER_DOUBLING * math.log2(16.0)) * 16 / 18, rel=1e-15)
     # a turned thin rectangle (128 x 640 cells) iterates more than the same one along x (128 x 26)
     assert iteration_factor(SCENES[0]) > iteration_factor({**SCENES[0], "shape_angle": 0.0}) > 1.0
+
+
+def test_iterations_grow_as_log2_of_the_padded_cells():
+    # module docstring: 56 iterations at n = 256, 68 at n = 1024 (ellipse 0.5), i.e. log2 S 17 -> 21
+    ratio = iteration_factor({"shape": "circle", "n": 1024}) / iteration_factor({"shape": "circle", "n": 256})
+    assert ratio == pytest.approx(22 / 18, rel=1e-15)
