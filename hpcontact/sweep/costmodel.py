@@ -141,7 +141,7 @@ CALIBRATION_SCENES: dict[str, tuple[dict[str, Any], dict[str, Any]]] = {
     "crystal_indentation": tuple(
         {"shape": "circle", "nu": 0.3, "anisotropy": 2.0, "orientation": 30.0, "n": n, "quantities": ["indentation"],
          "radius": 1.0, "depth": 1e-4, "tol": 1e-10}
-        for n in (64, 128)
+        for n in (128, 256)
     ),
     "slip": tuple(
         {"quantities": "slip", "material": "Cu", "material2": "Cu", "radius": 8e-3, "radius2": 9e-3, "load": 10.0,
