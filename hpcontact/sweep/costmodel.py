@@ -38,7 +38,10 @@ the caches). ``task_k`` is what any task takes whatever its grid (scene, plan, k
 record): a 16 × 16 circle at tol 1e-2 (``TINY_CONTACT_SCENE``, 4-6 ms), subtracted from the
 other timings before they are fitted; contact kind only. With the iterations' log2 S growth
 (``taskgrid``), kernels by iterations and ``task_k``, accuracy_cost's estimate went from 0.62-0.63
-of the measured time to 0.92 (same machine, same day). ``node_s`` is what a small slip scene of two orthotropic bodies
+of the measured time to 0.92 (same machine, same day). The crystal indentation kind is calibrated on n = 128 and 256 (the shipped
+``tembleque2011_sphere`` runs n = 256): calibrated on 64 and 128 its estimate was 0.62-0.68 of
+the measured time, the time per cost unit rising by ~1.45x once the arrays (4 MB each at 512²
+padded cells) no longer fit the 32 MB L3 cache; on 128 and 256, 0.91. ``node_s`` is what a small slip scene of two orthotropic bodies
 (``ANISOTROPIC_SLIP_SCENE``) takes beyond the slip kind's two terms, per ω node. Times are CPU
 seconds of the process (``time.process_time``; the solvers run one thread unless a scene asks
 for more): the time on a core of its own, as a batch system gives one per rank, and unlike wall
