@@ -20,6 +20,11 @@ the hexagon and the 1e-8 rectangle against a reference: the order-1 Richardson e
 coverage-weighted solves at n = 2·nmax and 4·nmax (finer than any grid of the sequence), whose
 own uncertainty |R(4 nmax) − R(2 nmax)| is printed with it (``--quick`` leaves these out).
 
+``--done-when REQUEST``: issue 12's table — ``solve_to_accuracy`` at REQUEST for ellipses b/a =
+0.7, 0.05, 1e-3, 1e-6, nu = 0.3, 0.5, with coverage-weighted cells and with ``auto`` (singular
+cells from ``accuracy.singular_start`` where they apply), grids up to ``--max-cells`` (default
+1024² − 1: the n = 1024 of the issue's coverage figures): estimate, true error, CPU s, peak MiB.
+
 ``--bound``: the singular cells' error over K_xx, K_yy, K_zz for the circle and the ellipses 0.7
 and 0.5 (n = 32 … 256) and 0.05 (128 × 8 … 512 × 32) at nu = 0, 0.3, 0.5; prints n_across·error
 per entry (n_across: cells across the minor axis) and the largest |n_across·error| (the
@@ -123,13 +128,64 @@ def bound() -> None:
     print(f"largest |n_across·error| = {worst:.5f}")
 
 
+DONE_WHEN = [(aspect, nu) for aspect in (0.7, 0.05, 1e-3, 1e-6) for nu in (0.3, 0.5)]
+
+
+def done_when_case(aspect: float, nu: float, request: float, strategy: str, max_cells: int) -> None:
+    """One ``solve_to_accuracy`` (tangential and normal) in this process, printed as one JSON
+    line: estimate, largest true error of K_xx, K_yy, K_zz, K_a/K_b (Mindlin, Galin), CPU
+    seconds (``time.process_time``) and this process's peak resident set."""
+    import resource
+
+    from hpcontact.accuracy import solve_to_accuracy
+
+    started = time.process_time()
+    r = solve_to_accuracy({"shape": "ellipse", "aspect": aspect, "nu": nu, "quantities": "tangential,normal"}, request,
+                          strategy=strategy, max_cells=max_cells, strict=False)
+    cpu = time.process_time() - started
+    K_a, K_b = analytic.mindlin_ellipse_stiffness(1.0, aspect, 1.0, nu)
+    exact = {"K_xx": K_a, "K_yy": K_b, "K_zz": analytic.elliptical_punch_normal_stiffness(1.0, aspect, 1.0, nu),
+             "K_a_over_K_b": K_a / K_b}
+    true = {k: abs(r[k] / v - 1.0) for k, v in exact.items()}
+    print(json.dumps({"aspect": aspect, "nu": nu, "strategy": r["boundary"], "estimate": r["estimated_error"],
+                      "true": max(true.values()), "honest_per_quantity": all(true[k] <= r["estimated_errors"][k] for k in true),
+                      "cpu_s": cpu, "peak_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+                      "finest": [r["grids"][-1], r["grids_across"][-1]], "stopped_by": r["stopped_by"]}))
+
+
+def done_when(request: float, max_cells: int) -> None:
+    """Issue 12's first "Done when" line: --accuracy REQUEST for ellipses b/a = 0.7, 0.05, 1e-3,
+    1e-6 at nu = 0.3, 0.5, with coverage-weighted cells (before) and ``auto`` (what ``hpcontact
+    solve --accuracy`` uses), each case in a fresh process (peak memory its own)."""
+    import subprocess
+    import sys
+
+    print(f"request {request:g}, at most {max_cells} cells per grid")
+    print("| b/a | nu | cells | estimate | true | honest per quantity | CPU s | peak MiB | finest grid | stopped by |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for strategy in ("coverage", "auto"):
+        for aspect, nu in DONE_WHEN:
+            code = f"import edge_order; edge_order.done_when_case({aspect!r}, {nu!r}, {request!r}, {strategy!r}, {max_cells})"
+            line = subprocess.run([sys.executable, "-c", code], cwd=Path(__file__).parent, check=True,
+                                  capture_output=True, text=True).stdout.strip().splitlines()[-1]
+            r = json.loads(line)
+            print(f"| {aspect:g} | {nu:g} | {r['strategy']} | {r['estimate']:.2e} | {r['true']:.2e} | {r['honest_per_quantity']} | "
+                  f"{r['cpu_s']:.1f} | {r['peak_mib']:.0f} | {r['finest'][0]} × {r['finest'][1]} | {r['stopped_by']} |", flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="circle and ellipse 0.7 only, up to n = 256")
     parser.add_argument("--nmax", type=int, default=512, help="finest grid of the sequence (power of two ≥ 128)")
     parser.add_argument("--out", type=Path, default=None, help="JSON with every number")
     parser.add_argument("--bound", action="store_true", help="the singular cells' error bound study instead")
+    parser.add_argument("--done-when", type=float, default=None, metavar="REQUEST",
+                        help="issue 12's --accuracy table (b/a 0.7, 0.05, 1e-3, 1e-6; nu 0.3, 0.5), coverage and auto")
+    parser.add_argument("--max-cells", type=int, default=1024 * 1024 - 1, help="largest grid of --done-when (cells)")
     args = parser.parse_args()
+    if args.done_when is not None:
+        done_when(args.done_when, args.max_cells)
+        return
     if args.bound:
         bound()
         return

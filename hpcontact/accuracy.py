@@ -64,6 +64,13 @@ K_yy/K_zz in all 336 (worst true/estimate 0.63) and within 30× of it in 94 %. P
 circle, b/a = 0.7, 0.5, n ≤ 1024) it is honest on all 126 records (worst 0.37) and all 602
 per-quantity pairs (worst 0.72), within 30× in 85 % of the records.
 
+``hpcontact solve --accuracy`` uses strategy ``auto``: singular cells where they apply, on
+sequences from :func:`singular_start` (near-square cells; b/a = 0.05 starts at 160 × 8), with
+the candidates led by order 1 only (``SINGULAR_EXPANSIONS``). Replayed on those sequences (b/a =
+1, 0.7, 0.5, 0.3, 0.2, 0.1, 0.05; nu = 0, 0.3, 0.5; n₀ = 16 and 32, five grids; requests 1e-3 …
+1e-6): honest on all 294 records (worst true/estimate 0.55) and all 1644 per-quantity pairs
+(worst 0.69), within 30× in 88 % of the records.
+
 The refinement stops when the request is met, when the planned grids run out (``max_cells``
 cells, or the memory budget: :func:`plan_grids` counts this process's peak resident set plus the
 sweep cost model's arrays of the next grid, ``hpcontact.sweep.costmodel``), or when the estimate
@@ -93,6 +100,8 @@ __all__ = [
     "RATIO",
     "SAFETY",
     "EXPANSIONS",
+    "SINGULAR_EXPANSIONS",
+    "singular_start",
     "grid_sequence",
     "plan_grids",
     "extrapolant",
@@ -118,6 +127,12 @@ RATIO = 2.0  # grid refinement ratio r (Roache 1998 recommends r ≥ 1.3; 2 keep
 EXPANSIONS: tuple[tuple[float, ...], ...] = (
     (), (1.0,), (1.0, 2.0), (1.0, 1.5), (1.0, 2.0, 3.0), (1.5,), (2.0,), (1.5, 2.0), (2.0, 3.0)
 )
+#: The candidates for singular cells (``hpcontact.singular_cells``): those led by order 1. Their
+#: error is led by C/n with a constant that need not be steady (cut-cell quadrature); on the
+#: sequences of :func:`singular_start` (b/a = 1 … 0.05, nu = 0, 0.3, 0.5, n₀ = 16 and 32, 294
+#: records, 1644 per-quantity pairs) leads 1.5 and 2 extrapolated past the true value (79 pairs
+#: below their true error, worst 2.8×, b/a = 0.1 … 0.3); led by 1 none is (worst 0.69).
+SINGULAR_EXPANSIONS: tuple[tuple[float, ...], ...] = tuple(e for e in EXPANSIONS if not e or e[0] <= 1.0)
 LEAD_SLACK = 0.5  # an expansion may lead with an exponent up to the raw sequence's observed order + 0.5
 SAFETY = 3.0  # estimate = SAFETY × the spread of the chosen extrapolant (calibrated, module docstring)
 SAFETY_TWO_GRID = 3.0  # Roache's F_s when only two grids are trustworthy (no expansion fits)
@@ -132,6 +147,10 @@ MAX_CELLS = 2**22  # largest grid (nx · ny) the sequence may reach by default
 TENSOR_KEYS = ("K_xx", "K_xy", "K_yx", "K_yy", "K_zz", "K_xz", "K_yz", "K_zx", "K_zy", "K_zz_bonded",
                "K_xx_coupled", "K_xy_coupled", "K_yx_coupled", "K_yy_coupled")
 RATIO_SHARE = 0.5  # K_a/K_b: at least half the sum of K_xx's and K_yy's estimates (module docstring)
+#: strategy "auto": singular cells when their square-cell sequence starts at most this many cells
+#: along x (b/a ≥ 8/256 with ``MIN_ACROSS`` = 8 across); thinner ellipses would need ≥ 8 b/a-square
+#: cells across on every grid (1e-3: 8000 × 8 cells first, 27 s CPU for that one grid, measured).
+SINGULAR_MAX_N0 = 256
 
 
 # ------------------------------------------------------------------------------------------
@@ -199,7 +218,8 @@ class Estimate:
     expansion: tuple[float, ...]
 
 
-def estimate(values: Sequence[float], ratio: float = RATIO) -> Estimate:
+def estimate(values: Sequence[float], ratio: float = RATIO,
+             expansions: Sequence[tuple[float, ...]] | None = None) -> Estimate:
     """Extrapolated value and error estimate from a sequence on grids h, h/r, h/r², ….
 
     Needs ``MIN_GRIDS`` values. For every candidate expansion of ``EXPANSIONS`` (m exponents)
@@ -208,7 +228,8 @@ def estimate(values: Sequence[float], ratio: float = RATIO) -> Estimate:
     successive windows and their :func:`spread` are computed; the expansion of least spread
     wins, value = its last extrapolant, error = ``SAFETY`` × its spread (module docstring).
     No fitting expansion (a raw sequence that does not converge): the finest value with
-    Roache's two-grid bound 3 |Q_k − Q_{k−1}|.
+    Roache's two-grid bound 3 |Q_k − Q_{k−1}|. ``expansions``: the candidates (default
+    ``EXPANSIONS``; ``SINGULAR_EXPANSIONS`` for singular cells).
     """
     Q = [float(v) for v in values]
     if len(Q) < MIN_GRIDS:
@@ -216,7 +237,7 @@ def estimate(values: Sequence[float], ratio: float = RATIO) -> Estimate:
     p = observed_order(Q[-3], Q[-2], Q[-1], ratio)
     floor = 8.0 * np.finfo(float).eps
     best: Estimate | None = None
-    for exponents in EXPANSIONS:
+    for exponents in (EXPANSIONS if expansions is None else expansions):
         m = len(exponents)
         if len(Q) < m + 3 or (exponents and math.isfinite(p) and exponents[0] > p + LEAD_SLACK):
             continue
@@ -227,6 +248,34 @@ def estimate(values: Sequence[float], ratio: float = RATIO) -> Estimate:
     if best is None:
         best = Estimate(value=Q[-1], error=max(SAFETY_TWO_GRID * abs(Q[-1] - Q[-2]), floor * abs(Q[-1])), order=p, expansion=())
     return best
+
+
+def singular_start(scene: Scene, n0: int, n_across0: int | None) -> tuple[int, int] | None:
+    """First grid (n, n_across) of a sequence on singular cells (``hpcontact.singular_cells``)
+    with near-square cells, or None where they do not apply or would need more than
+    ``SINGULAR_MAX_N0`` cells along x on the first grid.
+
+    The first grid is ``grid_sequence``'s (n₀ along x, n_across₀ or as many across as square
+    cells allow but at least ``MIN_ACROSS`` · n₀/``N0``). Singular cells need dy/dx within
+    [1/2, 2] (``singular_cells.supports``): where that grid's cells are more elongated (b/a
+    below 1/4 from n₀ = 32), the cells across stay and x takes as many as square cells need
+    (b/a = 0.05: 160 × 8). The sequence then refines both by ``RATIO`` (fixed cell aspect).
+    """
+    from . import singular_cells
+    from .boundary_cells import SINGULAR_SUPPORTED
+    from .geometry import grid_for
+
+    shape = scene.shape
+    if shape.name not in ("circle", "ellipse") or not set(scene.quantities) <= set(SINGULAR_SUPPORTED):
+        return None
+    aspect = shape.aspect if shape.name == "ellipse" else 1.0
+    na = n_across0 if n_across0 is not None else max(int(round(MIN_ACROSS * n0 / N0)), int(round(n0 * aspect)), 1)
+    n = int(n0)
+    if not singular_cells.supports(shape, scene.material, grid_for(shape, n, na)):
+        n = max(n, int(round(na / aspect)))  # as many along x as square cells need
+    if n > SINGULAR_MAX_N0 or not singular_cells.supports(shape, scene.material, grid_for(shape, n, na)):
+        return None
+    return n, na
 
 
 def grid_sequence(shape: Shape, n0: int = N0, n_across0: int | None = None, max_cells: int = MAX_CELLS) -> list[tuple[int, int]]:
@@ -308,7 +357,7 @@ def plan_grids(params: Mapping[str, Any], shape: Shape, n0: int, n_across0: int 
     raise AssertionError("the grid sequence is unbounded")  # pragma: no cover - 2**62 cells never fit
 
 
-def extrapolate(levels: Sequence[Mapping[str, Any]]) -> tuple[dict[str, float], dict[str, float], dict[str, float], dict[str, list[float]]]:
+def extrapolate(levels: Sequence[Mapping[str, Any]], expansions: Sequence[tuple[float, ...]] | None = None) -> tuple[dict[str, float], dict[str, float], dict[str, float], dict[str, list[float]]]:
     """Extrapolated tensor entries, their estimated relative errors, observed orders and the
     expansion each value comes from.
 
@@ -320,7 +369,7 @@ def extrapolate(levels: Sequence[Mapping[str, Any]]) -> tuple[dict[str, float], 
     Li's K_xx E*/(K_zz G*) and K_yy E*/(K_zz G*) likewise with K_zz); K_max and K_min get
     ‖δK‖_F / K (Weyl: an eigenvalue moves by at most the norm of the perturbation).
     """
-    estimates = {k: estimate([r[k] for r in levels]) for k in TENSOR_KEYS if k in levels[-1]}
+    estimates = {k: estimate([r[k] for r in levels], expansions=expansions) for k in TENSOR_KEYS if k in levels[-1]}
     values = {k: e.value for k, e in estimates.items()}
     diagonal = [abs(values[k]) for k in ("K_xx", "K_yy", "K_zz") if k in values]
     scale = max(diagonal) if diagonal else 1.0
@@ -329,22 +378,22 @@ def extrapolate(levels: Sequence[Mapping[str, Any]]) -> tuple[dict[str, float], 
         own = key in ("K_xx", "K_yy", "K_zz")
         relative[key] = e.error / max(abs(e.value) if own else scale, 1e-300)
     if "K_xx" in relative and "K_yy" in relative:
-        relative["K_a_over_K_b"] = ratio_error(levels, "K_xx", "K_yy", values, relative)
+        relative["K_a_over_K_b"] = ratio_error(levels, "K_xx", "K_yy", values, relative, expansions)
         frobenius = math.sqrt(sum(estimates[k].error ** 2 for k in ("K_xx", "K_xy", "K_yx", "K_yy")))
         K2 = np.array([[values["K_xx"], values["K_xy"]], [values["K_yx"], values["K_yy"]]])
         k_max, k_min, _ = q.principal_stiffness(K2)
         relative["K_max"] = frobenius / max(abs(k_max), 1e-300)
         relative["K_min"] = frobenius / max(abs(k_min), 1e-300)
         if "K_zz" in relative:
-            relative["normalized_xx"] = ratio_error(levels, "K_xx", "K_zz", values, relative)
-            relative["normalized_yy"] = ratio_error(levels, "K_yy", "K_zz", values, relative)
+            relative["normalized_xx"] = ratio_error(levels, "K_xx", "K_zz", values, relative, expansions)
+            relative["normalized_yy"] = ratio_error(levels, "K_yy", "K_zz", values, relative, expansions)
     orders = {k: e.order for k, e in estimates.items()}
     expansions = {k: list(e.expansion) for k, e in estimates.items()}
     return values, relative, orders, expansions
 
 
 def ratio_error(levels: Sequence[Mapping[str, Any]], top: str, bottom: str, values: Mapping[str, float],
-                relative: Mapping[str, float]) -> float:
+                relative: Mapping[str, float], expansions: Sequence[tuple[float, ...]] | None = None) -> float:
     """Estimated relative error of values[top]/values[bottom]: the estimate of the ratio's own
     sequence (top/bottom per grid) plus the distance of its extrapolant from the ratio of the
     extrapolated entries, and at least ``RATIO_SHARE`` × (e_top + e_bottom). The entries' errors
@@ -352,7 +401,7 @@ def ratio_error(levels: Sequence[Mapping[str, Any]], top: str, bottom: str, valu
     pessimistic; their own sequence alone was below the true error of K_a/K_b at b/a = 1e-3 and
     0.05 (``benchmarks/accuracy_sharpness.py``), hence the floor."""
     ratio = values[top] / values[bottom]
-    own = estimate([r[top] / r[bottom] for r in levels])
+    own = estimate([r[top] / r[bottom] for r in levels], expansions=expansions)
     return max((own.error + abs(own.value - ratio)) / abs(ratio), RATIO_SHARE * (relative[top] + relative[bottom]))
 
 
@@ -375,11 +424,13 @@ class Refinement:
     stopped_by: str | None
 
 
-def refine(grids: Sequence[tuple[int, int]], solve_level: Any, accuracy: float) -> Refinement:
+def refine(grids: Sequence[tuple[int, int]], solve_level: Any, accuracy: float,
+           expansions: Sequence[tuple[float, ...]] | None = None) -> Refinement:
     """Solve ``solve_level(n, n_across)`` on ``grids`` in turn, extrapolating from the
     ``MIN_GRIDS``-th on, until the largest estimated relative error is ≤ ``accuracy`` (``met``)
     or has not fallen over ``STAGNATION_LEVELS`` refinements (``stagnation``). The one loop of
-    ``solve_to_accuracy`` and of the replays of ``benchmarks/accuracy_sharpness.py``."""
+    ``solve_to_accuracy`` and of the replays of ``benchmarks/accuracy_sharpness.py``;
+    ``expansions`` as :func:`estimate`."""
     levels: list[dict[str, Any]] = []
     history: list[float] = []
     found: tuple[dict[str, float], dict[str, float], dict[str, float], dict[str, list[float]]] = ({}, {}, {}, {})
@@ -387,7 +438,7 @@ def refine(grids: Sequence[tuple[int, int]], solve_level: Any, accuracy: float) 
         levels.append(solve_level(n, na))
         if len(levels) < MIN_GRIDS:
             continue
-        found = extrapolate(levels)
+        found = extrapolate(levels, expansions)
         history.append(max(found[1].values()))
         if history[-1] <= accuracy:
             return Refinement(levels, *found, stopped_by="met")
@@ -436,7 +487,10 @@ def solve_to_accuracy(
 
     ``params`` are those of ``solve``; ``n`` and ``n_across`` there are ignored (the sequence
     starts at ``n0`` (default 32) and ``n_across0``). ``strategy`` is the boundary treatment of
-    ``covered_solve`` (coverage, singular, auto); the memory plan counts coverage-weighted cells'
+    ``covered_solve`` (coverage, singular, auto); ``auto`` (what ``hpcontact solve --accuracy``
+    uses) takes singular cells from the first grid of :func:`singular_start` where they apply
+    (unturned circles and ellipses b/a ≥ 1/32, isotropic, tangential/normal) and coverage-weighted
+    cells elsewhere; the record's ``boundary`` says which ran. The memory plan counts coverage-weighted cells'
     arrays (:func:`grid_bytes`), not the singular cells' near-field corrections. The CG tolerance is tightened to at most
     accuracy/100 so that it never limits the answer. A mask is refined by splitting its pixels
     (the sequence starts at the contact's long side in pixels); a rough patch cannot be refined
@@ -453,6 +507,10 @@ def solve_to_accuracy(
     scene = Scene.from_params(base)
     tol = min(scene.tol, accuracy * 1e-2)
     base["tol"] = max(tol, 1e-14)
+    if strategy == "auto":  # singular cells on near-square cells where they apply, else coverage
+        start = singular_start(scene, n0 or N0, n_across0)
+        strategy = "coverage" if start is None else "singular"
+        n0, n_across0 = start if start is not None else (n0, n_across0)
     plan = plan_grids(base, scene.shape, n0 or N0, n_across0, max_cells, memory_budget)
     sequence = plan.grids[:max_grids] if max_grids is not None else plan.grids
     if len(sequence) < MIN_GRIDS:
@@ -466,7 +524,7 @@ def solve_to_accuracy(
         clear_cache()  # this grid's kernels serve no other grid: the budget counts one grid's
         return level
 
-    done = refine(sequence, solve_level, accuracy)
+    done = refine(sequence, solve_level, accuracy, SINGULAR_EXPANSIONS if strategy == "singular" else None)
     levels, values, relative, orders, expansions = done.levels, done.values, done.relative, done.orders, done.expansions
     stopped_by = done.stopped_by or ("grids" if max_grids is not None and max_grids < len(plan.grids) else plan.limit)
     finest = levels[-1]
@@ -481,6 +539,7 @@ def solve_to_accuracy(
     record["accuracy"] = float(accuracy)
     record["accuracy_met"] = bool(worst <= accuracy)
     record["stopped_by"] = stopped_by
+    record["boundary"] = strategy
     record["grids"] = [n for n, _ in sequence[: len(levels)]]
     record["grids_across"] = [na for _, na in sequence[: len(levels)]]
     record["memory_budget_bytes"] = plan.budget

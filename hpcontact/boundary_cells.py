@@ -203,9 +203,10 @@ def covered_solve(params: Mapping[str, Any], strategy: str = "coverage") -> dict
     material; ``"singular"`` — cells that carry the edge singularity w = (1 − x²/a² − y²/b²)^(−½)
     (``hpcontact.singular_cells``: unturned circles and ellipses on an isotropic half-space,
     quantities tangential and normal); ``"auto"`` — singular where it applies, coverage
-    otherwise. The default stays ``"coverage"`` until ``hpcontact.accuracy``'s estimator handles
-    the singular cells' error (a bound |error| ≲ C/n without a steady sign, not an expansion
-    that Richardson can use: ``hpcontact.singular_cells``).
+    otherwise. The default stays ``"coverage"``; ``hpcontact.accuracy.solve_to_accuracy`` with
+    ``"auto"`` (``hpcontact solve --accuracy``) takes singular cells on near-square grids where they
+    apply and estimates their error from expansions led by order 1 only (their error is ≲ C/n
+    without a steady sign: ``hpcontact.singular_cells``).
 
     Same record keys (``K_*``, ``K_max``, ``K_a_over_K_b``, ``normalized_*``, ``iterations``,
     ``residual``, ``wall_time_s``, ``nx ny dx dy``, ``plan``) plus ``contact_area`` = Σ f dA,

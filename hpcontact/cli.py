@@ -141,7 +141,7 @@ def _cmd_solve(args: argparse.Namespace) -> int:
         from .sweep.costmodel import parse_memory
 
         budget = None if args.memory is None else parse_memory(args.memory, "--memory")
-        record = solve_to_accuracy(params, args.accuracy, memory_budget=budget)
+        record = solve_to_accuracy(params, args.accuracy, memory_budget=budget, strategy="auto")
     elif kind != SLIP:  # no --n: the extrapolated default where it applies (hpcontact.accuracy)
         from .accuracy import default_solve
 
