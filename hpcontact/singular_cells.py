@@ -66,6 +66,25 @@ can be small by accident
 count does not help reliably (16 → 32 sub-cells for adjacent pairs moved the circle's n·error
 from +0.0004 to −0.0014): the cut sub-cells are first order in their own size, and their
 extrapolation in m is not smooth.
+
+What the remaining error is made of (measured 2026-11-23, ellipse 0.7, nu = 0.3, K_xx; an
+experiment whose code was not kept: each configuration is described here). Without the
+extrapolation in m the error is first order in the sub-cell size s = h/m alone, and clean:
+1.85e-3, 8.98e-4, 4.51e-4, 2.25e-4 at n = 32 for m = 4, 8, 16, 32 (n = 64, m = 4 and n = 32,
+m = 8, the same s, agree within 7 %) — the cut cells' edge layer, where a uniform sub-cell
+stands for w ∝ d^(−1/2). After 2K_m − K_{m/2} what is left (+4.3e-6, −4.4e-6, −3.8e-6 at
+n = 32, 64, 128 for m = 16) changes sign and does not fall with n. Two further parts were
+isolated: (i) the far field beyond ``NEAR`` (3 × 3 moment-matched spreading) errs by a clean
+first-order amount, −1.2e-3/n for NEAR = 2 (the increments NEAR 2 → 3 → 4 → 5 halve exactly
+from n = 64 to 128 and fall about as distance^(−2.5)); (ii) non-adjacent near pairs (offset ≥ 2)
+are converged in m once the sub-cells' first moments enter (dipole terms through the gradient of
+Love's integral) and the sub-cell kernel is averaged over the target sub-cell as well (K* of
+sub-cells): K from m = 8 and 16 there agree to 3 digits, where the collocated sub-cell kernel
+left an error ∝ 1/(n m²). With both, n = 256 gives 1.0e-6 in 2.3 s against 1.2e-6 in 1.5 s as
+it is: no better per second, because the adjacent pairs' edge layer stays first order in s and
+not smooth in m (three-level extrapolations in m, (1, 2) or (s log s, s), were erratic). Next
+step: a quadrature that follows the edge for the self and adjacent sub-cells of the cut cells
+(in the variable θ with ρ = sin θ, where w dA = sin θ dθ dφ is smooth).
 """
 
 from __future__ import annotations
