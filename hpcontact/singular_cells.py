@@ -70,7 +70,8 @@ extrapolation in m is not smooth.
 What the remaining error is made of (measured 2026-11-23, ellipse 0.7, nu = 0.3, K_xx; an
 experiment whose code was not kept: each configuration is described here). Without the
 extrapolation in m the error is first order in the sub-cell size s = h/m alone, and clean:
-1.85e-3, 8.98e-4, 4.51e-4, 2.25e-4 at n = 32 for m = 4, 8, 16, 32 (n = 64, m = 4 and n = 32,
+1.85e-3, 8.98e-4, 4.51e-4, 2.25e-4 at n = 32 for adjacent pairs on m = 4, 8, 16, 32 (NEAR = 3,
+other pairs as in (ii) below; n = 64, m = 4 and n = 32,
 m = 8, the same s, agree within 7 %) — the cut cells' edge layer, where a uniform sub-cell
 stands for w ∝ d^(−1/2). After 2K_m − K_{m/2} what is left (+4.3e-6, −4.4e-6, −3.8e-6 at
 n = 32, 64, 128 for m = 16) changes sign and does not fall with n. Two further parts were
