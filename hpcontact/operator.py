@@ -36,6 +36,7 @@ _SPECTRUM_CACHE: "OrderedDict[tuple, np.ndarray]" = OrderedDict()
 _SPECTRUM_CACHE_BYTES = int(os.environ.get("HPCONTACT_KERNEL_CACHE_MB", "1024")) * 2**20
 _TRANSFORMS: "dict[tuple, Transforms]" = {}  # FFT buffers and plans per layout (transforms_for)
 _USAGE: "dict[tuple, Usage]" = {}  # per layout, kept when its buffers are dropped (clear_cache forgets)
+_EXPECTED: "dict[tuple, float]" = {}  # applications this process expects per (components, padded shape): expect_applications
 _LOCK = threading.Lock()
 # planner_effort="auto": a layout's plans come from FFTW wisdom at FFTW_MEASURE when there is some
 # (planning then takes milliseconds), else from FFTW_ESTIMATE; they are re-planned with
@@ -50,6 +51,9 @@ _LOCK = threading.Lock()
 # n = 1024). At n = 256 planning (0.53 s) pays after ~670 applications and the rule waits ~280.
 # Small grids keep their ESTIMATE plans unless a long run applies them; measured plans then
 # serve later processes through the wisdom file (save_wisdom).
+# A sweep knows its future (expect_applications): the rule is then applied to the applications
+# the process expects in all, not those made so far, so a layout that will pay re-plans at its
+# first application instead of after ~43-78 (ski rental with a known season: buy at once).
 MEASURE_AFTER_APPLICATIONS = 35
 MEASURE_AFTER_SECONDS = 1.3
 
@@ -217,6 +221,7 @@ class Transforms:
         n1, n2 = shape
         half = n2 // 2 + 1
         self.nx, self.threads, self.auto = nx, threads, effort == "auto"
+        self.layout = (c, tuple(shape))  # what expect_applications counts by
         # real buffers hold the nx data rows only; spectra are full (N1 rows) for the columns
         self.real_in = pyfftw.zeros_aligned((c, nx, n2), dtype=np.float64)
         self.real_out = pyfftw.zeros_aligned((c, nx, n2), dtype=np.float64)
@@ -272,15 +277,29 @@ class Transforms:
 
     def count(self, seconds: float) -> None:
         """Record one application that took ``seconds``; with effort "auto", re-plan with
-        FFTW_MEASURE when the rule of ``MEASURE_AFTER_SECONDS`` says it pays."""
+        FFTW_MEASURE when the rule of ``MEASURE_AFTER_SECONDS`` says it pays: once the
+        applications so far, or those the process expects in all (``expect_applications``),
+        number n ≥ 35 + 1.3 s / (mean time of one application)."""
         usage = self.usage
         usage.applications += 1
         if not self.auto or self.effort != "FFTW_ESTIMATE":
             return
         usage.estimate_seconds += seconds
-        n, wait = usage.applications, MEASURE_AFTER_APPLICATIONS
-        if n >= wait and usage.estimate_seconds * (1.0 - wait / n) >= MEASURE_AFTER_SECONDS:  # n ≥ 35 + 1.3 s / mean
+        n = max(usage.applications, _EXPECTED.get(self.layout, 0.0))
+        mean = usage.estimate_seconds / usage.applications
+        if n >= MEASURE_AFTER_APPLICATIONS and mean * (n - MEASURE_AFTER_APPLICATIONS) >= MEASURE_AFTER_SECONDS:
             self.effort = self.plan("FFTW_MEASURE")
+
+
+def expect_applications(expected: Mapping[tuple[int, tuple[int, int]], float]) -> None:
+    """Tell the planner how many operator applications this process expects per layout
+    (components c, padded shape (N1, N2)), e.g. a sweep rank's share of its tasks' CG iterations
+    (``hpcontact.sweep.taskgrid.fft_applications``); replaces what was expected before. Layouts
+    whose expected applications pay for FFTW_MEASURE planning get it at their first application
+    (``Transforms.count``); an empty mapping restores the rule on applications made so far."""
+    with _LOCK:
+        _EXPECTED.clear()
+        _EXPECTED.update({(int(c), tuple(int(x) for x in shape)): float(n) for (c, shape), n in expected.items()})
 
 
 def transforms_for(c: int, nx: int, shape: tuple[int, int], threads: int, effort: str) -> Transforms:

@@ -181,6 +181,32 @@ def test_auto_plans_are_measured_once_the_layout_ran_long_enough(monkeypatch):
     assert _rel(b.apply(t), direct_sum(blocks_b, "xy", t)) <= REL
 
 
+def test_expected_applications_plan_measured_at_the_first_application(monkeypatch):
+    """A layout the process expects to apply often enough (expect_applications, as a sweep rank
+    is told its share) is re-planned with FFTW_MEASURE at its first application; other layouts
+    and an empty expectation keep the rule on applications made so far."""
+    pyfftw.forget_wisdom()
+    clear_cache()
+    nx, ny = 7, 5
+    t = np.random.default_rng(4).normal(size=(2, nx, ny))
+    a, blocks_a = _random_operator(1, nx, ny, "xy")
+    other, _ = _random_operator(2, nx + 2, ny, "xy")
+    # the rule: n >= 35 and mean x (n - 35) >= MEASURE_AFTER_SECONDS; a 1 s pay-back needs ~1e6
+    # applications of a ~10 µs operator, fewer than expected here
+    monkeypatch.setattr(op_mod, "MEASURE_AFTER_SECONDS", 1.0)
+    op_mod.expect_applications({(2, a.shape): 1e9})
+    try:
+        assert a.plan_effort == "FFTW_ESTIMATE"
+        assert _rel(a.apply(t), direct_sum(blocks_a, "xy", t)) <= REL  # re-plans after its transforms
+        assert a.plan_effort == "FFTW_MEASURE"
+        other.apply(np.random.default_rng(5).normal(size=(2, nx + 2, ny)))
+        assert other.plan_effort == "FFTW_ESTIMATE"  # not expected: the rule on 1 application
+        assert _rel(a.apply(t), direct_sum(blocks_a, "xy", t)) <= REL
+    finally:
+        op_mod.expect_applications({})
+    assert op_mod._EXPECTED == {}
+
+
 def test_block_outside_components_is_refused():
     nx, ny = 3, 3
     with pytest.raises(ValueError):

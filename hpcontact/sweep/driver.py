@@ -43,7 +43,7 @@ from typing import Any, Callable, Mapping, Sequence, TextIO
 import numpy as np
 
 from ..errors import ConvergenceError, InputError
-from ..operator import load_wisdom, save_wisdom
+from ..operator import expect_applications, load_wisdom, save_wisdom
 from . import faults, kinds, provenance
 from .arguments import EXIT_FAILED_TASKS, EXIT_OK, EXIT_REFUSED, EXIT_STOPPED, EXIT_UNEXPECTED, add_run_arguments
 from .guard import Refused, RunLock, usable_folder
@@ -67,6 +67,7 @@ from .schedule import SLOTS, LaunchError, Team, claimed_chunks, report_done, tot
 from .signals import DEFAULT_GRACE_S, STOP_NAME, Abandoned, StopControl
 from .spec import Spec, Validator, load_spec
 from .tasks import Part, Task, enumerate_tasks, enumerate_part, join_parts, make_chunks, points
+from .taskgrid import fft_applications
 
 TaskFunction = Callable[[Mapping[str, Any]], Mapping[str, Any]]
 SHOWN_FAILURES = 5
@@ -343,6 +344,9 @@ def _run(team: Team, plan: Plan, keep: dict[str, Any], task_function: TaskFuncti
     if task_function is None:
         task_function = kinds.task_function(spec.kind)
     chunks = make_chunks(plan.shared, team.size)
+    # this rank's share of the FFT applications per grid: grids the sweep uses often get
+    # measured FFTW plans at their first application, not after ~40-80 (hpcontact.operator)
+    expect_applications(fft_applications((t.params for t in plan.isolated + plan.shared), team.size))
     setup_s = time.perf_counter() - started
 
     progress = None

@@ -34,13 +34,18 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Iterable
 from typing import Any, Mapping
 
 from ..scene import DEFAULTS
-from .kinds import quantity_names
+from .kinds import SLIP, quantity_names, scene_kind
 
 ITERATIONS_PER_DOUBLING = 0.3  # relative growth of CG iterations per doubling of ρ (module docstring)
 REFERENCE_LOG2_CELLS = 18.0  # log2 of the padded cells at which the grid's own factor is 1 (module docstring)
+# CG iterations per solve and digit of tolerance at iteration factor 1 (fft_applications):
+# ellipse 0.5, n = 256, 56 iterations of 3 solves at 1e-10, factor 1.23: 1.5; circle n = 512,
+# tangential x at 1e-8, 17-18 iterations, factor 1.11: 2.0.
+ITERATIONS_PER_DIGIT = 1.8
 
 
 def contact_grid(params: Mapping[str, Any]) -> tuple[int, int]:
@@ -71,3 +76,39 @@ def iteration_factor(params: Mapping[str, Any]) -> float:
     nx, ny = contact_grid(params)
     aspect = 1.0 + ITERATIONS_PER_DOUBLING * math.log2(max(nx, ny) / min(nx, ny))
     return aspect * math.log2(4.0 * nx * ny) / REFERENCE_LOG2_CELLS
+
+
+def fft_applications(scenes: Iterable[Mapping[str, Any]], ranks: int = 1) -> dict[tuple[int, tuple[int, int]], float]:
+    """Operator applications a rank expects per FFT layout (components c, padded shape) over
+    ``scenes`` shared by ``ranks`` ranks: per isotropic contact scene with a grid (``n``), its
+    solves (tangential: x and y on c = 2, or c = 1 at nu = 0; normal: c = 1 unless nu = 0 with
+    tangential; coupled: x, y, z on c = 3, as ``hpcontact.plan.make_plan``, mirror symmetry not
+    counted) × ``ITERATIONS_PER_DIGIT`` × digits of tolerance × ``iteration_factor``, divided by
+    ``ranks``. For ``hpcontact.operator.expect_applications``: a hint to plan FFTW_MEASURE
+    early; other scenes (crystals, slip, rough, masks, grids chosen per task) are not counted."""
+    from ..operator import padded_shape
+
+    expected: dict[tuple[int, tuple[int, int]], float] = {}
+    for params in scenes:
+        p = {**DEFAULTS, **{k: v for k, v in params.items() if v is not None}}
+        crystal = p.get("material") is not None or float(p.get("anisotropy", 1.0)) != 1.0
+        if params.get("n") is None or crystal or scene_kind(params) == SLIP or p["shape"] in ("rough", "mask"):
+            continue
+        wanted = set(quantity_names(p["quantities"]))
+        nu = float(p["nu"])
+        solves: list[int] = []  # components of each solve
+        if "coupled" in wanted and nu != 0.5:
+            solves += [3, 3, 3]
+        elif "coupled" in wanted:
+            wanted |= {"tangential", "normal"}
+        if "tangential" in wanted:
+            solves += [1 if nu == 0.0 else 2] * 2
+        if "normal" in wanted and not (nu == 0.0 and "tangential" in wanted):
+            solves.append(1)
+        if not solves:
+            continue
+        shape = padded_shape(*contact_grid(params))
+        iterations = ITERATIONS_PER_DIGIT * max(1.0, -math.log10(float(p["tol"]))) * iteration_factor(params)
+        for c in solves:
+            expected[(c, shape)] = expected.get((c, shape), 0.0) + iterations / ranks
+    return expected

@@ -49,3 +49,19 @@ def test_iterations_grow_as_log2_of_the_padded_cells():
     # module docstring: 56 iterations at n = 256, 68 at n = 1024 (ellipse 0.5), i.e. log2 S 17 -> 21
     ratio = iteration_factor({"shape": "circle", "n": 1024}) / iteration_factor({"shape": "circle", "n": 256})
     assert ratio == pytest.approx(22 / 18, rel=1e-15)
+
+
+def test_fft_applications_count_a_ranks_share_per_layout():
+    from hpcontact.operator import padded_shape
+    from hpcontact.sweep.taskgrid import ITERATIONS_PER_DIGIT, fft_applications
+
+    circle = {"shape": "circle", "n": 64, "nu": 0.3, "quantities": ["tangential", "normal"], "tol": 1e-8}
+    shape = padded_shape(64, 64)
+    per_solve = ITERATIONS_PER_DIGIT * 8 * iteration_factor(circle)
+    # tangential: x and y solves on the two-component operator; normal: one solve on z
+    assert fft_applications([circle] * 4, ranks=2) == pytest.approx({(2, shape): 4 * per_solve, (1, shape): 2 * per_solve},
+                                                                   rel=1e-15)
+    # nu = 0: the tangential solves are one-component and the normal one is theirs (plan.make_plan)
+    assert fft_applications([{**circle, "nu": 0.0}]) == pytest.approx({(1, shape): 2 * per_solve}, rel=1e-15)
+    # not counted: crystals, slip scenes, scenes whose grids are chosen per task (no n)
+    assert fft_applications([{**circle, "anisotropy": 2.0}, {**circle, "n": None}]) == {}
