@@ -10,16 +10,17 @@ from hpcontact.accuracy import solve_to_accuracy
 from hpcontact.boundary_cells import covered_solve
 
 SQUARE = {"shape": "rectangle", "aspect": 1.0, "nu": 0.3, "quantities": "tangential,normal"}
-#: Least-squares fits Q = Q* + Σ c_i h^p_i over the reference grids: the reference is Q* of
-#: (1, 1.5) (the square's sequence has a second term: its observed order is 1.96–1.99, not 2),
-#: its uncertainty the largest distance of the other fits' Q* from it (the benchmark's rule).
-FITS = ((1.0, 1.5), (1.0, 2.0), (1.0, 1.5, 2.0), (1.0, 1.5, 2.5))
+#: Least-squares fits Q = Q* + Σ c_i t_i(h) over the reference grids (t = h^p, or h ln h for
+#: "L1"): the reference is Q* of (1, 1.5), the three-parameter fit of least residual on the
+#: square (benchmarks/accuracy_reference.py: 5e-11 against 2e-10 and 3e-10 for (1, 2) and
+#: (1, L1) on n = 1280 … 2048); its uncertainty the largest distance of the others' Q* from it.
+FITS = ((1.0, 1.5), (1.0, 2.0), (1.0, "L1"), (1.0, 1.5, 2.0), (1.0, 1.5, 2.5), (1.0, "L1", 1.5))
 REFERENCE_GRIDS = (288, 320, 352, 384)  # all finer than the 256 that --accuracy 1e-3 stops at
 
 
-def extrapolant(n: np.ndarray, values: np.ndarray, exponents: tuple[float, ...]) -> float:
+def extrapolant(n: np.ndarray, values: np.ndarray, exponents: tuple) -> float:
     h = n[0] / n
-    A = np.column_stack([np.ones_like(h)] + [h**p for p in exponents])
+    A = np.column_stack([np.ones_like(h)] + [h * np.log(h) if p == "L1" else h**p for p in exponents])
     return float(np.linalg.lstsq(A, values, rcond=None)[0][0])
 
 
@@ -32,9 +33,9 @@ def test_accuracy_on_the_square_is_within_its_estimate_of_a_finer_reference():
         values = np.array([level[key] for level in levels])
         fits = [extrapolant(n, values, exponents) for exponents in FITS]
         reference = fits[0]
-        uncertainty = max(abs(f - reference) for f in fits) / abs(reference)  # measured 1.7e-6
+        uncertainty = max(abs(f - reference) for f in fits) / abs(reference)  # measured 3.3e-6
         estimate = record["estimated_errors"][key]  # measured 9.6e-5
         assert uncertainty <= estimate / 10.0  # the reference can judge the estimate
-        # honest even if the reference is off by its whole uncertainty (true error measured 1.7e-5)
+        # honest even if the reference is off by its whole uncertainty (true error measured 1.66e-5)
         assert abs(record[key] / reference - 1.0) + uncertainty <= estimate
         assert estimate <= record["estimated_error"] <= 1e-3
