@@ -87,6 +87,12 @@ def transpose_symmetric(mask: np.ndarray, grid: Grid) -> bool:
 
 def make_plan(scene: Scene, mask: np.ndarray, grid: Grid) -> Plan:
     """The kernels and solves ``scene`` needs on its contact ``mask`` (conventions: module docstring)."""
+    return plan_for(scene, transpose_symmetric(mask, grid))
+
+
+def plan_for(scene: Scene, mirror: bool) -> Plan:
+    """The kernels and solves ``scene`` needs on a contact that maps to itself under x ↔ y
+    (``mirror``: one tangential solve serves both directions, isotropic bodies only) or not."""
     wanted = set(scene.quantities)
     kernels: list[str] = []
     solves: list[Solve] = []
@@ -95,7 +101,6 @@ def make_plan(scene: Scene, mask: np.ndarray, grid: Grid) -> Plan:
     isotropic = isinstance(scene.material, Isotropic)
     if isotropic:
         nu = scene.material.nu
-        mirror = transpose_symmetric(mask, grid)
         source = "isotropic closed form (Boussinesq-Cerruti cell integrals)"
     else:
         nu = None  # no isotropic shortcut applies

@@ -80,35 +80,28 @@ def iteration_factor(params: Mapping[str, Any]) -> float:
 
 def fft_applications(scenes: Iterable[Mapping[str, Any]], ranks: int = 1) -> dict[tuple[int, tuple[int, int]], float]:
     """Operator applications a rank expects per FFT layout (components c, padded shape) over
-    ``scenes`` shared by ``ranks`` ranks: per isotropic contact scene with a grid (``n``), its
-    solves (tangential: x and y on c = 2, or c = 1 at nu = 0; normal: c = 1 unless nu = 0 with
-    tangential; coupled: x, y, z on c = 3, as ``hpcontact.plan.make_plan``, mirror symmetry not
-    counted) × ``ITERATIONS_PER_DIGIT`` × digits of tolerance × ``iteration_factor``, divided by
-    ``ranks``. For ``hpcontact.operator.expect_applications``: a hint to plan FFTW_MEASURE
+    ``scenes`` shared by ``ranks`` ranks: per isotropic contact scene with a grid (``n``), the
+    solves of its plan (``hpcontact.plan.plan_for``, mirror symmetry not assumed) on their
+    components × ``ITERATIONS_PER_DIGIT`` × digits of tolerance × ``iteration_factor``, divided
+    by ``ranks``. For ``hpcontact.operator.expect_applications``: a hint to plan FFTW_MEASURE
     early; other scenes (crystals, slip, rough, masks, grids chosen per task) are not counted."""
     from ..operator import padded_shape
+    from ..plan import plan_for
+    from ..scene import Scene
 
+    components: dict[tuple, list[int]] = {}  # per (quantities, nu): the components of each solve
     expected: dict[tuple[int, tuple[int, int]], float] = {}
     for params in scenes:
         p = {**DEFAULTS, **{k: v for k, v in params.items() if v is not None}}
         crystal = p.get("material") is not None or float(p.get("anisotropy", 1.0)) != 1.0
         if params.get("n") is None or crystal or scene_kind(params) == SLIP or p["shape"] in ("rough", "mask"):
             continue
-        wanted = set(quantity_names(p["quantities"]))
-        nu = float(p["nu"])
-        solves: list[int] = []  # components of each solve
-        if "coupled" in wanted and nu != 0.5:
-            solves += [3, 3, 3]
-        elif "coupled" in wanted:
-            wanted |= {"tangential", "normal"}
-        if "tangential" in wanted:
-            solves += [1 if nu == 0.0 else 2] * 2
-        if "normal" in wanted and not (nu == 0.0 and "tangential" in wanted):
-            solves.append(1)
-        if not solves:
-            continue
+        key = (tuple(quantity_names(p["quantities"])), float(p["nu"]))
+        if key not in components:
+            plan = plan_for(Scene.from_params({"quantities": list(key[0]), "nu": key[1]}), mirror=False)
+            components[key] = [len(solve.components) for solve in plan.solves]
         shape = padded_shape(*contact_grid(params))
         iterations = ITERATIONS_PER_DIGIT * max(1.0, -math.log10(float(p["tol"]))) * iteration_factor(params)
-        for c in solves:
+        for c in components[key]:
             expected[(c, shape)] = expected.get((c, shape), 0.0) + iterations / ranks
     return expected
