@@ -66,9 +66,10 @@ class Summary:
     """Totals of one run: tasks run now, reused from journals and failed; times in seconds.
 
     ``wall_s`` runs from the driver's start to the data set assembled (the netCDF write after it
-    is reported on its own); ``setup_s`` is rank 0's spec check, task list and journal scan;
-    ``schedule_s`` and ``journal_s`` are summed over ranks; ``gather_s`` is rank 0 reading every
-    journal and building the data set.
+    is reported on its own); ``setup_s`` is the time until the ranks start computing (each
+    rank's share of the points enumerated and validated, rank 0's decision from the journals,
+    the plan broadcast); ``schedule_s`` and ``journal_s`` are summed over ranks; ``gather_s`` is
+    rank 0 joining the ranks' outcome columns and those reused from journals into the data set.
     """
 
     tasks: int
