@@ -251,3 +251,16 @@ def test_huge_and_tiny_moduli_with_normalization(capsys, G):
     r = _json(capsys, "--G", G, "--quantities", "tangential,normal", "--n", "8")
     one = _json(capsys, "--G", "1", "--quantities", "tangential,normal", "--n", "8")
     assert r["normalized_xx"] == pytest.approx(one["normalized_xx"], rel=1.5e-15)
+
+
+def test_a_run_command_names_itself_in_its_errors(capsys, tmp_path):
+    """``python -m hpcontact.accuracy`` is ``hpcontact run`` with another task function: its bad
+    input is reported under its own name (exit 2), not as ``hpcontact run``."""
+    from hpcontact.sweep.driver import main as run_main
+
+    missing = str(tmp_path / "missing.toml")
+    assert run_main([missing], prog="python -m hpcontact.accuracy") == 2
+    err = capsys.readouterr().err
+    assert err.startswith("python -m hpcontact.accuracy: error: spec = ") and "hpcontact run" not in err
+    assert run_main([missing]) == 2
+    assert capsys.readouterr().err.startswith("hpcontact run: error: spec = ")

@@ -598,15 +598,16 @@ def _duration(seconds: float) -> str:
 
 
 def run_command(spec: str | Path, options: Options = Options(), output: str | Path | None = None,
-                grace_s: float | None = None, task_function: TaskFunction | None = None) -> int:
+                grace_s: float | None = None, task_function: TaskFunction | None = None,
+                prog: str = "hpcontact run") -> int:
     """``hpcontact run`` on every rank: the exit status (``EXIT_STATUS``). Refusals and bad
-    input print one line on stderr from rank 0; any other error prints its traceback and, under
-    MPI, aborts every rank (a rank left waiting in a collective would hang the job).
-    ``task_function`` replaces the scene kind's solver (``python -m hpcontact.accuracy``)."""
+    input print one line on stderr from rank 0, prefixed ``prog``; any other error prints its
+    traceback and, under MPI, aborts every rank (a rank left waiting in a collective would hang
+    the job). ``task_function`` replaces the scene kind's solver (``python -m hpcontact.accuracy``)."""
     try:
         team = world()
     except LaunchError as exc:
-        print(f"hpcontact run: error: {exc}", file=sys.stderr)
+        print(f"{prog}: error: {exc}", file=sys.stderr)
         return EXIT_REFUSED
     stop = StopControl(DEFAULT_GRACE_S if grace_s is None else grace_s).install()
     load_wisdom()  # FFTW plans of earlier runs: measured plans in milliseconds
@@ -614,7 +615,7 @@ def run_command(spec: str | Path, options: Options = Options(), output: str | Pa
         outcome = execute(spec, output, task_function, team=team, options=options, stop=stop)
     except InputError as exc:
         if team.rank == 0:
-            print(f"hpcontact run: error: {exc}", file=sys.stderr)
+            print(f"{prog}: error: {exc}", file=sys.stderr)
         return EXIT_REFUSED
     except Stopped as exc:
         if team.rank == 0:
@@ -639,8 +640,9 @@ def _keep_wisdom() -> None:
         print(f"hpcontact: FFTW wisdom not saved ({exc})", file=sys.stderr)
 
 
-def run_from_arguments(args: argparse.Namespace, task_function: TaskFunction | None = None) -> int:
-    """Run what ``add_run_arguments`` parsed (``task_function``: see ``run_command``)."""
+def run_from_arguments(args: argparse.Namespace, task_function: TaskFunction | None = None,
+                       prog: str = "hpcontact run") -> int:
+    """Run what ``add_run_arguments`` parsed (``task_function``, ``prog``: see ``run_command``)."""
     from .costmodel import default_memory_per_rank, parse_memory
 
     memory = (parse_memory(args.mem_per_rank), "--mem-per-rank") if args.mem_per_rank is not None else None
@@ -653,7 +655,7 @@ def run_from_arguments(args: argparse.Namespace, task_function: TaskFunction | N
     options = Options(resume=args.resume, restart=args.restart, accept_stale=args.accept_stale,
                       retry_crashed=args.retry_crashed, break_lock=args.break_lock,
                       mem_per_rank=memory if memory is not None else default_memory_per_rank())
-    return run_command(args.spec, options, args.output, args.grace, task_function)
+    return run_command(args.spec, options, args.output, args.grace, task_function, prog)
 
 
 def main(argv: Sequence[str] | None = None, prog: str = "hpcontact run",
@@ -664,7 +666,7 @@ def main(argv: Sequence[str] | None = None, prog: str = "hpcontact run",
     parser = argparse.ArgumentParser(prog=prog, description=description)
     add_run_arguments(parser)
     try:
-        return run_from_arguments(parser.parse_args(argv), task_function)
+        return run_from_arguments(parser.parse_args(argv), task_function, prog)
     except InputError as exc:
-        print(f"hpcontact run: error: {exc}", file=sys.stderr)
+        print(f"{prog}: error: {exc}", file=sys.stderr)
         return EXIT_REFUSED
