@@ -1,10 +1,13 @@
 """A sweep run for ``test_kill_resume`` and ``test_oversubscribed``: the real solver (or, with
 ``--synthetic``, ``synthetic``), with each task's start logged per rank.
 
-``python sweep_runner.py SPEC --output PATH --log DIR [--resume] [--delay S] [--synthetic]``
-(under mpiexec): before each task, the rank appends ``pid key`` to ``DIR/rank{R}.log`` and waits
-``--delay`` seconds, so a test can see what started where and kill a rank mid-sweep. The rank is
-the team's (``MPI.COMM_WORLD``), whatever launcher started the processes.
+``python sweep_runner.py SPEC --output PATH --log DIR [--resume] [--delay S] [--synthetic]
+[--parent PID]`` (under mpiexec): before each task, the rank appends ``pid key`` to
+``DIR/rank{R}.log`` and waits ``--delay`` seconds, so a test can see what started where and kill a
+rank mid-sweep. The rank is the team's (``MPI.COMM_WORLD``), whatever launcher started the
+processes. With ``--parent``, a rank ends itself once that process (the test's pytest) is gone:
+a pytest killed mid-test runs no fixture clean-up, and a rank left waiting for its dead peer
+spun a core for 1.5 h (2026-11-23).
 """
 
 from __future__ import annotations
@@ -12,6 +15,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import threading
 import time
 from collections.abc import Mapping
 from pathlib import Path
@@ -37,6 +41,22 @@ def synthetic(params: Mapping[str, Any]) -> dict[str, Any]:
     return record
 
 
+def end_with(parent: int, poll_s: float = 1.0) -> None:
+    """End this process (exit status 3) once process ``parent`` no longer exists (a daemon thread)."""
+
+    def watch() -> None:
+        while True:
+            time.sleep(poll_s)
+            try:
+                os.kill(parent, 0)
+            except ProcessLookupError:
+                os._exit(3)
+            except PermissionError:  # exists, owned by someone else
+                pass
+
+    threading.Thread(target=watch, name="end-with-parent", daemon=True).start()
+
+
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("spec")
@@ -45,7 +65,10 @@ def main() -> None:
     parser.add_argument("--resume", action="store_true")
     parser.add_argument("--delay", type=float, default=0.0)
     parser.add_argument("--synthetic", action="store_true", help="tasks return ``synthetic`` records")
+    parser.add_argument("--parent", type=int, help="end this rank once process PID is gone")
     args = parser.parse_args()
+    if args.parent is not None:
+        end_with(args.parent)
     team = world()
     log = Path(args.log) / f"rank{team.rank}.log"
 

@@ -54,7 +54,8 @@ def launch(spec: Path, output: Path, log: Path, *extra: str) -> subprocess.Popen
     env = {k: v for k, v in os.environ.items() if k != "HPCONTACT_MPI"}
     env.update(PYTHONPATH=f"{ROOT}{os.pathsep}{env.get('PYTHONPATH', '')}", OMP_NUM_THREADS="1")
     env["HPCONTACT_GIT_REVISION"] = "test"  # a commit by someone else between the runs is not a stale journal
-    command = [MPIEXEC, "-n", "2", sys.executable, str(RUNNER), str(spec), "--output", str(output), "--log", str(log)]
+    command = [MPIEXEC, "-n", "2", sys.executable, str(RUNNER), str(spec), "--output", str(output), "--log", str(log),
+               "--parent", str(os.getpid())]
     return subprocess.Popen(
         [*command, *extra], env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True
     )
