@@ -64,7 +64,8 @@ K_yy/K_zz in all 336 (worst true/estimate 0.63) and within 30× of it in 94 %. P
 circle, b/a = 0.7, 0.5, n ≤ 1024) it is honest on all 126 records (worst 0.37) and all 602
 per-quantity pairs (worst 0.72), within 30× in 85 % of the records.
 
-``hpcontact solve --accuracy`` uses strategy ``auto``: singular cells where they apply, on
+``hpcontact solve --accuracy`` uses strategy ``auto``: for requests below 1e-4 (``SINGULAR_BELOW``)
+singular cells where they apply, on
 sequences from :func:`singular_start` (near-square cells; b/a = 0.05 starts at 160 × 8), with
 the candidates led by order 1 only (``SINGULAR_EXPANSIONS``). Replayed on those sequences (b/a =
 1, 0.7, 0.5, 0.3, 0.2, 0.1, 0.05; nu = 0, 0.3, 0.5; n₀ = 16 and 32, five grids; requests 1e-3 …
@@ -151,6 +152,12 @@ RATIO_SHARE = 0.5  # K_a/K_b: at least half the sum of K_xx's and K_yy's estimat
 #: along x (b/a ≥ 8/256 with ``MIN_ACROSS`` = 8 across); thinner ellipses would need ≥ 8 b/a-square
 #: cells across on every grid (1e-3: 8000 × 8 cells first, 27 s CPU for that one grid, measured).
 SINGULAR_MAX_N0 = 256
+#: strategy "auto" takes singular cells only for requests below this: at 1e-3 and 1e-4
+#: coverage-weighted cells meet the request in 0.3–5 s CPU and singular cells need 1.2–6 s (four
+#: grids from 32 × 22 … 160 × 8); below 1e-4 coverage misses (estimates ≥ 1.8e-5 at n = 1024 for
+#: b/a = 1 … 0.05) where singular cells meet 1e-5 in 2.7–15 s (``benchmarks/accuracy_sharpness.py
+#: --cost`` and the replay of :data:`SINGULAR_EXPANSIONS`).
+SINGULAR_BELOW = 1e-4
 
 
 # ------------------------------------------------------------------------------------------
@@ -488,9 +495,9 @@ def solve_to_accuracy(
     ``params`` are those of ``solve``; ``n`` and ``n_across`` there are ignored (the sequence
     starts at ``n0`` (default 32) and ``n_across0``). ``strategy`` is the boundary treatment of
     ``covered_solve`` (coverage, singular, auto); ``auto`` (what ``hpcontact solve --accuracy``
-    uses) takes singular cells from the first grid of :func:`singular_start` where they apply
-    (unturned circles and ellipses b/a ≥ 1/32, isotropic, tangential/normal) and coverage-weighted
-    cells elsewhere; the record's ``boundary`` says which ran. The memory plan counts coverage-weighted cells'
+    uses) takes singular cells from the first grid of :func:`singular_start` for requests below
+    ``SINGULAR_BELOW`` (1e-4) where they apply (unturned circles and ellipses b/a ≥ 1/32,
+    isotropic, tangential/normal) and coverage-weighted cells elsewhere; the record's ``boundary`` says which ran. The memory plan counts coverage-weighted cells'
     arrays (:func:`grid_bytes`), not the singular cells' near-field corrections. The CG tolerance is tightened to at most
     accuracy/100 so that it never limits the answer. A mask is refined by splitting its pixels
     (the sequence starts at the contact's long side in pixels); a rough patch cannot be refined
@@ -507,8 +514,8 @@ def solve_to_accuracy(
     scene = Scene.from_params(base)
     tol = min(scene.tol, accuracy * 1e-2)
     base["tol"] = max(tol, 1e-14)
-    if strategy == "auto":  # singular cells on near-square cells where they apply, else coverage
-        start = singular_start(scene, n0 or N0, n_across0)
+    if strategy == "auto":  # singular cells on near-square cells where they apply and pay, else coverage
+        start = singular_start(scene, n0 or N0, n_across0) if accuracy < SINGULAR_BELOW else None
         strategy = "coverage" if start is None else "singular"
         n0, n_across0 = start if start is not None else (n0, n_across0)
     plan = plan_grids(base, scene.shape, n0 or N0, n_across0, max_cells, memory_budget)
