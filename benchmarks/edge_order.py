@@ -25,6 +25,10 @@ own uncertainty |R(4 nmax) − R(2 nmax)| is printed with it (``--quick`` leaves
 cells from ``accuracy.singular_start`` where they apply), grids up to ``--max-cells`` (default
 1024² − 1: the n = 1024 of the issue's coverage figures): estimate, true error, CPU s, peak MiB.
 
+``--singular-calibration CACHE``: the replay behind ``accuracy.SINGULAR_EXPANSIONS``' figures
+(b/a = 1 … 0.05, nu = 0, 0.3, 0.5, sequences of ``accuracy.singular_start`` from n₀ = 16 and 32,
+requests 1e-3 … 1e-6; ~5 min CPU to fill the cache, seconds to replay).
+
 ``--bound``: the singular cells' error over K_xx, K_yy, K_zz for the circle and the ellipses 0.7
 and 0.5 (n = 32 … 256) and 0.05 (128 × 8 … 512 × 32) at nu = 0, 0.3, 0.5; prints n_across·error
 per entry (n_across: cells across the minor axis) and the largest |n_across·error| (the
@@ -173,6 +177,73 @@ def done_when(request: float, max_cells: int) -> None:
                   f"{r['cpu_s']:.1f} | {r['peak_mib']:.0f} | {r['finest'][0]} × {r['finest'][1]} | {r['stopped_by']} |", flush=True)
 
 
+CALIBRATION_ASPECTS = (1.0, 0.7, 0.5, 0.3, 0.2, 0.1, 0.05)
+
+
+def calibration_grids(aspect: float, nu: float, n0: int) -> list[tuple[int, int]]:
+    """The sequence ``--accuracy`` (strategy auto) solves from n₀: ``accuracy.singular_start``'s
+    first grid refined by 2; five grids, six from n₀ = 32 for b/a ≥ 0.5 (to n = 1024)."""
+    from hpcontact.accuracy import singular_start
+    from hpcontact.scene import Scene
+
+    params = {"shape": "circle"} if aspect == 1.0 else {"shape": "ellipse", "aspect": aspect}
+    n, na = singular_start(Scene.from_params({**params, "nu": nu, "quantities": "tangential,normal"}), n0, None)
+    levels = 6 if n0 == 32 and aspect >= 0.5 else 5
+    return [(n * 2**k, na * 2**k) for k in range(levels)]
+
+
+def singular_calibration(cache: Path) -> None:
+    """Honesty and sharpness of ``--accuracy`` on singular cells (``accuracy.SINGULAR_EXPANSIONS``):
+    every grid of :func:`calibration_grids` (b/a in ``CALIBRATION_ASPECTS``, nu = 0, 0.3, 0.5,
+    n₀ = 16 and 32) solved once and cached (JSON lines, CPU seconds), then ``accuracy.refine``
+    replayed on the cache for requests 1e-3 … 1e-6: records (largest true error of K_xx, K_yy,
+    K_zz, K_a/K_b, K_xx/K_zz, K_yy/K_zz against ``estimated_error``) and per-quantity pairs."""
+    import numpy as np
+
+    from hpcontact import accuracy as acc
+
+    requests = (1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6, 1e-6)
+    cached: dict[tuple, dict] = {}
+    if cache.exists():
+        for line in cache.read_text().splitlines():
+            r = json.loads(line)
+            cached[(r["aspect"], r["nu"], r["n"], r["n_across"])] = r
+    records, pairs = [], []
+    for aspect in CALIBRATION_ASPECTS:
+        for nu in (0.0, 0.3, 0.5):
+            params = {"shape": "circle"} if aspect == 1.0 else {"shape": "ellipse", "aspect": aspect}
+            params = {**params, "nu": nu, "tol": 1e-10, "quantities": "tangential,normal"}
+            K_a, K_b = analytic.mindlin_ellipse_stiffness(1.0, aspect, 1.0, nu)
+            K_z = analytic.elliptical_punch_normal_stiffness(1.0, aspect, 1.0, nu)
+            exact = {"K_xx": K_a, "K_yy": K_b, "K_zz": K_z, "K_a_over_K_b": K_a / K_b, "normalized_xx": K_a / K_z,
+                     "normalized_yy": K_b / K_z}
+            for n0 in (16, 32):
+                grids = calibration_grids(aspect, nu, n0)
+                for n, na in grids:
+                    if (aspect, nu, n, na) not in cached:
+                        started = time.process_time()
+                        r = covered_solve({**params, "n": n, "n_across": na}, "singular")
+                        row = {"aspect": aspect, "nu": nu, "n": n, "n_across": na, "cpu_s": time.process_time() - started,
+                               **{k: r[k] for k in acc.TENSOR_KEYS if k in r}}
+                        cached[(aspect, nu, n, na)] = row
+                        with cache.open("a") as f:
+                            f.write(json.dumps(row) + "\n")
+                for request in requests:
+                    done = acc.refine(grids, lambda n, na: cached[(aspect, nu, n, na)], request, acc.SINGULAR_EXPANSIONS)
+                    v = done.values
+                    values = {**v, "K_a_over_K_b": v["K_xx"] / v["K_yy"], "normalized_xx": v["K_xx"] / v["K_zz"],
+                              "normalized_yy": v["K_yy"] / v["K_zz"]}
+                    true = {k: abs(values[k] / exact[k] - 1.0) for k in exact}
+                    records.append((request, max(true.values()), max(done.relative.values())))
+                    pairs += [(true[k], done.relative[k]) for k in exact if true[k] >= 1e-13]  # below: exact by symmetry
+    for label, rows in (("records", records), ("records, requests below SINGULAR_BELOW", [r for r in records if r[0] < acc.SINGULAR_BELOW])):
+        ratio = np.array([t / e for _, t, e in rows])
+        print(f"{label}: {len(ratio)}; worst true/estimate {ratio.max():.2f}; above 1: {int((ratio > 1).sum())}; "
+              f"within 30x: {100 * (ratio >= 1 / 30).mean():.1f} %")
+    ratio = np.array([t / e for t, e in pairs])
+    print(f"per-quantity pairs: {len(ratio)}; worst true/estimate {ratio.max():.2f}; above 1: {int((ratio > 1).sum())}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="circle and ellipse 0.7 only, up to n = 256")
@@ -182,7 +253,12 @@ def main() -> None:
     parser.add_argument("--done-when", type=float, default=None, metavar="REQUEST",
                         help="issue 12's --accuracy table (b/a 0.7, 0.05, 1e-3, 1e-6; nu 0.3, 0.5), coverage and auto")
     parser.add_argument("--max-cells", type=int, default=1024 * 1024 - 1, help="largest grid of --done-when (cells)")
+    parser.add_argument("--singular-calibration", type=Path, default=None, metavar="CACHE",
+                        help="honesty of --accuracy on singular cells (solves what CACHE lacks, then replays)")
     args = parser.parse_args()
+    if args.singular_calibration is not None:
+        singular_calibration(args.singular_calibration)
+        return
     if args.done_when is not None:
         done_when(args.done_when, args.max_cells)
         return
