@@ -335,6 +335,34 @@ class SingularCells:
             for q in (-1, 0, 1):
                 weight = bx[p + 1] * by[q + 1] + (p * q * corner if p and q else 0.0)
                 self.beta[(p, q)] = np.where(mask, weight, 0.0)
+        # the weights of the near set's cells, one row per stencil offset in ``beta``'s order
+        self.beta_near = np.stack([bw[cells[:, 0], cells[:, 1]] for bw in self.beta.values()])
+        self._spreading: tuple[sp.csr_matrix, sp.csr_matrix] | None = None
+
+    def spreading(self) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+        """P and Pᵀ on the flattened grid (built once, shared by the blocks): row t of P holds the
+        weights of the cells that spread onto cell t, row i of Pᵀ cell i's nine weights, both in
+        ``beta``'s order, so that a product sums the terms in the order of a loop over ``beta``
+        of shifted-array products (the same arithmetic, bitwise). Contact cells lie at least one
+        cell inside the padded grid, so flat offsets p·ny + q never wrap a row."""
+        if self._spreading is None:
+            nx, ny = self.grid.nx, self.grid.ny
+            size = nx * ny
+            shift = np.array([p * ny + q for p, q in self.beta])
+            weights = np.stack([bw.ravel() for bw in self.beta.values()], 1)  # (size, 9)
+            flat_mask = self.mask.ravel()
+            cell = np.flatnonzero(flat_mask)
+            counts = np.where(flat_mask, len(shift), 0)
+            gather = sp.csr_matrix(((weights[cell]).ravel(), (cell[:, None] + shift).ravel(), np.concatenate([[0], np.cumsum(counts)])),
+                                   shape=(size, size))
+            source = np.arange(size)[:, None] - shift  # row t: the cells t − (p, q) that spread onto t
+            inside = (source >= 0) & (source < size)
+            inside[inside] = flat_mask[source[inside]]
+            rows_k = np.nonzero(inside)
+            spread = sp.csr_matrix((weights[source[rows_k], rows_k[1]], source[rows_k], np.concatenate([[0], np.cumsum(inside.sum(1))])),
+                                   shape=(size, size))
+            self._spreading = (spread, gather)
+        return self._spreading
 
     def subcells(self, m: int) -> np.ndarray:
         """Sub-cell weights ∫w dA of the near set's cells on m × m sub-cells, shape (cells, m²)."""
@@ -401,11 +429,7 @@ class BlockSystem:
                 B /= dx * material.G
                 cs, ct = near_cells[src], near_cells[tgt]
                 exact = dx * dy * B / (Wn[tgt] * Wn[src])
-                far = np.zeros(src.size)
-                for (p, q), bt in self.beta.items():
-                    wt = bt[ct[:, 0], ct[:, 1]]
-                    for (pp, qq), bs in self.beta.items():
-                        far += wt * bs[cs[:, 0], cs[:, 1]] * Kstar[nx - 1 + P + p - pp, ny - 1 + Q + q - qq]
+                far = self._far(Kstar, P, Q, cells.beta_near[:, tgt], cells.beta_near[:, src])
                 flat_s, flat_t = cs[:, 0] * ny + cs[:, 1], ct[:, 0] * ny + ct[:, 1]
                 rows.append(flat_t)
                 cols.append(flat_s)
@@ -420,23 +444,26 @@ class BlockSystem:
         )
         self.diagonal = np.where(mask, far_diagonal + self.near.diagonal().reshape(nx, ny), 0.0)
 
+    def _far(self, Kstar: np.ndarray, P: int, Q: int, bt: np.ndarray, bs: np.ndarray) -> np.ndarray:
+        """(Pᵀ K* P) between target cells (stencil weights ``bt``, shape (9, pairs)) and source
+        cells (``bs``) at offset (P, Q): Σ over both stencils of bt · bs · K*, summed in the
+        order of the stencil loops (the same arithmetic as a loop over pairs of ``beta``)."""
+        g = self.grid
+        stencil = list(self.beta)
+        far = np.zeros(bt.shape[1])
+        for a, (p, q) in enumerate(stencil):
+            wt = bt[a]
+            for b, (pp, qq) in enumerate(stencil):
+                far += wt * bs[b] * Kstar[g.nx - 1 + P + p - pp, g.ny - 1 + Q + q - qq]
+        return far
+
     def spread(self, s: np.ndarray) -> np.ndarray:
         """Grid tractions P s: each cell's share on the 3 × 3 cell centres around it."""
-        nx, ny = s.shape
-        out = np.zeros_like(s)
-        for (p, q), bw in self.beta.items():
-            out[max(p, 0) : nx + min(p, 0), max(q, 0) : ny + min(q, 0)] += (bw * s)[max(-p, 0) : nx - max(p, 0), max(-q, 0) : ny - max(q, 0)]
-        return out
+        return (self.cells.spreading()[0] @ s.ravel()).reshape(s.shape)
 
     def gather(self, u: np.ndarray) -> np.ndarray:
         """Pᵀ u: each cell's w-weighted mean of the grid displacements (moments matched)."""
-        nx, ny = u.shape
-        out = np.zeros_like(u)
-        for (p, q), bw in self.beta.items():
-            out[max(-p, 0) : nx - max(p, 0), max(-q, 0) : ny - max(q, 0)] += (
-                bw[max(-p, 0) : nx - max(p, 0), max(-q, 0) : ny - max(q, 0)] * u[max(p, 0) : nx + min(p, 0), max(q, 0) : ny + min(q, 0)]
-            )
-        return out
+        return (self.cells.spreading()[1] @ u.ravel()).reshape(u.shape)
 
     def apply(self, s: np.ndarray) -> np.ndarray:
         """Ã s for s of shape (1, nx, ny) supported on ``mask``."""

@@ -60,6 +60,35 @@ def test_cell_weights_sum_to_the_hemisphere() -> None:
     assert abs(system.near - system.near.T).max() == 0.0  # the near correction is symmetric (built so)
 
 
+
+def test_sparse_spreading_is_the_shifted_array_loop_bitwise() -> None:
+    """P s and Pᵀ u as sparse products (``SingularCells.spreading``) against the loop over the
+    3 × 3 stencil of shifted-array products they replaced: equal bit for bit (the terms are the
+    same products summed in the same order), also the near-field's far part (``_far``) against
+    the per-pair loop over ``beta``."""
+    cells = sc.SingularCells(Shape("ellipse", 0.5), 32, 16, Isotropic(1.0, 0.3))
+    system = cells.system("yy")
+    rng = np.random.default_rng(3)
+    s, u = rng.standard_normal(cells.mask.shape) * cells.mask, rng.standard_normal(cells.mask.shape)
+    nx, ny = s.shape
+    spread, gather = np.zeros_like(s), np.zeros_like(u)
+    for (p, q), bw in cells.beta.items():
+        spread[max(p, 0) : nx + min(p, 0), max(q, 0) : ny + min(q, 0)] += (bw * s)[max(-p, 0) : nx - max(p, 0), max(-q, 0) : ny - max(q, 0)]
+        gather[max(-p, 0) : nx - max(p, 0), max(-q, 0) : ny - max(q, 0)] += (
+            bw[max(-p, 0) : nx - max(p, 0), max(-q, 0) : ny - max(q, 0)] * u[max(p, 0) : nx + min(p, 0), max(q, 0) : ny + min(q, 0)]
+        )
+    assert np.array_equal(system.spread(s), spread)
+    assert np.array_equal(system.gather(u), gather)
+    Kstar = sc.double_average_kernel(cells.material, nx, ny, cells.grid.dx, cells.grid.dy, "yy")
+    pairs = rng.integers(0, len(cells.cells), (2, 50))
+    ct, cs = cells.cells[pairs[0]], cells.cells[pairs[1]]
+    expected = np.zeros(50)
+    for (p, q), bt in cells.beta.items():
+        for (pp, qq), bs in cells.beta.items():
+            expected += bt[ct[:, 0], ct[:, 1]] * bs[cs[:, 0], cs[:, 1]] * Kstar[nx - 1 + 1 + p - pp, ny - 1 - 2 + q - qq]
+    assert np.array_equal(system._far(Kstar, 1, -2, cells.beta_near[:, pairs[0]], cells.beta_near[:, pairs[1]]), expected)
+
+
 def test_double_average_kernel_series_meets_the_quadrature() -> None:
     """Beyond ``EXACT_OFFSETS`` K* comes from the Taylor series in central differences; at the
     first offset past the table it must agree with the graded quadrature of the table (computed
