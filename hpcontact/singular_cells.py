@@ -349,18 +349,23 @@ class SingularCells:
             nx, ny = self.grid.nx, self.grid.ny
             size = nx * ny
             shift = np.array([p * ny + q for p, q in self.beta])
-            weights = np.stack([bw.ravel() for bw in self.beta.values()], 1)  # (size, 9)
             flat_mask = self.mask.ravel()
             cell = np.flatnonzero(flat_mask)
-            counts = np.where(flat_mask, len(shift), 0)
-            gather = sp.csr_matrix(((weights[cell]).ravel(), (cell[:, None] + shift).ravel(), np.concatenate([[0], np.cumsum(counts)])),
-                                   shape=(size, size))
-            source = np.arange(size)[:, None] - shift  # row t: the cells t − (p, q) that spread onto t
-            inside = (source >= 0) & (source < size)
-            inside[inside] = flat_mask[source[inside]]
-            rows_k = np.nonzero(inside)
-            spread = sp.csr_matrix((weights[source[rows_k], rows_k[1]], source[rows_k], np.concatenate([[0], np.cumsum(inside.sum(1))])),
-                                   shape=(size, size))
+            weights = np.stack([bw.ravel()[cell] for bw in self.beta.values()], 1)  # (cells, 9)
+            indptr = np.zeros(size + 1, dtype=np.int64)
+            indptr[1:] = np.cumsum(np.where(flat_mask, len(shift), 0))
+            gather = sp.csr_matrix((weights.ravel(), (cell[:, None] + shift).ravel(), indptr), shape=(size, size))
+            # row t of P: column k the cell t − shift[k] (padded flat arrays sliced, no wrap)
+            pad = ny + 1
+            padded_mask = np.concatenate([np.zeros(pad, bool), flat_mask, np.zeros(pad, bool)])
+            padded = [np.concatenate([np.zeros(pad), bw.ravel(), np.zeros(pad)]) for bw in self.beta.values()]
+            window = [slice(pad - d, pad - d + size) for d in shift]
+            valid = np.stack([padded_mask[w] for w in window], 1)  # (size, 9)
+            values = np.stack([b[w] for b, w in zip(padded, window)], 1)[valid]
+            target, k = np.nonzero(valid)
+            indptr = np.zeros(size + 1, dtype=np.int64)
+            indptr[1:] = np.cumsum(valid.sum(1))
+            spread = sp.csr_matrix((values, target - shift[k], indptr), shape=(size, size))
             self._spreading = (spread, gather)
         return self._spreading
 
