@@ -51,27 +51,31 @@ Li's normalized stiffnesses ∝ K_xx/K_zz, K_yy/K_zz) get the estimate of their 
 plus its distance from the ratio of the extrapolated entries, and at least half the sum of the
 entries' relative estimates (``RATIO_SHARE``: the errors share their sign and cancel in part, so
 the sum is pessimistic, but the ratio's own sequence alone fell below its true error at b/a =
-1e-3 and 0.05). K_max and K_min get the Frobenius norm of the entries' errors (Weyl).
+1e-3 and 0.05). K_max and K_min get the spectral norm of the entries' error bounds (Weyl; see
+:func:`principal_error`).
 ``estimated_error`` is the largest of all.
 
 Calibration (``benchmarks/accuracy_sharpness.py``; SAFETY, the guard 16 and ρ^1.5 were chosen
 on it): 24 cases with closed forms (circle and Mindlin ellipses b/a = 0.7 … 1e-8, nu = 0, 0.3,
 0.5), requests 1e-3 … 1e-6, sequences from n₀ = 16 and 32 up to n = 1024: 336 records, the
 reported estimate is above the largest true error of K_xx, K_yy, K_zz, K_a/K_b, K_xx/K_zz,
-K_yy/K_zz in all 336 (worst true/estimate 0.63) and within 30× of it in 94 %. Per quantity
+K_yy/K_zz in all 336 (worst true/estimate 0.90; 0.63 with the Frobenius bound on K_max/K_min
+used before :func:`principal_error`) and within 30× of it in 94.6 % (94.0 %). Per quantity
 (1652 pairs) one K_yy estimate (b/a = 0.05, nu = 0.5, from n₀ = 16 with 4 cells across, request
 1e-3) is 1.18× below its true error. On the singular cells' sequences (``hpcontact.singular_cells``;
-circle, b/a = 0.7, 0.5, n ≤ 1024) it is honest on all 126 records (worst 0.37) and all 602
-per-quantity pairs (worst 0.72), within 30× in 85 % of the records.
+circle, b/a = 0.7, 0.5, n ≤ 1024) it is honest on all 126 records (worst 0.52; 0.37 before)
+and all 602 per-quantity pairs (worst 0.72), within 30× in 85 % of the records.
 
 ``hpcontact solve --accuracy`` uses strategy ``auto``: for requests below 1e-4 (``SINGULAR_BELOW``)
 singular cells where they apply, on
 sequences from :func:`singular_start` (near-square cells; b/a = 0.05 starts at 160 × 8), with
 the candidates led by order 1 only (``SINGULAR_EXPANSIONS``). Replayed on those sequences (b/a =
 1, 0.7, 0.5, 0.3, 0.2, 0.1, 0.05; nu = 0, 0.3, 0.5; n₀ = 16 with five grids, n₀ = 32 with five,
-six (to n = 1024) for b/a ≥ 0.5; requests 1e-3 … 1e-6): honest on all 294 records (worst
-true/estimate 0.55) and all 1640 per-quantity pairs (worst 0.72), within 30× in 89.5 % of the
-records; on the 168 with requests below ``SINGULAR_BELOW`` (the ones ``auto`` gives them) 92 %.
+six (to n = 1024) for b/a ≥ 0.5; requests 1e-3 … 1e-6; ``benchmarks/edge_order.py
+--singular-calibration``): honest on all 294 records (worst true/estimate 0.69; 0.55 before
+:func:`principal_error`) and all 1644 per-quantity pairs (worst 0.72), within 30× in 90.8 %
+(89.5 %) of the records; on the 168 with requests below ``SINGULAR_BELOW`` (the ones ``auto``
+gives them) 92.9 % (92.3 %).
 
 The refinement stops when the request is met, when the planned grids run out (``max_cells``
 cells, or the memory budget: :func:`plan_grids` counts this process's peak resident set plus the
@@ -111,6 +115,7 @@ __all__ = [
     "spread",
     "estimate",
     "extrapolate",
+    "principal_error",
     "refine",
     "solve_to_accuracy",
     "default_solve",
@@ -375,7 +380,7 @@ def extrapolate(levels: Sequence[Mapping[str, Any]], expansions: Sequence[tuple[
     that of its own sequence (K_xx/K_yy per grid) plus the distance between its extrapolant and
     the ratio of extrapolants, and at least ``RATIO_SHARE`` (e_xx + e_yy) (:func:`ratio_error`;
     Li's K_xx E*/(K_zz G*) and K_yy E*/(K_zz G*) likewise with K_zz); K_max and K_min get
-    ‖δK‖_F / K (Weyl: an eigenvalue moves by at most the norm of the perturbation).
+    :func:`principal_error` / K (Weyl: an eigenvalue moves by at most the perturbation's norm).
     """
     estimates = {k: estimate([r[k] for r in levels], expansions=expansions) for k in TENSOR_KEYS if k in levels[-1]}
     values = {k: e.value for k, e in estimates.items()}
@@ -387,17 +392,35 @@ def extrapolate(levels: Sequence[Mapping[str, Any]], expansions: Sequence[tuple[
         relative[key] = e.error / max(abs(e.value) if own else scale, 1e-300)
     if "K_xx" in relative and "K_yy" in relative:
         relative["K_a_over_K_b"] = ratio_error(levels, "K_xx", "K_yy", values, relative, expansions)
-        frobenius = math.sqrt(sum(estimates[k].error ** 2 for k in ("K_xx", "K_xy", "K_yx", "K_yy")))
+        bound = principal_error(*(estimates[k].error for k in ("K_xx", "K_xy", "K_yx", "K_yy")))
         K2 = np.array([[values["K_xx"], values["K_xy"]], [values["K_yx"], values["K_yy"]]])
         k_max, k_min, _ = q.principal_stiffness(K2)
-        relative["K_max"] = frobenius / max(abs(k_max), 1e-300)
-        relative["K_min"] = frobenius / max(abs(k_min), 1e-300)
+        relative["K_max"] = bound / max(abs(k_max), 1e-300)
+        relative["K_min"] = bound / max(abs(k_min), 1e-300)
         if "K_zz" in relative:
             relative["normalized_xx"] = ratio_error(levels, "K_xx", "K_zz", values, relative, expansions)
             relative["normalized_yy"] = ratio_error(levels, "K_yy", "K_zz", values, relative, expansions)
     orders = {k: e.order for k, e in estimates.items()}
     expansions = {k: list(e.expansion) for k, e in estimates.items()}
     return values, relative, orders, expansions
+
+
+def principal_error(e_xx: float, e_xy: float, e_yx: float, e_yy: float) -> float:
+    """Bound on the error of K_max and K_min (the eigenvalues of the symmetric part of the
+    in-plane tensor, ``quantities.principal_stiffness``) from bounds on its entries' errors.
+
+    The symmetric part's error E = (δK + δKᵀ)/2 is symmetric with |E| ≤ B entrywise,
+    B = [[e_xx, c], [c, e_yy]], c = (e_xy + e_yx)/2. Weyl's inequality (Horn & Johnson, Matrix
+    Analysis, 2nd ed., Thm 4.3.1): |λᵢ(K + E) − λᵢ(K)| ≤ ‖E‖₂ for symmetric K and E. For symmetric
+    E, ‖E‖₂ = ρ(E) ≤ ρ(|E|) ≤ ρ(B) (Perron–Frobenius monotonicity, Horn & Johnson Thm 8.1.18), and
+    ρ(B) = (e_xx + e_yy)/2 + √(((e_xx − e_yy)/2)² + c²), which is at most both
+    √(‖B‖₁ ‖B‖∞) = max(e_xx, e_yy) + c (Golub & Van Loan, Matrix Computations, Cor. 2.3.2) and the
+    Frobenius norm √(e_xx² + e_yy² + 2c²) ≤ √(e_xx² + e_xy² + e_yx² + e_yy²) used before. With
+    K_xy = K_yx = 0 exactly (circle, unturned ellipse: c = 0) it is max(e_xx, e_yy), a factor up
+    to √2 below the Frobenius norm."""
+    c = 0.5 * (abs(e_xy) + abs(e_yx))
+    a, b = abs(e_xx), abs(e_yy)
+    return 0.5 * (a + b) + math.hypot(0.5 * (a - b), c)
 
 
 def ratio_error(levels: Sequence[Mapping[str, Any]], top: str, bottom: str, values: Mapping[str, float],

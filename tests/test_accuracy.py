@@ -221,3 +221,24 @@ def test_the_study_runner_is_hpcontact_run_with_cold_solves(tmp_path, capsys):
     assert run_study([str(spec), "--output", str(output)]) == 2  # journals exist: --resume or --restart
     assert "--resume" in capsys.readouterr().err
     assert run_study([str(spec), "--output", str(output), "--resume"]) == 0
+
+
+def test_principal_error_bounds_the_eigenvalue_shift_and_is_below_frobenius() -> None:
+    """``principal_error``: for random symmetric-part perturbations with |δK_ij| ≤ e_ij the
+    eigenvalues of the symmetric part move by at most the bound (Weyl with ρ(B); tolerance 1e-12
+    relative: eigh's rounding), the bound is at most √(‖B‖₁‖B‖∞) and the Frobenius norm of the
+    entries' bounds used before, and equals max(e_xx, e_yy) when the cross entries are exact."""
+    from hpcontact import quantities as q
+
+    rng = np.random.default_rng(12)
+    for _ in range(200):
+        K = rng.standard_normal((2, 2)) + 3.0 * np.eye(2)
+        e = rng.uniform(0.0, 0.3, 4) * (rng.random(4) < 0.8)
+        bound = acc.principal_error(*e)
+        delta = e.reshape(2, 2) * rng.choice([-1.0, 1.0], (2, 2)) * rng.uniform(0.5, 1.0, (2, 2))
+        before, after = q.principal_stiffness(K)[:2], q.principal_stiffness(K + delta)[:2]
+        assert max(abs(after[0] - before[0]), abs(after[1] - before[1])) <= bound * (1.0 + 1e-12) + 1e-15
+        c = 0.5 * (e[1] + e[2])
+        assert bound <= max(e[0], e[3]) + c + 1e-15
+        assert bound <= math.sqrt(float(np.sum(e**2))) + 1e-15
+    assert acc.principal_error(2e-6, 0.0, 0.0, 1e-6) == 2e-6
