@@ -157,7 +157,7 @@ def done_when_case(aspect: float, nu: float, request: float, strategy: str, max_
                       "finest": [r["grids"][-1], r["grids_across"][-1]], "stopped_by": r["stopped_by"]}))
 
 
-def done_when(request: float, max_cells: int) -> None:
+def done_when(request: float, max_cells: int, strategies: tuple[str, ...] = ("coverage", "auto")) -> None:
     """Issue 12's first "Done when" line: --accuracy REQUEST for ellipses b/a = 0.7, 0.05, 1e-3,
     1e-6 at nu = 0.3, 0.5, with coverage-weighted cells (before) and ``auto`` (what ``hpcontact
     solve --accuracy`` uses), each case in a fresh process (peak memory its own)."""
@@ -167,7 +167,7 @@ def done_when(request: float, max_cells: int) -> None:
     print(f"request {request:g}, at most {max_cells} cells per grid")
     print("| b/a | nu | cells | estimate | true | honest per quantity | CPU s | peak MiB | finest grid | stopped by |")
     print("|---|---|---|---|---|---|---|---|---|---|")
-    for strategy in ("coverage", "auto"):
+    for strategy in strategies:
         for aspect, nu in DONE_WHEN:
             code = f"import edge_order; edge_order.done_when_case({aspect!r}, {nu!r}, {request!r}, {strategy!r}, {max_cells})"
             line = subprocess.run([sys.executable, "-c", code], cwd=Path(__file__).parent, check=True,
@@ -253,6 +253,7 @@ def main() -> None:
     parser.add_argument("--done-when", type=float, default=None, metavar="REQUEST",
                         help="issue 12's --accuracy table (b/a 0.7, 0.05, 1e-3, 1e-6; nu 0.3, 0.5), coverage and auto")
     parser.add_argument("--max-cells", type=int, default=1024 * 1024 - 1, help="largest grid of --done-when (cells)")
+    parser.add_argument("--strategies", default="coverage,auto", help="--done-when's cell treatments, comma-separated (coverage, auto)")
     parser.add_argument("--singular-calibration", type=Path, default=None, metavar="CACHE",
                         help="honesty of --accuracy on singular cells (solves what CACHE lacks, then replays)")
     args = parser.parse_args()
@@ -260,7 +261,7 @@ def main() -> None:
         singular_calibration(args.singular_calibration)
         return
     if args.done_when is not None:
-        done_when(args.done_when, args.max_cells)
+        done_when(args.done_when, args.max_cells, tuple(args.strategies.split(",")))
         return
     if args.bound:
         bound()
