@@ -1,0 +1,263 @@
+"""``--accuracy`` on shapes without a closed form, against a reference from finer grids (issue 12).
+
+    python benchmarks/accuracy_reference.py [--cases square,rect1e-8] [--nu 0.3,0.5]
+        [--requests 1e-3,1e-4,1e-5,1e-6,default] [--runs results/accuracy_reference_runs.jsonl]
+        [--levels results/accuracy_reference_levels.jsonl] [--json OUT]
+
+Cases: the square (``--shape rectangle --aspect 1``) and the rectangle b/a = 1e-8, nu = 0.3 and
+0.5, quantities tangential and normal. Per case and request (1e-3 … 1e-6, and ``default``:
+``hpcontact solve`` without ``--n``, ``accuracy.default_solve``) ``solve_to_accuracy``
+runs as ``hpcontact solve --accuracy`` does (coverage-weighted cells from n = 32, the default
+memory budget, ``strict=False`` so that a request not met still gives its record), each in a
+fresh process so that its CPU seconds (``time.process_time``) and peak resident memory
+(``ru_maxrss``, imports included) are its own. Every run is cached (JSON lines, ``--runs``).
+
+The reference of each case comes from grids finer than any that ``--accuracy`` used for it
+(``REFERENCE_GRIDS``; the square: n = 1280 … 2560 against ``--accuracy``'s ≤ 1024; the
+rectangle: 2560 × 640 … 5120 × 1280 against ≤ 1024 × 256 for the requests 1e-3 … 1e-5, while
+the request 1e-6 is not met and runs to the 2^22-cell limit, 4096 × 1024: only the finest
+reference grid is finer than that), solved with ``covered_solve`` at CG tol 1e-10 and cached
+(``--levels``). On them, per quantity (K_xx, K_yy, K_zz, and K_a/K_b = K_xx/K_yy per grid),
+least-squares fits Q = Q* + Σ c_i t_i(h) (h ∝ 1/n, the cell aspect fixed; t = h^p or h ln h,
+``FITS``, each leaving a residual: three or four parameters on five grids) give extrapolants
+Q*: the reference is that of the fit of least residual, its uncertainty the largest distance
+from it of the Q* of every accepted fit (residual within ``ACCEPT_RESIDUAL``× the least: the
+data are smooth to rounding, 1e-15, so a fit with a residual far above the least leaves out a
+term the grids resolve).
+The table says whether that uncertainty is at least 10× below the estimate it judges
+(``ref ok``).
+
+Printed: case, request, estimate, true error (largest over K_xx, K_yy, K_a/K_b, K_zz against
+the reference), true/estimate, met?, stopped by, finest grid, CPU s, MiB; then per case the
+reference and its uncertainty per quantity. True error > estimate is a dishonest estimate: it
+is flagged (``DISHONEST``), never hidden.
+
+Measured (2026-11-23, this 2-core VM at load 2-4, shared): honest in all 20 rows, true/estimate
+0.12-0.36; reference uncertainty ≤ 6.8e-8 (square) and ≤ 2.0e-7 (rectangle), ≥ 10× below every
+estimate but the square's at 1e-6 (7.7-8.6×; there true + uncertainty = 2.6e-7 < 5.2e-7). The
+square meets 1e-6 on grids to 1024 in 12.5-14.9 s CPU, 0.9 GB; the rectangle b/a = 1e-8 does
+not (2^22-cell limit at 4096 × 1024, estimate 2.3e-6 and 2.6e-6, true 5.5e-7 and 5.6e-7, 152-169
+s, 3.7 GB). The cold reference solves take ~25 min of CPU (5120 × 1280: 221-245 s, 5.6 GB).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+CASES = {"square": ("rectangle", 1.0), "rect1e-8": ("rectangle", 1e-8)}
+NUS = (0.3, 0.5)
+REQUESTS = (1e-3, 1e-4, 1e-5, 1e-6)
+QUANTITIES = ("K_xx", "K_yy", "K_a_over_K_b", "K_zz")
+QUANTITIES_PARAM = "tangential,normal"
+REFERENCE_TOL = 1e-10
+#: (n, n_across) of the reference grids per case: all finer than the grids ``--accuracy`` used
+#: for the requests it meets (module docstring), the cell aspect that of its sequence.
+REFERENCE_GRIDS = {
+    "square": [(1280, 1280), (1536, 1536), (1792, 1792), (2048, 2048), (2560, 2560)],
+    "rect1e-8": [(2560, 640), (3072, 768), (3584, 896), (4096, 1024), (5120, 1280)],
+}
+#: Terms of the least-squares fits Q = Q* + Σ c_i t_i(h) over the reference grids: a number p
+#: is h^p, "L1" is h ln h (the thin rectangle's extrapolants drift as if such a term were left:
+#: they fall only 1.8x per halving of h under the expansion {1, 1.5} that --accuracy picks).
+FITS: tuple[tuple[Any, ...], ...] = (
+    (1.0, 1.5), (1.0, 2.0), (1.0, "L1"),                                     # three parameters
+    (1.0, 1.5, 2.0), (1.0, 1.5, 2.5), (1.0, "L1", 1.5), (1.0, "L1", 2.0),   # four
+)
+ACCEPT_RESIDUAL = 10.0  # a fit counts if its largest residual is within 10x the least one's
+
+
+def params(case: str, nu: float) -> dict[str, Any]:
+    shape, aspect = CASES[case]
+    return {"shape": shape, "aspect": aspect, "nu": nu, "quantities": QUANTITIES_PARAM}
+
+
+# ------------------------------------------------------------------------------------------
+# one --accuracy run, in its own process
+# ------------------------------------------------------------------------------------------
+def one_run(case: str, nu: float, request: float | str) -> dict[str, Any]:
+    from hpcontact.accuracy import default_solve, solve_to_accuracy
+
+    cpu = time.process_time()
+    if request == "default":  # hpcontact solve without --n
+        record = default_solve(params(case, nu))
+    else:
+        record = solve_to_accuracy(params(case, nu), float(request), strict=False)
+    cpu = time.process_time() - cpu
+    return {
+        "case": case, "nu": nu, "request": request, "cpu_s": cpu,
+        "peak_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+        "estimated_error": record["estimated_error"], "estimated_errors": record["estimated_errors"],
+        "accuracy_met": record["accuracy_met"], "stopped_by": record["stopped_by"],
+        "grids": record["grids"], "grids_across": record["grids_across"],
+        "memory_budget_bytes": record["memory_budget_bytes"], "estimated_peak_bytes": record["estimated_peak_bytes"],
+        "values": {k: record[k] for k in QUANTITIES},
+        "levels": [{k: lv[k] for k in ("K_xx", "K_yy", "K_zz", "wall_time_s")} for lv in record["levels"]],
+        "load": os.getloadavg()[0],
+    }
+
+
+def load_jsonl(path: Path) -> list[dict[str, Any]]:
+    if not path.exists():
+        return []
+    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+
+
+def runs(path: Path, cases: list[str], nus: list[float], requests: list[float]) -> dict[tuple, dict]:
+    have = {(r["case"], r["nu"], r["request"]): r for r in load_jsonl(path)}
+    for case in cases:
+        for nu in nus:
+            for request in requests:
+                if (case, nu, request) in have:
+                    continue
+                out = subprocess.run([sys.executable, __file__, "--one", case, str(nu), request if isinstance(request, str) else repr(request)],
+                                     check=True, capture_output=True, text=True, cwd=ROOT)
+                row = json.loads(out.stdout.strip().splitlines()[-1])
+                have[(case, nu, request)] = row
+                path.parent.mkdir(parents=True, exist_ok=True)
+                with path.open("a") as fh:
+                    fh.write(json.dumps(row) + "\n")
+                print(f"  ran {case} nu={nu} {request}: {row['cpu_s']:.1f} s CPU", file=sys.stderr, flush=True)
+    return have
+
+
+# ------------------------------------------------------------------------------------------
+# the reference
+# ------------------------------------------------------------------------------------------
+def one_level(case: str, nu: float, n: int, na: int) -> dict[str, Any]:
+    from hpcontact.boundary_cells import covered_solve
+
+    cpu = time.process_time()
+    record = covered_solve({**params(case, nu), "n": n, "n_across": na, "tol": REFERENCE_TOL})
+    return {"case": case, "nu": nu, "n": n, "na": na, "tol": REFERENCE_TOL, "nx": record["nx"], "ny": record["ny"],
+            "cpu_s": time.process_time() - cpu, "peak_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+            **{k: record[k] for k in ("K_xx", "K_yy", "K_zz", "K_a_over_K_b")}}
+
+
+def reference_levels(path: Path, case: str, nu: float) -> list[dict[str, Any]]:
+    have = {(r["case"], r["nu"], r["n"], r["na"], r["tol"]): r for r in load_jsonl(path)}
+    out = []
+    for n, na in REFERENCE_GRIDS[case]:
+        key = (case, nu, n, na, REFERENCE_TOL)
+        if key not in have:
+            res = subprocess.run([sys.executable, __file__, "--level", case, str(nu), str(n), str(na)],
+                                 check=True, capture_output=True, text=True, cwd=ROOT)
+            have[key] = json.loads(res.stdout.strip().splitlines()[-1])
+            path.parent.mkdir(parents=True, exist_ok=True)
+            with path.open("a") as fh:
+                fh.write(json.dumps(have[key]) + "\n")
+            print(f"  solved {case} nu={nu} {n} x {na}: {have[key]['cpu_s']:.1f} s CPU", file=sys.stderr, flush=True)
+        out.append(have[key])
+    return out
+
+
+def fit(n: np.ndarray, values: np.ndarray, terms: tuple[Any, ...]) -> tuple[float, float]:
+    """Q* of the least-squares fit values = Q* + Σ c_i t_i(h) (h = n₀/n, t = h^p or h ln h for
+    "L1"), and its largest residual relative to Q* (rounding when the fit interpolates)."""
+    h = n[0] / n
+    A = np.column_stack([np.ones_like(h)] + [h * np.log(h) if t == "L1" else h**t for t in terms])
+    c = np.linalg.lstsq(A, values, rcond=None)[0]
+    return float(c[0]), float(np.max(np.abs(A @ c - values)) / abs(c[0]))
+
+
+def label(terms: tuple[Any, ...]) -> str:
+    return "+".join("h ln h" if t == "L1" else f"h^{t:g}" for t in terms)
+
+
+def reference(levels: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
+    """Per quantity: the reference (Q* of the fit of least largest-residual among those the
+    grids leave a residual for), its uncertainty (the largest distance from it of the Q* of the
+    accepted fits: residual within ``ACCEPT_RESIDUAL`` × the least; a fit whose residual is far
+    above it leaves a term out at the accuracy the grids resolve), and every fit's Q* and residual."""
+    n = np.array([lv["n"] for lv in levels], dtype=np.float64)
+    out = {}
+    for key in QUANTITIES:
+        values = np.array([lv["K_xx"] / lv["K_yy"] if key == "K_a_over_K_b" else lv[key] for lv in levels])
+        fits = {label(t): fit(n, values, t) for t in FITS if len(t) + 1 < len(n)}
+        best = min(fits, key=lambda k: fits[k][1])
+        ref, floor = fits[best][0], max(fits[best][1], 1e-15)
+        accepted = [k for k, v in fits.items() if v[1] <= ACCEPT_RESIDUAL * floor]
+        out[key] = {"value": ref, "uncertainty": max(abs(fits[k][0] - ref) for k in accepted), "best": best,
+                    "accepted": accepted, "fits": {k: v[0] for k, v in fits.items()}, "residuals": {k: v[1] for k, v in fits.items()}}
+    return out
+
+
+# ------------------------------------------------------------------------------------------
+def table(have: dict[tuple, dict], refs: dict[tuple, dict], cases, nus, requests) -> list[dict[str, Any]]:
+    rows = []
+    print("| case | request | estimate | true error | true/estimate | ref unc. | ref ok | met? | stopped by | finest grid | CPU s | MiB |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for case in cases:
+        for nu in nus:
+            ref = refs[(case, nu)]
+            for request in requests:
+                r = have[(case, nu, request)]
+                true = {k: abs(r["values"][k] / ref[k]["value"] - 1.0) for k in QUANTITIES}
+                unc = max(ref[k]["uncertainty"] / abs(ref[k]["value"]) for k in QUANTITIES)
+                worst = max(true.values())
+                est = r["estimated_error"]
+                flag = " DISHONEST" if worst > est else ""
+                row = {"case": case, "nu": nu, "request": request, "estimate": est, "true": worst, "true_by_quantity": true,
+                       "ratio": worst / est, "reference_uncertainty": unc, "reference_ok": unc <= est / 10.0,
+                       "met": r["accuracy_met"], "stopped_by": r["stopped_by"],
+                       "finest": f"{r['grids'][-1]}x{r['grids_across'][-1]}", "cpu_s": r["cpu_s"], "peak_mib": r["peak_mib"]}
+                rows.append(row)
+                print(f"| {case} nu {nu} | {request if request == 'default' else f'{request:g}'} | {est:.2e} | {worst:.2e} | {worst / est:.3f}{flag} | {unc:.1e} | "
+                      f"{'yes' if row['reference_ok'] else 'NO'} | {'yes' if r['accuracy_met'] else 'no'} | {r['stopped_by']} | "
+                      f"{row['finest']} | {r['cpu_s']:.1f} | {r['peak_mib']:.0f} |")
+    return rows
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--cases", default=",".join(CASES))
+    ap.add_argument("--nu", default=",".join(str(v) for v in NUS))
+    ap.add_argument("--requests", default=",".join(f"{v:g}" for v in REQUESTS) + ",default",
+                    help="requests, and 'default' for hpcontact solve without --n (accuracy.default_solve)")
+    ap.add_argument("--runs", type=Path, default=ROOT / "results" / "accuracy_reference_runs.jsonl")
+    ap.add_argument("--levels", type=Path, default=ROOT / "results" / "accuracy_reference_levels.jsonl")
+    ap.add_argument("--json", type=Path, default=None, help="write the table and references here")
+    ap.add_argument("--one", nargs=3, metavar=("CASE", "NU", "REQUEST"), help=argparse.SUPPRESS)
+    ap.add_argument("--level", nargs=4, metavar=("CASE", "NU", "N", "NA"), help=argparse.SUPPRESS)
+    args = ap.parse_args(argv)
+    if args.one:
+        request = args.one[2] if args.one[2] == "default" else float(args.one[2])
+        print(json.dumps(one_run(args.one[0], float(args.one[1]), request)))
+        return 0
+    if args.level:
+        print(json.dumps(one_level(args.level[0], float(args.level[1]), int(args.level[2]), int(args.level[3]))))
+        return 0
+    cases = args.cases.split(",")
+    nus = [float(v) for v in args.nu.split(",")]
+    requests = [v if v == "default" else float(v) for v in args.requests.split(",")]
+    have = runs(args.runs, cases, nus, requests)
+    refs = {(c, nu): reference(reference_levels(args.levels, c, nu)) for c in cases for nu in nus}
+    print(f"load average {os.getloadavg()[0]:.2f} (2 cores); CPU s = time.process_time of each run's process\n")
+    rows = table(have, refs, cases, nus, requests)
+    print("\nreference per case: Q* of the least-squares fit of least residual; uncertainty = the largest distance"
+          f" of the accepted fits' Q* (* below: residual within {ACCEPT_RESIDUAL:g}x the least); per fit Q*/ref - 1"
+          " (largest residual / Q*)")
+    for (case, nu), ref in refs.items():
+        grids = ", ".join(f"{n}x{na}" for n, na in REFERENCE_GRIDS[case])
+        print(f"  {case} nu {nu} (grids {grids}, CG tol {REFERENCE_TOL:g}):")
+        for k, r in ref.items():
+            print(f"    {k:13s} {r['value']:.12g} ± {r['uncertainty'] / abs(r['value']):.1e} rel ({r['best']}); "
+                  + ", ".join(f"{e}{'*' if e in r['accepted'] else ''}: {v / r['value'] - 1.0:+.1e} ({r['residuals'][e]:.0e})"
+                              for e, v in r["fits"].items()))
+    if args.json:
+        args.json.write_text(json.dumps({"rows": rows, "references": {f"{c} nu {nu}": r for (c, nu), r in refs.items()}}, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
