@@ -98,7 +98,7 @@ def fft_applications(scenes: Iterable[Mapping[str, Any]], ranks: int = 1) -> dic
             continue
         key = (tuple(quantity_names(p["quantities"])), float(p["nu"]))
         if key not in components:
-            plan = plan_for(Scene.from_params({"quantities": list(key[0]), "nu": key[1]}), mirror=False)
+            plan = plan_for(Scene.from_params(params), mirror=False)  # the first scene of its (quantities, nu)
             components[key] = [len(solve.components) for solve in plan.solves]
         shape = padded_shape(*contact_grid(params))
         iterations = ITERATIONS_PER_DIGIT * max(1.0, -math.log10(float(p["tol"]))) * iteration_factor(params)

@@ -63,5 +63,8 @@ def test_fft_applications_count_a_ranks_share_per_layout():
                                                                    rel=1e-15)
     # nu = 0: the tangential solves are one-component and the normal one is theirs (plan.plan_for)
     assert fft_applications([{**circle, "nu": 0.0}]) == pytest.approx({(1, shape): 2 * per_solve}, rel=1e-15)
+    # an indentation scene: one Polonsky-Keer solve on z (its radius is needed to make the plan)
+    sphere = {"quantities": ["indentation"], "n": 64, "nu": 0.3, "radius": 1.0, "depth": 1e-4, "tol": 1e-8}
+    assert fft_applications([sphere]) == pytest.approx({(1, shape): per_solve}, rel=1e-15)
     # not counted: crystals, slip scenes, scenes whose grids are chosen per task (no n)
     assert fft_applications([{**circle, "anisotropy": 2.0}, {**circle, "n": None}]) == {}
