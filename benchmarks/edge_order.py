@@ -24,6 +24,8 @@ own uncertainty |R(4 nmax) − R(2 nmax)| is printed with it (``--quick`` leaves
 0.7, 0.05, 1e-3, 1e-6, nu = 0.3, 0.5, with coverage-weighted cells and with ``auto`` (singular
 cells from ``accuracy.singular_start`` where they apply), grids up to ``--max-cells`` (default
 1024² − 1: the n = 1024 of the issue's coverage figures): estimate, true error, CPU s, peak MiB.
+``--strategies auto`` runs one treatment only (e.g. to time ``auto`` against an older commit:
+``PYTHONPATH=<worktree of it> python benchmarks/edge_order.py --done-when 1e-6 --strategies auto``).
 
 ``--singular-calibration CACHE``: the replay behind ``accuracy.SINGULAR_EXPANSIONS``' figures
 (b/a = 1 … 0.05, nu = 0, 0.3, 0.5, sequences of ``accuracy.singular_start`` from n₀ = 16 and 32,

@@ -269,8 +269,9 @@ class SingularCells:
 
     ``grid`` is the cropped grid padded by one cell on every side (room for the 3 × 3 spreading),
     ``mask`` the cells with W > 0, ``W`` their ∫w dA [area], ``beta`` the spreading weights P
-    per stencil offset; ``system(block)`` the Galerkin system of one block (``BlockSystem``);
-    ``force(s)`` = Σ s dx dy.
+    per stencil offset (``beta_near``: at the near set's cells), ``spreading()`` P and Pᵀ as
+    sparse matrices shared by the blocks; ``system(block)`` the Galerkin system of one block
+    (``BlockSystem``); ``force(s)`` = Σ s dx dy.
     """
 
     def __init__(self, shape: Shape, n: int, n_across: int | None, material: Isotropic) -> None:
