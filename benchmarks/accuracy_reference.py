@@ -32,12 +32,13 @@ the reference), true/estimate, met?, stopped by, finest grid, CPU s, MiB; then p
 reference and its uncertainty per quantity. True error > estimate is a dishonest estimate: it
 is flagged (``DISHONEST``), never hidden.
 
-Measured (2026-11-23, this 2-core VM at load 2-4, shared): honest in all 20 rows, true/estimate
-0.12-0.36; reference uncertainty ≤ 6.8e-8 (square) and ≤ 2.0e-7 (rectangle), ≥ 10× below every
-estimate but the square's at 1e-6 (7.7-8.6×; there true + uncertainty = 2.6e-7 < 5.2e-7). The
-square meets 1e-6 on grids to 1024 in 12.5-14.9 s CPU, 0.9 GB; the rectangle b/a = 1e-8 does
-not (2^22-cell limit at 4096 × 1024, estimate 2.3e-6 and 2.6e-6, true 5.5e-7 and 5.6e-7, 152-169
-s, 3.7 GB). The cold reference solves take ~25 min of CPU (5120 × 1280: 221-245 s, 5.6 GB).
+Measured (2026-11-23, this 2-core VM at load 2-4, shared; estimator of commit c33ff0e): honest
+in all 20 rows, true/estimate 0.16-0.38; reference uncertainty ≤ 6.8e-8 (square) and ≤ 2.0e-7
+(rectangle), ≥ 10× below every estimate but the square's at 1e-6 and the rectangle's at 1e-6,
+nu 0.3 (7.4-9.3×; there true + uncertainty ≤ 0.52 × estimate). The square meets 1e-6 on grids to
+1024 in 11.9-12.5 s CPU, 0.9 GB; the rectangle b/a = 1e-8 does not (2^22-cell limit at
+4096 × 1024, estimate 1.8e-6 and 2.2e-6, true 5.5e-7 and 5.6e-7, 146-154 s, 3.7 GB). The cold
+reference solves take ~25 min of CPU (5120 × 1280: 221-245 s, 5.6 GB).
 """
 
 from __future__ import annotations
