@@ -40,8 +40,8 @@ def test_a_sweep_without_n_is_extrapolated_with_its_estimate(write_spec, capsys)
             # nx, ny: the finest grid of the sequence 16 … 256 along the long side
             assert int(point["nx"]) == DEFAULT_N0 * 2 ** (DEFAULT_GRIDS - 1)
             assert str(point["grids"].values) == "[16, 32, 64, 128, 256]"
-        # b/a = 0.5 reaches the default's 1e-4 (README: 8.4e-5 at nu = 0.3); 0.05 stops at 256
-        # with its estimate above it (3.9e-4 worst over nu), never an error
+        # b/a = 0.5 reaches the default's 1e-4 (measured 7.4e-5 at nu = 0.3); 0.05 stops at 256
+        # with its estimate above it (measured 2.4e-4), never an error
         assert float(ds["estimated_error"].sel(aspect=0.5)) <= DEFAULT_ACCURACY
         assert (ds["status"] == 0).all()
     # the dry run and the scheduler see every grid: cost summed over the sequence, memory of the finest
