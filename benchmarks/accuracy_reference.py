@@ -7,8 +7,8 @@
 Cases: the square (``--shape rectangle --aspect 1``) and the rectangle b/a = 1e-8, nu = 0.3 and
 0.5, quantities tangential and normal. Per case and request (1e-3 … 1e-6, and ``default``:
 ``hpcontact solve`` without ``--n``, ``accuracy.default_solve``) ``solve_to_accuracy``
-runs as ``hpcontact solve --accuracy`` does (coverage-weighted cells from n = 32, the default
-memory budget, ``strict=False`` so that a request not met still gives its record), each in a
+runs as ``hpcontact solve --accuracy`` does (coverage-weighted cells from n = 32: the CLI's
+strategy ``auto`` takes singular cells only for circles and ellipses; the default memory budget, ``strict=False`` so that a request not met still gives its record), each in a
 fresh process so that its CPU seconds (``time.process_time``) and peak resident memory
 (``ru_maxrss``, imports included) are its own. Every run is cached (JSON lines, ``--runs``).
 
