@@ -78,13 +78,14 @@ def iteration_factor(params: Mapping[str, Any]) -> float:
     return aspect * math.log2(4.0 * nx * ny) / REFERENCE_LOG2_CELLS
 
 
-def fft_applications(scenes: Iterable[Mapping[str, Any]], ranks: int = 1) -> dict[tuple[int, tuple[int, int]], float]:
-    """Operator applications a rank expects per FFT layout (components c, padded shape) over
-    ``scenes`` shared by ``ranks`` ranks: per isotropic contact scene with a grid (``n``), the
-    solves of its plan (``hpcontact.plan.plan_for``, mirror symmetry not assumed) on their
-    components × ``ITERATIONS_PER_DIGIT`` × digits of tolerance × ``iteration_factor``, divided
-    by ``ranks``. For ``hpcontact.operator.expect_applications``: a hint to plan FFTW_MEASURE
-    early; other scenes (crystals, slip, rough, masks, grids chosen per task) are not counted."""
+def fft_applications(scenes: Iterable[Mapping[str, Any]]) -> dict[tuple[int, tuple[int, int]], float]:
+    """Operator applications expected per FFT layout (components c, padded shape) over
+    ``scenes``: per isotropic contact scene with a grid (``n``), the solves of its plan
+    (``hpcontact.plan.plan_for``, mirror symmetry not assumed) on their components ×
+    ``ITERATIONS_PER_DIGIT`` × digits of tolerance × ``iteration_factor``. A sweep rank passes
+    every R-th task of the sweep (its share, estimated at 1/R of the cost: ~10 µs per task).
+    For ``hpcontact.operator.expect_applications``: a hint to plan FFTW_MEASURE early; other
+    scenes (crystals, slip, rough, masks, grids chosen per task) are not counted."""
     from ..operator import padded_shape
     from ..plan import plan_for
     from ..scene import Scene
@@ -103,5 +104,5 @@ def fft_applications(scenes: Iterable[Mapping[str, Any]], ranks: int = 1) -> dic
         shape = padded_shape(*contact_grid(params))
         iterations = ITERATIONS_PER_DIGIT * max(1.0, -math.log10(float(p["tol"]))) * iteration_factor(params)
         for c in components[key]:
-            expected[(c, shape)] = expected.get((c, shape), 0.0) + iterations / ranks
+            expected[(c, shape)] = expected.get((c, shape), 0.0) + iterations
     return expected
