@@ -96,7 +96,7 @@ from functools import lru_cache
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.ndimage import binary_dilation
+from scipy.ndimage import binary_dilation, correlate
 
 from .errors import InputError
 from .geometry import Grid, Shape, grid_for
@@ -207,6 +207,24 @@ def _graded_rule(levels: int, points: int) -> tuple[np.ndarray, np.ndarray]:
     return ((0.5 * (lo + hi))[:, None] + 0.5 * (hi - lo)[:, None] * t).ravel(), (0.5 * (hi - lo)[:, None] * w).ravel()
 
 
+def _cell_average_stencil() -> np.ndarray:
+    """The 5 × 5 weights of K* = K + (δ²ₓ + δ²ᵧ)K/24 − 17(δ⁴ₓ + δ⁴ᵧ)K/5760 + δ²ₓδ²ᵧK/576 on the
+    collocation kernel K (``double_average_kernel``), δ² = (1, −2, 1), δ⁴ = (1, −4, 6, −4, 1)."""
+    d2, d4 = np.array([1.0, -2.0, 1.0]), np.array([1.0, -4.0, 6.0, -4.0, 1.0])
+    w = np.zeros((5, 5))
+    w[2, 2] = 1.0
+    w[1:4, 2] += d2 / 24.0
+    w[2, 1:4] += d2 / 24.0
+    w[:, 2] -= 17.0 * d4 / 5760.0
+    w[2, :] -= 17.0 * d4 / 5760.0
+    w[1:4, 1:4] += np.outer(d2, d2) / 576.0
+    w.setflags(write=False)
+    return w
+
+
+_CELL_AVERAGE = _cell_average_stencil()
+
+
 @lru_cache(maxsize=32)
 def _exact_table(nu: float, block: str, ratio: float, reach: int) -> np.ndarray:
     """K* at offsets (P, Q), 0 ≤ P, Q ≤ reach, for dx = 1, dy = ratio and G = 1 (read-only)."""
@@ -229,18 +247,12 @@ def double_average_kernel(material: Isotropic, nx: int, ny: int, dx: float, dy: 
     the source cell, centred offset grid (2nx−1, 2ny−1) as ``isotropic_block`` [length/stress].
 
     K* = K + (δ²ₓ + δ²ᵧ)K/24 − 17(δ⁴ₓ + δ⁴ᵧ)K/5760 + δ²ₓδ²ᵧK/576 (the cell average of the Taylor
-    series in central differences δ of the collocation kernel K), replaced within
+    series in central differences δ of the collocation kernel K; one 5 × 5 correlation,
+    ``_CELL_AVERAGE``), replaced within
     ``EXACT_OFFSETS`` cells by graded Gauss–Legendre quadrature of Love's integral.
     """
     Kb = isotropic_block(material, nx + 2, ny + 2, dx, dy, block)
-    c = Kb[2:-2, 2:-2]
-    d2x = Kb[3:-1, 2:-2] - 2.0 * c + Kb[1:-3, 2:-2]
-    d2y = Kb[2:-2, 3:-1] - 2.0 * c + Kb[2:-2, 1:-3]
-    d4x = Kb[4:, 2:-2] - 4.0 * Kb[3:-1, 2:-2] + 6.0 * c - 4.0 * Kb[1:-3, 2:-2] + Kb[:-4, 2:-2]
-    d4y = Kb[2:-2, 4:] - 4.0 * Kb[2:-2, 3:-1] + 6.0 * c - 4.0 * Kb[2:-2, 1:-3] + Kb[2:-2, :-4]
-    edges = Kb[3:-1, 2:-2] + Kb[1:-3, 2:-2] + Kb[2:-2, 3:-1] + Kb[2:-2, 1:-3]
-    dxy = Kb[3:-1, 3:-1] + Kb[1:-3, 3:-1] + Kb[3:-1, 1:-3] + Kb[1:-3, 1:-3] - 2.0 * edges + 4.0 * c
-    K = c + (d2x + d2y) / 24.0 - 17.0 * (d4x + d4y) / 5760.0 + dxy / 576.0
+    K = correlate(Kb, _CELL_AVERAGE, mode="constant")[2:-2, 2:-2]
     rx, ry = min(EXACT_OFFSETS, nx - 1), min(EXACT_OFFSETS, ny - 1)
     table = dx / material.G * _exact_table(material.nu, block, dy / dx, max(rx, ry))[: rx + 1, : ry + 1]
     full = np.concatenate([table[:0:-1], table], 0)
@@ -248,12 +260,29 @@ def double_average_kernel(material: Isotropic, nx: int, ny: int, dx: float, dy: 
     return K
 
 
+#: Love's integrals the sub-cell blocks are made of: every block is a combination of these two
+#: (``_combine``), so the near field's sub-cell sums are formed once per grid for all blocks.
+NEAR_KERNELS = ("one_over_r", "xx_over_r3")
+
+
+def _combine(nu: float, block: str, one_over_r, xx_over_r3):
+    """A block's Green's function integral from those of 1/r and x²/r³ (Johnson 1985 eq.
+    3.19–3.20 with G = 1): zz (1 − ν) I₁/2π, xx ((1 − ν) I₁ + ν I_xx)/2π, yy ((1 − ν) I₁ +
+    ν I_yy)/2π with I_yy = I₁ − I_xx (x² + y² = r²). Works on arrays or on sparse sums alike."""
+    if block == "zz":
+        return (1.0 - nu) / (2.0 * math.pi) * one_over_r
+    if block == "xx":
+        return ((1.0 - nu) * one_over_r + nu * xx_over_r3) / (2.0 * math.pi)
+    return (one_over_r - nu * xx_over_r3) / (2.0 * math.pi)
+
+
 @lru_cache(maxsize=64)
-def _subcell_block(nu: float, block: str, ratio: float, m: int, P: int, Q: int) -> np.ndarray:
-    """M[s, s'] = (Love integral of sub-cell s' at the centre of sub-cell s) / sub-cell area, for
-    target cell at offset (P, Q) from the source, m × m sub-cells, dx = 1, dy = ratio, G = 1."""
+def _subcell_block(kind: str, ratio: float, m: int, P: int, Q: int) -> np.ndarray:
+    """M[s, s'] = (Love integral of ``kind`` (``NEAR_KERNELS``) over sub-cell s' at the centre of
+    sub-cell s) / sub-cell area, for the target cell at offset (P, Q) from the source, m × m
+    sub-cells, dx = 1, dy = ratio (read-only)."""
     k = np.arange(1 - m, m)  # distinct sub-cell offsets (the matrix is Toeplitz-block-Toeplitz)
-    table = _block_integral(nu, block, (P + k[:, None] / m), ratio * (Q + k[None, :] / m), 0.5 / m, 0.5 * ratio / m)
+    table = cell_integrals(P + k[:, None] / m, ratio * (Q + k[None, :] / m), 0.5 / m, 0.5 * ratio / m, [kind])[kind]
     sa, sb = np.meshgrid(np.arange(m), np.arange(m), indexing="ij")
     sa, sb = sa.ravel(), sb.ravel()
     M = table[m - 1 + sa[:, None] - sa[None, :], m - 1 + sb[:, None] - sb[None, :]] * (m * m / ratio)
@@ -339,6 +368,7 @@ class SingularCells:
         # the weights of the near set's cells, one row per stencil offset in ``beta``'s order
         self.beta_near = np.stack([bw[cells[:, 0], cells[:, 1]] for bw in self.beta.values()])
         self._spreading: tuple[sp.csr_matrix, sp.csr_matrix] | None = None
+        self._near: list[tuple[tuple[int, int], np.ndarray, np.ndarray, dict[str, np.ndarray]]] | None = None
 
     def spreading(self) -> tuple[sp.csr_matrix, sp.csr_matrix]:
         """P and Pᵀ on the flattened grid (built once, shared by the blocks): row t of P holds the
@@ -384,6 +414,43 @@ class SingularCells:
                 self._sub[m] = (a * b * (F[:, 1:, 1:] - F[:, :-1, 1:] - F[:, 1:, :-1] + F[:, :-1, :-1])).reshape(len(cells), m * m)
         return self._sub[m]
 
+    def near_pairs(self) -> list[tuple[tuple[int, int], np.ndarray, np.ndarray, dict[str, np.ndarray]]]:
+        """The near field's cell pairs and their exact Galerkin integrals, for every block at once.
+
+        Per offset (P, Q) ≥ (0, 0) within ``NEAR`` (the pair at (−P, −Q) is the transpose): the
+        source and target indices into the near set (pairs with one cell in the band) and, per
+        kernel of ``NEAR_KERNELS``, Σ_s Σ_s' W_s M_ss' W_s' on m × m sub-cells extrapolated in m
+        (2 B_m − B_{m/2}), in units dx = 1, G = 1 (a block's B is ``_combine`` of them / (dx G)).
+        Computed once per grid and shared by the blocks."""
+        if self._near is None:
+            nx, ny = self.grid.nx, self.grid.ny
+            ratio = self.grid.dy / self.grid.dx
+            index, in_band, near_cells = self.index, self.in_band, self.cells
+            self._near = []
+            for P in range(-NEAR, NEAR + 1):
+                for Q in range(-NEAR, NEAR + 1):
+                    if (P, Q) < (0, 0):
+                        continue  # the transpose of (−P, −Q)
+                    target = near_cells + (P, Q)
+                    ok = (target[:, 0] >= 0) & (target[:, 0] < nx) & (target[:, 1] >= 0) & (target[:, 1] < ny)
+                    src = np.flatnonzero(ok)
+                    tgt = index[target[src, 0], target[src, 1]]
+                    keep = tgt >= 0
+                    src, tgt = src[keep], tgt[keep]
+                    keep = in_band[src] | in_band[tgt]
+                    src, tgt = src[keep], tgt[keep]
+                    if src.size == 0:
+                        continue
+                    mm = SUBCELLS[0] if max(abs(P), abs(Q)) <= 1 else SUBCELLS[1]
+                    B = {kind: np.zeros(src.size) for kind in NEAR_KERNELS}
+                    for level, weight in ((mm, 2.0), (mm // 2, -1.0)):
+                        Ws = self.subcells(level)
+                        Wt, Wsrc = Ws[tgt], Ws[src]
+                        for kind in NEAR_KERNELS:
+                            B[kind] += weight * np.einsum("pa,pa->p", Wt @ _subcell_block(kind, ratio, level, P, Q), Wsrc)
+                    self._near.append(((P, Q), src, tgt, B))
+        return self._near
+
     def system(self, block: str) -> BlockSystem:
         """The Galerkin system Ã s = u₀ of ``block`` ("xx", "yy" or "zz") on these cells."""
         if block not in BLOCKS:
@@ -403,52 +470,33 @@ class BlockSystem:
         self.cells, self.grid, self.mask, self.beta = cells, cells.grid, cells.mask, cells.beta
         material, mask = cells.material, cells.mask
         nx, ny, dx, dy = self.grid.nx, self.grid.ny, self.grid.dx, self.grid.dy
-        nu, ratio = material.nu, dy / dx
-        index, in_band, Wn = cells.index, cells.in_band, cells.Wn
-        near_cells = cells.cells
+        nu, Wn, near_cells = material.nu, cells.Wn, cells.cells
 
         Kstar = double_average_kernel(material, nx, ny, dx, dy, block)
         self.operator = ConvolutionOperator(nx, ny, block[0], {block: kernel_spectrum(Kstar, padded_shape(nx, ny))})
 
         # near-field correction: exact Galerkin entries minus what the far field gives them
         rows, cols, vals = [], [], []
-        for P in range(-NEAR, NEAR + 1):
-            for Q in range(-NEAR, NEAR + 1):
-                if (P, Q) < (0, 0):
-                    continue  # the transpose of (−P, −Q)
-                target = near_cells + (P, Q)
-                ok = (target[:, 0] >= 0) & (target[:, 0] < nx) & (target[:, 1] >= 0) & (target[:, 1] < ny)
-                src = np.flatnonzero(ok)
-                tgt = index[target[src, 0], target[src, 1]]
-                keep = tgt >= 0
-                src, tgt = src[keep], tgt[keep]
-                keep = in_band[src] | in_band[tgt]
-                src, tgt = src[keep], tgt[keep]
-                if src.size == 0:
-                    continue
-                mm = SUBCELLS[0] if max(abs(P), abs(Q)) <= 1 else SUBCELLS[1]
-                B = np.zeros(src.size)
-                for level, weight in ((mm, 2.0), (mm // 2, -1.0)):
-                    Ws = cells.subcells(level)
-                    M = _subcell_block(nu, block, ratio, level, P, Q)
-                    B += weight * np.einsum("pa,pa->p", Ws[tgt] @ M, Ws[src])
-                B /= dx * material.G
-                cs, ct = near_cells[src], near_cells[tgt]
-                exact = dx * dy * B / (Wn[tgt] * Wn[src])
-                far = self._far(Kstar, P, Q, cells.beta_near[:, tgt], cells.beta_near[:, src])
-                flat_s, flat_t = cs[:, 0] * ny + cs[:, 1], ct[:, 0] * ny + ct[:, 1]
-                rows.append(flat_t)
-                cols.append(flat_s)
+        for (P, Q), src, tgt, integrals in cells.near_pairs():
+            B = _combine(nu, block, *(integrals[kind] for kind in NEAR_KERNELS)) / (dx * material.G)
+            cs, ct = near_cells[src], near_cells[tgt]
+            exact = dx * dy * B / (Wn[tgt] * Wn[src])
+            far = self._far(Kstar, P, Q, cells.beta_near[:, tgt], cells.beta_near[:, src])
+            flat_s, flat_t = cs[:, 0] * ny + cs[:, 1], ct[:, 0] * ny + ct[:, 1]
+            rows.append(flat_t)
+            cols.append(flat_s)
+            vals.append(exact - far)
+            if (P, Q) != (0, 0):
+                rows.append(flat_s)
+                cols.append(flat_t)
                 vals.append(exact - far)
-                if (P, Q) != (0, 0):
-                    rows.append(flat_s)
-                    cols.append(flat_t)
-                    vals.append(exact - far)
         self.near = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(nx * ny, nx * ny))
-        far_diagonal = sum(
-            bt * bs * Kstar[nx - 1 + p - pp, ny - 1 + q - qq] for (p, q), bt in self.beta.items() for (pp, qq), bs in self.beta.items()
-        )
-        self.diagonal = np.where(mask, far_diagonal + self.near.diagonal().reshape(nx, ny), 0.0)
+        # far part of the diagonal: βᵀ K₉ β per cell, K₉ the far kernel between the 3 × 3 stencil offsets
+        stencil = list(self.beta)
+        K9 = np.array([[Kstar[nx - 1 + p - pp, ny - 1 + q - qq] for pp, qq in stencil] for p, q in stencil])
+        beta = np.stack([bw[mask] for bw in self.beta.values()])  # (9, contact cells)
+        self.diagonal = np.zeros((nx, ny))
+        self.diagonal[mask] = np.einsum("ac,ac->c", K9 @ beta, beta) + self.near.diagonal().reshape(nx, ny)[mask]
 
     def _far(self, Kstar: np.ndarray, P: int, Q: int, bt: np.ndarray, bs: np.ndarray) -> np.ndarray:
         """(Pᵀ K* P) between target cells (stencil weights ``bt``, shape (9, pairs)) and source
