@@ -184,14 +184,17 @@ CALIBRATION_ASPECTS = (1.0, 0.7, 0.5, 0.3, 0.2, 0.1, 0.05)
 
 def calibration_grids(aspect: float, nu: float, n0: int) -> list[tuple[int, int]]:
     """The sequence ``--accuracy`` (strategy auto) solves from n₀: ``accuracy.singular_start``'s
-    first grid refined by 2; five grids, six from n₀ = 32 for b/a ≥ 0.5 (to n = 1024)."""
-    from hpcontact.accuracy import singular_start
+    first grid refined by 2, every grid up to ``accuracy.SINGULAR_MAX_CELLS`` cells."""
+    from hpcontact.accuracy import RATIO, SINGULAR_MAX_CELLS, singular_start
     from hpcontact.scene import Scene
 
     params = {"shape": "circle"} if aspect == 1.0 else {"shape": "ellipse", "aspect": aspect}
     n, na = singular_start(Scene.from_params({**params, "nu": nu, "quantities": "tangential,normal"}), n0, None)
-    levels = 6 if n0 == 32 and aspect >= 0.5 else 5
-    return [(n * 2**k, na * 2**k) for k in range(levels)]
+    grids = []
+    while n * na <= SINGULAR_MAX_CELLS:
+        grids.append((n, na))
+        n, na = int(n * RATIO), int(na * RATIO)
+    return grids
 
 
 def singular_calibration(cache: Path) -> None:
@@ -231,7 +234,8 @@ def singular_calibration(cache: Path) -> None:
                         with cache.open("a") as f:
                             f.write(json.dumps(row) + "\n")
                 for request in requests:
-                    done = acc.refine(grids, lambda n, na: cached[(aspect, nu, n, na)], request, acc.SINGULAR_EXPANSIONS)
+                    done = acc.refine(grids, lambda n, na: cached[(aspect, nu, n, na)], request, acc.SINGULAR_EXPANSIONS,
+                                      acc.SINGULAR_SAFETY)
                     v = done.values
                     values = {**v, "K_a_over_K_b": v["K_xx"] / v["K_yy"], "normalized_xx": v["K_xx"] / v["K_zz"],
                               "normalized_yy": v["K_yy"] / v["K_zz"]}

@@ -69,18 +69,24 @@ and all 602 per-quantity pairs (worst 0.72), within 30× in 85 % of the records.
 ``hpcontact solve --accuracy`` uses strategy ``auto``: for requests below 1e-4 (``SINGULAR_BELOW``)
 singular cells where they apply, on
 sequences from :func:`singular_start` (near-square cells; b/a = 0.05 starts at 160 × 8), with
-the candidates led by order 1 only (``SINGULAR_EXPANSIONS``). Replayed on those sequences (b/a =
-1, 0.7, 0.5, 0.3, 0.2, 0.1, 0.05; nu = 0, 0.3, 0.5; n₀ = 16 with five grids, n₀ = 32 with five,
-six (to n = 1024) for b/a ≥ 0.5; requests 1e-3 … 1e-6; ``benchmarks/edge_order.py
---singular-calibration``): honest on all 294 records (worst true/estimate 0.69; 0.55 before
-:func:`principal_error`) and all 1644 per-quantity pairs (worst 0.72), within 30× in 90.8 %
-(89.5 %) of the records; on the 168 with requests below ``SINGULAR_BELOW`` (the ones ``auto``
-gives them) 92.9 % (92.3 %).
+the candidates led by order 1 only (``SINGULAR_EXPANSIONS``) and the spread times
+``SINGULAR_SAFETY`` = 6, on grids up to ``SINGULAR_MAX_CELLS`` = 2^20 cells. Replayed on every
+grid of those sequences up to 2^20 cells (b/a = 1, 0.7, 0.5, 0.3, 0.2, 0.1, 0.05; nu = 0, 0.3,
+0.5; n₀ = 16 and 32; requests 1e-3 … 1e-6; ``benchmarks/edge_order.py --singular-calibration``):
+honest on all 294 records (worst true/estimate 0.51) and all 1612 per-quantity pairs (worst
+0.90), within 30× in 90.1 % of the records and in 97.0 % of the 168 with requests below
+``SINGULAR_BELOW`` (the ones ``auto`` gives them). With the factor 3 of coverage-weighted cells
+this was honest only up to the sixth grid from n₀ = 32 for b/a ≥ 0.5 and the fifth below
+(worst 0.69); one grid further (b/a 0.3, 0.2, 0.1 at 1024 × 320, 2048 × 512, 2560 × 256) 4
+records and 32 pairs fell below their true error (worst 1.01 and 1.80): singular cells' error
+levels off at a few 1e-7 without a steady sign.
 
 The refinement stops when the request is met, when the planned grids run out (``max_cells``
 cells, or the memory budget: :func:`plan_grids` counts this process's peak resident set plus the
 sweep cost model's arrays of the next grid, ``hpcontact.sweep.costmodel``), or when the estimate
-has not fallen over two refinements (stagnation); the record says which (``stopped_by``).
+has not fallen over two refinements (stagnation); singular cells' grids also stop at
+``SINGULAR_MAX_CELLS`` (2^20), the largest grid of their calibration (``calibration``); the
+record says which (``stopped_by``).
 
 References: L. F. Richardson, Phil. Trans. R. Soc. A 210, 307–357 (1911); P. J. Roache,
 *Verification and Validation in Computational Science and Engineering*, Hermosa, 1998.
@@ -107,6 +113,8 @@ __all__ = [
     "SAFETY",
     "EXPANSIONS",
     "SINGULAR_EXPANSIONS",
+    "SINGULAR_MAX_CELLS",
+    "SINGULAR_SAFETY",
     "singular_start",
     "grid_sequence",
     "plan_grids",
@@ -164,6 +172,23 @@ SINGULAR_MAX_N0 = 256
 #: b/a = 1 … 0.05) where singular cells meet 1e-5 in 2.7–15 s (``benchmarks/accuracy_sharpness.py
 #: --cost`` and the replay of :data:`SINGULAR_EXPANSIONS`).
 SINGULAR_BELOW = 1e-4
+#: Singular cells' grids stop at this many cells: the largest of their calibration
+#: (``benchmarks/edge_order.py --singular-calibration``: every grid of :func:`singular_start`'s
+#: sequences up to 2^20 cells — circle 1024², b/a 0.2 to 2048 × 512). Beyond it their error is
+#: not a steady expansion: a sequence from n₀ = 45 (b/a 0.7, nu 0.3) reached 1440 × 992 with
+#: K_zz's estimate at 0.43 of its true error (3.5e-8 against 8.1e-8; K_yy 0.71). Their error is
+#: a sum of first-order terms of opposite sign (far field and sub-cell quadrature, ±1.6e-6 at
+#: 360 × 248 as NEAR and SUBCELLS vary) that cancel to a few 1e-7, so the estimator is trusted
+#: only where it was checked.
+SINGULAR_MAX_CELLS = 2**20
+#: The factor on the spread for singular cells' sequences (``SAFETY`` for coverage-weighted
+#: cells). Their error levels off at a few 1e-7 without a steady sign, which no difference of
+#: grids shows: with 3, the calibration over every grid up to ``SINGULAR_MAX_CELLS`` (294
+#: records, 1624 per-quantity pairs) left 4 records (worst 1.01, b/a 0.3, nu 0, 1024 × 320) and
+#: 32 pairs (worst 1.80, K_yy of b/a 0.2, nu 0.3, 2048 × 512: true 1.3e-7) below their true
+#: error; 5.5 is the least that is honest on all (worst pair 0.98), 6 leaves a margin (worst
+#: record 0.51, pair 0.90; within 30x in 90.1 % of the records, 97.0 % below ``SINGULAR_BELOW``).
+SINGULAR_SAFETY = 6.0
 
 
 # ------------------------------------------------------------------------------------------
@@ -232,7 +257,7 @@ class Estimate:
 
 
 def estimate(values: Sequence[float], ratio: float = RATIO,
-             expansions: Sequence[tuple[float, ...]] | None = None) -> Estimate:
+             expansions: Sequence[tuple[float, ...]] | None = None, safety: float | None = None) -> Estimate:
     """Extrapolated value and error estimate from a sequence on grids h, h/r, h/r², ….
 
     Needs ``MIN_GRIDS`` values. For every candidate expansion of ``EXPANSIONS`` (m exponents)
@@ -242,7 +267,8 @@ def estimate(values: Sequence[float], ratio: float = RATIO,
     wins, value = its last extrapolant, error = ``SAFETY`` × its spread (module docstring).
     No fitting expansion (a raw sequence that does not converge): the finest value with
     Roache's two-grid bound 3 |Q_k − Q_{k−1}|. ``expansions``: the candidates (default
-    ``EXPANSIONS``; ``SINGULAR_EXPANSIONS`` for singular cells).
+    ``EXPANSIONS``; ``SINGULAR_EXPANSIONS`` for singular cells) and ``safety`` (default ``SAFETY``;
+    ``SINGULAR_SAFETY`` for singular cells) the factor on the spread.
     """
     Q = [float(v) for v in values]
     if len(Q) < MIN_GRIDS:
@@ -255,7 +281,7 @@ def estimate(values: Sequence[float], ratio: float = RATIO,
         if len(Q) < m + 3 or (exponents and math.isfinite(p) and exponents[0] > p + LEAD_SLACK):
             continue
         E = [extrapolant(Q[j - m : j + 1], exponents, ratio) for j in range(m, len(Q))]
-        error = max(SAFETY * spread(E), floor * abs(E[-1]))
+        error = max((SAFETY if safety is None else safety) * spread(E), floor * abs(E[-1]))
         if best is None or error < best.error:
             best = Estimate(value=E[-1], error=error, order=p, expansion=tuple(exponents))
     if best is None:
@@ -332,8 +358,9 @@ def grid_bytes(params: Mapping[str, Any], n: int, n_across: int) -> float:
 @dataclasses.dataclass(frozen=True)
 class GridPlan:
     """The grids an accuracy request may use, and what stops the sequence after them:
-    ``limit`` is ``"cells"`` (more than ``max_cells``) or ``"memory budget"``; ``next_grid``
-    the first grid refused, ``next_bytes`` its estimated peak (``base_bytes``, this process's
+    ``limit`` is ``"cells"`` (more than ``max_cells``), ``"memory budget"`` or, set by
+    :func:`solve_to_accuracy`, ``"calibration"`` (singular cells beyond ``SINGULAR_MAX_CELLS``);
+    ``next_grid`` the first grid refused, ``next_bytes`` its estimated peak (``base_bytes``, this process's
     peak resident set when planned, + arrays), ``budget`` the budget in bytes and
     ``budget_source`` where it comes from."""
 
@@ -370,7 +397,8 @@ def plan_grids(params: Mapping[str, Any], shape: Shape, n0: int, n_across0: int 
     raise AssertionError("the grid sequence is unbounded")  # pragma: no cover - 2**62 cells never fit
 
 
-def extrapolate(levels: Sequence[Mapping[str, Any]], expansions: Sequence[tuple[float, ...]] | None = None) -> tuple[dict[str, float], dict[str, float], dict[str, float], dict[str, list[float]]]:
+def extrapolate(levels: Sequence[Mapping[str, Any]], expansions: Sequence[tuple[float, ...]] | None = None,
+                safety: float | None = None) -> tuple[dict[str, float], dict[str, float], dict[str, float], dict[str, list[float]]]:
     """Extrapolated tensor entries, their estimated relative errors, observed orders and the
     expansion each value comes from.
 
@@ -382,7 +410,7 @@ def extrapolate(levels: Sequence[Mapping[str, Any]], expansions: Sequence[tuple[
     Li's K_xx E*/(K_zz G*) and K_yy E*/(K_zz G*) likewise with K_zz); K_max and K_min get
     :func:`principal_error` / K (Weyl: an eigenvalue moves by at most the perturbation's norm).
     """
-    estimates = {k: estimate([r[k] for r in levels], expansions=expansions) for k in TENSOR_KEYS if k in levels[-1]}
+    estimates = {k: estimate([r[k] for r in levels], expansions=expansions, safety=safety) for k in TENSOR_KEYS if k in levels[-1]}
     values = {k: e.value for k, e in estimates.items()}
     diagonal = [abs(values[k]) for k in ("K_xx", "K_yy", "K_zz") if k in values]
     scale = max(diagonal) if diagonal else 1.0
@@ -391,15 +419,15 @@ def extrapolate(levels: Sequence[Mapping[str, Any]], expansions: Sequence[tuple[
         own = key in ("K_xx", "K_yy", "K_zz")
         relative[key] = e.error / max(abs(e.value) if own else scale, 1e-300)
     if "K_xx" in relative and "K_yy" in relative:
-        relative["K_a_over_K_b"] = ratio_error(levels, "K_xx", "K_yy", values, relative, expansions)
+        relative["K_a_over_K_b"] = ratio_error(levels, "K_xx", "K_yy", values, relative, expansions, safety)
         bound = principal_error(*(estimates[k].error for k in ("K_xx", "K_xy", "K_yx", "K_yy")))
         K2 = np.array([[values["K_xx"], values["K_xy"]], [values["K_yx"], values["K_yy"]]])
         k_max, k_min, _ = q.principal_stiffness(K2)
         relative["K_max"] = bound / max(abs(k_max), 1e-300)
         relative["K_min"] = bound / max(abs(k_min), 1e-300)
         if "K_zz" in relative:
-            relative["normalized_xx"] = ratio_error(levels, "K_xx", "K_zz", values, relative, expansions)
-            relative["normalized_yy"] = ratio_error(levels, "K_yy", "K_zz", values, relative, expansions)
+            relative["normalized_xx"] = ratio_error(levels, "K_xx", "K_zz", values, relative, expansions, safety)
+            relative["normalized_yy"] = ratio_error(levels, "K_yy", "K_zz", values, relative, expansions, safety)
     orders = {k: e.order for k, e in estimates.items()}
     expansions = {k: list(e.expansion) for k, e in estimates.items()}
     return values, relative, orders, expansions
@@ -424,7 +452,8 @@ def principal_error(e_xx: float, e_xy: float, e_yx: float, e_yy: float) -> float
 
 
 def ratio_error(levels: Sequence[Mapping[str, Any]], top: str, bottom: str, values: Mapping[str, float],
-                relative: Mapping[str, float], expansions: Sequence[tuple[float, ...]] | None = None) -> float:
+                relative: Mapping[str, float], expansions: Sequence[tuple[float, ...]] | None = None,
+                safety: float | None = None) -> float:
     """Estimated relative error of values[top]/values[bottom]: the estimate of the ratio's own
     sequence (top/bottom per grid) plus the distance of its extrapolant from the ratio of the
     extrapolated entries, and at least ``RATIO_SHARE`` × (e_top + e_bottom). The entries' errors
@@ -432,7 +461,7 @@ def ratio_error(levels: Sequence[Mapping[str, Any]], top: str, bottom: str, valu
     pessimistic; their own sequence alone was below the true error of K_a/K_b at b/a = 1e-3 and
     0.05 (``benchmarks/accuracy_sharpness.py``), hence the floor."""
     ratio = values[top] / values[bottom]
-    own = estimate([r[top] / r[bottom] for r in levels], expansions=expansions)
+    own = estimate([r[top] / r[bottom] for r in levels], expansions=expansions, safety=safety)
     return max((own.error + abs(own.value - ratio)) / abs(ratio), RATIO_SHARE * (relative[top] + relative[bottom]))
 
 
@@ -456,12 +485,12 @@ class Refinement:
 
 
 def refine(grids: Sequence[tuple[int, int]], solve_level: Any, accuracy: float,
-           expansions: Sequence[tuple[float, ...]] | None = None) -> Refinement:
+           expansions: Sequence[tuple[float, ...]] | None = None, safety: float | None = None) -> Refinement:
     """Solve ``solve_level(n, n_across)`` on ``grids`` in turn, extrapolating from the
     ``MIN_GRIDS``-th on, until the largest estimated relative error is ≤ ``accuracy`` (``met``)
     or has not fallen over ``STAGNATION_LEVELS`` refinements (``stagnation``). The one loop of
     ``solve_to_accuracy`` and of the replays of ``benchmarks/accuracy_sharpness.py``;
-    ``expansions`` as :func:`estimate`."""
+    ``expansions`` and ``safety`` as :func:`estimate`."""
     levels: list[dict[str, Any]] = []
     history: list[float] = []
     found: tuple[dict[str, float], dict[str, float], dict[str, float], dict[str, list[float]]] = ({}, {}, {}, {})
@@ -469,7 +498,7 @@ def refine(grids: Sequence[tuple[int, int]], solve_level: Any, accuracy: float,
         levels.append(solve_level(n, na))
         if len(levels) < MIN_GRIDS:
             continue
-        found = extrapolate(levels, expansions)
+        found = extrapolate(levels, expansions, safety)
         history.append(max(found[1].values()))
         if history[-1] <= accuracy:
             return Refinement(levels, *found, stopped_by="met")
@@ -510,7 +539,8 @@ def solve_to_accuracy(
     * ``estimated_errors``: the same per quantity; ``convergence_order``: the observed order
       of each raw sequence; ``expansion``: the exponents of the expansion each value comes
       from; ``accuracy_met``: whether ``estimated_error`` ≤ ``accuracy``;
-    * ``stopped_by``: ``met``, ``cells``, ``memory budget``, ``grids`` or ``stagnation``;
+    * ``stopped_by``: ``met``, ``cells``, ``memory budget``, ``calibration`` (singular cells
+      beyond ``SINGULAR_MAX_CELLS``), ``grids`` or ``stagnation``;
       ``memory_budget_bytes``, ``memory_budget_source``, ``estimated_peak_bytes`` (of the finest
       grid used);
     * ``grids``: the n of every grid used, ``grids_across``: their n_across, ``levels``: the
@@ -542,7 +572,11 @@ def solve_to_accuracy(
         start = singular_start(scene, n0 or N0, n_across0) if accuracy < SINGULAR_BELOW else None
         strategy = "coverage" if start is None else "singular"
         n0, n_across0 = start if start is not None else (n0, n_across0)
-    plan = plan_grids(base, scene.shape, n0 or N0, n_across0, max_cells, memory_budget)
+    calibrated = strategy == "singular" and max_cells > SINGULAR_MAX_CELLS
+    plan = plan_grids(base, scene.shape, n0 or N0, n_across0, min(max_cells, SINGULAR_MAX_CELLS) if calibrated else max_cells,
+                      memory_budget)
+    if calibrated and plan.limit == "cells":
+        plan = dataclasses.replace(plan, limit="calibration")
     sequence = plan.grids[:max_grids] if max_grids is not None else plan.grids
     if len(sequence) < MIN_GRIDS:
         field, limit = ("memory", f"a memory budget above {plan.next_bytes / 2**20:.0f} MiB") if plan.limit == "memory budget" \
@@ -574,7 +608,8 @@ def solve_to_accuracy(
         clear_cache()  # this grid's kernels serve no other grid: the budget counts one grid's
         return level
 
-    done = refine(sequence, solve_level, accuracy, SINGULAR_EXPANSIONS if strategy == "singular" else None)
+    singular = strategy == "singular"
+    done = refine(sequence, solve_level, accuracy, SINGULAR_EXPANSIONS if singular else None, SINGULAR_SAFETY if singular else None)
     levels, values, relative, orders, expansions = done.levels, done.values, done.relative, done.orders, done.expansions
     stopped_by = done.stopped_by or ("grids" if max_grids is not None and max_grids < len(plan.grids) else plan.limit)
     finest = levels[-1]
@@ -669,6 +704,8 @@ class AccuracyNotMet(ConvergenceError):
             "cells": f"the next grid, {nxt}, exceeds the {plan.max_cells} cells allowed",
             "memory budget": f"the next grid, {nxt}, needs an estimated {plan.next_bytes / 2**20:.0f} MiB, above the memory "
                              f"budget of {plan.budget / 2**20:.0f} MiB ({plan.budget_source})",
+            "calibration": f"the next grid, {nxt}, is beyond the {plan.max_cells} cells over which the singular "
+                           "cells' error estimate is calibrated (accuracy.SINGULAR_MAX_CELLS)",
             "grids": "the number of grids allowed is used up",
             "stagnation": f"the estimate did not fall over the last {STAGNATION_LEVELS} refinements (the extrapolants stagnate)",
         }[record["stopped_by"]]

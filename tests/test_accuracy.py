@@ -163,6 +163,21 @@ def test_memory_budget_bounds_the_grids() -> None:
         acc.solve_to_accuracy(params, 1e-6, memory_budget=budget)
 
 
+def test_singular_cells_stop_at_their_calibrated_range(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Singular cells never go beyond ``SINGULAR_MAX_CELLS`` (their estimator is calibrated up to
+    it and was measured dishonest beyond: module constant's comment), whatever ``max_cells``
+    allows; the record and the error say ``calibration``. The range is shrunk to 128² here so
+    that the test runs four small grids."""
+    monkeypatch.setattr(acc, "SINGULAR_MAX_CELLS", 128 * 128)
+    params = {"shape": "circle", "nu": 0.3, "quantities": "tangential,normal"}
+    with pytest.raises(acc.AccuracyNotMet, match=r"stopped by calibration: the next grid, 256 x 256, is beyond the 16384 cells") as caught:
+        acc.solve_to_accuracy(params, 1e-9, n0=16, strategy="singular")
+    r = caught.value.record
+    assert r["boundary"] == "singular" and r["grids"] == [16, 32, 64, 128] and r["stopped_by"] == "calibration"
+    coverage = acc.solve_to_accuracy(params, 1e-9, n0=16, max_cells=128 * 128, strategy="coverage", strict=False)
+    assert coverage["stopped_by"] == "cells"  # coverage-weighted cells keep the plain cell limit
+
+
 def test_default_discretization() -> None:
     """Without n: grids 16 … 256 extrapolated, K_a/K_b within 1e-4 of Mindlin's (measured 6.9e-6
     at b/a = 0.05, nu = 0.3; ≤ 5.8e-5 over b/a = 1 … 1e-8, nu = 0 … 0.5 in the README table)
