@@ -11,6 +11,14 @@ the lowest non-zero wavenumber: symmetric positive definite, and so is its restr
 mask, as CG requires. H is tabulated at ``TABLE_ANGLES`` directions (nearest entry used): a
 preconditioner need not be exact. One application costs two FFTs on that grid (~1/4 of an
 operator application's FFTs when unpadded).
+
+The FFTs are scipy.fft's (pocketfft) on a zero-padded input buffer kept per preconditioner, the
+product taken in place: the same arithmetic as padding on each call (bitwise), without two
+transient arrays of the periodic grid per application (measured 0.64–0.95× the time per
+application on the singular cells' grids of ``--accuracy 1e-6``, b/a 0.7 and 0.05, loaded
+2-core machine). pyFFTW (the operator's ``Transforms``) was measured too: 0.45–0.66× the time
+at the finest grids, but its rounding differs from pocketfft's, and CG carries a difference
+of 1e-16 per application to 1e-10 … 6e-9 relative in the stiffness at tolerance 1e-8.
 """
 
 from __future__ import annotations
@@ -63,12 +71,16 @@ class FourierPreconditioner:
         if np.max(np.abs(symbol.imag)) == 0.0:
             symbol = symbol.real
         self.symbol = np.ascontiguousarray(symbol)
+        self._padded = np.zeros((len(components),) + self.shape)  # zero outside the grid's cells
 
     def apply(self, residual: np.ndarray) -> np.ndarray:
-        spectra = scipy.fft.rfft2(residual, s=self.shape, axes=(1, 2))
+        """M⁻¹ r for a residual (c, nx, ny); a new array (c, nx, ny) (a view of a fresh one)."""
+        nx, ny = self.grid_shape
+        self._padded[:, :nx, :ny] = residual
+        spectra = scipy.fft.rfft2(self._padded, axes=(1, 2))
         if spectra.shape[0] == 1:
-            out = spectra * self.symbol[0]
+            out = np.multiply(spectra, self.symbol[0], out=spectra)
         else:
             out = np.einsum("ij...,j...->i...", self.symbol, spectra)
-        result = scipy.fft.irfft2(out, s=self.shape, axes=(1, 2))
-        return result[:, : self.grid_shape[0], : self.grid_shape[1]]
+        result = scipy.fft.irfft2(out, s=self.shape, axes=(1, 2), overwrite_x=True)
+        return result[:, :nx, :ny]
