@@ -2,7 +2,7 @@
 
     python benchmarks/accuracy_sharpness.py [--cache results/accuracy_sharpness.jsonl]
         [--max-n 1024] [--collect] [--strategy coverage|singular] [--set SAFETY=3 ...]
-        [--table] [--cost] [--defaults]
+        [--table] [--cost] [--defaults] [--figure PNG [--singular-cache CACHE]]
 
 Cases with closed forms (``hpcontact.analytic``): the circle (8Ga/(2 − nu), 2aE*) and Mindlin's
 bonded ellipse with the elliptical punch (K_a, K_b, K_zz, K_a/K_b) for b/a = 0.7, 0.5, 0.1,
@@ -27,6 +27,9 @@ limit is the cache's finest grid. Printed:
 * with ``--cost``: per case (nu = 0.3, 0.5) and treatment (coverage-weighted cells, singular
   cells where they apply), the time ``--accuracy`` 1e-3 … 1e-6 takes from n₀ = 32 (sum of the
   cached solve times), true / estimated error, or the limit that stopped it;
+* with ``--figure``: true against estimated error of every record (and of the singular cells'
+  calibration, ``benchmarks/edge_order.py --singular-calibration``'s cache, with
+  ``--singular-cache``), and what ``--accuracy`` reports after each grid against CPU seconds;
 * with ``--defaults``: ``hpcontact solve`` without n (``accuracy.default_solve``) on every
   ellipse b/a, the square and the hexagon, worst over nu: true and estimated error, CPU time.
 
@@ -101,6 +104,12 @@ def load(cache: Path) -> dict[str, dict[str, Any]]:
     return out
 
 
+def estimator(strategy: str) -> tuple:
+    """What ``--accuracy`` estimates a treatment's sequences with: (candidate expansions, spread
+    factor) for ``accuracy.refine``; None takes the module's defaults (coverage-weighted cells)."""
+    return (acc.SINGULAR_EXPANSIONS, acc.SINGULAR_SAFETY) if strategy == "singular" else (None, None)
+
+
 def treatment_name(strategy: str) -> str:
     """The boundary treatment ``covered_solve`` uses with ``strategy`` (its plan's ``boundary``)."""
     return covered_solve({**case_params(1.0, 0.3), "n": 16, "tol": 1e-6}, strategy)["plan"].get("boundary", "")
@@ -134,10 +143,11 @@ def collect(cache: Path, max_n: int, strategy: str) -> None:
                 print(f"  solved b/a={aspect:g} nu={nu} {n} x {na}: {row['cpu_s']:.2f} s", flush=True)
 
 
-def replay(cache: Path, treatment: str) -> tuple[list[tuple], list[tuple]]:
+def replay(cache: Path, strategy: str) -> tuple[list[tuple], list[tuple]]:
     """Records (case, n0, request, worst true, estimate, stopped_by, finest n) and per-quantity
-    pairs (case, n0, request, quantity, true, estimate)."""
+    pairs (case, n0, request, quantity, true, estimate) of ``strategy``'s cached sequences."""
     cached = load(cache)
+    treatment = treatment_name(strategy)
     records, pairs = [], []
     for aspect in ASPECTS:
         for nu in NUS:
@@ -147,7 +157,8 @@ def replay(cache: Path, treatment: str) -> tuple[list[tuple], list[tuple]]:
                 if len(sequence) < acc.MIN_GRIDS:
                     continue
                 for request in REQUESTS:
-                    done = acc.refine(sequence, lambda n, na: cached[key_of(treatment, aspect, nu, n, na)], request)
+                    done = acc.refine(sequence, lambda n, na: cached[key_of(treatment, aspect, nu, n, na)], request,
+                                      *estimator(strategy))
                     v = done.values
                     values = {**v, "K_a_over_K_b": v["K_xx"] / v["K_yy"], "normalized_xx": v["K_xx"] / v["K_zz"],
                               "normalized_yy": v["K_yy"] / v["K_zz"]}
@@ -169,8 +180,6 @@ def cost_table(cache: Path, strategies: tuple[str, ...] = ("coverage", "singular
     print("|---|---|---|---|---|---|")
     for strategy in strategies:
         treatment = treatment_name(strategy)
-        # what --accuracy estimates each treatment's sequences with (candidates, spread factor)
-        estimator = (acc.SINGULAR_EXPANSIONS, acc.SINGULAR_SAFETY) if strategy == "singular" else (None, None)
         for aspect in ASPECTS:
             for nu in (0.3, 0.5):
                 sequence = [g for g in grids(aspect, n0, 2**20) if key_of(treatment, aspect, nu, *g) in cached]
@@ -180,7 +189,7 @@ def cost_table(cache: Path, strategies: tuple[str, ...] = ("coverage", "singular
                 cells = []
                 for request in (1e-3, 1e-4, 1e-5, 1e-6):
                     done = acc.refine(sequence, lambda n, na: cached[key_of(treatment, aspect, nu, n, na)], request,
-                                      *estimator)
+                                      *estimator(strategy))
                     v = done.values
                     values = {**v, "K_a_over_K_b": v["K_xx"] / v["K_yy"], "normalized_xx": v["K_xx"] / v["K_zz"],
                               "normalized_yy": v["K_yy"] / v["K_zz"]}
@@ -223,6 +232,73 @@ def defaults_table() -> None:
               f"{max(x[5] for x in rows):.2f} s |")
 
 
+FIGURE_CASES = ((1.0, "circle"), (0.7, "ellipse 0.7"), (1e-3, "ellipse 1e-3"))
+
+
+def convergence(cache: Path, strategy: str, aspect: float, nu: float = 0.3, n0: int = 32) -> list[tuple[float, float, float]]:
+    """(CPU s so far, estimated error, true error) after every grid from the ``MIN_GRIDS``-th of
+    ``strategy``'s cached sequence from n₀ (what ``--accuracy`` would report if it stopped there)."""
+    cached = load(cache)
+    treatment = treatment_name(strategy)
+    sequence = [g for g in grids(aspect, n0, 2**20) if key_of(treatment, aspect, nu, *g) in cached]
+    levels = [cached[key_of(treatment, aspect, nu, *g)] for g in sequence]
+    ref = references(case_params(aspect, nu)["shape"], aspect, nu)
+    out = []
+    for k in range(acc.MIN_GRIDS, len(levels) + 1):
+        values, relative, _, _ = acc.extrapolate(levels[:k], *estimator(strategy))
+        values = {**values, "K_a_over_K_b": values["K_xx"] / values["K_yy"], "normalized_xx": values["K_xx"] / values["K_zz"],
+                  "normalized_yy": values["K_yy"] / values["K_zz"]}
+        seconds = sum(level.get("cpu_s", level["wall_time_s"]) for level in levels[:k])
+        out.append((seconds, max(relative.values()), max(abs(values[q] / ref[q] - 1.0) for q in QUANTITIES)))
+    return out
+
+
+def figure(cache: Path, singular_cache: Path | None, path: Path) -> None:
+    """Left: true against estimated error of every replayed record, coverage-weighted cells (this
+    cache) and singular cells (``benchmarks/edge_order.py``'s calibration cache, when given);
+    honest below the diagonal, sharp above the 1/30 line. Right: what ``--accuracy`` reports
+    after each grid against the CPU seconds of the sequence so far (nu = 0.3, from n = 32):
+    estimate solid, true error dashed, for both treatments where singular cells apply."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.6))
+    sets = [("coverage-weighted", "C0", "o", [(r[4], r[3]) for r in replay(cache, "coverage")[0]])]
+    if singular_cache is not None:
+        from edge_order import singular_records
+
+        sets.append(("singular cells", "C3", "^", [(e, t) for _, t, e in singular_records(singular_cache)[0]]))
+    for label, colour, marker, points in sets:
+        estimate, true = np.array(points).T
+        left.loglog(estimate, np.maximum(true, 1e-12), marker, color=colour, ms=3.5, alpha=0.6, ls="none",
+                    label=f"{label}: {len(points)} records, worst true/estimate {np.max(true / estimate):.2f}")
+    line = np.array([1e-8, 1e-2])
+    left.loglog(line, line, "k-", lw=1, label="true = estimate (honest below)")
+    left.loglog(line, line / 30, "k:", lw=1, label="true = estimate / 30 (sharp above)")
+    left.set(xlabel="estimated relative error (--accuracy)", ylabel="true relative error (closed forms)",
+             title="Honesty and sharpness of the estimate", ylim=(1e-12, 1e-2))
+    left.legend(fontsize=7, loc="upper left")
+    for (aspect, name), colour in zip(FIGURE_CASES, ("C0", "C1", "C2")):
+        for strategy, marker in (("coverage", "o"), ("singular", "^")):
+            points = convergence(cache, strategy, aspect)
+            if not points:
+                continue
+            seconds, estimate, true = np.array(points).T
+            right.loglog(seconds, estimate, "-" + marker, color=colour, ms=4, label=f"{name}, {strategy}")
+            right.loglog(seconds, true, "--" + marker, color=colour, ms=3, alpha=0.6)
+    right.set(xlabel="CPU seconds of the grid sequence so far (one core, cached solve times)",
+              ylabel="relative error: estimate (solid), true (dashed)", title="What --accuracy reports, per second")
+    right.legend(fontsize=7)
+    for axis in (left, right):
+        axis.grid(True, which="major", alpha=0.3)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    print(f"wrote {path}")
+
+
 def summary(label: str, true: np.ndarray, estimated: np.ndarray) -> str:
     ratio = true / estimated
     return (f"{label}: {len(ratio)}; worst true/estimate {ratio.max():.2f} (honest when <= 1; "
@@ -240,6 +316,9 @@ def main() -> None:
     parser.add_argument("--defaults", action="store_true", help="run and print the default discretization's table")
     parser.add_argument("--strategy", default="coverage", help="covered_solve's boundary treatment: coverage or singular")
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
+    parser.add_argument("--figure", type=Path, default=None, help="write the honesty and error-per-second figure here")
+    parser.add_argument("--singular-cache", type=Path, default=None,
+                        help="benchmarks/edge_order.py --singular-calibration's cache, for the figure's singular records")
     args = parser.parse_args()
     for item in args.set:
         name, value = item.split("=")
@@ -248,9 +327,8 @@ def main() -> None:
         setattr(acc, name, float(value))
     if args.collect:
         collect(args.cache, args.max_n, args.strategy)
-    treatment = treatment_name(args.strategy)
-    records, pairs = replay(args.cache, treatment)
-    print(f"boundary treatment: {treatment}")
+    records, pairs = replay(args.cache, args.strategy)
+    print(f"boundary treatment: {treatment_name(args.strategy)}")
     print(summary("records (case, request, start grid)", np.array([r[3] for r in records]), np.array([r[4] for r in records])))
     print(summary("quantities", np.array([p[4] for p in pairs]), np.array([p[5] for p in pairs])))
     met = [r for r in records if r[5] == "met"]
@@ -260,6 +338,8 @@ def main() -> None:
         cost_table(args.cache)
     if args.defaults:
         defaults_table()
+    if args.figure is not None:
+        figure(args.cache, args.singular_cache, args.figure)
     if args.table:
         print(f"{'case':28s} {'n0':>3s} {'request':>8s} {'true':>9s} {'estimate':>9s} {'ratio':>6s} {'stopped':>11s} {'n':>5s}")
         for case, n0, request, true, est, stopped, n in records:

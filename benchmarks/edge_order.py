@@ -197,14 +197,13 @@ def calibration_grids(aspect: float, nu: float, n0: int) -> list[tuple[int, int]
     return grids
 
 
-def singular_calibration(cache: Path) -> None:
-    """Honesty and sharpness of ``--accuracy`` on singular cells (``accuracy.SINGULAR_EXPANSIONS``):
-    every grid of :func:`calibration_grids` (b/a in ``CALIBRATION_ASPECTS``, nu = 0, 0.3, 0.5,
-    n₀ = 16 and 32) solved once and cached (JSON lines, CPU seconds), then ``accuracy.refine``
-    replayed on the cache for requests 1e-3 … 1e-6: records (largest true error of K_xx, K_yy,
-    K_zz, K_a/K_b, K_xx/K_zz, K_yy/K_zz against ``estimated_error``) and per-quantity pairs."""
-    import numpy as np
-
+def singular_records(cache: Path) -> tuple[list[tuple[float, float, float]], list[tuple[float, float]]]:
+    """The replay behind ``accuracy.SINGULAR_SAFETY``: every grid of :func:`calibration_grids`
+    (b/a in ``CALIBRATION_ASPECTS``, nu = 0, 0.3, 0.5, n₀ = 16 and 32) solved once and cached
+    (JSON lines, CPU seconds; solved here when missing), then ``accuracy.refine`` with the
+    singular cells' estimator replayed on the cache for requests 1e-3 … 1e-6. Returns the records
+    (request, largest true error of K_xx, K_yy, K_zz, K_a/K_b, K_xx/K_zz, K_yy/K_zz,
+    ``estimated_error``) and the per-quantity pairs (true, estimate)."""
     from hpcontact import accuracy as acc
 
     requests = (1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6, 1e-6)
@@ -233,8 +232,9 @@ def singular_calibration(cache: Path) -> None:
                         cached[(aspect, nu, n, na)] = row
                         with cache.open("a") as f:
                             f.write(json.dumps(row) + "\n")
+                levels = {g: cached[(aspect, nu, *g)] for g in grids}
                 for request in requests:
-                    done = acc.refine(grids, lambda n, na: cached[(aspect, nu, n, na)], request, acc.SINGULAR_EXPANSIONS,
+                    done = acc.refine(grids, lambda n, na, levels=levels: levels[(n, na)], request, acc.SINGULAR_EXPANSIONS,
                                       acc.SINGULAR_SAFETY)
                     v = done.values
                     values = {**v, "K_a_over_K_b": v["K_xx"] / v["K_yy"], "normalized_xx": v["K_xx"] / v["K_zz"],
@@ -242,10 +242,21 @@ def singular_calibration(cache: Path) -> None:
                     true = {k: abs(values[k] / exact[k] - 1.0) for k in exact}
                     records.append((request, max(true.values()), max(done.relative.values())))
                     pairs += [(true[k], done.relative[k]) for k in exact if true[k] >= 1e-13]  # below: exact by symmetry
+    return records, pairs
+
+
+def singular_calibration(cache: Path) -> None:
+    """Print :func:`singular_records`' honesty and sharpness: all records, those with requests
+    below ``accuracy.SINGULAR_BELOW`` (the ones ``--accuracy`` gives singular cells), the pairs."""
+    import numpy as np
+
+    from hpcontact import accuracy as acc
+
+    records, pairs = singular_records(cache)
     for label, rows in (("records", records), ("records, requests below SINGULAR_BELOW", [r for r in records if r[0] < acc.SINGULAR_BELOW])):
         ratio = np.array([t / e for _, t, e in rows])
         print(f"{label}: {len(ratio)}; worst true/estimate {ratio.max():.2f}; above 1: {int((ratio > 1).sum())}; "
-              f"within 30x: {100 * (ratio >= 1 / 30).mean():.1f} %")
+              f"within 30x: {100 * (ratio >= 1 / 30).mean():.1f} %; worst estimate/true {1.0 / ratio.min():.0f}")
     ratio = np.array([t / e for t, e in pairs])
     print(f"per-quantity pairs: {len(ratio)}; worst true/estimate {ratio.max():.2f}; above 1: {int((ratio > 1).sum())}")
 
