@@ -344,15 +344,28 @@ def grid_sequence(shape: Shape, n0: int = N0, n_across0: int | None = None, max_
 #: damping and preconditioner weights; tracemalloc peaks at n = 256 … 1024, b/a 1 … 1e-3:
 #: 23–104 B, within 14 % of the cost model's estimate plus these).
 COVERAGE_BYTES_PER_CELL = 128.0
+#: Singular cells' near set (``singular_cells``: cells within BAND + NEAR of a cut cell) per cell
+#: along both sides, n + n_across: 7.9–7.97 on circle 256², 512²; b/a 0.7 512 × 352, 1024 × 704;
+#: 0.3 512 × 160; 0.2 1024 × 256; 0.05 1280 × 64, 2560 × 128 (the boundary crosses ~2(n + n_across)
+#: cells, dilated by BAND and NEAR on both sides).
+SINGULAR_NEAR_CELLS_PER_SIDE_CELL = 8.0
+#: Bytes per near-set cell that singular cells add to the coverage-weighted count (sub-cell
+#: weights, the near-field pairs' gathers and sparse corrections): tracemalloc peaks of one
+#: solve minus :func:`grid_bytes` on the grids above were 2.1–8.7 kB per near cell (the peak is
+#: the near field's build on small grids, the FFT arrays on large ones); 9 KiB bounds them all.
+SINGULAR_BYTES_PER_NEAR_CELL = 9.0 * 1024
 
 
-def grid_bytes(params: Mapping[str, Any], n: int, n_across: int) -> float:
+def grid_bytes(params: Mapping[str, Any], n: int, n_across: int, singular: bool = False) -> float:
     """Peak bytes of the arrays of one coverage-weighted solve of ``params`` on an n × n_across
     grid: the sweep's cost model (``hpcontact.sweep.costmodel.task_array_bytes``) plus
-    ``COVERAGE_BYTES_PER_CELL`` per cell."""
+    ``COVERAGE_BYTES_PER_CELL`` per cell; with ``singular``, a solve on singular cells: plus
+    ``SINGULAR_BYTES_PER_NEAR_CELL`` per cell of the near set (``SINGULAR_NEAR_CELLS_PER_SIDE_CELL``
+    × (n + n_across) cells)."""
     from .sweep.costmodel import task_array_bytes
 
-    return task_array_bytes({**params, "n": n, "n_across": n_across}) + COVERAGE_BYTES_PER_CELL * n * n_across
+    near = SINGULAR_BYTES_PER_NEAR_CELL * SINGULAR_NEAR_CELLS_PER_SIDE_CELL * (n + n_across) if singular else 0.0
+    return task_array_bytes({**params, "n": n, "n_across": n_across}) + COVERAGE_BYTES_PER_CELL * n * n_across + near
 
 
 @dataclasses.dataclass(frozen=True)
@@ -375,10 +388,11 @@ class GridPlan:
 
 
 def plan_grids(params: Mapping[str, Any], shape: Shape, n0: int, n_across0: int | None, max_cells: int,
-               memory_budget: float | None) -> GridPlan:
+               memory_budget: float | None, singular: bool = False) -> GridPlan:
     """The grid sequence within ``max_cells`` cells and the memory budget (bytes; default the
     machine's memory per core, ``costmodel.default_memory_per_rank``): a grid is used only if
-    this process's peak resident set so far plus :func:`grid_bytes` fits the budget."""
+    this process's peak resident set so far plus :func:`grid_bytes` (of singular cells with
+    ``singular``) fits the budget."""
     from .sweep.costmodel import default_memory_per_rank, resident_bytes
 
     if memory_budget is None:
@@ -389,7 +403,7 @@ def plan_grids(params: Mapping[str, Any], shape: Shape, n0: int, n_across0: int 
     base = resident_bytes()
     grids: list[tuple[int, int]] = []
     for n, na in everything:
-        need = base + grid_bytes(params, n, na)
+        need = base + grid_bytes(params, n, na, singular)
         if n * na > max_cells or need > budget:
             limit = "cells" if n * na > max_cells else "memory budget"
             return GridPlan(grids, limit, (n, na), need, base, float(budget), source, max_cells)
@@ -551,8 +565,8 @@ def solve_to_accuracy(
     ``covered_solve`` (coverage, singular, auto); ``auto`` (what ``hpcontact solve --accuracy``
     uses) takes singular cells from the first grid of :func:`singular_start` for requests below
     ``SINGULAR_BELOW`` (1e-4) where they apply (unturned circles and ellipses b/a ≥ 1/32,
-    isotropic, tangential/normal) and coverage-weighted cells elsewhere; the record's ``boundary`` says which ran. The memory plan counts coverage-weighted cells'
-    arrays (:func:`grid_bytes`), not the singular cells' near-field corrections. The CG tolerance is tightened to at most
+    isotropic, tangential/normal) and coverage-weighted cells elsewhere; the record's ``boundary`` says which ran. The memory plan counts the arrays of the cells used
+    (:func:`grid_bytes`, with singular cells' near field). The CG tolerance is tightened to at most
     accuracy/100 so that it never limits the answer. A mask is refined by splitting its pixels
     (the sequence starts at the contact's long side in pixels); a rough patch cannot be refined
     and is refused (InputError), as are quantities other than tangential, normal, coupled.
@@ -574,7 +588,7 @@ def solve_to_accuracy(
         n0, n_across0 = start if start is not None else (n0, n_across0)
     calibrated = strategy == "singular" and max_cells > SINGULAR_MAX_CELLS
     plan = plan_grids(base, scene.shape, n0 or N0, n_across0, min(max_cells, SINGULAR_MAX_CELLS) if calibrated else max_cells,
-                      memory_budget)
+                      memory_budget, strategy == "singular")
     if calibrated and plan.limit == "cells":
         plan = dataclasses.replace(plan, limit="calibration")
     sequence = plan.grids[:max_grids] if max_grids is not None else plan.grids
@@ -629,7 +643,7 @@ def solve_to_accuracy(
     record["grids_across"] = [na for _, na in sequence[: len(levels)]]
     record["memory_budget_bytes"] = plan.budget
     record["memory_budget_source"] = plan.budget_source
-    record["estimated_peak_bytes"] = plan.base_bytes + grid_bytes(base, *sequence[len(levels) - 1])
+    record["estimated_peak_bytes"] = plan.base_bytes + grid_bytes(base, *sequence[len(levels) - 1], strategy == "singular")
     record["levels"] = [
         {k: r[k] for k in (*TENSOR_KEYS, "K_a_over_K_b", "wall_time_s", "iterations", "contact_area") if k in r}
         for r in levels
