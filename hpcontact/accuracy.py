@@ -607,7 +607,9 @@ def solve_to_accuracy(
         # their last growth (1 … 1.5; measured 30, 33, 33, 36, 40, 45 for b/a = 0.7 on n = 32 …
         # 1024). The rule of ``operator.Transforms.count`` then decides at the first application
         # and does not re-plan within the level (FFTW_MEASURE did not pay on these horizons:
-        # 2.6–3.3 s planning against 11–20 ms saved per application at 1026 × 706 and 2562 × 130).
+        # 2.6–3.3 s planning against 11–22 ms saved per application at 1026 × 706 and 2562 × 130:
+        # on the levels of b/a 0.7 and 0.05 it pays after 116 applications or more (116–234 at
+        # 2562 × 130, 159–200 at 1026 × 706, 349–19000 on the smaller grids); a level makes 30–55).
         hint = {}
         if strategy == "singular" and applications:
             growth = min(max(applications[-1] / applications[-2], 1.0), 1.5) if len(applications) > 1 else 1.0
