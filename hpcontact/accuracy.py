@@ -84,8 +84,9 @@ levels off at a few 1e-7 without a steady sign.
 The refinement stops when the request is met, when the planned grids run out (``max_cells``
 cells, or the memory budget: :func:`plan_grids` counts this process's peak resident set plus the
 sweep cost model's arrays of the next grid, ``hpcontact.sweep.costmodel``), or when the estimate
-has not fallen over two refinements (stagnation); singular cells' grids also stop at
-``SINGULAR_MAX_CELLS`` (2^20), the largest grid of their calibration (``calibration``); the
+has not fallen over two refinements (stagnation); the grids also stop where the estimator's
+calibration ends (``calibration``: n = 1024 along the long side for coverage-weighted cells,
+``COVERAGE_MAX_N``; 2^20 cells for singular cells, ``SINGULAR_MAX_CELLS``; masks unlimited); the
 record says which (``stopped_by``).
 
 References: L. F. Richardson, Phil. Trans. R. Soc. A 210, 307–357 (1911); P. J. Roache,
@@ -97,7 +98,7 @@ import dataclasses
 import functools
 import math
 import time
-from typing import Any, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -114,6 +115,8 @@ __all__ = [
     "EXPANSIONS",
     "SINGULAR_EXPANSIONS",
     "SINGULAR_MAX_CELLS",
+    "COVERAGE_MAX_N",
+    "calibrated",
     "SINGULAR_SAFETY",
     "singular_start",
     "grid_sequence",
@@ -181,6 +184,11 @@ SINGULAR_BELOW = 1e-4
 #: 360 × 248 as NEAR and SUBCELLS vary) that cancel to a few 1e-7, so the estimator is trusted
 #: only where it was checked.
 SINGULAR_MAX_CELLS = 2**20
+#: Coverage-weighted grids stop at this many cells along the long side (x): the finest grid of
+#: their calibration (``benchmarks/accuracy_sharpness.py``, n ≤ 1024). One grid beyond, b/a 1e-3
+#: at 2048 × 512, K_yy's own estimate was 1.5–3.0× below its true error (nu 0.3, 0.5;
+#: ``benchmarks/thin_grids.py``). Masks, refined by splitting their pixels, are not limited.
+COVERAGE_MAX_N = 1024
 #: The factor on the spread for singular cells' sequences (``SAFETY`` for coverage-weighted
 #: cells). Their error levels off at a few 1e-7 without a steady sign, which no difference of
 #: grids shows: with 3, the calibration over every grid up to ``SINGULAR_MAX_CELLS`` (294
@@ -372,7 +380,7 @@ def grid_bytes(params: Mapping[str, Any], n: int, n_across: int, singular: bool 
 class GridPlan:
     """The grids an accuracy request may use, and what stops the sequence after them:
     ``limit`` is ``"cells"`` (more than ``max_cells``), ``"memory budget"`` or, set by
-    :func:`solve_to_accuracy`, ``"calibration"`` (singular cells beyond ``SINGULAR_MAX_CELLS``);
+    ``"calibration"`` (beyond the estimator's calibrated range, :func:`calibrated`);
     ``next_grid`` the first grid refused, ``next_bytes`` its estimated peak (``base_bytes``, this process's
     peak resident set when planned, + arrays), ``budget`` the budget in bytes and
     ``budget_source`` where it comes from."""
@@ -387,12 +395,24 @@ class GridPlan:
     max_cells: int
 
 
+def calibrated(strategy: str, shape: Shape) -> Callable[[int, int], bool]:
+    """Whether the estimator of ``strategy``'s cells was calibrated on a grid (n, n_across):
+    singular cells up to ``SINGULAR_MAX_CELLS`` cells, coverage-weighted cells up to
+    ``COVERAGE_MAX_N`` along the long side, masks on any grid (no closed form to calibrate on)."""
+    if strategy == "singular":
+        return lambda n, na: n * na <= SINGULAR_MAX_CELLS
+    if shape.name == "mask":
+        return lambda n, na: True
+    return lambda n, na: max(n, na) <= COVERAGE_MAX_N
+
+
 def plan_grids(params: Mapping[str, Any], shape: Shape, n0: int, n_across0: int | None, max_cells: int,
-               memory_budget: float | None, singular: bool = False) -> GridPlan:
-    """The grid sequence within ``max_cells`` cells and the memory budget (bytes; default the
-    machine's memory per core, ``costmodel.default_memory_per_rank``): a grid is used only if
-    this process's peak resident set so far plus :func:`grid_bytes` (of singular cells with
-    ``singular``) fits the budget."""
+               memory_budget: float | None, strategy: str = "coverage") -> GridPlan:
+    """The grid sequence within ``max_cells`` cells, the estimator's calibrated range
+    (:func:`calibrated`) and the memory budget (bytes; default the machine's memory per core,
+    ``costmodel.default_memory_per_rank``): a grid is used only if this process's peak resident
+    set so far plus :func:`grid_bytes` (singular cells' with ``strategy`` "singular") fits the
+    budget."""
     from .sweep.costmodel import default_memory_per_rank, resident_bytes
 
     if memory_budget is None:
@@ -401,11 +421,12 @@ def plan_grids(params: Mapping[str, Any], shape: Shape, n0: int, n_across0: int 
         budget, source = float(memory_budget), "given"
     everything = grid_sequence(shape, n0, n_across0, 2**62)
     base = resident_bytes()
+    within = calibrated(strategy, shape)
     grids: list[tuple[int, int]] = []
     for n, na in everything:
-        need = base + grid_bytes(params, n, na, singular)
-        if n * na > max_cells or need > budget:
-            limit = "cells" if n * na > max_cells else "memory budget"
+        need = base + grid_bytes(params, n, na, strategy == "singular")
+        limit = "cells" if n * na > max_cells else "calibration" if not within(n, na) else "memory budget" if need > budget else None
+        if limit is not None:
             return GridPlan(grids, limit, (n, na), need, base, float(budget), source, max_cells)
         grids.append((n, na))
     raise AssertionError("the grid sequence is unbounded")  # pragma: no cover - 2**62 cells never fit
@@ -553,8 +574,8 @@ def solve_to_accuracy(
     * ``estimated_errors``: the same per quantity; ``convergence_order``: the observed order
       of each raw sequence; ``expansion``: the exponents of the expansion each value comes
       from; ``accuracy_met``: whether ``estimated_error`` ≤ ``accuracy``;
-    * ``stopped_by``: ``met``, ``cells``, ``memory budget``, ``calibration`` (singular cells
-      beyond ``SINGULAR_MAX_CELLS``), ``grids`` or ``stagnation``;
+    * ``stopped_by``: ``met``, ``cells``, ``memory budget``, ``calibration`` (the next grid is
+      beyond the estimator's calibrated range, :func:`calibrated`), ``grids`` or ``stagnation``;
       ``memory_budget_bytes``, ``memory_budget_source``, ``estimated_peak_bytes`` (of the finest
       grid used);
     * ``grids``: the n of every grid used, ``grids_across``: their n_across, ``levels``: the
@@ -586,15 +607,12 @@ def solve_to_accuracy(
         start = singular_start(scene, n0 or N0, n_across0) if accuracy < SINGULAR_BELOW else None
         strategy = "coverage" if start is None else "singular"
         n0, n_across0 = start if start is not None else (n0, n_across0)
-    calibrated = strategy == "singular" and max_cells > SINGULAR_MAX_CELLS
-    plan = plan_grids(base, scene.shape, n0 or N0, n_across0, min(max_cells, SINGULAR_MAX_CELLS) if calibrated else max_cells,
-                      memory_budget, strategy == "singular")
-    if calibrated and plan.limit == "cells":
-        plan = dataclasses.replace(plan, limit="calibration")
+    plan = plan_grids(base, scene.shape, n0 or N0, n_across0, max_cells, memory_budget, strategy)
     sequence = plan.grids[:max_grids] if max_grids is not None else plan.grids
     if len(sequence) < MIN_GRIDS:
+        within = "the estimator's calibrated range" if plan.limit == "calibration" else f"{max_cells} cells"
         field, limit = ("memory", f"a memory budget above {plan.next_bytes / 2**20:.0f} MiB") if plan.limit == "memory budget" \
-            else ("accuracy", f"a first grid small enough for {MIN_GRIDS} levels within {max_cells} cells")
+            else ("accuracy", f"a first grid small enough for {MIN_GRIDS} levels within {within}")
         raise InputError(field, f"{limit} ({MIN_GRIDS} grids are the fewest an estimate needs)",
                          plan.budget if plan.limit == "memory budget" else sequence[:1])
 
@@ -720,8 +738,10 @@ class AccuracyNotMet(ConvergenceError):
             "cells": f"the next grid, {nxt}, exceeds the {plan.max_cells} cells allowed",
             "memory budget": f"the next grid, {nxt}, needs an estimated {plan.next_bytes / 2**20:.0f} MiB, above the memory "
                              f"budget of {plan.budget / 2**20:.0f} MiB ({plan.budget_source})",
-            "calibration": f"the next grid, {nxt}, is beyond the {plan.max_cells} cells over which the singular "
-                           "cells' error estimate is calibrated (accuracy.SINGULAR_MAX_CELLS)",
+            "calibration": f"the next grid, {nxt}, is beyond those on which the error estimate of "
+                           f"{record['boundary']} cells is calibrated ("
+                           + (f"{SINGULAR_MAX_CELLS} cells, accuracy.SINGULAR_MAX_CELLS)" if record["boundary"] == "singular"
+                              else f"{COVERAGE_MAX_N} cells along the long side, accuracy.COVERAGE_MAX_N)"),
             "grids": "the number of grids allowed is used up",
             "stagnation": f"the estimate did not fall over the last {STAGNATION_LEVELS} refinements (the extrapolants stagnate)",
         }[record["stopped_by"]]

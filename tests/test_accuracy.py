@@ -163,19 +163,31 @@ def test_memory_budget_bounds_the_grids() -> None:
         acc.solve_to_accuracy(params, 1e-6, memory_budget=budget)
 
 
-def test_singular_cells_stop_at_their_calibrated_range(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Singular cells never go beyond ``SINGULAR_MAX_CELLS`` (their estimator is calibrated up to
-    it and was measured dishonest beyond: module constant's comment), whatever ``max_cells``
-    allows; the record and the error say ``calibration``. The range is shrunk to 128² here so
-    that the test runs four small grids."""
+def test_grids_stop_at_the_estimators_calibrated_range(monkeypatch: pytest.MonkeyPatch) -> None:
+    """``--accuracy`` never goes beyond the grids its estimator was calibrated on, whatever
+    ``max_cells`` allows (module constants' comments: measured dishonest one grid beyond): singular
+    cells ``SINGULAR_MAX_CELLS`` cells, coverage-weighted cells ``COVERAGE_MAX_N`` along the long
+    side; the record and the error say ``calibration``. The ranges are shrunk here so that the
+    test runs four small grids."""
     monkeypatch.setattr(acc, "SINGULAR_MAX_CELLS", 128 * 128)
+    monkeypatch.setattr(acc, "COVERAGE_MAX_N", 64)
     params = {"shape": "circle", "nu": 0.3, "quantities": "tangential,normal"}
-    with pytest.raises(acc.AccuracyNotMet, match=r"stopped by calibration: the next grid, 256 x 256, is beyond the 16384 cells") as caught:
+    with pytest.raises(acc.AccuracyNotMet, match=r"stopped by calibration: the next grid, 256 x 256, is beyond those on "
+                                                 r"which the error estimate of singular cells is calibrated \(16384 cells") as caught:
         acc.solve_to_accuracy(params, 1e-9, n0=16, strategy="singular")
     r = caught.value.record
     assert r["boundary"] == "singular" and r["grids"] == [16, 32, 64, 128] and r["stopped_by"] == "calibration"
-    coverage = acc.solve_to_accuracy(params, 1e-9, n0=16, max_cells=128 * 128, strategy="coverage", strict=False)
-    assert coverage["stopped_by"] == "cells"  # coverage-weighted cells keep the plain cell limit
+    with pytest.raises(acc.AccuracyNotMet, match=r"stopped by calibration: the next grid, 128 x 128, .* coverage cells is "
+                                                 r"calibrated \(64 cells along the long side") as caught:
+        acc.solve_to_accuracy(params, 1e-9, n0=8, strategy="coverage")
+    assert caught.value.record["grids"] == [8, 16, 32, 64]
+    # a user's smaller cell limit is reported as such
+    assert acc.solve_to_accuracy(params, 1e-9, n0=4, max_cells=32 * 32, strategy="coverage", strict=False)["stopped_by"] == "cells"
+    with pytest.raises(InputError, match="calibrated range"):  # fewer than four grids within it
+        acc.solve_to_accuracy(params, 1e-9, n0=16, strategy="coverage")
+    from hpcontact.geometry import Shape
+
+    assert acc.calibrated("coverage", Shape("mask", mask_path="contact.npy"))(2**20, 2**20)  # masks: no closed form, no limit
 
 
 def test_singular_memory_plan_counts_the_near_field() -> None:
