@@ -14,9 +14,8 @@ fresh process so that its CPU seconds (``time.process_time``) and peak resident 
 
 The reference of each case comes from grids finer than any that ``--accuracy`` used for it
 (``REFERENCE_GRIDS``; the square: n = 1280 … 2560 against ``--accuracy``'s ≤ 1024; the
-rectangle: 2560 × 640 … 5120 × 1280 against ≤ 1024 × 256 for the requests 1e-3 … 1e-5, while
-the request 1e-6 is not met and runs to the 2^22-cell limit, 4096 × 1024: only the finest
-reference grid is finer than that), solved with ``covered_solve`` at CG tol 1e-10 and cached
+rectangle: 2560 × 640 … 5120 × 1280 against ≤ 1024 × 256, where the request 1e-6 stops unmet at
+the end of the estimator's calibration, ``accuracy.COVERAGE_MAX_N``), solved with ``covered_solve`` at CG tol 1e-10 and cached
 (``--levels``). On them, per quantity (K_xx, K_yy, K_zz, and K_a/K_b = K_xx/K_yy per grid),
 least-squares fits Q = Q* + Σ c_i t_i(h) (h ∝ 1/n, the cell aspect fixed; t = h^p or h ln h,
 ``FITS``, each leaving a residual: three or four parameters on five grids) give extrapolants
@@ -36,8 +35,9 @@ Measured (2026-11-23, this 2-core VM at load 2-4, shared; estimator of commit c3
 in all 20 rows, true/estimate 0.16-0.38; reference uncertainty ≤ 6.8e-8 (square) and ≤ 2.0e-7
 (rectangle), ≥ 10× below every estimate but the square's at 1e-6 and the rectangle's at 1e-6,
 nu 0.3 (7.4-9.3×; there true + uncertainty ≤ 0.52 × estimate). The square meets 1e-6 on grids to
-1024 in 11.9-12.5 s CPU, 0.9 GB; the rectangle b/a = 1e-8 does not (2^22-cell limit at
-4096 × 1024, estimate 1.8e-6 and 2.2e-6, true 5.5e-7 and 5.6e-7, 146-154 s, 3.7 GB). The cold
+1024 in 11.9-12.5 s CPU, 0.9 GB; the rectangle b/a = 1e-8 does not (stopped by calibration at
+1024 × 256: estimate 5.6e-6 and 6.9e-6, true 1.9e-6 and 2.0e-6, 6.3 s; before that limit it ran
+to 4096 × 1024: 1.8e-6 and 2.2e-6, true 5.5e-7 and 5.6e-7, 146-154 s, 3.7 GB). The cold
 reference solves take ~25 min of CPU (5120 × 1280: 221-245 s, 5.6 GB).
 """
 
