@@ -86,6 +86,16 @@ it is: no better per second, because the adjacent pairs' edge layer stays first 
 not smooth in m (three-level extrapolations in m, (1, 2) or (s log s, s), were erratic). Next
 step: a quadrature that follows the edge for the self and adjacent sub-cells of the cut cells
 (in the variable θ with ρ = sin θ, where w dA = sin θ dθ dφ is smooth).
+
+The two first-order parts cancel to a few 1e-7 with the constants here (measured 2026-11-23, b/a
+0.7, nu 0.3, K_xx, K_yy, K_zz; module constants varied in place): at 360 × 248 the error is
++2.7e-7 … −4.6e-7 with NEAR = 2 and m = 16, −1.3e-6 … −2.0e-6 with m = 32, +1.6e-6 … +1.9e-6 with
+NEAR = 3, +3.7e-7 … +6.4e-7 with NEAR = 3 and m = 32; with NEAR = 4 the sequence is smooth but
+first order, n·error = +0.00127, +0.00123, +0.00106, +0.00078 at n = 64 … 512. What is left does
+not fall steadily with n (b/a 0.7 from n₀ = 45: K_yy −4.6e-7, −2.6e-7, −1.7e-7 and K_zz −9.9e-8,
+−7.0e-8, −8.1e-8 at 360 × 248, 720 × 496, 1440 × 992), which is why ``accuracy`` gives singular
+cells a larger factor on the spread and stops them at the grids it was calibrated on
+(``accuracy.SINGULAR_SAFETY``, ``accuracy.SINGULAR_MAX_CELLS``).
 """
 
 from __future__ import annotations
