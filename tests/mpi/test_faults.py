@@ -151,8 +151,8 @@ def test_concurrent_run_refused_sigterm_stops_within_the_grace_and_resume_comple
     hang = 7
     first = start(tmp_path, "--grace", str(GRACE_S), faults=f"{hang}:hang", procs=launched)
 
-    def hanging():
-        return any(keys[hang] in s["started"] for s in sessions(tmp_path).values())
+    def hanging():  # and both ranks' journals open: a rank slow to start opens its own later
+        return any(keys[hang] in s["started"] and len(s["pids"]) == 2 for s in sessions(tmp_path).values())
 
     wait_for(hanging, first)
     files = journal_files(tmp_path / "out.nc.journal")
