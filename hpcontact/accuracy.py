@@ -180,7 +180,7 @@ SINGULAR_BELOW = 1e-4
 #: sequences up to 2^20 cells — circle 1024², b/a 0.2 to 2048 × 512). Beyond it their error is
 #: not a steady expansion: a sequence from n₀ = 45 (b/a 0.7, nu 0.3) reached 1440 × 992 with
 #: K_zz's estimate at 0.43 of its true error (3.5e-8 against 8.1e-8; K_yy 0.71). Their error is
-#: a sum of first-order terms of opposite sign (far field and sub-cell quadrature, ±1.6e-6 at
+#: a sum of first-order terms of opposite sign (far field and sub-cell quadrature; −2.0e-6 … +1.9e-6 at
 #: 360 × 248 as NEAR and SUBCELLS vary) that cancel to a few 1e-7, so the estimator is trusted
 #: only where it was checked.
 SINGULAR_MAX_CELLS = 2**20
