@@ -592,7 +592,7 @@ def solve_to_accuracy(
     (the sequence starts at the contact's long side in pixels); a rough patch cannot be refined
     and is refused (InputError), as are quantities other than tangential, normal, coupled.
     """
-    from .operator import clear_cache, expect_applications, expected_applications, padded_shape
+    from .operator import clear_cache
 
     started = time.perf_counter()
     if not (isinstance(accuracy, (int, float)) and math.isfinite(accuracy) and 1e-9 <= accuracy < 1.0):
@@ -616,29 +616,8 @@ def solve_to_accuracy(
         raise InputError(field, f"{limit} ({MIN_GRIDS} grids are the fewest an estimate needs)",
                          plan.budget if plan.limit == "memory budget" else sequence[:1])
 
-    applications: list[int] = []  # operator applications (CG iterations) of each level solved
-
     def solve_level(n: int, na: int) -> dict[str, Any]:
-        # FFTW planner horizon: a singular-cell level applies one layout, (1, padded shape of the
-        # n × n_across grid padded by one cell on every side: ``SingularCells.grid``), in all three
-        # blocks' CG iterations and then drops it. Expected: the last level's applications times
-        # their last growth (1 … 1.5; measured 30, 33, 33, 36, 40, 45 for b/a = 0.7 on n = 32 …
-        # 1024). The rule of ``operator.Transforms.count`` then decides at the first application
-        # and does not re-plan within the level (FFTW_MEASURE did not pay on these horizons:
-        # 2.6–3.3 s planning against 11–22 ms saved per application at 1026 × 706 and 2562 × 130:
-        # on the levels of b/a 0.7 and 0.05 it pays after 116 applications or more (116–234 at
-        # 2562 × 130, 159–200 at 1026 × 706, 349–19000 on the smaller grids); a level makes 30–55).
-        hint = {}
-        if strategy == "singular" and applications:
-            growth = min(max(applications[-1] / applications[-2], 1.0), 1.5) if len(applications) > 1 else 1.0
-            hint = {(1, padded_shape(n + 2, na + 2)): applications[-1] * growth}
-        before = expect_applications({**expected_applications(), **hint}) if hint else None
-        try:
-            level = covered_solve({**base, "n": n, "n_across": na}, strategy)
-        finally:
-            if before is not None:
-                expect_applications(before)  # a library call leaves the planner's expectations as it found them
-        applications.append(int(level["iterations"]))
+        level = covered_solve({**base, "n": n, "n_across": na}, strategy)
         clear_cache()  # this grid's kernels serve no other grid: the budget counts one grid's
         return level
 

@@ -201,7 +201,6 @@ class Usage:
 
     applications: int = 0
     estimate_seconds: float = 0.0
-    horizon_checked: float = 0.0  # the expectation the rule was last applied to (Transforms.count)
 
 
 class Transforms:
@@ -284,49 +283,27 @@ class Transforms:
         """Record one application that took ``seconds``; with effort "auto", re-plan with
         FFTW_MEASURE when the rule of ``MEASURE_AFTER_SECONDS`` says it pays: once the
         applications so far, or those the process expects in all (``expect_applications``),
-        number n ≥ 35 + 1.3 s / (mean time of one application). An expectation is a known
-        horizon: the rule is applied to it once, at the first application after it was given,
-        and then not again until the applications exceed it (no re-planning within a horizon
-        that did not pay because the mean time drifted)."""
+        number n ≥ 35 + 1.3 s / (mean time of one application)."""
         usage = self.usage
         usage.applications += 1
         if not self.auto or self.effort != "FFTW_ESTIMATE":
             return
         usage.estimate_seconds += seconds
-        expected = _EXPECTED.get(self.layout, 0.0)
-        if usage.applications <= expected:
-            if usage.horizon_checked == expected:
-                return  # decided at the horizon's first application
-            usage.horizon_checked = expected
-        n = max(usage.applications, expected)
+        n = max(usage.applications, _EXPECTED.get(self.layout, 0.0))
         mean = usage.estimate_seconds / usage.applications
         if n >= MEASURE_AFTER_APPLICATIONS and mean * (n - MEASURE_AFTER_APPLICATIONS) >= MEASURE_AFTER_SECONDS:
             self.effort = self.plan("FFTW_MEASURE")
 
 
-def expect_applications(
-    expected: Mapping[tuple[int, tuple[int, int]], float]
-) -> dict[tuple[int, tuple[int, int]], float]:
+def expect_applications(expected: Mapping[tuple[int, tuple[int, int]], float]) -> None:
     """Tell the planner how many operator applications this process expects per layout
     (components c, padded shape (N1, N2)), e.g. a sweep rank's share of its tasks' CG iterations
-    (``hpcontact.sweep.taskgrid.fft_applications``) or one ``--accuracy`` grid level's
-    (``hpcontact.accuracy.solve_to_accuracy``); replaces what was expected before and returns
-    that (pass it back to restore it). Layouts whose expected applications pay for FFTW_MEASURE
-    planning get it at their first application (``Transforms.count``); a layout whose expected
-    applications do not pay keeps its plans until its applications exceed the expectation (a
-    known horizon is never re-planned within it); an empty mapping restores the rule on
-    applications made so far."""
+    (``hpcontact.sweep.taskgrid.fft_applications``); replaces what was expected before. Layouts
+    whose expected applications pay for FFTW_MEASURE planning get it at their first application
+    (``Transforms.count``); an empty mapping restores the rule on applications made so far."""
     with _LOCK:
-        previous = dict(_EXPECTED)
         _EXPECTED.clear()
         _EXPECTED.update({(int(c), tuple(int(x) for x in shape)): float(n) for (c, shape), n in expected.items()})
-    return previous
-
-
-def expected_applications() -> dict[tuple[int, tuple[int, int]], float]:
-    """A copy of what ``expect_applications`` was last told (applications per layout)."""
-    with _LOCK:
-        return dict(_EXPECTED)
 
 
 def transforms_for(c: int, nx: int, shape: tuple[int, int], threads: int, effort: str) -> Transforms:

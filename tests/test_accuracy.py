@@ -289,38 +289,3 @@ def test_principal_error_bounds_the_eigenvalue_shift_and_is_below_frobenius() ->
         assert bound <= max(e[0], e[3]) + c + 1e-15
         assert bound <= math.sqrt(float(np.sum(e**2))) + 1e-15
     assert acc.principal_error(2e-6, 0.0, 0.0, 1e-6) == 2e-6
-
-
-def test_singular_levels_tell_the_fft_planner_their_horizon(monkeypatch) -> None:
-    """``solve_to_accuracy`` with singular cells tells ``operator.expect_applications`` each
-    level's horizon before solving it: the layout of that level's operator (it must be the one
-    applied, or the hint misses), the last level's applications times their last growth; and
-    it leaves the expectations as it found them (a sweep's stay in force)."""
-    from hpcontact import operator as op_mod
-
-    seen: list[tuple[tuple, float | None, int]] = []  # (layout, expectation at its first application, applications)
-    original = op_mod.Transforms.count
-
-    def count(self, seconds):
-        if self.usage.applications == 0:
-            seen.append((self.layout, op_mod._EXPECTED.get(self.layout), 0))
-        layout, expected, k = seen[-1]
-        seen[-1] = (layout, expected, k + 1)
-        original(self, seconds)
-
-    monkeypatch.setattr(op_mod.Transforms, "count", count)
-    sweep_hint = {(2, (64, 64)): 123.0}  # what a sweep rank might have been told
-    op_mod.expect_applications(sweep_hint)
-    try:
-        r = acc.solve_to_accuracy({"shape": "ellipse", "aspect": 0.7, "nu": 0.3, "quantities": "tangential,normal"}, 1e-6,
-                                  n0=16, max_grids=4, strategy="singular", strict=False)
-        assert op_mod.expected_applications() == sweep_hint
-    finally:
-        op_mod.expect_applications({})
-    iterations = [level["iterations"] for level in r["levels"]]
-    assert [k for _, _, k in seen] == iterations  # one layout per level, applied once per CG iteration
-    assert seen[0][1] is None  # the first level has no previous one to estimate from
-    assert seen[1][1] == iterations[0]
-    for k in range(2, len(seen)):
-        growth = min(max(iterations[k - 1] / iterations[k - 2], 1.0), 1.5)
-        assert seen[k][1] == pytest.approx(iterations[k - 1] * growth, rel=1e-15)

@@ -207,36 +207,6 @@ def test_expected_applications_plan_measured_at_the_first_application(monkeypatc
     assert op_mod._EXPECTED == {}
 
 
-def test_a_known_horizon_that_does_not_pay_is_never_re_planned_within_it(monkeypatch):
-    """An expectation is a horizon: the rule is applied to it at the first application after it
-    was given; if it did not pay then, a later rise of the mean time (a loaded machine) does not
-    re-plan within it; past it, the rule on applications made so far takes over. A new
-    expectation is decided afresh, and expect_applications hands back the one it replaced."""
-    pyfftw.forget_wisdom()
-    clear_cache()
-    nx, ny = 9, 4
-    a, _ = _random_operator(7, nx, ny, "z")
-    tr = a.transforms
-    monkeypatch.setattr(op_mod, "MEASURE_AFTER_APPLICATIONS", 35)
-    monkeypatch.setattr(op_mod, "MEASURE_AFTER_SECONDS", 1.0)
-    before = op_mod.expect_applications({(1, a.shape): 60.0})
-    try:
-        tr.count(0.01)  # 0.01 s x (60 - 35) < 1 s: does not pay
-        assert a.plan_effort == "FFTW_ESTIMATE"
-        for _ in range(59):
-            tr.count(1.0)  # the mean rises to ~1 s: the old rule on n = 60 would now re-plan
-        assert tr.usage.applications == 60 and a.plan_effort == "FFTW_ESTIMATE"
-        tr.count(1.0)  # the 61st application is past the horizon: 61 >= 35 + 1 s / mean
-        assert a.plan_effort == "FFTW_MEASURE"
-        b, _ = _random_operator(8, nx + 1, ny, "z")  # another layout, a horizon that pays at once
-        assert op_mod.expect_applications({(1, b.shape): 1e9}) == {(1, a.shape): 60.0}
-        b.transforms.count(0.01)
-        assert b.plan_effort == "FFTW_MEASURE"
-    finally:
-        op_mod.expect_applications(before)
-    assert op_mod.expected_applications() == before
-
-
 def test_block_outside_components_is_refused():
     nx, ny = 3, 3
     with pytest.raises(ValueError):
