@@ -235,10 +235,11 @@ def defaults_table() -> None:
 FIGURE_CASES = ((1.0, "circle"), (0.7, "ellipse 0.7"), (1e-3, "ellipse 1e-3"))
 
 
-def convergence(cache: Path, strategy: str, aspect: float, nu: float = 0.3, n0: int = 32) -> list[tuple[float, float, float]]:
+def convergence(cached: dict[str, dict[str, Any]], strategy: str, aspect: float, nu: float = 0.3,
+                n0: int = 32) -> list[tuple[float, float, float]]:
     """(CPU s so far, estimated error, true error) after every grid from the ``MIN_GRIDS``-th of
-    ``strategy``'s cached sequence from n₀ (what ``--accuracy`` would report if it stopped there)."""
-    cached = load(cache)
+    ``strategy``'s sequence from n₀ in the ``cached`` levels (``load``): what ``--accuracy`` would
+    report if it stopped there."""
     treatment = treatment_name(strategy)
     sequence = [g for g in grids(aspect, n0, 2**20) if key_of(treatment, aspect, nu, *g) in cached]
     levels = [cached[key_of(treatment, aspect, nu, *g)] for g in sequence]
@@ -280,9 +281,10 @@ def figure(cache: Path, singular_cache: Path | None, path: Path) -> None:
     left.set(xlabel="estimated relative error (--accuracy)", ylabel="true relative error (closed forms)",
              title="Honesty and sharpness of the estimate", ylim=(1e-12, 1e-2))
     left.legend(fontsize=7, loc="upper left")
+    cached = load(cache)
     for (aspect, name), colour in zip(FIGURE_CASES, ("C0", "C1", "C2")):
         for strategy, marker in (("coverage", "o"), ("singular", "^")):
-            points = convergence(cache, strategy, aspect)
+            points = convergence(cached, strategy, aspect)
             if not points:
                 continue
             seconds, estimate, true = np.array(points).T
