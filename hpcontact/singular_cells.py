@@ -198,13 +198,26 @@ def _first_moment(u1, u2, v1, v2) -> np.ndarray:
 # ------------------------------------------------------------------------------------------
 # kernels: the uniform-cell kernel averaged over the target cell (Galerkin double average)
 # ------------------------------------------------------------------------------------------
+#: Love's integrals every block is made of (``_combine``): K*'s exact table and the near field's
+#: sub-cell sums (formed once per grid for all blocks) use these two.
+BASE_INTEGRALS = ("one_over_r", "xx_over_r3")
+
+
+def _combine(nu: float, block: str, one_over_r, xx_over_r3):
+    """A block's Green's function integral from those of 1/r and x²/r³ (Johnson 1985 eq.
+    3.19–3.20 with G = 1): zz (1 − ν) I₁/2π, xx ((1 − ν) I₁ + ν I_xx)/2π, yy ((1 − ν) I₁ +
+    ν I_yy)/2π with I_yy = I₁ − I_xx (x² + y² = r²). Works on arrays or on sparse sums alike."""
+    if block == "zz":
+        return (1.0 - nu) / (2.0 * math.pi) * one_over_r
+    if block == "xx":
+        return ((1.0 - nu) * one_over_r + nu * xx_over_r3) / (2.0 * math.pi)
+    return (one_over_r - nu * xx_over_r3) / (2.0 * math.pi)
+
+
 def _block_integral(nu: float, block: str, x: np.ndarray, y: np.ndarray, hx: float, hy: float) -> np.ndarray:
     """Love's integral of block's Green's function (G = 1) over [−hx, hx] × [−hy, hy] at (x, y)."""
-    if block == "zz":
-        return (1.0 - nu) / (2.0 * math.pi) * cell_integrals(x, y, hx, hy, ["one_over_r"])["one_over_r"]
-    name = "xx_over_r3" if block == "xx" else "yy_over_r3"
-    I = cell_integrals(x, y, hx, hy, ["one_over_r", name])
-    return ((1.0 - nu) * I["one_over_r"] + nu * I[name]) / (2.0 * math.pi)
+    I = cell_integrals(x, y, hx, hy, BASE_INTEGRALS)
+    return _combine(nu, block, *(I[kind] for kind in BASE_INTEGRALS))
 
 
 def _graded_rule(levels: int, points: int) -> tuple[np.ndarray, np.ndarray]:
@@ -270,25 +283,9 @@ def double_average_kernel(material: Isotropic, nx: int, ny: int, dx: float, dy: 
     return K
 
 
-#: Love's integrals the sub-cell blocks are made of: every block is a combination of these two
-#: (``_combine``), so the near field's sub-cell sums are formed once per grid for all blocks.
-NEAR_KERNELS = ("one_over_r", "xx_over_r3")
-
-
-def _combine(nu: float, block: str, one_over_r, xx_over_r3):
-    """A block's Green's function integral from those of 1/r and x²/r³ (Johnson 1985 eq.
-    3.19–3.20 with G = 1): zz (1 − ν) I₁/2π, xx ((1 − ν) I₁ + ν I_xx)/2π, yy ((1 − ν) I₁ +
-    ν I_yy)/2π with I_yy = I₁ − I_xx (x² + y² = r²). Works on arrays or on sparse sums alike."""
-    if block == "zz":
-        return (1.0 - nu) / (2.0 * math.pi) * one_over_r
-    if block == "xx":
-        return ((1.0 - nu) * one_over_r + nu * xx_over_r3) / (2.0 * math.pi)
-    return (one_over_r - nu * xx_over_r3) / (2.0 * math.pi)
-
-
 @lru_cache(maxsize=64)
 def _subcell_block(kind: str, ratio: float, m: int, P: int, Q: int) -> np.ndarray:
-    """M[s, s'] = (Love integral of ``kind`` (``NEAR_KERNELS``) over sub-cell s' at the centre of
+    """M[s, s'] = (Love integral of ``kind`` (``BASE_INTEGRALS``) over sub-cell s' at the centre of
     sub-cell s) / sub-cell area, for the target cell at offset (P, Q) from the source, m × m
     sub-cells, dx = 1, dy = ratio (read-only)."""
     k = np.arange(1 - m, m)  # distinct sub-cell offsets (the matrix is Toeplitz-block-Toeplitz)
@@ -429,7 +426,7 @@ class SingularCells:
 
         Per offset (P, Q) ≥ (0, 0) within ``NEAR`` (the pair at (−P, −Q) is the transpose): the
         source and target indices into the near set (pairs with one cell in the band) and, per
-        kernel of ``NEAR_KERNELS``, Σ_s Σ_s' W_s M_ss' W_s' on m × m sub-cells extrapolated in m
+        kernel of ``BASE_INTEGRALS``, Σ_s Σ_s' W_s M_ss' W_s' on m × m sub-cells extrapolated in m
         (2 B_m − B_{m/2}), in units dx = 1, G = 1 (a block's B is ``_combine`` of them / (dx G)).
         Computed once per grid and shared by the blocks."""
         if self._near is None:
@@ -452,11 +449,11 @@ class SingularCells:
                     if src.size == 0:
                         continue
                     mm = SUBCELLS[0] if max(abs(P), abs(Q)) <= 1 else SUBCELLS[1]
-                    B = {kind: np.zeros(src.size) for kind in NEAR_KERNELS}
+                    B = {kind: np.zeros(src.size) for kind in BASE_INTEGRALS}
                     for level, weight in ((mm, 2.0), (mm // 2, -1.0)):
                         Ws = self.subcells(level)
                         Wt, Wsrc = Ws[tgt], Ws[src]
-                        for kind in NEAR_KERNELS:
+                        for kind in BASE_INTEGRALS:
                             B[kind] += weight * np.einsum("pa,pa->p", Wt @ _subcell_block(kind, ratio, level, P, Q), Wsrc)
                     self._near.append(((P, Q), src, tgt, B))
         return self._near
@@ -488,7 +485,7 @@ class BlockSystem:
         # near-field correction: exact Galerkin entries minus what the far field gives them
         rows, cols, vals = [], [], []
         for (P, Q), src, tgt, integrals in cells.near_pairs():
-            B = _combine(nu, block, *(integrals[kind] for kind in NEAR_KERNELS)) / (dx * material.G)
+            B = _combine(nu, block, *(integrals[kind] for kind in BASE_INTEGRALS)) / (dx * material.G)
             cs, ct = near_cells[src], near_cells[tgt]
             exact = dx * dy * B / (Wn[tgt] * Wn[src])
             far = self._far(Kstar, P, Q, cells.beta_near[:, tgt], cells.beta_near[:, src])
