@@ -31,6 +31,8 @@ import numpy as np
 import pyfftw
 import scipy.fft
 
+from .errors import InputError
+
 COMPONENT_INDEX = {"x": 0, "y": 1, "z": 2}
 _SPECTRUM_CACHE: "OrderedDict[tuple, np.ndarray]" = OrderedDict()
 _SPECTRUM_CACHE_BYTES = int(os.environ.get("HPCONTACT_KERNEL_CACHE_MB", "1024")) * 2**20
@@ -59,6 +61,13 @@ _LOCK = threading.Lock()
 # 2160 x 1440 and 2.6 s at 5184 x 270 and saves 11-22 ms of 40-87 ms per application, paying
 # after 116-234 applications, where the rule buys at 50-68: on such layouts it is eager by ~3x.
 MEASURE_AFTER_APPLICATIONS = 35
+#: Environment variable that sets the default planner effort of every operator of the process:
+#: "auto" (unset) or an FFTW flag. "FFTW_ESTIMATE" makes the plans, and so every result, the same in
+#: every process: "auto" and FFTW_MEASURE choose plans by timing, and different plans round
+#: differently (a stiffness moves by up to ~3e-12 relative through CG on thin contacts; measured
+#: on the cluster-MPI check's demo, 8 ranks on 2 cores against one process, 2026-11-23).
+PLANNER_ENV = "HPCONTACT_FFTW_PLANNER"
+PLANNER_EFFORTS = ("auto", "FFTW_ESTIMATE", "FFTW_MEASURE", "FFTW_PATIENT", "FFTW_EXHAUSTIVE")
 MEASURE_AFTER_SECONDS = 1.3
 
 
@@ -306,6 +315,14 @@ def expect_applications(expected: Mapping[tuple[int, tuple[int, int]], float]) -
         _EXPECTED.update({(int(c), tuple(int(x) for x in shape)): float(n) for (c, shape), n in expected.items()})
 
 
+def default_planner_effort() -> str:
+    """The planner effort of operators made without one: ``PLANNER_ENV`` or "auto"."""
+    effort = os.environ.get(PLANNER_ENV, "auto")
+    if effort not in PLANNER_EFFORTS:
+        raise InputError(PLANNER_ENV, f"one of {', '.join(PLANNER_EFFORTS)}", effort)
+    return effort
+
+
 def transforms_for(c: int, nx: int, shape: tuple[int, int], threads: int, effort: str) -> Transforms:
     """The process's ``Transforms`` of this layout and planner effort, made on first use. Making
     a new one first drops those no operator uses any more (their buffers would otherwise stay
@@ -331,7 +348,7 @@ class ConvolutionOperator:
     the final crop instead of a separate pass over the padded array.
 
     ``planner_effort`` is an FFTW planner flag ("FFTW_ESTIMATE", "FFTW_MEASURE", ...) or "auto"
-    (default): FFTW_MEASURE plans from wisdom if FFTW has it for these problems, else
+    (default: ``default_planner_effort``, "auto" unless ``PLANNER_ENV`` says otherwise): FFTW_MEASURE plans from wisdom if FFTW has it for these problems, else
     FFTW_ESTIMATE plans, re-planned with FFTW_MEASURE once the layout has been applied long
     enough (``MEASURE_AFTER_SECONDS``). ``plan_effort`` says which plans are in use;
     ``planning_time_s`` is the planning time of its layout so far.
@@ -344,8 +361,10 @@ class ConvolutionOperator:
         components: str,
         spectra: Mapping[str, np.ndarray],
         threads: int = 1,
-        planner_effort: str = "auto",
+        planner_effort: str | None = None,
     ) -> None:
+        if planner_effort is None:
+            planner_effort = default_planner_effort()
         self.nx, self.ny, self.components = nx, ny, components
         self.shape = padded_shape(nx, ny)
         c = len(components)

@@ -381,3 +381,22 @@ def test_wisdom_path_default(monkeypatch):
 def test_module_constants():
     assert op_mod.COMPONENT_INDEX == {"x": 0, "y": 1, "z": 2}
     assert set(BLOCKS) == {a + b for a in "xyz" for b in "xyz"}
+
+
+def test_planner_effort_from_the_environment(monkeypatch):
+    """``HPCONTACT_FFTW_PLANNER`` sets the effort of operators made without one (FFTW_ESTIMATE:
+    the same plans in every process, for runs that must agree to rounding); a bad value is an
+    InputError naming the variable and the allowed values."""
+    from hpcontact import operator as op_mod
+    from hpcontact.errors import InputError
+
+    monkeypatch.setenv(op_mod.PLANNER_ENV, "FFTW_ESTIMATE")
+    kernel = np.zeros((2 * 16 - 1, 2 * 8 - 1))
+    kernel[15, 7] = 1.0
+    spectra = {"zz": op_mod.kernel_spectrum(kernel, op_mod.padded_shape(16, 8))}
+    operator = op_mod.ConvolutionOperator(16, 8, "z", spectra)
+    assert operator.plan_effort == "FFTW_ESTIMATE" and not operator.transforms.auto
+    monkeypatch.setenv(op_mod.PLANNER_ENV, "fast")
+    with pytest.raises(InputError, match="HPCONTACT_FFTW_PLANNER.*one of auto, FFTW_ESTIMATE"):
+        op_mod.ConvolutionOperator(16, 8, "z", spectra)
+
