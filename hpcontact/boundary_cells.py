@@ -302,6 +302,22 @@ def _coverage_forces(scene: Scene) -> _Solved:
     return _Solved(grid, f, mask, plan, forces, iterations, residual, "coverage-weighted cells, D_ii = A_ii (1 - f)/f")
 
 
+def singular_block_solve(cells: singular_cells.SingularCells, block: str, tol: float, precondition: bool = True) -> Any:
+    """CG on one block's Galerkin system Ã s = 1 of singular cells (``SingularCells.system``),
+    with the Fourier preconditioner on rows scaled to a common diagonal unless ``precondition``
+    is false; returns the solver's result (``traction`` s, ``iterations``, ``residual``)."""
+    system = cells.system(block)
+    apply_preconditioner = None
+    if precondition:
+        green = Engine(cells.material, cells.grid, ()).green_function("H")
+        fourier = FourierPreconditioner(cells.grid, green, block[0]).apply
+        typical = float(np.median(system.diagonal[cells.mask]))
+        w = np.where(cells.mask, np.sqrt(typical / np.where(cells.mask, system.diagonal, 1.0)), 0.0)
+        apply_preconditioner = lambda r: w * fourier(w * r)
+    rhs = np.ones((1,) + cells.mask.shape)
+    return conjugate_gradient(system.apply, rhs, cells.mask, tol=tol, precondition=apply_preconditioner)
+
+
 def _singular_forces(scene: Scene) -> _Solved:
     """Singular cells (``hpcontact.singular_cells``): one Galerkin solve per load direction.
 
@@ -314,19 +330,10 @@ def _singular_forces(scene: Scene) -> _Solved:
     if "normal" in scene.quantities:
         solves.append(("normal_z", "zz"))
     cells = singular_cells.SingularCells(scene.shape, scene.n, scene.n_across, scene.material)
-    green = Engine(scene.material, cells.grid, ()).green_function("H")
     forces: dict[str, np.ndarray] = {}
     iterations, residual = 0, 0.0
     for name, block in solves:
-        system = cells.system(block)
-        precondition = None
-        if scene.precondition:  # Fourier preconditioner, rows scaled to a common diagonal
-            fourier = FourierPreconditioner(cells.grid, green, block[0]).apply
-            typical = float(np.median(system.diagonal[cells.mask]))
-            w = np.where(cells.mask, np.sqrt(typical / np.where(cells.mask, system.diagonal, 1.0)), 0.0)
-            precondition = lambda r, fourier=fourier, w=w: w * fourier(w * r)
-        rhs = np.ones((1,) + cells.mask.shape)
-        solution = conjugate_gradient(system.apply, rhs, cells.mask, tol=scene.tol, precondition=precondition)
+        solution = singular_block_solve(cells, block, scene.tol, scene.precondition)
         force = np.zeros(3)
         force[COMPONENT_INDEX[block[0]]] = cells.force(solution.traction)
         forces[name] = force

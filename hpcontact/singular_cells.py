@@ -38,6 +38,11 @@ precorrected-FFT method (Phillips & White 1997, IEEE TCAD 16, 1059):
   ``BAND`` cells of a cut cell, Ã − Pᵀ K* P is added as a sparse correction, B from m × m
   sub-cells with exact ∫w (a closed form, :func:`sphere_area`) and Love's sub-cell integral,
   extrapolated in m (2 B_m − B_{m/2}).
+  (``near_field="subcells"``, what ``covered_solve`` and ``--accuracy`` use); or
+  ``near_field="edge"``: by quadrature that follows the edge (``hpcontact.singular_pairs``:
+  nodes in the hemisphere variables, where w dA is smooth; for touching pairs the source's
+  potential along rays from each node, whose w-integral is an arcsine), P's second moments
+  from the same nodes — below, "Edge quadrature", for what it gives and why it is not used.
 
 Closed forms: ∫∫ (1 − u² − v²)^(−1/2) du dv over [0, U] × [0, V] is the area of the unit
 hemisphere above it, F = U asin(V/√(1−U²)) + V asin(U/√(1−V²)) − atan(UV/√(1−U²−V²)) inside
@@ -96,6 +101,35 @@ not fall steadily with n (b/a 0.7 from n₀ = 45: K_yy −4.6e-7, −2.6e-7, −
 −7.0e-8, −8.1e-8 at 360 × 248, 720 × 496, 1440 × 992), which is why ``accuracy`` gives singular
 cells a larger factor on the spread and stops them at the grids it was calibrated on
 (``accuracy.SINGULAR_SAFETY``, ``accuracy.SINGULAR_MAX_CELLS``).
+
+Edge quadrature (``near_field="edge"``; measured 2026-11-23)
+-------------------------------------------------------------
+The exact solution g = const lies in the trial space, so K's error is that of B alone: to first
+order −δE/E with E = Σ B (the energy of Galin's and Mindlin's traction), plus a positive part
+second order in δB from the Galerkin solution's departure from g = const. With sub-cells both
+are of the same size (ellipse 0.7, nu 0.3, K_zz: −δE/E = 3.1e-6, 1.8e-6, 2.1e-7 and K error
+6.2e-6, 3.1e-6, 7.8e-7 at n = 64, 128, 256), and the energy part moves with the sub-cell count
+by first-order amounts (n·(−δE/E) at n = 64: +2.0e-4, −3.8e-4, −7.5e-4 for m = 16, 32, 64).
+With the near field by the edge quadrature the second-order part is gone (K error = −δE/E
+within 3e-7 at n = 32) and what is left is the far field beyond ``NEAR``: first order and
+nearly steady, n_across·error on b/a 0.7's grids 16 × 11 … 512 × 352 (nu 0.3):
+
+    K_xx  −6.3e-4  −5.9e-4  −5.3e-4  −5.5e-4  −5.2e-4  −5.0e-4
+    K_yy  −4.4e-4  −6.6e-4  −6.5e-4  −6.8e-4  −6.7e-4  −6.5e-4
+    K_zz  −5.4e-4  −6.2e-4  −5.9e-4  −6.1e-4  −5.9e-4  −5.7e-4
+
+(order-1 Richardson leaves ≤ 2.8e-7 from 128 × 88 on; the circle's steps are the same, ±2e-7;
+K_yy of b/a 0.1 and 0.05 is not yet first order at 1280 × 128 and 1280 × 64). The quadrature's
+own error, ~1e-7 of K at q = 6 (q = 6 → 8 moved K_xx by 8e-8 at b/a 0.5, 256 × 128), is part
+of what is left. The estimator needs the same factor 6 on these sequences
+(``benchmarks/edge_order.py --singular-calibration CACHE --near-field edge``, every grid up to
+2^18 cells: 294 records honest, worst 0.44, 85.7 % within 30x; 6 of 1654 per-quantity pairs
+below their true error, worst 1.72, all from first grids with 4 or 5 cells across), and the
+setup costs ~10x that of sub-cells (1.2 s against 0.1 s at 32 × 22), so per CPU second it is
+worse: b/a 0.7 meets 1e-5 at 256 × 176 in 13 s where sub-cells meet it at 512 × 352 in 6 s, and
+1e-6 is met only for the circle (512², 8.7e-7 / 1.9e-7, 40 s). Kept for the step that would
+make it pay — a far field matching more moments (its error is now the whole error) and a
+cheaper touching-pair quadrature.
 """
 
 from __future__ import annotations
@@ -108,6 +142,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.ndimage import binary_dilation, correlate
 
+from . import singular_pairs
 from .errors import InputError
 from .geometry import Grid, Shape, grid_for
 from .kernels.cells import cell_integrals
@@ -121,6 +156,7 @@ __all__ = [
     "EXACT_OFFSETS",
     "MAX_CELL_ASPECT",
     "NEAR",
+    "NEAR_FIELDS",
     "SUBCELLS",
     "BlockSystem",
     "SingularCells",
@@ -137,6 +173,7 @@ GRADED_LEVELS, GRADED_POINTS = 10, 6  # graded Gauss–Legendre for K* (error �
 BLOCKS = ("xx", "yy", "zz")
 MAX_CELL_ASPECT = 2.0  # dy/dx within [1/2, 2]
 ERROR_CONSTANT = 1.03e-3  # |relative K error| ≤ this / (cells across the minor axis): largest of edge_order.py --bound
+NEAR_FIELDS = ("subcells", "edge")  # the near field's quadrature (``SingularCells``)
 MIN_WEIGHT = 1e-9  # cells with W below this fraction of their area are left out (W is a difference of O(1) closed forms: ~1e-16 absolute)
 
 
@@ -310,7 +347,10 @@ class SingularCells:
     (``BlockSystem``); ``force(s)`` = Σ s dx dy.
     """
 
-    def __init__(self, shape: Shape, n: int, n_across: int | None, material: Isotropic) -> None:
+    def __init__(self, shape: Shape, n: int, n_across: int | None, material: Isotropic, near_field: str = "subcells") -> None:
+        if near_field not in NEAR_FIELDS:
+            raise InputError("near_field", f"one of {', '.join(NEAR_FIELDS)}", near_field)
+        self.near_field = near_field
         full = grid_for(shape, n, n_across)
         if not supports(shape, material, full):
             raise InputError(
@@ -352,16 +392,26 @@ class SingularCells:
         self._sub: dict[int, np.ndarray] = {}
 
         # second moments about the cell centre (units dx², dy², dx dy): uniform-cell values
-        # where w is smooth, sub-cell sums extrapolated in m on the near set
+        # where w is smooth; on the near set sub-cell sums extrapolated in m ("subcells") or the
+        # edge quadrature's nodes ("edge", which its pair integrals use as well)
         mxx, myy, mxy = 1.0 / 12.0 + xi ** 2, 1.0 / 12.0 + eta ** 2, xi * eta
-        m = SUBCELLS[0]
         Wn = self.Wn = self.W[cells[:, 0], cells[:, 1]]
-        moments = np.zeros((3, len(cells)))
-        for mm, weight in ((m, 2.0), (m // 2, -1.0)):
-            ex = np.repeat((np.arange(mm) + 0.5) / mm - 0.5, mm)
-            ey = np.tile((np.arange(mm) + 0.5) / mm - 0.5, mm)
-            Ws = self.subcells(mm)
-            moments += weight * np.stack([Ws @ (ex ** 2 + 1.0 / (12 * mm * mm)), Ws @ (ey ** 2 + 1.0 / (12 * mm * mm)), Ws @ (ex * ey)]) / Wn
+        if near_field == "edge":
+            X, Y = x[cells[:, 0]], y[cells[:, 1]]
+            self.rects = np.stack([X - 0.5 * dx, X + 0.5 * dx, Y - 0.5 * dy, Y + 0.5 * dy])
+            self.nodes, self.node_weights = singular_pairs.cell_nodes(*self.rects, a, b)
+            self.separated_rule = singular_pairs.interpolatory_rule(*self.rects, self.nodes, self.node_weights)
+            ex, ey = (self.nodes[..., 0] - X[:, None]) / dx, (self.nodes[..., 1] - Y[:, None]) / dy
+            total = self.node_weights.sum(1)
+            moments = np.stack([(self.node_weights * p).sum(1) / total for p in (ex * ex, ey * ey, ex * ey)])
+        else:
+            m = SUBCELLS[0]
+            moments = np.zeros((3, len(cells)))
+            for mm, weight in ((m, 2.0), (m // 2, -1.0)):
+                ex = np.repeat((np.arange(mm) + 0.5) / mm - 0.5, mm)
+                ey = np.tile((np.arange(mm) + 0.5) / mm - 0.5, mm)
+                Ws = self.subcells(mm)
+                moments += weight * np.stack([Ws @ (ex ** 2 + 1.0 / (12 * mm * mm)), Ws @ (ey ** 2 + 1.0 / (12 * mm * mm)), Ws @ (ex * ey)]) / Wn
         mxx[near], myy[near], mxy[near] = moments
         sx, sy = mxx - 1.0 / 12.0, myy - 1.0 / 12.0
         bx = ((sx - xi) / 2.0, 1.0 - sx, (sx + xi) / 2.0)
@@ -421,17 +471,18 @@ class SingularCells:
                 self._sub[m] = (a * b * (F[:, 1:, 1:] - F[:, :-1, 1:] - F[:, 1:, :-1] + F[:, :-1, :-1])).reshape(len(cells), m * m)
         return self._sub[m]
 
-    def near_pairs(self) -> list[tuple[tuple[int, int], np.ndarray, np.ndarray, dict[str, np.ndarray]]]:
+    def near_pairs(self) -> list[tuple[tuple[int, int], np.ndarray, np.ndarray, tuple[np.ndarray, ...]]]:
         """The near field's cell pairs and their exact Galerkin integrals, for every block at once.
 
         Per offset (P, Q) ≥ (0, 0) within ``NEAR`` (the pair at (−P, −Q) is the transpose): the
-        source and target indices into the near set (pairs with one cell in the band) and, per
-        kernel of ``BASE_INTEGRALS``, Σ_s Σ_s' W_s M_ss' W_s' on m × m sub-cells extrapolated in m
-        (2 B_m − B_{m/2}), in units dx = 1, G = 1 (a block's B is ``_combine`` of them / (dx G)).
-        Computed once per grid and shared by the blocks."""
+        source and target indices into the near set (pairs with one cell in the band) and the
+        integrals ∫∫ w k w of the kernels of ``BASE_INTEGRALS`` [length³, G = 1; a block's B is
+        ``_combine`` of them / G]: "subcells", Σ_s Σ_s' W_s M_ss' W_s' on m × m sub-cells
+        extrapolated in m (2 B_m − B_{m/2}); "edge", ``hpcontact.singular_pairs`` (touching pairs
+        through the source's ray potential, the others node against node). Computed once per
+        grid and shared by the blocks."""
         if self._near is None:
             nx, ny = self.grid.nx, self.grid.ny
-            ratio = self.grid.dy / self.grid.dx
             index, in_band, near_cells = self.index, self.in_band, self.cells
             self._near = []
             for P in range(-NEAR, NEAR + 1):
@@ -446,17 +497,29 @@ class SingularCells:
                     src, tgt = src[keep], tgt[keep]
                     keep = in_band[src] | in_band[tgt]
                     src, tgt = src[keep], tgt[keep]
-                    if src.size == 0:
-                        continue
-                    mm = SUBCELLS[0] if max(abs(P), abs(Q)) <= 1 else SUBCELLS[1]
-                    B = {kind: np.zeros(src.size) for kind in BASE_INTEGRALS}
-                    for level, weight in ((mm, 2.0), (mm // 2, -1.0)):
-                        Ws = self.subcells(level)
-                        Wt, Wsrc = Ws[tgt], Ws[src]
-                        for kind in BASE_INTEGRALS:
-                            B[kind] += weight * np.einsum("pa,pa->p", Wt @ _subcell_block(kind, ratio, level, P, Q), Wsrc)
-                    self._near.append(((P, Q), src, tgt, B))
+                    if src.size:
+                        integrals = self._edge_pairs(P, Q, src, tgt) if self.near_field == "edge" else self._subcell_pairs(P, Q, src, tgt)
+                        self._near.append(((P, Q), src, tgt, integrals))
         return self._near
+
+    def _subcell_pairs(self, P: int, Q: int, src: np.ndarray, tgt: np.ndarray) -> tuple[np.ndarray, ...]:
+        """``near_pairs``' integrals on sub-cells (2 B_m − B_{m/2}) [length³]."""
+        ratio = self.grid.dy / self.grid.dx
+        mm = SUBCELLS[0] if max(abs(P), abs(Q)) <= 1 else SUBCELLS[1]
+        B = {kind: np.zeros(src.size) for kind in BASE_INTEGRALS}
+        for level, weight in ((mm, 2.0), (mm // 2, -1.0)):
+            Ws = self.subcells(level)
+            Wt, Wsrc = Ws[tgt], Ws[src]
+            for kind in BASE_INTEGRALS:
+                B[kind] += weight * np.einsum("pa,pa->p", Wt @ _subcell_block(kind, ratio, level, P, Q), Wsrc)
+        return tuple(B[kind] / self.grid.dx for kind in BASE_INTEGRALS)  # M is in units dx = 1
+
+    def _edge_pairs(self, P: int, Q: int, src: np.ndarray, tgt: np.ndarray) -> tuple[np.ndarray, ...]:
+        """``near_pairs``' integrals by the edge quadrature (``hpcontact.singular_pairs``) [length³]."""
+        if max(abs(P), abs(Q)) <= 1:
+            return singular_pairs.touching_integrals(self.nodes[tgt], self.node_weights[tgt], *self.rects[:, src], *self._axes)
+        nodes, rule = self.separated_rule
+        return singular_pairs.separated_integrals(nodes[tgt], rule[tgt], nodes[src], rule[src])
 
     def system(self, block: str) -> BlockSystem:
         """The Galerkin system Ã s = u₀ of ``block`` ("xx", "yy" or "zz") on these cells."""
@@ -485,7 +548,7 @@ class BlockSystem:
         # near-field correction: exact Galerkin entries minus what the far field gives them
         rows, cols, vals = [], [], []
         for (P, Q), src, tgt, integrals in cells.near_pairs():
-            B = _combine(nu, block, *(integrals[kind] for kind in BASE_INTEGRALS)) / (dx * material.G)
+            B = _combine(nu, block, *integrals) / material.G
             cs, ct = near_cells[src], near_cells[tgt]
             exact = dx * dy * B / (Wn[tgt] * Wn[src])
             far = self._far(Kstar, P, Q, cells.beta_near[:, tgt], cells.beta_near[:, src])
