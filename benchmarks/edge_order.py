@@ -182,22 +182,57 @@ def done_when(request: float, max_cells: int, strategies: tuple[str, ...] = ("co
 CALIBRATION_ASPECTS = (1.0, 0.7, 0.5, 0.3, 0.2, 0.1, 0.05)
 
 
-def calibration_grids(aspect: float, nu: float, n0: int) -> list[tuple[int, int]]:
+#: The edge quadrature's replay ends at 2^18 cells (circle 512², b/a 0.7 512 × 352): its setup is
+#: ~10x that of sub-cells (``--singular-calibration CACHE --near-field edge``; ~15 min CPU to fill).
+EDGE_CALIBRATION_CELLS = 2**18
+
+
+def calibration_grids(aspect: float, nu: float, n0: int, max_cells: int | None = None) -> list[tuple[int, int]]:
     """The sequence ``--accuracy`` (strategy auto) solves from n₀: ``accuracy.singular_start``'s
-    first grid refined by 2, every grid up to ``accuracy.SINGULAR_MAX_CELLS`` cells."""
+    first grid refined by 2, every grid up to ``max_cells`` (``accuracy.SINGULAR_MAX_CELLS``)."""
     from hpcontact.accuracy import RATIO, SINGULAR_MAX_CELLS, singular_start
     from hpcontact.scene import Scene
 
+    max_cells = SINGULAR_MAX_CELLS if max_cells is None else max_cells
     params = {"shape": "circle"} if aspect == 1.0 else {"shape": "ellipse", "aspect": aspect}
     n, na = singular_start(Scene.from_params({**params, "nu": nu, "quantities": "tangential,normal"}), n0, None)
     grids = []
-    while n * na <= SINGULAR_MAX_CELLS:
+    while n * na <= max_cells:
         grids.append((n, na))
         n, na = int(n * RATIO), int(na * RATIO)
     return grids
 
 
-def singular_records(cache: Path) -> tuple[list[tuple[float, float, float]], list[tuple[float, float]]]:
+def singular_rows(aspect: float, n: int, na: int, near_field: str = "subcells",
+                  nus: tuple[float, ...] = (0.0, 0.3, 0.5)) -> list[dict]:
+    """K_xx, K_yy, K_zz of singular cells (``near_field``) on one grid for each nu, as
+    ``covered_solve(..., "singular")`` gives them (``boundary_cells.singular_block_solve``, CG to
+    1e-10): the near field's integrals do not depend on nu, so one ``SingularCells`` serves every
+    nu (its material replaced on a copy). ``cpu_s``: the shared setup plus the nu's own solves."""
+    import copy
+
+    from hpcontact import singular_cells
+    from hpcontact.boundary_cells import singular_block_solve
+    from hpcontact.materials import Isotropic
+
+    started = time.process_time()
+    shape = Shape("circle") if aspect == 1.0 else Shape("ellipse", aspect)
+    base = singular_cells.SingularCells(shape, n, na, Isotropic(1.0, nus[0]), near_field)
+    base.near_pairs()
+    setup = time.process_time() - started
+    rows = []
+    for nu in nus:
+        started = time.process_time()
+        cells = copy.copy(base)
+        cells.material = Isotropic(1.0, nu)
+        row = {"aspect": aspect, "nu": nu, "n": n, "n_across": na, "K_xy": 0.0, "K_yx": 0.0}
+        for block in ("xx", "yy", "zz"):
+            row[f"K_{block}"] = cells.force(singular_block_solve(cells, block, 1e-10).traction)
+        rows.append({**row, "cpu_s": setup + time.process_time() - started})
+    return rows
+
+
+def singular_records(cache: Path, near_field: str = "subcells") -> tuple[list[tuple[float, float, float]], list[tuple[float, float]]]:
     """The replay behind ``accuracy.SINGULAR_SAFETY``: every grid of :func:`calibration_grids`
     (b/a in ``CALIBRATION_ASPECTS``, nu = 0, 0.3, 0.5, n₀ = 16 and 32) solved once and cached
     (JSON lines, CPU seconds; solved here when missing), then ``accuracy.refine`` with the
@@ -215,23 +250,18 @@ def singular_records(cache: Path) -> tuple[list[tuple[float, float, float]], lis
     records, pairs = [], []
     for aspect in CALIBRATION_ASPECTS:
         for nu in (0.0, 0.3, 0.5):
-            params = {"shape": "circle"} if aspect == 1.0 else {"shape": "ellipse", "aspect": aspect}
-            params = {**params, "nu": nu, "tol": 1e-10, "quantities": "tangential,normal"}
             K_a, K_b = analytic.mindlin_ellipse_stiffness(1.0, aspect, 1.0, nu)
             K_z = analytic.elliptical_punch_normal_stiffness(1.0, aspect, 1.0, nu)
             exact = {"K_xx": K_a, "K_yy": K_b, "K_zz": K_z, "K_a_over_K_b": K_a / K_b, "normalized_xx": K_a / K_z,
                      "normalized_yy": K_b / K_z}
             for n0 in (16, 32):
-                grids = calibration_grids(aspect, nu, n0)
+                grids = calibration_grids(aspect, nu, n0, EDGE_CALIBRATION_CELLS if near_field == "edge" else None)
                 for n, na in grids:
                     if (aspect, nu, n, na) not in cached:
-                        started = time.process_time()
-                        r = covered_solve({**params, "n": n, "n_across": na}, "singular")
-                        row = {"aspect": aspect, "nu": nu, "n": n, "n_across": na, "cpu_s": time.process_time() - started,
-                               **{k: r[k] for k in acc.TENSOR_KEYS if k in r}}
-                        cached[(aspect, nu, n, na)] = row
-                        with cache.open("a") as f:
-                            f.write(json.dumps(row) + "\n")
+                        for row in singular_rows(aspect, n, na, near_field):
+                            cached[(aspect, row["nu"], n, na)] = row
+                            with cache.open("a") as f:
+                                f.write(json.dumps(row) + "\n")
                 levels = {g: cached[(aspect, nu, *g)] for g in grids}
                 for request in requests:
                     done = acc.refine(grids, lambda n, na, levels=levels: levels[(n, na)], request, acc.SINGULAR_EXPANSIONS,
@@ -245,20 +275,44 @@ def singular_records(cache: Path) -> tuple[list[tuple[float, float, float]], lis
     return records, pairs
 
 
-def singular_calibration(cache: Path) -> None:
-    """Print :func:`singular_records`' honesty and sharpness: all records, those with requests
-    below ``accuracy.SINGULAR_BELOW`` (the ones ``--accuracy`` gives singular cells), the pairs."""
+def singular_calibration(cache: Path, near_field: str = "subcells") -> None:
+    """Print :func:`singular_records`' honesty and sharpness (all records, those with requests
+    below ``accuracy.SINGULAR_BELOW`` — the ones ``--accuracy`` gives singular cells —, the
+    pairs), then per case (nu 0.3, 0.5; from n₀ = 32) what requests 1e-5 and 1e-6 cost: the grid
+    the replay stopped at, estimate / true error (largest over K_xx, K_yy, K_zz, K_a/K_b) and the
+    CPU seconds of the sequence's solves (cached: each the grid's setup plus one nu's solves)."""
     import numpy as np
 
     from hpcontact import accuracy as acc
 
-    records, pairs = singular_records(cache)
+    records, pairs = singular_records(cache, near_field)
     for label, rows in (("records", records), ("records, requests below SINGULAR_BELOW", [r for r in records if r[0] < acc.SINGULAR_BELOW])):
         ratio = np.array([t / e for _, t, e in rows])
         print(f"{label}: {len(ratio)}; worst true/estimate {ratio.max():.2f}; above 1: {int((ratio > 1).sum())}; "
               f"within 30x: {100 * (ratio >= 1 / 30).mean():.1f} %; worst estimate/true {1.0 / ratio.min():.0f}")
     ratio = np.array([t / e for t, e in pairs])
     print(f"per-quantity pairs: {len(ratio)}; worst true/estimate {ratio.max():.2f}; above 1: {int((ratio > 1).sum())}")
+    cached = {(r["aspect"], r["nu"], r["n"], r["n_across"]): r for r in map(json.loads, cache.read_text().splitlines())}
+    print("| b/a | nu | 1e-5: grid, estimate / true, CPU s | 1e-6: grid, estimate / true, CPU s |")
+    print("|---|---|---|---|")
+    for aspect in CALIBRATION_ASPECTS:
+        for nu in (0.3, 0.5):
+            K_a, K_b = analytic.mindlin_ellipse_stiffness(1.0, aspect, 1.0, nu)
+            K_z = analytic.elliptical_punch_normal_stiffness(1.0, aspect, 1.0, nu)
+            grids = calibration_grids(aspect, nu, 32, EDGE_CALIBRATION_CELLS if near_field == "edge" else None)
+            levels = {g: cached[(aspect, nu, *g)] for g in grids}
+            cells = []
+            for request in (1e-5, 1e-6):
+                done = acc.refine(grids, lambda n, na, levels=levels: levels[(n, na)], request, acc.SINGULAR_EXPANSIONS,
+                                  acc.SINGULAR_SAFETY)
+                v = done.values
+                true = max(abs(v["K_xx"] / K_a - 1), abs(v["K_yy"] / K_b - 1), abs(v["K_zz"] / K_z - 1),
+                           abs(v["K_xx"] / v["K_yy"] / (K_a / K_b) - 1))
+                last = done.levels[-1]
+                met = "met" if done.stopped_by == "met" else "not met"
+                cells.append(f"{met}, {last['n']} × {last['n_across']}, {max(done.relative.values()):.2e} / {true:.2e}, "
+                             f"{sum(level['cpu_s'] for level in done.levels):.1f}")
+            print(f"| {aspect:g} | {nu:g} | {cells[0]} | {cells[1]} |")
 
 
 def main() -> None:
@@ -273,9 +327,11 @@ def main() -> None:
     parser.add_argument("--strategies", default="coverage,auto", help="--done-when's cell treatments, comma-separated (coverage, auto)")
     parser.add_argument("--singular-calibration", type=Path, default=None, metavar="CACHE",
                         help="honesty of --accuracy on singular cells (solves what CACHE lacks, then replays)")
+    parser.add_argument("--near-field", choices=("subcells", "edge"), default="subcells",
+                        help="--singular-calibration's near-field quadrature (singular_cells.NEAR_FIELDS)")
     args = parser.parse_args()
     if args.singular_calibration is not None:
-        singular_calibration(args.singular_calibration)
+        singular_calibration(args.singular_calibration, args.near_field)
         return
     if args.done_when is not None:
         done_when(args.done_when, args.max_cells, tuple(args.strategies.split(",")))
