@@ -29,7 +29,10 @@ cells from ``accuracy.singular_start`` where they apply), grids up to ``--max-ce
 
 ``--singular-calibration CACHE``: the replay behind ``accuracy.SINGULAR_EXPANSIONS``' figures
 (b/a = 1 … 0.05, nu = 0, 0.3, 0.5, sequences of ``accuracy.singular_start`` from n₀ = 16 and 32,
-requests 1e-3 … 1e-6; ~5 min CPU to fill the cache, seconds to replay).
+requests 1e-3 … 1e-6; ~5 min CPU to fill the cache, seconds to replay), then per case what
+1e-5 and 1e-6 cost from n₀ = 32. With ``--near-field edge`` the same for singular cells whose
+near field follows the edge (``singular_cells.NEAR_FIELDS``; grids up to 2^18 cells, ~15 min
+CPU to fill; use a cache of its own).
 
 ``--bound``: the singular cells' error over K_xx, K_yy, K_zz for the circle and the ellipses 0.7
 and 0.5 (n = 32 … 256) and 0.05 (128 × 8 … 512 × 32) at nu = 0, 0.3, 0.5; prints n_across·error
