@@ -92,20 +92,16 @@ def _corners(X1, X2, Y1, Y2) -> np.ndarray:
 
 def _edge_crossings(X1, X2, Y1, Y2, a: float, b: float) -> tuple[np.ndarray, np.ndarray]:
     """The points where the sides of rectangles [X1, X2] × [Y1, Y2] cross the ellipse: (…, 8, 2)
-    and whether each lies on its side (…, 8)."""
+    and whether each lies on its side (…, 8). Sides x = X (y = Y the same with the axes swapped)
+    meet it at y = ±b √(1 − X²/a²)."""
     points, valid = [], []
-    for X in (X1, X2):
-        u = X / a
-        half = b * np.sqrt(np.maximum(1.0 - u * u, 0.0))
-        for y in (-half, half):
-            points.append(np.stack([X, y], -1))
-            valid.append((np.abs(u) < 1.0) & (y > Y1) & (y < Y2))
-    for Y in (Y1, Y2):
-        v = Y / b
-        half = a * np.sqrt(np.maximum(1.0 - v * v, 0.0))
-        for x in (-half, half):
-            points.append(np.stack([x, Y], -1))
-            valid.append((np.abs(v) < 1.0) & (x > X1) & (x < X2))
+    for sides, (lo, hi), (along, across), swap in (((X1, X2), (Y1, Y2), (a, b), False), ((Y1, Y2), (X1, X2), (b, a), True)):
+        for side in sides:
+            u = side / along
+            half = across * np.sqrt(np.maximum(1.0 - u * u, 0.0))
+            for other in (-half, half):
+                points.append(np.stack([other, side] if swap else [side, other], -1))
+                valid.append((np.abs(u) < 1.0) & (other > lo) & (other < hi))
     return np.stack(points, -2), np.stack(valid, -1)
 
 
