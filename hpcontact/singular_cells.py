@@ -127,9 +127,15 @@ of what is left. The estimator needs the same factor 6 on these sequences
 below their true error, worst 1.72, all from first grids with 4 or 5 cells across), and the
 setup costs ~10x that of sub-cells (1.2 s against 0.1 s at 32 × 22), so per CPU second it is
 worse: b/a 0.7 meets 1e-5 at 256 × 176 in 13 s where sub-cells meet it at 512 × 352 in 6 s, and
-1e-6 is met only for the circle (512², 8.7e-7 / 1.9e-7, 40 s). Kept for the step that would
-make it pay — a far field matching more moments (its error is now the whole error) and a
-cheaper touching-pair quadrature.
+1e-6 is met only for the circle (512², 8.7e-7 / 1.9e-7, 40 s). The far field is not the only
+first-order term: the rings of pairs at 3 and 4 cells add +4.9e-4 … +5.7e-4 and +1.4e-4 …
++1.7e-4 to n_across·error (``NEAR`` varied in place; b/a 0.7, nu 0.3, 32 × 22 and 64 × 44:
+D^−4, the spreading's third moments), and with ``NEAR`` = 3 the
+error (−4e-5 … −9e-5, ten times smaller) is what is left of two first-order terms of opposite
+sign, no longer steady: the same replay then found 17 of 294 records below their true error
+(worst 2.05, the circle at 512²: estimate 1.1e-7, true 2.3e-7). So ``NEAR`` stays 2. Kept for
+the step that would make it pay — a far field that matches more moments and a cheaper
+touching-pair quadrature.
 """
 
 from __future__ import annotations
