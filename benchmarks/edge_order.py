@@ -186,7 +186,7 @@ CALIBRATION_ASPECTS = (1.0, 0.7, 0.5, 0.3, 0.2, 0.1, 0.05)
 
 
 #: The edge quadrature's replay ends at 2^18 cells (circle 512², b/a 0.7 512 × 352): its setup is
-#: ~10x that of sub-cells (``--singular-calibration CACHE --near-field edge``; ~15 min CPU to fill).
+#: 10–20x that of sub-cells (``--singular-calibration CACHE --near-field edge``; ~15 min CPU to fill).
 EDGE_CALIBRATION_CELLS = 2**18
 
 

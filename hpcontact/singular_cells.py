@@ -125,7 +125,7 @@ of what is left. The estimator needs the same factor 6 on these sequences
 (``benchmarks/edge_order.py --singular-calibration CACHE --near-field edge``, every grid up to
 2^18 cells: 294 records honest, worst 0.44, 85.7 % within 30x; 6 of 1654 per-quantity pairs
 below their true error, worst 1.72, all from first grids with 4 or 5 cells across), and the
-setup costs ~10x that of sub-cells (1.2 s against 0.1 s at 32 × 22), so per CPU second it is
+setup costs 10–20x that of sub-cells (1.2 s against 0.1 s at 32 × 22, 7.5 s against 0.36 s at 256 × 176), so per CPU second it is
 worse: b/a 0.7 meets 1e-5 at 256 × 176 in 13 s where sub-cells meet it at 512 × 352 in 6 s, and
 1e-6 is met only for the circle (512², 8.7e-7 / 1.9e-7, 40 s). The far field is not the only
 first-order term: the rings of pairs at 3 and 4 cells add +4.9e-4 … +5.7e-4 and +1.4e-4 …
