@@ -133,9 +133,19 @@ first-order term: the rings of pairs at 3 and 4 cells add +4.9e-4 … +5.7e-4 an
 D^−4, the spreading's third moments), and with ``NEAR`` = 3 the
 error (−4e-5 … −9e-5, ten times smaller) is what is left of two first-order terms of opposite
 sign, no longer steady: the same replay then found 17 of 294 records below their true error
-(worst 2.05, the circle at 512²: estimate 1.1e-7, true 2.3e-7). So ``NEAR`` stays 2. Kept for
-the step that would make it pay — a far field that matches more moments and a cheaper
-touching-pair quadrature.
+(worst 2.05, the circle at 512²: estimate 1.1e-7, true 2.3e-7). So ``NEAR`` stays 2.
+
+Two more experiments (code not kept; b/a 0.7, nu 0.3, 32 × 22, 64 × 44, 128 × 88, n_across·error
+of K_xx, K_yy, K_zz): (i) near cells spread onto 5 × 5 cell centres, the least-norm correction of
+the 3 × 3 weights that matches the w-distribution's moments through total order 4: with
+``NEAR`` = 2 worse (+9.2e-4, +7.3e-4, +6.2e-4: stencils of reach 2 overlap at 3 cells), with
+``NEAR`` = 3 steady, +4.2e-4 … +4.7e-4 on all three grids and entries — the rings are gone
+(``NEAR`` = 4: +3.4e-4 … +3.9e-4); the same moments for 8 more layers of cells changed nothing.
+(ii) What is then left is the pairs of cells outside the band but within ``NEAR``, taken by the
+far field although w varies across them by ~h/d: K_zz +4.4e-4, +2.3e-4, +1.7e-4 at 32 × 22 for
+``BAND`` = 1, 2, 3 (∝ 1/``BAND``), and not steady beyond 1 (BAND 3: +1.7e-4, +1.5e-4, +1.1e-4).
+So the next step is the band's pairs by a cheaper exact quadrature, not a wider far field; the
+touching-pair quadrature dominates the setup (7.5 s at 256 × 176: rays 6 s).
 """
 
 from __future__ import annotations
