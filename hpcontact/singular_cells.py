@@ -118,8 +118,9 @@ nearly steady, n_across·error on b/a 0.7's grids 16 × 11 … 512 × 352 (nu 0.
     K_yy  −4.4e-4  −6.6e-4  −6.5e-4  −6.8e-4  −6.7e-4  −6.5e-4
     K_zz  −5.4e-4  −6.2e-4  −5.9e-4  −6.1e-4  −5.9e-4  −5.7e-4
 
-(order-1 Richardson leaves ≤ 2.8e-7 from 128 × 88 on; the circle's steps are the same, ±2e-7;
-K_yy of b/a 0.1 and 0.05 is not yet first order at 1280 × 128 and 1280 × 64). The quadrature's
+(order-1 Richardson on consecutive grids leaves 4.0e-7 … 5.0e-7 at 128 × 88 and ≤ 2.8e-7 from
+256 × 176 on; the circle 3.7e-7 at 128² and ≤ 2.1e-7 from 256² on; K_yy of b/a 0.1 and 0.05 is
+not yet first order at 1280 × 128 and 1280 × 64). The quadrature's
 own error, ~1e-7 of K at q = 6 (q = 6 → 8 moved K_xx by 8e-8 at b/a 0.5, 256 × 128), is part
 of what is left. The estimator needs the same factor 6 on these sequences
 (``benchmarks/edge_order.py --singular-calibration CACHE --near-field edge``, every grid up to
