@@ -442,7 +442,7 @@ class SingularCells:
         # the weights of the near set's cells, one row per stencil offset in ``beta``'s order
         self.beta_near = np.stack([bw[cells[:, 0], cells[:, 1]] for bw in self.beta.values()])
         self._spreading: tuple[sp.csr_matrix, sp.csr_matrix] | None = None
-        self._near: list[tuple[tuple[int, int], np.ndarray, np.ndarray, dict[str, np.ndarray]]] | None = None
+        self._near: list[tuple[tuple[int, int], np.ndarray, np.ndarray, tuple[np.ndarray, ...]]] | None = None
 
     def spreading(self) -> tuple[sp.csr_matrix, sp.csr_matrix]:
         """P and Pᵀ on the flattened grid (built once, shared by the blocks): row t of P holds the
