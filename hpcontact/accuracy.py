@@ -102,7 +102,8 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from . import quantities as q
-from .boundary_cells import SUPPORTED, covered_solve, mask_cells
+from . import strip_cells
+from .boundary_cells import SINGULAR_SUPPORTED, SUPPORTED, covered_solve, mask_cells
 from .errors import ConvergenceError, InputError
 from .geometry import Shape
 from .materials import Isotropic
@@ -197,6 +198,21 @@ COVERAGE_MAX_N = 1024
 #: error; 5.5 is the least that is honest on all (worst pair 0.98), 6 leaves a margin (worst
 #: record 0.51, pair 0.90; within 30x in 90.1 % of the records, 97.0 % below ``SINGULAR_BELOW``).
 SINGULAR_SAFETY = 6.0
+#: Strip cells' grids (``hpcontact.strip_cells``: n strips, one across) start at this many
+#: strips and stop at ``STRIP_MAX_N``, the finest grid of their calibration
+#: (``benchmarks/strip_calibration.py``); their estimate is that of coverage-weighted cells
+#: (``EXPANSIONS``, ``SAFETY``) plus the model's own bound ``strip_cells.MODEL_ERROR`` · b/a.
+STRIP_N0 = 32
+#: strategy "auto" takes strips where their model bound (``strip_cells.model_error``) is at most
+#: this share of the request, leaving the rest to the discretization (b/a = 1e-3 ellipses, bound
+#: 1.4e-6: strips for requests ≥ 2.8e-6, coverage-weighted cells below).
+STRIP_MODEL_SHARE = 0.5
+STRIP_MAX_N = 1024
+#: Bytes of one strip solve on n strips: ``STRIP_BYTES_PER_PAIR`` · n² (the pair indices, the
+#: two integral matrices, the system and its Cholesky factor) + ``STRIP_BYTES_BASE`` (the far
+#: pairs' batch of ``strip_cells.FAR_CHUNK``). tracemalloc peaks: see ``strip_bytes``.
+STRIP_BYTES_PER_PAIR = 96.0
+STRIP_BYTES_BASE = 256.0 * 2**20
 
 
 # ------------------------------------------------------------------------------------------
@@ -309,7 +325,6 @@ def singular_start(scene: Scene, n0: int, n_across0: int | None) -> tuple[int, i
     (b/a = 0.05: 160 × 8). The sequence then refines both by ``RATIO`` (fixed cell aspect).
     """
     from . import singular_cells
-    from .boundary_cells import SINGULAR_SUPPORTED
     from .geometry import grid_for
 
     shape = scene.shape
@@ -323,6 +338,13 @@ def singular_start(scene: Scene, n0: int, n_across0: int | None) -> tuple[int, i
     if n > SINGULAR_MAX_N0 or not singular_cells.supports(shape, scene.material, grid_for(shape, n, na)):
         return None
     return n, na
+
+
+def strip_applies(scene: Scene) -> bool:
+    """Whether strip cells (``hpcontact.strip_cells``) solve ``scene``: an unturned rectangle of
+    b/a ≤ ``strip_cells.MAX_ASPECT`` or ellipse of b/a ≤ ``strip_cells.MAX_ELLIPSE_ASPECT``,
+    isotropic, quantities tangential and normal only."""
+    return strip_cells.supports(scene.shape, scene.material) and set(scene.quantities) <= set(SINGULAR_SUPPORTED)
 
 
 def grid_sequence(shape: Shape, n0: int = N0, n_across0: int | None = None, max_cells: int = MAX_CELLS) -> list[tuple[int, int]]:
@@ -364,15 +386,18 @@ SINGULAR_NEAR_CELLS_PER_SIDE_CELL = 8.0
 SINGULAR_BYTES_PER_NEAR_CELL = 9.0 * 1024
 
 
-def grid_bytes(params: Mapping[str, Any], n: int, n_across: int, singular: bool = False) -> float:
-    """Peak bytes of the arrays of one coverage-weighted solve of ``params`` on an n × n_across
-    grid: the sweep's cost model (``hpcontact.sweep.costmodel.task_array_bytes``) plus
-    ``COVERAGE_BYTES_PER_CELL`` per cell; with ``singular``, a solve on singular cells: plus
-    ``SINGULAR_BYTES_PER_NEAR_CELL`` per cell of the near set (``SINGULAR_NEAR_CELLS_PER_SIDE_CELL``
-    × (n + n_across) cells)."""
+def grid_bytes(params: Mapping[str, Any], n: int, n_across: int, strategy: str = "coverage") -> float:
+    """Peak bytes of the arrays of one solve of ``params`` on an n × n_across grid with
+    ``strategy``'s cells: coverage-weighted, the sweep's cost model
+    (``hpcontact.sweep.costmodel.task_array_bytes``) plus ``COVERAGE_BYTES_PER_CELL`` per cell;
+    singular, plus ``SINGULAR_BYTES_PER_NEAR_CELL`` per cell of the near set
+    (``SINGULAR_NEAR_CELLS_PER_SIDE_CELL`` × (n + n_across) cells); strip (n strips),
+    ``STRIP_BYTES_PER_PAIR`` n² + ``STRIP_BYTES_BASE``."""
     from .sweep.costmodel import task_array_bytes
 
-    near = SINGULAR_BYTES_PER_NEAR_CELL * SINGULAR_NEAR_CELLS_PER_SIDE_CELL * (n + n_across) if singular else 0.0
+    if strategy == "strip":
+        return STRIP_BYTES_PER_PAIR * n * n + STRIP_BYTES_BASE
+    near = SINGULAR_BYTES_PER_NEAR_CELL * SINGULAR_NEAR_CELLS_PER_SIDE_CELL * (n + n_across) if strategy == "singular" else 0.0
     return task_array_bytes({**params, "n": n, "n_across": n_across}) + COVERAGE_BYTES_PER_CELL * n * n_across + near
 
 
@@ -397,10 +422,13 @@ class GridPlan:
 
 def calibrated(strategy: str, shape: Shape) -> Callable[[int, int], bool]:
     """Whether the estimator of ``strategy``'s cells was calibrated on a grid (n, n_across):
-    singular cells up to ``SINGULAR_MAX_CELLS`` cells, coverage-weighted cells up to
+    singular cells up to ``SINGULAR_MAX_CELLS`` cells, strip cells up to ``STRIP_MAX_N`` strips,
+    coverage-weighted cells up to
     ``COVERAGE_MAX_N`` along the long side, masks on any grid (no closed form to calibrate on)."""
     if strategy == "singular":
         return lambda n, na: n * na <= SINGULAR_MAX_CELLS
+    if strategy == "strip":
+        return lambda n, na: n <= STRIP_MAX_N
     if shape.name == "mask":
         return lambda n, na: True
     return lambda n, na: max(n, na) <= COVERAGE_MAX_N
@@ -411,20 +439,20 @@ def plan_grids(params: Mapping[str, Any], shape: Shape, n0: int, n_across0: int 
     """The grid sequence within ``max_cells`` cells, the estimator's calibrated range
     (:func:`calibrated`) and the memory budget (bytes; default the machine's memory per core,
     ``costmodel.default_memory_per_rank``): a grid is used only if this process's peak resident
-    set so far plus :func:`grid_bytes` (singular cells' with ``strategy`` "singular") fits the
-    budget."""
+    set so far plus :func:`grid_bytes` of ``strategy``'s cells fits the budget. Strip cells'
+    grids are n₀ 2ᵏ strips, one across."""
     from .sweep.costmodel import default_memory_per_rank, resident_bytes
 
     if memory_budget is None:
         budget, source = default_memory_per_rank()
     else:
         budget, source = float(memory_budget), "given"
-    everything = grid_sequence(shape, n0, n_across0, 2**62)
+    everything = [(n0 * 2**k, 1) for k in range(62)] if strategy == "strip" else grid_sequence(shape, n0, n_across0, 2**62)
     base = resident_bytes()
     within = calibrated(strategy, shape)
     grids: list[tuple[int, int]] = []
     for n, na in everything:
-        need = base + grid_bytes(params, n, na, strategy == "singular")
+        need = base + grid_bytes(params, n, na, strategy)
         limit = "cells" if n * na > max_cells else "calibration" if not within(n, na) else "memory budget" if need > budget else None
         if limit is not None:
             return GridPlan(grids, limit, (n, na), need, base, float(budget), source, max_cells)
@@ -520,12 +548,15 @@ class Refinement:
 
 
 def refine(grids: Sequence[tuple[int, int]], solve_level: Any, accuracy: float,
-           expansions: Sequence[tuple[float, ...]] | None = None, safety: float | None = None) -> Refinement:
+           expansions: Sequence[tuple[float, ...]] | None = None, safety: float | None = None,
+           model_error: float = 0.0) -> Refinement:
     """Solve ``solve_level(n, n_across)`` on ``grids`` in turn, extrapolating from the
     ``MIN_GRIDS``-th on, until the largest estimated relative error is ≤ ``accuracy`` (``met``)
     or has not fallen over ``STAGNATION_LEVELS`` refinements (``stagnation``). The one loop of
     ``solve_to_accuracy`` and of the replays of ``benchmarks/accuracy_sharpness.py``;
-    ``expansions`` and ``safety`` as :func:`estimate`."""
+    ``expansions`` and ``safety`` as :func:`estimate`; ``model_error``, a relative bound on what
+    the discretization itself leaves whatever the grid (strip cells' profile), is added to every
+    estimate."""
     levels: list[dict[str, Any]] = []
     history: list[float] = []
     found: tuple[dict[str, float], dict[str, float], dict[str, float], dict[str, list[float]]] = ({}, {}, {}, {})
@@ -534,6 +565,8 @@ def refine(grids: Sequence[tuple[int, int]], solve_level: Any, accuracy: float,
         if len(levels) < MIN_GRIDS:
             continue
         found = extrapolate(levels, expansions, safety)
+        if model_error:
+            found = (found[0], {k: v + model_error for k, v in found[1].items()}, found[2], found[3])
         history.append(max(found[1].values()))
         if history[-1] <= accuracy:
             return Refinement(levels, *found, stopped_by="met")
@@ -603,10 +636,16 @@ def solve_to_accuracy(
     scene = Scene.from_params(base)
     tol = min(scene.tol, accuracy * 1e-2)
     base["tol"] = max(tol, 1e-14)
+    if strategy == "auto" and strip_applies(scene) and strip_cells.model_error(scene.shape) <= STRIP_MODEL_SHARE * accuracy:
+        strategy, n0, n_across0 = "strip", n0 or STRIP_N0, 1
     if strategy == "auto":  # singular cells on near-square cells where they apply and pay, else coverage
         start = singular_start(scene, n0 or N0, n_across0) if accuracy < SINGULAR_BELOW else None
         strategy = "coverage" if start is None else "singular"
         n0, n_across0 = start if start is not None else (n0, n_across0)
+    elif strategy == "strip":
+        if not strip_applies(scene):
+            raise InputError("strategy", strip_cells.SUPPORTED_TEXT, strategy)
+        n0, n_across0 = n0 or STRIP_N0, 1
     plan = plan_grids(base, scene.shape, n0 or N0, n_across0, max_cells, memory_budget, strategy)
     sequence = plan.grids[:max_grids] if max_grids is not None else plan.grids
     if len(sequence) < MIN_GRIDS:
@@ -622,7 +661,9 @@ def solve_to_accuracy(
         return level
 
     singular = strategy == "singular"
-    done = refine(sequence, solve_level, accuracy, SINGULAR_EXPANSIONS if singular else None, SINGULAR_SAFETY if singular else None)
+    model = strip_cells.model_error(scene.shape) if strategy == "strip" else 0.0
+    done = refine(sequence, solve_level, accuracy, SINGULAR_EXPANSIONS if singular else None, SINGULAR_SAFETY if singular else None,
+                  model_error=model)
     levels, values, relative, orders, expansions = done.levels, done.values, done.relative, done.orders, done.expansions
     stopped_by = done.stopped_by or ("grids" if max_grids is not None and max_grids < len(plan.grids) else plan.limit)
     finest = levels[-1]
@@ -642,7 +683,8 @@ def solve_to_accuracy(
     record["grids_across"] = [na for _, na in sequence[: len(levels)]]
     record["memory_budget_bytes"] = plan.budget
     record["memory_budget_source"] = plan.budget_source
-    record["estimated_peak_bytes"] = plan.base_bytes + grid_bytes(base, *sequence[len(levels) - 1], strategy == "singular")
+    record["estimated_peak_bytes"] = plan.base_bytes + grid_bytes(base, *sequence[len(levels) - 1], strategy)
+    record["model_error"] = model
     record["levels"] = [
         {k: r[k] for k in (*TENSOR_KEYS, "K_a_over_K_b", "wall_time_s", "iterations", "contact_area") if k in r}
         for r in levels

@@ -25,6 +25,14 @@ one, the fluctuation disappears (circle, nu = 0.3: n·(K_xx error) = −0.2125, 
 Per grid it costs no more: CG needs about as many iterations, and the exact coverage of a
 circle or ellipse is a closed form (``benchmarks/boundary_treatment.py``).
 
+Strip cells
+-----------
+``covered_solve(params, strategy="strip")`` (or ``"auto"``) solves unturned rectangles of
+b/a ≤ ``strip_cells.MAX_ASPECT`` and ellipses of b/a ≤ ``strip_cells.MAX_ELLIPSE_ASPECT`` as n
+strips across which the traction has the plane punch's profile f_i/(π√(b(x)² − y²)), graded
+toward the ends (``hpcontact.strip_cells``): one dense Galerkin system of n unknowns per load
+direction.
+
 Singular cells
 --------------
 ``covered_solve(params, strategy="singular")`` (or ``"auto"``) solves unturned circles and
@@ -44,7 +52,7 @@ from typing import Any
 import numpy as np
 
 from . import quantities as q
-from . import singular_cells
+from . import singular_cells, strip_cells
 from .engine import Engine
 from .errors import InputError
 from .geometry import Grid, Shape, crop_to_support, grid_for, load_mask, mask_grid
@@ -72,7 +80,7 @@ COVERAGE_ROUNDING = 1e-9  # closed-form coverage loses ~n²·eps to differences 
 SUBSAMPLES = 32  # sub-samples per cell side where the coverage has no closed form
 SUPPORTED = ("tangential", "normal", "coupled")
 SINGULAR_SUPPORTED = ("tangential", "normal")  # one scalar block per load direction
-STRATEGIES = ("auto", "singular", "coverage")
+STRATEGIES = ("auto", "singular", "strip", "coverage")
 
 
 # ------------------------------------------------------------------------------------------
@@ -217,20 +225,23 @@ def covered_solve(params: Mapping[str, Any], strategy: str = "coverage") -> dict
         raise InputError("strategy", f"one of {', '.join(STRATEGIES)}", strategy)
     scene = Scene.from_params(params)
     grid = grid_for(scene.shape, scene.n, scene.n_across) if scene.shape.name != "mask" else None
-    singular = grid is not None and singular_cells.supports(scene.shape, scene.material, grid)
-    singular = singular and set(scene.quantities) <= set(SINGULAR_SUPPORTED)
+    blocks = set(scene.quantities) <= set(SINGULAR_SUPPORTED)
+    singular = blocks and grid is not None and singular_cells.supports(scene.shape, scene.material, grid)
+    strip = blocks and strip_cells.supports(scene.shape, scene.material)
     if strategy == "singular" and not singular:
         raise InputError(
             "strategy",
             "singular only for unturned circles and ellipses, isotropic, cells dy/dx in [1/2, 2], quantities tangential/normal",
             strategy,
         )
+    if strategy == "strip" and not strip:
+        raise InputError("strategy", strip_cells.SUPPORTED_TEXT, strategy)
     if strategy == "auto":
-        strategy = "singular" if singular else "coverage"
+        strategy = "singular" if singular else "strip" if strip else "coverage"
     unsupported = [x for x in scene.quantities if x not in SUPPORTED]
     if unsupported:
         raise InputError("quantities", f"{', '.join(SUPPORTED)} with coverage-weighted cells", unsupported[0])
-    solved = _singular_forces(scene) if strategy == "singular" else _coverage_forces(scene)
+    solved = {"singular": _singular_forces, "strip": _strip_forces, "coverage": _coverage_forces}[strategy](scene)
     grid, f, mask = solved.grid, solved.coverage, solved.mask
     record: dict[str, Any] = {"nx": grid.nx, "ny": grid.ny, "dx": grid.dx, "dy": grid.dy}
     record["contact_cells"] = int(mask.sum())
@@ -343,6 +354,34 @@ def _singular_forces(scene: Scene) -> _Solved:
     plan = make_plan(scene, cells.mask, cells.grid)
     description = "singular cells: Galerkin on w = (1 - x^2/a^2 - y^2/b^2)^(-1/2) per cell, precorrected FFT"
     return _Solved(cells.grid, f, cells.mask, plan, forces, iterations, residual, description)
+
+
+def _strip_forces(scene: Scene) -> _Solved:
+    """Strip cells (``hpcontact.strip_cells``): one dense Galerkin solve per load direction on
+    ``scene.n`` strips (the cross entries vanish: the profile is symmetric across). The grid
+    reported is n × 1 with dx the mean strip length and dy the width."""
+    solves = []
+    if "tangential" in scene.quantities:
+        solves += [("tangential_x", "xx"), ("tangential_y", "yy")]
+    if "normal" in scene.quantities:
+        solves.append(("normal_z", "zz"))
+    cells = strip_cells.StripCells(scene.shape.aspect, scene.n, scene.material, tuple(block for _, block in solves),
+                                   shape=scene.shape.name)
+    forces: dict[str, np.ndarray] = {}
+    residual = 0.0
+    for name, block in solves:
+        stiffness, _, block_residual = cells.solve(block)
+        force = np.zeros(3)
+        force[COMPONENT_INDEX[block[0]]] = stiffness
+        forces[name] = force
+        residual = max(residual, block_residual)
+    grid = Grid(nx=scene.n, ny=1, dx=2.0 / scene.n, dy=2.0 * scene.shape.aspect)  # dx: the mean strip
+    mask = np.ones((scene.n, 1), dtype=bool)
+    description = (f"strip cells: Galerkin on f_i/(pi sqrt(b(x)^2 - y^2)) per strip, {scene.n} strips graded "
+                   f"x = sgn(xi)(1 - (1 - |xi|)^{strip_cells.GRADING:g}), dense Cholesky")
+    plan = Plan(kernels=cells.kernels, solves=tuple(Solve(name, block[0], block[0]) for name, block in solves), derived=(),
+                kernel_source="isotropic point-force solutions averaged over the strip profile (hpcontact.strip_cells)")
+    return _Solved(grid, mask.astype(np.float64), mask, plan, forces, 0, residual, description)
 
 
 def mask_cells(path: str | None) -> tuple[np.ndarray, Grid]:

@@ -207,7 +207,7 @@ def test_singular_memory_plan_counts_the_near_field() -> None:
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     clear_cache()
-    assert acc.grid_bytes(params, 256, 256) < peak <= acc.grid_bytes(params, 256, 256, singular=True)
+    assert acc.grid_bytes(params, 256, 256) < peak <= acc.grid_bytes(params, 256, 256, "singular")
 
 
 def test_default_discretization() -> None:
@@ -289,3 +289,92 @@ def test_principal_error_bounds_the_eigenvalue_shift_and_is_below_frobenius() ->
         assert bound <= max(e[0], e[3]) + c + 1e-15
         assert bound <= math.sqrt(float(np.sum(e**2))) + 1e-15
     assert acc.principal_error(2e-6, 0.0, 0.0, 1e-6) == 2e-6
+
+
+SLENDER = {"shape": "rectangle", "aspect": 1e-8, "quantities": "tangential,normal"}
+
+
+@pytest.mark.parametrize("nu", [0.3, 0.5])
+def test_slender_rectangle_meets_1e_6_on_strip_cells(nu: float) -> None:
+    """``--accuracy 1e-6`` (strategy auto) on the b/a = 1e-8 rectangle runs strip cells
+    (``hpcontact.strip_cells``) and meets its request; the estimate includes the model's bound
+    ``MODEL_ERROR`` · b/a. Its K_xx, K_yy, K_zz lie within the estimate of two references:
+    the strip model's limit from 512 and 1024 strips (order-2 Richardson; 2x and 4x finer than
+    the 256 ``--accuracy`` stopped at), and the 2-D coverage-weighted reference of
+    ``benchmarks/accuracy_reference.py`` (grids to 5120 x 1280) within the estimate plus twice
+    that reference's stated uncertainty: the strips lie above it by 4.5e-8 … 1.3e-7 (absolute),
+    and being lower bounds of K (``hpcontact.strip_cells``) they show that its uncertainty, the
+    spread of its fits, is understated by up to 1.67x (``tests/test_strip_cells.py``)."""
+    import json
+    from pathlib import Path
+
+    from hpcontact import strip_cells
+    from hpcontact.materials import Isotropic
+
+    r = acc.solve_to_accuracy({**SLENDER, "nu": nu}, 1e-6, strategy="auto")  # as hpcontact solve --accuracy
+    assert r["boundary"] == "strip" and r["accuracy_met"] and r["stopped_by"] == "met"
+    assert r["grids_across"] == [1] * len(r["grids"]) and r["grids"][0] == acc.STRIP_N0
+    assert r["model_error"] == strip_cells.MODEL_ERROR * 1e-8
+    assert min(r["estimated_errors"][k] for k in ("K_xx", "K_yy", "K_zz")) >= r["model_error"]
+    fine = {}
+    for n in (512, 1024):
+        cells = strip_cells.StripCells(1e-8, n, Isotropic(1.0, nu))
+        fine[n] = {f"K_{b}": cells.solve(b)[0] for b in strip_cells.BLOCKS}
+    reference = json.loads((Path(__file__).resolve().parents[1] / "results" / "accuracy_reference.json").read_text())
+    coverage = reference["references"][f"rect1e-8 nu {nu}"]
+    for key in ("K_xx", "K_yy", "K_zz"):
+        limit = fine[1024][key] + (fine[1024][key] - fine[512][key]) / 3.0
+        assert abs(r[key] / limit - 1.0) <= r["estimated_errors"][key]
+        two_d = coverage[key]
+        assert abs(r[key] - two_d["value"]) <= r["estimated_errors"][key] * abs(r[key]) + 2.0 * two_d["uncertainty"]
+
+
+def test_strip_cells_are_refused_outside_their_range() -> None:
+    """``strategy="strip"`` names the field and what it needs where strips do not apply: an
+    ellipse above ``MAX_ELLIPSE_ASPECT``, a circle, a rectangle of b/a above
+    ``strip_cells.MAX_ASPECT``, a turned one, a crystal, or
+    quantities other than tangential and normal; ``auto`` then takes coverage-weighted cells."""
+    for params in ({"shape": "ellipse", "aspect": 1e-2}, {"shape": "rectangle", "aspect": 1e-3}, {"shape": "circle"},
+                   {"shape": "rectangle", "aspect": 1e-8, "shape_angle": 10.0},
+                   {"shape": "rectangle", "aspect": 1e-8, "anisotropy": 2.0},
+                   {"shape": "rectangle", "aspect": 1e-8, "quantities": "coupled"}):
+        with pytest.raises(InputError, match="strategy.*strip only for unturned rectangles of aspect <= 1e-06 and ellipses of aspect <= 0.001"):
+            acc.solve_to_accuracy(params, 1e-3, strategy="strip")
+    r = acc.solve_to_accuracy({"shape": "rectangle", "aspect": 1e-3}, 1e-3, strict=False, max_grids=4, strategy="auto")
+    assert r["boundary"] == "coverage"
+
+
+def test_strip_memory_plan_bounds_a_solve() -> None:
+    """One strip solve's arrays (tracemalloc peak, 512 strips) stay within :func:`grid_bytes`
+    for strips, which ``solve_to_accuracy`` plans with."""
+    import tracemalloc
+
+    from hpcontact.boundary_cells import covered_solve
+
+    tracemalloc.start()
+    covered_solve({**SLENDER, "nu": 0.3, "n": 512}, "strip")
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert peak <= acc.grid_bytes(SLENDER, 512, 1, "strip")
+
+
+@pytest.mark.parametrize("nu", [0.3, 0.5])
+def test_thin_ellipses_on_strip_cells(nu: float) -> None:
+    """``--accuracy`` (auto) on thin ellipses takes strips where their model bound is at most
+    half the request (``STRIP_MODEL_SHARE``): b/a = 1e-6 at 1e-6 (bound 5e-12) meets it, and
+    b/a = 1e-3 at 1e-5 (bound 1.4e-6); every reported estimate is at least the true error of
+    K_xx, K_yy, K_zz, K_a/K_b against Mindlin and Galin. At 1e-6 the b/a = 1e-3 ellipse stays on
+    coverage-weighted cells (its strips could not meet it)."""
+    from hpcontact import analytic
+
+    for aspect, request in ((1e-6, 1e-6), (1e-3, 1e-5)):
+        r = acc.solve_to_accuracy({"shape": "ellipse", "aspect": aspect, "nu": nu, "quantities": "tangential,normal"},
+                                  request, strategy="auto")
+        assert r["boundary"] == "strip" and r["accuracy_met"] and r["estimated_error"] >= r["model_error"] > 0.0
+        K_xx, K_yy = analytic.mindlin_ellipse_stiffness(1.0, aspect, 1.0, nu)
+        K_zz = analytic.elliptical_punch_normal_stiffness(1.0, aspect, 1.0, nu)
+        for key, exact in (("K_xx", K_xx), ("K_yy", K_yy), ("K_zz", K_zz), ("K_a_over_K_b", K_xx / K_yy)):
+            assert abs(r[key] / exact - 1.0) <= r["estimated_errors"][key]
+    coverage = acc.solve_to_accuracy({"shape": "ellipse", "aspect": 1e-3, "nu": nu}, 1e-6, strategy="auto", n0=8,
+                                     max_grids=4, strict=False)
+    assert coverage["boundary"] == "coverage"

@@ -103,3 +103,20 @@ def test_coverage_removes_the_staircase_fluctuation() -> None:
 def test_covered_solve_refuses_other_quantities() -> None:
     with pytest.raises(InputError):
         bc.covered_solve({"shape": "circle", "n": 16, "quantities": "compliance"})
+
+
+def test_strip_cells_build_only_what_the_scene_asks() -> None:
+    """Strip cells form the ⟨s²/r³⟩ integrals only for tangential solves at nu ≠ 0, and run
+    one solve per load direction asked (the record's plan says which): normal alone is one
+    kernel and one solve; at nu = 0 the tangential blocks need no second kernel (G_x = G_y = G_z)."""
+    base = {"shape": "rectangle", "aspect": 1e-8, "n": 32}
+    normal = bc.covered_solve({**base, "nu": 0.3, "quantities": "normal"}, "strip")
+    assert normal["plan"]["kernels"] == ["<1/r>"] and normal["plan"]["solves"] == ["normal_z[z]"]
+    assert "K_xx" not in normal and normal["boundary"] == "strip"
+    both = bc.covered_solve({**base, "nu": 0.3, "quantities": "tangential,normal"}, "auto")
+    assert both["boundary"] == "strip" and both["plan"]["kernels"] == ["<1/r>", "<s^2/r^3>"]
+    assert both["plan"]["solves"] == ["tangential_x[x]", "tangential_y[y]", "normal_z[z]"]
+    assert both["K_xy"] == both["K_yx"] == 0.0 and both["K_zz"] == normal["K_zz"]
+    zero = bc.covered_solve({**base, "nu": 0.0, "quantities": "tangential,normal"}, "strip")
+    assert zero["plan"]["kernels"] == ["<1/r>"] and zero["K_xx"] == zero["K_yy"] == zero["K_zz"]
+    assert both["contact_area"] == pytest.approx(4e-8, rel=1e-15) and (both["nx"], both["ny"]) == (32, 1)

@@ -1,0 +1,211 @@
+"""Strip cells' error estimate against references, and what 1e-3 … 1e-7 cost (issue 12).
+
+    python benchmarks/strip_calibration.py [--rectangles 1e-6,...] [--ellipses 1e-3,...]
+        [--cache results/strip_calibration.jsonl] [--cost rectangle:1e-8,ellipse:1e-6,...]
+
+Strip cells (``hpcontact.strip_cells``) discretize a slender contact along x only. For each
+case the Galerkin integrals are formed once per grid (they do not depend on nu) and K_xx, K_yy,
+K_zz solved for nu = 0, 0.3, 0.5, on n = 16, 32, …, 4096 strips for rectangles and up to 1024
+for ellipses.
+
+* Rectangles: the reference is the strip model's own limit, the order-2 Richardson extrapolant
+  of n = 2048 and 4096 (successive differences fall 3.7-5x per halving), its uncertainty the
+  distance to the extrapolant of 1024 and 2048 — finer than any grid ``--accuracy`` uses for
+  strips (``accuracy.STRIP_MAX_N`` = 1024). The model's own error (``strip_cells.MODEL_ERROR``
+  · b/a, the ends) is left out of estimate and truth alike: no grid sequence shows it, and it is
+  checked against coverage-weighted cells (``strip_cells`` docstring).
+* Ellipses: the reference is Mindlin's and Galin's closed form (``hpcontact.analytic``) and the
+  estimate is the one ``--accuracy`` reports, with ``strip_cells.model_error``.
+
+Replay: ``accuracy.refine`` on the cached grids from n0 = 32 (``accuracy.STRIP_N0``) and 64,
+requests 1e-3, 3e-4, …, 1e-7 (9). A record is honest when the reported estimate is at least the
+largest true error of K_xx, K_yy, K_zz, K_a/K_b, K_xx/K_zz, K_yy/K_zz; the tables give the
+worst true/estimate, the share within 30x, and the same per quantity.
+
+``--cost``: ``hpcontact solve --accuracy`` (``solve_to_accuracy``, strategy auto) of those
+cases for requests 1e-3 … 1e-7 and nu 0.3, 0.5, each in a fresh process: CPU s, grids,
+estimate and error against the reference.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import multiprocessing as mp
+import resource
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from hpcontact import accuracy as acc
+from hpcontact import analytic
+from hpcontact import strip_cells as sc
+from hpcontact.geometry import Shape
+from hpcontact.materials import Isotropic
+
+RECTANGLES = (1e-6, 3e-7, 1e-7, 1e-8, 1e-9, 1e-10, 1e-12)
+ELLIPSES = (1e-3, 3e-4, 1e-4, 1e-5, 1e-6, 1e-8, 1e-10)
+NUS = (0.0, 0.3, 0.5)
+GRIDS = {"rectangle": tuple(16 * 2**k for k in range(9)), "ellipse": tuple(16 * 2**k for k in range(7))}  # to 4096, 1024
+STARTS = (32, 64)
+REQUESTS = (1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6, 1e-6, 3e-7, 1e-7)
+KEYS = {"K_xx": "xx", "K_yy": "yy", "K_zz": "zz"}
+
+
+def solve_grid(shape: str, aspect: float, n: int) -> list[dict[str, Any]]:
+    """K_xx, K_yy, K_zz for every nu on n strips, and the CPU seconds of the integrals."""
+    cpu = time.process_time()
+    edges = sc.graded_edges(n)
+    one, xx = sc.galerkin_integrals(edges, sc.Outline(shape, aspect))
+    formed = time.process_time() - cpu
+    out = []
+    for nu in NUS:
+        material = Isotropic(1.0, nu)
+        K = {key: sc.stiffness(sc.galerkin_matrix(one, xx, block, material), np.diff(edges))[0] for key, block in KEYS.items()}
+        out.append({"shape": shape, "aspect": aspect, "n": n, "nu": nu, **K, "integrals_cpu_s": formed})
+    return out
+
+
+def load(cache: Path, cases: list[tuple[str, float]]) -> dict[tuple[str, float, float, int], dict[str, Any]]:
+    have: dict[tuple[str, float, float, int], dict[str, Any]] = {}
+    if cache.exists():
+        for line in cache.read_text().splitlines():
+            r = json.loads(line)
+            have[(r["shape"], r["aspect"], r["nu"], r["n"])] = r
+    for shape, aspect in cases:
+        for n in GRIDS[shape]:
+            if all((shape, aspect, nu, n) in have for nu in NUS):
+                continue
+            rows = solve_grid(shape, aspect, n)
+            print(f"  {shape} b/a {aspect:g}, n = {n}: integrals {rows[0]['integrals_cpu_s']:.2f} s CPU", file=sys.stderr, flush=True)
+            with cache.open("a") as f:
+                for r in rows:
+                    f.write(json.dumps(r) + "\n")
+                    have[(shape, aspect, r["nu"], n)] = r
+    return have
+
+
+def with_ratios(K: dict[str, float]) -> dict[str, float]:
+    return {**K, "K_a_over_K_b": K["K_xx"] / K["K_yy"], "normalized_xx": K["K_xx"] / K["K_zz"],
+            "normalized_yy": K["K_yy"] / K["K_zz"]}
+
+
+def reference(have: dict, shape: str, aspect: float, nu: float) -> tuple[dict[str, float], dict[str, float]]:
+    """Per quantity the reference and its relative uncertainty: Mindlin's and Galin's closed
+    form for an ellipse (uncertainty 0), the order-2 Richardson of n = 2048, 4096 for a rectangle."""
+    if shape == "ellipse":
+        K_xx, K_yy = analytic.mindlin_ellipse_stiffness(1.0, aspect, 1.0, nu)
+        exact = with_ratios({"K_xx": K_xx, "K_yy": K_yy, "K_zz": analytic.elliptical_punch_normal_stiffness(1.0, aspect, 1.0, nu)})
+        return exact, {k: 0.0 for k in exact}
+
+    def rich(n1: int, n2: int) -> dict[str, float]:
+        a, b = have[(shape, aspect, nu, n1)], have[(shape, aspect, nu, n2)]
+        return {k: b[k] + (b[k] - a[k]) / 3.0 for k in KEYS}
+
+    best, before = with_ratios(rich(2048, 4096)), with_ratios(rich(1024, 2048))
+    return best, {k: abs(best[k] - before[k]) / abs(best[k]) for k in best}
+
+
+def replay(have: dict, cases: list[tuple[str, float]]) -> list[dict[str, Any]]:
+    records = []
+    for shape, aspect in cases:
+        model = sc.model_error(Shape(shape, aspect=aspect)) if shape == "ellipse" else 0.0
+        for nu in NUS:
+            ref, unc = reference(have, shape, aspect, nu)
+            for n0 in STARTS:
+                grids = [(n, 1) for n in GRIDS[shape] if n0 <= n <= acc.STRIP_MAX_N]
+                for request in REQUESTS:
+                    def level(n: int, na: int, shape: str = shape, aspect: float = aspect, nu: float = nu) -> dict[str, Any]:
+                        r = have[(shape, aspect, nu, n)]
+                        return {**{k: r[k] for k in KEYS}, "K_xy": 0.0, "K_yx": 0.0}
+
+                    done = acc.refine(grids, level, request, model_error=model)
+                    values = with_ratios({k: done.values[k] for k in KEYS})
+                    true = {k: abs(values[k] - ref[k]) / abs(ref[k]) for k in ref}
+                    estimate = max(done.relative.values())
+                    records.append({"shape": shape, "aspect": aspect, "nu": nu, "n0": n0, "request": request,
+                                    "estimate": estimate, "estimates": {k: done.relative[k] for k in true}, "true": true,
+                                    "reference_uncertainty": max(unc.values()), "grids": len(done.levels),
+                                    "finest": grids[len(done.levels) - 1][0], "met": estimate <= request})
+    return records
+
+
+def summary(records: list[dict[str, Any]]) -> None:
+    for shape in ("rectangle", "ellipse"):
+        rs = [r for r in records if r["shape"] == shape]
+        if not rs:
+            continue
+        ratios = [max(r["true"].values()) / r["estimate"] for r in rs]
+        pairs = [(r["true"][k] / r["estimates"][k], k, r) for r in rs for k in r["true"]]
+        print(f"\n{shape}s: {len(rs)} records; honest (true <= estimate): {sum(x <= 1.0 for x in ratios)}; "
+              f"worst true/estimate {max(ratios):.3g}; within 30x: {100.0 * np.mean([x >= 1 / 30 for x in ratios]):.1f} %; "
+              f"median true/estimate {np.median(ratios):.3g}")
+        worst = max(pairs, key=lambda p: p[0])
+        print(f"per quantity: {len(pairs)} pairs, {sum(p[0] > 1.0 for p in pairs)} below their true error; worst {worst[0]:.3g} "
+              f"({worst[1]}, b/a {worst[2]['aspect']:g}, nu {worst[2]['nu']}, n0 {worst[2]['n0']}, request {worst[2]['request']:g})")
+        print(f"largest reference uncertainty: {max(r['reference_uncertainty'] for r in rs):.2e}; records whose reference "
+              f"uncertainty exceeds a tenth of the estimate: {sum(r['reference_uncertainty'] > r['estimate'] / 10 for r in rs)}")
+        print("\n| b/a | records | worst true/estimate | within 30x | met | finest n |")
+        print("|---|---|---|---|---|---|")
+        for aspect in sorted({r["aspect"] for r in rs}, reverse=True):
+            sel = [r for r in rs if r["aspect"] == aspect]
+            x = [max(r["true"].values()) / r["estimate"] for r in sel]
+            print(f"| {aspect:g} | {len(sel)} | {max(x):.3g} | {100.0 * np.mean([v >= 1 / 30 for v in x]):.0f} % | "
+                  f"{sum(r['met'] for r in sel)} | {max(r['finest'] for r in sel)} |")
+
+
+def one_cost(shape: str, aspect: float, nu: float, request: float) -> dict[str, Any]:
+    cpu = time.process_time()
+    record = acc.solve_to_accuracy({"shape": shape, "aspect": aspect, "nu": nu, "quantities": "tangential,normal"},
+                                   request, strategy="auto", strict=False)
+    return {"cpu_s": time.process_time() - cpu, "peak_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+            "values": with_ratios({k: record[k] for k in KEYS}), "estimate": record["estimated_error"],
+            "met": record["accuracy_met"], "stopped_by": record["stopped_by"], "grids": record["grids"],
+            "boundary": record["boundary"]}
+
+
+def cost(have: dict, cases: list[tuple[str, float]]) -> None:
+    print("\n`--accuracy` (strategy auto), each run in a fresh process (CPU s of one core, peak MiB):\n")
+    print("| case | nu | request | cells | estimate | true error | true/estimate | strips | CPU s | MiB |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    context = mp.get_context("spawn")
+    for shape, aspect in cases:
+        for nu in (0.3, 0.5):
+            ref, _ = reference(have, shape, aspect, nu)
+            for request in (1e-3, 1e-4, 1e-5, 1e-6, 1e-7):
+                with context.Pool(1) as pool:
+                    r = pool.apply(one_cost, (shape, aspect, nu, request))
+                true = max(abs(r["values"][k] - ref[k]) / abs(ref[k]) for k in ref)
+                met = "" if r["met"] else f" (not met: {r['stopped_by']})"
+                print(f"| {shape} {aspect:g} | {nu} | {request:g}{met} | {r['boundary']} | {r['estimate']:.2e} | {true:.2e} | "
+                      f"{true / r['estimate']:.3f} | {r['grids'][0]} … {r['grids'][-1]} | {r['cpu_s']:.2f} | {r['peak_mib']:.0f} |")
+
+
+def cases_of(text: str, shape: str) -> list[tuple[str, float]]:
+    return [(shape, float(a)) for a in text.split(",") if a]
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--rectangles", default=",".join(f"{a:g}" for a in RECTANGLES))
+    ap.add_argument("--ellipses", default=",".join(f"{a:g}" for a in ELLIPSES))
+    ap.add_argument("--cache", type=Path, default=ROOT / "results" / "strip_calibration.jsonl")
+    ap.add_argument("--cost", default="", help="cases to time, e.g. rectangle:1e-8,ellipse:1e-6")
+    args = ap.parse_args(argv)
+    cases = cases_of(args.rectangles, "rectangle") + cases_of(args.ellipses, "ellipse")
+    timed = [(c.split(":")[0], float(c.split(":")[1])) for c in args.cost.split(",") if c]
+    have = load(args.cache, cases + [c for c in timed if c not in cases])
+    summary(replay(have, cases))
+    if timed:
+        cost(have, timed)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
