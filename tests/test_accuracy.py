@@ -298,16 +298,9 @@ SLENDER = {"shape": "rectangle", "aspect": 1e-8, "quantities": "tangential,norma
 def test_slender_rectangle_meets_1e_6_on_strip_cells(nu: float) -> None:
     """``--accuracy 1e-6`` (strategy auto) on the b/a = 1e-8 rectangle runs strip cells
     (``hpcontact.strip_cells``) and meets its request; the estimate includes the model's bound
-    ``MODEL_ERROR`` · b/a. Its K_xx, K_yy, K_zz lie within the estimate of two references:
-    the strip model's limit from 512 and 1024 strips (order-2 Richardson; 2x and 4x finer than
-    the 256 ``--accuracy`` stopped at), and the 2-D coverage-weighted reference of
-    ``benchmarks/accuracy_reference.py`` (grids to 5120 x 1280) within the estimate plus twice
-    that reference's stated uncertainty: the strips lie above it by 4.5e-8 … 1.3e-7 (absolute),
-    and being lower bounds of K (``hpcontact.strip_cells``) they show that its uncertainty, the
-    spread of its fits, is understated by up to 1.67x (``tests/test_strip_cells.py``)."""
-    import json
-    from pathlib import Path
-
+    ``MODEL_ERROR`` · b/a. Its K_xx, K_yy, K_zz lie within the estimate of the strip model's limit
+    from 512 and 1024 strips (order-2 Richardson; 2x and 4x finer than the 256 ``--accuracy``
+    stopped at). The 2-D reference is checked in ``tests/test_strip_cells.py``."""
     from hpcontact import strip_cells
     from hpcontact.materials import Isotropic
 
@@ -320,13 +313,9 @@ def test_slender_rectangle_meets_1e_6_on_strip_cells(nu: float) -> None:
     for n in (512, 1024):
         cells = strip_cells.StripCells(1e-8, n, Isotropic(1.0, nu))
         fine[n] = {f"K_{b}": cells.solve(b)[0] for b in strip_cells.BLOCKS}
-    reference = json.loads((Path(__file__).resolve().parents[1] / "results" / "accuracy_reference.json").read_text())
-    coverage = reference["references"][f"rect1e-8 nu {nu}"]
     for key in ("K_xx", "K_yy", "K_zz"):
         limit = fine[1024][key] + (fine[1024][key] - fine[512][key]) / 3.0
         assert abs(r[key] / limit - 1.0) <= r["estimated_errors"][key]
-        two_d = coverage[key]
-        assert abs(r[key] - two_d["value"]) <= r["estimated_errors"][key] * abs(r[key]) + 2.0 * two_d["uncertainty"]
 
 
 def test_strip_cells_are_refused_outside_their_range() -> None:
