@@ -65,7 +65,18 @@ used before :func:`principal_error`) and within 30× of it in 94.6 % (94.0 %). P
 1e-3) is 1.18× below its true error. Singular cells' sequences get their own candidates and
 factor (below).
 
-``hpcontact solve --accuracy`` uses strategy ``auto``: for requests below 1e-4 (``SINGULAR_BELOW``)
+``hpcontact solve --accuracy`` uses strategy ``auto``. Slender contacts — unturned rectangles of
+b/a ≤ 1e-6 and ellipses of b/a ≤ 1e-3, isotropic — take strip cells (``hpcontact.strip_cells``):
+n = 32, 64, … strips (``STRIP_N0``) up to ``STRIP_MAX_N`` = 1024, the estimator of
+coverage-weighted cells (``EXPANSIONS``, ``SAFETY``) plus the model bound
+``strip_cells.model_error`` (where that bound is not below the request, ``stopped_by`` "model"
+after four grids: b/a = 1e-3 ellipses, bound 1.4e-6, at requests ≤ 1.4e-6). Replayed
+on every grid of those sequences (``benchmarks/strip_calibration.py``: rectangles b/a = 1e-6 …
+1e-12 against the strip model's limit from 2048 and 4096 strips, ellipses b/a = 1e-3 … 1e-10
+against Mindlin and Galin; nu 0, 0.3, 0.5; n₀ = 32 and 64; requests 1e-3 … 1e-7): honest on
+all 756 records (worst true/estimate 0.26 rectangles, 0.41 ellipses), within 30x in 95.2 % and
+100 %; per quantity 1 of 4536 pairs below its true error (1.15x: K_yy, rectangle 3e-7, nu 0.5,
+request 1e-7, on 512 strips). Otherwise, for requests below 1e-4 (``SINGULAR_BELOW``)
 singular cells where they apply, on
 sequences from :func:`singular_start` (near-square cells; b/a = 0.05 starts at 160 × 8), with
 the candidates led by order 1 only (``SINGULAR_EXPANSIONS``) and the spread times
@@ -85,7 +96,8 @@ cells, or the memory budget: :func:`plan_grids` counts this process's peak resid
 sweep cost model's arrays of the next grid, ``hpcontact.sweep.costmodel``), or when the estimate
 has not fallen over two refinements (stagnation); the grids also stop where the estimator's
 calibration ends (``calibration``: n = 1024 along the long side for coverage-weighted cells,
-``COVERAGE_MAX_N``; 2^20 cells for singular cells, ``SINGULAR_MAX_CELLS``; masks unlimited); the
+``COVERAGE_MAX_N``; 2^20 cells for singular cells, ``SINGULAR_MAX_CELLS``; 1024 strips,
+``STRIP_MAX_N``; masks unlimited); the
 record says which (``stopped_by``).
 
 References: L. F. Richardson, Phil. Trans. R. Soc. A 210, 307–357 (1911); P. J. Roache,
@@ -203,16 +215,15 @@ SINGULAR_SAFETY = 6.0
 #: (``benchmarks/strip_calibration.py``); their estimate is that of coverage-weighted cells
 #: (``EXPANSIONS``, ``SAFETY``) plus the model's own bound ``strip_cells.MODEL_ERROR`` · b/a.
 STRIP_N0 = 32
-#: strategy "auto" takes strips where their model bound (``strip_cells.model_error``) is at most
-#: this share of the request, leaving the rest to the discretization (b/a = 1e-3 ellipses, bound
-#: 1.4e-6: strips for requests ≥ 2.8e-6, coverage-weighted cells below).
-STRIP_MODEL_SHARE = 0.5
 STRIP_MAX_N = 1024
 #: Bytes of one strip solve on n strips: ``STRIP_BYTES_PER_PAIR`` · n² (the pair indices, the
-#: two integral matrices, the system and its Cholesky factor) + ``STRIP_BYTES_BASE`` (the far
-#: pairs' batch of ``strip_cells.FAR_CHUNK``). tracemalloc peaks: see ``strip_bytes``.
-STRIP_BYTES_PER_PAIR = 96.0
-STRIP_BYTES_BASE = 256.0 * 2**20
+#: two integral matrices, the system and its Cholesky factor; an ellipse's near pairs, which
+#: reach 100 b) + ``STRIP_BYTES_BASE`` (one batch of ``strip_cells.FAR_CHUNK`` far pairs).
+#: tracemalloc peaks of ``covered_solve`` (tangential and normal): rectangle 1e-8 at n = 128 …
+#: 2048: 15, 41, 102, 142, 332 MiB; ellipse 1e-3: 21, 42, 94, 193, 594 MiB (the bound: 99, 106,
+#: 138, 264, 767 MiB).
+STRIP_BYTES_PER_PAIR = 160.0
+STRIP_BYTES_BASE = 96.0 * 2**20
 
 
 # ------------------------------------------------------------------------------------------
@@ -608,7 +619,8 @@ def solve_to_accuracy(
       of each raw sequence; ``expansion``: the exponents of the expansion each value comes
       from; ``accuracy_met``: whether ``estimated_error`` ≤ ``accuracy``;
     * ``stopped_by``: ``met``, ``cells``, ``memory budget``, ``calibration`` (the next grid is
-      beyond the estimator's calibrated range, :func:`calibrated`), ``grids`` or ``stagnation``;
+      beyond the estimator's calibrated range, :func:`calibrated`), ``grids``, ``stagnation`` or
+      ``model`` (strips whose own bound is not below the request);
       ``memory_budget_bytes``, ``memory_budget_source``, ``estimated_peak_bytes`` (of the finest
       grid used);
     * ``grids``: the n of every grid used, ``grids_across``: their n_across, ``levels``: the
@@ -616,11 +628,15 @@ def solve_to_accuracy(
 
     ``params`` are those of ``solve``; ``n`` and ``n_across`` there are ignored (the sequence
     starts at ``n0`` (default 32) and ``n_across0``). ``strategy`` is the boundary treatment of
-    ``covered_solve`` (coverage, singular, auto); ``auto`` (what ``hpcontact solve --accuracy``
-    uses) takes singular cells from the first grid of :func:`singular_start` for requests below
-    ``SINGULAR_BELOW`` (1e-4) where they apply (unturned circles and ellipses b/a ≥ 1/32,
-    isotropic, tangential/normal) and coverage-weighted cells elsewhere; the record's ``boundary`` says which ran. The memory plan counts the arrays of the cells used
-    (:func:`grid_bytes`, with singular cells' near field). The CG tolerance is tightened to at most
+    ``covered_solve`` (coverage, singular, strip, auto); ``auto`` (what ``hpcontact solve
+    --accuracy`` uses) takes strips (``STRIP_N0`` = 32 strips first, one across) for slender
+    rectangles and ellipses (:func:`strip_applies`; where their model bound is not below the
+    request, four grids and ``stopped_by`` "model"), else singular cells from the first grid of
+    :func:`singular_start` for requests below ``SINGULAR_BELOW`` (1e-4) where they apply
+    (unturned circles and ellipses b/a ≥ 1/32, isotropic, tangential/normal) and
+    coverage-weighted cells elsewhere; the record's ``boundary`` says which ran, and with strips
+    ``model_error`` the bound included in every estimate. The memory plan counts the arrays of
+    the cells used (:func:`grid_bytes`, with singular cells' near field, strips' dense matrices). The CG tolerance is tightened to at most
     accuracy/100 so that it never limits the answer. A mask is refined by splitting its pixels
     (the sequence starts at the contact's long side in pixels); a rough patch cannot be refined
     and is refused (InputError), as are quantities other than tangential, normal, coupled.
@@ -636,7 +652,7 @@ def solve_to_accuracy(
     scene = Scene.from_params(base)
     tol = min(scene.tol, accuracy * 1e-2)
     base["tol"] = max(tol, 1e-14)
-    if strategy == "auto" and strip_applies(scene) and strip_cells.model_error(scene.shape) <= STRIP_MODEL_SHARE * accuracy:
+    if strategy == "auto" and strip_applies(scene):  # a slender rectangle or ellipse
         strategy, n0, n_across0 = "strip", n0 or STRIP_N0, 1
     if strategy == "auto":  # singular cells on near-square cells where they apply and pay, else coverage
         start = singular_start(scene, n0 or N0, n_across0) if accuracy < SINGULAR_BELOW else None
@@ -662,10 +678,13 @@ def solve_to_accuracy(
 
     singular = strategy == "singular"
     model = strip_cells.model_error(scene.shape) if strategy == "strip" else 0.0
+    if model >= accuracy:  # no grid can bring the strips' estimate below their own bound
+        sequence = sequence[:MIN_GRIDS]
     done = refine(sequence, solve_level, accuracy, SINGULAR_EXPANSIONS if singular else None, SINGULAR_SAFETY if singular else None,
                   model_error=model)
     levels, values, relative, orders, expansions = done.levels, done.values, done.relative, done.orders, done.expansions
-    stopped_by = done.stopped_by or ("grids" if max_grids is not None and max_grids < len(plan.grids) else plan.limit)
+    stopped_by = done.stopped_by or ("model" if model >= accuracy else "grids" if max_grids is not None
+                                     and max_grids < len(plan.grids) else plan.limit)
     finest = levels[-1]
     record: dict[str, Any] = {k: finest[k] for k in ("nx", "ny", "dx", "dy", "contact_cells", "contact_area")}
     record.update(values)
@@ -764,6 +783,8 @@ class AccuracyNotMet(ConvergenceError):
                            + (f"{SINGULAR_MAX_CELLS} cells, accuracy.SINGULAR_MAX_CELLS)" if record["boundary"] == "singular"
                               else f"{COVERAGE_MAX_N} cells along the long side, accuracy.COVERAGE_MAX_N)"),
             "grids": "the number of grids allowed is used up",
+            "model": f"the strips' own error bound, {record.get('model_error', 0.0):.2g} (strip_cells.model_error: the "
+                     "slender-body profile's error at this b/a), is not below the request",
             "stagnation": f"the estimate did not fall over the last {STAGNATION_LEVELS} refinements (the extrapolants stagnate)",
         }[record["stopped_by"]]
         super().__init__(

@@ -163,7 +163,7 @@ TAU_RATIO, TAU_POINTS, TAU_PANELS = 0.3, 14, 36  # τ panels [0.3^(k+1), 0.3^k],
 COMPACT_POINTS = 20  # Gauss points of the measure (3) for |s| ≥ b (``double_antiderivatives``)
 END_RATIO, END_POINTS, END_PANELS = 0.25, 10, 27  # self pairs: panels toward the strip ends, down to 0.25^27 = 5e-17
 NARROW_LOW, NARROW_PANEL, NARROW_DEGREE = 1e-20, 2.0, 20  # the table of A' for σ = |s|/b < 1 (``_narrow_table``)
-FAR_CHUNK = 2**18  # far pairs per batch of the Gauss product rule (bounds its arrays to ~100 MB)
+FAR_CHUNK = 2**16  # far pairs per batch of the Gauss product rule (its arrays: ~800 B a pair, ~52 MB a batch)
 #: Largest b/a of a rectangle on strips (``supports``); see ``MODEL_ERROR``.
 MAX_ASPECT = 1e-6
 #: Largest b/a of an ellipse on strips: the bound ``model_error`` is 1.4e-6 there, and the near
