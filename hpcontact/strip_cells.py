@@ -318,7 +318,7 @@ def _narrow_table() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     (both are positive and smooth in v; against the graded rule ≤ 5e-14 relative on 5000
     random σ, ``tests/test_strip_cells.py``). Returns the panel edges and the coefficients."""
     low = math.log(NARROW_LOW)
-    count = int(math.ceil(-low / NARROW_PANEL))
+    count = math.ceil(-low / NARROW_PANEL)
     edges = low + NARROW_PANEL * np.arange(count + 1, dtype=np.float64)
     edges[-1] = 0.0
     nodes = np.cos(np.pi * (np.arange(NARROW_DEGREE + 1) + 0.5) / (NARROW_DEGREE + 1))
