@@ -783,8 +783,8 @@ class AccuracyNotMet(ConvergenceError):
                            + (f"{SINGULAR_MAX_CELLS} cells, accuracy.SINGULAR_MAX_CELLS)" if record["boundary"] == "singular"
                               else f"{COVERAGE_MAX_N} cells along the long side, accuracy.COVERAGE_MAX_N)"),
             "grids": "the number of grids allowed is used up",
-            "model": f"the strips' own error bound, {record.get('model_error', 0.0):.2g} (strip_cells.model_error: the "
-                     "slender-body profile's error at this b/a), is not below the request",
+            "model": f"the strips' own error bound, {record.get('model_error', 0.0):.2g} (strip_cells.model_error: what "
+                     "strips leave at this b/a whatever their number), is not below the request",
             "stagnation": f"the estimate did not fall over the last {STAGNATION_LEVELS} refinements (the extrapolants stagnate)",
         }[record["stopped_by"]]
         super().__init__(
