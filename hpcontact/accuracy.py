@@ -115,7 +115,7 @@ import numpy as np
 
 from . import quantities as q
 from . import strip_cells
-from .boundary_cells import SINGULAR_SUPPORTED, SUPPORTED, covered_solve, mask_cells
+from .boundary_cells import SINGULAR_SUPPORTED, SUPPORTED, covered_solve, mask_cells, strip_applies
 from .errors import ConvergenceError, InputError
 from .geometry import Shape
 from .materials import Isotropic
@@ -349,13 +349,6 @@ def singular_start(scene: Scene, n0: int, n_across0: int | None) -> tuple[int, i
     if n > SINGULAR_MAX_N0 or not singular_cells.supports(shape, scene.material, grid_for(shape, n, na)):
         return None
     return n, na
-
-
-def strip_applies(scene: Scene) -> bool:
-    """Whether strip cells (``hpcontact.strip_cells``) solve ``scene``: an unturned rectangle of
-    b/a ≤ ``strip_cells.MAX_ASPECT`` or ellipse of b/a ≤ ``strip_cells.MAX_ELLIPSE_ASPECT``,
-    isotropic, quantities tangential and normal only."""
-    return strip_cells.supports(scene.shape, scene.material) and set(scene.quantities) <= set(SINGULAR_SUPPORTED)
 
 
 def grid_sequence(shape: Shape, n0: int = N0, n_across0: int | None = None, max_cells: int = MAX_CELLS) -> list[tuple[int, int]]:

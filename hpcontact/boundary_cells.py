@@ -73,6 +73,7 @@ __all__ = [
     "coverage",
     "covered_solve",
     "mask_cells",
+    "strip_applies",
 ]
 
 MIN_COVERAGE = 1e-12  # cells covered less than this are left out (D_ii would overflow)
@@ -225,9 +226,9 @@ def covered_solve(params: Mapping[str, Any], strategy: str = "coverage") -> dict
         raise InputError("strategy", f"one of {', '.join(STRATEGIES)}", strategy)
     scene = Scene.from_params(params)
     grid = grid_for(scene.shape, scene.n, scene.n_across) if scene.shape.name != "mask" else None
-    blocks = set(scene.quantities) <= set(SINGULAR_SUPPORTED)
-    singular = blocks and grid is not None and singular_cells.supports(scene.shape, scene.material, grid)
-    strip = blocks and strip_cells.supports(scene.shape, scene.material)
+    singular = (set(scene.quantities) <= set(SINGULAR_SUPPORTED) and grid is not None
+                and singular_cells.supports(scene.shape, scene.material, grid))
+    strip = strip_applies(scene)
     if strategy == "singular" and not singular:
         raise InputError(
             "strategy",
@@ -329,17 +330,31 @@ def singular_block_solve(cells: singular_cells.SingularCells, block: str, tol: f
     return conjugate_gradient(system.apply, rhs, cells.mask, tol=tol, precondition=apply_preconditioner)
 
 
+def _block_solves(scene: Scene) -> list[tuple[str, str]]:
+    """(solve name, block) per load direction asked, for singular and strip cells: one scalar
+    block each (xx, yy for tangential, zz for normal)."""
+    solves = []
+    if "tangential" in scene.quantities:
+        solves += [("tangential_x", "xx"), ("tangential_y", "yy")]
+    if "normal" in scene.quantities:
+        solves.append(("normal_z", "zz"))
+    return solves
+
+
+def strip_applies(scene: Scene) -> bool:
+    """Whether strip cells (``hpcontact.strip_cells``) solve ``scene``: an unturned rectangle of
+    b/a ≤ ``strip_cells.MAX_ASPECT`` or ellipse of b/a ≤ ``strip_cells.MAX_ELLIPSE_ASPECT``,
+    isotropic, quantities tangential and normal only."""
+    return strip_cells.supports(scene.shape, scene.material) and set(scene.quantities) <= set(SINGULAR_SUPPORTED)
+
+
 def _singular_forces(scene: Scene) -> _Solved:
     """Singular cells (``hpcontact.singular_cells``): one Galerkin solve per load direction.
 
     For the circle and ellipse the cross entries vanish exactly (the traction c·w along x gives
     no y displacement in the contact, Mindlin 1949), so each direction is one scalar block.
     """
-    solves = []
-    if "tangential" in scene.quantities:
-        solves += [("tangential_x", "xx"), ("tangential_y", "yy")]
-    if "normal" in scene.quantities:
-        solves.append(("normal_z", "zz"))
+    solves = _block_solves(scene)
     cells = singular_cells.SingularCells(scene.shape, scene.n, scene.n_across, scene.material)
     forces: dict[str, np.ndarray] = {}
     iterations, residual = 0, 0.0
@@ -360,11 +375,7 @@ def _strip_forces(scene: Scene) -> _Solved:
     """Strip cells (``hpcontact.strip_cells``): one dense Galerkin solve per load direction on
     ``scene.n`` strips (the cross entries vanish: the profile is symmetric across). The grid
     reported is n × 1 with dx the mean strip length and dy the width."""
-    solves = []
-    if "tangential" in scene.quantities:
-        solves += [("tangential_x", "xx"), ("tangential_y", "yy")]
-    if "normal" in scene.quantities:
-        solves.append(("normal_z", "zz"))
+    solves = _block_solves(scene)
     cells = strip_cells.StripCells(scene.shape.aspect, scene.n, scene.material, tuple(block for _, block in solves),
                                    shape=scene.shape.name)
     forces: dict[str, np.ndarray] = {}

@@ -448,16 +448,17 @@ def galerkin_integrals(edges: np.ndarray, b: float | Outline, with_xx: bool = Tr
     widest = np.maximum(outline.widest(lo[i], hi[i]), outline.widest(lo[j], hi[j]))
     near = (gap < NEAR_GAP * np.maximum(size[i], size[j])) | (gap < SERIES_REACH * widest)
     one, xx = np.empty(i.size), np.empty(i.size)
-    a, c = i[near], j[near]
+    varying = outline.name != "rectangle"
+    exact = near & (i != j) if varying else near  # where b varies, a strip with itself: self_integrals
+    a, c = i[exact], j[exact]
     middle = np.where(a == c, 0.5 * (lo[a] + hi[a]), 0.5 * (np.minimum(hi[a], hi[c]) + np.maximum(lo[a], lo[c])))
-    width = outline.width(middle)
     corners = np.stack([hi[a] - hi[c], hi[a] - lo[c], lo[a] - hi[c], lo[a] - lo[c]])
-    A1, Ax = double_antiderivatives(corners, width[None, :])
+    A1, Ax = double_antiderivatives(corners, outline.width(middle)[None, :])
     sign = np.array([-1.0, 1.0, 1.0, -1.0])[:, None]
-    one[near], xx[near] = (sign * A1).sum(axis=0), (sign * Ax).sum(axis=0)
-    if outline.name != "rectangle":  # a strip with itself where b varies along it
-        own = np.flatnonzero(near)[a == c]
-        one[own], xx[own] = self_integrals(lo[a[a == c]], hi[a[a == c]], outline)
+    one[exact], xx[exact] = (sign * A1).sum(axis=0), (sign * Ax).sum(axis=0)
+    if varying:
+        own = i == j
+        one[own], xx[own] = self_integrals(lo, hi, outline)
     x, w = np.polynomial.legendre.leggauss(FAR_POINTS)
     far = np.flatnonzero(~near)
     for start in range(0, far.size, FAR_CHUNK):
@@ -513,8 +514,7 @@ class StripCells:
 
     def __init__(self, aspect: float, n: int, material: Isotropic, blocks: tuple[str, ...] = BLOCKS,
                  grading: float = GRADING, shape: str = "rectangle") -> None:
-        self.b = float(aspect)
-        self.outline = Outline(shape, self.b)
+        self.outline = Outline(shape, float(aspect))
         self.material = material
         self.blocks = tuple(blocks)
         self.edges = graded_edges(int(n), grading)
