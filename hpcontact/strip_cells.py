@@ -73,19 +73,50 @@ the two widths b(x), b(x') at the Gauss points.
 A width that varies (the ellipse)
 ---------------------------------
 (4) needs one width for the four corners of a pair (their O(s ln(s/b)) terms cancel only then):
-a near pair of separate or touching strips takes b at the middle of its gap, where b enters only
-through ⟨t²⟩/s³ or over a region of size b² at the shared corner. A strip with itself carries
-its dependence on b along the diagonal x = x', and there b changes by O(1) within the strips at
-the tips: it is integrated in m = (x + x')/2 with b(m) (``self_integrals``). One width for a
-whole self pair (with −2∫ ln(b(m)/b̄) dm for its diagonal) left 8.8e-6, 2.5e-6, 7.4e-7 at n = 16,
-64, 256 (b/a = 1e-3, nu 0.3, K_zz), 3% of the tip strip's entry; with ``self_integrals`` what
-is left is the near pairs' one width, of relative size (b/a)² (the widths' ⟨t²⟩ is
-b(m)² − b₀² s²/4, not b̄²): |K error| ≤ 0.061 (b/a)² ln(a/b) against Mindlin and Galin
-(b/a = 1e-2 … 1e-5, n = 16 … 1024, nu 0, 0.3, 0.5; largest for K_xx at nu 0.5), not falling
-with n, and 1.0e-12 … 1.7e-12 from the quadratures at b/a ≤ 1e-6. ``model_error`` bounds both
-(``WIDTH_ERROR``, ``QUADRATURE_FLOOR``) and ``--accuracy`` adds it to its estimates; where
-the strips stop being slender the single widths fail (b/a = 0.3: 6e-4 at n = 1024), so
-ellipses take strips up to ``MAX_ELLIPSE_ASPECT`` = 1e-3 (bound 1.4e-6 there).
+a near pair of separate or touching strips takes b at the middle of its gap, and a strip with
+itself is integrated in m = (x + x')/2 with b(m) (``self_integrals``; one width for a whole self
+pair left 3 % of the tip strip's entry). What one width leaves out is added back: with b₁ = b(x),
+b₂ = b(x') and the pair's single width b,
+
+    ΔB_ij = ∫_{I_i}∫_{I_j} [⟨k⟩(s; b₁, b₂) − ⟨k⟩(s; b)] dx' dx                              (7)
+
+(``width_corrections``), where ⟨k⟩(s; b₁, b₂) averages over y, y' from the profiles of two
+widths, exactly by the density (6) (``two_width_averages``). Where the widths differ little on
+the scale of s (|b₁ − b₂| ≤ 2 ``SLOPE_LIMIT`` |s|) the bracket is expanded to second order in
+ε = (b₁ − b₂)/2 about b̄ = (b₁ + b₂)/2: ⟨k⟩(s; b̄) − ⟨k⟩(s; b) + ε² q(|s|/b̄)/b̄³ with
+q = ½ ∂²⟨k⟩/∂ε² tabulated once (``_spread_table``: σ² q → −0.405, −0.810 for σ → 0, the series'
+−1/(2σ³), −3/(2σ³) for σ → ∞), and the expansion leaves ≈ 2(ε/s)² of the bracket; elsewhere
+(near the tips, where b' → ∞, and nearly everywhere on a wide ellipse) the exact average is
+used, and beyond |s| = ``SPREAD_REACH`` b̄ the series (5) with both widths
+(``width_difference``).
+
+Why: the exact f is constant, so to first order δK/K = −Σ δB_ij / Σ B_ij, the single widths' error
+summed over the plane. With the exact two-width averages that sum predicts the error of one
+width (−9.32e-6 against −9.28e-6 measured, b/a = 1e-2, n = 16; −1.076e-7 against −1.069e-7,
+b/a = 1e-3, n = 32, K_zz, nu 0): 44–47 % from the strips' own diagonals, 52–55 % from touching pairs and
+−2 % … +4 % from the others. One width left |K error| ≤ 0.061 (b/a)² ln(a/b) (b/a = 1e-2 … 1e-5)
+and failed where the strips are not slender (b/a = 0.3: 6e-4 at n = 1024). With (7) the
+strips of an ellipse are exact but for their integrals at every aspect, slender or not — they
+contain Galin's and Mindlin's traction whatever b/a, and nothing of the slender-body limit is
+used — and what is left is measured against the closed forms. Largest relative error of K_xx,
+K_yy, K_zz and K_a/K_b over nu 0, 0.3, 0.5 (``benchmarks/strip_calibration.py``):
+
+    b/a           n = 16    32        64        128       256       1024
+    1, 0.7, 0.5   5.5e-8    1.8e-8    1.6e-8    1.6e-8    1.6e-8
+    0.3           5.7e-8    2.0e-8    1.7e-8    1.7e-8    1.7e-8
+    0.1, 0.05     6.5e-8    1.5e-8    1.0e-8    9.7e-9    9.7e-9
+    0.02          5.3e-8    9.1e-9    5.5e-9    5.4e-9    5.1e-9
+    1e-2          9.4e-8    6.0e-9    2.7e-9    2.3e-9    2.3e-9    2.3e-9
+    1e-3          3.6e-8    6.6e-9    1.4e-9    1.0e-10   3.2e-11   3.2e-11
+    1e-4          1.1e-9    7.2e-10   3.5e-10   8.4e-11   1.9e-11   1.2e-12
+    1e-6 … 1e-10  1.5e-12   1.5e-12   1.4e-12   1.4e-12   1.4e-12   1.4e-12
+
+The first grids' larger errors (the corrections' quadrature on long strips) fall with n, where
+``--accuracy``'s estimator sees them; the level they settle at (the lean two-width rule, the
+expansion's remainder, the quadratures' floor) does not, and ``model_error`` bounds it:
+min(``INTEGRALS_SLOPE`` · b/a, ``INTEGRALS_CAP``) + ``QUADRATURE_FLOOR``, three times the level.
+The exact two-width averages cost: 0.8, 1.5, 2.8, 7.7 s for b/a = 0.7 at n = 16 … 128 (nearly
+every near point), 0.1 … 0.9 s for b/a = 1e-3 at n = 32 … 128.
 
 The mesh
 --------
@@ -138,7 +169,6 @@ __all__ = [
     "BLOCKS",
     "GRADING",
     "MAX_ASPECT",
-    "MAX_ELLIPSE_ASPECT",
     "SUPPORTED_TEXT",
     "Outline",
     "StripCells",
@@ -163,42 +193,51 @@ TAU_RATIO, TAU_POINTS, TAU_PANELS = 0.3, 14, 36  # τ panels [0.3^(k+1), 0.3^k],
 COMPACT_POINTS = 20  # Gauss points of the measure (3) for |s| ≥ b (``double_antiderivatives``)
 END_RATIO, END_POINTS, END_PANELS = 0.25, 10, 27  # self pairs: panels toward the strip ends, down to 0.25^27 = 5e-17
 NARROW_LOW, NARROW_PANEL, NARROW_DEGREE = 1e-20, 2.0, 20  # the table of A' for σ = |s|/b < 1 (``_narrow_table``)
+SPREAD_REACH = 10.0  # σ = |s|/b beyond which ``width_difference`` is the series (5) with both widths less that with one (its truncation there: ≤ 5e-8 of ⟨k⟩, of which a width difference keeps ~8 Δb/b)
+SPREAD_LOW = 1e-6  # σ below which σ² q(σ) is held at its value there (measured −0.40526, −0.81040 at σ = 1e-5 and 1e-3)
+SLOPE_LIMIT = 0.005  # |b1 − b2| ≤ 2·this·|s|: the second-order expansion (7); beyond, the exact average (module docstring: the expansion leaves ≈ 2(|b1 − b2|/2s)² of the difference)
+TWO_WIDTH_FINE, TWO_WIDTH_LEAN = (0.25, 24, 12), (0.2, 12, 8)  # ``two_width_averages``' rules (ratio, panels per half, points)
+TWO_WIDTH_CHUNK = 2048  # rows per batch of ``two_width_averages`` and of the graded rule in ``double_antiderivatives``
+CORRECTION_RULE = (12, 6, 6, 6)  # ``width_corrections``: geometric panels toward s = 0, Gauss points on each, points along (m; the shorter side of touching pairs), points per side of separated pairs
+APART_CLOSE = 3.0  # separated pairs closer than this many strip lengths take CORRECTION_RULE's last entry, farther ones ``FAR_POINTS`` (Gauss' error ~ (3 + √8)^(−2·points) at a gap of one length, ~13^(−8) at three)
+CORRECTION_FLOOR = 1e-4  # … graded toward s = 0 down to this many b (below, the difference is O(s²) ⟨k⟩)
 FAR_CHUNK = 2**16  # far pairs per batch of the Gauss product rule (its arrays: ~800 B a pair, ~52 MB a batch)
 #: Largest b/a of a rectangle on strips (``supports``); see ``MODEL_ERROR``.
 MAX_ASPECT = 1e-6
-#: Largest b/a of an ellipse on strips: the bound ``model_error`` is 1.4e-6 there, and the near
-#: pairs' single widths fail where the strips are not slender (module docstring).
-MAX_ELLIPSE_ASPECT = 1e-3
 #: Bound on the model's relative error in K_xx, K_yy, K_zz as a multiple of b/a (module docstring:
 #: −0.010 … −0.037 b/a measured at b/a = 0.01 and 0.003).
 MODEL_ERROR = 0.1
-#: Bound on an ellipse's relative error from the near pairs' widths as a multiple of
-#: (b/a)² ln(a/b): measured ≤ 0.061 (b/a = 1e-2 … 1e-5, n = 16 … 1024, nu 0, 0.3, 0.5; module docstring).
-WIDTH_ERROR = 0.2
+#: Bound on what an ellipse's integrals leave of K (relative), ``INTEGRALS_SLOPE`` · b/a up to
+#: ``INTEGRALS_CAP``: the level the error settles at with n, against Mindlin and Galin
+#: (``benchmarks/strip_calibration.py``, module docstring), times 3.
+INTEGRALS_SLOPE = 8e-7
+INTEGRALS_CAP = 5e-8
 #: What the quadratures leave of an ellipse's K where the widths' error vanishes (b/a ≤ 1e-6:
 #: 1.0e-12 … 1.7e-12 measured against Mindlin and Galin), times 3.
 QUADRATURE_FLOOR = 5e-12
 
 
 def supports(shape: Shape, material: object) -> bool:
-    """Whether strip cells apply: an unturned rectangle of aspect b/a ≤ ``MAX_ASPECT`` or
-    ellipse of b/a ≤ ``MAX_ELLIPSE_ASPECT`` on an isotropic half-space (H_α of (2) is the
-    isotropic point-force solution averaged)."""
-    limit = {"rectangle": MAX_ASPECT, "ellipse": MAX_ELLIPSE_ASPECT}.get(shape.name)
+    """Whether strip cells apply: an unturned rectangle of aspect b/a ≤ ``MAX_ASPECT`` or an
+    unturned ellipse of any aspect on an isotropic half-space (H_α of (2) is the isotropic
+    point-force solution averaged; an ellipse's strips contain its exact traction, module
+    docstring)."""
+    limit = {"rectangle": MAX_ASPECT, "ellipse": 1.0}.get(shape.name)
     return isinstance(material, Isotropic) and limit is not None and shape.angle_deg == 0.0 and shape.aspect <= limit
 
 
 def model_error(shape: Shape) -> float:
     """Relative bound on what strips leave whatever their number: ``MODEL_ERROR`` · b/a for a
-    rectangle (its ends); for an ellipse ``WIDTH_ERROR`` (b/a)² ln(a/b) + ``QUADRATURE_FLOOR``
-    (near pairs' widths, module docstring)."""
+    rectangle (its ends); for an ellipse, whose strips contain the exact traction, what the
+    integrals leave: min(``INTEGRALS_SLOPE`` · b/a, ``INTEGRALS_CAP``) + ``QUADRATURE_FLOOR``
+    (module docstring)."""
     if shape.name == "rectangle":
         return MODEL_ERROR * shape.aspect
-    return WIDTH_ERROR * shape.aspect**2 * math.log(1.0 / shape.aspect) + QUADRATURE_FLOOR
+    return min(INTEGRALS_SLOPE * shape.aspect, INTEGRALS_CAP) + QUADRATURE_FLOOR
 
 
-SUPPORTED_TEXT = (f"strip only for unturned rectangles of aspect <= {MAX_ASPECT:g} and ellipses of aspect <= "
-                  f"{MAX_ELLIPSE_ASPECT:g}, isotropic, quantities tangential/normal")
+SUPPORTED_TEXT = (f"strip only for unturned ellipses and unturned rectangles of aspect <= {MAX_ASPECT:g}, isotropic, "
+                  "quantities tangential/normal")
 
 
 @functools.lru_cache(maxsize=1)
@@ -295,8 +334,11 @@ def double_antiderivatives(s: np.ndarray, b: np.ndarray | float) -> tuple[np.nda
     rise = (sw * sw / (r + 2.0 * tau)) @ weight
     one[wide], xx[wide] = logs - rise, logs - 2.0 * rise
     t, weight = difference_rule(1.0)
-    F1, Fx = _antiderivatives(sigma[~wide][:, None], t)
-    one[~wide], xx[~wide] = F1 @ weight, Fx @ weight
+    close, flat_one, flat_xx = np.flatnonzero(~wide), one.reshape(-1), xx.reshape(-1)
+    for start in range(0, close.size, TWO_WIDTH_CHUNK):  # the graded rule's rows in batches (~8 MB each)
+        rows = close[start:start + TWO_WIDTH_CHUNK]
+        F1, Fx = _antiderivatives(sigma.reshape(-1)[rows][:, None], t)
+        flat_one[rows], flat_xx[rows] = F1 @ weight, Fx @ weight
     return b * one, b * xx
 
 
@@ -311,27 +353,23 @@ def _first_by_rule(sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return lift @ weight, np.where(x < 0.01, small, lift - x / np.sqrt(1.0 + x2)) @ weight
 
 
-@functools.lru_cache(maxsize=1)
-def _narrow_table() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Piecewise Chebyshev fits of ln A_1'(σ) and ln A_x'(σ) in v = ln σ for
-    ``NARROW_LOW`` ≤ σ < 1: panels of width ``NARROW_PANEL`` in v, degree ``NARROW_DEGREE``
-    (both are positive and smooth in v; against the graded rule ≤ 5e-14 relative on 5000
-    random σ, ``tests/test_strip_cells.py``). Returns the panel edges and the coefficients."""
-    low = math.log(NARROW_LOW)
-    count = math.ceil(-low / NARROW_PANEL)
-    edges = low + NARROW_PANEL * np.arange(count + 1, dtype=np.float64)
-    edges[-1] = 0.0
-    nodes = np.cos(np.pi * (np.arange(NARROW_DEGREE + 1) + 0.5) / (NARROW_DEGREE + 1))
+def _log_chebyshev_fit(function: object, low: float, high: float, panel: float, degree: int) -> tuple[np.ndarray, list[np.ndarray]]:
+    """Piecewise Chebyshev fits in v = ln σ of the arrays ``function``(σ) returns, for
+    ``low`` ≤ σ ≤ ``high``: panels of width ``panel`` in v (the last one shorter), ``degree``
+    on each. Returns the panel edges in v and one coefficient array per fitted function."""
+    count = math.ceil((math.log(high) - math.log(low)) / panel)
+    edges = math.log(low) + panel * np.arange(count + 1, dtype=np.float64)
+    edges[-1] = math.log(high)
+    nodes = np.cos(np.pi * (np.arange(degree + 1) + 0.5) / (degree + 1))
     v = edges[:-1, None] + 0.5 * (nodes + 1.0) * np.diff(edges)[:, None]
-    one, xx = _first_by_rule(np.exp(v.ravel()))
     fit = np.polynomial.chebyshev.chebfit
-    coefficients = [np.array([fit(nodes, np.log(f.reshape(v.shape)[k]), NARROW_DEGREE) for k in range(count)]) for f in (one, xx)]
-    return edges, coefficients[0], coefficients[1]
+    return edges, [np.array([fit(nodes, f.reshape(v.shape)[k], degree) for k in range(count)]) for f in function(np.exp(v.ravel()))]
 
 
-def _narrow(sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """A_1'(σ), A_x'(σ) for ``NARROW_LOW`` ≤ σ < 1 from ``_narrow_table`` (Clenshaw's recurrence)."""
-    edges, *coefficients = _narrow_table()
+def _log_chebyshev_sum(table: tuple[np.ndarray, list[np.ndarray]], sigma: np.ndarray) -> list[np.ndarray]:
+    """The fits of :func:`_log_chebyshev_fit` at ``sigma`` (Clenshaw's recurrence; σ outside the
+    table takes its nearest panel)."""
+    edges, coefficients = table
     v = np.log(sigma)
     panel = np.clip(np.searchsorted(edges, v, side="right") - 1, 0, edges.size - 2)
     u = 2.0 * (v - edges[panel]) / (edges[panel + 1] - edges[panel]) - 1.0
@@ -339,10 +377,24 @@ def _narrow(sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     for c in coefficients:
         c = c[panel]
         b1, b2 = np.zeros_like(u), np.zeros_like(u)
-        for j in range(NARROW_DEGREE, 0, -1):
+        for j in range(c.shape[1] - 1, 0, -1):
             b1, b2 = c[:, j] + 2.0 * u * b1 - b2, b1
-        out.append(np.exp(c[:, 0] + u * b1 - b2))
-    return out[0], out[1]
+        out.append(c[:, 0] + u * b1 - b2)
+    return out
+
+
+@functools.lru_cache(maxsize=1)
+def _narrow_table() -> tuple[np.ndarray, list[np.ndarray]]:
+    """Fits of ln A_1'(σ) and ln A_x'(σ) for ``NARROW_LOW`` ≤ σ < 1 (both are positive and
+    smooth in ln σ; against the graded rule ≤ 5e-14 relative on 5000 random σ,
+    ``tests/test_strip_cells.py``)."""
+    return _log_chebyshev_fit(lambda sigma: [np.log(f) for f in _first_by_rule(sigma)], NARROW_LOW, 1.0, NARROW_PANEL, NARROW_DEGREE)
+
+
+def _narrow(sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A_1'(σ), A_x'(σ) for ``NARROW_LOW`` ≤ σ < 1 from ``_narrow_table``."""
+    one, xx = _log_chebyshev_sum(_narrow_table(), sigma)
+    return np.exp(one), np.exp(xx)
 
 
 def first_antiderivatives(s: np.ndarray, b: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
@@ -397,6 +449,234 @@ def self_integrals(lo: np.ndarray, hi: np.ndarray, outline: Outline) -> tuple[np
     one, xx = first_antiderivatives(L, outline.width_at_distances(ahead, behind))
     weight = half[:, None] * np.concatenate([w, w])
     return 2.0 * (one * weight).sum(axis=1), 2.0 * (xx * weight).sum(axis=1)
+
+
+def _two_sided_rule(ratio: float, panels: int, points: int) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes u ∈ (0, 1) and weights of ∫₀¹ g(u) du for g with logarithms at both ends:
+    Gauss–Legendre on panels graded geometrically (``ratio``, ``panels`` per half) toward 0 and 1."""
+    x, w = np.polynomial.legendre.leggauss(points)
+    half = np.concatenate([[0.0], ratio ** np.arange(panels, -1, -1, dtype=np.float64)]) * 0.5
+    edges = np.unique(np.concatenate([half, 1.0 - half]))
+    lo, hi = edges[:-1], edges[1:]
+    return (lo[:, None] + 0.5 * (hi - lo)[:, None] * (x + 1.0)).ravel(), (0.5 * (hi - lo)[:, None] * w).ravel()
+
+
+@functools.lru_cache(maxsize=2)
+def _two_width_rule(fine: bool) -> tuple[np.ndarray, np.ndarray]:
+    """``TWO_WIDTH_FINE`` (the tables) or ``TWO_WIDTH_LEAN`` (the points of
+    :func:`width_difference` that need the exact average) as a :func:`_two_sided_rule`."""
+    return _two_sided_rule(*(TWO_WIDTH_FINE if fine else TWO_WIDTH_LEAN))
+
+
+def two_width_averages(s: np.ndarray, b1: np.ndarray | float, b2: np.ndarray | float, fine: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """⟨1/r⟩ and ⟨s²/r³⟩ [1/m] at separations ``s`` for y and y' drawn from the profile (1) of
+    half-widths ``b1`` and ``b2`` (arrays broadcast together).
+
+    t = y − y' has, for b₁ ≥ b₂ (d = b₁ − b₂, S = b₁ + b₂, 0 ≤ |t| < S), the density
+
+        ρ(t) = 2 K(k) / (π² √D),   1 − k² = |t² − d²| / D,   D = S² − t² (|t| ≤ d), 4b₁b₂ (|t| > d)   (6)
+
+    (the integral between the middle roots of (b₁² − y²)(b₂² − (y − t)²), Byrd & Friedman 1971,
+    256.00; for b₁ = b₂ it is (3)). Its logarithms at |t| = d and t = 0 (when d = 0) sit at the
+    ends of the two pieces [0, d] and [d, S], each integrated by a :func:`_two_sided_rule` in the
+    distance from d (so 1 − k² keeps its digits); the averages are divided by the rule's mass.
+    ``fine``: ≤ 3e-12 relative to scipy's two-dimensional quadrature in the profiles' angles
+    (``tests/test_strip_cells.py``); lean: ≤ 6e-7 of the average."""
+    s, b1, b2 = np.broadcast_arrays(np.abs(np.asarray(s, dtype=np.float64)), np.asarray(b1, dtype=np.float64),
+                                    np.asarray(b2, dtype=np.float64))
+    shape = s.shape
+    u, weight = _two_width_rule(fine)
+    wide, narrow = np.maximum(b1, b2).ravel(), np.minimum(b1, b2).ravel()
+    s = s.ravel()
+    one, xx = np.empty(s.size), np.empty(s.size)
+    for start in range(0, s.size, TWO_WIDTH_CHUNK):
+        rows = slice(start, start + TWO_WIDTH_CHUNK)
+        P, Q, sk = wide[rows, None], narrow[rows, None], s[rows, None]
+        d, S = P - Q, P + Q
+        mass = one_sum = xx_sum = 0.0
+        for inner in (True, False):
+            length = d if inner else S - d
+            gap, w = length * u, length * weight
+            t = d - gap if inner else d + gap
+            D = (S - t) * (S + t) if inner else 4.0 * P * Q
+            with np.errstate(divide="ignore", invalid="ignore"):
+                density = np.where(w > 0.0, w * 2.0 * ellipkm1(gap * (t + d) / D) / (math.pi**2 * np.sqrt(D)), 0.0)
+            r = np.hypot(sk, t)
+            mass = mass + density.sum(axis=1)
+            one_sum = one_sum + (density / r).sum(axis=1)
+            xx_sum = xx_sum + (density * (sk / r) ** 2 / r).sum(axis=1)
+        one[rows], xx[rows] = one_sum / mass, xx_sum / mass
+    return one.reshape(shape), xx.reshape(shape)
+
+
+@functools.lru_cache(maxsize=1)
+def _profile_table() -> tuple[np.ndarray, list[np.ndarray]]:
+    """Fits of ln⟨1/r⟩ and ln⟨s²/r³⟩ at unit width (:func:`profile_averages`) for
+    ``NARROW_LOW`` ≤ σ ≤ ``SPREAD_REACH``."""
+    return _log_chebyshev_fit(lambda sigma: [np.log(f) for f in profile_averages(sigma, 1.0)], NARROW_LOW, SPREAD_REACH,
+                              NARROW_PANEL, NARROW_DEGREE)
+
+
+@functools.lru_cache(maxsize=1)
+def _spread_table() -> tuple[np.ndarray, list[np.ndarray]]:
+    """Fits of σ² q(σ) for both kernels, q = ½ ∂²⟨k⟩/∂ε² at half-widths 1 ± ε, ε = 0 (7), for
+    ``SPREAD_LOW`` ≤ σ ≤ ``SPREAD_REACH``: Richardson's extrapolation of the differences of
+    :func:`two_width_averages` at ε and 2ε, ε = min(0.01, σ/20) (the averages are even in ε)."""
+    def spread(sigma: np.ndarray) -> list[np.ndarray]:
+        eps, ones = np.minimum(0.01, sigma / 20.0), np.ones_like(sigma)
+        base = np.array(two_width_averages(sigma, ones, ones))
+        near = np.array(two_width_averages(sigma, 1.0 + eps, 1.0 - eps))
+        far = np.array(two_width_averages(sigma, 1.0 + 2.0 * eps, 1.0 - 2.0 * eps))
+        q = (4.0 * (near - base) - 0.25 * (far - base)) / (3.0 * eps * eps)
+        return [q[0] * sigma**2, q[1] * sigma**2]
+    return _log_chebyshev_fit(spread, SPREAD_LOW, SPREAD_REACH, NARROW_PANEL, NARROW_DEGREE)
+
+
+def _unit_profile(sigma: np.ndarray) -> list[np.ndarray]:
+    """⟨1/r⟩ and ⟨s²/r³⟩ at unit half-width and separation σ > 0: ``_profile_table`` up to
+    ``SPREAD_REACH`` (σ below ``NARROW_LOW`` taken there: the averages' log² growth is
+    resolved to ``NARROW_LOW``), the series (5) beyond."""
+    inside = sigma <= SPREAD_REACH
+    out = [np.empty(sigma.shape), np.empty(sigma.shape)]
+    fitted = _log_chebyshev_sum(_profile_table(), np.maximum(sigma[inside], NARROW_LOW))
+    series = series_averages(sigma[~inside], 1.0)
+    for o, f, g in zip(out, fitted, series):
+        o[inside], o[~inside] = np.exp(f), g
+    return out
+
+
+def width_difference(s: np.ndarray, b1: np.ndarray, b2: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """⟨k⟩ at half-widths b1, b2 minus ⟨k⟩ at one half-width b, for k = 1/r and s²/r³ [1/m]
+    (arrays of one shape): what a near pair's single width leaves out (module docstring, (7)).
+
+    With b̄ = (b1 + b2)/2, ε = (b1 − b2)/2, σ = |s|/b̄: where σ ≥ ``SPREAD_REACH`` the series (5)
+    with both widths less the series with one; where |ε| ≤ ``SLOPE_LIMIT`` |s|,
+    ⟨k⟩(b̄) − ⟨k⟩(b) + ε² q(σ)/b̄³ (the tables ``_profile_table``, ``_spread_table``); elsewhere
+    (widths that differ by more than 2 ``SLOPE_LIMIT`` |s|: near an ellipse's tips)
+    :func:`two_width_averages` (lean) less ⟨k⟩(b)."""
+    shape = np.shape(s)
+    s, b1, b2, b = (np.ravel(v) for v in (np.abs(s), b1, b2, b))
+    mean, half_difference = 0.5 * (b1 + b2), 0.5 * (b1 - b2)
+    one, xx = np.empty(s.shape), np.empty(s.shape)
+    far = s >= SPREAD_REACH * np.maximum(np.maximum(b1, b2), b)
+    both, single = series_averages(s[far], b1[far], b2[far]), series_averages(s[far], b[far])
+    one[far], xx[far] = both[0] - single[0], both[1] - single[1]
+    near = ~far
+    reference = [f / b[near] for f in _unit_profile(s[near] / b[near])]
+    steep = np.abs(half_difference[near]) > SLOPE_LIMIT * s[near]
+    exact = np.flatnonzero(near)[steep]
+    averages = two_width_averages(s[exact], b1[exact], b2[exact], fine=False)
+    close = np.flatnonzero(near)[~steep]
+    sigma = s[close] / mean[close]
+    centred = _unit_profile(sigma)
+    spread = _log_chebyshev_sum(_spread_table(), np.clip(sigma, SPREAD_LOW, SPREAD_REACH))
+    scale = (half_difference[close] / sigma) ** 2 / mean[close] ** 3
+    for out, average, c, q, ref in zip((one, xx), averages, centred, spread, reference):
+        out[exact] = average - ref[steep]
+        out[close] = c / mean[close] + scale * q - ref[~steep]
+    return one.reshape(shape), xx.reshape(shape)
+
+
+def _graded_from_zero(length: np.ndarray, floor: np.ndarray, panels: int, points: int) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes and weights on (0, ``length``) (rows), Gauss–Legendre on [0, f] and on ``panels``
+    panels geometric from f = min(``floor``, ``length``) to ``length``."""
+    x, w = np.polynomial.legendre.leggauss(points)
+    f = np.minimum(floor, length)[:, None]
+    edges = np.concatenate([np.zeros_like(f), f * (length[:, None] / f) ** (np.arange(panels + 1) / panels)], axis=1)
+    lo, hi = edges[:, :-1, None], edges[:, 1:, None]
+    return (lo + 0.5 * (hi - lo) * (x + 1.0)).reshape(f.size, -1), (0.5 * (hi - lo) * w).reshape(f.size, -1)
+
+
+def _self_points(lo: np.ndarray, hi: np.ndarray, outline: Outline) -> tuple[np.ndarray, ...]:
+    """Points (s, b₁, b₂, b) and weights of (7) for strips with themselves (rows): m on each half
+    of the strip, s ∈ (0, L), L = 2 × the distance to the nearer end, graded toward s = 0; the
+    weights count ±s."""
+    panels, points, along, _ = CORRECTION_RULE
+    u, w = np.polynomial.legendre.leggauss(along)
+    u, w = 0.5 * (u + 1.0), 0.5 * w
+    half = 0.5 * (hi - lo)[:, None]
+    m = np.concatenate([lo[:, None] + half * u, hi[:, None] - half * u], axis=1).ravel()
+    L = (2.0 * half * np.concatenate([u, u])).ravel()
+    b = outline.width(m)
+    s, ws = _graded_from_zero(L, CORRECTION_FLOOR * b, panels, points)
+    weight = 2.0 * (half * np.concatenate([w, w])).ravel()[:, None] * ws
+    rows = lo.size
+    return tuple(v.reshape(rows, -1) for v in (s, outline.width(m[:, None] + 0.5 * s), outline.width(m[:, None] - 0.5 * s),
+                                                np.broadcast_to(b[:, None], s.shape), weight))
+
+
+def _touching_points(size_i: np.ndarray, size_j: np.ndarray, corner: np.ndarray, outline: Outline) -> tuple[np.ndarray, ...]:
+    """Points and weights of (7) for touching strips (x = c − p in I_i, x' = c + q in I_j): the
+    square p, q < ℓ = min(|I_i|, |I_j|) as two triangles (the longer of p, q graded toward the
+    corner, the shorter a fraction of it) and the rest, [ℓ, ℓ + ||I_i| − |I_j||] × [0, ℓ], by a
+    Gauss product rule."""
+    panels, points, along, far_points = CORRECTION_RULE
+    u, w = np.polynomial.legendre.leggauss(along)
+    u, w = 0.5 * (u + 1.0), 0.5 * w
+    rows, ell = corner.size, np.minimum(size_i, size_j)
+    b = outline.width(corner)
+    r, wr = _graded_from_zero(ell, CORRECTION_FLOOR * b, panels, points)
+    longer, shorter = np.tile(r, 2)[:, :, None] * np.ones_like(u), np.tile(r, 2)[:, :, None] * u
+    p_longer = np.concatenate([np.ones_like(r), np.zeros_like(r)], axis=1)[:, :, None] > 0
+    y, wy = np.polynomial.legendre.leggauss(far_points)
+    y, wy = 0.5 * (y + 1.0), 0.5 * wy
+    extra = np.abs(size_i - size_j)
+    along_rest = (ell[:, None] + extra[:, None] * y)[:, :, None] * np.ones(far_points)
+    across_rest = (ell[:, None] * y)[:, None, :] * np.ones((1, far_points, 1))
+    i_longer = (size_i >= size_j)[:, None, None]
+    P = np.concatenate([np.where(p_longer, longer, shorter).reshape(rows, -1), np.where(i_longer, along_rest, across_rest).reshape(rows, -1)], axis=1)
+    Q = np.concatenate([np.where(p_longer, shorter, longer).reshape(rows, -1), np.where(i_longer, across_rest, along_rest).reshape(rows, -1)], axis=1)
+    weight = np.concatenate([(np.tile(wr * r, 2)[:, :, None] * w).reshape(rows, -1),
+                             ((extra[:, None] * wy)[:, :, None] * (ell[:, None] * wy)[:, None, :]).reshape(rows, -1)], axis=1)
+    return P + Q, outline.width(corner[:, None] - P), outline.width(corner[:, None] + Q), np.broadcast_to(b[:, None], P.shape), weight
+
+
+def _apart_points(lo_i: np.ndarray, size_i: np.ndarray, lo_j: np.ndarray, size_j: np.ndarray, gap_middle: np.ndarray,
+                  outline: Outline, count: int) -> tuple[np.ndarray, ...]:
+    """Points and weights of (7) for separated strips: a ``count``² Gauss product rule."""
+    x, w = np.polynomial.legendre.leggauss(count)
+    xi = lo_i[:, None] + 0.5 * size_i[:, None] * (x + 1.0)
+    xj = lo_j[:, None] + 0.5 * size_j[:, None] * (x + 1.0)
+    shape = (lo_i.size, count * count)
+    weight = ((0.5 * size_i[:, None] * w)[:, :, None] * (0.5 * size_j[:, None] * w)[:, None, :]).reshape(shape)
+    return ((xj[:, None, :] - xi[:, :, None]).reshape(shape), np.repeat(outline.width(xi), count, axis=1),
+            np.tile(outline.width(xj), count), np.broadcast_to(outline.width(gap_middle)[:, None], shape), weight)
+
+
+def width_corrections(edges: np.ndarray, outline: Outline, pairs: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """∫_{I_i}∫_{I_j} :func:`width_difference` for the near pairs ``pairs`` (i ≤ j) of an
+    outline whose width varies, against the single width those pairs were integrated with
+    (b(m) along a strip's own diagonal, b at the middle of the gap otherwise) [m]: (7).
+
+    Quadrature (``CORRECTION_RULE``): a strip with itself in m and s (``_self_points``);
+    touching strips in the distances from their common edge (``_touching_points``); separated
+    ones by Gauss product rules, finer within ``APART_CLOSE`` strip lengths (``_apart_points``);
+    in batches of about ``FAR_CHUNK`` points."""
+    lo, hi = edges[:-1], edges[1:]
+    size = hi - lo
+    i, j = pairs
+    one, xx = np.zeros(i.size), np.zeros(i.size)
+    apart = j > i + 1
+    close = apart & (lo[j] - hi[i] < APART_CLOSE * np.maximum(size[i], size[j]))
+    groups = (
+        (np.flatnonzero(i == j), lambda a, c: _self_points(lo[a], hi[a], outline)),
+        (np.flatnonzero(j == i + 1), lambda a, c: _touching_points(size[a], size[c], hi[a], outline)),
+        (np.flatnonzero(close), lambda a, c: _apart_points(lo[a], size[a], lo[c], size[c], 0.5 * (hi[a] + lo[c]), outline,
+                                                           CORRECTION_RULE[3])),
+        (np.flatnonzero(apart & ~close), lambda a, c: _apart_points(lo[a], size[a], lo[c], size[c], 0.5 * (hi[a] + lo[c]),
+                                                                    outline, FAR_POINTS)),
+    )
+    for selected, points_of in groups:
+        if not selected.size:
+            continue
+        per_pair = points_of(i[selected[:1]], j[selected[:1]])[0].shape[1]
+        step = max(1, FAR_CHUNK // per_pair)
+        for start in range(0, selected.size, step):
+            batch = selected[start:start + step]
+            s, b1, b2, b, weight = points_of(i[batch], j[batch])
+            D1, Dx = width_difference(s, b1, b2, b)
+            one[batch], xx[batch] = (D1 * weight).sum(axis=1), (Dx * weight).sum(axis=1)
+    return one, xx
 
 
 def graded_edges(n: int, grading: float = GRADING, half_length: float = 1.0) -> np.ndarray:
@@ -459,6 +739,10 @@ def galerkin_integrals(edges: np.ndarray, b: float | Outline, with_xx: bool = Tr
     if varying:
         own = i == j
         one[own], xx[own] = self_integrals(lo, hi, outline)
+        corrected = np.flatnonzero(near)
+        extra_one, extra_xx = width_corrections(edges, outline, (i[corrected], j[corrected]))
+        one[corrected] += extra_one
+        xx[corrected] += extra_xx
     x, w = np.polynomial.legendre.leggauss(FAR_POINTS)
     far = np.flatnonzero(~near)
     for start in range(0, far.size, FAR_CHUNK):
