@@ -65,17 +65,19 @@ used before :func:`principal_error`) and within 30× of it in 94.6 % (94.0 %). P
 1e-3) is 1.18× below its true error. Singular cells' sequences get their own candidates and
 factor (below).
 
-``hpcontact solve --accuracy`` uses strategy ``auto``. Slender contacts — unturned rectangles of
-b/a ≤ 1e-6 and ellipses of b/a ≤ 1e-3, isotropic — take strip cells (``hpcontact.strip_cells``):
-n = 32, 64, … strips (``STRIP_N0``) up to ``STRIP_MAX_N`` = 1024, the estimator of
-coverage-weighted cells (``EXPANSIONS``, ``SAFETY``) plus the model bound
-``strip_cells.model_error`` (where that bound is not below the request, ``stopped_by`` "model"
-after four grids: b/a = 1e-3 ellipses, bound 1.4e-6, at requests ≤ 1.4e-6). Replayed
-on every grid of those sequences (``benchmarks/strip_calibration.py``: rectangles b/a = 1e-6 …
-1e-12 against the strip model's limit from 2048 and 4096 strips, ellipses b/a = 1e-3 … 1e-10
-against Mindlin and Galin; nu 0, 0.3, 0.5; n₀ = 32 and 64; requests 1e-3 … 1e-7): honest on
-all 756 records (worst true/estimate 0.26 rectangles, 0.41 ellipses), within 30x in 95.2 % and
-100 %; per quantity 1 of 4536 pairs below its true error (1.15x: K_yy, rectangle 3e-7, nu 0.5,
+``hpcontact solve --accuracy`` uses strategy ``auto``. Unturned rectangles of b/a ≤ 1e-6 and
+unturned ellipses, isotropic — ellipses wider than ``STRIP_WIDE_ASPECT`` = 1e-2 for requests
+below ``SINGULAR_BELOW`` only — take strip cells (``hpcontact.strip_cells``): n = 32, 64, …
+strips (``STRIP_N0``; ellipses, whose strips contain the exact traction, from
+``STRIP_ELLIPSE_N0`` = 16) up to ``STRIP_MAX_N`` = 1024 (ellipses wider than 1e-2:
+``STRIP_WIDE_MAX_N`` = 256), the estimator of coverage-weighted cells (``EXPANSIONS``,
+``SAFETY``) plus the bound ``strip_cells.model_error`` (where that bound is not below the
+request, ``stopped_by`` "model" after four grids). Replayed on every grid of those sequences
+(``benchmarks/strip_calibration.py``: rectangles b/a = 1e-6 … 1e-12 against the strip model's
+limit from 2048 and 4096 strips, ellipses b/a = 1 … 1e-10 against Mindlin and Galin; nu 0, 0.3,
+0.5; n₀ = 32, 64 and 16, 32; requests 1e-3 … 1e-7): honest on all 378 + 864 records (worst
+true/estimate 0.26 rectangles, 0.52 ellipses), within 30x in 95.2 % and 91.7 %; per quantity
+1 of 7452 pairs below its true error (1.15x: K_yy, rectangle 3e-7, nu 0.5,
 request 1e-7, on 512 strips). Otherwise, for requests below 1e-4 (``SINGULAR_BELOW``)
 singular cells where they apply, on
 sequences from :func:`singular_start` (near-square cells; b/a = 0.05 starts at 160 × 8), with
@@ -216,14 +218,23 @@ SINGULAR_SAFETY = 6.0
 #: (``EXPANSIONS``, ``SAFETY``) plus the model's own bound ``strip_cells.MODEL_ERROR`` · b/a.
 STRIP_N0 = 32
 STRIP_MAX_N = 1024
+#: An ellipse's strips contain its exact traction whatever their number (``strip_cells``
+#: docstring), so its sequence starts at ``STRIP_ELLIPSE_N0``; wider than
+#: ``STRIP_WIDE_ASPECT`` nearly every point of its near pairs takes the exact two-width average
+#: (``strip_cells.width_difference``), so its sequence stops at ``STRIP_WIDE_MAX_N`` (b/a 0.7:
+#: 0.7, 1.5, 2.8, 7.7 s for n = 16 … 128 on this machine).
+STRIP_ELLIPSE_N0 = 16
+STRIP_WIDE_ASPECT = 1e-2
+STRIP_WIDE_MAX_N = 256
 #: Bytes of one strip solve on n strips: ``STRIP_BYTES_PER_PAIR`` · n² (the pair indices, the
 #: two integral matrices, the system and its Cholesky factor; an ellipse's near pairs, which
-#: reach 100 b) + ``STRIP_BYTES_BASE`` (one batch of ``strip_cells.FAR_CHUNK`` far pairs).
+#: reach 100 b) + ``STRIP_BYTES_BASE`` (one batch of ``strip_cells.FAR_CHUNK`` far pairs or
+#: width corrections' points, ``strip_cells.TWO_WIDTH_CHUNK`` rows of the two-width averages).
 #: tracemalloc peaks of ``covered_solve`` (tangential and normal): rectangle 1e-8 at n = 128 …
-#: 2048: 15, 41, 102, 142, 332 MiB; ellipse 1e-3: 21, 42, 94, 193, 594 MiB (the bound: 99, 106,
-#: 138, 264, 767 MiB).
+#: 2048: 15, 41, 102, 142, 332 MiB; ellipse 1e-3 at 1024, 2048: 194, 490 MiB; ellipse 0.7 at
+#: 128, 256: 93, 109 MiB (the bound: 288, 768 and 130, 138 MiB there).
 STRIP_BYTES_PER_PAIR = 160.0
-STRIP_BYTES_BASE = 96.0 * 2**20
+STRIP_BYTES_BASE = 128.0 * 2**20
 
 
 # ------------------------------------------------------------------------------------------
@@ -424,6 +435,17 @@ class GridPlan:
     max_cells: int
 
 
+def strip_max_n(shape: Shape) -> int:
+    """The finest strip grid of ``shape``'s calibration: ``STRIP_WIDE_MAX_N`` for ellipses wider
+    than ``STRIP_WIDE_ASPECT``, else ``STRIP_MAX_N``."""
+    return STRIP_WIDE_MAX_N if shape.name == "ellipse" and shape.aspect > STRIP_WIDE_ASPECT else STRIP_MAX_N
+
+
+def strip_n0(shape: Shape) -> int:
+    """The first strip grid: ``STRIP_ELLIPSE_N0`` for ellipses, ``STRIP_N0`` for rectangles."""
+    return STRIP_ELLIPSE_N0 if shape.name == "ellipse" else STRIP_N0
+
+
 def calibrated(strategy: str, shape: Shape) -> Callable[[int, int], bool]:
     """Whether the estimator of ``strategy``'s cells was calibrated on a grid (n, n_across):
     singular cells up to ``SINGULAR_MAX_CELLS`` cells, strip cells up to ``STRIP_MAX_N`` strips,
@@ -432,7 +454,8 @@ def calibrated(strategy: str, shape: Shape) -> Callable[[int, int], bool]:
     if strategy == "singular":
         return lambda n, na: n * na <= SINGULAR_MAX_CELLS
     if strategy == "strip":
-        return lambda n, na: n <= STRIP_MAX_N
+        finest = strip_max_n(shape)
+        return lambda n, na: n <= finest
     if shape.name == "mask":
         return lambda n, na: True
     return lambda n, na: max(n, na) <= COVERAGE_MAX_N
@@ -645,8 +668,8 @@ def solve_to_accuracy(
     scene = Scene.from_params(base)
     tol = min(scene.tol, accuracy * 1e-2)
     base["tol"] = max(tol, 1e-14)
-    if strategy == "auto" and strip_applies(scene):  # a slender rectangle or ellipse
-        strategy, n0, n_across0 = "strip", n0 or STRIP_N0, 1
+    if strategy == "auto" and strip_applies(scene) and (accuracy < SINGULAR_BELOW or scene.shape.aspect <= STRIP_WIDE_ASPECT):
+        strategy, n0, n_across0 = "strip", n0 or strip_n0(scene.shape), 1  # a slender rectangle, or an ellipse
     if strategy == "auto":  # singular cells on near-square cells where they apply and pay, else coverage
         start = singular_start(scene, n0 or N0, n_across0) if accuracy < SINGULAR_BELOW else None
         strategy = "coverage" if start is None else "singular"
@@ -654,7 +677,7 @@ def solve_to_accuracy(
     elif strategy == "strip":
         if not strip_applies(scene):
             raise InputError("strategy", strip_cells.SUPPORTED_TEXT, strategy)
-        n0, n_across0 = n0 or STRIP_N0, 1
+        n0, n_across0 = n0 or strip_n0(scene.shape), 1
     plan = plan_grids(base, scene.shape, n0 or N0, n_across0, max_cells, memory_budget, strategy)
     sequence = plan.grids[:max_grids] if max_grids is not None else plan.grids
     if len(sequence) < MIN_GRIDS:

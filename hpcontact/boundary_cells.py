@@ -28,7 +28,7 @@ circle or ellipse is a closed form (``benchmarks/boundary_treatment.py``).
 Strip cells
 -----------
 ``covered_solve(params, strategy="strip")`` (or ``"auto"``) solves unturned rectangles of
-b/a ≤ ``strip_cells.MAX_ASPECT`` and ellipses of b/a ≤ ``strip_cells.MAX_ELLIPSE_ASPECT`` as n
+b/a ≤ ``strip_cells.MAX_ASPECT`` and unturned ellipses of any aspect as n
 strips across which the traction has the plane punch's profile f_i/(π√(b(x)² − y²)), graded
 toward the ends (``hpcontact.strip_cells``): one dense Galerkin system of n unknowns per load
 direction.
@@ -343,7 +343,7 @@ def _block_solves(scene: Scene) -> list[tuple[str, str]]:
 
 def strip_applies(scene: Scene) -> bool:
     """Whether strip cells (``hpcontact.strip_cells``) solve ``scene``: an unturned rectangle of
-    b/a ≤ ``strip_cells.MAX_ASPECT`` or ellipse of b/a ≤ ``strip_cells.MAX_ELLIPSE_ASPECT``,
+    b/a ≤ ``strip_cells.MAX_ASPECT`` or an unturned ellipse,
     isotropic, quantities tangential and normal only."""
     return strip_cells.supports(scene.shape, scene.material) and set(scene.quantities) <= set(SINGULAR_SUPPORTED)
 

@@ -163,14 +163,16 @@ def test_auto_accuracy_starts_on_square_cells_where_singular_cells_apply() -> No
 
 
 def test_auto_accuracy_is_honest_per_quantity_on_singular_cells() -> None:
-    """Ellipse b/a = 0.2, nu = 0.3, request 3e-5 from n₀ = 16 (grids 16 × 4 … 256 × 64, ~2 s):
-    singular cells, met, and every quantity's true error (Mindlin, Galin) below its own estimate.
+    """Ellipse b/a = 0.2, nu = 0.3, request 3e-5 from n₀ = 16 (grids 16 × 4 … 256 × 64, ~2 s) on
+    singular cells: met, and every quantity's true error (Mindlin, Galin) below its own estimate.
     This is a case where expansions led by 1.5 and 2 put K_xx's estimate below its true error
-    (1.27e-6 against 1.46e-6 at 128 × 32, measured), hence ``SINGULAR_EXPANSIONS``."""
+    (1.27e-6 against 1.46e-6 at 128 × 32, measured), hence ``SINGULAR_EXPANSIONS``. ``auto`` takes
+    strips for an unturned ellipse below ``SINGULAR_BELOW`` (``hpcontact.strip_cells``),
+    coverage-weighted cells above it, and strips for thin ellipses at any request."""
     from hpcontact import accuracy as acc
 
     params = {"shape": "ellipse", "aspect": 0.2, "nu": 0.3, "quantities": "tangential,normal"}
-    r = acc.solve_to_accuracy(params, 3e-5, n0=16, strategy="auto")
+    r = acc.solve_to_accuracy(params, 3e-5, n0=16, strategy="singular")
     assert r["boundary"] == "singular" and r["accuracy_met"] and r["stopped_by"] == "met"
     assert (r["grids"][0], r["grids_across"][0]) == (16, 4)
     K_a, K_b = analytic.mindlin_ellipse_stiffness(1.0, 0.2, 1.0, 0.3)
