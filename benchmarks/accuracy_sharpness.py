@@ -2,7 +2,7 @@
 
     python benchmarks/accuracy_sharpness.py [--cache results/accuracy_sharpness.jsonl]
         [--max-n 1024] [--collect] [--strategy coverage|singular] [--set SAFETY=3 ...]
-        [--table] [--cost] [--defaults] [--figure PNG [--singular-cache CACHE]]
+        [--table] [--cost] [--defaults] [--figure PNG [--singular-cache CACHE] [--strip-cache CACHE]]
 
 Cases with closed forms (``hpcontact.analytic``): the circle (8Ga/(2 − nu), 2aE*) and Mindlin's
 bonded ellipse with the elliptical punch (K_a, K_b, K_zz, K_a/K_b) for b/a = 0.7, 0.5, 0.1,
@@ -29,7 +29,8 @@ limit is the cache's finest grid. Printed:
   cached solve times), true / estimated error, or the limit that stopped it;
 * with ``--figure``: true against estimated error of every record (and of the singular cells'
   calibration, ``benchmarks/edge_order.py --singular-calibration``'s cache, with
-  ``--singular-cache``), and what ``--accuracy`` reports after each grid against CPU seconds;
+  ``--singular-cache``; of the strips' ellipses, ``benchmarks/strip_calibration.py``'s cache, with
+  ``--strip-cache``), and what ``--accuracy`` reports after each grid against CPU seconds;
 * with ``--defaults``: ``hpcontact solve`` without n (``accuracy.default_solve``) on every
   ellipse b/a, the square and the hexagon, worst over nu: true and estimated error, CPU time.
 
@@ -254,12 +255,13 @@ def convergence(cached: dict[str, dict[str, Any]], strategy: str, aspect: float,
     return out
 
 
-def figure(cache: Path, singular_cache: Path | None, path: Path) -> None:
+def figure(cache: Path, singular_cache: Path | None, path: Path, strip_cache: Path | None = None) -> None:
     """Left: true against estimated error of every replayed record, coverage-weighted cells (this
-    cache) and singular cells (``benchmarks/edge_order.py``'s calibration cache, when given);
-    honest below the diagonal, sharp above the 1/30 line. Right: what ``--accuracy`` reports
-    after each grid against the CPU seconds of the sequence so far (nu = 0.3, from n = 32):
-    estimate solid, true error dashed, for both treatments where singular cells apply."""
+    cache), singular cells (``benchmarks/edge_order.py``'s calibration cache) and strips (the
+    ellipses of ``benchmarks/strip_calibration.py``'s cache), when given; honest below the
+    diagonal, sharp above the 1/30 line. Right: what ``--accuracy`` reports after each grid
+    against the CPU seconds of the sequence so far (nu = 0.3, from n = 32; strips from 16):
+    estimate solid, true error dashed, for every treatment that applies."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -271,15 +273,22 @@ def figure(cache: Path, singular_cache: Path | None, path: Path) -> None:
         from edge_order import singular_records
 
         sets.append(("singular cells", "C3", "^", [(e, t) for _, t, e in singular_records(singular_cache)[0]]))
+    strips = None
+    if strip_cache is not None:
+        import strip_calibration as strip
+
+        strips = strip.load(strip_cache, [])  # cached grids only
+        ellipses = sorted({(s, a) for s, a, _, _ in strips if s == "ellipse"})
+        sets.append(("strips (ellipses)", "C2", "s", [(r["estimate"], max(r["true"].values())) for r in strip.replay(strips, ellipses)]))
     for label, colour, marker, points in sets:
         estimate, true = np.array(points).T
-        left.loglog(estimate, np.maximum(true, 1e-12), marker, color=colour, ms=3.5, alpha=0.6, ls="none",
+        left.loglog(estimate, np.maximum(true, 1e-14), marker, color=colour, ms=3.5, alpha=0.6, ls="none",
                     label=f"{label}: {len(points)} records, worst true/estimate {np.max(true / estimate):.2f}")
-    line = np.array([1e-8, 1e-2])
+    line = np.array([1e-12, 1e-2])
     left.loglog(line, line, "k-", lw=1, label="true = estimate (honest below)")
     left.loglog(line, line / 30, "k:", lw=1, label="true = estimate / 30 (sharp above)")
     left.set(xlabel="estimated relative error (--accuracy)", ylabel="true relative error (closed forms)",
-             title="Honesty and sharpness of the estimate", ylim=(1e-12, 1e-2))
+             title="Honesty and sharpness of the estimate", ylim=(1e-14, 1e-2))
     left.legend(fontsize=7, loc="upper left")
     cached = load(cache)
     for (aspect, name), colour in zip(FIGURE_CASES, ("C0", "C1", "C2")):
@@ -290,6 +299,10 @@ def figure(cache: Path, singular_cache: Path | None, path: Path) -> None:
             seconds, estimate, true = np.array(points).T
             right.loglog(seconds, estimate, "-" + marker, color=colour, ms=4, label=f"{name}, {strategy}")
             right.loglog(seconds, true, "--" + marker, color=colour, ms=3, alpha=0.6)
+        if strips is not None and aspect < 1.0:
+            seconds, estimate, true = np.array(strip.convergence(strips, "ellipse", aspect)).T
+            right.loglog(seconds, estimate, "-s", color=colour, ms=4, label=f"{name}, strips")
+            right.loglog(seconds, np.maximum(true, 1e-12), "--s", color=colour, ms=3, alpha=0.6)
     right.set(xlabel="CPU seconds of the grid sequence so far (one core, cached solve times)",
               ylabel="relative error: estimate (solid), true (dashed)", title="What --accuracy reports, per second")
     right.legend(fontsize=7)
@@ -321,6 +334,8 @@ def main() -> None:
     parser.add_argument("--figure", type=Path, default=None, help="write the honesty and error-per-second figure here")
     parser.add_argument("--singular-cache", type=Path, default=None,
                         help="benchmarks/edge_order.py --singular-calibration's cache, for the figure's singular records")
+    parser.add_argument("--strip-cache", type=Path, default=None,
+                        help="benchmarks/strip_calibration.py's cache, for the figure's strip records (ellipses)")
     args = parser.parse_args()
     for item in args.set:
         name, value = item.split("=")
@@ -341,7 +356,7 @@ def main() -> None:
     if args.defaults:
         defaults_table()
     if args.figure is not None:
-        figure(args.cache, args.singular_cache, args.figure)
+        figure(args.cache, args.singular_cache, args.figure, args.strip_cache)
     if args.table:
         print(f"{'case':28s} {'n0':>3s} {'request':>8s} {'true':>9s} {'estimate':>9s} {'ratio':>6s} {'stopped':>11s} {'n':>5s}")
         for case, n0, request, true, est, stopped, n in records:

@@ -147,6 +147,24 @@ def replay(have: dict, cases: list[tuple[str, float]]) -> list[dict[str, Any]]:
     return records
 
 
+def convergence(have: dict, shape: str, aspect: float, nu: float = 0.3) -> list[tuple[float, float, float]]:
+    """(CPU s of the integrals so far, estimated error, largest true error) after every grid from
+    the ``MIN_GRIDS``-th of the sequence ``--accuracy`` runs from ``accuracy.strip_n0``: what it
+    would report if it stopped there (``benchmarks/accuracy_sharpness.py --figure``)."""
+    shape_of = Shape(shape, aspect=aspect)
+    grids = [n for n in grids_of(shape, aspect) if n >= acc.strip_n0(shape_of) and (shape, aspect, nu, n) in have]
+    levels = [have[(shape, aspect, nu, n)] for n in grids]
+    ref, _ = reference(have, shape, aspect, nu)
+    model = sc.model_error(shape_of)
+    out = []
+    for k in range(acc.MIN_GRIDS, len(levels) + 1):
+        values, relative, _, _ = acc.extrapolate([{**{q: r[q] for q in KEYS}, "K_xy": 0.0, "K_yx": 0.0} for r in levels[:k]])
+        true = with_ratios({q: values[q] for q in KEYS})
+        out.append((sum(r["integrals_cpu_s"] for r in levels[:k]), max(relative.values()) + model,
+                    max(abs(true[q] / ref[q] - 1.0) for q in ref)))
+    return out
+
+
 def summary(records: list[dict[str, Any]]) -> None:
     for shape in ("rectangle", "ellipse"):
         rs = [r for r in records if r["shape"] == shape]
