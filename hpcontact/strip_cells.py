@@ -638,16 +638,25 @@ def _touching_points(size_i: np.ndarray, size_j: np.ndarray, corner: np.ndarray,
     return P + Q, outline.width(corner[:, None] - P), outline.width(corner[:, None] + Q), np.broadcast_to(b[:, None], P.shape), weight
 
 
-def _apart_points(lo_i: np.ndarray, size_i: np.ndarray, lo_j: np.ndarray, size_j: np.ndarray, gap_middle: np.ndarray,
-                  outline: Outline, count: int) -> tuple[np.ndarray, ...]:
-    """Points and weights of (7) for separated strips: a ``count``² Gauss product rule."""
+def _product_points(lo_i: np.ndarray, size_i: np.ndarray, lo_j: np.ndarray, size_j: np.ndarray, outline: Outline,
+                    count: int) -> tuple[np.ndarray, ...]:
+    """A ``count``² Gauss product rule on pairs of strips (rows): separations s = x' − x, the
+    widths b(x), b(x') and the weights (far pairs of (5), separated pairs of (7))."""
     x, w = np.polynomial.legendre.leggauss(count)
     xi = lo_i[:, None] + 0.5 * size_i[:, None] * (x + 1.0)
     xj = lo_j[:, None] + 0.5 * size_j[:, None] * (x + 1.0)
     shape = (lo_i.size, count * count)
     weight = ((0.5 * size_i[:, None] * w)[:, :, None] * (0.5 * size_j[:, None] * w)[:, None, :]).reshape(shape)
     return ((xj[:, None, :] - xi[:, :, None]).reshape(shape), np.repeat(outline.width(xi), count, axis=1),
-            np.tile(outline.width(xj), count), np.broadcast_to(outline.width(gap_middle)[:, None], shape), weight)
+            np.tile(outline.width(xj), count), weight)
+
+
+def _apart_points(lo_i: np.ndarray, size_i: np.ndarray, lo_j: np.ndarray, size_j: np.ndarray, gap_middle: np.ndarray,
+                  outline: Outline, count: int) -> tuple[np.ndarray, ...]:
+    """Points and weights of (7) for separated strips: :func:`_product_points` and the single
+    width b at the middle of the gap."""
+    s, b1, b2, weight = _product_points(lo_i, size_i, lo_j, size_j, outline, count)
+    return s, b1, b2, np.broadcast_to(outline.width(gap_middle)[:, None], s.shape), weight
 
 
 def width_corrections(edges: np.ndarray, outline: Outline, pairs: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
@@ -750,16 +759,12 @@ def galerkin_integrals(edges: np.ndarray, b: float | Outline, with_xx: bool = Tr
         extra_one, extra_xx = width_corrections(edges, outline, (i[corrected], j[corrected]))
         one[corrected] += extra_one
         xx[corrected] += extra_xx
-    x, w = np.polynomial.legendre.leggauss(FAR_POINTS)
     far = np.flatnonzero(~near)
     for start in range(0, far.size, FAR_CHUNK):
         batch = far[start:start + FAR_CHUNK]
-        a, c = i[batch], j[batch]
-        xa = lo[a, None] + 0.5 * size[a, None] * (x + 1.0)
-        xc = lo[c, None] + 0.5 * size[c, None] * (x + 1.0)
-        weight = (0.5 * size[a, None] * w)[:, :, None] * (0.5 * size[c, None] * w)[:, None, :]
-        h1, hx = series_averages(xa[:, :, None] - xc[:, None, :], outline.width(xa)[:, :, None], outline.width(xc)[:, None, :])
-        one[batch], xx[batch] = (h1 * weight).sum(axis=(1, 2)), (hx * weight).sum(axis=(1, 2))
+        s, b1, b2, weight = _product_points(lo[i[batch]], size[i[batch]], lo[j[batch]], size[j[batch]], outline, FAR_POINTS)
+        h1, hx = series_averages(s, b1, b2)
+        one[batch], xx[batch] = (h1 * weight).sum(axis=1), (hx * weight).sum(axis=1)
     matrices = []
     for upper in (one, xx) if with_xx else (one,):
         P = np.empty((n, n))
