@@ -44,18 +44,15 @@ reference solves take ~25 min of CPU (5120 × 1280: 221-245 s, 5.6 GB).
 from __future__ import annotations
 
 import argparse
-import json
 import os
-import resource
-import subprocess
 import sys
 import time
 from pathlib import Path
 from typing import Any
 
+import harness
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
 CASES = {"square": ("rectangle", 1.0), "rect1e-8": ("rectangle", 1e-8)}
 NUS = (0.3, 0.5)
 REQUESTS = (1e-3, 1e-4, 1e-5, 1e-6)
@@ -87,17 +84,20 @@ def params(case: str, nu: float) -> dict[str, Any]:
 # one --accuracy run, in its own process
 # ------------------------------------------------------------------------------------------
 def one_run(case: str, nu: float, request: float | str) -> dict[str, Any]:
+    """One ``--accuracy`` run (or the default discretization), in a fresh process."""
     from hpcontact.accuracy import default_solve, solve_to_accuracy
+    from hpcontact.scene import Scene
 
+    scene = Scene.from_params(params(case, nu))
     cpu = time.process_time()
     if request == "default":  # hpcontact solve without --n
-        record = default_solve(params(case, nu))
+        record = default_solve(scene)
     else:
-        record = solve_to_accuracy(params(case, nu), float(request), strict=False)
+        record = solve_to_accuracy(scene, float(request), strict=False)
     cpu = time.process_time() - cpu
     return {
         "case": case, "nu": nu, "request": request, "cpu_s": cpu,
-        "peak_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+        "peak_mib": harness.peak_rss_mb(),
         "estimated_error": record["estimated_error"], "estimated_errors": record["estimated_errors"],
         "accuracy_met": record["accuracy_met"], "stopped_by": record["stopped_by"],
         "grids": record["grids"], "grids_across": record["grids_across"],
@@ -108,26 +108,16 @@ def one_run(case: str, nu: float, request: float | str) -> dict[str, Any]:
     }
 
 
-def load_jsonl(path: Path) -> list[dict[str, Any]]:
-    if not path.exists():
-        return []
-    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
-
-
 def runs(path: Path, cases: list[str], nus: list[float], requests: list[float]) -> dict[tuple, dict]:
-    have = {(r["case"], r["nu"], r["request"]): r for r in load_jsonl(path)}
+    have = {(r["case"], r["nu"], r["request"]): r for r in harness.read_jsonl(path)}
     for case in cases:
         for nu in nus:
             for request in requests:
                 if (case, nu, request) in have:
                     continue
-                out = subprocess.run([sys.executable, __file__, "--one", case, str(nu), request if isinstance(request, str) else repr(request)],
-                                     check=True, capture_output=True, text=True, cwd=ROOT)
-                row = json.loads(out.stdout.strip().splitlines()[-1])
+                row = harness.call_in_child(__file__, "one_run", case, nu, request, check=True).result
                 have[(case, nu, request)] = row
-                path.parent.mkdir(parents=True, exist_ok=True)
-                with path.open("a") as fh:
-                    fh.write(json.dumps(row) + "\n")
+                harness.append_jsonl(path, row)
                 print(f"  ran {case} nu={nu} {request}: {row['cpu_s']:.1f} s CPU", file=sys.stderr, flush=True)
     return have
 
@@ -136,27 +126,26 @@ def runs(path: Path, cases: list[str], nus: list[float], requests: list[float]) 
 # the reference
 # ------------------------------------------------------------------------------------------
 def one_level(case: str, nu: float, n: int, na: int) -> dict[str, Any]:
-    from hpcontact.boundary_cells import covered_solve
+    """One reference grid solved with coverage-weighted cells, in a fresh process."""
+    from hpcontact.discretizations.boundary_cells import covered_solve
+    from hpcontact.scene import Scene
 
+    scene = Scene.from_params({**params(case, nu), "n": n, "n_across": na, "tol": REFERENCE_TOL})
     cpu = time.process_time()
-    record = covered_solve({**params(case, nu), "n": n, "n_across": na, "tol": REFERENCE_TOL})
+    record = covered_solve(scene)
     return {"case": case, "nu": nu, "n": n, "na": na, "tol": REFERENCE_TOL, "nx": record["nx"], "ny": record["ny"],
-            "cpu_s": time.process_time() - cpu, "peak_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+            "cpu_s": time.process_time() - cpu, "peak_mib": harness.peak_rss_mb(),
             **{k: record[k] for k in ("K_xx", "K_yy", "K_zz", "K_a_over_K_b")}}
 
 
 def reference_levels(path: Path, case: str, nu: float) -> list[dict[str, Any]]:
-    have = {(r["case"], r["nu"], r["n"], r["na"], r["tol"]): r for r in load_jsonl(path)}
+    have = {(r["case"], r["nu"], r["n"], r["na"], r["tol"]): r for r in harness.read_jsonl(path)}
     out = []
     for n, na in REFERENCE_GRIDS[case]:
         key = (case, nu, n, na, REFERENCE_TOL)
         if key not in have:
-            res = subprocess.run([sys.executable, __file__, "--level", case, str(nu), str(n), str(na)],
-                                 check=True, capture_output=True, text=True, cwd=ROOT)
-            have[key] = json.loads(res.stdout.strip().splitlines()[-1])
-            path.parent.mkdir(parents=True, exist_ok=True)
-            with path.open("a") as fh:
-                fh.write(json.dumps(have[key]) + "\n")
+            have[key] = harness.call_in_child(__file__, "one_level", case, nu, n, na, check=True).result
+            harness.append_jsonl(path, have[key])
             print(f"  solved {case} nu={nu} {n} x {na}: {have[key]['cpu_s']:.1f} s CPU", file=sys.stderr, flush=True)
         out.append(have[key])
     return out
@@ -225,19 +214,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--nu", default=",".join(str(v) for v in NUS))
     ap.add_argument("--requests", default=",".join(f"{v:g}" for v in REQUESTS) + ",default",
                     help="requests, and 'default' for hpcontact solve without --n (accuracy.default_solve)")
-    ap.add_argument("--runs", type=Path, default=ROOT / "results" / "accuracy_reference_runs.jsonl")
-    ap.add_argument("--levels", type=Path, default=ROOT / "results" / "accuracy_reference_levels.jsonl")
+    ap.add_argument("--runs", type=Path, default=harness.RESULTS / "accuracy_reference_runs.jsonl")
+    ap.add_argument("--levels", type=Path, default=harness.RESULTS / "accuracy_reference_levels.jsonl")
     ap.add_argument("--json", type=Path, default=None, help="write the table and references here")
-    ap.add_argument("--one", nargs=3, metavar=("CASE", "NU", "REQUEST"), help=argparse.SUPPRESS)
-    ap.add_argument("--level", nargs=4, metavar=("CASE", "NU", "N", "NA"), help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
-    if args.one:
-        request = args.one[2] if args.one[2] == "default" else float(args.one[2])
-        print(json.dumps(one_run(args.one[0], float(args.one[1]), request)))
-        return 0
-    if args.level:
-        print(json.dumps(one_level(args.level[0], float(args.level[1]), int(args.level[2]), int(args.level[3]))))
-        return 0
+    print(f"accuracy_reference: {harness.machine_line(1)}")
     cases = args.cases.split(",")
     nus = [float(v) for v in args.nu.split(",")]
     requests = [v if v == "default" else float(v) for v in args.requests.split(",")]
@@ -256,9 +237,10 @@ def main(argv: list[str] | None = None) -> int:
                   + ", ".join(f"{e}{'*' if e in r['accepted'] else ''}: {v / r['value'] - 1.0:+.1e} ({r['residuals'][e]:.0e})"
                               for e, v in r["fits"].items()))
     if args.json:
-        args.json.write_text(json.dumps({"rows": rows, "references": {f"{c} nu {nu}": r for (c, nu), r in refs.items()}}, indent=1))
+        harness.write_json(args.json, {"machine": harness.machine_line(1), "rows": rows,
+                                       "references": {f"{c} nu {nu}": r for (c, nu), r in refs.items()}})
     return 0
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    harness.entry(main)

@@ -43,15 +43,17 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import time
+from functools import partial
 from pathlib import Path
 from typing import Any
 
+import harness
 import numpy as np
 
 from hpcontact import accuracy as acc
 from hpcontact import analytic
-from hpcontact.boundary_cells import covered_solve
+from hpcontact.discretizations.boundary_cells import covered_solve
+from hpcontact.scene import Scene
 
 NUS = (0.0, 0.3, 0.5)
 ASPECTS = (1.0, 0.7, 0.5, 0.1, 0.05, 1e-3, 1e-6, 1e-8)
@@ -97,12 +99,7 @@ def key_of(treatment: str, aspect: float, nu: float, n: int, na: int) -> str:
 
 
 def load(cache: Path) -> dict[str, dict[str, Any]]:
-    out = {}
-    if cache.exists():
-        for line in cache.read_text().splitlines():
-            r = json.loads(line)
-            out[key_of(r["treatment"], r["aspect"], r["nu"], r["n"], r["n_across"])] = r
-    return out
+    return {key_of(r["treatment"], r["aspect"], r["nu"], r["n"], r["n_across"]): r for r in harness.read_jsonl(cache)}
 
 
 def estimator(strategy: str) -> tuple:
@@ -113,7 +110,7 @@ def estimator(strategy: str) -> tuple:
 
 def treatment_name(strategy: str) -> str:
     """The boundary treatment ``covered_solve`` uses with ``strategy`` (its plan's ``boundary``)."""
-    return covered_solve({**case_params(1.0, 0.3), "n": 16, "tol": 1e-6}, strategy)["plan"].get("boundary", "")
+    return covered_solve(Scene.from_params({**case_params(1.0, 0.3), "n": 16, "tol": 1e-6}), strategy)["plan"].get("boundary", "")
 
 
 def collect(cache: Path, max_n: int, strategy: str) -> None:
@@ -123,24 +120,22 @@ def collect(cache: Path, max_n: int, strategy: str) -> None:
 
     cached = load(cache)
     treatment = treatment_name(strategy)
-    cache.parent.mkdir(parents=True, exist_ok=True)
     for n, _ in grids(1.0, min(STARTS), max_n):
         for aspect in ASPECTS:
             na = dict(grids(aspect, min(STARTS), max_n))[n]
             for nu in NUS:
                 if "cpu_s" in cached.get(key_of(treatment, aspect, nu, n, na), {}):
                     continue
-                started, cpu = time.perf_counter(), time.process_time()
                 try:
-                    r = covered_solve({**case_params(aspect, nu), "n": n, "n_across": na}, strategy)
+                    scene = Scene.from_params({**case_params(aspect, nu), "n": n, "n_across": na})
+                    solved = harness.timed(partial(covered_solve, scene, strategy))
                 except InputError:  # the strategy does not apply to this case
                     continue
+                r = solved.value
                 row = {"treatment": treatment, "aspect": aspect, "nu": nu, "n": n, "n_across": na,
-                       "wall_time_s": time.perf_counter() - started, "cpu_s": time.process_time() - cpu,
-                       "iterations": r["iterations"],
+                       "wall_time_s": solved.wall_s, "cpu_s": solved.cpu_s, "iterations": r["iterations"],
                        **{k: r[k] for k in acc.TENSOR_KEYS if k in r}}
-                with cache.open("a") as f:
-                    f.write(json.dumps(row) + "\n")
+                harness.append_jsonl(cache, row)
                 print(f"  solved b/a={aspect:g} nu={nu} {n} x {na}: {row['cpu_s']:.2f} s", flush=True)
 
 
@@ -158,7 +153,7 @@ def replay(cache: Path, strategy: str) -> tuple[list[tuple], list[tuple]]:
                 if len(sequence) < acc.MIN_GRIDS:
                     continue
                 for request in REQUESTS:
-                    done = acc.refine(sequence, lambda n, na: cached[key_of(treatment, aspect, nu, n, na)], request,
+                    done = acc.refine(sequence, lambda n, na, t=treatment, a=aspect, v=nu: cached[key_of(t, a, v, n, na)], request,
                                       *estimator(strategy))
                     v = done.values
                     values = {**v, "K_a_over_K_b": v["K_xx"] / v["K_yy"], "normalized_xx": v["K_xx"] / v["K_zz"],
@@ -189,7 +184,7 @@ def cost_table(cache: Path, strategies: tuple[str, ...] = ("coverage", "singular
                 ref = references(case_params(aspect, nu)["shape"], aspect, nu)
                 cells = []
                 for request in (1e-3, 1e-4, 1e-5, 1e-6):
-                    done = acc.refine(sequence, lambda n, na: cached[key_of(treatment, aspect, nu, n, na)], request,
+                    done = acc.refine(sequence, lambda n, na, t=treatment, a=aspect, v=nu: cached[key_of(t, a, v, n, na)], request,
                                       *estimator(strategy))
                     v = done.values
                     values = {**v, "K_a_over_K_b": v["K_xx"] / v["K_yy"], "normalized_xx": v["K_xx"] / v["K_zz"],
@@ -215,9 +210,8 @@ def defaults_table() -> None:
     for params in shapes + [{"shape": "rectangle", "aspect": 1.0}, {"shape": "polygon", "sides": 6}]:
         rows = []
         for nu in NUS:
-            started = time.process_time()
-            r = acc.default_solve({**params, "nu": nu})
-            seconds = time.process_time() - started
+            solved = harness.timed(partial(acc.default_solve, Scene.from_params({**params, "nu": nu})))
+            r, seconds = solved.value, solved.cpu_s
             ratio = both = math.nan
             if params["shape"] in ("circle", "ellipse"):
                 ref = references(params["shape"], params.get("aspect", 1.0), nu)
@@ -315,6 +309,8 @@ def figure(cache: Path, singular_cache: Path | None, path: Path, strip_cache: Pa
 
 
 def summary(label: str, true: np.ndarray, estimated: np.ndarray) -> str:
+    if len(true) == 0:
+        return f"{label}: 0 (the cache holds no sequence long enough: fill it with --collect)"
     ratio = true / estimated
     return (f"{label}: {len(ratio)}; worst true/estimate {ratio.max():.2f} (honest when <= 1; "
             f"{int((ratio > 1).sum())} above 1); worst estimate/true {1 / ratio.min():.0f}; "
@@ -323,7 +319,7 @@ def summary(label: str, true: np.ndarray, estimated: np.ndarray) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--cache", type=Path, default=Path("results/accuracy_sharpness.jsonl"))
+    parser.add_argument("--cache", type=Path, default=harness.RESULTS / "accuracy_sharpness.jsonl")
     parser.add_argument("--max-n", type=int, default=1024)
     parser.add_argument("--collect", action="store_true")
     parser.add_argument("--table", action="store_true")
@@ -337,6 +333,7 @@ def main() -> None:
     parser.add_argument("--strip-cache", type=Path, default=None,
                         help="benchmarks/strip_calibration.py's cache, for the figure's strip records (ellipses)")
     args = parser.parse_args()
+    print(f"accuracy_sharpness: {harness.machine_line(1)}")
     for item in args.set:
         name, value = item.split("=")
         if not hasattr(acc, name):
@@ -364,4 +361,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    harness.entry(main)

@@ -27,21 +27,19 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
-import time
+from functools import partial
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+import harness
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from hpcontact import crystal as cr  # noqa: E402
-from hpcontact import operator as op  # noqa: E402
-from hpcontact.geometry import Grid  # noqa: E402
-from hpcontact.kernels import anisotropic as an  # noqa: E402
-from hpcontact.preconditioner import FourierPreconditioner  # noqa: E402
-from hpcontact.solve import Engine  # noqa: E402
-from hpcontact.solvers import conjugate_gradient  # noqa: E402
+from hpcontact.geometry import Grid
+from hpcontact.kernels import anisotropic as an
+from hpcontact.kernels.engine import Engine
+from hpcontact.materials import crystal as cr
+from hpcontact.numerics import convolution as op
+from hpcontact.numerics.conjugate_gradient import conjugate_gradient
+from hpcontact.numerics.preconditioner import FourierPreconditioner
 
 ALL9 = ("xx", "xy", "xz", "yx", "yy", "yz", "zx", "zy", "zz")
 
@@ -60,9 +58,9 @@ def materials() -> list[tuple[str, cr.Crystal]]:
 
 
 def timed(fn):
-    w, c = time.perf_counter(), time.process_time()
-    result = fn()
-    return result, time.perf_counter() - w, time.process_time() - c
+    """(value, wall s, CPU s) of one call of ``fn()``."""
+    t = harness.timed(fn)
+    return t.value, t.wall_s, t.cpu_s
 
 
 def one_solve(mat: cr.Crystal, n: int, threads: int) -> dict:
@@ -83,7 +81,7 @@ def one_solve(mat: cr.Crystal, n: int, threads: int) -> dict:
         rhs = np.zeros((len(components),) + mask.shape)
         rhs[components.index(load)] = 1.0
         pre = FourierPreconditioner(grid, engine.surface_green, components).apply
-        sol, t, c = timed(lambda: conjugate_gradient(operator.apply, rhs, mask, tol=1e-10, precondition=pre))
+        sol, t, c = timed(partial(conjugate_gradient, operator.apply, rhs, mask, tol=1e-10, precondition=pre))
         out.update({f"solve_{name}_s": t, f"solve_{name}_cpu_s": c, f"solve_{name}_iterations": sol.iterations})
     return out
 
@@ -96,6 +94,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-solve", action="store_true", help="kernel construction only (no solve columns)")
     args = ap.parse_args(argv)
     rows = []
+    print(f"aniso_setup: {harness.machine_line(args.threads)}", file=sys.stderr if args.json else sys.stdout)
     if not args.json:
         solve_head = "" if args.no_solve else (f" {'setup_s':>7s} {'solve_z_s':>9s} {'it_z':>4s} {'solve_xyz_s':>11s} "
                                                f"{'it_xyz':>6s} {'setup/solve':>11s}")
@@ -104,10 +103,10 @@ def main(argv: list[str] | None = None) -> int:
     for name, mat in materials():
         for n in args.n:
             an.clear_cache()
-            kern, t_green, _ = timed(lambda: an.kernel_for(mat))
-            _, t_zz, c_zz = timed(lambda: an.anisotropic_offset_blocks(mat, n, n, 1.0, 1.0, [(2, 2)],
+            kern, t_green, _ = timed(partial(an.kernel_for, mat))
+            _, t_zz, c_zz = timed(partial(an.anisotropic_offset_blocks, mat, n, n, 1.0, 1.0, [(2, 2)],
                                                                         threads=args.threads))
-            _, t_all, c_all = timed(lambda: an.anisotropic_offset_blocks(mat, n, n, 1.0, 1.0,
+            _, t_all, c_all = timed(partial(an.anisotropic_offset_blocks, mat, n, n, 1.0, 1.0,
                                                                          threads=args.threads))
             row = dict(material=name, n=n, green_s=t_green, zz_s=t_zz, zz_cpu_s=c_zz, all9_s=t_all,
                        all9_cpu_s=c_all, n_phi=kern.n_phi, n_omega=kern.n_omega, beta=kern.beta,
@@ -128,4 +127,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    harness.entry(main)

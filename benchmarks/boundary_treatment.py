@@ -4,7 +4,7 @@
                                             [--figure results/boundary_treatment.png] [--full]
 
 Before (the engine, ``hpcontact.solve``): a cell is in the contact when its centre is inside
-the shape. After (``hpcontact.boundary_cells.covered_solve``): every cell that the shape touches is
+the shape. After (``hpcontact.discretizations.boundary_cells.covered_solve``): every cell that the shape touches is
 in, with its exact covered fraction f, and its self-compliance raised to A_ii/f (diagonal
 D_ii = A_ii (1 − f)/f; the FFT operator, CG and preconditioner are unchanged).
 
@@ -27,16 +27,16 @@ four ways (centre and coverage, single grid and extrapolated).
 from __future__ import annotations
 
 import argparse
-import json
-import time
 from pathlib import Path
 
+import harness
 import numpy as np
 
 from hpcontact import analytic
 from hpcontact.accuracy import solve_to_accuracy
-from hpcontact.boundary_cells import covered_solve
-from hpcontact.solve import solve
+from hpcontact.discretizations.boundary_cells import covered_solve
+from hpcontact.problems.contact import solve
+from hpcontact.scene import Scene
 
 NU = 0.3
 CASES = {
@@ -74,9 +74,10 @@ def run_grid(function, shape: str, aspect: float, n: int, na: int | None) -> dic
     params = {"shape": shape, "aspect": aspect, "nu": NU, "n": n, "quantities": "tangential,normal"}
     if na is not None:
         params["n_across"] = na
-    started = time.perf_counter()
-    record = function(params)
-    return {"n": n, "na": record["ny"], "time": time.perf_counter() - started, "iterations": record["iterations"],
+    scene = Scene.from_params(params)
+    solved = harness.timed(lambda: function(scene))
+    record = solved.value
+    return {"n": n, "na": record["ny"], "time": solved.wall_s, "iterations": record["iterations"],
             **{q: record[q] for q in QUANTITIES}}
 
 
@@ -135,8 +136,8 @@ def accuracy_runs(targets: tuple[float, ...], results: dict) -> list[dict]:
     for label, (shape, aspect, _, _) in CASES.items():
         ref = references(shape, aspect)
         for target in targets:
-            r = solve_to_accuracy({"shape": shape, "aspect": aspect, "nu": NU, "quantities": "tangential,normal"}, target,
-                                  strict=False)
+            scene = Scene.from_params({"shape": shape, "aspect": aspect, "nu": NU, "quantities": "tangential,normal"})
+            r = solve_to_accuracy(scene, target, strict=False)
             errs = {f"err_{q}": abs(r[q] / ref[q] - 1.0) for q in QUANTITIES}
             honest = all(errs[f"err_{q}"] <= r["estimated_errors"][q] for q in QUANTITIES)
             true = max(errs.values())
@@ -186,20 +187,20 @@ def figure(results: dict, path: Path) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("results/boundary_treatment.json"))
-    parser.add_argument("--figure", type=Path, default=Path("results/boundary_treatment.png"))
+    parser.add_argument("--out", type=Path, default=harness.RESULTS / "boundary_treatment.json")
+    parser.add_argument("--figure", type=Path, default=harness.RESULTS / "boundary_treatment.png")
     parser.add_argument("--full", action="store_true", help="also request 1e-4 (minutes with the current preconditioner)")
     args = parser.parse_args()
-    results: dict = {"nu": NU}
+    print(f"boundary_treatment: {harness.machine_line(1)}")
+    results: dict = {"machine": harness.machine_line(1), "nu": NU}
     for label in CASES:
         single_grids(label, results)
         richardson_table(label, results)
     accuracy_runs((1e-2, 1e-3, 1e-4) if args.full else (1e-2, 1e-3), results)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(results, indent=1, default=float), encoding="utf-8")
+    harness.write_json(args.out, results)
     print(f"wrote {args.out}")
     figure(results, args.figure)
 
 
 if __name__ == "__main__":
-    main()
+    harness.entry(main)

@@ -21,28 +21,19 @@ For each job (default: every jobs/*.toml), two fresh child processes:
 from __future__ import annotations
 
 import argparse
-import json
 import math
-import os
-import resource
-import subprocess
 import sys
-import time
+from functools import partial
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+import harness
 
 
-def peak_rss_bytes() -> float:
-    """This process's peak resident set (ru_maxrss: KiB on Linux, bytes on macOS)."""
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * (1 if sys.platform == "darwin" else 1024)
-
-
-def measure_time(job: Path, budget_s: float) -> dict:
+def measure_time(job: str, budget_s: float) -> dict:
     """In this process: run (a cut of) ``job``, then calibrate; estimated and measured seconds."""
+    from hpcontact.accuracy import task_function
+    from hpcontact.numerics.memory import resident_bytes
     from hpcontact.sweep import costmodel
-    from hpcontact.sweep.kinds import task_function
     from hpcontact.sweep.spec import load_spec
     from hpcontact.sweep.tasks import enumerate_tasks
 
@@ -55,18 +46,14 @@ def measure_time(job: Path, budget_s: float) -> dict:
     measured = 0.0
     wall = 0.0
     for i in chosen:
-        started, cpu = time.perf_counter(), time.process_time()
-        try:
-            function(dict(tasks[i].params))
-        except Exception as exc:  # noqa: BLE001 - a failed task still took its time, as in a sweep
-            print(f"task {i}: {type(exc).__name__}: {exc}", file=sys.stderr)
-        measured += time.process_time() - cpu
-        wall += time.perf_counter() - started
-    rss = peak_rss_bytes()
+        t = harness.timed(partial(run_task, function, i, tasks[i].params))
+        measured += t.cpu_s
+        wall += t.wall_s
+    rss = resident_bytes()
     after = costmodel.calibrate()
     estimates = [sum(c.task_seconds(tasks[i].params, tasks[i].cost) for i in chosen) for c in (before, after)]
     return {
-        "job": job.stem,
+        "job": Path(job).stem,
         "tasks": len(tasks),
         "ran": len(chosen),
         "estimated_s": 0.5 * (estimates[0] + estimates[1]),
@@ -78,10 +65,19 @@ def measure_time(job: Path, budget_s: float) -> dict:
     }
 
 
-def measure_memory(job: Path) -> dict:
+def run_task(function, index: int, params) -> None:
+    """One task as a sweep runs it: a failure is reported and still took its time."""
+    try:
+        function(dict(params))
+    except Exception as exc:  # noqa: BLE001 - a failed task still took its time, as in a sweep
+        print(f"task {index}: {type(exc).__name__}: {exc}", file=sys.stderr)
+
+
+def measure_memory(job: str) -> dict:
     """In this process: the largest task alone; estimated and measured peak resident bytes."""
+    from hpcontact.accuracy import task_function
+    from hpcontact.numerics.memory import resident_bytes
     from hpcontact.sweep import costmodel
-    from hpcontact.sweep.kinds import task_function
     from hpcontact.sweep.spec import load_spec
     from hpcontact.sweep.tasks import enumerate_tasks
 
@@ -91,34 +87,21 @@ def measure_memory(job: Path) -> dict:
     largest = max(tasks, key=lambda t: costmodel.task_array_bytes(t.params))
     task_function(spec.kind)(dict(largest.params))
     return {"estimated_peak_bytes": base + costmodel.task_array_bytes(largest.params),
-            "measured_peak_bytes": peak_rss_bytes()}
-
-
-def child(mode: str, job: str, budget: float) -> dict:
-    """Run ``mode`` (time or memory) for ``job`` in a fresh Python; its JSON result."""
-    done = subprocess.run([sys.executable, __file__, "--child", mode, "--budget", str(budget), job], check=False,
-                          capture_output=True, text=True, env={**os.environ, "PYTHONPATH": str(ROOT)})
-    if done.returncode:
-        raise RuntimeError(done.stderr.strip().splitlines()[-1:])
-    return json.loads(done.stdout.strip().splitlines()[-1])
+            "measured_peak_bytes": resident_bytes()}
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("jobs", nargs="*", default=sorted(str(p) for p in (ROOT / "jobs").glob("*.toml")))
+    parser.add_argument("jobs", nargs="*", default=sorted(str(p) for p in (harness.ROOT / "jobs").glob("*.toml")))
     parser.add_argument("--budget", type=float, default=60.0, help="estimated seconds of tasks per job (default 60)")
-    parser.add_argument("--child", choices=("time", "memory"), help=argparse.SUPPRESS)
     args = parser.parse_args()
-    os.environ.setdefault("OMP_NUM_THREADS", "1")
-    if args.child:
-        job = Path(args.jobs[0])
-        print(json.dumps(measure_time(job, args.budget) if args.child == "time" else measure_memory(job)), flush=True)
-        return
+    print(f"cost_estimates: {harness.machine_line(1)}")
     print(f"{'job':24s} {'tasks run':>11s} {'estimated s':>11s} {'measured s':>10s} {'ratio':>6s} "
           f"{'est. MiB':>8s} {'meas. MiB':>9s} {'ratio':>6s} {'run MiB':>8s} {'wall s':>7s} {'drift':>6s}", flush=True)
     for job in args.jobs:
-        try:
-            r = {**child("time", job, args.budget), **child("memory", job, args.budget)}
+        try:  # each in a fresh process, one thread
+            r = {**harness.call_in_child(__file__, "measure_time", job, args.budget, check=True).result,
+                 **harness.call_in_child(__file__, "measure_memory", job, check=True).result}
         except RuntimeError as exc:
             print(f"{Path(job).stem:24s} failed: {exc}", flush=True)
             continue
@@ -129,4 +112,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    harness.entry(main)

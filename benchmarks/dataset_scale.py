@@ -19,15 +19,13 @@ in-memory size of the opened hypercube. Targets (issue 13): assembly ≤ 60 s, p
 from __future__ import annotations
 
 import argparse
-import json
 import math
-import resource
 import shutil
-import subprocess
-import sys
 import tempfile
-import time
+from functools import partial
 from pathlib import Path
+
+import harness
 
 import hpcontact
 from hpcontact.sweep.dataset import build_dataset, write_netcdf
@@ -82,11 +80,6 @@ def record(key: str, params: dict) -> dict:
     }
 
 
-def peak_rss_mb() -> float:
-    """Peak resident memory of this process so far, MB (Linux: ru_maxrss in KiB)."""
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-
-
 def write_journals(folder: Path) -> tuple[int, int]:
     """Synthetic journals of the sweep in ``folder`` (two ranks, tasks dealt alternately):
     (task points, distinct tasks)."""
@@ -102,47 +95,43 @@ def write_journals(folder: Path) -> tuple[int, int]:
     return len(where), len(tasks)
 
 
-def assemble(folder: Path) -> dict:
-    """Rank 0's assembly from the journals in ``folder``, then the data set opened again."""
-    mark = time.perf_counter()
+def assemble(folder: str) -> dict:
+    """Rank 0's assembly from the journals in ``folder``, then the data set opened again (run in
+    a fresh process: the peak memory is the assembly's own)."""
+    folder = Path(folder)
     spec = parse_spec(SPEC, validate=lambda params: None)
-    _, where = enumerate_tasks(spec)
-    tasks_s = time.perf_counter() - mark
-    before_mb = peak_rss_mb()
-    mark = time.perf_counter()
-    entries = read_journals(folder / "journal")
-    read_s = time.perf_counter() - mark
-    mark = time.perf_counter()
-    ds = build_dataset(spec, where, entries, {"history": "benchmarks/dataset_scale.py", "mpi_size": 2})
-    build_s = time.perf_counter() - mark
-    mark = time.perf_counter()
-    path = write_netcdf(ds, folder / "scale.nc")
-    write_s = time.perf_counter() - mark
-    assembly_mb = peak_rss_mb()
-    del ds, entries
-    mark = time.perf_counter()
-    with hpcontact.open_dataset(path) as back:
-        full = back.load()
-    return {"tasks_s": tasks_s, "read_s": read_s, "build_s": build_s, "write_s": write_s, "before_mb": before_mb,
-            "assembly_mb": assembly_mb, "size_mb": path.stat().st_size / 1e6, "open_s": time.perf_counter() - mark,
-            "loaded_mb": full.nbytes / 1e6, "points": math.prod(len(a) for a in spec.axes)}
+    enumerated = harness.timed(lambda: enumerate_tasks(spec)[1])
+    where = enumerated.value
+    before_mb = harness.peak_rss_mb()
+    read = harness.timed(partial(read_journals, folder / "journal"))
+    build = harness.timed(partial(build_dataset, spec, where, read.value,
+                                  {"history": "benchmarks/dataset_scale.py", "mpi_size": 2}))
+    write = harness.timed(partial(write_netcdf, build.value, folder / "scale.nc"))
+    path, read_s, build_s = write.value, read.wall_s, build.wall_s
+    assembly_mb = harness.peak_rss_mb()
+    del build, read  # the data set and the entries, before the file is opened again
+
+    def load():
+        with hpcontact.open_dataset(path) as back:
+            return back.load()
+
+    opened = harness.timed(load)
+    return {"tasks_s": enumerated.wall_s, "read_s": read_s, "build_s": build_s, "write_s": write.wall_s,
+            "before_mb": before_mb, "assembly_mb": assembly_mb, "size_mb": path.stat().st_size / 1e6,
+            "open_s": opened.wall_s, "loaded_mb": opened.value.nbytes / 1e6, "points": math.prod(len(a) for a in spec.axes)}
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--folder", type=Path, help="where to write journals and data set (default: a temporary folder)")
     parser.add_argument("--keep", action="store_true", help="keep them")
-    parser.add_argument("--child", type=Path, help=argparse.SUPPRESS)  # the assembly, in a fresh process
     args = parser.parse_args()
-    if args.child is not None:
-        print(json.dumps(assemble(args.child)))
-        return
+    print(f"dataset_scale: {harness.machine_line(1)}")
     folder = args.folder or Path(tempfile.mkdtemp(prefix="dataset_scale-"))
-    mark = time.perf_counter()
-    points, distinct = write_journals(folder / "journal")
-    print(f"{points} task points, {distinct} distinct tasks; synthetic journals written in {time.perf_counter() - mark:.1f} s")
-    done = subprocess.run([sys.executable, __file__, "--child", str(folder)], capture_output=True, text=True, check=True)
-    m = json.loads(done.stdout.splitlines()[-1])
+    written = harness.timed(lambda: write_journals(folder / "journal"))
+    points, distinct = written.value
+    print(f"{points} task points, {distinct} distinct tasks; synthetic journals written in {written.wall_s:.1f} s")
+    m = harness.call_in_child(__file__, "assemble", str(folder.resolve()), check=True).result
     assembly = m["read_s"] + m["build_s"] + m["write_s"]
     print(f"{m['points']} points with the angle; task enumeration {m['tasks_s']:.1f} s (before the sweep runs)")
     print(f"assembly: read journals {m['read_s']:.1f} s + build {m['build_s']:.1f} s + write {m['write_s']:.1f} s "
@@ -156,4 +145,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    harness.entry(main)

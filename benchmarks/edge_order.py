@@ -4,7 +4,7 @@
 
 Before: ``covered_solve(..., strategy="coverage")`` (piecewise-constant traction, covered
 fraction f per cell, self-compliance A_ii/f). After: ``strategy="auto"`` — singular cells
-(``hpcontact.singular_cells``: Galerkin on w = (1 − x²/a² − y²/b²)^(−½) per cell) where they
+(``hpcontact.discretizations.singular_cells``: Galerkin on w = (1 − x²/a² − y²/b²)^(−½) per cell) where they
 apply (unturned circles and ellipses on cells with dy/dx in [1/2, 2]), coverage otherwise; the
 ``boundary`` column says which ran.
 
@@ -37,7 +37,7 @@ CPU to fill; use a cache of its own).
 ``--bound``: the singular cells' error over K_xx, K_yy, K_zz for the circle and the ellipses 0.7
 and 0.5 (n = 32 … 256) and 0.05 (128 × 8 … 512 × 32) at nu = 0, 0.3, 0.5; prints n_across·error
 per entry (n_across: cells across the minor axis) and the largest |n_across·error| (the
-constant C of the bound |error| ≤ C/n_across in ``hpcontact.singular_cells``).
+constant C of the bound |error| ≤ C/n_across in ``hpcontact.discretizations.singular_cells``).
 
 Timings are wall-clock on whatever machine runs it, both strategies in the same process, one
 after the other per case: compare them as ratios.
@@ -46,15 +46,18 @@ after the other per case: compare them as ratios.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import time
+from functools import partial
 from pathlib import Path
+
+import harness
 
 from hpcontact import analytic
 from hpcontact.accuracy import grid_sequence
-from hpcontact.boundary_cells import covered_solve
+from hpcontact.discretizations.boundary_cells import covered_solve
 from hpcontact.geometry import Shape
+from hpcontact.scene import Scene
 
 NU = 0.3
 CASES = {
@@ -75,7 +78,8 @@ FIRST_GRID = {"ellipse 0.05 sq": (128, 8)}  # cells dy/dx = 0.8 (singular cells 
 
 
 def run(params: dict, n: int, n_across: int, strategy: str) -> dict:
-    record = covered_solve({**params, "nu": NU, "n": n, "n_across": n_across, "tol": 1e-12, "quantities": "tangential"}, strategy)
+    scene = Scene.from_params({**params, "nu": NU, "n": n, "n_across": n_across, "tol": 1e-12, "quantities": "tangential"})
+    record = covered_solve(scene, strategy)
     return {"n": n, "n_across": n_across, "K_xx": record["K_xx"], "time_s": record["wall_time_s"], "boundary": record["boundary"]}
 
 
@@ -129,7 +133,7 @@ def bound() -> None:
             for k in range(levels):
                 n, na = n0 * 2**k, na0 * 2**k
                 params = {"shape": shape, "aspect": aspect, "nu": nu, "n": n, "n_across": na, "tol": 1e-12, "quantities": "tangential,normal"}
-                record = covered_solve(params, "singular")
+                record = covered_solve(Scene.from_params(params), "singular")
                 scaled = {key: na * (record[key] / value - 1.0) for key, value in exact.items()}
                 worst = max(worst, *(abs(v) for v in scaled.values()))
                 print(f"{shape:8s} {aspect:4.2f} nu {nu:3.1f} n {n:4d} x {na:4d} " + " ".join(f"{k} {v:+.5f}" for k, v in scaled.items())
@@ -140,44 +144,35 @@ def bound() -> None:
 DONE_WHEN = [(aspect, nu) for aspect in (0.7, 0.05, 1e-3, 1e-6) for nu in (0.3, 0.5)]
 
 
-def done_when_case(aspect: float, nu: float, request: float, strategy: str, max_cells: int) -> None:
-    """One ``solve_to_accuracy`` (tangential and normal) in this process, printed as one JSON
-    line: estimate, largest true error of K_xx, K_yy, K_zz, K_a/K_b (Mindlin, Galin), CPU
-    seconds (``time.process_time``) and this process's peak resident set."""
-    import resource
-
+def done_when_case(aspect: float, nu: float, request: float, strategy: str, max_cells: int) -> dict:
+    """One ``solve_to_accuracy`` (tangential and normal) in this process (a fresh one: ``done_when``):
+    estimate, largest true error of K_xx, K_yy, K_zz, K_a/K_b (Mindlin, Galin), CPU seconds
+    (``time.process_time``) and this process's peak resident set."""
     from hpcontact.accuracy import solve_to_accuracy
 
-    started = time.process_time()
-    r = solve_to_accuracy({"shape": "ellipse", "aspect": aspect, "nu": nu, "quantities": "tangential,normal"}, request,
-                          strategy=strategy, max_cells=max_cells, strict=False)
-    cpu = time.process_time() - started
+    scene = Scene.from_params({"shape": "ellipse", "aspect": aspect, "nu": nu, "quantities": "tangential,normal"})
+    solved = harness.timed(lambda: solve_to_accuracy(scene, request, strategy=strategy, max_cells=max_cells, strict=False))
+    r, cpu = solved.value, solved.cpu_s
     K_a, K_b = analytic.mindlin_ellipse_stiffness(1.0, aspect, 1.0, nu)
     exact = {"K_xx": K_a, "K_yy": K_b, "K_zz": analytic.elliptical_punch_normal_stiffness(1.0, aspect, 1.0, nu),
              "K_a_over_K_b": K_a / K_b}
     true = {k: abs(r[k] / v - 1.0) for k, v in exact.items()}
-    print(json.dumps({"aspect": aspect, "nu": nu, "strategy": r["boundary"], "estimate": r["estimated_error"],
-                      "true": max(true.values()), "honest_per_quantity": all(true[k] <= r["estimated_errors"][k] for k in true),
-                      "cpu_s": cpu, "peak_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
-                      "finest": [r["grids"][-1], r["grids_across"][-1]], "stopped_by": r["stopped_by"]}))
+    return {"aspect": aspect, "nu": nu, "strategy": r["boundary"], "estimate": r["estimated_error"],
+            "true": max(true.values()), "honest_per_quantity": all(true[k] <= r["estimated_errors"][k] for k in true),
+            "cpu_s": cpu, "peak_mib": harness.peak_rss_mb(), "finest": [r["grids"][-1], r["grids_across"][-1]],
+            "stopped_by": r["stopped_by"]}
 
 
 def done_when(request: float, max_cells: int, strategies: tuple[str, ...] = ("coverage", "auto")) -> None:
     """Issue 12's first "Done when" line: --accuracy REQUEST for ellipses b/a = 0.7, 0.05, 1e-3,
     1e-6 at nu = 0.3, 0.5, with coverage-weighted cells (before) and ``auto`` (what ``hpcontact
     solve --accuracy`` uses), each case in a fresh process (peak memory its own)."""
-    import subprocess
-    import sys
-
     print(f"request {request:g}, at most {max_cells} cells per grid")
     print("| b/a | nu | cells | estimate | true | honest per quantity | CPU s | peak MiB | finest grid | stopped by |")
     print("|---|---|---|---|---|---|---|---|---|---|")
     for strategy in strategies:
         for aspect, nu in DONE_WHEN:
-            code = f"import edge_order; edge_order.done_when_case({aspect!r}, {nu!r}, {request!r}, {strategy!r}, {max_cells})"
-            line = subprocess.run([sys.executable, "-c", code], cwd=Path(__file__).parent, check=True,
-                                  capture_output=True, text=True).stdout.strip().splitlines()[-1]
-            r = json.loads(line)
+            r = harness.call_in_child(__file__, "done_when_case", aspect, nu, request, strategy, max_cells, check=True).result
             print(f"| {aspect:g} | {nu:g} | {r['strategy']} | {r['estimate']:.2e} | {r['true']:.2e} | {r['honest_per_quantity']} | "
                   f"{r['cpu_s']:.1f} | {r['peak_mib']:.0f} | {r['finest'][0]} × {r['finest'][1]} | {r['stopped_by']} |", flush=True)
 
@@ -214,9 +209,9 @@ def singular_rows(aspect: float, n: int, na: int, near_field: str = "subcells",
     nu (its material replaced on a copy). ``cpu_s``: the shared setup plus the nu's own solves."""
     import copy
 
-    from hpcontact import singular_cells
-    from hpcontact.boundary_cells import singular_block_solve
-    from hpcontact.materials import Isotropic
+    from hpcontact.discretizations import singular_cells
+    from hpcontact.discretizations.boundary_cells import singular_block_solve
+    from hpcontact.materials.isotropic import Isotropic
 
     started = time.process_time()
     shape = Shape("circle") if aspect == 1.0 else Shape("ellipse", aspect)
@@ -245,11 +240,7 @@ def singular_records(cache: Path, near_field: str = "subcells") -> tuple[list[tu
     from hpcontact import accuracy as acc
 
     requests = (1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6, 1e-6)
-    cached: dict[tuple, dict] = {}
-    if cache.exists():
-        for line in cache.read_text().splitlines():
-            r = json.loads(line)
-            cached[(r["aspect"], r["nu"], r["n"], r["n_across"])] = r
+    cached = {(r["aspect"], r["nu"], r["n"], r["n_across"]): r for r in harness.read_jsonl(cache)}
     records, pairs = [], []
     for aspect in CALIBRATION_ASPECTS:
         for nu in (0.0, 0.3, 0.5):
@@ -263,8 +254,7 @@ def singular_records(cache: Path, near_field: str = "subcells") -> tuple[list[tu
                     if (aspect, nu, n, na) not in cached:
                         for row in singular_rows(aspect, n, na, near_field):
                             cached[(aspect, row["nu"], n, na)] = row
-                            with cache.open("a") as f:
-                                f.write(json.dumps(row) + "\n")
+                            harness.append_jsonl(cache, row)
                 levels = {g: cached[(aspect, nu, *g)] for g in grids}
                 for request in requests:
                     done = acc.refine(grids, lambda n, na, levels=levels: levels[(n, na)], request, acc.SINGULAR_EXPANSIONS,
@@ -295,7 +285,7 @@ def singular_calibration(cache: Path, near_field: str = "subcells") -> None:
               f"within 30x: {100 * (ratio >= 1 / 30).mean():.1f} %; worst estimate/true {1.0 / ratio.min():.0f}")
     ratio = np.array([t / e for t, e in pairs])
     print(f"per-quantity pairs: {len(ratio)}; worst true/estimate {ratio.max():.2f}; above 1: {int((ratio > 1).sum())}")
-    cached = {(r["aspect"], r["nu"], r["n"], r["n_across"]): r for r in map(json.loads, cache.read_text().splitlines())}
+    cached = {(r["aspect"], r["nu"], r["n"], r["n_across"]): r for r in harness.read_jsonl(cache)}
     print("| b/a | nu | 1e-5: grid, estimate / true, CPU s | 1e-6: grid, estimate / true, CPU s |")
     print("|---|---|---|---|")
     for aspect in CALIBRATION_ASPECTS:
@@ -333,6 +323,7 @@ def main() -> None:
     parser.add_argument("--near-field", choices=("subcells", "edge"), default="subcells",
                         help="--singular-calibration's near-field quadrature (singular_cells.NEAR_FIELDS)")
     args = parser.parse_args()
+    print(f"edge_order: {harness.machine_line(1)}")
     if args.singular_calibration is not None:
         singular_calibration(args.singular_calibration, args.near_field)
         return
@@ -351,9 +342,9 @@ def main() -> None:
         params, shape, exact = CASES[label]
         note = "closed form"
         if exact is None:
-            started = time.perf_counter()
-            exact, spread = reference(params, shape, nmax)
-            note = f"reference {exact:.12g} ± {spread:.1e} (coverage, Richardson on n = {2 * nmax}, {4 * nmax}; {time.perf_counter() - started:.0f} s)"
+            solved = harness.timed(partial(reference, params, shape, nmax))
+            exact, spread = solved.value
+            note = f"reference {exact:.12g} ± {spread:.1e} (coverage, Richardson on n = {2 * nmax}, {4 * nmax}; {solved.wall_s:.0f} s)"
         print(f"# {label}: {note}")
         n0, na0 = FIRST_GRID.get(label, (32, None))
         grids = [g for g in grid_sequence(shape, n0, na0, max_cells=2**40) if g[0] <= max(nmax, 4 * n0)]
@@ -362,9 +353,8 @@ def main() -> None:
             levels = [run(params, n, na, strategy) for n, na in grids]
             out[label][strategy] = table(label, levels, exact)
     if args.out:
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text(json.dumps(out, indent=1))
+        harness.write_json(args.out, {"machine": harness.machine_line(1), "cases": out})
 
 
 if __name__ == "__main__":
-    main()
+    harness.entry(main)

@@ -24,13 +24,11 @@ Not a test: numbers depend on the machine and its load.
 from __future__ import annotations
 
 import argparse
-import os
-import sys
-import time
+from functools import partial
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+import harness
 
-from hpcontact.slip import solve_slip  # noqa: E402
+from hpcontact.problems.slip.partial_slip import solve_slip
 
 ORTHO = "E1=25 E2=1 E3=1 G12=0.5 G13=0.5 G23=0.2 nu12=0.25 nu13=0.25 nu23=0.25"
 SCENE = {"quantities": "slip", "radius": 0.5, "radius_b": 1.1, "load": 0.37e6, "mu": 0.1, "q_ratio": 0.5,
@@ -51,12 +49,11 @@ def main() -> None:
     parser.add_argument("--n", type=int, default=32, help="cells across the contact's major diameter (the job's: 32)")
     parser.add_argument("--rounds", type=int, default=2, help="cold + warm rounds are 1 + (rounds - 1) warm")
     args = parser.parse_args()
+    print(f"slip_pair_cost: {harness.machine_line(1)}")
     times: dict[str, list[float]] = {name: [] for name in PAIRS}
     for _ in range(args.rounds):
         for name, pair in PAIRS.items():
-            start = time.process_time()
-            solve_slip({**SCENE, **pair, "n": args.n})
-            times[name].append(time.process_time() - start)
+            times[name].append(harness.timed(partial(solve_slip, {**SCENE, **pair, "n": args.n})).cpu_s)
     print(f"CPU s per scene, n = {args.n} (round 1 cold: kernels built; later rounds warm: spectra cached)")
     print(f"{'pair':16s} {'cold':>7s} {'warm':>7s} {'cold/iso sim':>13s} {'cold/iso dis':>13s} {'warm/iso dis':>13s}")
     for name, t in times.items():
@@ -67,4 +64,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    harness.entry(main)

@@ -56,11 +56,10 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
 import sys
 import time
 
-from children import add_run_options, run_child
+import harness
 
 CASES = {
     "circle_tangential": {"shape": "circle", "nu": 0.3, "quantities": "tangential"},
@@ -70,27 +69,12 @@ CLOCK = time.perf_counter  # the child switches to time.process_time with --cloc
 
 
 # ---------------------------------------------------------------------------------------------
-# child: one (case, n, solver) measurement, printed as one JSON line
+# child: one (case, n, solver) measurement, returned to the parent as JSON (harness.call_in_child)
 # ---------------------------------------------------------------------------------------------
 def _best(fn, repeat: int, min_time: float = 0.2) -> float:
-    """Best wall time of ``fn()`` over ``repeat`` calls (at least ``min_time`` s in all)."""
-    fn()
-    best, spent, count = float("inf"), 0.0, 0
-    while count < repeat or spent < min_time:
-        t0 = CLOCK()
-        fn()
-        dt = CLOCK() - t0
-        best, spent, count = min(best, dt), spent + dt, count + 1
-        if count >= 200:
-            break
-    return best
-
-
-def _maxrss_mb() -> float:
-    import resource
-
-    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    return rss / 1024.0 if sys.platform != "darwin" else rss / 2**20  # Linux: KiB, macOS: bytes
+    """Best time of ``fn()`` on ``CLOCK`` after a warm-up call: ``repeat`` calls, and more until
+    ``min_time`` s are spent (at most 200)."""
+    return harness.repeat_timing(fn, repeat, warmup=True, min_time=min_time, clock=CLOCK).best
 
 
 def _array_mb(*objects) -> float:
@@ -151,25 +135,25 @@ def _full_fft_seconds(c: int, shape: tuple[int, int], threads: int, repeat: int)
     return _best(lambda: (fwd.execute(), inv.execute()), repeat)
 
 
-def _use_code(spec: dict) -> None:
-    """Import hpcontact from the source tree ``spec["code"]`` (another checkout) if given."""
-    if spec.get("code"):
-        sys.path.insert(0, os.path.abspath(spec["code"]))
+def code_environment(spec: dict) -> dict[str, str]:
+    """The child's ``PYTHONPATH``: the source tree ``spec["code"]`` (another checkout, e.g. a
+    ``git worktree`` of an older commit) comes before the installed hpcontact, if given."""
+    return {"PYTHONPATH": os.path.abspath(spec["code"])} if spec.get("code") else {}
 
 
 def child(spec: dict) -> dict:
-    _use_code(spec)
+    """One (case, n, solver) measurement in this fresh process (module docstring)."""
     import numpy as np
 
-    from hpcontact import operator as opm
+    from hpcontact.numerics import convolution as opm
+    from hpcontact.numerics.conjugate_gradient import conjugate_gradient
+    from hpcontact.numerics.preconditioner import FourierPreconditioner
     from hpcontact.plan import make_plan
-    from hpcontact.preconditioner import FourierPreconditioner
+    from hpcontact.problems.contact import Engine, discretize
     from hpcontact.scene import Scene
-    from hpcontact.solve import Engine, discretize
-    from hpcontact.solvers import conjugate_gradient
 
     global CLOCK
-    CLOCK = time.process_time if spec["clock"] == "cpu" else time.perf_counter
+    CLOCK = harness.CLOCKS[spec["clock"]]
     case, n, solver, threads = spec["case"], spec["n"], spec["solver"], spec["threads"]
     repeat, tol = spec["repeat"], spec["tol"]
     if spec["wisdom"]:
@@ -179,7 +163,7 @@ def child(spec: dict) -> dict:
     plan = make_plan(scene, mask, grid)
     solve = [s for s in plan.solves if s.name != "indentation_polonsky_keer"][0]
     comps, m = solve.components, scene.material
-    rss0 = _maxrss_mb()
+    rss0 = harness.peak_rss_mb()
 
     # setup, stage by stage (what Engine.operator does, without its spectrum cache)
     blocks_needed = [a + b for a in comps for b in comps if a + b in plan.kernels]
@@ -209,14 +193,15 @@ def child(spec: dict) -> dict:
         start = CLOCK()
         solution = conjugate_gradient(op.apply, rhs, mask, tol=tol, precondition=precondition)
         times.append(CLOCK() - start)
-    rss1 = _maxrss_mb()
+    rss1 = harness.peak_rss_mb()
     solve_s = min(times)
     force = float(solution.traction[comps.index(solve.load)].sum() * grid.cell_area)
 
     t = np.random.default_rng(0).random((len(comps),) + mask.shape)
-    # time the stages with the plans the solves ended with (no re-planning while timing)
-    if hasattr(op, "_measure_at"):
-        op._measure_at = None
+    # time the stages with the plans the solves ended with (no re-planning while timing: the
+    # layout's automatic FFTW_MEASURE upgrade is switched off)
+    if hasattr(op, "transforms"):
+        op.transforms.auto = False
     fft_s, apply_s = _best(op.fft_only, 10), _best(lambda: op.apply(t), 10)
     pc_fft_s = _pc_fft_seconds(pc, len(comps), grid.nx, grid.ny, 10) if pc is not None else 0.0
     pc_s = _best(lambda: pc.apply(t), 10) if pc is not None else 0.0
@@ -293,14 +278,12 @@ def cold_child(spec: dict) -> dict:
     import io
     import tempfile
 
-    _use_code(spec)
     os.environ["HPCONTACT_WISDOM"] = spec["wisdom_file"]
-    import hpcontact.solve as solve_module
+    import hpcontact.problems.contact as solve_module
     from hpcontact import cli
-    from hpcontact import operator as opm
-
+    from hpcontact.numerics import convolution as opm
     global CLOCK
-    CLOCK = time.process_time if spec["clock"] == "cpu" else time.perf_counter
+    CLOCK = harness.CLOCKS[spec["clock"]]
     cg = {"s": 0.0, "iterations": 0, "solves": 0}
     conjugate_gradient = solve_module.conjugate_gradient
 
@@ -313,10 +296,8 @@ def cold_child(spec: dict) -> dict:
         return solution
 
     solve_module.conjugate_gradient = timed
-    # FFTW planning, wherever it happens: per layout (Transforms.plan) or, in older trees, per operator
-    owner = getattr(opm, "Transforms", opm.ConvolutionOperator)
-    name = "plan" if hasattr(owner, "plan") else "_plan"
-    plan = getattr(owner, name)
+    # FFTW planning, wherever it happens: per layout (Transforms.plan)
+    plan = opm.Transforms.plan
     planning = [0.0]
 
     def timed_plan(*args, **kwargs):
@@ -325,7 +306,7 @@ def cold_child(spec: dict) -> dict:
         planning[0] += CLOCK() - t0
         return effort
 
-    setattr(owner, name, timed_plan)
+    opm.Transforms.plan = timed_plan
     params = CASES[spec["case"]]
     with tempfile.TemporaryDirectory() as work:
         if spec["mode"] == "solve":
@@ -363,11 +344,11 @@ def warm_start(n: int, tol: float) -> None:
     ‖r‖ ≤ tol ‖b‖), and how far the warm result's force is from the cold one's."""
     import numpy as np
 
+    from hpcontact.numerics.conjugate_gradient import conjugate_gradient
+    from hpcontact.numerics.preconditioner import FourierPreconditioner
     from hpcontact.plan import make_plan
-    from hpcontact.preconditioner import FourierPreconditioner
+    from hpcontact.problems.contact import Engine, discretize
     from hpcontact.scene import Scene
-    from hpcontact.solve import Engine, discretize
-    from hpcontact.solvers import conjugate_gradient
 
     print(f"\nWarm starts (n = {n}, tol {tol:g}, preconditioned CG, tangential x solve): iterations cold -> warm")
     for label, base, axis, values in WARM_CHAINS:
@@ -399,18 +380,6 @@ def warm_start(n: int, tol: float) -> None:
 # ---------------------------------------------------------------------------------------------
 # parent: run the children, print the tables
 # ---------------------------------------------------------------------------------------------
-def host_line(threads: int) -> str:
-    cpu = platform.processor() or platform.machine()
-    try:
-        with open("/proc/cpuinfo") as fh:
-            names = [line.split(":", 1)[1].strip() for line in fh if line.startswith("model name")]
-        cpu = names[0] if names else cpu
-    except OSError:
-        pass
-    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    return f"{cpu}, {os.cpu_count()} cores, load average {load:.1f}; {threads} thread(s)"
-
-
 def print_tables(rows: list[dict]) -> None:
     ok = [r for r in rows if "error" not in r]
     print("\nSetup (s): kernel construction + spectra + FFTW planning (+ preconditioner for PCG)")
@@ -482,17 +451,14 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--code", nargs="+", default=[os.path.dirname(os.path.dirname(os.path.abspath(__file__)))],
                    help="source trees to compare in the cold table, e.g. a `git worktree` of an older commit and "
                         "this checkout (default: this checkout)")
-    add_run_options(p, timeout=1800.0)
+    harness.add_run_options(p, timeout=1800.0)
     args = p.parse_args(argv)
-    if args.child:
-        spec = json.loads(args.child)
-        print(json.dumps(cold_child(spec) if spec.get("kind") == "cold" else child(spec)))
-        return 0
+    print(f"solve_speed: {harness.machine_line(args.threads)}")
     if args.warm_start:
         warm_start(args.warm_start, args.tol)
         return 0
 
-    print(f"hpcontact solve_speed: {host_line(args.threads)}; tol {args.tol:g}; {args.clock} clock; "
+    print(f"tol {args.tol:g}; {args.clock} clock; "
           f"FFTW planning: {args.planner or 'default effort'}, {'with' if args.wisdom else 'without'} saved wisdom")
     rows = []
     for n in args.n if args.cold != "only" else []:
@@ -501,7 +467,7 @@ def main(argv: list[str] | None = None) -> int:
                 spec = {"case": case, "n": n, "solver": solver, "threads": args.threads, "tol": args.tol,
                         "repeat": args.repeat, "wisdom": args.wisdom, "full_fft": args.full_fft, "clock": args.clock,
                         "planner": args.planner}
-                r = run_child(__file__, spec, args.timeout)
+                r = harness.call_in_child(__file__, "child", spec, threads=args.threads, timeout=args.timeout).or_error(spec)
                 rows.append(r)
                 if "error" in r:
                     print(f"  {case} n={n} {solver}: FAILED: {r['error']}", file=sys.stderr, flush=True)
@@ -513,8 +479,8 @@ def main(argv: list[str] | None = None) -> int:
         print_tables(rows)
     cold = cold_table(args) if args.cold != "no" else []
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump({"host": host_line(args.threads), "clock": args.clock, "rows": rows, "cold": cold}, fh, indent=1)
+        harness.write_json(args.json, {"machine": harness.machine_line(args.threads), "clock": args.clock, "rows": rows,
+                                       "cold": cold})
     return 0 if all("error" not in r for r in rows + cold) else 1
 
 
@@ -526,21 +492,26 @@ def cold_table(args: argparse.Namespace) -> list[dict]:
     import tempfile
 
     case, results = "circle_tangential", {}
+
+    def measure(spec: dict, function: str) -> dict:
+        """``function(spec)`` in a fresh process that imports hpcontact from ``spec["code"]``."""
+        return harness.call_in_child(__file__, function, spec, threads=args.threads, timeout=args.timeout,
+                                     env=code_environment(spec)).or_error(spec)
     for round_ in range(args.rounds):
         with tempfile.TemporaryDirectory() as work:
             for n in args.n:
                 for index, code in enumerate(args.code):
                     common = {"case": case, "n": n, "threads": args.threads, "tol": args.tol, "clock": args.clock,
                               "code": code, "scenes": args.scenes}
-                    best = run_child(__file__, {**common, "solver": "PCG", "repeat": args.repeat, "wisdom": False,
-                                                "full_fft": False, "planner": "FFTW_MEASURE"}, args.timeout)
+                    best = measure({**common, "solver": "PCG", "repeat": args.repeat, "wisdom": False,
+                                    "full_fft": False, "planner": "FFTW_MEASURE"}, "child")
                     wisdom = os.path.join(work, f"wisdom-{n}-{index}")
                     runs = {"solve": {"mode": "solve", "wisdom_file": os.path.join(work, f"none-{n}-{index}")},
                             "sweep": {"mode": "sweep", "wisdom_file": wisdom},
                             "again": {"mode": "sweep", "wisdom_file": wisdom}}
                     row = {"n": n, "code": code, "best": best}
                     for name, extra in runs.items():
-                        row[name] = run_child(__file__, {**common, "kind": "cold", **extra}, args.timeout)
+                        row[name] = measure({**common, **extra}, "cold_child")
                     errors = "; ".join(f"{k}: {row[k]['error']}" for k in ("best", *runs) if "error" in row[k])
                     if errors:
                         row["error"] = errors
@@ -564,7 +535,7 @@ def cold_table(args: argparse.Namespace) -> list[dict]:
             print(f"{row['code'][-24:]:>24s} {row['n']:5d} FAILED: {row['error']}")
             continue
 
-        def cell(name: str) -> str:
+        def cell(name: str, row: dict = row, b: dict = b) -> str:
             r = row[name]
             return f"{r['per_iter_ms']:7.1f} {r['per_iter_ms'] / b['per_iter_ms']:5.2f}"
 
@@ -581,4 +552,4 @@ def cold_table(args: argparse.Namespace) -> list[dict]:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    harness.entry(main)

@@ -3,7 +3,7 @@
     python benchmarks/strip_calibration.py [--rectangles 1e-6,...] [--ellipses 1e-3,...]
         [--cache results/strip_calibration.jsonl] [--cost rectangle:1e-8,ellipse:1e-6,...]
 
-Strip cells (``hpcontact.strip_cells``) discretize a contact along x only. For each case the
+Strip cells (``hpcontact.discretizations.strip_cells``) discretize a contact along x only. For each case the
 Galerkin integrals are formed once per grid (they do not depend on nu) and K_xx, K_yy, K_zz
 solved for nu = 0, 0.3, 0.5, on n = 16, 32, …, 4096 strips for rectangles and up to
 ``accuracy.strip_max_n`` for ellipses (1024; 256 for b/a > 1e-2). Records carry ``VERSION``;
@@ -34,24 +34,20 @@ against the reference.
 from __future__ import annotations
 
 import argparse
-import json
-import resource
-import subprocess
 import sys
 import time
 from pathlib import Path
 from typing import Any
 
+import harness
 import numpy as np
-
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 
 from hpcontact import accuracy as acc
 from hpcontact import analytic
-from hpcontact import strip_cells as sc
+from hpcontact.discretizations import strip_cells as sc
 from hpcontact.geometry import Shape
-from hpcontact.materials import Isotropic
+from hpcontact.materials.isotropic import Isotropic
+from hpcontact.scene import Scene
 
 RECTANGLES = (1e-6, 3e-7, 1e-7, 1e-8, 1e-9, 1e-10, 1e-12)
 ELLIPSES = (1.0, 0.7, 0.5, 0.3, 0.1, 0.05, 0.02, 1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 1e-5, 1e-6, 1e-8, 1e-10)
@@ -84,21 +80,18 @@ def solve_grid(shape: str, aspect: float, n: int) -> list[dict[str, Any]]:
 
 def load(cache: Path, cases: list[tuple[str, float]]) -> dict[tuple[str, float, float, int], dict[str, Any]]:
     have: dict[tuple[str, float, float, int], dict[str, Any]] = {}
-    if cache.exists():
-        for line in cache.read_text().splitlines():
-            r = json.loads(line)
-            if r["shape"] == "rectangle" or r.get("version") == VERSION:  # rectangles' integrals are unchanged
-                have[(r["shape"], r["aspect"], r["nu"], r["n"])] = r
+    for r in harness.read_jsonl(cache):
+        if r["shape"] == "rectangle" or r.get("version") == VERSION:  # rectangles' integrals are unchanged
+            have[(r["shape"], r["aspect"], r["nu"], r["n"])] = r
     for shape, aspect in cases:
         for n in grids_of(shape, aspect):
             if all((shape, aspect, nu, n) in have for nu in NUS):
                 continue
             rows = solve_grid(shape, aspect, n)
             print(f"  {shape} b/a {aspect:g}, n = {n}: integrals {rows[0]['integrals_cpu_s']:.2f} s CPU", file=sys.stderr, flush=True)
-            with cache.open("a") as f:
-                for r in rows:
-                    f.write(json.dumps(r) + "\n")
-                    have[(shape, aspect, r["nu"], n)] = r
+            for r in rows:
+                harness.append_jsonl(cache, r)
+                have[(shape, aspect, r["nu"], n)] = r
     return have
 
 
@@ -190,10 +183,11 @@ def summary(records: list[dict[str, Any]]) -> None:
 
 
 def one_cost(shape: str, aspect: float, nu: float, request: float) -> dict[str, Any]:
-    cpu = time.process_time()
-    record = acc.solve_to_accuracy({"shape": shape, "aspect": aspect, "nu": nu, "quantities": "tangential,normal"},
-                                   request, strategy="auto", strict=False)
-    return {"cpu_s": time.process_time() - cpu, "peak_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+    """One ``--accuracy`` run (strategy auto), in a fresh process (``cost``)."""
+    scene = Scene.from_params({"shape": shape, "aspect": aspect, "nu": nu, "quantities": "tangential,normal"})
+    solved = harness.timed(lambda: acc.solve_to_accuracy(scene, request, strategy="auto", strict=False))
+    record = solved.value
+    return {"cpu_s": solved.cpu_s, "peak_mib": harness.peak_rss_mb(),
             "values": with_ratios({k: record[k] for k in KEYS}), "estimate": record["estimated_error"],
             "met": record["accuracy_met"], "stopped_by": record["stopped_by"], "grids": record["grids"],
             "boundary": record["boundary"]}
@@ -207,10 +201,7 @@ def cost(have: dict, cases: list[tuple[str, float]]) -> None:
         for nu in (0.3, 0.5):
             ref, _ = reference(have, shape, aspect, nu)
             for request in (1e-3, 1e-4, 1e-5, 1e-6, 1e-7):
-                code = (f"import json, sys; sys.path.insert(0, {str(Path(__file__).parent)!r}); import strip_calibration as s; "
-                        f"print(json.dumps(s.one_cost({shape!r}, {aspect!r}, {nu!r}, {request!r})))")
-                out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True).stdout
-                r = json.loads(out.strip().splitlines()[-1])
+                r = harness.call_in_child(__file__, "one_cost", shape, aspect, nu, request, check=True).result
                 true = max(abs(r["values"][k] - ref[k]) / abs(ref[k]) for k in ref)
                 met = "" if r["met"] else f" (not met: {r['stopped_by']})"
                 print(f"| {shape} {aspect:g} | {nu} | {request:g}{met} | {r['boundary']} | {r['estimate']:.2e} | {true:.2e} | "
@@ -225,9 +216,10 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rectangles", default=",".join(f"{a:g}" for a in RECTANGLES))
     ap.add_argument("--ellipses", default=",".join(f"{a:g}" for a in ELLIPSES))
-    ap.add_argument("--cache", type=Path, default=ROOT / "results" / "strip_calibration.jsonl")
+    ap.add_argument("--cache", type=Path, default=harness.RESULTS / "strip_calibration.jsonl")
     ap.add_argument("--cost", default="", help="cases to time, e.g. rectangle:1e-8,ellipse:1e-6")
     args = ap.parse_args(argv)
+    print(f"strip_calibration: {harness.machine_line(1)}")
     cases = cases_of(args.rectangles, "rectangle") + cases_of(args.ellipses, "ellipse")
     timed = [(c.split(":")[0], float(c.split(":")[1])) for c in args.cost.split(",") if c]
     have = load(args.cache, cases + [c for c in timed if c not in cases])
@@ -238,4 +230,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    harness.entry(main)

@@ -16,8 +16,9 @@ What it does, in order:
    task (journal write, progress, scheduling). On the six-axis job itself (48 132 tasks, below),
    with the driver's own functions in this process as 64 ranks would run them: the setup spread
    over the ranks (each share of the points enumerated with every distinct scene validated,
-   ``driver._share``: the sum over shares) and the setup on the critical path (every rank
-   unpickles and joins all shares; rank 0 checks the journals and decides; the decision pickled
+   ``tasks.enumerate_part``, as the driver's share does: the sum over shares) and the setup on the
+   critical path (every rank unpickles and joins all shares, ``tasks.join_parts``; rank 0 checks
+   the journals and decides, ``driver._prepare``; the decision pickled
    and unpickled as its broadcast does; every rank makes the chunks for 1024 ranks); the gather spread over the ranks (synthetic solver-like outcomes,
    ``dataset_scale.record``, turned into columns, ``columns.to_columns``) and rank 0's serial
    gather (the columns unpickled and joined, the data set built and written). Best of
@@ -49,22 +50,20 @@ import math
 import os
 import pickle
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
 
+import harness
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-
-from hpcontact.sweep.costmodel import Overheads, replay, task_kind  # noqa: E402
-from hpcontact.sweep.journal import OK, read_journals  # noqa: E402
-from hpcontact.sweep.spec import Spec, load_spec, parse_spec  # noqa: E402
-from hpcontact.sweep.tasks import Task, enumerate_tasks, make_chunks  # noqa: E402
+from hpcontact.problems.footprint import task_kind
+from hpcontact.sweep.costmodel import Overheads, replay
+from hpcontact.sweep.journal import OK, read_journals
+from hpcontact.sweep.spec import Spec, load_spec, parse_spec
+from hpcontact.sweep.tasks import Task, enumerate_part, enumerate_tasks, join_parts, make_chunks, points
 
 SMALL_SWEEPS = {
     "thin shapes": """
@@ -157,9 +156,10 @@ def measured(spec: Spec) -> Distribution:
 
 def run_small_sweeps(folder: Path) -> tuple[dict[str, Distribution], dict[str, float]]:
     """Run the small sweeps in this process; their measured tasks and driver overheads per task."""
+    import xarray as xr
+
     from hpcontact.sweep.driver import run_sweep
     from hpcontact.sweep.schedule import SerialTeam
-    import xarray as xr
 
     out: dict[str, Distribution] = {}
     overhead = {"driver_s": []}
@@ -204,7 +204,7 @@ if team.rank == 1:
 else:
     time.sleep(2.0)  # let every message arrive, then time the server on a full queue
     t = time.perf_counter(); served = 0
-    while counter._serve_one():
+    while counter._serve_one():  # private: no public way to serve one queued message
         served += 1
     print("service", (time.perf_counter() - t) / max(served, 1), served, flush=True)
 counter.close()
@@ -215,10 +215,9 @@ def measure_latency() -> dict[str, float]:
     """A worker's claim round trip while rank 0 computes (median, worst) and the server's time per
     message on a full queue, from the real scheduler under the mpiexec beside this Python."""
     mpiexec = Path(sys.executable).with_name("mpiexec")
-    done = subprocess.run([str(mpiexec), "-n", "2", sys.executable, "-c", PROBE], capture_output=True, text=True,
-                          timeout=120, env={**os.environ, "PYTHONPATH": str(ROOT)})
-    if done.returncode:
-        raise RuntimeError(f"latency probe failed: {done.stderr[-2000:]}")
+    done = harness.run_child([str(mpiexec), "-n", "2", sys.executable, "-c", PROBE], timeout=120)
+    if done.returncode or done.timed_out:
+        raise RuntimeError(f"latency probe failed: {done.error}\n{done.stderr[-2000:]}")
     values: dict[str, float] = {}
     for line in done.stdout.splitlines():
         word, *numbers = line.split()
@@ -242,18 +241,15 @@ SHARES = 64  # ranks the six-axis setup and gather are split over when measured
 
 def best(function, repeats: int) -> tuple[float, object]:
     """The least wall time of ``repeats`` calls of ``function`` and its last value."""
-    times = []
-    for _ in range(repeats):
-        started = time.perf_counter()
-        value = function()
-        times.append(time.perf_counter() - started)
-    return min(times), value
+    timing = harness.repeat_timing(function, repeats)
+    return timing.best, timing.value
 
 
 def setup_and_gather(folder: Path, repeats: int) -> dict[str, float]:
     """Per task of the six-axis job: the setup and gather spread over the ranks (summed over
     ``SHARES`` shares) and rank 0's serial setup and gather (module docstring, point 2)."""
     from dataset_scale import record
+
     from hpcontact.sweep import driver
     from hpcontact.sweep.columns import join, to_columns
     from hpcontact.sweep.dataset import FIXED_VARIABLES, dataset_of, write_netcdf
@@ -261,13 +257,21 @@ def setup_and_gather(folder: Path, repeats: int) -> dict[str, float]:
 
     spec = parse_spec(SIX_AXIS, folder / "six_axis.toml", output=folder / "six_axis.nc", check_scenes=False)
     options = driver.Options(restart=True)
-    spread_setup, shares = best(lambda: [driver._share(spec, r, SHARES, None, options) for r in range(SHARES)], repeats)
-    sent = [pickle.dumps(share, protocol=pickle.HIGHEST_PROTOCOL) for share in shares]
+    total = points(spec)
+
+    def share(rank: int):
+        """Rank ``rank``'s share of the points, every distinct scene validated (the driver's share
+        without a memory limit)."""
+        return enumerate_part(spec, total * rank // SHARES, total * (rank + 1) // SHARES, None, check=True)
+
+    spread_setup, shares = best(lambda: [share(r) for r in range(SHARES)], repeats)
+    sent = [pickle.dumps(part, protocol=pickle.HIGHEST_PROTOCOL) for part in shares]
 
     def prepare() -> tuple[list[Task], driver.Decision, dict]:
-        tasks, task_of, over = driver._joined(spec, [pickle.loads(b) for b in sent])  # every rank
+        tasks, task_of = join_parts(spec, [pickle.loads(b) for b in sent])  # every rank
         keep: dict = {}
-        decision = driver._prepare(spec, tasks, task_of, over, options, 1024, keep)  # rank 0
+        # private: rank 0's journal check and decision has no public name
+        decision = driver._prepare(spec, tasks, task_of, False, options, 1024, keep)  # rank 0
         keep["lock"].release()
         decision = pickle.loads(pickle.dumps(decision, protocol=pickle.HIGHEST_PROTOCOL))  # its broadcast
         make_chunks([tasks[i] for i in decision.shared], 1024)  # every rank
@@ -311,8 +315,7 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=2, help="best of this many timings of setup and gather")
     parser.add_argument("--before", action="store_true", help="also replay with setup and gather all on rank 0 (ab7d7f9)")
     args = parser.parse_args()
-    os.environ.setdefault("OMP_NUM_THREADS", "1")
-
+    print(f"sweep_scale: {harness.machine_line(1)}")
     folder = Path(args.keep) if args.keep else Path(tempfile.mkdtemp(prefix="hpcontact-scale-"))
     folder.mkdir(parents=True, exist_ok=True)
     print("measured task costs (one core, real solver):")
@@ -363,4 +366,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    harness.entry(main)

@@ -24,16 +24,15 @@ from __future__ import annotations
 import argparse
 import os
 import shutil
-import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
+import harness
 import xarray as xr
-
-ROOT = Path(__file__).resolve().parents[1]
 
 SPEC = """
 [sweep]
@@ -55,14 +54,18 @@ n = [64, 128, 192, 256]
 MEAN_SLEEP_S = 0.15
 
 
-def worker(spec: Path, output: Path, tasks: str) -> None:
+def worker(spec: str, output: str, tasks: str) -> None:
     """One rank of a benchmark run (started by ``run`` under mpiexec)."""
     from hpcontact.sweep.driver import run_sweep
     from hpcontact.sweep.spec import load_spec
     from hpcontact.sweep.tasks import enumerate_tasks, estimated_cost
 
     if tasks == "solve":
-        from hpcontact.solve import solve as function
+        from hpcontact.problems.contact import solve
+        from hpcontact.scene import Scene
+
+        def function(params: Mapping[str, Any]) -> dict[str, Any]:
+            return solve(Scene.from_params(params))
     else:
         costs = [t.cost for t in enumerate_tasks(load_spec(spec))[0]]
         scale = MEAN_SLEEP_S * len(costs) / sum(costs)
@@ -81,13 +84,10 @@ def run(ranks: int, spec: Path, output: Path, tasks: str) -> tuple[dict, float]:
     mpiexec = shutil.which("mpiexec", path=f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}")
     if mpiexec is None:
         raise SystemExit("mpiexec not found")
-    env = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONPATH": f"{ROOT}{os.pathsep}{os.environ.get('PYTHONPATH', '')}"}
-    command = [mpiexec, "-n", str(ranks), sys.executable, __file__, "--worker", str(spec), str(output), tasks]
-    started = time.perf_counter()
-    subprocess.run(command, env=env, check=True)
-    wall = time.perf_counter() - started
+    command = [mpiexec, "-n", str(ranks), *harness.child_command(__file__, "worker", str(spec), str(output), tasks)]
+    done = harness.run_child(command, threads=1, check=True)
     with xr.open_dataset(output) as ds:
-        return dict(ds.attrs), wall
+        return dict(ds.attrs), done.wall_s
 
 
 def report(tasks: str, ranks: int, attrs: dict, command_wall: float) -> str:
@@ -106,9 +106,6 @@ def report(tasks: str, ranks: int, attrs: dict, command_wall: float) -> str:
 
 
 def main() -> None:
-    if len(sys.argv) == 5 and sys.argv[1] == "--worker":
-        worker(Path(sys.argv[2]), Path(sys.argv[3]), sys.argv[4])
-        return
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--tasks", nargs="+", choices=("solve", "sleep"), default=["solve", "sleep"])
@@ -118,6 +115,7 @@ def main() -> None:
     folder.mkdir(parents=True, exist_ok=True)
     spec = folder / "scaling.toml"
     spec.write_text(SPEC, encoding="utf-8")
+    print(f"sweep_scaling: {harness.machine_line(1)}")
     print(f"{'tasks':>5} {'ranks':>5} {'count':>5} {'wall s':>7} {'command s':>9} {'task s':>7} {'mean s':>9} "
           f"{'efficiency':>10} {'driver ms':>9} {'driver/task':>12}   setup / schedule / journal / gather ms per task")
     try:
@@ -131,4 +129,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    harness.entry(main)

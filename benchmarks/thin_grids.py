@@ -12,7 +12,7 @@ across), refined by ``accuracy.RATIO`` = 2 in both (fixed cell aspect, as ``grid
 The twelve starts lie on six families of one cell aspect na/n ∈ {1/16 … 2}, so a grid is solved
 once and shared by every start on its family.
 
-``--collect`` solves every grid not yet cached with ``covered_solve(params, strategy="coverage")``
+``--collect`` solves every grid not yet cached with ``covered_solve(scene, strategy="coverage")``
 (tangential and normal, CG tol 1e-10), each in a fresh child process (its own FFTW planning, as
 one grid of an ``--accuracy`` run), one at a time, smallest grids first over all cases, thin
 aspects first; it skips a grid above ``--max-cells`` or whose CPU time, extrapolated linearly in
@@ -52,16 +52,12 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
-import sys
-import time
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
+import harness
 import numpy as np
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
 from accuracy_sharpness import references
 
 from hpcontact import accuracy as acc
@@ -106,32 +102,26 @@ def key_of(aspect: float, nu: float, n: int, na: int, strategy: str = STRATEGY) 
 
 def load(cache: Path) -> dict[str, dict[str, Any]]:
     """The cached solves by key (a later line replaces an earlier one)."""
-    out: dict[str, dict[str, Any]] = {}
-    if cache.exists():
-        for line in cache.read_text().splitlines():
-            r = json.loads(line)
-            out[key_of(r["aspect"], r["nu"], r["n"], r["n_across"], r["strategy"])] = r
-    return out
+    return {key_of(r["aspect"], r["nu"], r["n"], r["n_across"], r["strategy"]): r for r in harness.read_jsonl(cache)}
 
 
 def solve_one(aspect: float, nu: float, n: int, na: int) -> dict[str, Any]:
     """One coverage-weighted solve with its CPU and wall seconds (run in a child process)."""
-    from hpcontact.boundary_cells import covered_solve
+    from hpcontact.discretizations.boundary_cells import covered_solve
+    from hpcontact.scene import Scene
 
     load1 = os.getloadavg()[0]
-    wall, cpu = time.perf_counter(), time.process_time()
-    r = covered_solve(params_of(aspect, nu, n, na), strategy=STRATEGY)
+    scene = Scene.from_params(params_of(aspect, nu, n, na))
+    solved = harness.timed(lambda: covered_solve(scene, strategy=STRATEGY))
+    r = solved.value
     return {"aspect": aspect, "nu": nu, "n": n, "n_across": na, "strategy": STRATEGY, "tol": TOL,
-            "cpu_s": time.process_time() - cpu, "wall_s": time.perf_counter() - wall, "load": load1,
+            "cpu_s": solved.cpu_s, "wall_s": solved.wall_s, "load": load1,
             "iterations": r["iterations"], **{k: r[k] for k in acc.TENSOR_KEYS if k in r}}
 
 
 def solve_in_child(aspect: float, nu: float, n: int, na: int) -> dict[str, Any]:
-    """``solve_one`` in a fresh interpreter (one BLAS thread): no FFTW plans from earlier solves."""
-    env = {**os.environ, "OMP_NUM_THREADS": "1", "HPCONTACT_BLAS_THREADS": "1"}
-    out = subprocess.run([sys.executable, __file__, "--solve-one", json.dumps([aspect, nu, n, na])],
-                         env=env, check=True, capture_output=True, text=True)
-    return json.loads(out.stdout.strip().splitlines()[-1])
+    """``solve_one`` in a fresh interpreter (one thread): no FFTW plans from earlier solves."""
+    return harness.call_in_child(__file__, "solve_one", aspect, nu, n, na, threads=1, check=True).result
 
 
 def predicted_cpu(cached: dict[str, dict[str, Any]], aspect: float, nu: float, cells: int) -> float:
@@ -145,7 +135,6 @@ def predicted_cpu(cached: dict[str, dict[str, Any]], aspect: float, nu: float, c
 
 def collect(cache: Path, aspects: Iterable[float], nus: Iterable[float], max_cells: int, max_cpu: float) -> None:
     """Solve and append every missing grid (module docstring for the order and the limits)."""
-    cache.parent.mkdir(parents=True, exist_ok=True)
     cached = load(cache)
     for n, na in all_grids(max_cells):
         for aspect in aspects:
@@ -154,8 +143,7 @@ def collect(cache: Path, aspects: Iterable[float], nus: Iterable[float], max_cel
                     continue
                 row = solve_in_child(aspect, nu, n, na)
                 cached[key_of(aspect, nu, n, na)] = row
-                with cache.open("a") as f:
-                    f.write(json.dumps(row) + "\n")
+                harness.append_jsonl(cache, row)
                 print(f"  solved b/a={aspect:g} nu={nu} {n} x {na}: {row['cpu_s']:.2f} s CPU, "
                       f"{row['wall_s']:.2f} s wall, load {row['load']:.2f}", flush=True)
 
@@ -327,7 +315,7 @@ def report_summary(cached: dict[str, dict[str, Any]], aspects: list[float], nus:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--cache", type=Path, default=Path("results/thin_grids.jsonl"))
+    parser.add_argument("--cache", type=Path, default=harness.RESULTS / "thin_grids.jsonl")
     parser.add_argument("--collect", action="store_true")
     parser.add_argument("--aspects", type=float, nargs="+", default=list(ASPECTS))
     parser.add_argument("--nus", type=float, nargs="+", default=list(NUS))
@@ -336,11 +324,8 @@ def main() -> None:
     parser.add_argument("--levels", action="store_true", help="print every sequence grid by grid")
     parser.add_argument("--split", action="store_true", help="print the along-x / across-y split")
     parser.add_argument("--no-cases", action="store_true", help="print the summary only")
-    parser.add_argument("--solve-one", help=argparse.SUPPRESS)
     args = parser.parse_args()
-    if args.solve_one:
-        print(json.dumps(solve_one(*json.loads(args.solve_one))))
-        return
+    print(f"thin_grids: {harness.machine_line(1)}")
     if args.collect:
         collect(args.cache, args.aspects, args.nus, args.max_cells, args.max_cpu)
     cached = load(args.cache)
@@ -354,4 +339,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    harness.entry(main)

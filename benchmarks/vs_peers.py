@@ -8,8 +8,8 @@ prescribed on the circle; each code's total force per unit displacement is print
 agree to discretization accuracy: all three use uniform-pressure square cells, so they agree to
 the solvers' tolerance) with its iterations and times, and the time ratios to ours.
 
-- hpcontact: the engine (``solve.Engine``) on the mask cropped to its support
-  (``geometry.crop_to_support``, as ``solve.solve`` does), CG on the mask with the Fourier
+- hpcontact: the engine (``kernels.engine.Engine``) on the mask cropped to its support
+  (``geometry.crop_to_support``, as ``problems.contact.solve`` does), CG on the mask with the Fourier
   preconditioner ("PCG"), and plain CG ("CG") for the before/after. Total time = kernel
   construction + spectrum + FFTW planning (no saved wisdom) + preconditioner + solve.
 - Tamaas (``tamaas``): ``PolonskyKeerRey`` on a ``basic_2d`` model of the unit square with the
@@ -31,14 +31,12 @@ that is not installed (``pip install -e .[bench]``) or fails is reported and the
 from __future__ import annotations
 
 import argparse
-import json
 import os
-import platform
 import sys
 import tempfile
 import time
 
-from children import add_run_options, run_child
+import harness
 
 E, NU, RADIUS = 1.0, 0.3, 0.4
 CLOCK = time.perf_counter  # the child switches to time.process_time with --clock cpu
@@ -55,13 +53,8 @@ def unit_square_mask(n: int):
 
 
 def _best(fn, repeat: int) -> float:
-    fn()
-    best = float("inf")
-    for _ in range(repeat):
-        t0 = CLOCK()
-        fn()
-        best = min(best, CLOCK() - t0)
-    return best
+    """Best time of ``repeat`` calls of ``fn()`` on ``CLOCK``, after a warm-up call."""
+    return harness.repeat_timing(fn, repeat, warmup=True, clock=CLOCK).best
 
 
 # ---------------------------------------------------------------------------------------------
@@ -72,10 +65,10 @@ def run_ours(n: int, tol: float, threads: int, precondition: bool) -> dict:
     import scipy.fft
 
     from hpcontact.geometry import Grid, crop_to_support
-    from hpcontact.materials import Isotropic
-    from hpcontact.preconditioner import FourierPreconditioner
-    from hpcontact.solve import Engine
-    from hpcontact.solvers import conjugate_gradient
+    from hpcontact.materials.isotropic import Isotropic
+    from hpcontact.numerics.conjugate_gradient import conjugate_gradient
+    from hpcontact.numerics.preconditioner import FourierPreconditioner
+    from hpcontact.problems.contact import Engine
 
     full_mask = unit_square_mask(n)
     t0 = CLOCK()
@@ -223,8 +216,9 @@ def run_contactmechanics(n: int, tol: float, threads: int) -> dict:
 
 
 def child(spec: dict) -> dict:
+    """One (code, n) run in this fresh process (``harness.call_in_child``)."""
     global CLOCK
-    CLOCK = time.process_time if spec.get("clock") == "cpu" else time.perf_counter
+    CLOCK = harness.CLOCKS[spec.get("clock", "wall")]
     code, n, tol, threads = spec["code"], spec["n"], spec["tol"], spec["threads"]
     try:
         if code == "ours_pcg":
@@ -246,18 +240,6 @@ def child(spec: dict) -> dict:
 # parent
 # ---------------------------------------------------------------------------------------------
 LABELS = {"ours_pcg": "hpcontact PCG", "ours_cg": "hpcontact CG", "tamaas": "Tamaas", "contactmechanics": "ContactMechanics"}
-
-
-def host_line(threads: int) -> str:
-    cpu = platform.machine()
-    try:
-        with open("/proc/cpuinfo") as fh:
-            names = [line.split(":", 1)[1].strip() for line in fh if line.startswith("model name")]
-        cpu = names[0] if names else cpu
-    except OSError:
-        pass
-    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    return f"{cpu}, {os.cpu_count()} cores, load average {load:.1f}; {threads} thread(s)"
 
 
 def analytic_force() -> float:
@@ -314,13 +296,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--threads", type=int, default=1, help="FFTW/BLAS/OpenMP threads for every code (default 1)")
     p.add_argument("--codes", nargs="+", choices=["ours", "tamaas", "contactmechanics"], default=list(CODES))
     p.add_argument("--tol", type=float, default=1e-8, help="solver tolerance for every code (default 1e-8)")
-    add_run_options(p, timeout=900.0)
+    harness.add_run_options(p, timeout=900.0)
     args = p.parse_args(argv)
-    if args.child:
-        print(json.dumps(child(json.loads(args.child))))
-        return 0
-
-    print(f"vs_peers: {host_line(args.threads)}; tol {args.tol:g}; {args.clock} clock")
+    print(f"vs_peers: {harness.machine_line(args.threads)}; tol {args.tol:g}; {args.clock} clock")
     codes = []
     for code in args.codes:
         codes.extend(["ours_pcg", "ours_cg"] if code == "ours" else [code])
@@ -328,7 +306,7 @@ def main(argv: list[str] | None = None) -> int:
     for n in args.n:
         for code in codes:
             spec = {"code": code, "n": n, "tol": args.tol, "threads": args.threads, "clock": args.clock}
-            r = run_child(__file__, spec, args.timeout)
+            r = harness.call_in_child(__file__, "child", spec, threads=args.threads, timeout=args.timeout).or_error(spec)
             rows.append(r)
             if "error" in r:
                 print(f"  n={n} {LABELS[code]}: {r['error']}", file=sys.stderr, flush=True)
@@ -337,10 +315,9 @@ def main(argv: list[str] | None = None) -> int:
                       f"force {r['force']:.6f}", file=sys.stderr, flush=True)
     print_table(rows, args.n)
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump({"host": host_line(args.threads), "rows": rows}, fh, indent=1)
+        harness.write_json(args.json, {"machine": harness.machine_line(args.threads), "clock": args.clock, "rows": rows})
     return 0
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    harness.entry(main)

@@ -7,9 +7,8 @@ busy (MPI ranks, FFTW threads) made each of them 200× slower (22 ms instead of 
 
 The face a notebook uses (``api``): ``hpcontact.solve(shape=..., nu=..., ...)`` returns one
 scene's record, ``hpcontact.run_sweep(spec)`` runs a sweep in this process and
-``hpcontact.open_dataset(path)`` reads a sweep's data set. ``hpcontact.solve`` is also the
-engine's module (``hpcontact.solve.solve``): the module is made callable, so both spellings
-work.
+``hpcontact.open_dataset(path)`` reads a sweep's data set. The package's layout, floor by
+floor, is in ``docs/design.md`` §3.
 """
 
 import os as _os
@@ -21,17 +20,6 @@ __version__ = "0.1.0"
 
 _threadpool_limits(limits=int(_os.environ.get("HPCONTACT_BLAS_THREADS", "1")), user_api="blas")
 
-from . import solve as _solve_module  # noqa: E402  (after the limit: the engine loads numpy's BLAS users)
-from .api import open_dataset, run_sweep  # noqa: E402,F401
+from hpcontact.api import open_dataset, run_sweep, solve  # noqa: E402  (after the limit: the solvers load numpy's BLAS users)
 
-
-class _CallableModule(type(_solve_module)):
-    """The ``hpcontact.solve`` module, callable as ``api.solve``."""
-
-    def __call__(self, **params: object) -> dict:
-        from .api import solve
-
-        return solve(**params)
-
-
-_solve_module.__class__ = _CallableModule
+__all__ = ["__version__", "open_dataset", "run_sweep", "solve"]

@@ -2,7 +2,7 @@ r"""Extrapolated answers with an honest error estimate (``hpcontact solve --accu
 
 Why the plain grid sequence cannot be extrapolated
 --------------------------------------------------
-The engine puts a cell in the contact when its centre lies inside the shape (DESIGN §2.2). The
+The engine puts a cell in the contact when its centre lies inside the shape (docs/design.md §2.2). The
 staircase area of a curved shape then fluctuates with n (the Gauss circle problem): the circle's
 K_xx error is 1.8e-3 at n = 64, 2.8e-3 at 96, 8.6e-4 at 128, 9.2e-4 at 192, 4.3e-4 at 512 — not
 a smooth function of the cell size h. For an ellipse b/a = 0.1 the fluctuation is ±15 % of the
@@ -12,7 +12,7 @@ difference of two extrapolants can be small by accident: measured on area-correc
 (K·(A/A_n)^½, exact for a circle), |R_k − R_{k−1}| was 6e-5 where the true error was 6e-4.
 Neither is honest.
 
-The grid sequence is solved on coverage-weighted boundary cells (``hpcontact.boundary_cells``):
+The grid sequence is solved on coverage-weighted boundary cells (``hpcontact.discretizations.boundary_cells``):
 the discrete edge moves continuously with the true one and the error is a smooth expansion
 c₁ h + c₂ h^q + … with q ≈ 1.5–3, which Richardson extrapolation can use.
 
@@ -67,7 +67,7 @@ factor (below).
 
 ``hpcontact solve --accuracy`` uses strategy ``auto``. Unturned rectangles of b/a ≤ 1e-6 and
 unturned ellipses, isotropic — ellipses wider than ``STRIP_WIDE_ASPECT`` = 1e-2 for requests
-below ``SINGULAR_BELOW`` only — take strip cells (``hpcontact.strip_cells``): n = 32, 64, …
+below ``SINGULAR_BELOW`` only — take strip cells (``hpcontact.discretizations.strip_cells``): n = 32, 64, …
 strips (``STRIP_N0``; ellipses, whose strips contain the exact traction, from
 ``STRIP_ELLIPSE_N0`` = 16) up to ``STRIP_MAX_N`` = 1024 (ellipses wider than 1e-2:
 ``STRIP_WIDE_MAX_N`` = 256), the estimator of coverage-weighted cells (``EXPANSIONS``,
@@ -111,17 +111,30 @@ import dataclasses
 import functools
 import math
 import time
-from typing import Any, Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
-from . import quantities as q
-from . import strip_cells
-from .boundary_cells import SINGULAR_SUPPORTED, SUPPORTED, covered_solve, mask_cells, strip_applies
-from .errors import ConvergenceError, InputError
-from .geometry import Shape
-from .materials import Isotropic
-from .scene import Scene
+from hpcontact import quantities as q
+from hpcontact.discretizations import singular_cells, strip_cells
+from hpcontact.discretizations.boundary_cells import (
+    SINGULAR_SUPPORTED,
+    SUPPORTED,
+    covered_solve,
+    mask_cells,
+    strip_applies,
+)
+from hpcontact.errors import ConvergenceError, InputError
+from hpcontact.geometry import Shape, grid_for
+from hpcontact.materials.isotropic import Isotropic
+from hpcontact.numerics.convolution import clear_cache
+from hpcontact.numerics.memory import default_memory_per_rank, resident_bytes
+from hpcontact.problems import footprint
+from hpcontact.problems.contact import solve
+from hpcontact.problems.kinds import SLIP
+from hpcontact.problems.slip.partial_slip import solve_slip
+from hpcontact.scene import Scene
 
 __all__ = [
     "RATIO",
@@ -154,12 +167,12 @@ RATIO = 2.0  # grid refinement ratio r (Roache 1998 recommends r ≥ 1.3; 2 keep
 #: Candidate error expansions Q_k = Q* + Σ c_i h_k^(p_i): the exponents p_i of each. Order-1
 #: sets describe coverage-weighted cells (edge layer of the square-root traction); the 1.5 and 2
 #: leads a treatment that resolves the edge; the empty set takes the finest grid's value as it
-#: is (an error without a steady sign, as ``hpcontact.singular_cells`` measures for its cells).
+#: is (an error without a steady sign, as ``hpcontact.discretizations.singular_cells`` measures for its cells).
 #: Which one the data follow is decided per sequence (``estimate``), never assumed.
 EXPANSIONS: tuple[tuple[float, ...], ...] = (
     (), (1.0,), (1.0, 2.0), (1.0, 1.5), (1.0, 2.0, 3.0), (1.5,), (2.0,), (1.5, 2.0), (2.0, 3.0)
 )
-#: The candidates for singular cells (``hpcontact.singular_cells``): those led by order 1. Their
+#: The candidates for singular cells (``hpcontact.discretizations.singular_cells``): those led by order 1. Their
 #: error is led by C/n with a constant that need not be steady (cut-cell quadrature); on the
 #: sequences of :func:`singular_start` (b/a = 1 … 0.05, nu = 0, 0.3, 0.5, n₀ = 16 and 32, 294
 #: records, 1644 per-quantity pairs) leads 1.5 and 2 extrapolated past the true value (79 pairs
@@ -212,7 +225,7 @@ COVERAGE_MAX_N = 1024
 #: error; 5.5 is the least that is honest on all (worst pair 0.98), 6 leaves a margin (worst
 #: record 0.51, pair 0.90; within 30x in 90.1 % of the records, 97.0 % below ``SINGULAR_BELOW``).
 SINGULAR_SAFETY = 6.0
-#: Strip cells' grids (``hpcontact.strip_cells``: n strips, one across) start at this many
+#: Strip cells' grids (``hpcontact.discretizations.strip_cells``: n strips, one across) start at this many
 #: strips and stop at ``STRIP_MAX_N``, the finest grid of their calibration
 #: (``benchmarks/strip_calibration.py``); their estimate is that of coverage-weighted cells
 #: (``EXPANSIONS``, ``SAFETY``) plus the model's own bound ``strip_cells.MODEL_ERROR`` · b/a.
@@ -336,7 +349,7 @@ def estimate(values: Sequence[float], ratio: float = RATIO,
 
 
 def singular_start(scene: Scene, n0: int, n_across0: int | None) -> tuple[int, int] | None:
-    """First grid (n, n_across) of a sequence on singular cells (``hpcontact.singular_cells``)
+    """First grid (n, n_across) of a sequence on singular cells (``hpcontact.discretizations.singular_cells``)
     with near-square cells, or None where they do not apply or would need more than
     ``SINGULAR_MAX_N0`` cells along x on the first grid.
 
@@ -346,9 +359,6 @@ def singular_start(scene: Scene, n0: int, n_across0: int | None) -> tuple[int, i
     below 1/4 from n₀ = 32), the cells across stay and x takes as many as square cells need
     (b/a = 0.05: 160 × 8). The sequence then refines both by ``RATIO`` (fixed cell aspect).
     """
-    from . import singular_cells
-    from .geometry import grid_for
-
     shape = scene.shape
     if shape.name not in ("circle", "ellipse") or not set(scene.quantities) <= set(SINGULAR_SUPPORTED):
         return None
@@ -401,19 +411,17 @@ SINGULAR_NEAR_CELLS_PER_SIDE_CELL = 8.0
 SINGULAR_BYTES_PER_NEAR_CELL = 9.0 * 1024
 
 
-def grid_bytes(params: Mapping[str, Any], n: int, n_across: int, strategy: str = "coverage") -> float:
-    """Peak bytes of the arrays of one solve of ``params`` on an n × n_across grid with
+def grid_bytes(scene: Scene, n: int, n_across: int, strategy: str = "coverage") -> float:
+    """Peak bytes of the arrays of one solve of ``scene`` on an n × n_across grid with
     ``strategy``'s cells: coverage-weighted, the sweep's cost model
-    (``hpcontact.sweep.costmodel.task_array_bytes``) plus ``COVERAGE_BYTES_PER_CELL`` per cell;
+    (``hpcontact.problems.footprint.array_bytes``) plus ``COVERAGE_BYTES_PER_CELL`` per cell;
     singular, plus ``SINGULAR_BYTES_PER_NEAR_CELL`` per cell of the near set
     (``SINGULAR_NEAR_CELLS_PER_SIDE_CELL`` × (n + n_across) cells); strip (n strips),
     ``STRIP_BYTES_PER_PAIR`` n² + ``STRIP_BYTES_BASE``."""
-    from .sweep.costmodel import task_array_bytes
-
     if strategy == "strip":
         return STRIP_BYTES_PER_PAIR * n * n + STRIP_BYTES_BASE
     near = SINGULAR_BYTES_PER_NEAR_CELL * SINGULAR_NEAR_CELLS_PER_SIDE_CELL * (n + n_across) if strategy == "singular" else 0.0
-    return task_array_bytes({**params, "n": n, "n_across": n_across}) + COVERAGE_BYTES_PER_CELL * n * n_across + near
+    return footprint.array_bytes(scene.fields(n=n, n_across=n_across)) + COVERAGE_BYTES_PER_CELL * n * n_across + near
 
 
 @dataclasses.dataclass(frozen=True)
@@ -461,25 +469,24 @@ def calibrated(strategy: str, shape: Shape) -> Callable[[int, int], bool]:
     return lambda n, na: max(n, na) <= COVERAGE_MAX_N
 
 
-def plan_grids(params: Mapping[str, Any], shape: Shape, n0: int, n_across0: int | None, max_cells: int,
+def plan_grids(scene: Scene, n0: int, n_across0: int | None, max_cells: int,
                memory_budget: float | None, strategy: str = "coverage") -> GridPlan:
     """The grid sequence within ``max_cells`` cells, the estimator's calibrated range
     (:func:`calibrated`) and the memory budget (bytes; default the machine's memory per core,
-    ``costmodel.default_memory_per_rank``): a grid is used only if this process's peak resident
+    ``numerics.memory.default_memory_per_rank``): a grid is used only if this process's peak resident
     set so far plus :func:`grid_bytes` of ``strategy``'s cells fits the budget. Strip cells'
     grids are n₀ 2ᵏ strips, one across."""
-    from .sweep.costmodel import default_memory_per_rank, resident_bytes
-
     if memory_budget is None:
         budget, source = default_memory_per_rank()
     else:
         budget, source = float(memory_budget), "given"
+    shape = scene.shape
     everything = [(n0 * 2**k, 1) for k in range(62)] if strategy == "strip" else grid_sequence(shape, n0, n_across0, 2**62)
     base = resident_bytes()
     within = calibrated(strategy, shape)
     grids: list[tuple[int, int]] = []
     for n, na in everything:
-        need = base + grid_bytes(params, n, na, strategy)
+        need = base + grid_bytes(scene, n, na, strategy)
         limit = "cells" if n * na > max_cells else "calibration" if not within(n, na) else "memory budget" if need > budget else None
         if limit is not None:
             return GridPlan(grids, limit, (n, na), need, base, float(budget), source, max_cells)
@@ -603,7 +610,7 @@ def refine(grids: Sequence[tuple[int, int]], solve_level: Any, accuracy: float,
 
 
 def solve_to_accuracy(
-    params: Mapping[str, Any],
+    scene: Scene,
     accuracy: float,
     *,
     n0: int | None = None,
@@ -614,7 +621,7 @@ def solve_to_accuracy(
     strategy: str = "coverage",
     strict: bool = True,
 ) -> dict[str, Any]:
-    """Solve ``params`` on refined coverage-weighted grids until the estimated relative error
+    """Solve ``scene`` on refined coverage-weighted grids until the estimated relative error
     of every reported stiffness is ≤ ``accuracy``; return the extrapolated record.
 
     The grids are planned before the first solve (:func:`plan_grids`): none exceeds
@@ -626,7 +633,7 @@ def solve_to_accuracy(
     tolerance is an error, exit status 1): :class:`AccuracyNotMet` names the finest grid and the
     limit that stopped it; ``strict=False`` returns the record instead (``accuracy_met`` False).
 
-    The record has the keys of ``hpcontact.solve.solve`` (extrapolated ``K_*`` and the
+    The record has the keys of ``hpcontact.problems.contact.solve`` (extrapolated ``K_*`` and the
     quantities derived from them; ``nx ny dx dy`` of the finest grid), and
 
     * ``estimated_error``: the largest estimated relative error (K_xx, K_yy, K_zz and
@@ -642,7 +649,7 @@ def solve_to_accuracy(
     * ``grids``: the n of every grid used, ``grids_across``: their n_across, ``levels``: the
       per-grid stiffnesses, wall times and iterations; ``wall_time_s``: the total.
 
-    ``params`` are those of ``solve``; ``n`` and ``n_across`` there are ignored (the sequence
+    The scene's ``n`` and ``n_across`` are ignored (the sequence
     starts at ``n0`` (default 32) and ``n_across0``). ``strategy`` is the boundary treatment of
     ``covered_solve`` (coverage, singular, strip, auto); ``auto`` (what ``hpcontact solve
     --accuracy`` uses) takes strips (``STRIP_N0`` = 32 strips first, one across) for slender
@@ -657,17 +664,12 @@ def solve_to_accuracy(
     (the sequence starts at the contact's long side in pixels); a rough patch cannot be refined
     and is refused (InputError), as are quantities other than tangential, normal, coupled.
     """
-    from .operator import clear_cache
-
     started = time.perf_counter()
     if not (isinstance(accuracy, (int, float)) and math.isfinite(accuracy) and 1e-9 <= accuracy < 1.0):
         raise InputError("accuracy", "a relative error in [1e-9, 1)", accuracy)
     if memory_budget is not None and not (math.isfinite(memory_budget) and memory_budget > 0):
         raise InputError("memory", "a memory budget > 0 bytes", memory_budget)
-    base = {k: v for k, v in params.items() if k not in ("n", "n_across")}
-    scene = Scene.from_params(base)
-    tol = min(scene.tol, accuracy * 1e-2)
-    base["tol"] = max(tol, 1e-14)
+    tol = max(min(scene.tol, accuracy * 1e-2), 1e-14)
     if strategy == "auto" and strip_applies(scene) and (accuracy < SINGULAR_BELOW or scene.shape.aspect <= STRIP_WIDE_ASPECT):
         strategy, n0, n_across0 = "strip", n0 or strip_n0(scene.shape), 1  # a slender rectangle, or an ellipse
     if strategy == "auto":  # singular cells on near-square cells where they apply and pay, else coverage
@@ -678,7 +680,7 @@ def solve_to_accuracy(
         if not strip_applies(scene):
             raise InputError("strategy", strip_cells.SUPPORTED_TEXT, strategy)
         n0, n_across0 = n0 or strip_n0(scene.shape), 1
-    plan = plan_grids(base, scene.shape, n0 or N0, n_across0, max_cells, memory_budget, strategy)
+    plan = plan_grids(scene, n0 or N0, n_across0, max_cells, memory_budget, strategy)
     sequence = plan.grids[:max_grids] if max_grids is not None else plan.grids
     if len(sequence) < MIN_GRIDS:
         within = "the estimator's calibrated range" if plan.limit == "calibration" else f"{max_cells} cells"
@@ -688,7 +690,7 @@ def solve_to_accuracy(
                          plan.budget if plan.limit == "memory budget" else sequence[:1])
 
     def solve_level(n: int, na: int) -> dict[str, Any]:
-        level = covered_solve({**base, "n": n, "n_across": na}, strategy)
+        level = covered_solve(scene.on_grid(n, na, tol), strategy)
         clear_cache()  # this grid's kernels serve no other grid: the budget counts one grid's
         return level
 
@@ -718,7 +720,7 @@ def solve_to_accuracy(
     record["grids_across"] = [na for _, na in sequence[: len(levels)]]
     record["memory_budget_bytes"] = plan.budget
     record["memory_budget_source"] = plan.budget_source
-    record["estimated_peak_bytes"] = plan.base_bytes + grid_bytes(base, *sequence[len(levels) - 1], strategy)
+    record["estimated_peak_bytes"] = plan.base_bytes + grid_bytes(scene, *sequence[len(levels) - 1], strategy)
     record["model_error"] = model
     record["levels"] = [
         {k: r[k] for k in (*TENSOR_KEYS, "K_a_over_K_b", "wall_time_s", "iterations", "contact_area") if k in r}
@@ -740,31 +742,30 @@ DEFAULT_N0 = 16
 DEFAULT_GRIDS = 5
 
 
-def extrapolates_by_default(params: Mapping[str, Any]) -> bool:
-    """Whether ``params`` without ``n`` get the extrapolated default (:func:`default_solve`):
+def extrapolates_by_default(scene: Scene) -> bool:
+    """Whether ``scene`` without ``n`` gets the extrapolated default (:func:`default_solve`):
     an isotropic body, a shape with a refinable outline (not rough, not a mask) and
     quantities that coverage-weighted cells solve (tangential, normal, coupled)."""
-    if params.get("n") is not None:
+    if scene.grid_given:
         return False
-    scene = Scene.from_params(params)
     return (isinstance(scene.material, Isotropic) and scene.shape.name not in ("rough", "mask")
             and all(x in SUPPORTED for x in scene.quantities))
 
 
-def default_grids(params: Mapping[str, Any]) -> list[tuple[int, int]]:
-    """The grids (n, n_across) :func:`default_solve` solves ``params`` on at most: grids 16, 32,
+def default_grids(scene: Scene) -> list[tuple[int, int]]:
+    """The grids (n, n_across) :func:`default_solve` solves ``scene`` on at most: grids 16, 32,
     … (``DEFAULT_N0``, ``DEFAULT_GRIDS`` of them, ``grid_sequence``'s cells across), or [] when
-    ``params`` give ``n`` or do not :func:`extrapolate by default <extrapolates_by_default>`.
+    ``scene`` gives ``n`` or does not :func:`extrapolate by default <extrapolates_by_default>`.
     It stops earlier when the estimate is met on fewer (never before ``MIN_GRIDS``); the memory
     plan never cuts grids this small. The sweep's cost model sums its tasks' cost over these
     (``hpcontact.sweep.tasks.solved_grids``)."""
-    if not extrapolates_by_default(params):
+    if not extrapolates_by_default(scene):
         return []
-    return grid_sequence(Scene.from_params(params).shape, DEFAULT_N0)[:DEFAULT_GRIDS]
+    return grid_sequence(scene.shape, DEFAULT_N0)[:DEFAULT_GRIDS]
 
 
-def default_solve(params: Mapping[str, Any]) -> dict[str, Any]:
-    """One scene with the default discretization: ``hpcontact.solve.solve`` when ``params`` give
+def default_solve(scene: Scene) -> dict[str, Any]:
+    """One scene with the default discretization: ``hpcontact.problems.contact.solve`` when ``scene`` gives
     ``n`` (one grid, centre-in-cell, as always) or the scene is not one that
     :func:`extrapolates_by_default`; else ``solve_to_accuracy`` on grids 16, 32, … , 256
     (``DEFAULT_GRIDS``), stopping once the estimate is ≤ ``DEFAULT_ACCURACY`` = 1e-4, never an
@@ -772,13 +773,11 @@ def default_solve(params: Mapping[str, Any]) -> dict[str, Any]:
     costs": 0.3–1.1 s CPU, true errors ≤ 9e-5 on ellipses b/a 1 … 1e-8). Its ``nx``, ``ny``,
     ``dx``, ``dy`` are the finest grid's, ``grids`` and ``grids_across`` list every grid.
 
-    A sweep's contact tasks run this too (``hpcontact.sweep.kinds.task_function``): a spec
+    A sweep's contact tasks run this too (:func:`task_function`): a spec
     without ``n`` gets the extrapolated default and its data set ``estimated_error``."""
-    if not extrapolates_by_default(params):
-        from .solve import solve
-
-        return solve(params)
-    return solve_to_accuracy(params, DEFAULT_ACCURACY, n0=DEFAULT_N0, max_grids=DEFAULT_GRIDS, strict=False)
+    if not extrapolates_by_default(scene):
+        return solve(scene)
+    return solve_to_accuracy(scene, DEFAULT_ACCURACY, n0=DEFAULT_N0, max_grids=DEFAULT_GRIDS, strict=False)
 
 
 class AccuracyNotMet(ConvergenceError):
@@ -811,40 +810,16 @@ class AccuracyNotMet(ConvergenceError):
         )
 
 
-# ------------------------------------------------------------------------------------------
-# the accuracy-versus-cost study: every scene timed on its own
-# ------------------------------------------------------------------------------------------
-def cold_solve(params: Mapping[str, Any]) -> dict[str, Any]:
-    """``hpcontact.solve.solve`` with the kernel caches emptied first.
-
-    A sweep's process keeps kernel spectra per (material, grid), so in an accuracy study the
-    tasks that differ only in ``tol`` would reuse the first one's kernels and time only their
-    CG. The study wants what one scene costs on its own: influence coefficients, spectra, FFT
-    operator and solves (FFTW wisdom stays warm, as in any long-running sweep).
-    """
-    from .kernels import isotropic
-    from .operator import clear_cache
-    from .solve import solve
-
-    clear_cache()
-    cached = getattr(isotropic, "_centred_integral", None)
-    if cached is not None and hasattr(cached, "cache_clear"):
-        cached.cache_clear()
-    return solve(params)
+TaskFunction = Callable[[Mapping[str, Any]], Mapping[str, Any]]
 
 
-def run_study(argv: Sequence[str] | None = None) -> int:
-    """``[mpiexec -n N] python -m hpcontact.accuracy SPEC [hpcontact run options]``.
-
-    ``hpcontact run`` with :func:`cold_solve` as the task function (MPI, locks, resumable
-    journals, signals, exit statuses and the data set of ``hpcontact run``); used for
-    ``jobs/accuracy_cost.toml``.
-    """
-    from .sweep.driver import main
-
-    return main(argv, prog="python -m hpcontact.accuracy", task_function=cold_solve,
-                description="Run an accuracy-versus-cost sweep, every scene timed with cold kernel caches.")
+def task_function(kind: str) -> TaskFunction:
+    """The function that solves one scene of ``kind`` (``problems.kinds``): parameters → record.
+    A slip scene: ``problems.slip.partial_slip.solve_slip``; a contact scene: :func:`default_solve`."""
+    return solve_slip if kind == SLIP else solve_contact_fields
 
 
-if __name__ == "__main__":
-    raise SystemExit(run_study())
+def solve_contact_fields(fields: Mapping[str, Any]) -> dict[str, Any]:
+    """:func:`default_solve` of the contact scene of ``fields`` (a sweep's task, a journal's
+    entry: the edge where fields become a ``Scene``)."""
+    return default_solve(Scene.from_params(fields))

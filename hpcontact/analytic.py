@@ -1,4 +1,4 @@
-"""Closed-form references for isotropic contact stiffness (DESIGN §2.4).
+"""Closed-form references for isotropic contact stiffness (docs/design.md §2.4).
 
 Every function here is a textbook result that the numerical solvers are checked against.
 Conventions (one elastic half-space against a rigid body unless stated):
@@ -35,7 +35,8 @@ References
 from __future__ import annotations
 
 import math
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 from scipy.optimize import brentq
@@ -548,7 +549,7 @@ def willis_sphere_contact(
 
     Matching u_z = d − (x² + y²)/(2R) (and no xy term: the contact axes are taken along x and
     y, true when H_zz(φ) = H_zz(−φ), e.g. a cubic crystal on {001}, {111} or {110} in the
-    frames of ``hpcontact.crystal``) gives, with e = b/a, I_c = ∫ H cos²φ/σ³, I_s = ∫ H sin²φ/σ³,
+    frames of ``hpcontact.materials.crystal``) gives, with e = b/a, I_c = ∫ H cos²φ/σ³, I_s = ∫ H sin²φ/σ³,
     I_0 = ∫ H/σ, σ² = cos²φ + e² sin²φ: I_c(e) = I_s(e) fixes e; a = sqrt(2 R d I_c/I_0);
     p0 = 4 a/(R e I_c); load P = (2π/3) a b p0. ``compliance_zz(φ)`` is H_zz in 1/stress; φ
     integrals by the trapezoidal rule (periodic, smooth: exponential convergence; the

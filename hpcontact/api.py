@@ -1,6 +1,7 @@
 """What a notebook user types, re-exported at the package top (``hpcontact.solve``,
 ``hpcontact.open_dataset``, ``hpcontact.run_sweep``): a stable face over the engine and the
-sweep, importing them only when called.
+sweep. The sweep is imported only when called: it brings xarray, and mpi4py, whose import
+initializes MPI.
 
 >>> import hpcontact
 >>> record = hpcontact.solve(shape="ellipse", aspect=0.5, nu=0.3, n=64)
@@ -15,6 +16,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from hpcontact.problems.contact import solve as solve_scene
+from hpcontact.scene import Scene
+
 if TYPE_CHECKING:
     import xarray as xr
 
@@ -26,14 +30,14 @@ def solve(**params: Any) -> dict[str, Any]:
     ----------
     **params
         The scene's fields, the names of ``hpcontact solve`` and of a sweep's [scene] and
-        [numerics] tables (DESIGN §4.1): ``shape``, ``aspect``, ``nu``, ``quantities``, ``n``,
+        [numerics] tables (docs/design.md §4.1): ``shape``, ``aspect``, ``nu``, ``quantities``, ``n``,
         ``tol``, ``material``, ``anisotropy``, ``orientation``, ... Missing fields take the
         engine's defaults.
 
     Returns
     -------
     dict
-        The record of ``hpcontact.solve.solve``: stiffnesses ``K_ij`` in units of G·a (G the
+        The record of ``hpcontact.problems.contact.solve``: stiffnesses ``K_ij`` in units of G·a (G the
         shear modulus, a the semi-major extent of the contact), grid, iterations, residual and
         the plan, for the quantities asked.
 
@@ -44,9 +48,7 @@ def solve(**params: Any) -> dict[str, Any]:
     hpcontact.errors.ConvergenceError
         A solve did not reach its tolerance.
     """
-    from .solve import solve as solve_scene
-
-    return solve_scene(params)
+    return solve_scene(Scene.from_params(params))
 
 
 def open_dataset(path: str | Path, **options: Any) -> xr.Dataset:
@@ -68,7 +70,7 @@ def open_dataset(path: str | Path, **options: Any) -> xr.Dataset:
         and ``normalized_nn`` along ``angle``, ``plan`` as JSON text. Use it in a ``with``
         block, or ``.load()`` it, to close the file.
     """
-    from .sweep.dataset import open_dataset as open_sweep
+    from hpcontact.sweep.dataset import open_dataset as open_sweep
 
     return open_sweep(path, **options)
 
@@ -95,7 +97,7 @@ def run_sweep(spec: str | Path, **options: Any) -> Path:
     hpcontact.errors.InputError
         The spec is invalid (the message names the key).
     """
-    from .sweep.driver import run_sweep as run
-    from .sweep.schedule import SerialTeam
+    from hpcontact.sweep.driver import run_sweep as run
+    from hpcontact.sweep.schedule import SerialTeam
 
     return run(spec, team=SerialTeam(), **options)

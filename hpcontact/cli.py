@@ -1,4 +1,4 @@
-"""Command line: ``hpcontact solve``, ``hpcontact run``, ``hpcontact info`` (DESIGN §4.1).
+"""Command line: ``hpcontact solve``, ``hpcontact run``, ``hpcontact info`` (docs/design.md §4.1).
 
 Bad input exits with status 2 and one line on stderr naming the field and the allowed range.
 """
@@ -9,10 +9,20 @@ import argparse
 import json
 import os
 import sys
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
-from . import __version__
-from .errors import ConvergenceError, InputError
+import numpy
+import pyfftw
+
+from hpcontact import __version__
+from hpcontact.accuracy import default_solve, solve_to_accuracy, task_function
+from hpcontact.errors import ConvergenceError, InputError
+from hpcontact.numerics.convolution import load_wisdom, save_wisdom, wisdom_path
+from hpcontact.numerics.memory import parse_memory
+from hpcontact.problems.kinds import SLIP, scene_kind
+from hpcontact.scene import Scene
+from hpcontact.sweep.arguments import add_run_arguments
 
 
 class _Parser(argparse.ArgumentParser):
@@ -56,7 +66,7 @@ def _solve_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--threads", type=int, help="FFTW threads")
     p.add_argument("--no-precondition", action="store_true", help="plain CG (for comparison)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
-    slip = p.add_argument_group("partial slip (--quantities slip; see hpcontact.slip)")
+    slip = p.add_argument_group("partial slip (--quantities slip; see hpcontact.problems.slip.partial_slip)")
     for name, kind, text in SLIP_OPTIONS:
         if kind is bool:
             slip.add_argument(f"--{name.replace('_', '-')}", action="store_true", default=None, help=text)
@@ -120,15 +130,11 @@ def _print_record(record: dict[str, Any]) -> None:
 
 
 def _cmd_solve(args: argparse.Namespace) -> int:
-    from .operator import load_wisdom, save_wisdom
-
     load_wisdom()  # FFTW plans measured by earlier runs come back in milliseconds
-    from .sweep.kinds import SLIP, scene_kind, task_function
-
     params = _params(args)
     slip_given = {name: getattr(args, name) for name, _, _ in SLIP_OPTIONS if getattr(args, name) is not None}
     kind = scene_kind(params)
-    if kind == SLIP:  # the same dispatch as a sweep's (hpcontact.sweep.kinds)
+    if kind == SLIP:  # the same dispatch as a sweep's (hpcontact.problems.kinds)
         params.pop("shape", None)
         params.update(slip_given)
     elif slip_given:
@@ -137,15 +143,10 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     if args.memory is not None and args.accuracy is None:
         raise InputError("--memory", "only with --accuracy", args.memory)
     if args.accuracy is not None and kind != SLIP:
-        from .accuracy import solve_to_accuracy
-        from .sweep.costmodel import parse_memory
-
         budget = None if args.memory is None else parse_memory(args.memory, "--memory")
-        record = solve_to_accuracy(params, args.accuracy, memory_budget=budget, strategy="auto")
+        record = solve_to_accuracy(Scene.from_params(params), args.accuracy, memory_budget=budget, strategy="auto")
     elif kind != SLIP:  # no --n: the extrapolated default where it applies (hpcontact.accuracy)
-        from .accuracy import default_solve
-
-        record = default_solve(params)
+        record = default_solve(Scene.from_params(params))
     else:
         record = task_function(kind)(params)
     if args.json:
@@ -160,19 +161,16 @@ def _cmd_solve(args: argparse.Namespace) -> int:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from .sweep.driver import run_from_arguments
+    # Imported here: the sweep imports mpi4py.MPI, which initializes MPI — ``hpcontact solve``
+    # and ``hpcontact info`` must run where no MPI launcher is set up.
+    from hpcontact.sweep.driver import run_from_arguments
 
     return run_from_arguments(args)
 
 
 def _cmd_info(args: argparse.Namespace) -> int:
-    import numpy
-    import pyfftw
-
-    from .operator import wisdom_path
-
     info = {"hpcontact": __version__, "numpy": numpy.__version__, "pyfftw": pyfftw.__version__}
-    try:
+    try:  # imported here: importing mpi4py.MPI initializes MPI
         import mpi4py
         from mpi4py import MPI
 
@@ -191,8 +189,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--version", action="version", version=f"hpcontact {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     _solve_parser(sub)
-    from .sweep.arguments import add_run_arguments
-
     add_run_arguments(sub.add_parser("run", help="run a sweep spec (under mpiexec or alone)"))
     sub.add_parser("info", help="versions, MPI library, FFTW wisdom location")
     args = parser.parse_args(argv)

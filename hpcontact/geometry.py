@@ -1,8 +1,8 @@
 """Grids and contact shapes: which cells of a uniform grid belong to the contact area.
 
 A grid is nx × ny rectangular cells of size dx × dy (independent: a rectangle of aspect 1e-8 is
-meshed with cells of aspect ~1e-7, DESIGN §2.2), centred on the origin. Shapes are scaled so that
-their semi-major extent is 1 (DESIGN §4.1): circle radius 1, ellipse semi-axes 1 and b/a,
+meshed with cells of aspect ~1e-7, docs/design.md §2.2), centred on the origin. Shapes are scaled so that
+their semi-major extent is 1 (docs/design.md §4.1): circle radius 1, ellipse semi-axes 1 and b/a,
 rectangle half-sides 1 and b/a, polygon and star circumradius 1. A cell belongs to the contact
 when its centre lies inside the shape (centre-in-shape rasterization). Lengths are dimensionless
 (in units of the semi-major extent).
@@ -13,9 +13,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
+
 import numpy as np
 
-from .errors import InputError
+from hpcontact.errors import InputError
 
 SHAPES = ("circle", "ellipse", "rectangle", "polygon", "star", "rough", "mask")
 

@@ -1,4 +1,4 @@
-"""What a scene needs built and run, and nothing more (DESIGN §1, "simulate only the effects").
+"""What a scene needs built and run, and nothing more (docs/design.md §1, "simulate only the effects").
 
 One physical meaning per quantity, for every material (the same table is in the README):
 
@@ -44,9 +44,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .geometry import Grid
-from .materials import Isotropic
-from .scene import Scene
+from hpcontact.geometry import Grid
+from hpcontact.materials.isotropic import Isotropic
+from hpcontact.scene import Scene
 
 
 @dataclass(frozen=True)

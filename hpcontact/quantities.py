@@ -8,7 +8,8 @@ displacement along x and along y gives its two columns (Li 2017 §3.1).
 from __future__ import annotations
 
 import math
-from typing import Any, Mapping, Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 

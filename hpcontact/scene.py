@@ -1,25 +1,27 @@
 """A scene: geometry, material, numerical settings and the quantities wanted; validated.
 
-``Scene.from_params`` takes the command-line fields (DESIGN §4.1, with underscores) as a
+``Scene.from_params`` takes the command-line fields (docs/design.md §4.1, with underscores) as a
 mapping, fills defaults, and refuses bad input with an ``InputError`` naming the field and the
 allowed range. ``hpcontact.plan`` decides what to build and run for it.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
-from .crystal import Crystal, crystal, cubic_from_nu_A
-from .elastic_constants import constants_material
-from .errors import InputError, finite_number, integer
-from .geometry import SHAPES, Shape
-from .materials import Isotropic
+from hpcontact.errors import InputError, finite_number, integer
+from hpcontact.geometry import SHAPES, Shape
+from hpcontact.materials.crystal import Crystal, crystal, cubic_from_nu_A
+from hpcontact.materials.elastic_constants import constants_material
+from hpcontact.materials.isotropic import Isotropic
 
 Material = Isotropic | Crystal
 
@@ -107,7 +109,7 @@ class Scene:
     params: dict = field(default_factory=dict, compare=False)
 
     @classmethod
-    def from_params(cls, params: Mapping[str, Any]) -> "Scene":
+    def from_params(cls, params: Mapping[str, Any]) -> Scene:
         """Validate ``params`` (unknown fields, ranges, NaN/inf) and build the scene."""
         unknown = sorted(set(params) - set(DEFAULTS))
         if unknown:
@@ -173,6 +175,25 @@ class Scene:
             depth=depth,
             params=dict(params),
         )
+
+    @property
+    def grid_given(self) -> bool:
+        """Whether the fields named a grid (``n``): without one, the default solve may
+        extrapolate over grids (``hpcontact.accuracy.default_solve``)."""
+        return self.params.get("n") is not None
+
+    def fields(self, **changes: Any) -> dict[str, Any]:
+        """The fields this scene was built from, with ``changes`` applied (``None`` removes a
+        field: its default applies) — the record of a task and the key of its cost."""
+        merged = {**self.params, **changes}
+        return {k: v for k, v in merged.items() if v is not None}
+
+    def on_grid(self, n: int, n_across: int | None, tol: float | None = None) -> Scene:
+        """This scene on another grid (n cells along the long side, ``n_across`` across) and,
+        where given, another CG tolerance: a grid of the accuracy study's sequence. The material
+        and the shape are this scene's, validated once at the edge."""
+        changes: dict[str, Any] = {"n": n, "n_across": n_across} if tol is None else {"n": n, "n_across": n_across, "tol": tol}
+        return dataclasses.replace(self, **changes, params=self.fields(**changes))
 
 
 def _boolean(field_name: str, value: Any) -> bool:
@@ -242,7 +263,7 @@ def _built_material(p: Mapping[str, Any], G: float, nu: float) -> Material:
     """The half-space: isotropic (closed-form kernels) unless a crystal or A ≠ 1 is asked.
 
     ``material`` names a library crystal (GPa; G and nu are then ignored); otherwise a cubic
-    crystal from (nu, A) with (C11 − C12)/2 = G (DESIGN §2.5). A crystal is turned so that the
+    crystal from (nu, A) with (C11 − C12)/2 = G (docs/design.md §2.5). A crystal is turned so that the
     surface normal is ``miller`` (h k l) or the path angle ``orientation`` ψ, default [001],
     then by ``azimuth`` degrees in plane. At A = 1 without a named crystal the body is
     isotropic whatever the orientation, and stays on the closed-form path.

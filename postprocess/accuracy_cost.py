@@ -35,7 +35,6 @@ from pathlib import Path
 
 import numpy as np
 import xarray as xr
-
 from common import arguments, colours, open_dataset, panels, save
 
 from hpcontact import analytic

@@ -10,13 +10,12 @@ axes (anisotropy, orientation, n, tol) are taken at their first value and named 
 
 from __future__ import annotations
 
-import numpy as np
-
-from common import arguments, by_shape, colours, label, open_dataset, panels, save, scalar_notes, select_rest, shapes
-from hpcontact.analytic import mindlin_ellipse_stiffness_ratio
-
 import matplotlib.pyplot as plt
+import numpy as np
+from common import arguments, by_shape, colours, label, open_dataset, panels, save, scalar_notes, select_rest, shapes
 from matplotlib.ticker import MaxNLocator
+
+from hpcontact.analytic import mindlin_ellipse_stiffness_ratio
 
 RATIO = "K_a_over_K_b"
 

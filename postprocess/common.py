@@ -1,6 +1,6 @@
 """Helpers shared by the post-processing scripts: arguments, selections, labels, saving.
 
-The scripts read a sweep data set (DESIGN §4.2) through ``hpcontact.open_dataset`` (the
+The scripts read a sweep data set (docs/design.md §4.2) through ``hpcontact.open_dataset`` (the
 labelled hypercube, K_nn along the angle) and write PNGs; run them as
 ``python postprocess/<script>.py DATASET OUTDIR [options]``.
 """
@@ -8,8 +8,8 @@ labelled hypercube, K_nn along the angle) and write PNGs; run them as
 from __future__ import annotations
 
 import argparse
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Iterable
 
 import matplotlib
 
@@ -57,7 +57,7 @@ def value_text(ds: xr.Dataset, name: str) -> str:
 
 
 # Values taken for a dimension a figure does not show, when the data set has them: the isotropic
-# body (A = 1; its orientation is then irrelevant, DESIGN §2.5), so that the isotropic figures of
+# body (A = 1; its orientation is then irrelevant, docs/design.md §2.5), so that the isotropic figures of
 # a sweep with crystal axes (jobs/demo.toml) show the isotropic body whatever the axis order.
 PREFERRED = {"anisotropy": 1.0}
 

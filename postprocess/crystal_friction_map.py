@@ -13,7 +13,7 @@ Figures (PNG in OUTDIR):
   line per Q/(mu P). At Q = 0 it is the bonded contact's tangential anisotropy (elastic only);
   under load the slip annulus makes the tensor anisotropic even on an isotropic body (a
   transverse increment turns the slip tractions instead of slipping: k_yy/k_xx = 2.1 at
-  Q = 0.9 mu P on a circle, ``hpcontact.slip``), so the crystal's part is the departure from the
+  Q = 0.9 mu P on a circle, ``hpcontact.problems.slip.partial_slip``), so the crystal's part is the departure from the
   dashed isotropic reference solved here (the same scene on an isotropic body, nu = 0.3; the
   ratio does not depend on its modulus).
 * ``kt_ratio.png`` — k_t along the load over its value at Q = 0, against Q/(mu P), every ψ of
@@ -33,9 +33,8 @@ if str(ROOT) not in sys.path:
 
 import numpy as np  # noqa: E402
 
+from hpcontact.problems.slip.partial_slip import solve_slip  # noqa: E402
 from postprocess.common import arguments, open_dataset, plt  # noqa: E402
-
-from hpcontact.slip import solve_slip  # noqa: E402
 
 
 def principal_ratio(ds) -> np.ndarray:

@@ -3,7 +3,7 @@
     python postprocess/indentation_moduli.py [--n 256] [--depth 1e-4] [--materials Cu Al ...]
                                              [--output table.md]
 
-Prints a markdown table of the indentation modulus M (GPa) of library crystals (hpcontact.crystal,
+Prints a markdown table of the indentation modulus M (GPa) of library crystals (hpcontact.materials.crystal,
 constants in GPa) indented by a rigid sphere on three surfaces, from
 
 (i)   the BEM: a frictionless Polonsky–Keer sphere contact (``hpcontact.solve``, quantities
@@ -31,9 +31,10 @@ import time
 from pathlib import Path
 
 from hpcontact.analytic import willis_sphere_contact
-from hpcontact.crystal import crystal
 from hpcontact.kernels.anisotropic import indentation_modulus, surface_green_fourier
-from hpcontact.solve import solve
+from hpcontact.materials.crystal import crystal
+from hpcontact.problems.contact import solve
+from hpcontact.scene import Scene
 
 MATERIALS = ("Cu", "Al", "Fe", "Ni", "W", "Si")
 PLANES = ("0 0 1", "0 1 1", "1 1 1")
@@ -50,8 +51,8 @@ def row(name: str, plane: str, R: float, d: float, n: int, tol: float) -> dict:
     hkl = tuple(int(v) for v in plane.split())
     material = crystal(name).oriented(miller=hkl)
     started = time.perf_counter()
-    record = solve({"quantities": ["indentation"], "material": name, "miller": plane, "radius": R,
-                    "depth": d, "n": n, "tol": tol})
+    record = solve(Scene.from_params({"quantities": ["indentation"], "material": name, "miller": plane, "radius": R,
+                    "depth": d, "n": n, "tol": tol}))
     bem_s = time.perf_counter() - started
     w = willis_sphere_contact(lambda phi: surface_green_fourier(material, phi)[..., 2, 2].real, R, d, n_phi=512)
     return {
@@ -83,7 +84,7 @@ def table(rows: list[dict], R: float, d: float, n: int) -> str:
         "",
         f"M = 3P/(4 sqrt(R) d^(3/2)) from the sphere load P at d/R = {d / R:g} (BEM: Polonsky–Keer on {n} × {n} cells "
         "spanning 3 Hertz radii; Willis: elliptical Hertz contact, semi-analytical); Vlassak–Nix: M = 2/⟨H_zz⟩ "
-        f"({CITATION}). Differences relative to Willis. A = 2 C44/(C11 − C12); constants of hpcontact.crystal (GPa).",
+        f"({CITATION}). Differences relative to Willis. A = 2 C44/(C11 − C12); constants of hpcontact.materials.crystal (GPa).",
     ]
     return "\n".join(lines)
 

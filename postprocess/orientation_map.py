@@ -5,7 +5,7 @@
     python postprocess/orientation_map.py results/demo.nc figures/ [--nu 0.25] [--shape ellipse]
 
 What is drawn depends on the data set (both need ``anisotropy`` and ``orientation`` axes; ψ runs
-along [110] (0°) -> [111] (35.26°) -> [001] (90°), DESIGN §2.5):
+along [110] (0°) -> [111] (35.26°) -> [001] (90°), docs/design.md §2.5):
 
 * an indentation sweep (``load`` and ``ellipse_b_over_a``; jobs/tembleque2011_sphere.toml) gives
   ``orientation_sphere.png``: Rodríguez-Tembleque et al. 2011, Figs. 9 and 10 — the contact
@@ -28,13 +28,12 @@ import functools
 import math
 
 import numpy as np
-
 from common import arguments, colours, label, open_dataset, panels, save, scalar_notes, select_rest
-from hpcontact.analytic import willis_sphere_contact
-from hpcontact.crystal import cubic_from_nu_A
-from hpcontact.kernels.anisotropic import surface_green_fourier
-
 from matplotlib.ticker import MaxNLocator  # noqa: E402
+
+from hpcontact.analytic import willis_sphere_contact
+from hpcontact.kernels.anisotropic import surface_green_fourier
+from hpcontact.materials.crystal import cubic_from_nu_A
 
 PSI_111 = math.degrees(math.atan(1.0 / math.sqrt(2.0)))  # 35.26°: n(ψ) ∥ [111]
 POLES = ((0.0, "[110]"), (PSI_111, "[111]"), (90.0, "[001]"))
@@ -46,7 +45,7 @@ def scalar(ds, name: str, default: float) -> float:
     return float(ds[name].values) if name in ds.coords and ds[name].ndim == 0 else default
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def willis(nu: float, A: float, psi: float, R: float, d: float, G: float = 1.0, n_phi: int = 256) -> dict:
     """Willis' elliptical contact of a rigid sphere on the cubic crystal (nu, A) cut at ψ.
 

@@ -12,9 +12,8 @@ solved K_zz (1 for a circle), else K_nn in units of G·a. Shapes with a b/a axis
 from __future__ import annotations
 
 import numpy as np
-from matplotlib.ticker import MaxNLocator
-
 from common import arguments, by_shape, colours, label, open_dataset, panels, save, scalar_notes, select_rest, shapes
+from matplotlib.ticker import MaxNLocator
 
 
 def stiffness(ds):

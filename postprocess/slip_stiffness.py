@@ -4,7 +4,7 @@
     python postprocess/slip_stiffness.py results/sphere_pairs.nc results/figures/slip/ [--mu 0.2]
 
 Reads the data set of ``jobs/sphere_pairs.toml`` (dimensions pair, load, mu, q_ratio; one
-``hpcontact.slip.solve_slip`` record per point, SI units). The pairs' scene fields (materials,
+``hpcontact.problems.slip.partial_slip.solve_slip`` record per point, SI units). The pairs' scene fields (materials,
 radii, n) are the data set's coordinates, so the scenes solved here for the maps are the
 sweep's own.
 
@@ -52,8 +52,8 @@ if str(ROOT) not in sys.path:
 
 import hpcontact  # noqa: E402
 from hpcontact import analytic  # noqa: E402
-from hpcontact.bodies import pair_from_params  # noqa: E402
-from hpcontact.slip import PathSolver, SlipProblem, solve_slip, validate  # noqa: E402
+from hpcontact.problems.slip.crystal_pair import pair_from_params  # noqa: E402
+from hpcontact.problems.slip.partial_slip import PathSolver, SlipProblem, solve_slip, validate  # noqa: E402
 from hpcontact.sweep.spec import LABEL_AXES  # noqa: E402
 
 RATIO_BAND = (0.25, 0.35)  # constant-ratio model k_t = c k_n (seed paper, refs. 5 and 6)

@@ -8,7 +8,7 @@ Figures (PNG in OUTDIR):
 * ``line_contact.png`` — §6.1, Fig. 3b: the centre-section pressure of a rigid cylinder (R = 0.5 m,
   semi-width 50 mm, length 20 contact widths, rounded ends) on the orthotropic block, x1 across
   and along the cylinder, against the plane-strain Hertz pressure of Hwu & Fan with E*_2D from
-  the Stroh solution (``hpcontact.line_contact``); right: the peak and width errors against n.
+  the Stroh solution (``hpcontact.problems.line_contact``); right: the peak and width errors against n.
 * ``normal_load_ratio.png`` — Fig. 5: the load at a fixed contact semi-width of an orthotropic
   cylinder on the orthotropic block against E1(punch)/E1(block): plane strain (P′ ∝ E*_2D of the
   pair, 2/E* = H_zz,1 + H_zz,2, Stroh) as a line up to a rigid-in-x1 punch, the paper's own closed
@@ -49,13 +49,12 @@ import numpy as np  # noqa: E402
 from scipy.integrate import quad  # noqa: E402
 from scipy.optimize import brentq  # noqa: E402
 
+from hpcontact.materials.elastic_constants import anisotropic_material  # noqa: E402
+from hpcontact.problems.line_contact import finite_cylinder, plane_strain_modulus  # noqa: E402
+from hpcontact.problems.slip.crystal_pair import PairCompliance  # noqa: E402
+from hpcontact.problems.slip.load_path import rotation, run_path  # noqa: E402
+from hpcontact.problems.slip.partial_slip import SlipProblem, solve_slip, validate  # noqa: E402
 from postprocess.common import arguments, open_dataset, plt  # noqa: E402
-
-from hpcontact.anisotropic_pair import PairCompliance  # noqa: E402
-from hpcontact.elastic_constants import anisotropic_material  # noqa: E402
-from hpcontact.line_contact import finite_cylinder, plane_strain_modulus  # noqa: E402
-from hpcontact.slip import SlipProblem, solve_slip, validate  # noqa: E402
-from hpcontact.slip_path import rotation, run_path  # noqa: E402
 
 ORTHO = "E1=25 E2=1 E3=1 G12=0.5 G13=0.5 G23=0.2 nu12=0.25 nu13=0.25 nu23=0.25"
 RATIOS = (1, 2, 4, 8, 16, 32)

@@ -19,8 +19,8 @@ One figure ``tensor_components_<shape>.png`` per shape; K in units of G·a.
 from __future__ import annotations
 
 import numpy as np
-
 from common import arguments, by_shape, label, open_dataset, panels, save, scalar_notes, select_rest, shapes
+
 from hpcontact.quantities import rotated_tensor
 
 COMPONENTS = ("K_xx", "K_xy", "K_yx", "K_yy")

@@ -2,9 +2,9 @@
 
     python postprocess/thin_strip.py figures/thin_strip/ [--nu 0.1 0.3 0.5] [--n 64 --n-across 32]
 
-The points are solved directly (``hpcontact.solve.solve``; 25 aspects × 3 nu × 2 shapes on two
+The points are solved directly (``hpcontact.problems.contact.solve``; 25 aspects × 3 nu × 2 shapes on two
 grids, ~1 minute on one core), no data set needed. As b/a → 0 the ratio tends to 1 − nu, but
-only logarithmically: for Mindlin's ellipse (DESIGN §2.4) with Λ = ln(4 a/b),
+only logarithmically: for Mindlin's ellipse (docs/design.md §2.4) with Λ = ln(4 a/b),
 
     K_a/K_b = (1 − nu) + nu(2 − nu)/(Λ − nu) + O((b/a)² Λ)     (analytic.thin_ellipse_ratio_asymptote),
 
@@ -31,15 +31,16 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from hpcontact import analytic  # noqa: E402
-from hpcontact.solve import solve  # noqa: E402
+from hpcontact.problems.contact import solve  # noqa: E402
+from hpcontact.scene import Scene
 
 LI_2017_RECTANGLE = (1e-8, 0.5, 0.5390)  # (b/a, nu, K_a/K_b) reported by Li 2017
 
 
 def ratios(shape: str, aspects: np.ndarray, nu: float, n: int, n_across: int) -> np.ndarray:
     """K_a/K_b on n cells along and max(n_across, n·b/a) across (square cells where b/a is large)."""
-    return np.array([solve({"shape": shape, "aspect": float(a), "nu": nu, "n": n,
-                            "n_across": max(n_across, int(round(n * a)))})["K_a_over_K_b"] for a in aspects])
+    return np.array([solve(Scene.from_params({"shape": shape, "aspect": float(a), "nu": nu, "n": n,
+                            "n_across": max(n_across, int(round(n * a)))}))["K_a_over_K_b"] for a in aspects])
 
 
 def main() -> None:

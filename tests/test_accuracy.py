@@ -15,6 +15,7 @@ import pytest
 from hpcontact import accuracy as acc
 from hpcontact import analytic
 from hpcontact.errors import InputError
+from hpcontact.scene import Scene
 
 pytestmark = pytest.mark.filterwarnings("error")
 
@@ -113,7 +114,7 @@ def test_solve_to_accuracy_meets_and_bounds(shape: str, aspect: float, nu: float
     replay of benchmarks/accuracy_sharpness.py found no record whose estimate is below its
     true error; these are five of its cases, solved here)."""
     params = {"shape": shape, "aspect": aspect, "nu": nu, "quantities": "tangential,normal"}
-    r = acc.solve_to_accuracy(params, 1e-3)
+    r = acc.solve_to_accuracy(Scene.from_params(params), 1e-3)
     assert r["accuracy_met"] and r["estimated_error"] <= 1e-3 and r["stopped_by"] == "met"
     assert r["estimated_error"] == max(r["estimated_errors"].values())
     for key, value in references(shape, aspect, nu).items():
@@ -132,7 +133,7 @@ def test_accuracy_not_reachable_is_reported_not_hidden() -> None:
     (the rule of every missed tolerance, exit 1 on the command line); the record it carries
     still has an honest estimate."""
     with pytest.raises(acc.AccuracyNotMet, match="finest grid 256 x 256; stopped by cells") as caught:
-        acc.solve_to_accuracy({"shape": "circle", "nu": 0.3}, 1e-6, max_cells=256 * 256)
+        acc.solve_to_accuracy(Scene.from_params({"shape": "circle", "nu": 0.3}), 1e-6, max_cells=256 * 256)
     r = caught.value.record
     assert not r["accuracy_met"] and r["grids"][-1] == 256 and r["stopped_by"] == "cells"
     assert r["estimated_error"] > 1e-6
@@ -146,21 +147,21 @@ def test_memory_budget_bounds_the_grids() -> None:
     by tracemalloc, stay within the model's count (measured 0.7–0.95 of it)."""
     import tracemalloc
 
-    from hpcontact.sweep.costmodel import resident_bytes
+    from hpcontact.numerics.memory import resident_bytes
 
     params = {"shape": "circle", "nu": 0.3, "tol": 1e-10}
-    budget = resident_bytes() + 0.5 * (acc.grid_bytes(params, 128, 128) + acc.grid_bytes(params, 256, 256))
+    budget = resident_bytes() + 0.5 * (acc.grid_bytes(Scene.from_params(params), 128, 128) + acc.grid_bytes(Scene.from_params(params), 256, 256))
     tracemalloc.start()
     with pytest.raises(acc.AccuracyNotMet, match="stopped by memory budget: the next grid, 256 x 256") as caught:
-        acc.solve_to_accuracy(params, 1e-6, n0=16, memory_budget=budget)
+        acc.solve_to_accuracy(Scene.from_params(params), 1e-6, n0=16, memory_budget=budget)
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     r = caught.value.record
     assert r["grids"] == [16, 32, 64, 128] and r["stopped_by"] == "memory budget"
     assert r["estimated_peak_bytes"] <= r["memory_budget_bytes"] == budget
-    assert peak <= acc.grid_bytes(params, 128, 128)
+    assert peak <= acc.grid_bytes(Scene.from_params(params), 128, 128)
     with pytest.raises(InputError, match="memory"):  # fewer than four grids fit
-        acc.solve_to_accuracy(params, 1e-6, memory_budget=budget)
+        acc.solve_to_accuracy(Scene.from_params(params), 1e-6, memory_budget=budget)
 
 
 def test_grids_stop_at_the_estimators_calibrated_range(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -174,17 +175,17 @@ def test_grids_stop_at_the_estimators_calibrated_range(monkeypatch: pytest.Monke
     params = {"shape": "circle", "nu": 0.3, "quantities": "tangential,normal"}
     with pytest.raises(acc.AccuracyNotMet, match=r"stopped by calibration: the next grid, 256 x 256, is beyond those on "
                                                  r"which the error estimate of singular cells is calibrated \(16384 cells") as caught:
-        acc.solve_to_accuracy(params, 1e-9, n0=16, strategy="singular")
+        acc.solve_to_accuracy(Scene.from_params(params), 1e-9, n0=16, strategy="singular")
     r = caught.value.record
     assert r["boundary"] == "singular" and r["grids"] == [16, 32, 64, 128] and r["stopped_by"] == "calibration"
     with pytest.raises(acc.AccuracyNotMet, match=r"stopped by calibration: the next grid, 128 x 128, .* coverage cells is "
                                                  r"calibrated \(64 cells along the long side") as caught:
-        acc.solve_to_accuracy(params, 1e-9, n0=8, strategy="coverage")
+        acc.solve_to_accuracy(Scene.from_params(params), 1e-9, n0=8, strategy="coverage")
     assert caught.value.record["grids"] == [8, 16, 32, 64]
     # a user's smaller cell limit is reported as such
-    assert acc.solve_to_accuracy(params, 1e-9, n0=4, max_cells=32 * 32, strategy="coverage", strict=False)["stopped_by"] == "cells"
+    assert acc.solve_to_accuracy(Scene.from_params(params), 1e-9, n0=4, max_cells=32 * 32, strategy="coverage", strict=False)["stopped_by"] == "cells"
     with pytest.raises(InputError, match="calibrated range"):  # fewer than four grids within it
-        acc.solve_to_accuracy(params, 1e-9, n0=16, strategy="coverage")
+        acc.solve_to_accuracy(Scene.from_params(params), 1e-9, n0=16, strategy="coverage")
     from hpcontact.geometry import Shape
 
     assert acc.calibrated("coverage", Shape("mask", mask_path="contact.npy"))(2**20, 2**20)  # masks: no closed form, no limit
@@ -197,31 +198,31 @@ def test_singular_memory_plan_counts_the_near_field() -> None:
     ``solve_to_accuracy`` uses for singular cells."""
     import tracemalloc
 
-    from hpcontact.boundary_cells import covered_solve
-    from hpcontact.operator import clear_cache
+    from hpcontact.discretizations.boundary_cells import covered_solve
+    from hpcontact.numerics.convolution import clear_cache
 
     params = {"shape": "circle", "nu": 0.3, "tol": 1e-8, "quantities": "tangential,normal"}
     clear_cache()
     tracemalloc.start()
-    covered_solve({**params, "n": 256}, "singular")
+    covered_solve(Scene.from_params({**params, "n": 256}), "singular")
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     clear_cache()
-    assert acc.grid_bytes(params, 256, 256) < peak <= acc.grid_bytes(params, 256, 256, "singular")
+    assert acc.grid_bytes(Scene.from_params(params), 256, 256) < peak <= acc.grid_bytes(Scene.from_params(params), 256, 256, "singular")
 
 
 def test_default_discretization() -> None:
     """Without n: grids 16 … 256 extrapolated, K_a/K_b within 1e-4 of Mindlin's (measured 6.9e-6
     at b/a = 0.05, nu = 0.3; ≤ 5.8e-5 over b/a = 1 … 1e-8, nu = 0 … 0.5 in the README table)
     and the estimate above the true error; with n: one centre-in-cell grid, as always."""
-    r = acc.default_solve({"shape": "ellipse", "aspect": 0.05, "nu": 0.3})
+    r = acc.default_solve(Scene.from_params({"shape": "ellipse", "aspect": 0.05, "nu": 0.3}))
     true = abs(r["K_a_over_K_b"] / analytic.mindlin_ellipse_stiffness_ratio(0.05, 0.3) - 1.0)
     assert true <= 1e-4 and true <= r["estimated_errors"]["K_a_over_K_b"]
     assert r["grids"][0] == acc.DEFAULT_N0 and r["grids"][-1] <= 256 and "estimated_error" in r
-    one = acc.default_solve({"shape": "ellipse", "aspect": 0.05, "nu": 0.3, "n": 32})
+    one = acc.default_solve(Scene.from_params({"shape": "ellipse", "aspect": 0.05, "nu": 0.3, "n": 32}))
     assert one["nx"] == 32 and "estimated_error" not in one and "boundary" not in one["plan"]
-    assert not acc.extrapolates_by_default({"shape": "rough"})
-    assert not acc.extrapolates_by_default({"shape": "circle", "anisotropy": 2.0, "orientation": 30.0})
+    assert not acc.extrapolates_by_default(Scene.from_params({"shape": "rough"}))
+    assert not acc.extrapolates_by_default(Scene.from_params({"shape": "circle", "anisotropy": 2.0, "orientation": 30.0}))
 
 
 def test_command_line_accuracy_and_memory(capsys) -> None:
@@ -237,7 +238,7 @@ def test_command_line_accuracy_and_memory(capsys) -> None:
 
 def test_nu_zero_extrapolation_keeps_isotropy() -> None:
     """nu = 0, ellipse: K_xx = K_yy on every grid, so the extrapolated ratio is exactly 1."""
-    r = acc.solve_to_accuracy({"shape": "ellipse", "aspect": 0.3, "nu": 0.0}, 1e-2)
+    r = acc.solve_to_accuracy(Scene.from_params({"shape": "ellipse", "aspect": 0.3, "nu": 0.0}), 1e-2)
     assert r["K_a_over_K_b"] == 1.0
     assert r["K_xy"] == 0.0
 
@@ -254,12 +255,12 @@ def test_nu_zero_extrapolation_keeps_isotropy() -> None:
 )
 def test_solve_to_accuracy_refuses_bad_requests(params: dict, accuracy: float) -> None:
     with pytest.raises(InputError):
-        acc.solve_to_accuracy(params, accuracy)
+        acc.solve_to_accuracy(Scene.from_params(params), accuracy)
 
 
 def test_the_study_runner_is_hpcontact_run_with_cold_solves(tmp_path, capsys):
-    """``python -m hpcontact.accuracy`` takes ``hpcontact run``'s options and exit statuses."""
-    from hpcontact.accuracy import run_study
+    """``python -m hpcontact.sweep.accuracy_study`` takes ``hpcontact run``'s options and exit statuses."""
+    from hpcontact.sweep.accuracy_study import run_study
 
     spec = tmp_path / "study.toml"
     spec.write_text('[scene]\nquantities = ["tangential"]\nshape = "circle"\n[numerics]\ntol = 1e-8\n[axes]\nn = [8, 16]\n')
@@ -297,14 +298,14 @@ SLENDER = {"shape": "rectangle", "aspect": 1e-8, "quantities": "tangential,norma
 @pytest.mark.parametrize("nu", [0.3, 0.5])
 def test_slender_rectangle_meets_1e_6_on_strip_cells(nu: float) -> None:
     """``--accuracy 1e-6`` (strategy auto) on the b/a = 1e-8 rectangle runs strip cells
-    (``hpcontact.strip_cells``) and meets its request; the estimate includes the model's bound
+    (``hpcontact.discretizations.strip_cells``) and meets its request; the estimate includes the model's bound
     ``MODEL_ERROR`` · b/a. Its K_xx, K_yy, K_zz lie within the estimate of the strip model's limit
     from 512 and 1024 strips (order-2 Richardson; 2x and 4x finer than the 256 ``--accuracy``
     stopped at). The 2-D reference is checked in ``tests/test_strip_cells.py``."""
-    from hpcontact import strip_cells
-    from hpcontact.materials import Isotropic
+    from hpcontact.discretizations import strip_cells
+    from hpcontact.materials.isotropic import Isotropic
 
-    r = acc.solve_to_accuracy({**SLENDER, "nu": nu}, 1e-6, strategy="auto")  # as hpcontact solve --accuracy
+    r = acc.solve_to_accuracy(Scene.from_params({**SLENDER, "nu": nu}), 1e-6, strategy="auto")  # as hpcontact solve --accuracy
     assert r["boundary"] == "strip" and r["accuracy_met"] and r["stopped_by"] == "met"
     assert r["grids_across"] == [1] * len(r["grids"]) and r["grids"][0] == acc.STRIP_N0
     assert r["model_error"] == strip_cells.MODEL_ERROR * 1e-8
@@ -329,10 +330,10 @@ def test_strip_cells_are_refused_outside_their_range() -> None:
                    {"shape": "rectangle", "aspect": 1e-8, "anisotropy": 2.0},
                    {"shape": "rectangle", "aspect": 1e-8, "quantities": "coupled"}):
         with pytest.raises(InputError, match="strategy.*strip only for unturned ellipses and unturned rectangles of aspect <= 1e-06"):
-            acc.solve_to_accuracy(params, 1e-3, strategy="strip")
-    r = acc.solve_to_accuracy({"shape": "rectangle", "aspect": 1e-3}, 1e-3, strict=False, max_grids=4, strategy="auto")
+            acc.solve_to_accuracy(Scene.from_params(params), 1e-3, strategy="strip")
+    r = acc.solve_to_accuracy(Scene.from_params({"shape": "rectangle", "aspect": 1e-3}), 1e-3, strict=False, max_grids=4, strategy="auto")
     assert r["boundary"] == "coverage"
-    r = acc.solve_to_accuracy({"shape": "ellipse", "aspect": 0.3}, 1e-3, strict=False, max_grids=4, strategy="auto")
+    r = acc.solve_to_accuracy(Scene.from_params({"shape": "ellipse", "aspect": 0.3}), 1e-3, strict=False, max_grids=4, strategy="auto")
     assert r["boundary"] == "coverage"
 
 
@@ -341,13 +342,13 @@ def test_strip_memory_plan_bounds_a_solve() -> None:
     for strips, which ``solve_to_accuracy`` plans with."""
     import tracemalloc
 
-    from hpcontact.boundary_cells import covered_solve
+    from hpcontact.discretizations.boundary_cells import covered_solve
 
     tracemalloc.start()
-    covered_solve({**SLENDER, "nu": 0.3, "n": 512}, "strip")
+    covered_solve(Scene.from_params({**SLENDER, "nu": 0.3, "n": 512}), "strip")
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
-    assert peak <= acc.grid_bytes(SLENDER, 512, 1, "strip")
+    assert peak <= acc.grid_bytes(Scene.from_params(SLENDER), 512, 1, "strip")
 
 
 @pytest.mark.parametrize("aspect, nu", [(1e-6, 0.3), (1e-6, 0.5), (1e-3, 0.3), (1e-3, 0.5), (0.05, 0.3), (0.7, 0.5)])
@@ -360,7 +361,7 @@ def test_ellipses_meet_1e_6_on_strip_cells(aspect: float, nu: float) -> None:
 
     K_xx, K_yy = analytic.mindlin_ellipse_stiffness(1.0, aspect, 1.0, nu)
     K_zz = analytic.elliptical_punch_normal_stiffness(1.0, aspect, 1.0, nu)
-    r = acc.solve_to_accuracy({"shape": "ellipse", "aspect": aspect, "nu": nu, "quantities": "tangential,normal"},
+    r = acc.solve_to_accuracy(Scene.from_params({"shape": "ellipse", "aspect": aspect, "nu": nu, "quantities": "tangential,normal"}),
                               1e-6, strategy="auto")
     assert r["boundary"] == "strip" and r["accuracy_met"] and r["stopped_by"] == "met"
     assert r["grids"][0] == acc.STRIP_ELLIPSE_N0 and r["estimated_error"] >= r["model_error"] > 0.0
@@ -371,13 +372,14 @@ def test_ellipses_meet_1e_6_on_strip_cells(aspect: float, nu: float) -> None:
 def test_ellipse_request_below_the_strips_bound_stops_by_model() -> None:
     """A request below ``strip_cells.model_error`` (b/a = 0.02: 1.6e-8) runs the four grids an
     estimate needs, stops with ``stopped_by`` "model", says so, and is still honest."""
-    from hpcontact import analytic, strip_cells
+    from hpcontact import analytic
+    from hpcontact.discretizations import strip_cells
     from hpcontact.geometry import Shape
 
     params = {"shape": "ellipse", "aspect": 0.02, "nu": 0.3, "quantities": "tangential,normal"}
     bound = strip_cells.model_error(Shape("ellipse", aspect=0.02))
     with pytest.raises(acc.AccuracyNotMet, match=f"stopped by model: the strips' own error bound, {bound:.2g}") as caught:
-        acc.solve_to_accuracy(params, bound / 2.0, strategy="auto")
+        acc.solve_to_accuracy(Scene.from_params(params), bound / 2.0, strategy="auto")
     r = caught.value.record
     assert r["stopped_by"] == "model" and r["grids"] == [16, 32, 64, 128] and not r["accuracy_met"]
     K_xx, K_yy = analytic.mindlin_ellipse_stiffness(1.0, 0.02, 1.0, 0.3)

@@ -7,7 +7,8 @@ from __future__ import annotations
 import numpy as np
 
 from hpcontact.accuracy import solve_to_accuracy
-from hpcontact.boundary_cells import covered_solve
+from hpcontact.discretizations.boundary_cells import covered_solve
+from hpcontact.scene import Scene
 
 SQUARE = {"shape": "rectangle", "aspect": 1.0, "nu": 0.3, "quantities": "tangential,normal"}
 #: Least-squares fits Q = Q* + Σ c_i t_i(h) over the reference grids (t = h^p, or h ln h for
@@ -25,9 +26,9 @@ def extrapolant(n: np.ndarray, values: np.ndarray, exponents: tuple) -> float:
 
 
 def test_accuracy_on_the_square_is_within_its_estimate_of_a_finer_reference():
-    record = solve_to_accuracy(SQUARE, 1e-3)
+    record = solve_to_accuracy(Scene.from_params(SQUARE), 1e-3)
     assert record["grids"][-1] < REFERENCE_GRIDS[0] and record["accuracy_met"]
-    levels = [covered_solve({**SQUARE, "n": n, "tol": 1e-10}) for n in REFERENCE_GRIDS]
+    levels = [covered_solve(Scene.from_params({**SQUARE, "n": n, "tol": 1e-10})) for n in REFERENCE_GRIDS]
     n = np.array(REFERENCE_GRIDS, dtype=np.float64)
     for key in ("K_xx", "K_yy", "K_zz"):
         values = np.array([level[key] for level in levels])

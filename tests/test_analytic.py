@@ -2,7 +2,7 @@
 
 The references are checked against the physics, not against their own formulas: each compliance
 is recomputed as the surface displacement produced by the known contact traction, integrating
-the isotropic point-force solutions of DESIGN §2.1 (Johnson 1985, §3.2, §3.6) with mpmath
+the isotropic point-force solutions of docs/design.md §2.1 (Johnson 1985, §3.2, §3.6) with mpmath
 quadrature in 30–40 digits. The closed forms are then double-precision evaluations of results
 that the quadrature knows to ~1e-25 or better, so a correct implementation agrees to a few ulp;
 the tolerances below leave a margin over that and say where they come from.
@@ -24,7 +24,7 @@ NUS = [0.0, 0.3, 0.5]
 
 # Closed forms vs quadrature: the double-precision evaluation (scipy ellipkm1 / elliprd, a few
 # flops) is good to ~5e-16 relative (measured max 5e-16); the quadrature to < 1e-25. 1e-12 is
-# the accuracy DESIGN §2.4 asks of the references, with three decades of margin.
+# the accuracy docs/design.md §2.4 asks of the references, with three decades of margin.
 REL_CLOSED_FORM = 1e-12
 
 
@@ -41,7 +41,7 @@ def _centre_integrals(gamma: float) -> tuple[mp.mpf, mp.mpf, mp.mpf]:
 
     With elliptic polar coordinates x = aρ cosφ, y = bρ sinφ, dA = abρ dρ dφ and
     r = ρ a S, S(φ) = sqrt(cos²φ + γ² sin²φ), a traction F/(2πab)(1 − ρ²)^(−1/2) gives a
-    ρ-integral ∫₀¹(1 − ρ²)^(−1/2) dρ = π/2 and (DESIGN §2.1)
+    ρ-integral ∫₀¹(1 − ρ²)^(−1/2) dρ = π/2 and (docs/design.md §2.1)
         u_x(0) = F/(2πG a) [(1 − nu) I1 + nu Ix],  u_y(0) = F/(2πG a) [(1 − nu) I1 + nu Iy],
         u_z(0) = (1 − nu) P/(2πG a) I1   (normal punch),
     I1 = ∫₀^{π/2} dφ/S, Ix = ∫ cos²φ/S³ dφ (x²/r² = cos²φ/S²), Iy = ∫ γ² sin²φ/S³ dφ.
@@ -123,7 +123,7 @@ def _ray_integrals(a: float, b: float, x0: float, y0: float) -> dict[str, mp.mpf
     radial integral of (1 − …)^(−1/2) is exact: L(θ) = arccos(B/sqrt(B² + A(1 − C)))/sqrt(A),
     A = cos²θ/a² + sin²θ/b², B = x0 cosθ/a² + y0 sinθ/b², C = x0²/a² + y0²/b².
     Returns ∫₀^{2π} w(θ) L(θ) dθ for w = 1, cos²θ, sin²θ, cosθ sinθ (the angular factors of
-    DESIGN §2.1; the vector from source to field point is −s e_θ, signs cancel in all four).
+    docs/design.md §2.1; the vector from source to field point is −s e_θ, signs cancel in all four).
     """
     a, b, x0, y0 = map(_mpf, (a, b, x0, y0))
     C = x0**2 / a**2 + y0**2 / b**2
@@ -283,7 +283,7 @@ def test_hertz_load_and_displacement_from_pressure():
     """Hertz pressure integrates to P and produces the sphere's profile d − r²/(2R) in the contact.
 
     Load: ∫₀^a 2πr p dr. Displacement at a point (x0, 0): polar coordinates around it cancel
-    the 1/r of u_z = (1 − nu) p/(2πG r) (DESIGN §2.1); the ray integral of p ∝ sqrt(1 − |x|²/a²)
+    the 1/r of u_z = (1 − nu) p/(2πG r) (docs/design.md §2.1); the ray integral of p ∝ sqrt(1 − |x|²/a²)
     ends at the contact edge s1(θ) with a square-root zero that tanh–sinh handles. Quadrature
     at 30 digits converges to ~1e-20; tolerance 1e-12 as for the other closed forms.
     """
@@ -323,7 +323,7 @@ def _cattaneo_traction(r: mp.mpf, a: mp.mpf, c: mp.mpf, limit: mp.mpf) -> mp.mpf
 
 
 def _force_and_centre_displacement(traction, a: mp.mpf, G: mp.mpf, nu: mp.mpf, brk):
-    """Q = ∫ 2πr q dr and δ = u_x(0) = ∫∫ q/(2πG r)[(1 − nu) + nu cos²θ] r dr dθ (DESIGN §2.1)."""
+    """Q = ∫ 2πr q dr and δ = u_x(0) = ∫∫ q/(2πG r)[(1 − nu) + nu cos²θ] r dr dθ (docs/design.md §2.1)."""
     Q = mp.quad(lambda r: 2 * mp.pi * r * traction(r), brk)
     ang = mp.quad(lambda t: (1 - nu) + nu * mp.cos(t) ** 2, [0, mp.pi, 2 * mp.pi])
     delta = ang / (2 * mp.pi * G) * mp.quad(traction, brk)

@@ -1,4 +1,4 @@
-"""Command line contract (DESIGN §4.1): `hpcontact solve --json` and its error reporting.
+"""Command line contract (docs/design.md §4.1): `hpcontact solve --json` and its error reporting.
 
 * One JSON object on stdout with the keys that apply to the quantities asked, and a `plan`
   object listing the kernels built and the solves run.
@@ -254,13 +254,13 @@ def test_huge_and_tiny_moduli_with_normalization(capsys, G):
 
 
 def test_a_run_command_names_itself_in_its_errors(capsys, tmp_path):
-    """``python -m hpcontact.accuracy`` is ``hpcontact run`` with another task function: its bad
+    """``python -m hpcontact.sweep.accuracy_study`` is ``hpcontact run`` with another task function: its bad
     input is reported under its own name (exit 2), not as ``hpcontact run``."""
     from hpcontact.sweep.driver import main as run_main
 
     missing = str(tmp_path / "missing.toml")
-    assert run_main([missing], prog="python -m hpcontact.accuracy") == 2
+    assert run_main([missing], prog="python -m hpcontact.sweep.accuracy_study") == 2
     err = capsys.readouterr().err
-    assert err.startswith("python -m hpcontact.accuracy: error: spec = ") and "hpcontact run" not in err
+    assert err.startswith("python -m hpcontact.sweep.accuracy_study: error: spec = ") and "hpcontact run" not in err
     assert run_main([missing]) == 2
     assert capsys.readouterr().err.startswith("hpcontact run: error: spec = ")

@@ -13,12 +13,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hpcontact.crystal import cubic_from_nu_A, tensor_to_voigt, voigt_to_tensor
-from hpcontact.engine import Engine
 from hpcontact.kernels.anisotropic import surface_green_fourier
+from hpcontact.kernels.engine import Engine
+from hpcontact.materials.crystal import cubic_from_nu_A, tensor_to_voigt, voigt_to_tensor
 from hpcontact.plan import Solve, make_plan
+from hpcontact.problems.contact import _run_solve, discretize, solve
 from hpcontact.scene import Scene
-from hpcontact.solve import _run_solve, discretize, solve
 
 PSI_111 = float(np.degrees(np.arctan(1.0 / np.sqrt(2.0))))
 ORIENTATIONS = [0.0, 20.0, PSI_111, 90.0]
@@ -70,8 +70,8 @@ def test_crystal_path_at_isotropy_equals_the_isotropic_path(psi):
     mean within 1.9e-13 (max_pressure); bound 6e-13.
     """
     for base in (BASE, SPHERE):
-        iso = _numbers(solve(base))
-        sides = [_numbers(solve({**base, "anisotropy": 1.0 + d, "orientation": psi, "azimuth": 10.0}))
+        iso = _numbers(solve(Scene.from_params(base)))
+        sides = [_numbers(solve(Scene.from_params({**base, "anisotropy": 1.0 + d, "orientation": psi, "azimuth": 10.0})))
                  for d in (-1e-9, 1e-9)]
         scale = _scale(iso) if base is BASE else 1.0
         step = 1.5e-13 if base is BASE else 6e-13
@@ -91,10 +91,10 @@ def test_sweep_through_A_1_has_no_step():
     curvature term only, K''(1) (1e-3)²/2 (measured ≤ 1.4e-7 of the largest K, psi 0° and 20°,
     with slopes ~4e-4); bound 4e-7. The old step (coupled neighbours, decoupled A = 1) was 9e-3.
     """
-    iso = _numbers(solve(BASE))
+    iso = _numbers(solve(Scene.from_params(BASE)))
     scale = _scale(iso)
     for psi in (0.0, 20.0):
-        low, high = (_numbers(solve({**BASE, "anisotropy": a, "orientation": psi})) for a in (0.999, 1.001))
+        low, high = (_numbers(solve(Scene.from_params({**BASE, "anisotropy": a, "orientation": psi}))) for a in (0.999, 1.001))
         for key, value in iso.items():
             if key.startswith("normalized"):
                 continue
@@ -112,8 +112,8 @@ def test_nu_zero_shortcuts_join_the_general_path():
     nu = 0 every shape is isotropic, so K_max and K_min (``EIGEN``) split as |nu| there.
     """
     base = {**BASE, "quantities": "tangential,normal,compliance", "nu": 0.0}
-    zero = solve(base)
-    sides = [solve({**base, "nu": d}) for d in (-1e-9, 1e-9)]
+    zero = solve(Scene.from_params(base))
+    sides = [solve(Scene.from_params({**base, "nu": d})) for d in (-1e-9, 1e-9)]
     assert "K_zz = K_xx" in " ".join(zero["plan"]["derived"]) and "normal_z[z]" in sides[1]["plan"]["solves"]
     scale = _scale(zero)
     for key, value in _numbers(zero).items():
@@ -131,8 +131,8 @@ def test_nu_half_reduction_of_coupled_joins_the_general_path():
     (measured; round-off and CG tol 1e-13); bound 6e-13.
     """
     base = {**BASE, "quantities": "tangential,normal,coupled", "nu": 0.5}
-    half = solve(base)
-    near, nearer = (solve({**base, "nu": 0.5 - d}) for d in (2e-9, 1e-9))
+    half = solve(Scene.from_params(base))
+    near, nearer = (solve(Scene.from_params({**base, "nu": 0.5 - d})) for d in (2e-9, 1e-9))
     assert not any(s.startswith("coupled") for s in half["plan"]["solves"])
     assert any(s.startswith("coupled") for s in near["plan"]["solves"])
     scale = _scale(half)
@@ -174,7 +174,7 @@ def test_mask_one_cell_off_symmetry_has_no_step(tmp_path):
     for k, m in enumerate((m0, m1, m2)):
         path = tmp_path / f"m{k}.npy"
         np.save(path, m)
-        r = solve({"shape": "mask", "mask": str(path), "nu": 0.3, "tol": 1e-12})
+        r = solve(Scene.from_params({"shape": "mask", "mask": str(path), "nu": 0.3, "tol": 1e-12}))
         traces.append(r["K_xx"] + r["K_yy"])
         assert r["dx"] == 2.0 / 10
         assert (len(r["plan"]["solves"]) == 1) == (k != 1)  # the mirror shortcut where it applies
@@ -189,10 +189,10 @@ def test_crystal_turns_with_the_shape():
     bound 6e-14); at 30° the square grid's own anisotropy remains (measured 5.8e-5 at n = 32;
     bound 1.7e-4). The opposite turn would be 0.19 off."""
     base = {"shape": "circle", "anisotropy": 3.0, "orientation": 0.0, "nu": 0.3, "n": 32, "tol": 1e-12}
-    r0 = solve(base)
+    r0 = solve(Scene.from_params(base))
     K0 = np.array([[r0["K_xx"], r0["K_xy"]], [r0["K_yx"], r0["K_yy"]]])
     for beta, bound in ((90.0, 6e-14), (30.0, 1.7e-4)):
-        r = solve({**base, "shape_angle": beta})
+        r = solve(Scene.from_params({**base, "shape_angle": beta}))
         K = np.array([[r["K_xx"], r["K_xy"]], [r["K_yx"], r["K_yy"]]])
         c, s = np.cos(np.radians(beta)), np.sin(np.radians(beta))
         R = np.array([[c, -s], [s, c]])

@@ -1,4 +1,4 @@
-"""Hard cases stay numerically stable (DESIGN §1, second demand; issue 4, item 4).
+"""Hard cases stay numerically stable (docs/design.md §1, second demand; issue 4, item 4).
 
 Thin contacts down to b/a = 1e-10, nu at both ends of its range, moduli 21 decades apart,
 contacts of one and two cells, and masks that touch the edge of their array: every result finite,
@@ -21,8 +21,9 @@ import pytest
 from hpcontact import analytic
 from hpcontact.geometry import mask_grid
 from hpcontact.kernels.isotropic import isotropic_block
-from hpcontact.materials import Isotropic
-from hpcontact.solve import solve
+from hpcontact.materials.isotropic import Isotropic
+from hpcontact.problems.contact import solve
+from hpcontact.scene import Scene
 
 pytestmark = pytest.mark.filterwarnings("error")
 
@@ -39,7 +40,7 @@ SHAPES_ANY = (
 def strict_solve(params: dict) -> dict:
     """``solve`` with numpy floating-point errors raised, and every float in the record finite."""
     with np.errstate(all="raise"):
-        record = solve(params)
+        record = solve(Scene.from_params(params))
     for key, value in record.items():
         if isinstance(value, float):
             assert math.isfinite(value), f"{key} = {value}"

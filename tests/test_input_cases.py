@@ -12,8 +12,8 @@ import pytest
 from hpcontact import accuracy as acc
 from hpcontact.cli import main
 from hpcontact.errors import InputError
+from hpcontact.problems.slip.partial_slip import validate as slip_scene
 from hpcontact.scene import Scene
-from hpcontact.slip import validate as slip_scene
 
 
 def _solve(capsys, *args: str) -> tuple[int, str, str]:
@@ -90,9 +90,9 @@ def test_accuracy_for_a_mask_meets_the_same_rectangle(tmp_path):
     mask = np.zeros((20, 12), dtype=bool)
     mask[2:18, 2:10] = True  # empty margins do not change the unit or the answer
     np.save(path, mask)
-    pixels = acc.solve_to_accuracy({"shape": "mask", "mask": str(path), "nu": 0.3}, 1e-3)
+    pixels = acc.solve_to_accuracy(Scene.from_params({"shape": "mask", "mask": str(path), "nu": 0.3}), 1e-3)
     assert pixels["grids"][0] == 16
-    shape = acc.solve_to_accuracy({"shape": "rectangle", "aspect": 0.5, "nu": 0.3}, 1e-3)
+    shape = acc.solve_to_accuracy(Scene.from_params({"shape": "rectangle", "aspect": 0.5, "nu": 0.3}), 1e-3)
     for key in ("K_xx", "K_yy"):
         bound = (pixels["estimated_errors"][key] + shape["estimated_errors"][key]) * abs(shape[key])
         assert abs(pixels[key] - shape[key]) <= bound, key

@@ -1,8 +1,8 @@
-"""The planner builds and runs only what a scene needs (DESIGN §1, "simulate only the effects").
+"""The planner builds and runs only what a scene needs (docs/design.md §1, "simulate only the effects").
 
 Two kinds of checks:
 * ``make_plan`` on scenes and their real masks: the kernel blocks and solves listed;
-* end to end through ``hpcontact.solve.solve``: which kernel spectra were really built (read off
+* end to end through ``hpcontact.problems.contact.solve``: which kernel spectra were really built (read off
   the operator's spectrum cache, emptied first) and which solves really ran (the solver
   functions wrapped to count calls and record the number of traction components), and that
   what the plan derives instead of solving equals what a real solve gives (run here through
@@ -14,13 +14,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hpcontact import operator as op_mod
-from hpcontact import solve as solve_mod
 from hpcontact.geometry import Grid, grid_for, rasterize
 from hpcontact.kernels.isotropic import isotropic_block
+from hpcontact.numerics import convolution as op_mod
 from hpcontact.plan import Solve, make_plan, transpose_symmetric
+from hpcontact.problems import contact as solve_mod
+from hpcontact.problems.contact import Engine, _run_solve, discretize, solve
 from hpcontact.scene import Scene
-from hpcontact.solve import Engine, _run_solve, discretize, solve
 
 pytestmark = pytest.mark.filterwarnings("error")
 
@@ -153,7 +153,7 @@ def test_transpose_symmetry_is_read_off_the_mask():
 # end to end: what is really built and run
 # ------------------------------------------------------------------------------------------
 def test_e2e_isotropic_tangential(spy):
-    record = solve({"shape": "ellipse", "aspect": 0.5, "nu": 0.3, "n": N})
+    record = solve(Scene.from_params({"shape": "ellipse", "aspect": 0.5, "nu": 0.3, "n": N}))
     built, calls = spy()
     assert built == ["xx", "xy", "yx", "yy"]
     assert calls == [("cg", 2), ("cg", 2)]
@@ -165,7 +165,7 @@ def test_e2e_isotropic_tangential(spy):
 
 
 def test_e2e_nu_zero_scalar(spy):
-    record = solve({"shape": "ellipse", "aspect": 0.5, "nu": 0.0, "n": N})
+    record = solve(Scene.from_params({"shape": "ellipse", "aspect": 0.5, "nu": 0.0, "n": N}))
     built, calls = spy()
     assert built == ["xx"]
     assert calls == [("cg", 1), ("cg", 1)]
@@ -173,7 +173,7 @@ def test_e2e_nu_zero_scalar(spy):
 
 
 def test_e2e_circle_one_solve(spy):
-    record = solve({"shape": "circle", "nu": 0.3, "n": N})
+    record = solve(Scene.from_params({"shape": "circle", "nu": 0.3, "n": N}))
     built, calls = spy()
     assert built == ["xx", "xy", "yx", "yy"]
     assert calls == [("cg", 2)]  # one two-component solve: K_yy from the mirror (checked in test_conventions)
@@ -181,14 +181,14 @@ def test_e2e_circle_one_solve(spy):
 
 
 def test_e2e_normal_alone(spy):
-    solve({"quantities": "normal", "nu": 0.3, "n": N})
+    solve(Scene.from_params({"quantities": "normal", "nu": 0.3, "n": N}))
     built, calls = spy()
     assert built == ["zz"]
     assert calls == [("cg", 1)]
 
 
 def test_e2e_compliance_no_solve(spy):
-    record = solve({"shape": "ellipse", "aspect": 0.5, "quantities": "compliance", "nu": 0.3, "n": N})
+    record = solve(Scene.from_params({"shape": "ellipse", "aspect": 0.5, "quantities": "compliance", "nu": 0.3, "n": N}))
     built, calls = spy()
     assert calls == []
     assert built == ["xx", "xy", "yx", "yy"]
@@ -214,7 +214,7 @@ def test_e2e_compliance_no_solve(spy):
 
 def test_e2e_coupled_nu_half_reduces(spy):
     params = {"shape": "ellipse", "aspect": 0.5, "quantities": "coupled", "nu": 0.5, "n": N, "tol": 1e-12}
-    record = solve(params)
+    record = solve(Scene.from_params(params))
     built, calls = spy()
     assert built == ["xx", "xy", "yx", "yy", "zz"]
     assert sorted(calls) == [("cg", 1), ("cg", 2), ("cg", 2)]
@@ -232,17 +232,17 @@ def test_e2e_coupled_nu_half_reduces(spy):
 
 
 def test_e2e_coupled_nu_half_reports_zero_coupling():
-    record = solve({"shape": "ellipse", "aspect": 0.5, "quantities": "coupled", "nu": 0.5, "n": N})
+    record = solve(Scene.from_params({"shape": "ellipse", "aspect": 0.5, "quantities": "coupled", "nu": 0.5, "n": N}))
     for key in ("K_xz", "K_yz", "K_zx", "K_zy"):
         assert record[key] == 0.0
 
 
 def test_e2e_nu_zero_normal_derived_equals_real_normal_solve(spy):
-    both = solve({"shape": "ellipse", "aspect": 0.5, "quantities": "tangential,normal", "nu": 0.0, "n": N, "tol": 1e-12})
+    both = solve(Scene.from_params({"shape": "ellipse", "aspect": 0.5, "quantities": "tangential,normal", "nu": 0.0, "n": N, "tol": 1e-12}))
     built, calls = spy()
     assert built == ["xx"]
     assert calls == [("cg", 1), ("cg", 1)]
-    normal = solve({"shape": "ellipse", "aspect": 0.5, "quantities": "normal", "nu": 0.0, "n": N, "tol": 1e-12})
+    normal = solve(Scene.from_params({"shape": "ellipse", "aspect": 0.5, "quantities": "normal", "nu": 0.0, "n": N, "tol": 1e-12}))
     assert spy()[0] == ["xx", "zz"]  # the normal-only scene built its own zz
     # same operator at nu = 0 (zz = xx = I1/(2πG)); both solved to 1e-12: 1e-9 relative
     assert both["K_zz"] == pytest.approx(normal["K_zz"], rel=1e-9)
@@ -250,7 +250,7 @@ def test_e2e_nu_zero_normal_derived_equals_real_normal_solve(spy):
 
 
 def test_e2e_indentation_builds_only_zz(spy):
-    record = solve({"quantities": "indentation", "radius": 1.0, "depth": 0.01, "n": N})
+    record = solve(Scene.from_params({"quantities": "indentation", "radius": 1.0, "depth": 0.01, "n": N}))
     built, calls = spy()
     assert built == ["zz"]
     assert calls == [("pk", 1)]
@@ -259,7 +259,7 @@ def test_e2e_indentation_builds_only_zz(spy):
 
 def test_e2e_indentation_reports_its_grid():
     R, d = 1.0, 0.01
-    record = solve({"quantities": "indentation", "radius": R, "depth": d, "n": N})
+    record = solve(Scene.from_params({"quantities": "indentation", "radius": R, "depth": d, "n": N}))
     h = 2.0 * 1.5 * np.sqrt(R * d) / N
     assert record["dx"] == pytest.approx(h) and record["dy"] == pytest.approx(h)
     assert record["contact_cells"] * h * h == pytest.approx(record["contact_area"])
@@ -281,7 +281,7 @@ def triangle_mask(tmp_path):
                                                  ("coupled", ["coupled_x[xyz]", "coupled_z[xyz]"])])
 def test_mirror_derived_equals_real_y_solve(triangle_mask, quantities, solves):
     params = {"shape": "mask", "mask": triangle_mask, "nu": 0.3, "quantities": quantities, "tol": 1e-12}
-    record = solve(params)
+    record = solve(Scene.from_params(params))
     assert record["plan"]["solves"] == solves
     scene = Scene.from_params(params)
     grid, mask = discretize(scene)
@@ -309,9 +309,9 @@ def test_rectangle_grid_for_plan_is_not_square():
 
 
 def test_coupled_and_normal_keep_both_k_zz():
-    coupled = solve({"quantities": "coupled", "nu": 0.3, "n": N})
-    both = solve({"quantities": "coupled,normal", "nu": 0.3, "n": N})
-    normal = solve({"quantities": "normal", "nu": 0.3, "n": N})
+    coupled = solve(Scene.from_params({"quantities": "coupled", "nu": 0.3, "n": N}))
+    both = solve(Scene.from_params({"quantities": "coupled,normal", "nu": 0.3, "n": N}))
+    normal = solve(Scene.from_params({"quantities": "normal", "nu": 0.3, "n": N}))
     assert abs(coupled["K_zz"] / normal["K_zz"] - 1.0) > 1e-2  # they really differ
     # with both asked, K_zz is the frictionless punch and K_zz_bonded the coupled tensor's zz
     # entry: the same solves as when asked alone, so the same numbers (measured bit-identical)
@@ -323,9 +323,9 @@ def test_tangential_and_coupled_keep_their_own_meanings():
     """Asked together, K_xx … K_yy are the decoupled tangential tensor (as when asked alone)
     and the coupled punch's block is K_ij_coupled (before issue 14 K_xx silently became the
     coupled value). They differ by the coupling (measured 0.9 % at nu = 0.3)."""
-    tangential = solve({"shape": "ellipse", "aspect": 0.5, "quantities": "tangential", "nu": 0.3, "n": N})
-    coupled = solve({"shape": "ellipse", "aspect": 0.5, "quantities": "coupled", "nu": 0.3, "n": N})
-    both = solve({"shape": "ellipse", "aspect": 0.5, "quantities": "tangential,coupled", "nu": 0.3, "n": N})
+    tangential = solve(Scene.from_params({"shape": "ellipse", "aspect": 0.5, "quantities": "tangential", "nu": 0.3, "n": N}))
+    coupled = solve(Scene.from_params({"shape": "ellipse", "aspect": 0.5, "quantities": "coupled", "nu": 0.3, "n": N}))
+    both = solve(Scene.from_params({"shape": "ellipse", "aspect": 0.5, "quantities": "tangential,coupled", "nu": 0.3, "n": N}))
     for key in ("K_xx", "K_xy", "K_yx", "K_yy"):
         assert both[key] == tangential[key] and both[f"{key}_coupled"] == coupled[key], key
     assert abs(coupled["K_xx"] / tangential["K_xx"] - 1.0) > 3e-3

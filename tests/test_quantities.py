@@ -15,7 +15,7 @@ import pytest
 
 from hpcontact import analytic
 from hpcontact import quantities as q
-from hpcontact.materials import Isotropic
+from hpcontact.materials.isotropic import Isotropic
 
 pytestmark = pytest.mark.filterwarnings("error")
 

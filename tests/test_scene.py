@@ -1,7 +1,7 @@
 """Scene validation (hpcontact.scene.Scene.from_params): defaults, ranges, NaN/inf, unknown fields.
 
 Every refusal must be an InputError whose ``field`` names the bad field and whose message is one
-line holding the field name (the command line prints it as is, DESIGN §4.1 "Errors").
+line holding the field name (the command line prints it as is, docs/design.md §4.1 "Errors").
 """
 
 from __future__ import annotations

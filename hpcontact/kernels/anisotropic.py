@@ -1,9 +1,9 @@
 r"""Surface Green's function of a general anisotropic half-space and its cell influence coefficients.
 
-Geometry and conventions (identical to the isotropic engine, DESIGN §2): the body fills z > 0
+Geometry and conventions (identical to the isotropic engine, docs/design.md §2): the body fills z > 0
 (z points INTO the body), the surface is z = 0, a surface traction f = (f_x, f_y, f_z) acts on
 the body (f_z > 0 presses in) and u is the surface displacement, u = G * f.  Stiffness ``C`` is
-the lab-frame Voigt matrix (see :mod:`hpcontact.crystal`); displacements per force come out in
+the lab-frame Voigt matrix (see :mod:`hpcontact.materials.crystal`); displacements per force come out in
 1/(stress unit of C) × length.
 
 1. Fourier space (Barnett & Lothe 1973, 1985; Ting, *Anisotropic Elasticity*, 1996, §7.1–7.5,
@@ -84,15 +84,16 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
+from collections.abc import Iterable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
-from typing import Any, Iterable
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..crystal import Crystal, check_stiffness, isotropic, voigt_to_tensor
-from ..errors import ConvergenceError, InputError
+from hpcontact.errors import ConvergenceError, InputError
+from hpcontact.materials.crystal import Crystal, check_stiffness, isotropic, voigt_to_tensor
 
 __all__ = [
     "AnisotropicKernel",
@@ -138,7 +139,7 @@ _CHUNK = 1 << 20
 # Materials in, Voigt matrices out
 # --------------------------------------------------------------------------------------------
 def as_voigt(material: Any) -> NDArray[np.float64]:
-    """Lab-frame Voigt stiffness from a :class:`~hpcontact.crystal.Crystal`, a 6 × 6 array, an
+    """Lab-frame Voigt stiffness from a :class:`~hpcontact.materials.crystal.Crystal`, a 6 × 6 array, an
     object with a ``voigt`` attribute, or an isotropic material with ``G`` and ``nu`` (< 0.5)."""
     if isinstance(material, Crystal):
         return material.voigt
@@ -242,6 +243,12 @@ def _pressure_split(C6: NDArray) -> tuple[NDArray, float]:
     return Cp, lam
 
 
+def surface_green_nodes(C6: NDArray, phi: NDArray) -> int:
+    """The ω nodes the adaptive Barnett–Lothe rule needs for the 6 × 6 stiffness ``C6`` (Pa) on
+    the in-plane directions ``phi`` (radians): the measure of its cost (the sweep's cost model)."""
+    return _surface_green(C6, phi)[1]
+
+
 def _surface_green(C6: NDArray, phi: NDArray) -> tuple[NDArray, int]:
     """H(φ) (shape (P, 3, 3) complex, exactly Hermitian) and the number of ω nodes used."""
     phi = np.asarray(phi, dtype=np.float64).reshape(-1)
@@ -326,7 +333,7 @@ class AnisotropicKernel:
 
     # ---- construction ---------------------------------------------------------------------
     @classmethod
-    def build(cls, material: Any) -> "AnisotropicKernel":
+    def build(cls, material: Any) -> AnisotropicKernel:
         C6 = as_voigt(material)
         N = 64
         Hhalf, M = _surface_green(C6, np.arange(N // 2) * (2 * np.pi / N))
@@ -592,7 +599,7 @@ def _asinh_difference(u1: NDArray, u2: NDArray, du: NDArray) -> NDArray:
 # --------------------------------------------------------------------------------------------
 # Cache and the grid API
 # --------------------------------------------------------------------------------------------
-_KERNELS: "OrderedDict[bytes, AnisotropicKernel]" = OrderedDict()
+_KERNELS: OrderedDict[bytes, AnisotropicKernel] = OrderedDict()
 _KERNEL_CACHE_SIZE = 8  # each kernel holds a 2^17 x 9 table: ~9.4 MB
 
 

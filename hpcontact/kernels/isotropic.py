@@ -21,8 +21,8 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..materials import Isotropic
-from .cells import PARITY, quadrant_integrals
+from hpcontact.kernels.cell_integrals import PARITY, quadrant_integrals
+from hpcontact.materials.isotropic import Isotropic
 
 BLOCKS = ("xx", "xy", "yx", "yy", "zz", "xz", "yz", "zx", "zy")
 
@@ -64,7 +64,7 @@ def isotropic_block(material: Isotropic, nx: int, ny: int, dx: float, dy: float,
 
 
 def isotropic_surface_green(material: Isotropic, phi: np.ndarray) -> np.ndarray:
-    """H(m) of û = H f̂/|k| for m = (cos φ, sin φ) (DESIGN §2.1; units 1/stress), (..., 3, 3).
+    """H(m) of û = H f̂/|k| for m = (cos φ, sin φ) (docs/design.md §2.1; units 1/stress), (..., 3, 3).
 
     Tangential block (I − nu m mᵀ)/G, normal (1 − nu)/G, coupling H_xz = +i(1−2nu) m_x/(2G),
     H_zx = −i(1−2nu) m_x/(2G) (signs fixed against the real-space Boussinesq–Cerruti blocks).

@@ -2,6 +2,6 @@
 
 import sys
 
-from .driver import main
+from hpcontact.sweep.driver import main
 
 sys.exit(main())

@@ -17,14 +17,14 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass, field
 from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from .journal import OK, Entry, to_json
-from .provenance import contributors
+from hpcontact.sweep.journal import OK, Entry, to_json
+from hpcontact.sweep.provenance import contributors
 
 NOT_COMPUTED = -1  # status of a task no journal holds
 

@@ -7,9 +7,9 @@ or ``slip``) takes, on one core of this machine,
 
 with ``cost = hpcontact.sweep.tasks.estimated_cost(params)`` as the cost units (padded FFT cells
 S · log2 S × solves × CG iterations, the iterations as digits of tolerance × the grid's
-iteration factor (1 + 0.3 log2 ρ) log2 S / 18, ρ the contact grid's aspect in cells: ``taskgrid``; a slip
+iteration factor (1 + 0.3 log2 ρ) log2 S / 18, ρ the contact grid's aspect in cells: ``footprint``; a slip
 scene's solves follow its load path, ``tasks.slip_cost``) and S = ``tasks.padded_cells(params)``
-(the grid of the turned shape's bounding box, ``taskgrid.contact_grid``): the first term is the
+(the grid of the turned shape's bounding box, ``footprint.contact_grid``): the first term is the
 FFT work, the second the work per solve-iteration that does not grow with the grid (Python, CG
 bookkeeping, set-up: cost / (S log2 S)). A slip scene with anisotropic bodies (a crystal, an
 orthotropic body) evaluates their surface Green's functions by the Barnett–Lothe integrals
@@ -37,7 +37,7 @@ iterations 1.6e-7 (measured: 1.2e-7, 2.1e-7, 3.3e-7 at n = 256, 512, 1024, the a
 the caches). ``task_k`` is what any task takes whatever its grid (scene, plan, kernels' set-up,
 record): a 16 × 16 circle at tol 1e-2 (``TINY_CONTACT_SCENE``, 4-6 ms), subtracted from the
 other timings before they are fitted; contact kind only. With the iterations' log2 S growth
-(``taskgrid``), kernels by iterations and ``task_k``, accuracy_cost's estimate went from 0.62-0.63
+(``footprint``), kernels by iterations and ``task_k``, accuracy_cost's estimate went from 0.62-0.63
 of the measured time to 0.92 (same machine, same day). The crystal indentation kind is calibrated on n = 128 and 256 (the shipped
 ``tembleque2011_sphere`` runs n = 256): calibrated on 64 and 128 its estimate was 0.62-0.68 of
 the measured time, the time per cost unit rising by ~1.45x once the arrays (4 MB each at 512²
@@ -104,30 +104,32 @@ import heapq
 import json
 import math
 import os
-import resource
 import socket
 import statistics
-import sys
 import time
 import warnings
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any
 
-from ..errors import InputError
-from .kinds import SLIP, quantity_names, scene_kind
-from .tasks import Task, estimated_cost, make_chunks, padded_cells
+import numpy as np
+
+from hpcontact import __version__
+from hpcontact.accuracy import task_function
+from hpcontact.errors import InputError
+from hpcontact.kernels.anisotropic import as_voigt, surface_green_nodes
+from hpcontact.materials.elastic_constants import anisotropic_material
+from hpcontact.numerics.convolution import clear_cache, wisdom_path
+from hpcontact.numerics.memory import MIB, resident_bytes
+from hpcontact.problems import footprint
+from hpcontact.problems.footprint import task_kind
+from hpcontact.problems.kinds import scene_kind
+from hpcontact.problems.slip.crystal_pair import GPA, pair_from_params
+from hpcontact.sweep.tasks import Task, estimated_cost, make_chunks, padded_cells, solved_grids
 
 KINDS = ("contact", "crystal", "crystal_indentation", "slip")
 FORMAT = 4  # version of the calibration file's layout (2: node_s, Barnett–Lothe; 3: cell_s, kernels; 4: task_s)
-MIB = 2**20
-# Memory per kind: (fixed bytes, bytes per padded cell), fitted as stated in the module docstring.
-MEMORY_MODEL = {
-    "contact": (1.0 * MIB, 182.0),
-    "crystal": (45.0 * MIB, 525.0),
-    "crystal_indentation": (45.0 * MIB, 525.0),
-    "slip": (2.0 * MIB, 530.0),
-}
 _TANGENTIAL_NORMAL = ["tangential", "normal"]
 # Calibration scenes: (small, larger) per kind, with the fields a sweep of that kind sets.
 CALIBRATION_SCENES: dict[str, tuple[dict[str, Any], dict[str, Any]]] = {
@@ -167,18 +169,6 @@ ANISOTROPIC_SLIP_SCENE: dict[str, Any] = {
     "quantities": "slip", "orthotropic": _ORTHOTROPIC, "orthotropic2": _ORTHOTROPIC, "radius": 0.5, "radius_b": 2.0,
     "load": 1.0e6, "mu": 0.1, "q_ratio": 0.5, "steps": 1, "n": 16, "tol": 1e-8,
 }
-
-
-def task_kind(params: Mapping[str, Any]) -> str:
-    """The calibration group: 'slip'; 'crystal' (a named material or A != 1), or
-    'crystal_indentation' when a crystal scene asks for the indentation alone (one normal kernel
-    by quadrature and a few solves: a far smaller share of solves in its cost, measured 1.6x
-    slower per cost unit than the crystal punch's); else 'contact'."""
-    if scene_kind(params) == SLIP:
-        return "slip"
-    if params.get("material") is None and float(params.get("anisotropy", 1.0)) == 1.0:
-        return "contact"
-    return "crystal_indentation" if quantity_names(params.get("quantities")) == ["indentation"] else "crystal"
 
 
 @dataclass(frozen=True)
@@ -228,15 +218,10 @@ class Calibration:
 def omega_nodes(params: Mapping[str, Any]) -> int:
     """Barnett–Lothe ω nodes of the anisotropic bodies of the slip scene ``params`` (0 for
     isotropic bodies): the nodes the adaptive trapezoidal rule of
-    ``kernels.anisotropic._surface_green`` needs on 32 in-plane directions, summed over the
+    ``kernels.anisotropic.surface_green_nodes`` counts on 32 in-plane directions, summed over the
     bodies, times the load paths solved (2 for a dissimilar pair under coupling auto or both:
     each path builds its preconditioner from the pair's Green's function — measured 4.6 of
     6.3 s of Barnett–Lothe time for an orthotropic pair of Rodríguez-Tembleque et al. 2011)."""
-    from ..anisotropic_pair import GPA
-    from ..bodies import pair_from_params
-    from ..elastic_constants import anisotropic_material
-    from ..kernels.anisotropic import as_voigt
-
     nodes = 0
     for suffix in ("", "2"):
         crystal = anisotropic_material(params, suffix, GPA, library=False)
@@ -250,24 +235,8 @@ def omega_nodes(params: Mapping[str, Any]) -> int:
 @functools.lru_cache(maxsize=1024)
 def _omega_nodes(voigt: bytes) -> int:
     """ω nodes for the 6 × 6 stiffness ``voigt`` (its bytes: a cache key), 32 directions."""
-    import numpy as np
-
-    from ..kernels.anisotropic import _surface_green
-
     stiffness = np.frombuffer(voigt, dtype=np.float64).reshape(6, 6)
-    return _surface_green(stiffness, np.linspace(0.0, 2.0 * math.pi, 32, endpoint=False))[1]
-
-
-def task_array_bytes(params: Mapping[str, Any]) -> float:
-    """The arrays of one task of ``params``: fixed_k + per_cell_k × padded cells (bytes); a slip
-    scene with a crystal body has the crystal's fixed part (its kernels' quadrature tables)."""
-    from ..elastic_constants import describes_crystal
-
-    kind = task_kind(params)
-    fixed, per_cell = MEMORY_MODEL[kind]
-    if kind == "slip" and describes_crystal(params):
-        fixed = MEMORY_MODEL["crystal"][0]
-    return fixed + per_cell * padded_cells(params)
+    return surface_green_nodes(stiffness, np.linspace(0.0, 2.0 * math.pi, 32, endpoint=False))
 
 
 # What importing a run's modules can add to a process that has not yet: 3x the measured 80 MiB
@@ -275,10 +244,10 @@ def task_array_bytes(params: Mapping[str, Any]) -> float:
 IMPORTS_BYTES = 3 * 80 * MIB
 
 
-def resident_bytes() -> float:
-    """Peak resident bytes of this process so far (ru_maxrss is in KiB on Linux, bytes on macOS)."""
-    scale = 1 if sys.platform == "darwin" else 1024
-    return float(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * scale)
+def task_array_bytes(params: Mapping[str, Any]) -> float:
+    """The arrays of one task of ``params`` (``footprint.array_bytes`` of the finest grid it
+    solves, ``tasks.solved_grids``)."""
+    return footprint.array_bytes(solved_grids(params)[-1])
 
 
 def base_memory_bytes() -> float:
@@ -286,9 +255,6 @@ def base_memory_bytes() -> float:
     docstring)."""
     import mpi4py.MPI  # noqa: F401 - imported for its resident size, as a run does
     import xarray  # noqa: F401
-
-    from ..slip import solve_slip  # noqa: F401
-    from ..solve import solve  # noqa: F401
 
     return resident_bytes()
 
@@ -302,8 +268,6 @@ def _timed_solve(params: Mapping[str, Any], repeats: int = 2) -> tuple[float, in
     """CPU seconds of a solve of ``params`` with warm FFT plans (an untimed solve first) and a
     cold kernel cache: the time on a core of its own, whatever else shares the machine; the
     least of ``repeats`` timings (the others carry interference); and its CG iterations."""
-    from ..operator import clear_cache
-    from .kinds import task_function
 
     function = task_function(scene_kind(params))
     record = function(dict(params))
@@ -354,7 +318,6 @@ def _fit_with_kernels(pair: Sequence[Mapping[str, Any]]) -> Rate:
 
 def calibrate(scenes: Mapping[str, Sequence[Mapping[str, Any]]] = CALIBRATION_SCENES) -> Calibration:
     """Measure ``Rate`` per kind on this machine (module docstring) and the base memory."""
-    from .. import __version__
 
     started = time.perf_counter()
     base = base_memory_bytes()
@@ -369,7 +332,6 @@ def calibrate(scenes: Mapping[str, Sequence[Mapping[str, Any]]] = CALIBRATION_SC
 
 def calibration_path() -> Path:
     """$HPCONTACT_COSTMODEL, else ``costmodel-HOST.json`` beside the FFTW wisdom file."""
-    from ..operator import wisdom_path
 
     env = os.environ.get("HPCONTACT_COSTMODEL")
     return Path(env) if env else wisdom_path().with_name(f"costmodel-{socket.gethostname()}.json")
@@ -412,7 +374,6 @@ def read_calibration(path: Path) -> Calibration:
 def cached_calibration(path: Path | None = None) -> tuple[Calibration | None, str]:
     """The cached calibration when it was measured on this host by this package version, else
     None and why not (no file, a corrupt one, another host or version)."""
-    from .. import __version__
 
     path = calibration_path() if path is None else Path(path)
     host = socket.gethostname()
@@ -521,49 +482,6 @@ def replay(tasks: Sequence[Task], seconds: Mapping[str, float], ranks: int,
         "claims": claim_wait / (ranks * makespan) if makespan > 0 else 0.0,
         "setup_gather": (setup + overheads.gather_s * n) / makespan if makespan > 0 else 0.0,
     }
-
-
-_SIZE_UNITS = {"": 1, "B": 1, "K": 2**10, "M": 2**20, "G": 2**30, "T": 2**40}
-
-
-def parse_memory(text: str, field_name: str = "--mem-per-rank") -> int:
-    """Bytes of a size such as ``4G``, ``512M``, ``2.5GiB`` or ``1000000`` (binary units, as
-    SLURM's ``--mem``); ``InputError`` naming ``field_name`` otherwise."""
-    value = str(text).strip().upper().removesuffix("IB").removesuffix("B")
-    unit = value[-1:] if value[-1:] in _SIZE_UNITS else ""
-    try:
-        number = float(value[: len(value) - len(unit)])
-    except ValueError:
-        number = float("nan")
-    if not (math.isfinite(number) and number > 0):
-        raise InputError(field_name, "a size > 0 such as 4G, 512M or a number of bytes", text)
-    return int(number * _SIZE_UNITS[unit])
-
-
-def _slurm_tasks_per_node(environ: Mapping[str, str]) -> int | None:
-    """Tasks on this node from SLURM_NTASKS_PER_NODE, else the first count of
-    SLURM_TASKS_PER_NODE (``"4(x2),3"``)."""
-    for name in ("SLURM_NTASKS_PER_NODE", "SLURM_TASKS_PER_NODE"):
-        text = environ.get(name, "").split(",")[0].split("(")[0]
-        if text.isdigit() and int(text) > 0:
-            return int(text)
-    return None
-
-
-def default_memory_per_rank(environ: Mapping[str, str] | None = None) -> tuple[int, str]:
-    """Bytes one rank may use and where that number comes from: SLURM_MEM_PER_CPU (MiB) ×
-    SLURM_CPUS_PER_TASK, else SLURM_MEM_PER_NODE (MiB) ÷ tasks per node, else this machine's
-    physical memory ÷ its cores."""
-    environ = os.environ if environ is None else environ
-    per_cpu = environ.get("SLURM_MEM_PER_CPU", "")
-    if per_cpu.isdigit():
-        cpus = environ.get("SLURM_CPUS_PER_TASK", "1")
-        return int(per_cpu) * MIB * (int(cpus) if cpus.isdigit() else 1), "SLURM_MEM_PER_CPU"
-    per_node, tasks = environ.get("SLURM_MEM_PER_NODE", ""), _slurm_tasks_per_node(environ)
-    if per_node.isdigit() and int(per_node) > 0 and tasks:
-        return int(per_node) * MIB // tasks, "SLURM_MEM_PER_NODE / tasks per node"
-    total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-    return total // (os.cpu_count() or 1), "physical memory / cores"
 
 
 @dataclass

@@ -1,4 +1,4 @@
-"""Journal entries → labelled xarray Dataset (DESIGN §4.2, README "The data set") → netCDF4.
+"""Journal entries → labelled xarray Dataset (docs/design.md §4.2, README "The data set") → netCDF4.
 
 Dimensions are the spec's axes in spec order, each a coordinate with CF ``units`` and
 ``long_name``; fixed scalar fields of the spec become scalar coordinates. Data variables are the
@@ -15,7 +15,7 @@ coordinate along the label axes that set it (the table's value, else the fixed o
 follow the spec's scene kind (``kinds``). Contact scenes: stresses in G (the shear modulus,
 (C11 − C12)/2 of a cubic crystal from (nu, A)), or GPa when the scenes name library crystals;
 punch lengths in a (the semi-major extent, 1 on the grid); indentation lengths in L, the unit
-the spec gives the sphere's radius and depth in. Slip scenes (``hpcontact.slip``): forces in N,
+the spec gives the sphere's radius and depth in. Slip scenes (``hpcontact.problems.slip.partial_slip``): forces in N,
 lengths in m, stiffnesses in N/m, areas in m² when the scenes name library materials (SI), else
 in the force and length units of the input (F, L). The tables below write units that way;
 ``units.cf_attributes`` turns a unit in scene scales (G, a, L, F) into ``units = "1"`` with the
@@ -43,21 +43,22 @@ from __future__ import annotations
 import json
 import numbers
 import re
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 import xarray as xr
 
-from ..quantities import directional_stiffness
-from ..elastic_constants import FAMILIES
-from .columns import NOT_COMPUTED, Joined, is_number as _is_number, join, task_positions, to_columns
-from .journal import BAD_INPUT, CRASHED, ERROR, NOT_CONVERGED, OK, Entry, to_json
-from .kinds import SLIP
-from . import netcdf
-from .spec import LABEL_AXES, Spec
-from .units import cf_attributes
-
+from hpcontact.materials.elastic_constants import FAMILIES
+from hpcontact.problems.kinds import SLIP
+from hpcontact.quantities import directional_stiffness
+from hpcontact.sweep import netcdf
+from hpcontact.sweep.columns import NOT_COMPUTED, Joined, join, task_positions, to_columns
+from hpcontact.sweep.columns import is_number as _is_number
+from hpcontact.sweep.journal import BAD_INPUT, CRASHED, ERROR, NOT_CONVERGED, OK, Entry, to_json
+from hpcontact.sweep.spec import LABEL_AXES, Spec
+from hpcontact.sweep.units import cf_attributes
 
 FIXED_VARIABLES = ("status", "message", "wall_time_s")  # per task, whatever its record holds
 STATUS_MEANINGS = {OK: "ok", BAD_INPUT: "bad_input", NOT_CONVERGED: "not_converged", ERROR: "error", CRASHED: "crashed",
@@ -139,7 +140,7 @@ VARIABLE_ATTRS: dict[str, Mapping[str, str]] = {
 }
 
 
-# Slip scenes (hpcontact.slip.solve_slip): (long_name, unit) with F the force and L the length unit
+# Slip scenes (hpcontact.problems.slip.partial_slip.solve_slip): (long_name, unit) with F the force and L the length unit
 # (N and m for library materials); the end of the loading path unless said otherwise.
 SLIP_MODE_ATTRS: Mapping[str, tuple[str, str]] = {
     "tangential_force": ("tangential force Q along the load direction", "F"),
@@ -189,8 +190,8 @@ SLIP_ATTRS: Mapping[str, tuple[str, str]] = {
     "radius2": ("radius of curvature of body 2 (inf: flat)", "L"),
     "radius2_b": ("second principal radius of curvature of body 2", "L"),
     "body2_angle": ("angle between the principal axes of the bodies", "degree"),
-    "material": ("material of body 1 (hpcontact.bodies library, or crystal:NAME)", ""),
-    "material2": ("material of body 2 (hpcontact.bodies library, or crystal:NAME)", ""),
+    "material": ("material of body 1 (hpcontact.problems.slip.bodies library, or crystal:NAME)", ""),
+    "material2": ("material of body 2 (hpcontact.problems.slip.bodies library, or crystal:NAME)", ""),
     "orthotropic": ("orthotropic engineering constants of body 1", ""),
     "orthotropic2": ("orthotropic engineering constants of body 2", ""),
     "orientation": ("surface normal of the crystal along [110] -> [111] -> [001]", "degree"),

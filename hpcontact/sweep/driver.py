@@ -18,7 +18,7 @@ synced every few seconds), and stop together on a signal (``signals``); finally 
 the outcomes it journaled into columns (``columns``) and rank 0 joins them with the outcomes
 reused from earlier journals into the data set (the last outcome of each task, and the
 provenance of every code that contributed) and writes it atomically. A task that raises is journaled with its status and
-message and the sweep goes on. The spec's scene kind (``kinds``) picks the task function and the
+message and the sweep goes on. The spec's scene kind (``problems.kinds``; its solver ``accuracy.task_function``) picks the task function and the
 scene validator. ``HPCONTACT_FAULTS`` injects faults for tests (``faults``).
 
 ``run_command`` is ``hpcontact run`` (exit status, see ``EXIT_STATUS``; errors reported once;
@@ -36,18 +36,31 @@ import pickle
 import sys
 import time
 import traceback
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any, Callable, Mapping, Sequence, TextIO
+from typing import Any, TextIO
 
 import numpy as np
 
-from ..errors import ConvergenceError, InputError
-from ..operator import expect_applications, load_wisdom, save_wisdom
-from . import faults, kinds, provenance
-from .arguments import EXIT_FAILED_TASKS, EXIT_OK, EXIT_REFUSED, EXIT_STOPPED, EXIT_UNEXPECTED, add_run_arguments
-from .guard import Refused, RunLock, usable_folder
-from .journal import (
+from hpcontact import accuracy
+from hpcontact.errors import ConvergenceError, InputError
+from hpcontact.numerics.convolution import expect_applications, load_wisdom, save_wisdom
+from hpcontact.numerics.memory import default_memory_per_rank, parse_memory
+from hpcontact.problems.footprint import fft_applications
+from hpcontact.sweep import costmodel, faults, provenance
+from hpcontact.sweep.arguments import (
+    EXIT_FAILED_TASKS,
+    EXIT_OK,
+    EXIT_REFUSED,
+    EXIT_STOPPED,
+    EXIT_UNEXPECTED,
+    add_run_arguments,
+)
+from hpcontact.sweep.columns import NOT_COMPUTED, join, to_columns
+from hpcontact.sweep.costmodel import check_memory, start_line
+from hpcontact.sweep.guard import Refused, RunLock, usable_folder
+from hpcontact.sweep.journal import (
     BAD_INPUT,
     ERROR,
     NOT_CONVERGED,
@@ -62,12 +75,11 @@ from .journal import (
     session_name,
     to_json,
 )
-from .progress import Progress, Summary
-from .schedule import SLOTS, LaunchError, Team, claimed_chunks, report_done, totals_done, world
-from .signals import DEFAULT_GRACE_S, STOP_NAME, Abandoned, StopControl
-from .spec import Spec, Validator, load_spec
-from .tasks import Part, Task, enumerate_tasks, enumerate_part, join_parts, make_chunks, points
-from .taskgrid import fft_applications
+from hpcontact.sweep.progress import Progress, Summary
+from hpcontact.sweep.schedule import SLOTS, LaunchError, Team, claimed_chunks, report_done, totals_done, world
+from hpcontact.sweep.signals import DEFAULT_GRACE_S, STOP_NAME, Abandoned, StopControl
+from hpcontact.sweep.spec import Spec, Validator, load_spec
+from hpcontact.sweep.tasks import Part, Task, enumerate_part, enumerate_tasks, join_parts, make_chunks, points
 
 TaskFunction = Callable[[Mapping[str, Any]], Mapping[str, Any]]
 SHOWN_FAILURES = 5
@@ -127,7 +139,7 @@ class Plan:
     shared: list[Task]
 
     @classmethod
-    def of(cls, spec: Spec, tasks: list[Task], decision: Decision) -> "Plan":
+    def of(cls, spec: Spec, tasks: list[Task], decision: Decision) -> Plan:
         """The plan of ``decision``, its task positions turned into tasks."""
         return cls(spec, tasks, decision, [tasks[i] for i in decision.isolated], [tasks[i] for i in decision.shared])
 
@@ -202,8 +214,6 @@ def _share(spec: Spec, rank: int, ranks: int, validate: Validator | None, option
         part = enumerate_part(spec, total * rank // ranks, total * (rank + 1) // ranks, validate, check=True)
         over = False
         if options.mem_per_rank is not None:
-            from .costmodel import check_memory
-
             try:
                 check_memory([Task(*row) for row in part.rows], *options.mem_per_rank)
             except InputError:
@@ -232,8 +242,6 @@ def _prepare(spec: Spec, tasks: list[Task], task_of: Any, over: bool, options: O
     """Rank 0's preparation (see the module docstring); ``keep`` receives what stays on rank 0
     (each point's task, the lock, the history, the reused and quarantined keys)."""
     if over:
-        from .costmodel import check_memory
-
         check_memory(tasks, *options.mem_per_rank)
     injected = faults.faults_from_environment()
     usable_folder(Path(spec.output).parent, "output folder")
@@ -313,7 +321,7 @@ def execute(
 
     ``options`` say what to do with existing journals and locks (module docstring); ``output``
     overrides the spec's output path; ``task_function`` solves one scene and ``validate`` checks
-    one scene's parameters (defaults: those of the spec's scene kind, ``kinds``); rank 0 prints
+    one scene's parameters (defaults: those of the spec's scene kind, ``accuracy.task_function``); rank 0 prints
     progress and the summary to ``stream`` (default stdout); ``stop`` is this rank's stop
     control (default: one without signal handlers, which still stops with the other ranks).
     Spec errors and refusals raise ``InputError`` (``Refused``) on every rank before any work
@@ -342,11 +350,11 @@ def _run(team: Team, plan: Plan, keep: dict[str, Any], task_function: TaskFuncti
     """Every rank: the work of ``plan``, then rank 0 assembles the data set (see ``execute``)."""
     spec, tasks = plan.spec, plan.tasks
     if task_function is None:
-        task_function = kinds.task_function(spec.kind)
+        task_function = accuracy.task_function(spec.kind)
     chunks = make_chunks(plan.shared, team.size)
     # this rank's share of the FFT applications per grid, estimated from every R-th task (the
     # work stays 1/R of the tasks per rank): grids the sweep uses often get measured FFTW plans
-    # at their first application, not after ~40-80 (hpcontact.operator)
+    # at their first application, not after ~40-80 (hpcontact.numerics.convolution)
     todo = plan.isolated + plan.shared
     expect_applications(fft_applications(t.params for t in todo[team.rank :: team.size]))
     setup_s = time.perf_counter() - started
@@ -364,8 +372,6 @@ def _run(team: Team, plan: Plan, keep: dict[str, Any], task_function: TaskFuncti
             file=stream,
             flush=True,
         )
-        from .costmodel import start_line  # the dry run's estimate, from the cached calibration only
-
         print(start_line(todo, team.size), file=stream, flush=True)
         progress = Progress(len(tasks), plan.decision.reused, sum(t.cost for t in todo), spec.progress_interval, stream)
 
@@ -434,8 +440,6 @@ def _run(team: Team, plan: Plan, keep: dict[str, Any], task_function: TaskFuncti
         stop.request(f"rank {team.rank}: {failure}", failed=True)
     counter.close()
     stop.close()
-    from .columns import to_columns
-
     totals = team.gather((task_s, run, schedule_s, journal_s, journal.sync_s, stop.reason, stop.failed, failure,
                           None if stop.reason is not None else to_columns(done, done_at)))
 
@@ -470,8 +474,7 @@ def _assemble(spec: Spec, plan: Plan, keep: Mapping[str, Any], ranks: int, total
     """Rank 0: the data set from the ranks' columns of this run and the outcomes reused from
     earlier journals, its summary, and the netCDF file (xarray is imported here: the other
     ranks, and runs that stop, never need it)."""
-    from .columns import NOT_COMPUTED, join, to_columns
-    from .dataset import FIXED_VARIABLES, dataset_of, write_netcdf
+    from hpcontact.sweep.dataset import FIXED_VARIABLES, dataset_of, write_netcdf
 
     gather_started = time.perf_counter()
     history: History = keep["history"]
@@ -489,7 +492,7 @@ def _assemble(spec: Spec, plan: Plan, keep: Mapping[str, Any], ranks: int, total
             "git_revision": plan.decision.provenance["git_revision"],
             "numerics": json.dumps(provenance.numerics(), sort_keys=True),
             "sweep_contributors": joined.provenance,
-            "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+            "created": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
             "mpi_size": ranks,
             "history": f"hpcontact run {spec.path}{' --resume' if options.resume else ''}",
             "sweep_journal_sync_time_s": sum(t[4] for t in totals),
@@ -533,15 +536,13 @@ def dry_run(spec_path: str | Path, output: str | Path | None = None, stream: Tex
     ``HPCONTACT_FAULTS`` counts in), relative cost, estimated seconds and peak memory and
     parameters; the distinct grids and kernel sets; the totals (core-seconds, core-hours, peak
     memory) and the wall time on 1, 64 and 1024 ranks (``costmodel``); a warning on stderr for
-    tasks over ``mem_per_rank`` bytes (default: ``costmodel.default_memory_per_rank``). With
+    tasks over ``mem_per_rank`` bytes (default: ``numerics.memory.default_memory_per_rank``). With
     ``as_json``, one JSON object instead. Nothing is computed but the cost model's calibration
     (once per host and version, ``costmodel.load_calibration``)."""
-    from . import costmodel
-
     stream = stream if stream is not None else sys.stdout
     spec = load_spec(spec_path, output=output)
     tasks, _ = enumerate_tasks(spec)
-    limit, source = (mem_per_rank, "--mem-per-rank") if mem_per_rank is not None else costmodel.default_memory_per_rank()
+    limit, source = (mem_per_rank, "--mem-per-rank") if mem_per_rank is not None else default_memory_per_rank()
     if calibration is None:
         calibration = costmodel.load_calibration(stream=sys.stderr)
     est = costmodel.estimate(tasks, calibration)
@@ -604,7 +605,7 @@ def run_command(spec: str | Path, options: Options = Options(), output: str | Pa
     """``hpcontact run`` on every rank: the exit status (``EXIT_STATUS``). Refusals and bad
     input print one line on stderr from rank 0, prefixed ``prog``; any other error prints its
     traceback and, under MPI, aborts every rank (a rank left waiting in a collective would hang
-    the job). ``task_function`` replaces the scene kind's solver (``python -m hpcontact.accuracy``)."""
+    the job). ``task_function`` replaces the scene kind's solver (``python -m hpcontact.sweep.accuracy_study``)."""
     try:
         team = world()
     except LaunchError as exc:
@@ -644,8 +645,6 @@ def _keep_wisdom() -> None:
 def run_from_arguments(args: argparse.Namespace, task_function: TaskFunction | None = None,
                        prog: str = "hpcontact run") -> int:
     """Run what ``add_run_arguments`` parsed (``task_function``, ``prog``: see ``run_command``)."""
-    from .costmodel import default_memory_per_rank, parse_memory
-
     memory = (parse_memory(args.mem_per_rank), "--mem-per-rank") if args.mem_per_rank is not None else None
     if args.dry_run:
         return dry_run(args.spec, args.output, as_json=args.json, mem_per_rank=None if memory is None else memory[0])
@@ -663,7 +662,7 @@ def main(argv: Sequence[str] | None = None, prog: str = "hpcontact run",
          description: str = "Run a parameter sweep (under mpiexec or alone).", task_function: TaskFunction | None = None) -> int:
     """``python -m hpcontact.sweep SPEC [options]`` (see ``add_run_arguments``); another
     ``task_function`` makes another command with the same options and exit statuses
-    (``python -m hpcontact.accuracy``)."""
+    (``python -m hpcontact.sweep.accuracy_study``)."""
     parser = argparse.ArgumentParser(prog=prog, description=description)
     add_run_arguments(parser)
     try:

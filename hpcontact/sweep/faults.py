@@ -17,9 +17,9 @@ from __future__ import annotations
 import os
 import signal
 import time
-from typing import Callable
+from collections.abc import Callable
 
-from ..errors import InputError
+from hpcontact.errors import InputError
 
 VARIABLE = "HPCONTACT_FAULTS"
 KINDS = ("raise", "kill", "hang", "torn")

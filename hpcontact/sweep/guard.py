@@ -19,7 +19,7 @@ import socket
 from pathlib import Path
 from typing import Any
 
-from ..errors import InputError
+from hpcontact.errors import InputError
 
 LOCK_NAME = "LOCK"
 JOB_VARIABLES = ("SLURM_JOB_ID", "PBS_JOBID", "LSB_JOBID", "JOB_ID")  # Slurm, PBS/Torque, LSF, SGE
@@ -81,7 +81,7 @@ class RunLock:
         self.path = Path(folder) / LOCK_NAME
         self.info = {
             "host": socket.gethostname(), "pid": os.getpid(), "ranks": ranks, "job": batch_job(),
-            "started": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+            "started": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
         }
         self.held = False
 

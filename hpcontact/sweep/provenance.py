@@ -18,13 +18,15 @@ import json
 import os
 import platform
 import subprocess
+from collections.abc import Iterable, Mapping
 from functools import lru_cache
 from pathlib import Path
-from typing import Any, Iterable, Mapping
+from typing import Any
 
-from .. import __version__
-from .journal import Entry, to_json
-from .kinds import SLIP, scene_kind
+from hpcontact import __version__
+from hpcontact.problems.kinds import SLIP, scene_kind, validator
+from hpcontact.scene import DEFAULTS
+from hpcontact.sweep.journal import Entry, to_json
 
 REVISION_VARIABLE = "HPCONTACT_GIT_REVISION"  # overrides the detected revision (installs without .git)
 FIELDS = ("hpcontact_version", "git_revision", "numerics")
@@ -74,11 +76,7 @@ def current() -> dict[str, Any]:
 def resolved_scene(params: Mapping[str, Any]) -> dict[str, Any]:
     """The scene ``params`` with every default filled in (see the module docstring)."""
     if scene_kind(params) == SLIP:
-        from .kinds import validator
-
         return json.loads(to_json(dataclasses.asdict(validator(SLIP)(params))))
-    from ..scene import DEFAULTS
-
     return json.loads(to_json({**DEFAULTS, **params}))
 
 

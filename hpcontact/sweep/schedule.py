@@ -48,7 +48,8 @@ import sys
 import threading
 import time
 import traceback
-from typing import Any, Iterator, Mapping, Protocol, Sequence
+from collections.abc import Iterator, Mapping, Sequence
+from typing import Any, Protocol
 
 import numpy as np
 

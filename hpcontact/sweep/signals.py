@@ -67,7 +67,7 @@ class StopControl:
         """True once a stop was requested on any rank (as far as this rank has seen)."""
         return self.reason is not None
 
-    def install(self) -> "StopControl":
+    def install(self) -> StopControl:
         """Handle SIGTERM and SIGUSR1 (stop) and SIGUSR2 (abandon the task in flight)."""
         for signum in SIGNALS:
             self._previous[signum] = signal.signal(signum, self._on_signal)

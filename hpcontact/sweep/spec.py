@@ -1,6 +1,6 @@
 """Sweep job spec: a TOML file → axes, fixed scene fields and settings, checked before any work.
 
-A spec has four tables (DESIGN §1, §4.2; every key is optional except one axis or a fixed scene)::
+A spec has four tables (docs/design.md §1, §4.2; every key is optional except one axis or a fixed scene)::
 
     [sweep]                          # how the sweep runs
     title = "Li 2017, Fig. 7"
@@ -24,7 +24,7 @@ A spec has four tables (DESIGN §1, §4.2; every key is optional except one axis
     nu = [0.1, 0.3, 0.5]
     angle = { linspace = [0, 180, 37] }     # numpy.linspace(start, stop, num)
 
-Axis names are those of DESIGN §1 (``shape angle nu aspect anisotropy orientation``), ``material``
+Axis names are those of docs/design.md §1 (``shape angle nu aspect anisotropy orientation``), ``material``
 (library crystal names, a string coordinate: ``material = ["Cu", "Al", "W"]``), plus ``n`` and
 ``tol`` for accuracy studies. Crystal scenes::
 
@@ -46,7 +46,7 @@ refused with an ``InputError`` naming the key (``axes.nu``, ``scene.G``, …), s
 reaches a rank's work loop. Values are checked by the scene's own validator for every distinct
 scene of the sweep.
 
-Partial-slip scenes (``quantities = "slip"``: ``hpcontact.slip``, two bodies pressed by a load P
+Partial-slip scenes (``quantities = "slip"``: ``hpcontact.problems.slip.partial_slip``, two bodies pressed by a load P
 and loaded tangentially to Q = q_ratio mu P; the scene kind, ``kinds``) take the axes ``load``,
 ``mu``, ``q_ratio`` and ``pair``; a ``pair`` value is a table with a ``label`` and body fields
 (``material material2 radius radius_b radius2 radius2_b body2_angle E G nu E2 G2 nu2``, or any
@@ -77,15 +77,16 @@ import itertools
 import json
 import math
 import tomllib
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Iterator, Mapping
+from typing import Any
 
 import numpy as np
 
-from ..elastic_constants import FAMILIES as CONSTANT_FAMILIES
-from ..errors import InputError
-from .kinds import CONTACT, SLIP, scene_kind, validator
+from hpcontact.errors import InputError
+from hpcontact.materials.elastic_constants import FAMILIES as CONSTANT_FAMILIES
+from hpcontact.problems.kinds import CONTACT, SLIP, scene_kind, validator
 
 TABLES = ("sweep", "scene", "numerics", "axes")
 SWEEP_KEYS = ("title", "output", "journal", "angle_mode", "progress_interval")
@@ -115,7 +116,7 @@ STRING_FIELDS: Mapping[str, str] = {
     "coupling": "auto, both, coupled or decoupled",
 }
 INT_FIELDS = frozenset({"n", "n_across", "sides", "seed", "threads", "steps"})
-# Geometry fields and the shapes they apply to (DESIGN §4.1, hpcontact.geometry.Shape): a field a
+# Geometry fields and the shapes they apply to (docs/design.md §4.1, hpcontact.geometry.Shape): a field a
 # shape ignores is dropped from its scene, so e.g. a circle on an aspect axis is solved once.
 SHAPE_ONLY_FIELDS: Mapping[str, frozenset[str]] = {
     "aspect": frozenset({"ellipse", "rectangle"}),
@@ -469,7 +470,7 @@ def _locate(spec: Spec, index: tuple[int, ...], name: str) -> str:
     for axis, i in reversed(list(zip(spec.task_axes, index))):
         if axis.name in LABEL_AXES and name in axis.fields[i]:
             return f"axes.{axis.name}[{i}].{name}"
-    for axis, i in zip(spec.task_axes, index):
+    for axis in spec.task_axes:
         if axis.name == name:
             return f"axes.{name}"
     if name == "shape_angle" and spec.angle_mode == "rotated":

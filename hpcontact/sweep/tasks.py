@@ -1,6 +1,6 @@
 """Tasks of a sweep: the distinct scenes of the spec's parameter space, keyed, costed, chunked.
 
-A task is one call of the task function (``kinds.task_function``: ``hpcontact.solve.solve`` on
+A task is one call of the task function (``accuracy.task_function``: ``hpcontact.problems.contact.solve`` on
 one grid for a contact scene with ``n``; without ``n``, ``hpcontact solve``'s extrapolated
 default over grids 16 … 256, ``accuracy.default_solve``, costed over every grid it solves:
 ``solved_grids``) on one scene. Points of the
@@ -24,15 +24,21 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import json
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, Mapping, NamedTuple, Sequence
+from typing import Any, NamedTuple
 
 import numpy as np
 
-from .kinds import SLIP, quantity_names, scene_kind
-from .spec import Spec, Validator, canonical_json, scenes
-from .taskgrid import contact_grid, iteration_factor
+from hpcontact.accuracy import DEFAULT_ACCURACY, default_grids
+from hpcontact.problems import footprint
+from hpcontact.problems.footprint import iteration_factor
+from hpcontact.problems.kinds import SLIP, quantity_names, scene_kind
+from hpcontact.problems.slip.crystal_pair import pair_from_params
+from hpcontact.scene import Scene
+from hpcontact.sweep.spec import Spec, Validator, canonical_json, scenes
 
 # Fields that change a scene's outline or its solves but not its material or grid spacing:
 # tasks differing only in these may share kernels (when their bounding boxes match).
@@ -40,7 +46,7 @@ KERNEL_NEUTRAL_FIELDS = (
     "shape", "sides", "amplitude", "shape_angle", "seed", "hurst", "rms", "mask",
     "tol", "quantities", "threads", "precondition",
 )
-# Fields of a slip scene that set its loading, not its kernels (hpcontact.slip: lengths are
+# Fields of a slip scene that set its loading, not its kernels (hpcontact.problems.slip.partial_slip: lengths are
 # scaled by the Hertz radius, so the grid depends on n and b/a only, the kernel on nu_eq).
 SLIP_KERNEL_NEUTRAL_FIELDS = (
     "load", "mu", "q_ratio", "angle", "steps", "control", "displacement", "path", "coupling",
@@ -58,7 +64,7 @@ CHUNKS_PER_RANK = 4
 # its kernels are integrated by quadrature (measured: ~10x an isotropic scene at n = 64).
 CRYSTAL_TANGENTIAL_SOLVES = 3.0 * 9.0 / 4.0
 CRYSTAL_FACTOR = 2.0
-# A slip scene (hpcontact.slip): one Polonsky–Keer normal solve, then ~8 CG-sized solves per load
+# A slip scene (hpcontact.problems.slip.partial_slip): one Polonsky–Keer normal solve, then ~8 CG-sized solves per load
 # step (semismooth Newton steps and the tangent tensor), on the padded grid of ±1.1 Hertz radii
 # (≈ 1.1 n cells a side). A dissimilar pair solved coupled alternates normal and tangential
 # solves (Panagiotopoulos passes) until they agree to the tolerance: the passes converge at the
@@ -67,9 +73,7 @@ CRYSTAL_FACTOR = 2.0
 # a rigid sphere, β = 0.25-0.37, 12 passes a step; ~3x for the seed's metal pairs, β = 0.03-0.1).
 SLIP_SOLVES_PER_STEP = 8.0
 SLIP_TENSOR_SOLVES_PER_STEP = 2.0  # a step without tangential load: the 2 x 2 tangent tensor only
-SLIP_GRID_MARGIN = 1.1
 SLIP_PASS_WORK = 0.5
-SLIP_DEFAULT_N = 64
 SLIP_DEFAULT_STEPS = 10
 # A scene extrapolated by default (``solved_grids``) costs this many times the one-grid solves of
 # its grids: coverage-weighted cells take 2-18 % more CG iterations (33 against 28 for a circle
@@ -178,19 +182,15 @@ def solved_grids(params: Mapping[str, Any]) -> list[Mapping[str, Any]]:
 def _default_grids(text: str) -> tuple[tuple[int, int, float], ...]:
     """(n, n_across, tol) of every grid ``accuracy.default_solve`` solves the scene ``text``
     (canonical JSON) on; () when it solves one grid."""
-    import json
-
-    from ..accuracy import DEFAULT_ACCURACY, default_grids
-
     params = json.loads(text)
     tol = max(min(float(params.get("tol", DEFAULT_TOL)), DEFAULT_ACCURACY * 1e-2), 1e-14)
-    return tuple((n, na, tol) for n, na in default_grids(params))
+    return tuple((n, na, tol) for n, na in default_grids(Scene.from_params(params)))
 
 
 def estimated_cost(params: Mapping[str, Any]) -> float:
     """Relative cost of a scene: padded FFT size · log (per operator application) × solves ×
     digits of tolerance × the iteration factor of the grid's aspect in cells (CG iterations:
-    ``taskgrid.iteration_factor``, (1 + 0.3 log2 ρ) log2 S / 18). The grid is ``taskgrid.contact_grid``'s
+    ``footprint.iteration_factor``, (1 + 0.3 log2 ρ) log2 S / 18). The grid is ``footprint.contact_grid``'s
     (the rule of ``geometry.grid_for`` on the turned shape); crystal scenes cost more
     (``CRYSTAL_FACTOR``, coupled tangential solves); slip scenes see ``slip_cost``. A contact
     scene without ``n`` that is extrapolated by default costs ``EXTRAPOLATION_WORK`` × the sum
@@ -215,15 +215,9 @@ def estimated_cost(params: Mapping[str, Any]) -> float:
 
 
 def padded_cells(params: Mapping[str, Any]) -> float:
-    """Cells of the scene's padded FFT grid (twice the contact grid each way): 4 nx × ny for a
-    contact scene (``taskgrid.contact_grid``: the turned shape's bounding box, n × n for an
-    indentation-only scene; the finest of ``solved_grids`` for a scene extrapolated by
-    default), (2 × 1.1 n)² for a slip scene."""
-    if scene_kind(params) == SLIP:
-        side = 2.0 * SLIP_GRID_MARGIN * int(params.get("n", SLIP_DEFAULT_N))
-        return side * side
-    nx, ny = contact_grid(solved_grids(params)[-1])
-    return 4.0 * nx * ny
+    """Cells of the scene's padded FFT grid (``footprint.padded_cells``; for a scene extrapolated
+    by default, the finest of ``solved_grids``)."""
+    return footprint.padded_cells(solved_grids(params)[-1])
 
 
 def slip_cost(params: Mapping[str, Any]) -> float:
@@ -239,8 +233,6 @@ def slip_cost(params: Mapping[str, Any]) -> float:
     with/without: 3182/1614 … 4206/1733 for the orthotropic pairs of Rodríguez-Tembleque et al.
     2011). Same units as ``estimated_cost``; the Barnett–Lothe cost of anisotropic bodies is
     a per-task term of the cost model (``costmodel``)."""
-    from ..bodies import pair_from_params
-
     size = padded_cells(params)
     steps = int(params.get("steps", SLIP_DEFAULT_STEPS)) * (5 if params.get("path") == "loop" else 1)
     loaded = float(params.get("q_ratio", 0.0)) > 0.0 or params.get("control") == "displacement"

@@ -14,7 +14,8 @@ a year, so a value in units of a scale is stored as the dimensionless ratio it i
 from __future__ import annotations
 
 import re
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 SCALE_SYMBOLS = frozenset({"G", "a", "L", "F"})
 _TOKEN = re.compile(r"^([A-Za-z]+)(-?\d+)?$")

@@ -215,7 +215,7 @@ def slug(name: str) -> str:
     return re.sub(r"[^A-Za-z0-9]+", "-", name).strip("-")
 
 
-def serial_demo(ctx: "Context", name: str) -> Timing:
+def serial_demo(ctx: Context, name: str) -> Timing:
     """The demo in one process without MPI (``RuntimeError`` if it fails)."""
     status, timing, log = demo([], ctx.work / f"demo-serial-{name}.nc", {**base_environment(ctx.work), "HPCONTACT_MPI": "0"})
     if timing is None:

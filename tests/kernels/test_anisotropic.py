@@ -1,7 +1,7 @@
 """Anisotropic half-space: surface Green's function, real-space kernel, cell influence coefficients.
 
 References used as independent checks:
-* Johnson, Contact Mechanics (1985) §3.2, §3.6 — isotropic point-force solutions (DESIGN §2.1);
+* Johnson, Contact Mechanics (1985) §3.2, §3.6 — isotropic point-force solutions (docs/design.md §2.1);
 * the rectangle antiderivatives of 1/r, x²/r³, y²/r³, xy/r³, x/r², y/r² (evaluated in mpmath);
 * Stroh's sextic eigenproblem (Ting 1996 §5.3), solved by numpy.linalg.eig — a method that
   shares nothing with the Barnett–Lothe integrals except C;
@@ -19,16 +19,16 @@ import mpmath as mp
 import numpy as np
 import pytest
 
-from hpcontact import crystal as cr
 from hpcontact.errors import InputError
 from hpcontact.kernels import anisotropic as an
+from hpcontact.materials import crystal as cr
 
 TWO_PI = 2 * math.pi
 
 
 # ------------------------------------------------------------------ reference formulas
 def H_isotropic(G: float, nu: float, phi: np.ndarray) -> np.ndarray:
-    """DESIGN §2.1 in Fourier space with the signs fixed by the real-space formulas."""
+    """docs/design.md §2.1 in Fourier space with the signs fixed by the real-space formulas."""
     mx, my = np.cos(phi), np.sin(phi)
     H = np.zeros(phi.shape + (3, 3), complex)
     H[..., 0, 0] = (1 - nu * mx * mx) / G
@@ -212,7 +212,7 @@ def test_isotropic_limit_fourier(nu: float) -> None:
     # A = 1 in every orientation is the isotropic body with G = scale = 1.
     for psi in (0.0, 35.26, 63.0, 90.0):
         H = an.surface_green_fourier(cr.cubic_from_nu_A(nu, 1.0).oriented(psi_deg=psi, azimuth_deg=7), phi)
-        # DESIGN §2.5 demands 1e-12; BL integrands are constant in ω at A = 1, so the quadrature
+        # docs/design.md §2.5 demands 1e-12; BL integrands are constant in ω at A = 1, so the quadrature
         # is exact and only round-off (~1e-15, ×(λ/μ ≈ 50) at nu = 0.49) remains.
         assert np.max(np.abs(H - ref)) < 1e-12 * np.max(np.abs(ref))
 
@@ -376,7 +376,7 @@ def test_isotropic_full_grid_blocks() -> None:
     G, nu, nx, ny, dx, dy = 1.0, 0.25, 5, 4, 1.0, 0.6
     blocks = an.anisotropic_offset_blocks(cr.isotropic(G, nu), nx, ny, dx, dy)
     assert set(blocks) == {(i, j) for i in range(3) for j in range(3)}
-    for (i, j), arr in blocks.items():
+    for arr in blocks.values():
         assert arr.shape == (2 * nx - 1, 2 * ny - 1) and arr.dtype == np.float64
     for p in range(-(nx - 1), nx):
         for q in range(-(ny - 1), ny):
@@ -465,7 +465,7 @@ def test_cells_smooth_through_A_equals_1() -> None:
 def test_indentation_modulus_isotropic() -> None:
     for G, nu in ((1.0, 0.0), (2.5, 0.3), (1.0, 0.45)):
         E = 2 * G * (1 + nu)
-        # M = E/(1 − nu²) = 2G/(1 − nu) (Johnson 1985 §5.2; DESIGN E*): exact formula, round-off.
+        # M = E/(1 − nu²) = 2G/(1 − nu) (Johnson 1985 §5.2; docs/design.md §2.1, E*): exact formula, round-off.
         assert an.indentation_modulus(cr.isotropic(G, nu)) == pytest.approx(E / (1 - nu * nu), rel=1e-13)
 
 
@@ -510,7 +510,7 @@ def test_kernel_cache_and_inputs() -> None:
 
 def test_scale_invariance_huge_and_tiny_moduli() -> None:
     # H scales as 1/C exactly in exact arithmetic; every tolerance inside is relative, so the
-    # coefficients scale to round-off (DESIGN §1: huge and tiny moduli, no silent garbage).
+    # coefficients scale to round-off (docs/design.md §1: huge and tiny moduli, no silent garbage).
     base = cubic_oriented(0.3, 8.0).voigt
     ref = an.anisotropic_offset_blocks(base, 4, 3, 1.0, 0.5)
     for scale in (1e-12, 1e12):

@@ -1,6 +1,6 @@
 """Isotropic influence-coefficient blocks (hpcontact.kernels.isotropic) against the physics.
 
-References come straight from the point-force solutions of DESIGN §2.1 (Johnson 1985, §3.2
+References come straight from the point-force solutions of docs/design.md §2.1 (Johnson 1985, §3.2
 and §3.6), with (x, y) = target − source:
 
     normal force P:        u_z = (1−ν)P/(2πG r),      u_x = −(1−2ν)P x/(4πG r²)
@@ -32,13 +32,13 @@ import pytest
 from scipy import integrate
 
 from hpcontact.kernels.isotropic import BLOCKS, isotropic_block
-from hpcontact.materials import Isotropic
+from hpcontact.materials.isotropic import Isotropic
 
 pytestmark = pytest.mark.filterwarnings("error")
 
 
 # ------------------------------------------------------------------------------------------
-# point kernels of DESIGN §2.1: (prefactor, geometric function name) terms for each block
+# point kernels of docs/design.md §2.1: (prefactor, geometric function name) terms for each block
 # ------------------------------------------------------------------------------------------
 def _terms(block: str, G: float, nu: float) -> list[tuple[float, str]]:
     t = 1.0 / (2.0 * math.pi * G)

@@ -21,7 +21,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from hpcontact.solve import solve
+from hpcontact.problems.contact import solve
+from hpcontact.scene import Scene
 from hpcontact.sweep.driver import run_sweep
 from hpcontact.sweep.schedule import world
 from hpcontact.sweep.tasks import task_key
@@ -76,7 +77,7 @@ def main() -> None:
         with open(log, "a", encoding="utf-8") as fh:
             fh.write(f"{os.getpid()} {task_key(params)}\n")
         time.sleep(args.delay)
-        return synthetic(params) if args.synthetic else solve(params)
+        return synthetic(params) if args.synthetic else solve(Scene.from_params(params))
 
     run_sweep(args.spec, resume=args.resume, output=args.output, task_function=task, team=team)
 

@@ -236,7 +236,7 @@ def test_a_task_that_kills_its_process_is_quarantined_within_3_resumes(tmp_path,
     poison = 11
     code, out, err = run(tmp_path, faults=f"{poison}:kill")
     assert code not in (0, 2, 3, 4), out + err
-    for resumes in range(1, 4):
+    for resumes in range(1, 4):  # noqa: B007 (reported below)
         code, out, err = run(tmp_path, "--resume", faults=f"{poison}:kill")
         if code == 3:
             break

@@ -17,7 +17,8 @@ from pathlib import Path
 import pytest
 import xarray as xr
 
-from hpcontact.solve import solve
+from hpcontact.problems.contact import solve
+from hpcontact.scene import Scene
 from hpcontact.sweep.driver import run_sweep
 from hpcontact.sweep.journal import read_journals
 from hpcontact.sweep.schedule import SerialTeam, launched_by_mpi
@@ -100,7 +101,8 @@ def test_resume_after_a_killed_rank_loses_nothing_and_recomputes_nothing(tmp_pat
     assert f"({len(journaled)} from journals)" in text
 
     reference = run_sweep(
-        spec, output=tmp_path / "reference.nc", task_function=solve, team=SerialTeam(), stream=io.StringIO()
+        spec, output=tmp_path / "reference.nc", task_function=lambda fields: solve(Scene.from_params(fields)),
+        team=SerialTeam(), stream=io.StringIO()
     )
     with xr.open_dataset(output) as a, xr.open_dataset(reference) as b:
         assert a.attrs["mpi_size"] == 2 and a.attrs["sweep_tasks_reused"] == len(journaled)

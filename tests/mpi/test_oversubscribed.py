@@ -15,11 +15,10 @@ from pathlib import Path
 
 import pytest
 import xarray as xr
+from test_kill_resume import MPIEXEC, ROOT, RUNNER
 
 from hpcontact.sweep.dataset import open_dataset
 from hpcontact.sweep.schedule import launched_by_mpi
-
-from test_kill_resume import MPIEXEC, ROOT, RUNNER
 
 SPEC = """
 [sweep]

@@ -1,5 +1,5 @@
 """A sweep on every rank of the team (2 under ``mpiexec -n 2``) with the real solver on tiny
-grids: equal to the 1-rank sweep to 1e-12, failures recorded, data set schema of DESIGN §4.2."""
+grids: equal to the 1-rank sweep to 1e-12, failures recorded, data set schema of docs/design.md §4.2."""
 
 from __future__ import annotations
 
@@ -13,7 +13,8 @@ import pytest
 
 from hpcontact import __version__, open_dataset
 from hpcontact.errors import ConvergenceError
-from hpcontact.solve import solve
+from hpcontact.problems.contact import solve
+from hpcontact.scene import Scene
 from hpcontact.sweep.driver import run_sweep
 from hpcontact.sweep.journal import NOT_CONVERGED, OK
 from hpcontact.sweep.schedule import SerialTeam, Team
@@ -41,7 +42,7 @@ def task(params: Mapping[str, Any]) -> dict[str, Any]:
     """The solver, except for one scene that fails to converge."""
     if all(params.get(k) == v for k, v in FAILING.items()):
         raise ConvergenceError("test failure", 7, 0.5)
-    return solve(params)
+    return solve(Scene.from_params(params))
 
 
 @pytest.fixture(scope="module")

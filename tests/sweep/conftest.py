@@ -3,14 +3,15 @@
 from __future__ import annotations
 
 import socket
+from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Any
 
 import pytest
 
 
 def _fake_solve(params: Mapping[str, Any]) -> dict[str, Any]:
-    """A cheap stand-in for ``hpcontact.solve.solve``: a smooth, shape-dependent tensor."""
+    """A cheap stand-in for ``hpcontact.problems.contact.solve``: a smooth, shape-dependent tensor."""
     nu = float(params.get("nu", 0.3))
     aspect = float(params.get("aspect", 1.0))
     turn = float(params.get("shape_angle", 0.0))

@@ -10,8 +10,10 @@ from dataclasses import replace
 import pytest
 
 from hpcontact import __version__
-from hpcontact.bodies import pair_from_params
 from hpcontact.errors import InputError
+from hpcontact.numerics import memory
+from hpcontact.problems import footprint
+from hpcontact.problems.slip.crystal_pair import pair_from_params
 from hpcontact.sweep import costmodel
 from hpcontact.sweep.costmodel import Calibration, Overheads, Rate, replay
 from hpcontact.sweep.driver import main
@@ -83,10 +85,10 @@ def test_task_estimate_is_rate_times_cost_plus_per_solve_and_memory_grows_with_t
     # iteration factor 12/18 (taskgrid.REFERENCE_LOG2_CELLS) = 8 solve units
     assert padded_cells(params) == 4096 and estimated_cost(params) == pytest.approx(4096 * 12 * 8, rel=1e-15)
     assert calibration.task_seconds(params) == pytest.approx(2e-6 * 4096 * 12 * 8 + 0.5 * 8, rel=1e-15)
-    fixed, per_cell = costmodel.MEMORY_MODEL["contact"]
+    fixed, per_cell = footprint.MEMORY_MODEL["contact"]
     assert calibration.task_bytes(params) == 1000.0 + fixed + per_cell * 4096
     crystal = {**params, "anisotropy": 2.0}
-    assert costmodel.task_kind(crystal) == "crystal" and calibration.task_bytes(crystal) > calibration.task_bytes(params)
+    assert footprint.task_kind(crystal) == "crystal" and calibration.task_bytes(crystal) > calibration.task_bytes(params)
 
 
 def test_the_fit_recovers_the_rates_of_two_scenes():
@@ -159,16 +161,16 @@ def test_a_task_over_the_memory_per_rank_is_warned_by_dry_run_and_refused_by_run
 
 
 def test_memory_sizes_and_the_batch_systems_share():
-    assert costmodel.parse_memory("4G") == 4 * 2**30 and costmodel.parse_memory("512MiB") == 512 * 2**20
-    assert costmodel.parse_memory("1000") == 1000
+    assert memory.parse_memory("4G") == 4 * 2**30 and memory.parse_memory("512MiB") == 512 * 2**20
+    assert memory.parse_memory("1000") == 1000
     for bad in ("", "-1G", "lots", "0"):
         with pytest.raises(InputError, match="--mem-per-rank"):
-            costmodel.parse_memory(bad)
+            memory.parse_memory(bad)
     slurm = {"SLURM_MEM_PER_CPU": "2000", "SLURM_CPUS_PER_TASK": "2"}
-    assert costmodel.default_memory_per_rank(slurm) == (4000 * 2**20, "SLURM_MEM_PER_CPU")
+    assert memory.default_memory_per_rank(slurm) == (4000 * 2**20, "SLURM_MEM_PER_CPU")
     node = {"SLURM_MEM_PER_NODE": "64000", "SLURM_TASKS_PER_NODE": "16(x4)"}
-    assert costmodel.default_memory_per_rank(node) == (4000 * 2**20, "SLURM_MEM_PER_NODE / tasks per node")
-    assert costmodel.default_memory_per_rank({})[1] == "physical memory / cores"
+    assert memory.default_memory_per_rank(node) == (4000 * 2**20, "SLURM_MEM_PER_NODE / tasks per node")
+    assert memory.default_memory_per_rank({})[1] == "physical memory / cores"
 
 
 SIMILAR_SLIP = {"quantities": "slip", "material": "Cu", "material2": "Cu", "radius": 8e-3, "radius2": 9e-3, "load": 10.0,

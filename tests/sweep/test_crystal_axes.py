@@ -22,7 +22,7 @@ from hpcontact.sweep.tasks import enumerate_tasks, estimated_cost
 ROOT = Path(__file__).resolve().parents[2]
 PSI_111 = 35.26438968275465
 
-CRYSTALS = """
+CRYSTALS = f"""
 [scene]
 quantities = ["indentation"]
 radius = 1.0
@@ -31,8 +31,8 @@ depth = 1e-4
 n = 24
 [axes]
 material = ["Cu", "W"]
-orientation = [0, %s, 90]
-""" % PSI_111
+orientation = [0, {PSI_111}, 90]
+"""
 
 CUBIC = """
 [scene]

@@ -1,4 +1,4 @@
-"""Entries → xarray data set → netCDF4 and back: schema of DESIGN §4.2, derived K_nn, CF units,
+"""Entries → xarray data set → netCDF4 and back: schema of docs/design.md §4.2, derived K_nn, CF units,
 exact labels, compact storage, history, atomic write; the CF checkers where they are installed."""
 
 from __future__ import annotations
@@ -16,11 +16,12 @@ import xarray as xr
 
 import hpcontact
 from hpcontact.quantities import rotated_tensor
+from hpcontact.scene import Scene
+from hpcontact.sweep import tasks as tasks_module
 from hpcontact.sweep.dataset import NOT_COMPUTED, SLIP_ATTRS, VARIABLE_ATTRS, build_dataset, open_dataset, write_netcdf
 from hpcontact.sweep.journal import ERROR, OK, Entry
 from hpcontact.sweep.netcdf import INT_FILL, chunk_shape
 from hpcontact.sweep.spec import parse_spec
-from hpcontact.sweep import tasks as tasks_module
 from hpcontact.sweep.tasks import enumerate_tasks
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -314,7 +315,7 @@ def real_demo(tmp_path_factory) -> Path:
         text, count = re.subn(rf"(?m)^{key} = .*$", f"{key} = {value}", text)
         assert count == 1, key
     spec = parse_spec(text, path=ROOT / "jobs" / "demo.toml", validate=lambda params: None)
-    entries, where = entries_of(spec, hpcontact.solve.solve)
+    entries, where = entries_of(spec, lambda fields: hpcontact.problems.contact.solve(Scene.from_params(fields)))
     attrs = {"created": "2026-01-01T00:00:00+00:00", "history": "hpcontact run jobs/demo.toml", "mpi_size": 1}
     return write_netcdf(build_dataset(spec, where, entries, attrs), folder / "demo.nc")
 

@@ -10,6 +10,7 @@ import xarray as xr
 
 from hpcontact import analytic
 from hpcontact.accuracy import DEFAULT_ACCURACY, DEFAULT_GRIDS, DEFAULT_N0, default_grids
+from hpcontact.scene import Scene
 from hpcontact.sweep.driver import main, run_sweep
 from hpcontact.sweep.schedule import SerialTeam
 from hpcontact.sweep.tasks import EXTRAPOLATION_WORK, estimated_cost, padded_cells, solved_grids
@@ -47,7 +48,7 @@ def test_a_sweep_without_n_is_extrapolated_with_its_estimate(write_spec, capsys)
     # the dry run and the scheduler see every grid: cost summed over the sequence, memory of the finest
     scene = {"shape": "ellipse", "aspect": 0.5, "nu": NU, "quantities": ["tangential", "normal"]}
     levels = solved_grids(scene)
-    assert [(p["n"], p["n_across"]) for p in levels] == default_grids(scene) == [(16, 8), (32, 16), (64, 32), (128, 64), (256, 128)]
+    assert [(p["n"], p["n_across"]) for p in levels] == default_grids(Scene.from_params(scene)) == [(16, 8), (32, 16), (64, 32), (128, 64), (256, 128)]
     assert estimated_cost(scene) == pytest.approx(EXTRAPOLATION_WORK * sum(estimated_cost(p) for p in levels))
     assert padded_cells(scene) == 4 * 256 * 128
     assert main([str(spec), "--dry-run"]) == 0

@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from hpcontact.bodies import pair_from_params
 from hpcontact.errors import InputError
-from hpcontact.sweep import kinds
+from hpcontact.problems import kinds
+from hpcontact.problems.slip.crystal_pair import pair_from_params
 from hpcontact.sweep.dataset import build_dataset
 from hpcontact.sweep.driver import main, run_sweep
 from hpcontact.sweep.journal import OK, Entry

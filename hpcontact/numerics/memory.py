@@ -1,0 +1,66 @@
+"""Memory of this process and of the machine: budgets per rank, sizes as users write them.
+
+Shared by the accuracy study (which grids fit) and the sweep (``--mem-per-rank``, the dry run):
+the budget one rank may use (from SLURM's variables, else physical memory ÷ cores), the peak
+resident set so far, and sizes such as ``4G`` in binary units as SLURM's ``--mem``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import resource
+import sys
+from collections.abc import Mapping
+
+from hpcontact.errors import InputError
+
+MIB = 2**20
+
+_SIZE_UNITS = {"": 1, "B": 1, "K": 2**10, "M": 2**20, "G": 2**30, "T": 2**40}
+
+
+def parse_memory(text: str, field_name: str = "--mem-per-rank") -> int:
+    """Bytes of a size such as ``4G``, ``512M``, ``2.5GiB`` or ``1000000`` (binary units, as
+    SLURM's ``--mem``); ``InputError`` naming ``field_name`` otherwise."""
+    value = str(text).strip().upper().removesuffix("IB").removesuffix("B")
+    unit = value[-1:] if value[-1:] in _SIZE_UNITS else ""
+    try:
+        number = float(value[: len(value) - len(unit)])
+    except ValueError:
+        number = float("nan")
+    if not (math.isfinite(number) and number > 0):
+        raise InputError(field_name, "a size > 0 such as 4G, 512M or a number of bytes", text)
+    return int(number * _SIZE_UNITS[unit])
+
+
+def _slurm_tasks_per_node(environ: Mapping[str, str]) -> int | None:
+    """Tasks on this node from SLURM_NTASKS_PER_NODE, else the first count of
+    SLURM_TASKS_PER_NODE (``"4(x2),3"``)."""
+    for name in ("SLURM_NTASKS_PER_NODE", "SLURM_TASKS_PER_NODE"):
+        text = environ.get(name, "").split(",")[0].split("(")[0]
+        if text.isdigit() and int(text) > 0:
+            return int(text)
+    return None
+
+
+def default_memory_per_rank(environ: Mapping[str, str] | None = None) -> tuple[int, str]:
+    """Bytes one rank may use and where that number comes from: SLURM_MEM_PER_CPU (MiB) ×
+    SLURM_CPUS_PER_TASK, else SLURM_MEM_PER_NODE (MiB) ÷ tasks per node, else this machine's
+    physical memory ÷ its cores."""
+    environ = os.environ if environ is None else environ
+    per_cpu = environ.get("SLURM_MEM_PER_CPU", "")
+    if per_cpu.isdigit():
+        cpus = environ.get("SLURM_CPUS_PER_TASK", "1")
+        return int(per_cpu) * MIB * (int(cpus) if cpus.isdigit() else 1), "SLURM_MEM_PER_CPU"
+    per_node, tasks = environ.get("SLURM_MEM_PER_NODE", ""), _slurm_tasks_per_node(environ)
+    if per_node.isdigit() and int(per_node) > 0 and tasks:
+        return int(per_node) * MIB // tasks, "SLURM_MEM_PER_NODE / tasks per node"
+    total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    return total // (os.cpu_count() or 1), "physical memory / cores"
+
+
+def resident_bytes() -> float:
+    """Peak resident bytes of this process so far (ru_maxrss is in KiB on Linux, bytes on macOS)."""
+    scale = 1 if sys.platform == "darwin" else 1024
+    return float(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * scale)

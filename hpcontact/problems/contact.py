@@ -1,0 +1,194 @@
+"""One scene end to end: params → scene → grid and mask → plan → kernels → solves → record.
+
+``solve(params)`` returns the JSON record of docs/design.md §4.1. Forces are in units of G·a² per unit
+of traction and stiffnesses in units of G·a (a = semi-major extent = 1 on the grid).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from hpcontact import quantities as q
+from hpcontact.errors import InputError
+from hpcontact.geometry import Grid, crop_to_support, grid_for, load_mask, mask_grid, rasterize, self_affine_surface
+from hpcontact.kernels.engine import Engine
+from hpcontact.materials.isotropic import Isotropic
+from hpcontact.numerics.conjugate_gradient import Solution, conjugate_gradient, polonsky_keer
+from hpcontact.numerics.convolution import COMPONENT_INDEX
+from hpcontact.numerics.preconditioner import FourierPreconditioner
+from hpcontact.plan import Solve, make_plan
+from hpcontact.scene import Scene
+
+#: The length unit of a mask scene (``geometry.mask_grid``), recorded with its results.
+MASK_LENGTH_UNIT = "a = half the long side of the contact's bounding box (not of the image array)"
+
+
+def discretize(scene: Scene) -> tuple[Grid, np.ndarray]:
+    """The scene's grid and contact mask, cropped to the contact's bounding box."""
+    shape = scene.shape
+    if shape.name == "mask":
+        mask = load_mask(shape.mask_path)
+        grid = mask_grid(mask)
+    elif shape.name == "rough":
+        grid = grid_for(shape, scene.n, scene.n_across)
+        mask = rough_patch(scene, grid)
+    else:
+        grid = grid_for(shape, scene.n, scene.n_across)
+        mask = rasterize(shape, grid)
+    if not mask.any():
+        raise InputError("n", "a grid fine enough to put at least one cell in the contact", scene.n)
+    cropped, cropped_grid = crop_to_support(mask, grid)
+    return cropped_grid, cropped
+
+
+def rough_patch(scene: Scene, grid: Grid) -> np.ndarray:
+    """Contact patch of a seeded self-affine rough disc (radius 1) pressed on a rigid flat.
+
+    Heights h (rms ``scene.shape.rms``) on the unit disc; the flat approaches by one rms from
+    first contact; Polonsky–Keer gives the pressure; the patch is where p > 0.
+    """
+    shape = scene.shape
+    h = self_affine_surface(grid.nx, grid.ny, grid.dx, grid.dy, shape.hurst, shape.rms, shape.seed)
+    x, y = grid.centres()
+    inside = x * x + y * y <= 1.0
+    separation = np.where(inside, h.max() - h, 1e3 * shape.rms) - shape.rms
+    engine = Engine(scene.material, grid, ("zz",), scene.threads)
+    p = polonsky_keer(engine.operator("z").apply, separation, tol=max(scene.tol, 1e-8)).traction[0]
+    return p > 0.0
+
+
+def _preconditioner(scene: Scene, engine: Engine, solve: Solve):
+    if not scene.precondition:
+        return None
+    return FourierPreconditioner(engine.grid, engine.green_function(solve.green), solve.components).apply
+
+
+def _run_solve(scene: Scene, engine: Engine, mask: np.ndarray, solve: Solve) -> tuple[np.ndarray, Solution]:
+    """A bonded (or frictionless, for z alone) punch displaced by 1 along ``solve.load``."""
+    op = engine.operator(solve.components, solve.green)
+    rhs = np.zeros((len(solve.components),) + mask.shape)
+    rhs[solve.components.index(solve.load)] = 1.0
+    solution = conjugate_gradient(op.apply, rhs, mask, tol=scene.tol, precondition=_preconditioner(scene, engine, solve))
+    force = np.zeros(3)
+    resultants = q.resultant(solution.traction, engine.grid.cell_area)
+    for c, value in zip(solve.components, resultants):
+        force[COMPONENT_INDEX[c]] = value
+    return force, solution
+
+
+def solve(scene: Scene) -> dict[str, Any]:
+    """Solve one scene on its grid; the record of docs/design.md §4.1 (keys that apply to the
+    quantities asked). Build the scene from fields with ``Scene.from_params``."""
+    started = time.perf_counter()
+    record: dict[str, Any] = {}
+    iterations, residual = 0, 0.0
+    punch = [q_ for q_ in scene.quantities if q_ != "indentation"]
+    if punch:
+        grid, mask = discretize(scene)
+        plan = make_plan(scene, mask, grid)
+        engine = Engine(scene.material, grid, plan.kernels, scene.threads)
+        record.update(_grid_fields(grid))
+        record["contact_cells"] = int(mask.sum())
+        if scene.shape.name == "mask":  # the data set then says which length a is
+            record["length_unit"] = MASK_LENGTH_UNIT
+        forces: dict[str, np.ndarray] = {}
+        for s in plan.solves:
+            if s.name == "indentation_polonsky_keer":
+                continue
+            force, solution = _run_solve(scene, engine, mask, s)
+            forces[s.name] = force
+            iterations += solution.iterations
+            residual = max(residual, solution.residual)
+        record.update(q.stiffness_record(forces, scene.quantities, scene.material, noise=scene.tol))
+        if "compliance" in scene.quantities:
+            record.update(_compliance_proxy(engine, mask))
+    else:
+        plan = make_plan(scene, np.ones((1, 1), dtype=bool), Grid(1, 1, 1.0, 1.0))
+    if "indentation" in scene.quantities:
+        indentation, solution, sphere_grid = _indentation(scene)
+        if punch:  # nx ny dx dy contact_cells describe the punch's grid
+            indentation.pop("contact_cells")
+        else:
+            record.update(_grid_fields(sphere_grid))
+        record.update(indentation)
+        iterations += solution.iterations
+        residual = max(residual, solution.residual)
+    record["iterations"] = iterations
+    record["residual"] = residual
+    record["plan"] = plan.as_dict()
+    record["wall_time_s"] = time.perf_counter() - started
+    _check_finite(record)
+    return record
+
+
+def _compliance_proxy(engine: Engine, mask: np.ndarray) -> dict[str, float]:
+    """Li 2017 §3.2: uniform unit traction along x and y on the contact, mean displacements."""
+    isotropic = isinstance(engine.material, Isotropic)  # Re H = H on its tangential blocks
+    op = engine.operator("xy" if {"xy", "Re xy"} & set(engine.kernels) else "x", "H" if isotropic else "Re H")
+    area = mask.sum() * engine.grid.cell_area
+    mean = np.zeros((2, 2))
+    for j in range(2):
+        if op.components == "xy":
+            t = np.zeros((2,) + mask.shape)
+            t[j] = mask
+            u = op.apply(t)
+            mean[:, j] = [u[0][mask].mean(), u[1][mask].mean()]
+        else:
+            mean[j, j] = op.apply(mask[None].astype(float))[0][mask].mean()
+    K = q.compliance_proxy(mean, np.array([area, area]))
+    return {f"proxy_K_{a}{b}": float(K[i, j]) for i, a in enumerate("xy") for j, b in enumerate("xy")}
+
+
+def _indentation(scene: Scene) -> tuple[dict[str, float], Solution, Grid]:
+    """Rigid sphere (radius R, approach d) pressed on the half-space: Polonsky–Keer contact.
+
+    The grid (``scene.n`` cells a side) spans 1.5 Hertz radii sqrt(R d) each way; the gap is
+    the exact sphere R − sqrt(R² − r²) minus d (it differs from Hertz's paraboloid by r⁴/8R³,
+    a relative O(d/R) effect on the load). The contact ellipse is fitted from the pressure's
+    second moments (a Hertzian pressure on an ellipse of semi-axes a ≥ b has moments a²/5 and
+    b²/5 along its axes): smoother under refinement than the staircase of contact cells.
+    """
+    R, d = scene.radius, scene.depth
+    half = 1.5 * math.sqrt(R * d)
+    h = 2.0 * half / scene.n
+    grid = Grid(scene.n, scene.n, h, h)
+    x, y = grid.centres()
+    r2 = np.minimum(x * x + y * y, R * R)
+    gap = r2 / (R + np.sqrt(R * R - r2)) - d  # = R − sqrt(R² − r²) without cancellation (d/R ≥ 1e-15)
+    engine = Engine(scene.material, grid, ("zz",), scene.threads)
+    solution = polonsky_keer(engine.operator("z").apply, gap, tol=scene.tol)
+    p = solution.traction[0]
+    contact = p > 0.0
+    if contact[0, :].any() or contact[-1, :].any() or contact[:, 0].any() or contact[:, -1].any():
+        raise FloatingPointError("indentation contact reaches the grid edge; the grid is too small")
+    load = float(p.sum())
+    xc, yc = (p * x).sum() / load, (p * y).sum() / load
+    cov = np.array(
+        [[(p * (x - xc) ** 2).sum(), (p * (x - xc) * (y - yc)).sum()], [0.0, (p * (y - yc) ** 2).sum()]]
+    ) / load
+    cov[1, 0] = cov[0, 1]
+    values, vectors = np.linalg.eigh(cov)
+    out = {
+        "contact_cells": int(contact.sum()),
+        "load": float(p.sum() * grid.cell_area),
+        "contact_area": float(contact.sum() * grid.cell_area),
+        "max_pressure": float(p.max()),
+        "ellipse_b_over_a": float(math.sqrt(values[0] / values[1])),
+        "ellipse_angle_deg": float(math.degrees(math.atan2(vectors[1, 1], vectors[0, 1])) % 180.0),
+    }
+    return out, solution, grid
+
+
+def _grid_fields(grid: Grid) -> dict[str, float]:
+    return {"nx": grid.nx, "ny": grid.ny, "dx": grid.dx, "dy": grid.dy}
+
+
+def _check_finite(record: Mapping[str, Any]) -> None:
+    for key, value in record.items():
+        if isinstance(value, float) and not math.isfinite(value):
+            raise FloatingPointError(f"{key} is not finite ({value})")

@@ -1,0 +1,156 @@
+"""The footprint of a one-grid solve, from its parameters alone (no rasterizing): the contact
+grid, what its shape does to the CG iteration count, and the bytes of its arrays — the inputs
+of the sweep's cost model and of the accuracy study's memory plan.
+
+**Memory.** The arrays of one solve take fixed_k + per_cell_k × padded cells bytes
+(``MEMORY_MODEL``; k = ``task_kind``), float64 array sizes fitted to ``tracemalloc`` peaks of
+single solves with cold kernel caches (``hpcontact.sweep.costmodel`` documents the fit).
+
+**Grid.** A contact scene is solved on ``geometry.grid_for(shape, n, n_across)``: n cells along
+x and, unless ``n_across`` is given, max(min(n, 16), round(n Y/X)) across, with (X, Y) the
+half-extents of the *turned* shape's bounding box (``Shape.half_extents``; a rectangle of
+b/a = 0.2 turned by 90° gets 128 × 640 cells at n = 128, not 128 × 26). An indentation-only scene
+is solved on n × n cells around the sphere's contact; a mask scene's grid is its image's (read
+only when it runs): counted here as n × n.
+
+**Iterations.** CG iterations per digit of tolerance grow with the grid's aspect in cells,
+ρ = max(nx, ny) / min(nx, ny): a contact that is thin in *index* space, whether because the
+shape is thin (b/a < 1 with square cells) or because its cells are (n_across fixed: a square on
+512 × 32 cells), has its operator's spectrum spread over the long and the short direction at
+once, and CG needs more iterations. Measured (this machine, 2026-11-22, tangential + normal,
+tol = 1e-10; iterations of the three solves): ρ = 1: 33, 36, 39 (circle n = 128, 256, 512);
+ρ = 2: 42, 56 (ellipse 0.5, n = 64, 256); ρ = 4: 66 (ellipse 1e-4, 64 × 16); ρ = 8: 65, 71
+(rectangle, ellipse 1e-4, 128 × 16); ρ = 16: 51, 59 (ellipse, square on 512 × 32), 58 (b/a
+1/16, square cells), 73–82 (b/a 1e-4 … 1e-8, 512 × 32), 90 (1e-4, 1024 × 64). Iterations ≈
+it(ρ = 1) × (1 + 0.3 log2 ρ) fits these within ±25 % (a least-squares slope of 0.25–0.4 per
+doubling, depending on the points kept), while the time per iteration stays S log S (3.1 ms on
+256 × 256 padded cells, 3.3–3.7 ms on 1024 × 64).
+
+They grow with the grid as well, in proportion to log2 S (S = 4 nx ny the padded cells):
+measured (this machine, 2026-11-23, tol = 1e-10, tangential + normal) ellipse b/a = 0.5 at
+n = 64, 128, 256, 512, 1024: 42, 50, 56, 61, 68 iterations against 43, 49, 56, 63, 69 for
+56 × log2 S / 17; circle n = 32, 128, 512: 22, 33, 39 against 25, 33, 41. Without it the
+estimate of a 1024² grid, calibrated on 256², missed its iterations by 1.2-1.3×
+(``jobs/accuracy_cost.toml``). The factor is relative to ``REFERENCE_LOG2_CELLS`` = 18 (a
+square contact of 256 cells a side): iteration_factor = (1 + 0.3 log2 ρ) log2 S / 18.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Iterable, Mapping
+from typing import Any
+
+from hpcontact.geometry import Shape, grid_for
+from hpcontact.materials.elastic_constants import describes_crystal
+from hpcontact.numerics.convolution import padded_shape
+from hpcontact.numerics.memory import MIB
+from hpcontact.plan import plan_for
+from hpcontact.problems.kinds import SLIP, quantity_names, scene_kind
+from hpcontact.scene import DEFAULTS, Scene
+
+ITERATIONS_PER_DOUBLING = 0.3  # relative growth of CG iterations per doubling of ρ (module docstring)
+REFERENCE_LOG2_CELLS = 18.0  # log2 of the padded cells at which the grid's own factor is 1 (module docstring)
+# CG iterations per solve and digit of tolerance at iteration factor 1 (fft_applications):
+# ellipse 0.5, n = 256, 56 iterations of 3 solves at 1e-10, factor 1.23: 1.5; circle n = 512,
+# tangential x at 1e-8, 17-18 iterations, factor 1.11: 2.0.
+ITERATIONS_PER_DIGIT = 1.8
+# Memory per kind: (fixed bytes, bytes per padded cell), fitted as stated in the module docstring.
+MEMORY_MODEL = {
+    "contact": (1.0 * MIB, 182.0),
+    "crystal": (45.0 * MIB, 525.0),
+    "crystal_indentation": (45.0 * MIB, 525.0),
+    "slip": (2.0 * MIB, 530.0),
+}
+#: A slip scene is solved on n × n cells with this margin around the Hertz contact, by default
+#: n = ``SLIP_DEFAULT_N``.
+SLIP_GRID_MARGIN = 1.1
+SLIP_DEFAULT_N = 64
+
+
+def task_kind(params: Mapping[str, Any]) -> str:
+    """The calibration group: 'slip'; 'crystal' (a named material or A != 1), or
+    'crystal_indentation' when a crystal scene asks for the indentation alone (one normal kernel
+    by quadrature and a few solves: a far smaller share of solves in its cost, measured 1.6x
+    slower per cost unit than the crystal punch's); else 'contact'."""
+    if scene_kind(params) == SLIP:
+        return "slip"
+    if params.get("material") is None and float(params.get("anisotropy", 1.0)) == 1.0:
+        return "contact"
+    return "crystal_indentation" if quantity_names(params.get("quantities")) == ["indentation"] else "crystal"
+
+
+def padded_cells(params: Mapping[str, Any]) -> float:
+    """Cells of the padded FFT grid (twice the contact grid each way) of the one-grid scene
+    ``params``: 4 nx × ny for a contact scene (``contact_grid``), (2 × 1.1 n)² for a slip scene."""
+    if scene_kind(params) == SLIP:
+        side = 2.0 * SLIP_GRID_MARGIN * int(params.get("n", SLIP_DEFAULT_N))
+        return side * side
+    nx, ny = contact_grid(params)
+    return 4.0 * nx * ny
+
+
+def array_bytes(params: Mapping[str, Any]) -> float:
+    """The arrays of one solve of the one-grid scene ``params``: fixed_k + per_cell_k × padded cells (bytes); a slip
+    scene with a crystal body has the crystal's fixed part (its kernels' quadrature tables)."""
+    kind = task_kind(params)
+    fixed, per_cell = MEMORY_MODEL[kind]
+    if kind == "slip" and describes_crystal(params):
+        fixed = MEMORY_MODEL["crystal"][0]
+    return fixed + per_cell * padded_cells(params)
+
+
+
+def contact_grid(params: Mapping[str, Any]) -> tuple[int, int]:
+    """Cells (nx, ny) of the contact grid of the contact scene ``params`` (module docstring)."""
+    p = {**DEFAULTS, **{k: v for k, v in params.items() if v is not None}}
+    n = int(p["n"])
+    if p["n_across"] is not None:
+        return n, int(p["n_across"])
+    if set(quantity_names(p["quantities"])) == {"indentation"} or p["shape"] == "mask":
+        return n, n
+    return _grid(str(p["shape"]), float(p["aspect"]), int(p["sides"]), float(p["shape_angle"]), float(p["amplitude"]), n)
+
+
+@functools.lru_cache(maxsize=4096)
+def _grid(name: str, aspect: float, sides: int, angle: float, amplitude: float, n: int) -> tuple[int, int]:
+    """``geometry.grid_for``'s cell counts for a shape (cached: a star's extents sample 20 001
+    points, and a sweep asks for the same few shapes many times)."""
+    grid = grid_for(Shape(name=name, aspect=aspect, sides=sides, angle_deg=angle, amplitude=amplitude), n)
+    return grid.nx, grid.ny
+
+
+def iteration_factor(params: Mapping[str, Any]) -> float:
+    """CG iterations of the contact scene ``params`` relative to a square grid of 256 × 256 cells:
+    (1 + 0.3 log2 ρ) × log2 S / 18, ρ = max(nx, ny) / min(nx, ny), S = 4 nx ny the padded cells
+    (module docstring)."""
+    nx, ny = contact_grid(params)
+    aspect = 1.0 + ITERATIONS_PER_DOUBLING * math.log2(max(nx, ny) / min(nx, ny))
+    return aspect * math.log2(4.0 * nx * ny) / REFERENCE_LOG2_CELLS
+
+
+def fft_applications(scenes: Iterable[Mapping[str, Any]]) -> dict[tuple[int, tuple[int, int]], float]:
+    """Operator applications expected per FFT layout (components c, padded shape) over
+    ``scenes``: per isotropic contact scene with a grid (``n``), the solves of its plan
+    (``hpcontact.plan.plan_for``, mirror symmetry not assumed) on their components ×
+    ``ITERATIONS_PER_DIGIT`` × digits of tolerance × ``iteration_factor``. A sweep rank passes
+    every R-th task of the sweep (its share, estimated at 1/R of the cost: ~10 µs per task).
+    For ``hpcontact.numerics.convolution.expect_applications``: a hint to plan FFTW_MEASURE early; other
+    scenes (crystals, slip, rough, masks, grids chosen per task) are not counted."""
+    components: dict[tuple, list[int]] = {}  # per (quantities, nu): the components of each solve
+    expected: dict[tuple[int, tuple[int, int]], float] = {}
+    for params in scenes:
+        p = {**DEFAULTS, **{k: v for k, v in params.items() if v is not None}}
+        crystal = p.get("material") is not None or float(p.get("anisotropy", 1.0)) != 1.0
+        if params.get("n") is None or crystal or scene_kind(params) == SLIP or p["shape"] in ("rough", "mask"):
+            continue
+        key = (tuple(quantity_names(p["quantities"])), float(p["nu"]))
+        if key not in components:
+            plan = plan_for(Scene.from_params(params), mirror=False)  # the first scene of its (quantities, nu)
+            components[key] = [len(solve.components) for solve in plan.solves]
+        shape = padded_shape(*contact_grid(params))
+        iterations = ITERATIONS_PER_DIGIT * max(1.0, -math.log10(float(p["tol"]))) * iteration_factor(params)
+        for c in components[key]:
+            expected[(c, shape)] = expected.get((c, shape), 0.0) + iterations
+    return expected
