@@ -69,8 +69,13 @@ REFERENCE_GRIDS = {
 #: is h^p, "L1" is h ln h (the thin rectangle's extrapolants drift as if such a term were left:
 #: they fall only 1.8x per halving of h under the expansion {1, 1.5} that --accuracy picks).
 FITS: tuple[tuple[Any, ...], ...] = (
-    (1.0, 1.5), (1.0, 2.0), (1.0, "L1"),                                     # three parameters
-    (1.0, 1.5, 2.0), (1.0, 1.5, 2.5), (1.0, "L1", 1.5), (1.0, "L1", 2.0),   # four
+    (1.0, 1.5),
+    (1.0, 2.0),
+    (1.0, "L1"),  # three parameters
+    (1.0, 1.5, 2.0),
+    (1.0, 1.5, 2.5),
+    (1.0, "L1", 1.5),
+    (1.0, "L1", 2.0),  # four
 )
 ACCEPT_RESIDUAL = 10.0  # a fit counts if its largest residual is within 10x the least one's
 
@@ -96,12 +101,19 @@ def one_run(case: str, nu: float, request: float | str) -> dict[str, Any]:
         record = solve_to_accuracy(scene, float(request), strict=False)
     cpu = time.process_time() - cpu
     return {
-        "case": case, "nu": nu, "request": request, "cpu_s": cpu,
+        "case": case,
+        "nu": nu,
+        "request": request,
+        "cpu_s": cpu,
         "peak_mib": harness.peak_rss_mb(),
-        "estimated_error": record["estimated_error"], "estimated_errors": record["estimated_errors"],
-        "accuracy_met": record["accuracy_met"], "stopped_by": record["stopped_by"],
-        "grids": record["grids"], "grids_across": record["grids_across"],
-        "memory_budget_bytes": record["memory_budget_bytes"], "estimated_peak_bytes": record["estimated_peak_bytes"],
+        "estimated_error": record["estimated_error"],
+        "estimated_errors": record["estimated_errors"],
+        "accuracy_met": record["accuracy_met"],
+        "stopped_by": record["stopped_by"],
+        "grids": record["grids"],
+        "grids_across": record["grids_across"],
+        "memory_budget_bytes": record["memory_budget_bytes"],
+        "estimated_peak_bytes": record["estimated_peak_bytes"],
         "values": {k: record[k] for k in QUANTITIES},
         "levels": [{k: lv[k] for k in ("K_xx", "K_yy", "K_zz", "wall_time_s")} for lv in record["levels"]],
         "load": os.getloadavg()[0],
@@ -133,9 +145,18 @@ def one_level(case: str, nu: float, n: int, na: int) -> dict[str, Any]:
     scene = Scene.from_params({**params(case, nu), "n": n, "n_across": na, "tol": REFERENCE_TOL})
     cpu = time.process_time()
     record = covered_solve(scene)
-    return {"case": case, "nu": nu, "n": n, "na": na, "tol": REFERENCE_TOL, "nx": record["nx"], "ny": record["ny"],
-            "cpu_s": time.process_time() - cpu, "peak_mib": harness.peak_rss_mb(),
-            **{k: record[k] for k in ("K_xx", "K_yy", "K_zz", "K_a_over_K_b")}}
+    return {
+        "case": case,
+        "nu": nu,
+        "n": n,
+        "na": na,
+        "tol": REFERENCE_TOL,
+        "nx": record["nx"],
+        "ny": record["ny"],
+        "cpu_s": time.process_time() - cpu,
+        "peak_mib": harness.peak_rss_mb(),
+        **{k: record[k] for k in ("K_xx", "K_yy", "K_zz", "K_a_over_K_b")},
+    }
 
 
 def reference_levels(path: Path, case: str, nu: float) -> list[dict[str, Any]]:
@@ -177,15 +198,23 @@ def reference(levels: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
         best = min(fits, key=lambda k: fits[k][1])
         ref, floor = fits[best][0], max(fits[best][1], 1e-15)
         accepted = [k for k, v in fits.items() if v[1] <= ACCEPT_RESIDUAL * floor]
-        out[key] = {"value": ref, "uncertainty": max(abs(fits[k][0] - ref) for k in accepted), "best": best,
-                    "accepted": accepted, "fits": {k: v[0] for k, v in fits.items()}, "residuals": {k: v[1] for k, v in fits.items()}}
+        out[key] = {
+            "value": ref,
+            "uncertainty": max(abs(fits[k][0] - ref) for k in accepted),
+            "best": best,
+            "accepted": accepted,
+            "fits": {k: v[0] for k, v in fits.items()},
+            "residuals": {k: v[1] for k, v in fits.items()},
+        }
     return out
 
 
 # ------------------------------------------------------------------------------------------
 def table(have: dict[tuple, dict], refs: dict[tuple, dict], cases, nus, requests) -> list[dict[str, Any]]:
     rows = []
-    print("| case | request | estimate | true error | true/estimate | ref unc. | ref ok | met? | stopped by | finest grid | CPU s | MiB |")
+    print(
+        "| case | request | estimate | true error | true/estimate | ref unc. | ref ok | met? | stopped by | finest grid | CPU s | MiB |"
+    )
     print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for case in cases:
         for nu in nus:
@@ -197,14 +226,28 @@ def table(have: dict[tuple, dict], refs: dict[tuple, dict], cases, nus, requests
                 worst = max(true.values())
                 est = r["estimated_error"]
                 flag = " DISHONEST" if worst > est else ""
-                row = {"case": case, "nu": nu, "request": request, "estimate": est, "true": worst, "true_by_quantity": true,
-                       "ratio": worst / est, "reference_uncertainty": unc, "reference_ok": unc <= est / 10.0,
-                       "met": r["accuracy_met"], "stopped_by": r["stopped_by"],
-                       "finest": f"{r['grids'][-1]}x{r['grids_across'][-1]}", "cpu_s": r["cpu_s"], "peak_mib": r["peak_mib"]}
+                row = {
+                    "case": case,
+                    "nu": nu,
+                    "request": request,
+                    "estimate": est,
+                    "true": worst,
+                    "true_by_quantity": true,
+                    "ratio": worst / est,
+                    "reference_uncertainty": unc,
+                    "reference_ok": unc <= est / 10.0,
+                    "met": r["accuracy_met"],
+                    "stopped_by": r["stopped_by"],
+                    "finest": f"{r['grids'][-1]}x{r['grids_across'][-1]}",
+                    "cpu_s": r["cpu_s"],
+                    "peak_mib": r["peak_mib"],
+                }
                 rows.append(row)
-                print(f"| {case} nu {nu} | {request if request == 'default' else f'{request:g}'} | {est:.2e} | {worst:.2e} | {worst / est:.3f}{flag} | {unc:.1e} | "
-                      f"{'yes' if row['reference_ok'] else 'NO'} | {'yes' if r['accuracy_met'] else 'no'} | {r['stopped_by']} | "
-                      f"{row['finest']} | {r['cpu_s']:.1f} | {r['peak_mib']:.0f} |")
+                print(
+                    f"| {case} nu {nu} | {request if request == 'default' else f'{request:g}'} | {est:.2e} | {worst:.2e} | {worst / est:.3f}{flag} | {unc:.1e} | "
+                    f"{'yes' if row['reference_ok'] else 'NO'} | {'yes' if r['accuracy_met'] else 'no'} | {r['stopped_by']} | "
+                    f"{row['finest']} | {r['cpu_s']:.1f} | {r['peak_mib']:.0f} |"
+                )
     return rows
 
 
@@ -212,8 +255,11 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cases", default=",".join(CASES))
     ap.add_argument("--nu", default=",".join(str(v) for v in NUS))
-    ap.add_argument("--requests", default=",".join(f"{v:g}" for v in REQUESTS) + ",default",
-                    help="requests, and 'default' for hpcontact solve without --n (accuracy.default_solve)")
+    ap.add_argument(
+        "--requests",
+        default=",".join(f"{v:g}" for v in REQUESTS) + ",default",
+        help="requests, and 'default' for hpcontact solve without --n (accuracy.default_solve)",
+    )
     ap.add_argument("--runs", type=Path, default=harness.RESULTS / "accuracy_reference_runs.jsonl")
     ap.add_argument("--levels", type=Path, default=harness.RESULTS / "accuracy_reference_levels.jsonl")
     ap.add_argument("--json", type=Path, default=None, help="write the table and references here")
@@ -226,19 +272,31 @@ def main(argv: list[str] | None = None) -> int:
     refs = {(c, nu): reference(reference_levels(args.levels, c, nu)) for c in cases for nu in nus}
     print(f"load average {os.getloadavg()[0]:.2f} (2 cores); CPU s = time.process_time of each run's process\n")
     rows = table(have, refs, cases, nus, requests)
-    print("\nreference per case: Q* of the least-squares fit of least residual; uncertainty = the largest distance"
-          f" of the accepted fits' Q* (* below: residual within {ACCEPT_RESIDUAL:g}x the least); per fit Q*/ref - 1"
-          " (largest residual / Q*)")
+    print(
+        "\nreference per case: Q* of the least-squares fit of least residual; uncertainty = the largest distance"
+        f" of the accepted fits' Q* (* below: residual within {ACCEPT_RESIDUAL:g}x the least); per fit Q*/ref - 1"
+        " (largest residual / Q*)"
+    )
     for (case, nu), ref in refs.items():
         grids = ", ".join(f"{n}x{na}" for n, na in REFERENCE_GRIDS[case])
         print(f"  {case} nu {nu} (grids {grids}, CG tol {REFERENCE_TOL:g}):")
         for k, r in ref.items():
-            print(f"    {k:13s} {r['value']:.12g} ± {r['uncertainty'] / abs(r['value']):.1e} rel ({r['best']}); "
-                  + ", ".join(f"{e}{'*' if e in r['accepted'] else ''}: {v / r['value'] - 1.0:+.1e} ({r['residuals'][e]:.0e})"
-                              for e, v in r["fits"].items()))
+            print(
+                f"    {k:13s} {r['value']:.12g} ± {r['uncertainty'] / abs(r['value']):.1e} rel ({r['best']}); "
+                + ", ".join(
+                    f"{e}{'*' if e in r['accepted'] else ''}: {v / r['value'] - 1.0:+.1e} ({r['residuals'][e]:.0e})"
+                    for e, v in r["fits"].items()
+                )
+            )
     if args.json:
-        harness.write_json(args.json, {"machine": harness.machine_line(1), "rows": rows,
-                                       "references": {f"{c} nu {nu}": r for (c, nu), r in refs.items()}})
+        harness.write_json(
+            args.json,
+            {
+                "machine": harness.machine_line(1),
+                "rows": rows,
+                "references": {f"{c} nu {nu}": r for (c, nu), r in refs.items()},
+            },
+        )
     return 0
 
 

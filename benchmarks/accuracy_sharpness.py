@@ -71,14 +71,22 @@ def references(shape: str, aspect: float, nu: float) -> dict[str, float]:
         out = {"K_xx": k, "K_yy": k, "K_zz": analytic.circle_normal_stiffness(1.0, 1.0, nu), "K_a_over_K_b": 1.0}
     else:
         K_a, K_b = analytic.mindlin_ellipse_stiffness(1.0, aspect, 1.0, nu)
-        out = {"K_xx": K_a, "K_yy": K_b, "K_zz": analytic.elliptical_punch_normal_stiffness(1.0, aspect, 1.0, nu),
-               "K_a_over_K_b": analytic.mindlin_ellipse_stiffness_ratio(aspect, nu)}
+        out = {
+            "K_xx": K_a,
+            "K_yy": K_b,
+            "K_zz": analytic.elliptical_punch_normal_stiffness(1.0, aspect, 1.0, nu),
+            "K_a_over_K_b": analytic.mindlin_ellipse_stiffness_ratio(aspect, nu),
+        }
     return {**out, "normalized_xx": out["K_xx"] / out["K_zz"], "normalized_yy": out["K_yy"] / out["K_zz"]}
 
 
 def case_params(aspect: float, nu: float) -> dict[str, Any]:
-    params: dict[str, Any] = {"shape": "circle" if aspect == 1.0 else "ellipse", "nu": nu, "tol": 1e-12,
-                              "quantities": ["tangential", "normal"]}
+    params: dict[str, Any] = {
+        "shape": "circle" if aspect == 1.0 else "ellipse",
+        "nu": nu,
+        "tol": 1e-12,
+        "quantities": ["tangential", "normal"],
+    }
     if aspect != 1.0:
         params["aspect"] = aspect
     return params
@@ -110,7 +118,9 @@ def estimator(strategy: str) -> tuple:
 
 def treatment_name(strategy: str) -> str:
     """The boundary treatment ``covered_solve`` uses with ``strategy`` (its plan's ``boundary``)."""
-    return covered_solve(Scene.from_params({**case_params(1.0, 0.3), "n": 16, "tol": 1e-6}), strategy)["plan"].get("boundary", "")
+    return covered_solve(Scene.from_params({**case_params(1.0, 0.3), "n": 16, "tol": 1e-6}), strategy)["plan"].get(
+        "boundary", ""
+    )
 
 
 def collect(cache: Path, max_n: int, strategy: str) -> None:
@@ -132,9 +142,17 @@ def collect(cache: Path, max_n: int, strategy: str) -> None:
                 except InputError:  # the strategy does not apply to this case
                     continue
                 r = solved.value
-                row = {"treatment": treatment, "aspect": aspect, "nu": nu, "n": n, "n_across": na,
-                       "wall_time_s": solved.wall_s, "cpu_s": solved.cpu_s, "iterations": r["iterations"],
-                       **{k: r[k] for k in acc.TENSOR_KEYS if k in r}}
+                row = {
+                    "treatment": treatment,
+                    "aspect": aspect,
+                    "nu": nu,
+                    "n": n,
+                    "n_across": na,
+                    "wall_time_s": solved.wall_s,
+                    "cpu_s": solved.cpu_s,
+                    "iterations": r["iterations"],
+                    **{k: r[k] for k in acc.TENSOR_KEYS if k in r},
+                }
                 harness.append_jsonl(cache, row)
                 print(f"  solved b/a={aspect:g} nu={nu} {n} x {na}: {row['cpu_s']:.2f} s", flush=True)
 
@@ -153,16 +171,35 @@ def replay(cache: Path, strategy: str) -> tuple[list[tuple], list[tuple]]:
                 if len(sequence) < acc.MIN_GRIDS:
                     continue
                 for request in REQUESTS:
-                    done = acc.refine(sequence, lambda n, na, t=treatment, a=aspect, v=nu: cached[key_of(t, a, v, n, na)], request,
-                                      *estimator(strategy))
+                    done = acc.refine(
+                        sequence,
+                        lambda n, na, t=treatment, a=aspect, v=nu: cached[key_of(t, a, v, n, na)],
+                        request,
+                        *estimator(strategy),
+                    )
                     v = done.values
-                    values = {**v, "K_a_over_K_b": v["K_xx"] / v["K_yy"], "normalized_xx": v["K_xx"] / v["K_zz"],
-                              "normalized_yy": v["K_yy"] / v["K_zz"]}
+                    values = {
+                        **v,
+                        "K_a_over_K_b": v["K_xx"] / v["K_yy"],
+                        "normalized_xx": v["K_xx"] / v["K_zz"],
+                        "normalized_yy": v["K_yy"] / v["K_zz"],
+                    }
                     true = {k: abs(values[k] / ref[k] - 1.0) for k in QUANTITIES}
                     case = f"{'circle' if aspect == 1.0 else f'ellipse b/a={aspect:g}'} nu={nu:g}"
-                    records.append((case, n0, request, max(true.values()), max(done.relative.values()),
-                                    done.stopped_by or "cache", done.levels and sequence[len(done.levels) - 1][0]))
-                    pairs.extend((case, n0, request, k, true[k], done.relative[k]) for k in QUANTITIES if true[k] >= SYMMETRY)
+                    records.append(
+                        (
+                            case,
+                            n0,
+                            request,
+                            max(true.values()),
+                            max(done.relative.values()),
+                            done.stopped_by or "cache",
+                            done.levels and sequence[len(done.levels) - 1][0],
+                        )
+                    )
+                    pairs.extend(
+                        (case, n0, request, k, true[k], done.relative[k]) for k in QUANTITIES if true[k] >= SYMMETRY
+                    )
     return records, pairs
 
 
@@ -184,16 +221,28 @@ def cost_table(cache: Path, strategies: tuple[str, ...] = ("coverage", "singular
                 ref = references(case_params(aspect, nu)["shape"], aspect, nu)
                 cells = []
                 for request in (1e-3, 1e-4, 1e-5, 1e-6):
-                    done = acc.refine(sequence, lambda n, na, t=treatment, a=aspect, v=nu: cached[key_of(t, a, v, n, na)], request,
-                                      *estimator(strategy))
+                    done = acc.refine(
+                        sequence,
+                        lambda n, na, t=treatment, a=aspect, v=nu: cached[key_of(t, a, v, n, na)],
+                        request,
+                        *estimator(strategy),
+                    )
                     v = done.values
-                    values = {**v, "K_a_over_K_b": v["K_xx"] / v["K_yy"], "normalized_xx": v["K_xx"] / v["K_zz"],
-                              "normalized_yy": v["K_yy"] / v["K_zz"]}
+                    values = {
+                        **v,
+                        "K_a_over_K_b": v["K_xx"] / v["K_yy"],
+                        "normalized_xx": v["K_xx"] / v["K_zz"],
+                        "normalized_yy": v["K_yy"] / v["K_zz"],
+                    }
                     true = max(abs(values[k] / ref[k] - 1.0) for k in QUANTITIES)
                     seconds = sum(level.get("cpu_s", level["wall_time_s"]) for level in done.levels)
                     wall = "" if all("cpu_s" in level for level in done.levels) else "*"  # a wall time of the cache
                     n = sequence[len(done.levels) - 1][0]
-                    status = f"{seconds:.1f}{wall} s, n={n}" if done.stopped_by == "met" else f"not met ({done.stopped_by or 'cache'}, n={n})"
+                    status = (
+                        f"{seconds:.1f}{wall} s, n={n}"
+                        if done.stopped_by == "met"
+                        else f"not met ({done.stopped_by or 'cache'}, n={n})"
+                    )
                     cells.append(f"{status}: {true:.1e} / {max(done.relative.values()):.1e}")
                 name = "circle" if aspect == 1.0 else f"ellipse {aspect:g}"
                 print(f"| {name}, nu {nu} | {strategy} | " + " | ".join(cells) + " |")
@@ -223,15 +272,18 @@ def defaults_table() -> None:
         true = "—" if math.isnan(rows[0][0]) else f"{max(x[0] for x in rows):.1e}"
         both = "—" if math.isnan(rows[0][1]) else f"{max(x[1] for x in rows):.1e}"
         finest = max(rows, key=lambda x: x[3] * x[4])
-        print(f"| {name} | {true} | {both} | {max(x[2] for x in rows):.1e} | {finest[3]} × {finest[4]} | "
-              f"{max(x[5] for x in rows):.2f} s |")
+        print(
+            f"| {name} | {true} | {both} | {max(x[2] for x in rows):.1e} | {finest[3]} × {finest[4]} | "
+            f"{max(x[5] for x in rows):.2f} s |"
+        )
 
 
 FIGURE_CASES = ((1.0, "circle"), (0.7, "ellipse 0.7"), (1e-3, "ellipse 1e-3"))
 
 
-def convergence(cached: dict[str, dict[str, Any]], strategy: str, aspect: float, nu: float = 0.3,
-                n0: int = 32) -> list[tuple[float, float, float]]:
+def convergence(
+    cached: dict[str, dict[str, Any]], strategy: str, aspect: float, nu: float = 0.3, n0: int = 32
+) -> list[tuple[float, float, float]]:
     """(CPU s so far, estimated error, true error) after every grid from the ``MIN_GRIDS``-th of
     ``strategy``'s sequence from n₀ in the ``cached`` levels (``load``): what ``--accuracy`` would
     report if it stopped there."""
@@ -242,8 +294,12 @@ def convergence(cached: dict[str, dict[str, Any]], strategy: str, aspect: float,
     out = []
     for k in range(acc.MIN_GRIDS, len(levels) + 1):
         values, relative, _, _ = acc.extrapolate(levels[:k], *estimator(strategy))
-        values = {**values, "K_a_over_K_b": values["K_xx"] / values["K_yy"], "normalized_xx": values["K_xx"] / values["K_zz"],
-                  "normalized_yy": values["K_yy"] / values["K_zz"]}
+        values = {
+            **values,
+            "K_a_over_K_b": values["K_xx"] / values["K_yy"],
+            "normalized_xx": values["K_xx"] / values["K_zz"],
+            "normalized_yy": values["K_yy"] / values["K_zz"],
+        }
         seconds = sum(level.get("cpu_s", level["wall_time_s"]) for level in levels[:k])
         out.append((seconds, max(relative.values()), max(abs(values[q] / ref[q] - 1.0) for q in QUANTITIES)))
     return out
@@ -273,16 +329,35 @@ def figure(cache: Path, singular_cache: Path | None, path: Path, strip_cache: Pa
 
         strips = strip.load(strip_cache, [])  # cached grids only
         ellipses = sorted({(s, a) for s, a, _, _ in strips if s == "ellipse"})
-        sets.append(("strips (ellipses)", "C2", "s", [(r["estimate"], max(r["true"].values())) for r in strip.replay(strips, ellipses)]))
+        sets.append(
+            (
+                "strips (ellipses)",
+                "C2",
+                "s",
+                [(r["estimate"], max(r["true"].values())) for r in strip.replay(strips, ellipses)],
+            )
+        )
     for label, colour, marker, points in sets:
         estimate, true = np.array(points).T
-        left.loglog(estimate, np.maximum(true, 1e-14), marker, color=colour, ms=3.5, alpha=0.6, ls="none",
-                    label=f"{label}: {len(points)} records, worst true/estimate {np.max(true / estimate):.2f}")
+        left.loglog(
+            estimate,
+            np.maximum(true, 1e-14),
+            marker,
+            color=colour,
+            ms=3.5,
+            alpha=0.6,
+            ls="none",
+            label=f"{label}: {len(points)} records, worst true/estimate {np.max(true / estimate):.2f}",
+        )
     line = np.array([1e-12, 1e-2])
     left.loglog(line, line, "k-", lw=1, label="true = estimate (honest below)")
     left.loglog(line, line / 30, "k:", lw=1, label="true = estimate / 30 (sharp above)")
-    left.set(xlabel="estimated relative error (--accuracy)", ylabel="true relative error (closed forms)",
-             title="Honesty and sharpness of the estimate", ylim=(1e-14, 1e-2))
+    left.set(
+        xlabel="estimated relative error (--accuracy)",
+        ylabel="true relative error (closed forms)",
+        title="Honesty and sharpness of the estimate",
+        ylim=(1e-14, 1e-2),
+    )
     left.legend(fontsize=7, loc="upper left")
     cached = load(cache)
     for (aspect, name), colour in zip(FIGURE_CASES, ("C0", "C1", "C2")):
@@ -297,8 +372,11 @@ def figure(cache: Path, singular_cache: Path | None, path: Path, strip_cache: Pa
             seconds, estimate, true = np.array(strip.convergence(strips, "ellipse", aspect)).T
             right.loglog(seconds, estimate, "-s", color=colour, ms=4, label=f"{name}, strips")
             right.loglog(seconds, np.maximum(true, 1e-12), "--s", color=colour, ms=3, alpha=0.6)
-    right.set(xlabel="CPU seconds of the grid sequence so far (one core, cached solve times)",
-              ylabel="relative error: estimate (solid), true (dashed)", title="What --accuracy reports, per second")
+    right.set(
+        xlabel="CPU seconds of the grid sequence so far (one core, cached solve times)",
+        ylabel="relative error: estimate (solid), true (dashed)",
+        title="What --accuracy reports, per second",
+    )
     right.legend(fontsize=7)
     for axis in (left, right):
         axis.grid(True, which="major", alpha=0.3)
@@ -312,9 +390,11 @@ def summary(label: str, true: np.ndarray, estimated: np.ndarray) -> str:
     if len(true) == 0:
         return f"{label}: 0 (the cache holds no sequence long enough: fill it with --collect)"
     ratio = true / estimated
-    return (f"{label}: {len(ratio)}; worst true/estimate {ratio.max():.2f} (honest when <= 1; "
-            f"{int((ratio > 1).sum())} above 1); worst estimate/true {1 / ratio.min():.0f}; "
-            f"true >= estimate/30 in {100 * (ratio >= 1 / 30).mean():.1f} %")
+    return (
+        f"{label}: {len(ratio)}; worst true/estimate {ratio.max():.2f} (honest when <= 1; "
+        f"{int((ratio > 1).sum())} above 1); worst estimate/true {1 / ratio.min():.0f}; "
+        f"true >= estimate/30 in {100 * (ratio >= 1 / 30).mean():.1f} %"
+    )
 
 
 def main() -> None:
@@ -325,13 +405,23 @@ def main() -> None:
     parser.add_argument("--table", action="store_true")
     parser.add_argument("--cost", action="store_true", help="print the time-to-accuracy table (both treatments)")
     parser.add_argument("--defaults", action="store_true", help="run and print the default discretization's table")
-    parser.add_argument("--strategy", default="coverage", help="covered_solve's boundary treatment: coverage or singular")
+    parser.add_argument(
+        "--strategy", default="coverage", help="covered_solve's boundary treatment: coverage or singular"
+    )
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
     parser.add_argument("--figure", type=Path, default=None, help="write the honesty and error-per-second figure here")
-    parser.add_argument("--singular-cache", type=Path, default=None,
-                        help="benchmarks/edge_order.py --singular-calibration's cache, for the figure's singular records")
-    parser.add_argument("--strip-cache", type=Path, default=None,
-                        help="benchmarks/strip_calibration.py's cache, for the figure's strip records (ellipses)")
+    parser.add_argument(
+        "--singular-cache",
+        type=Path,
+        default=None,
+        help="benchmarks/edge_order.py --singular-calibration's cache, for the figure's singular records",
+    )
+    parser.add_argument(
+        "--strip-cache",
+        type=Path,
+        default=None,
+        help="benchmarks/strip_calibration.py's cache, for the figure's strip records (ellipses)",
+    )
     args = parser.parse_args()
     print(f"accuracy_sharpness: {harness.machine_line(1)}")
     for item in args.set:
@@ -343,11 +433,17 @@ def main() -> None:
         collect(args.cache, args.max_n, args.strategy)
     records, pairs = replay(args.cache, args.strategy)
     print(f"boundary treatment: {treatment_name(args.strategy)}")
-    print(summary("records (case, request, start grid)", np.array([r[3] for r in records]), np.array([r[4] for r in records])))
+    print(
+        summary(
+            "records (case, request, start grid)", np.array([r[3] for r in records]), np.array([r[4] for r in records])
+        )
+    )
     print(summary("quantities", np.array([p[4] for p in pairs]), np.array([p[5] for p in pairs])))
     met = [r for r in records if r[5] == "met"]
-    print(f"requests met: {len(met)} of {len(records)}; stopped by: "
-          + ", ".join(f"{s} {sum(r[5] == s for r in records)}" for s in sorted({r[5] for r in records})))
+    print(
+        f"requests met: {len(met)} of {len(records)}; stopped by: "
+        + ", ".join(f"{s} {sum(r[5] == s for r in records)}" for s in sorted({r[5] for r in records}))
+    )
     if args.cost:
         cost_table(args.cache)
     if args.defaults:
@@ -355,7 +451,9 @@ def main() -> None:
     if args.figure is not None:
         figure(args.cache, args.singular_cache, args.figure, args.strip_cache)
     if args.table:
-        print(f"{'case':28s} {'n0':>3s} {'request':>8s} {'true':>9s} {'estimate':>9s} {'ratio':>6s} {'stopped':>11s} {'n':>5s}")
+        print(
+            f"{'case':28s} {'n0':>3s} {'request':>8s} {'true':>9s} {'estimate':>9s} {'ratio':>6s} {'stopped':>11s} {'n':>5s}"
+        )
         for case, n0, request, true, est, stopped, n in records:
             print(f"{case:28s} {n0:3d} {request:8.0e} {true:9.2e} {est:9.2e} {est / true:6.1f} {stopped:>11s} {n:5d}")
 

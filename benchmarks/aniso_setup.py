@@ -96,33 +96,56 @@ def main(argv: list[str] | None = None) -> int:
     rows = []
     print(f"aniso_setup: {harness.machine_line(args.threads)}", file=sys.stderr if args.json else sys.stdout)
     if not args.json:
-        solve_head = "" if args.no_solve else (f" {'setup_s':>7s} {'solve_z_s':>9s} {'it_z':>4s} {'solve_xyz_s':>11s} "
-                                               f"{'it_xyz':>6s} {'setup/solve':>11s}")
-        print(f"{'material':30s} {'n':>5s} {'green_s':>8s} {'zz_s':>7s} {'zz_cpu':>7s} "
-              f"{'all9_s':>7s} {'all9_cpu':>8s} {'n_phi':>6s} {'n_om':>5s} {'beta':>5s}{solve_head}")
+        solve_head = (
+            ""
+            if args.no_solve
+            else (
+                f" {'setup_s':>7s} {'solve_z_s':>9s} {'it_z':>4s} {'solve_xyz_s':>11s} "
+                f"{'it_xyz':>6s} {'setup/solve':>11s}"
+            )
+        )
+        print(
+            f"{'material':30s} {'n':>5s} {'green_s':>8s} {'zz_s':>7s} {'zz_cpu':>7s} "
+            f"{'all9_s':>7s} {'all9_cpu':>8s} {'n_phi':>6s} {'n_om':>5s} {'beta':>5s}{solve_head}"
+        )
     for name, mat in materials():
         for n in args.n:
             an.clear_cache()
             kern, t_green, _ = timed(partial(an.kernel_for, mat))
-            _, t_zz, c_zz = timed(partial(an.anisotropic_offset_blocks, mat, n, n, 1.0, 1.0, [(2, 2)],
-                                                                        threads=args.threads))
-            _, t_all, c_all = timed(partial(an.anisotropic_offset_blocks, mat, n, n, 1.0, 1.0,
-                                                                         threads=args.threads))
-            row = dict(material=name, n=n, green_s=t_green, zz_s=t_zz, zz_cpu_s=c_zz, all9_s=t_all,
-                       all9_cpu_s=c_all, n_phi=kern.n_phi, n_omega=kern.n_omega, beta=kern.beta,
-                       threads=args.threads)
+            _, t_zz, c_zz = timed(
+                partial(an.anisotropic_offset_blocks, mat, n, n, 1.0, 1.0, [(2, 2)], threads=args.threads)
+            )
+            _, t_all, c_all = timed(partial(an.anisotropic_offset_blocks, mat, n, n, 1.0, 1.0, threads=args.threads))
+            row = dict(
+                material=name,
+                n=n,
+                green_s=t_green,
+                zz_s=t_zz,
+                zz_cpu_s=c_zz,
+                all9_s=t_all,
+                all9_cpu_s=c_all,
+                n_phi=kern.n_phi,
+                n_omega=kern.n_omega,
+                beta=kern.beta,
+                threads=args.threads,
+            )
             solve_text = ""
             if not args.no_solve:
                 row.update(one_solve(mat, n, args.threads))
                 row["setup_over_solve"] = (t_green + row["setup_s"]) / row["solve_xyz_s"]
-                solve_text = (f" {row['setup_s']:7.2f} {row['solve_z_s']:9.2f} {row['solve_z_iterations']:4d} "
-                              f"{row['solve_xyz_s']:11.2f} {row['solve_xyz_iterations']:6d} {row['setup_over_solve']:11.2f}")
+                solve_text = (
+                    f" {row['setup_s']:7.2f} {row['solve_z_s']:9.2f} {row['solve_z_iterations']:4d} "
+                    f"{row['solve_xyz_s']:11.2f} {row['solve_xyz_iterations']:6d} {row['setup_over_solve']:11.2f}"
+                )
             rows.append(row)
             if args.json:
                 print(json.dumps(row))
             else:
-                print(f"{name:30s} {n:5d} {t_green:8.3f} {t_zz:7.2f} {c_zz:7.2f} {t_all:7.2f} "
-                      f"{c_all:8.2f} {kern.n_phi:6d} {kern.n_omega:5d} {kern.beta:5.2f}{solve_text}", flush=True)
+                print(
+                    f"{name:30s} {n:5d} {t_green:8.3f} {t_zz:7.2f} {c_zz:7.2f} {t_all:7.2f} "
+                    f"{c_all:8.2f} {kern.n_phi:6d} {kern.n_omega:5d} {kern.beta:5.2f}{solve_text}",
+                    flush=True,
+                )
     return 0
 
 

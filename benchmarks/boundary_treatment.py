@@ -54,8 +54,12 @@ def references(shape: str, aspect: float) -> dict[str, float]:
         k = analytic.circle_tangential_stiffness(1.0, 1.0, NU)
         return {"K_xx": k, "K_yy": k, "K_a_over_K_b": 1.0, "K_zz": analytic.circle_normal_stiffness(1.0, 1.0, NU)}
     K_a, K_b = analytic.mindlin_ellipse_stiffness(1.0, aspect, 1.0, NU)
-    return {"K_xx": K_a, "K_yy": K_b, "K_a_over_K_b": analytic.mindlin_ellipse_stiffness_ratio(aspect, NU),
-            "K_zz": analytic.elliptical_punch_normal_stiffness(1.0, aspect, 1.0, NU)}
+    return {
+        "K_xx": K_a,
+        "K_yy": K_b,
+        "K_a_over_K_b": analytic.mindlin_ellipse_stiffness_ratio(aspect, NU),
+        "K_zz": analytic.elliptical_punch_normal_stiffness(1.0, aspect, 1.0, NU),
+    }
 
 
 def grids(first: tuple[int, int | None], levels: int) -> list[tuple[int, int | None]]:
@@ -77,8 +81,13 @@ def run_grid(function, shape: str, aspect: float, n: int, na: int | None) -> dic
     scene = Scene.from_params(params)
     solved = harness.timed(lambda: function(scene))
     record = solved.value
-    return {"n": n, "na": record["ny"], "time": solved.wall_s, "iterations": record["iterations"],
-            **{q: record[q] for q in QUANTITIES}}
+    return {
+        "n": n,
+        "na": record["ny"],
+        "time": solved.wall_s,
+        "iterations": record["iterations"],
+        **{q: record[q] for q in QUANTITIES},
+    }
 
 
 def errors(row: dict, ref: dict) -> dict:
@@ -89,7 +98,9 @@ def single_grids(label: str, results: dict) -> None:
     shape, aspect, first, levels = CASES[label]
     ref = references(shape, aspect)
     print(f"\n=== {label} (nu = {NU}) ===")
-    print(f"{'grid':>11} | {'centre: K_xx err':>16} {'n·err':>8} {'time':>6} | {'coverage: K_xx err':>18} {'n·err':>8} {'time':>6}")
+    print(
+        f"{'grid':>11} | {'centre: K_xx err':>16} {'n·err':>8} {'time':>6} | {'coverage: K_xx err':>18} {'n·err':>8} {'time':>6}"
+    )
     rows = {"centre": [], "coverage": []}
     for n, na in grids(first, levels):
         line = []
@@ -110,11 +121,16 @@ def single_grids(label: str, results: dict) -> None:
 def richardson_table(label: str, results: dict) -> None:
     shape, aspect, first, levels = CASES[label]
     ref = references(shape, aspect)
-    print(f"  Richardson R_k = 2 Q_k − Q_(k−1) on grids ratio 2, true relative error (worst of {', '.join(QUANTITIES)}):")
+    print(
+        f"  Richardson R_k = 2 Q_k − Q_(k−1) on grids ratio 2, true relative error (worst of {', '.join(QUANTITIES)}):"
+    )
     out = {}
     for name in ("centre", "coverage"):
-        rows = [r for r in results[label]["single"][name] if (r["n"] // first[0]) & ((r["n"] // first[0]) - 1) == 0
-                and r["n"] % first[0] == 0]
+        rows = [
+            r
+            for r in results[label]["single"][name]
+            if (r["n"] // first[0]) & ((r["n"] // first[0]) - 1) == 0 and r["n"] % first[0] == 0
+        ]
         seq = []
         cumulative = 0.0
         for k, row in enumerate(rows):
@@ -123,7 +139,9 @@ def richardson_table(label: str, results: dict) -> None:
                 continue
             prev = rows[k - 1]
             err = max(abs((2 * row[q] - prev[q]) / ref[q] - 1.0) for q in QUANTITIES if q != "K_a_over_K_b")
-            seq.append({"n": row["n"], "err": err, "time": cumulative, "fine_err": max(row[f"err_{q}"] for q in QUANTITIES)})
+            seq.append(
+                {"n": row["n"], "err": err, "time": cumulative, "fine_err": max(row[f"err_{q}"] for q in QUANTITIES)}
+            )
         out[name] = seq
         print(f"  {name:>8}: " + "  ".join(f"n={s['n']}: {s['err']:.1e}" for s in seq))
     results[label]["richardson"] = out
@@ -141,13 +159,25 @@ def accuracy_runs(targets: tuple[float, ...], results: dict) -> list[dict]:
             errs = {f"err_{q}": abs(r[q] / ref[q] - 1.0) for q in QUANTITIES}
             honest = all(errs[f"err_{q}"] <= r["estimated_errors"][q] for q in QUANTITIES)
             true = max(errs.values())
-            run = {"case": label, "accuracy": target, "estimated_error": r["estimated_error"], "err": true, **errs,
-                   "estimated_errors": r["estimated_errors"], "honest": honest, "accuracy_met": r["accuracy_met"],
-                   "wall_time_s": r["wall_time_s"], "grids": r["grids"], "grids_across": r["grids_across"]}
+            run = {
+                "case": label,
+                "accuracy": target,
+                "estimated_error": r["estimated_error"],
+                "err": true,
+                **errs,
+                "estimated_errors": r["estimated_errors"],
+                "honest": honest,
+                "accuracy_met": r["accuracy_met"],
+                "wall_time_s": r["wall_time_s"],
+                "grids": r["grids"],
+                "grids_across": r["grids_across"],
+            }
             runs.append(run)
             grid_text = ", ".join(f"{a}×{b}" for a, b in zip(r["grids"], r["grids_across"]))
-            print(f"{label:>18} {target:8.0e} {r['estimated_error']:9.2e} {true:9.2e} {str(honest):>6} {r['wall_time_s']:6.2f}s  {grid_text}"
-                  f"{'' if r['accuracy_met'] else '  (not met within the grid budget)'}")
+            print(
+                f"{label:>18} {target:8.0e} {r['estimated_error']:9.2e} {true:9.2e} {str(honest):>6} {r['wall_time_s']:6.2f}s  {grid_text}"
+                f"{'' if r['accuracy_met'] else '  (not met within the grid budget)'}"
+            )
     results["accuracy_runs"] = runs
     return runs
 
@@ -167,13 +197,32 @@ def figure(results: dict, path: Path) -> None:
             worst = [max(r[f"err_{q}"] for q in QUANTITIES) for r in rows]
             ax.loglog([r["time"] for r in rows], worst, "o", color=colour, ms=3, alpha=0.6, label=f"{name}, one grid")
             seq = results[label]["richardson"][name]
-            ax.loglog([s["time"] for s in seq], [max(s["err"], 1e-16) for s in seq], "-s", color=colour, ms=4,
-                      label=f"{name}, Richardson (cumulative time)")
+            ax.loglog(
+                [s["time"] for s in seq],
+                [max(s["err"], 1e-16) for s in seq],
+                "-s",
+                color=colour,
+                ms=4,
+                label=f"{name}, Richardson (cumulative time)",
+            )
         runs = [r for r in results.get("accuracy_runs", []) if r["case"] == label]
         if runs:
-            ax.loglog([r["wall_time_s"] for r in runs], [r["err"] for r in runs], "*", color="k", ms=10, label="solve --accuracy: true")
-            ax.loglog([r["wall_time_s"] for r in runs], [r["estimated_error"] for r in runs], "x", color="k", ms=7,
-                      label="solve --accuracy: estimate")
+            ax.loglog(
+                [r["wall_time_s"] for r in runs],
+                [r["err"] for r in runs],
+                "*",
+                color="k",
+                ms=10,
+                label="solve --accuracy: true",
+            )
+            ax.loglog(
+                [r["wall_time_s"] for r in runs],
+                [r["estimated_error"] for r in runs],
+                "x",
+                color="k",
+                ms=7,
+                label="solve --accuracy: estimate",
+            )
         ax.set_title(label, fontsize=10)
         ax.set_xlabel("wall time [s]")
         ax.grid(True, alpha=0.3)
@@ -189,7 +238,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=harness.RESULTS / "boundary_treatment.json")
     parser.add_argument("--figure", type=Path, default=harness.RESULTS / "boundary_treatment.png")
-    parser.add_argument("--full", action="store_true", help="also request 1e-4 (minutes with the current preconditioner)")
+    parser.add_argument(
+        "--full", action="store_true", help="also request 1e-4 (minutes with the current preconditioner)"
+    )
     args = parser.parse_args()
     print(f"boundary_treatment: {harness.machine_line(1)}")
     results: dict = {"machine": harness.machine_line(1), "nu": NU}

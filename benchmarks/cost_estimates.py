@@ -86,8 +86,10 @@ def measure_memory(job: str) -> dict:
     base = costmodel.base_memory_bytes()
     largest = max(tasks, key=lambda t: costmodel.task_array_bytes(t.params))
     task_function(spec.kind)(dict(largest.params))
-    return {"estimated_peak_bytes": base + costmodel.task_array_bytes(largest.params),
-            "measured_peak_bytes": resident_bytes()}
+    return {
+        "estimated_peak_bytes": base + costmodel.task_array_bytes(largest.params),
+        "measured_peak_bytes": resident_bytes(),
+    }
 
 
 def main() -> None:
@@ -96,19 +98,27 @@ def main() -> None:
     parser.add_argument("--budget", type=float, default=60.0, help="estimated seconds of tasks per job (default 60)")
     args = parser.parse_args()
     print(f"cost_estimates: {harness.machine_line(1)}")
-    print(f"{'job':24s} {'tasks run':>11s} {'estimated s':>11s} {'measured s':>10s} {'ratio':>6s} "
-          f"{'est. MiB':>8s} {'meas. MiB':>9s} {'ratio':>6s} {'run MiB':>8s} {'wall s':>7s} {'drift':>6s}", flush=True)
+    print(
+        f"{'job':24s} {'tasks run':>11s} {'estimated s':>11s} {'measured s':>10s} {'ratio':>6s} "
+        f"{'est. MiB':>8s} {'meas. MiB':>9s} {'ratio':>6s} {'run MiB':>8s} {'wall s':>7s} {'drift':>6s}",
+        flush=True,
+    )
     for job in args.jobs:
         try:  # each in a fresh process, one thread
-            r = {**harness.call_in_child(__file__, "measure_time", job, args.budget, check=True).result,
-                 **harness.call_in_child(__file__, "measure_memory", job, check=True).result}
+            r = {
+                **harness.call_in_child(__file__, "measure_time", job, args.budget, check=True).result,
+                **harness.call_in_child(__file__, "measure_memory", job, check=True).result,
+            }
         except RuntimeError as exc:
             print(f"{Path(job).stem:24s} failed: {exc}", flush=True)
             continue
-        print(f"{r['job']:24s} {r['ran']:5d}/{r['tasks']:<5d} {r['estimated_s']:11.1f} {r['measured_s']:10.1f} "
-              f"{r['estimated_s'] / r['measured_s']:6.2f} {r['estimated_peak_bytes'] / 2**20:8.0f} "
-              f"{r['measured_peak_bytes'] / 2**20:9.0f} {r['estimated_peak_bytes'] / r['measured_peak_bytes']:6.2f} "
-              f"{r['run_peak_bytes'] / 2**20:8.0f} {r['measured_wall_s']:7.1f} {r['drift']:6.2f}", flush=True)
+        print(
+            f"{r['job']:24s} {r['ran']:5d}/{r['tasks']:<5d} {r['estimated_s']:11.1f} {r['measured_s']:10.1f} "
+            f"{r['estimated_s'] / r['measured_s']:6.2f} {r['estimated_peak_bytes'] / 2**20:8.0f} "
+            f"{r['measured_peak_bytes'] / 2**20:9.0f} {r['estimated_peak_bytes'] / r['measured_peak_bytes']:6.2f} "
+            f"{r['run_peak_bytes'] / 2**20:8.0f} {r['measured_wall_s']:7.1f} {r['drift']:6.2f}",
+            flush=True,
+        )
 
 
 if __name__ == "__main__":

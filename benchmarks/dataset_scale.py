@@ -54,7 +54,9 @@ aspect = { logspace = [0, -8, 17] }
 anisotropy = { linspace = [0.5, 3.0, 11] }
 orientation = { linspace = [0, 90, 19] }
 """
-PLANS = [{"kernels": ["xx", "xy", "yx", "yy", "zz"], "solves": s, "preconditioner": p} for s in (3, 4) for p in (True, False)]
+PLANS = [
+    {"kernels": ["xx", "xy", "yx", "yy", "zz"], "solves": s, "preconditioner": p} for s in (3, 4) for p in (True, False)
+]
 
 
 def record(key: str, params: dict) -> dict:
@@ -71,12 +73,25 @@ def record(key: str, params: dict) -> dict:
     kyy = kxx / aspect**0.05 * (1.0 + 0.05 * (a - 1.0) * math.sin(psi))
     kxy = 1e-3 * (a - 1.0) * math.sin(2.0 * psi)
     return {
-        "K_xx": kxx, "K_xy": kxy, "K_yx": kxy * (1.0 + 1e-9), "K_yy": kyy, "K_zz": 2.0 * kxx / (1.0 - nu / 2),
-        "K_max": max(kxx, kyy) + abs(kxy), "K_min": min(kxx, kyy) - abs(kxy), "principal_angle_deg": math.degrees(psi),
-        "K_a_over_K_b": kxx / kyy, "K_min_over_K_max": min(kxx, kyy) / max(kxx, kyy), "asymmetry": 1e-9 * abs(kxy),
-        "iterations": 40 + sides + int(10 * a), "residual": 1e-9 * (1.0 + nu), "nx": 64,
-        "ny": max(16, round(64 * aspect)), "dx": 2.0 / 64, "dy": 2.0 * aspect / max(16, round(64 * aspect)),
-        "contact_cells": int(3000 * aspect**0.5) + sides, "plan": PLANS[(sides + int(a == 1.0)) % len(PLANS)],
+        "K_xx": kxx,
+        "K_xy": kxy,
+        "K_yx": kxy * (1.0 + 1e-9),
+        "K_yy": kyy,
+        "K_zz": 2.0 * kxx / (1.0 - nu / 2),
+        "K_max": max(kxx, kyy) + abs(kxy),
+        "K_min": min(kxx, kyy) - abs(kxy),
+        "principal_angle_deg": math.degrees(psi),
+        "K_a_over_K_b": kxx / kyy,
+        "K_min_over_K_max": min(kxx, kyy) / max(kxx, kyy),
+        "asymmetry": 1e-9 * abs(kxy),
+        "iterations": 40 + sides + int(10 * a),
+        "residual": 1e-9 * (1.0 + nu),
+        "nx": 64,
+        "ny": max(16, round(64 * aspect)),
+        "dx": 2.0 / 64,
+        "dy": 2.0 * aspect / max(16, round(64 * aspect)),
+        "contact_cells": int(3000 * aspect**0.5) + sides,
+        "plan": PLANS[(sides + int(a == 1.0)) % len(PLANS)],
     }
 
 
@@ -88,8 +103,18 @@ def write_journals(folder: Path) -> tuple[int, int]:
     folder.mkdir(parents=True, exist_ok=True)
     journals = [Journal(folder / f"rank{rank:05d}-synthetic.jsonl", rank, {"session": "synthetic"}) for rank in (0, 1)]
     for i, t in enumerate(tasks):
-        journals[i % 2].append(Entry(key=t.key, params=t.params, status=OK, message="", record=record(t.key, dict(t.params)),
-                                     wall_time_s=1.0, finished=0.0, rank=i % 2))
+        journals[i % 2].append(
+            Entry(
+                key=t.key,
+                params=t.params,
+                status=OK,
+                message="",
+                record=record(t.key, dict(t.params)),
+                wall_time_s=1.0,
+                finished=0.0,
+                rank=i % 2,
+            )
+        )
     for journal in journals:
         journal.close()
     return len(where), len(tasks)
@@ -104,8 +129,9 @@ def assemble(folder: str) -> dict:
     where = enumerated.value
     before_mb = harness.peak_rss_mb()
     read = harness.timed(partial(read_journals, folder / "journal"))
-    build = harness.timed(partial(build_dataset, spec, where, read.value,
-                                  {"history": "benchmarks/dataset_scale.py", "mpi_size": 2}))
+    build = harness.timed(
+        partial(build_dataset, spec, where, read.value, {"history": "benchmarks/dataset_scale.py", "mpi_size": 2})
+    )
     write = harness.timed(partial(write_netcdf, build.value, folder / "scale.nc"))
     path, read_s, build_s = write.value, read.wall_s, build.wall_s
     assembly_mb = harness.peak_rss_mb()
@@ -116,14 +142,25 @@ def assemble(folder: str) -> dict:
             return back.load()
 
     opened = harness.timed(load)
-    return {"tasks_s": enumerated.wall_s, "read_s": read_s, "build_s": build_s, "write_s": write.wall_s,
-            "before_mb": before_mb, "assembly_mb": assembly_mb, "size_mb": path.stat().st_size / 1e6,
-            "open_s": opened.wall_s, "loaded_mb": opened.value.nbytes / 1e6, "points": math.prod(len(a) for a in spec.axes)}
+    return {
+        "tasks_s": enumerated.wall_s,
+        "read_s": read_s,
+        "build_s": build_s,
+        "write_s": write.wall_s,
+        "before_mb": before_mb,
+        "assembly_mb": assembly_mb,
+        "size_mb": path.stat().st_size / 1e6,
+        "open_s": opened.wall_s,
+        "loaded_mb": opened.value.nbytes / 1e6,
+        "points": math.prod(len(a) for a in spec.axes),
+    }
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--folder", type=Path, help="where to write journals and data set (default: a temporary folder)")
+    parser.add_argument(
+        "--folder", type=Path, help="where to write journals and data set (default: a temporary folder)"
+    )
     parser.add_argument("--keep", action="store_true", help="keep them")
     args = parser.parse_args()
     print(f"dataset_scale: {harness.machine_line(1)}")
@@ -134,12 +171,16 @@ def main() -> None:
     m = harness.call_in_child(__file__, "assemble", str(folder.resolve()), check=True).result
     assembly = m["read_s"] + m["build_s"] + m["write_s"]
     print(f"{m['points']} points with the angle; task enumeration {m['tasks_s']:.1f} s (before the sweep runs)")
-    print(f"assembly: read journals {m['read_s']:.1f} s + build {m['build_s']:.1f} s + write {m['write_s']:.1f} s "
-          f"= {assembly:.1f} s (target <= 60 s)")
-    print(f"peak memory of rank 0: {m['assembly_mb']:.0f} MB (target <= 2048 MB; {m['before_mb']:.0f} MB before "
-          f"reading the journals)")
+    print(
+        f"assembly: read journals {m['read_s']:.1f} s + build {m['build_s']:.1f} s + write {m['write_s']:.1f} s "
+        f"= {assembly:.1f} s (target <= 60 s)"
+    )
+    print(
+        f"peak memory of rank 0: {m['assembly_mb']:.0f} MB (target <= 2048 MB; {m['before_mb']:.0f} MB before "
+        f"reading the journals)"
+    )
     print(f"file: {m['size_mb']:.1f} MB on disk (target <= 60 MB)")
-    print(f"open_dataset + load: {m['open_s']:.1f} s, {m['loaded_mb']:.0f} MB in memory (K_nn, normalized_nn derived)")
+    print(f"open_dataset + load: {m['open_s']:.1f} s, {m['loaded_mb']:.0f} MB in memory (K_nn, normalized_nn stored)")
     if not args.keep and args.folder is None:
         shutil.rmtree(folder)
 

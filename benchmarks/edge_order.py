@@ -63,12 +63,36 @@ NU = 0.3
 CASES = {
     # label: (params, Shape for the grid sequence, closed form K_xx or None)
     "circle": ({"shape": "circle"}, Shape("circle"), analytic.circle_tangential_stiffness(1.0, 1.0, NU)),
-    "ellipse 0.7": ({"shape": "ellipse", "aspect": 0.7}, Shape("ellipse", 0.7), analytic.mindlin_ellipse_stiffness(1.0, 0.7, 1.0, NU)[0]),
-    "ellipse 0.5": ({"shape": "ellipse", "aspect": 0.5}, Shape("ellipse", 0.5), analytic.mindlin_ellipse_stiffness(1.0, 0.5, 1.0, NU)[0]),
-    "ellipse 0.05": ({"shape": "ellipse", "aspect": 0.05}, Shape("ellipse", 0.05), analytic.mindlin_ellipse_stiffness(1.0, 0.05, 1.0, NU)[0]),
-    "ellipse 0.05 sq": ({"shape": "ellipse", "aspect": 0.05}, Shape("ellipse", 0.05), analytic.mindlin_ellipse_stiffness(1.0, 0.05, 1.0, NU)[0]),
-    "ellipse 1e-3": ({"shape": "ellipse", "aspect": 1e-3}, Shape("ellipse", 1e-3), analytic.mindlin_ellipse_stiffness(1.0, 1e-3, 1.0, NU)[0]),
-    "ellipse 1e-6": ({"shape": "ellipse", "aspect": 1e-6}, Shape("ellipse", 1e-6), analytic.mindlin_ellipse_stiffness(1.0, 1e-6, 1.0, NU)[0]),
+    "ellipse 0.7": (
+        {"shape": "ellipse", "aspect": 0.7},
+        Shape("ellipse", 0.7),
+        analytic.mindlin_ellipse_stiffness(1.0, 0.7, 1.0, NU)[0],
+    ),
+    "ellipse 0.5": (
+        {"shape": "ellipse", "aspect": 0.5},
+        Shape("ellipse", 0.5),
+        analytic.mindlin_ellipse_stiffness(1.0, 0.5, 1.0, NU)[0],
+    ),
+    "ellipse 0.05": (
+        {"shape": "ellipse", "aspect": 0.05},
+        Shape("ellipse", 0.05),
+        analytic.mindlin_ellipse_stiffness(1.0, 0.05, 1.0, NU)[0],
+    ),
+    "ellipse 0.05 sq": (
+        {"shape": "ellipse", "aspect": 0.05},
+        Shape("ellipse", 0.05),
+        analytic.mindlin_ellipse_stiffness(1.0, 0.05, 1.0, NU)[0],
+    ),
+    "ellipse 1e-3": (
+        {"shape": "ellipse", "aspect": 1e-3},
+        Shape("ellipse", 1e-3),
+        analytic.mindlin_ellipse_stiffness(1.0, 1e-3, 1.0, NU)[0],
+    ),
+    "ellipse 1e-6": (
+        {"shape": "ellipse", "aspect": 1e-6},
+        Shape("ellipse", 1e-6),
+        analytic.mindlin_ellipse_stiffness(1.0, 1e-6, 1.0, NU)[0],
+    ),
     "square": ({"shape": "polygon", "sides": 4, "shape_angle": 45.0}, Shape("polygon", sides=4, angle_deg=45.0), None),
     "hexagon": ({"shape": "polygon", "sides": 6}, Shape("polygon", sides=6), None),
     "rectangle 1e-8": ({"shape": "rectangle", "aspect": 1e-8}, Shape("rectangle", 1e-8), None),
@@ -78,9 +102,17 @@ FIRST_GRID = {"ellipse 0.05 sq": (128, 8)}  # cells dy/dx = 0.8 (singular cells 
 
 
 def run(params: dict, n: int, n_across: int, strategy: str) -> dict:
-    scene = Scene.from_params({**params, "nu": NU, "n": n, "n_across": n_across, "tol": 1e-12, "quantities": "tangential"})
+    scene = Scene.from_params(
+        {**params, "nu": NU, "n": n, "n_across": n_across, "tol": 1e-12, "quantities": "tangential"}
+    )
     record = covered_solve(scene, strategy)
-    return {"n": n, "n_across": n_across, "K_xx": record["K_xx"], "time_s": record["wall_time_s"], "boundary": record["boundary"]}
+    return {
+        "n": n,
+        "n_across": n_across,
+        "K_xx": record["K_xx"],
+        "time_s": record["wall_time_s"],
+        "boundary": record["boundary"],
+    }
 
 
 def reference(params: dict, shape: Shape, nmax: int) -> tuple[float, float]:
@@ -125,19 +157,36 @@ def table(label: str, levels: list[dict], exact: float) -> list[dict]:
 def bound() -> None:
     """n_across·error of singular cells over shapes, nu and tensor entries (module docstring)."""
     worst = 0.0
-    cases = (("circle", 1.0, 32, 32, 4), ("ellipse", 0.7, 32, 22, 4), ("ellipse", 0.5, 32, 16, 4), ("ellipse", 0.05, 128, 8, 3))
+    cases = (
+        ("circle", 1.0, 32, 32, 4),
+        ("ellipse", 0.7, 32, 22, 4),
+        ("ellipse", 0.5, 32, 16, 4),
+        ("ellipse", 0.05, 128, 8, 3),
+    )
     for shape, aspect, n0, na0, levels in cases:
         for nu in (0.0, 0.3, 0.5):
             K_a, K_b = analytic.mindlin_ellipse_stiffness(1.0, aspect, 1.0, nu)
             exact = {"K_xx": K_a, "K_yy": K_b, "K_zz": analytic.elliptical_punch_normal_stiffness(1.0, aspect, 1.0, nu)}
             for k in range(levels):
                 n, na = n0 * 2**k, na0 * 2**k
-                params = {"shape": shape, "aspect": aspect, "nu": nu, "n": n, "n_across": na, "tol": 1e-12, "quantities": "tangential,normal"}
+                params = {
+                    "shape": shape,
+                    "aspect": aspect,
+                    "nu": nu,
+                    "n": n,
+                    "n_across": na,
+                    "tol": 1e-12,
+                    "quantities": "tangential,normal",
+                }
                 record = covered_solve(Scene.from_params(params), "singular")
                 scaled = {key: na * (record[key] / value - 1.0) for key, value in exact.items()}
                 worst = max(worst, *(abs(v) for v in scaled.values()))
-                print(f"{shape:8s} {aspect:4.2f} nu {nu:3.1f} n {n:4d} x {na:4d} " + " ".join(f"{k} {v:+.5f}" for k, v in scaled.items())
-                      + f"  {record['wall_time_s']:.2f} s", flush=True)
+                print(
+                    f"{shape:8s} {aspect:4.2f} nu {nu:3.1f} n {n:4d} x {na:4d} "
+                    + " ".join(f"{k} {v:+.5f}" for k, v in scaled.items())
+                    + f"  {record['wall_time_s']:.2f} s",
+                    flush=True,
+                )
     print(f"largest |n_across·error| = {worst:.5f}")
 
 
@@ -151,16 +200,30 @@ def done_when_case(aspect: float, nu: float, request: float, strategy: str, max_
     from hpcontact.accuracy import solve_to_accuracy
 
     scene = Scene.from_params({"shape": "ellipse", "aspect": aspect, "nu": nu, "quantities": "tangential,normal"})
-    solved = harness.timed(lambda: solve_to_accuracy(scene, request, strategy=strategy, max_cells=max_cells, strict=False))
+    solved = harness.timed(
+        lambda: solve_to_accuracy(scene, request, strategy=strategy, max_cells=max_cells, strict=False)
+    )
     r, cpu = solved.value, solved.cpu_s
     K_a, K_b = analytic.mindlin_ellipse_stiffness(1.0, aspect, 1.0, nu)
-    exact = {"K_xx": K_a, "K_yy": K_b, "K_zz": analytic.elliptical_punch_normal_stiffness(1.0, aspect, 1.0, nu),
-             "K_a_over_K_b": K_a / K_b}
+    exact = {
+        "K_xx": K_a,
+        "K_yy": K_b,
+        "K_zz": analytic.elliptical_punch_normal_stiffness(1.0, aspect, 1.0, nu),
+        "K_a_over_K_b": K_a / K_b,
+    }
     true = {k: abs(r[k] / v - 1.0) for k, v in exact.items()}
-    return {"aspect": aspect, "nu": nu, "strategy": r["boundary"], "estimate": r["estimated_error"],
-            "true": max(true.values()), "honest_per_quantity": all(true[k] <= r["estimated_errors"][k] for k in true),
-            "cpu_s": cpu, "peak_mib": harness.peak_rss_mb(), "finest": [r["grids"][-1], r["grids_across"][-1]],
-            "stopped_by": r["stopped_by"]}
+    return {
+        "aspect": aspect,
+        "nu": nu,
+        "strategy": r["boundary"],
+        "estimate": r["estimated_error"],
+        "true": max(true.values()),
+        "honest_per_quantity": all(true[k] <= r["estimated_errors"][k] for k in true),
+        "cpu_s": cpu,
+        "peak_mib": harness.peak_rss_mb(),
+        "finest": [r["grids"][-1], r["grids_across"][-1]],
+        "stopped_by": r["stopped_by"],
+    }
 
 
 def done_when(request: float, max_cells: int, strategies: tuple[str, ...] = ("coverage", "auto")) -> None:
@@ -172,9 +235,14 @@ def done_when(request: float, max_cells: int, strategies: tuple[str, ...] = ("co
     print("|---|---|---|---|---|---|---|---|---|---|")
     for strategy in strategies:
         for aspect, nu in DONE_WHEN:
-            r = harness.call_in_child(__file__, "done_when_case", aspect, nu, request, strategy, max_cells, check=True).result
-            print(f"| {aspect:g} | {nu:g} | {r['strategy']} | {r['estimate']:.2e} | {r['true']:.2e} | {r['honest_per_quantity']} | "
-                  f"{r['cpu_s']:.1f} | {r['peak_mib']:.0f} | {r['finest'][0]} × {r['finest'][1]} | {r['stopped_by']} |", flush=True)
+            r = harness.call_in_child(
+                __file__, "done_when_case", aspect, nu, request, strategy, max_cells, check=True
+            ).result
+            print(
+                f"| {aspect:g} | {nu:g} | {r['strategy']} | {r['estimate']:.2e} | {r['true']:.2e} | {r['honest_per_quantity']} | "
+                f"{r['cpu_s']:.1f} | {r['peak_mib']:.0f} | {r['finest'][0]} × {r['finest'][1]} | {r['stopped_by']} |",
+                flush=True,
+            )
 
 
 CALIBRATION_ASPECTS = (1.0, 0.7, 0.5, 0.3, 0.2, 0.1, 0.05)
@@ -201,8 +269,9 @@ def calibration_grids(aspect: float, nu: float, n0: int, max_cells: int | None =
     return grids
 
 
-def singular_rows(aspect: float, n: int, na: int, near_field: str = "subcells",
-                  nus: tuple[float, ...] = (0.0, 0.3, 0.5)) -> list[dict]:
+def singular_rows(
+    aspect: float, n: int, na: int, near_field: str = "subcells", nus: tuple[float, ...] = (0.0, 0.3, 0.5)
+) -> list[dict]:
     """K_xx, K_yy, K_zz of singular cells (``near_field``) on one grid for each nu, as
     ``covered_solve(..., "singular")`` gives them (``boundary_cells.singular_block_solve``, CG to
     1e-10): the near field's integrals do not depend on nu, so one ``SingularCells`` serves every
@@ -230,7 +299,9 @@ def singular_rows(aspect: float, n: int, na: int, near_field: str = "subcells",
     return rows
 
 
-def singular_records(cache: Path, near_field: str = "subcells") -> tuple[list[tuple[float, float, float]], list[tuple[float, float]]]:
+def singular_records(
+    cache: Path, near_field: str = "subcells"
+) -> tuple[list[tuple[float, float, float]], list[tuple[float, float]]]:
     """The replay behind ``accuracy.SINGULAR_SAFETY``: every grid of :func:`calibration_grids`
     (b/a in ``CALIBRATION_ASPECTS``, nu = 0, 0.3, 0.5, n₀ = 16 and 32) solved once and cached
     (JSON lines, CPU seconds; solved here when missing), then ``accuracy.refine`` with the
@@ -246,8 +317,14 @@ def singular_records(cache: Path, near_field: str = "subcells") -> tuple[list[tu
         for nu in (0.0, 0.3, 0.5):
             K_a, K_b = analytic.mindlin_ellipse_stiffness(1.0, aspect, 1.0, nu)
             K_z = analytic.elliptical_punch_normal_stiffness(1.0, aspect, 1.0, nu)
-            exact = {"K_xx": K_a, "K_yy": K_b, "K_zz": K_z, "K_a_over_K_b": K_a / K_b, "normalized_xx": K_a / K_z,
-                     "normalized_yy": K_b / K_z}
+            exact = {
+                "K_xx": K_a,
+                "K_yy": K_b,
+                "K_zz": K_z,
+                "K_a_over_K_b": K_a / K_b,
+                "normalized_xx": K_a / K_z,
+                "normalized_yy": K_b / K_z,
+            }
             for n0 in (16, 32):
                 grids = calibration_grids(aspect, nu, n0, EDGE_CALIBRATION_CELLS if near_field == "edge" else None)
                 for n, na in grids:
@@ -257,14 +334,25 @@ def singular_records(cache: Path, near_field: str = "subcells") -> tuple[list[tu
                             harness.append_jsonl(cache, row)
                 levels = {g: cached[(aspect, nu, *g)] for g in grids}
                 for request in requests:
-                    done = acc.refine(grids, lambda n, na, levels=levels: levels[(n, na)], request, acc.SINGULAR_EXPANSIONS,
-                                      acc.SINGULAR_SAFETY)
+                    done = acc.refine(
+                        grids,
+                        lambda n, na, levels=levels: levels[(n, na)],
+                        request,
+                        acc.SINGULAR_EXPANSIONS,
+                        acc.SINGULAR_SAFETY,
+                    )
                     v = done.values
-                    values = {**v, "K_a_over_K_b": v["K_xx"] / v["K_yy"], "normalized_xx": v["K_xx"] / v["K_zz"],
-                              "normalized_yy": v["K_yy"] / v["K_zz"]}
+                    values = {
+                        **v,
+                        "K_a_over_K_b": v["K_xx"] / v["K_yy"],
+                        "normalized_xx": v["K_xx"] / v["K_zz"],
+                        "normalized_yy": v["K_yy"] / v["K_zz"],
+                    }
                     true = {k: abs(values[k] / exact[k] - 1.0) for k in exact}
                     records.append((request, max(true.values()), max(done.relative.values())))
-                    pairs += [(true[k], done.relative[k]) for k in exact if true[k] >= 1e-13]  # below: exact by symmetry
+                    pairs += [
+                        (true[k], done.relative[k]) for k in exact if true[k] >= 1e-13
+                    ]  # below: exact by symmetry
     return records, pairs
 
 
@@ -279,10 +367,15 @@ def singular_calibration(cache: Path, near_field: str = "subcells") -> None:
     from hpcontact import accuracy as acc
 
     records, pairs = singular_records(cache, near_field)
-    for label, rows in (("records", records), ("records, requests below SINGULAR_BELOW", [r for r in records if r[0] < acc.SINGULAR_BELOW])):
+    for label, rows in (
+        ("records", records),
+        ("records, requests below SINGULAR_BELOW", [r for r in records if r[0] < acc.SINGULAR_BELOW]),
+    ):
         ratio = np.array([t / e for _, t, e in rows])
-        print(f"{label}: {len(ratio)}; worst true/estimate {ratio.max():.2f}; above 1: {int((ratio > 1).sum())}; "
-              f"within 30x: {100 * (ratio >= 1 / 30).mean():.1f} %; worst estimate/true {1.0 / ratio.min():.0f}")
+        print(
+            f"{label}: {len(ratio)}; worst true/estimate {ratio.max():.2f}; above 1: {int((ratio > 1).sum())}; "
+            f"within 30x: {100 * (ratio >= 1 / 30).mean():.1f} %; worst estimate/true {1.0 / ratio.min():.0f}"
+        )
     ratio = np.array([t / e for t, e in pairs])
     print(f"per-quantity pairs: {len(ratio)}; worst true/estimate {ratio.max():.2f}; above 1: {int((ratio > 1).sum())}")
     cached = {(r["aspect"], r["nu"], r["n"], r["n_across"]): r for r in harness.read_jsonl(cache)}
@@ -296,15 +389,26 @@ def singular_calibration(cache: Path, near_field: str = "subcells") -> None:
             levels = {g: cached[(aspect, nu, *g)] for g in grids}
             cells = []
             for request in (1e-5, 1e-6):
-                done = acc.refine(grids, lambda n, na, levels=levels: levels[(n, na)], request, acc.SINGULAR_EXPANSIONS,
-                                  acc.SINGULAR_SAFETY)
+                done = acc.refine(
+                    grids,
+                    lambda n, na, levels=levels: levels[(n, na)],
+                    request,
+                    acc.SINGULAR_EXPANSIONS,
+                    acc.SINGULAR_SAFETY,
+                )
                 v = done.values
-                true = max(abs(v["K_xx"] / K_a - 1), abs(v["K_yy"] / K_b - 1), abs(v["K_zz"] / K_z - 1),
-                           abs(v["K_xx"] / v["K_yy"] / (K_a / K_b) - 1))
+                true = max(
+                    abs(v["K_xx"] / K_a - 1),
+                    abs(v["K_yy"] / K_b - 1),
+                    abs(v["K_zz"] / K_z - 1),
+                    abs(v["K_xx"] / v["K_yy"] / (K_a / K_b) - 1),
+                )
                 last = done.levels[-1]
                 met = "met" if done.stopped_by == "met" else "not met"
-                cells.append(f"{met}, {last['n']} × {last['n_across']}, {max(done.relative.values()):.2e} / {true:.2e}, "
-                             f"{sum(level['cpu_s'] for level in done.levels):.1f}")
+                cells.append(
+                    f"{met}, {last['n']} × {last['n_across']}, {max(done.relative.values()):.2e} / {true:.2e}, "
+                    f"{sum(level['cpu_s'] for level in done.levels):.1f}"
+                )
             print(f"| {aspect:g} | {nu:g} | {cells[0]} | {cells[1]} |")
 
 
@@ -314,14 +418,30 @@ def main() -> None:
     parser.add_argument("--nmax", type=int, default=512, help="finest grid of the sequence (power of two ≥ 128)")
     parser.add_argument("--out", type=Path, default=None, help="JSON with every number")
     parser.add_argument("--bound", action="store_true", help="the singular cells' error bound study instead")
-    parser.add_argument("--done-when", type=float, default=None, metavar="REQUEST",
-                        help="issue 12's --accuracy table (b/a 0.7, 0.05, 1e-3, 1e-6; nu 0.3, 0.5), coverage and auto")
+    parser.add_argument(
+        "--done-when",
+        type=float,
+        default=None,
+        metavar="REQUEST",
+        help="issue 12's --accuracy table (b/a 0.7, 0.05, 1e-3, 1e-6; nu 0.3, 0.5), coverage and auto",
+    )
     parser.add_argument("--max-cells", type=int, default=1024 * 1024 - 1, help="largest grid of --done-when (cells)")
-    parser.add_argument("--strategies", default="coverage,auto", help="--done-when's cell treatments, comma-separated (coverage, auto)")
-    parser.add_argument("--singular-calibration", type=Path, default=None, metavar="CACHE",
-                        help="honesty of --accuracy on singular cells (solves what CACHE lacks, then replays)")
-    parser.add_argument("--near-field", choices=("subcells", "edge"), default="subcells",
-                        help="--singular-calibration's near-field quadrature (singular_cells.NEAR_FIELDS)")
+    parser.add_argument(
+        "--strategies", default="coverage,auto", help="--done-when's cell treatments, comma-separated (coverage, auto)"
+    )
+    parser.add_argument(
+        "--singular-calibration",
+        type=Path,
+        default=None,
+        metavar="CACHE",
+        help="honesty of --accuracy on singular cells (solves what CACHE lacks, then replays)",
+    )
+    parser.add_argument(
+        "--near-field",
+        choices=("subcells", "edge"),
+        default="subcells",
+        help="--singular-calibration's near-field quadrature (singular_cells.NEAR_FIELDS)",
+    )
     args = parser.parse_args()
     print(f"edge_order: {harness.machine_line(1)}")
     if args.singular_calibration is not None:
@@ -336,7 +456,9 @@ def main() -> None:
     nmax = 256 if args.quick else args.nmax
     labels = QUICK if args.quick else tuple(CASES)
     print(f"nu = {NU}, K_xx; order: observed order of the raw sequence; R: order-1 Richardson on consecutive grids")
-    print(f"{'case':15s} {'boundary':9s} {'n':>5s} {'ny':>5s} {'error':>10s} {'n*error':>9s} {'order':>6s} {'R error':>10s} {'R ord':>6s} {'time':>7s} {'seq.':>7s}")
+    print(
+        f"{'case':15s} {'boundary':9s} {'n':>5s} {'ny':>5s} {'error':>10s} {'n*error':>9s} {'order':>6s} {'R error':>10s} {'R ord':>6s} {'time':>7s} {'seq.':>7s}"
+    )
     out = {}
     for label in labels:
         params, shape, exact = CASES[label]

@@ -29,8 +29,13 @@ from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "results"
-THREAD_VARIABLES = ("HPCONTACT_BLAS_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS",
-                    "BLIS_NUM_THREADS")
+THREAD_VARIABLES = (
+    "HPCONTACT_BLAS_THREADS",
+    "OMP_NUM_THREADS",
+    "OPENBLAS_NUM_THREADS",
+    "MKL_NUM_THREADS",
+    "BLIS_NUM_THREADS",
+)
 CLOCKS: dict[str, Callable[[], float]] = {"wall": time.perf_counter, "cpu": time.process_time}
 CALL = "--harness-call"  # argv[1] of a child started by call_in_child
 _KIB = 1 if sys.platform == "darwin" else 1024  # ru_maxrss: bytes on macOS, KiB on Linux
@@ -100,8 +105,15 @@ class Timing:
         return statistics.median(self.times)
 
 
-def repeat_timing(function: Callable[[], Any], repeat: int = 3, *, warmup: bool = False, min_time: float = 0.0,
-                  max_calls: int = 200, clock: Callable[[], float] = time.perf_counter) -> Timing:
+def repeat_timing(
+    function: Callable[[], Any],
+    repeat: int = 3,
+    *,
+    warmup: bool = False,
+    min_time: float = 0.0,
+    max_calls: int = 200,
+    clock: Callable[[], float] = time.perf_counter,
+) -> Timing:
     """Time ``function()`` ``repeat`` times, and more until ``min_time`` seconds are spent (at most
     ``max_calls``); with ``warmup``, one untimed call first (plans made, caches filled)."""
     if warmup:
@@ -167,8 +179,15 @@ class Child:
         return {**spec, "error": self.error} if self.error else self.result
 
 
-def run_child(command: Sequence[str], *, threads: int = 1, timeout: float | None = None, cwd: str | Path | None = None,
-              env: Mapping[str, str] | None = None, check: bool = False) -> Child:
+def run_child(
+    command: Sequence[str],
+    *,
+    threads: int = 1,
+    timeout: float | None = None,
+    cwd: str | Path | None = None,
+    env: Mapping[str, str] | None = None,
+    check: bool = False,
+) -> Child:
     """Run ``command`` to the end with ``threads`` in the thread variables (``env`` on top);
     with ``timeout`` it is killed after that many seconds; with ``check`` a failure raises
     ``RuntimeError`` with the last line of its stderr."""
@@ -198,9 +217,16 @@ def run_child(command: Sequence[str], *, threads: int = 1, timeout: float | None
         wall = time.perf_counter() - started
         out.seek(0)
         err.seek(0)
-        child = Child(list(command), process.returncode, out.read().decode(errors="replace"),
-                      err.read().decode(errors="replace"), wall, usage.ru_utime + usage.ru_stime,
-                      usage.ru_maxrss * _KIB / 2**20, timeout if killed else None)
+        child = Child(
+            list(command),
+            process.returncode,
+            out.read().decode(errors="replace"),
+            err.read().decode(errors="replace"),
+            wall,
+            usage.ru_utime + usage.ru_stime,
+            usage.ru_maxrss * _KIB / 2**20,
+            timeout if killed else None,
+        )
     if check and (child.returncode != 0 or child.timed_out is not None):
         raise RuntimeError(f"{' '.join(child.command[:4])} …: {child.error}")
     return child
@@ -230,9 +256,13 @@ def entry(main: Callable[[], int | None]) -> None:
 def add_run_options(parser: argparse.ArgumentParser, timeout: float) -> None:
     """Options of the scripts that time fresh processes: per-run timeout, clock, JSON output."""
     parser.add_argument("--timeout", type=float, default=timeout, help=f"seconds per run (default {timeout:.0f})")
-    parser.add_argument("--clock", choices=sorted(CLOCKS), default="wall",
-                        help="wall: elapsed time (default); cpu: each run's process CPU time, robust on a loaded "
-                             "machine but meaningful with --threads 1 only")
+    parser.add_argument(
+        "--clock",
+        choices=sorted(CLOCKS),
+        default="wall",
+        help="wall: elapsed time (default); cpu: each run's process CPU time, robust on a loaded "
+        "machine but meaningful with --threads 1 only",
+    )
     parser.add_argument("--json", type=Path, help="also write every measurement to this JSON file")
 
 
@@ -256,5 +286,7 @@ def machine_line(threads: int | None = None) -> str:
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     versions = ", ".join(f"{p} {_version(p)}" for p in ("numpy", "pyfftw", "hpcontact"))
     threads_text = "" if threads is None else f"; {threads} thread(s)"
-    return (f"{platform.node()}: {cpu}, {os.cpu_count()} cores, load average {load:.1f}; Python "
-            f"{platform.python_version()}, {versions}; {datetime.now().isoformat(timespec='minutes')}{threads_text}")
+    return (
+        f"{platform.node()}: {cpu}, {os.cpu_count()} cores, load average {load:.1f}; Python "
+        f"{platform.python_version()}, {versions}; {datetime.now().isoformat(timespec='minutes')}{threads_text}"
+    )

@@ -31,9 +31,21 @@ import harness
 from hpcontact.problems.slip.partial_slip import solve_slip
 
 ORTHO = "E1=25 E2=1 E3=1 G12=0.5 G13=0.5 G23=0.2 nu12=0.25 nu13=0.25 nu23=0.25"
-SCENE = {"quantities": "slip", "radius": 0.5, "radius_b": 1.1, "load": 0.37e6, "mu": 0.1, "q_ratio": 0.5,
-         "control": "displacement", "displacement": 0.15e-3, "angle": 180.0, "path": "proportional", "steps": 1,
-         "tol": 1e-8, "tensor": True}
+SCENE = {
+    "quantities": "slip",
+    "radius": 0.5,
+    "radius_b": 1.1,
+    "load": 0.37e6,
+    "mu": 0.1,
+    "q_ratio": 0.5,
+    "control": "displacement",
+    "displacement": 0.15e-3,
+    "angle": 180.0,
+    "path": "proportional",
+    "steps": 1,
+    "tol": 1e-8,
+    "tensor": True,
+}
 PAIRS = {
     "iso similar": {"E": 1e9, "nu": 0.25, "E2": 1e9, "nu2": 0.25},
     "iso dissimilar": {"E": 1e9, "nu": 0.25, "E2": 2e9, "nu2": 0.25},
@@ -59,8 +71,10 @@ def main() -> None:
     for name, t in times.items():
         warm = min(t[1:]) if len(t) > 1 else float("nan")
         iso_warm = min(times["iso dissimilar"][1:]) if len(t) > 1 else float("nan")
-        print(f"{name:16s} {t[0]:7.2f} {warm:7.2f} {t[0] / times['iso similar'][0]:13.2f} "
-              f"{t[0] / times['iso dissimilar'][0]:13.2f} {warm / iso_warm:13.2f}")
+        print(
+            f"{name:16s} {t[0]:7.2f} {warm:7.2f} {t[0] / times['iso similar'][0]:13.2f} "
+            f"{t[0] / times['iso dissimilar'][0]:13.2f} {warm / iso_warm:13.2f}"
+        )
 
 
 if __name__ == "__main__":

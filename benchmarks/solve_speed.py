@@ -44,7 +44,7 @@ traction, and how far the two results differ.
 
 BLAS threads (OpenBLAS/MKL/OMP) are set to ``--threads`` in the child before numpy loads: the
 CG's dot products and norms call BLAS, and a multi-threaded BLAS on a loaded machine costs more
-than the FFTs (see README).
+than the FFTs (see docs/explanation/speed.md, "The engine").
 
     python benchmarks/solve_speed.py                    # 256, 512, 1024; 1 thread
     python benchmarks/solve_speed.py --n 256 512 --threads 2 --json out.json
@@ -212,7 +212,9 @@ def child(spec: dict) -> dict:
         import pyfftw
 
         pyfftw.forget_wisdom()  # else FFTW_ESTIMATE planning would reuse the measured plans' wisdom
-        rough = opm.ConvolutionOperator(grid.nx, grid.ny, comps, spectra, threads=threads, planner_effort="FFTW_ESTIMATE")
+        rough = opm.ConvolutionOperator(
+            grid.nx, grid.ny, comps, spectra, threads=threads, planner_effort="FFTW_ESTIMATE"
+        )
         estimate_ms = 1e3 * _best(lambda: rough.apply(t), 10)
         del rough
         gain = 1e-3 * estimate_ms - apply_s
@@ -282,6 +284,7 @@ def cold_child(spec: dict) -> dict:
     import hpcontact.problems.contact as solve_module
     from hpcontact import cli
     from hpcontact.numerics import convolution as opm
+
     global CLOCK
     CLOCK = harness.CLOCKS[spec["clock"]]
     cg = {"s": 0.0, "iterations": 0, "solves": 0}
@@ -310,15 +313,36 @@ def cold_child(spec: dict) -> dict:
     params = CASES[spec["case"]]
     with tempfile.TemporaryDirectory() as work:
         if spec["mode"] == "solve":
-            argv = ["solve", "--shape", params["shape"], "--nu", str(params["nu"]), "--quantities", params["quantities"],
-                    "--n", str(spec["n"]), "--tol", repr(spec["tol"]), "--threads", str(spec["threads"])]
+            argv = [
+                "solve",
+                "--shape",
+                params["shape"],
+                "--nu",
+                str(params["nu"]),
+                "--quantities",
+                params["quantities"],
+                "--n",
+                str(spec["n"]),
+                "--tol",
+                repr(spec["tol"]),
+                "--threads",
+                str(spec["threads"]),
+            ]
         else:
             nus = [round(0.45 * i / max(spec["scenes"] - 1, 1), 6) for i in range(spec["scenes"])]
             path = os.path.join(work, "sweep.toml")
             with open(path, "w") as fh:
-                fh.write(SWEEP_SPEC.format(scenes=spec["scenes"], output=os.path.join(work, "out.nc"), n=spec["n"],
-                                           quantities=params["quantities"], threads=spec["threads"], tol=spec["tol"],
-                                           nu=json.dumps(nus)))
+                fh.write(
+                    SWEEP_SPEC.format(
+                        scenes=spec["scenes"],
+                        output=os.path.join(work, "out.nc"),
+                        n=spec["n"],
+                        quantities=params["quantities"],
+                        threads=spec["threads"],
+                        tol=spec["tol"],
+                        nu=json.dumps(nus),
+                    )
+                )
             argv = ["run", path]
         t0 = CLOCK()
         with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
@@ -326,15 +350,26 @@ def cold_child(spec: dict) -> dict:
         wall = CLOCK() - t0
     if status != 0:
         raise RuntimeError(f"hpcontact {' '.join(argv)} exited with {status}")
-    return {**spec, "status": status, "cg_s": cg["s"], "iterations": cg["iterations"], "solves": cg["solves"],
-            "per_iter_ms": 1e3 * cg["s"] / max(cg["iterations"], 1), "wall_s": wall,
-            "planning_s": planning[0]}
+    return {
+        **spec,
+        "status": status,
+        "cg_s": cg["s"],
+        "iterations": cg["iterations"],
+        "solves": cg["solves"],
+        "per_iter_ms": 1e3 * cg["s"] / max(cg["iterations"], 1),
+        "wall_s": wall,
+        "planning_s": planning[0],
+    }
 
 
 WARM_CHAINS = (  # (label, scene, axis, values): neighbouring scenes of a continuation
     ("circle, nu", {"shape": "circle", "quantities": "tangential"}, "nu", [0.05 * i for i in range(1, 11)]),
-    ("ellipse b/a = 0.3, A = 2, psi", {"shape": "ellipse", "aspect": 0.3, "quantities": "tangential",
-                                       "anisotropy": 2.0}, "orientation", [0.0, 10.0, 20.0, 30.0, 40.0]),
+    (
+        "ellipse b/a = 0.3, A = 2, psi",
+        {"shape": "ellipse", "aspect": 0.3, "quantities": "tangential", "anisotropy": 2.0},
+        "orientation",
+        [0.0, 10.0, 20.0, 30.0, 40.0],
+    ),
 )
 
 
@@ -367,14 +402,17 @@ def warm_start(n: int, tol: float) -> None:
             if previous is not None and previous.shape == cold.traction.shape:
                 x0 = previous * mask
                 r0 = (b - op.apply(x0)) * mask
-                d = conjugate_gradient(op.apply, r0, mask, tol=tol * np.linalg.norm(b * mask) / np.linalg.norm(r0),
-                                       precondition=pc)
+                d = conjugate_gradient(
+                    op.apply, r0, mask, tol=tol * np.linalg.norm(b * mask) / np.linalg.norm(r0), precondition=pc
+                )
                 load = solve.components.index(solve.load)
                 worst = max(worst, abs((x0 + d.traction)[load].sum() / cold.traction[load].sum() - 1.0))
                 cold_total, warm_total = cold_total + cold.iterations, warm_total + d.iterations
             previous = cold.traction
-        print(f"  {label} {values[0]:g} … {values[-1]:g}: {cold_total} -> {warm_total} iterations "
-              f"({warm_total / cold_total:.2f}); force differs by up to {worst:.1e} relative")
+        print(
+            f"  {label} {values[0]:g} … {values[-1]:g}: {cold_total} -> {warm_total} iterations "
+            f"({warm_total / cold_total:.2f}); force differs by up to {worst:.1e} relative"
+        )
 
 
 # ---------------------------------------------------------------------------------------------
@@ -383,15 +421,21 @@ def warm_start(n: int, tol: float) -> None:
 def print_tables(rows: list[dict]) -> None:
     ok = [r for r in rows if "error" not in r]
     print("\nSetup (s): kernel construction + spectra + FFTW planning (+ preconditioner for PCG)")
-    print(f"{'case':18s} {'n':>5s} {'grid':>10s} {'FFT grid':>10s} {'kernels':>8s} {'spectra':>8s} {'plan':>7s} {'pc':>6s} {'setup':>7s} {'op MB':>7s}")
+    print(
+        f"{'case':18s} {'n':>5s} {'grid':>10s} {'FFT grid':>10s} {'kernels':>8s} {'spectra':>8s} {'plan':>7s} {'pc':>6s} {'setup':>7s} {'op MB':>7s}"
+    )
     for r in ok:
-        if r["solver"] != "PCG" and any(o["solver"] == "PCG" and o["case"] == r["case"] and o["n"] == r["n"] for o in ok):
+        if r["solver"] != "PCG" and any(
+            o["solver"] == "PCG" and o["case"] == r["case"] and o["n"] == r["n"] for o in ok
+        ):
             continue
         print(
             f"{r['case']:18s} {r['n']:5d} {'x'.join(map(str, r['grid'])):>10s} {'x'.join(map(str, r['fft_shape'])):>10s}"
             f" {r['kernels_s']:8.2f} {r['spectra_s']:8.2f} {r['plan_s']:7.2f} {r['pc_s']:6.3f} {r['setup_s']:7.2f} {r['op_mb']:7.0f}"
         )
-    print("\nSolve: per iteration against the FFT floor (op.fft_only [+ preconditioner FFTs]); times are best of repeats")
+    print(
+        "\nSolve: per iteration against the FFT floor (op.fft_only [+ preconditioner FFTs]); times are best of repeats"
+    )
     print(
         f"{'case':18s} {'n':>5s} {'solver':>6s} {'iters':>5s} {'ms/iter':>8s} {'floor ms':>8s} {'ratio':>6s}"
         f" {'apply ms':>8s} {'pc ms':>6s} {'other ms':>8s} {'2D FFT ms':>9s} {'solve s':>8s} {'total s':>8s} {'peak MB':>8s} {'force':>10s} plans"
@@ -438,19 +482,34 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--solvers", nargs="+", choices=["CG", "PCG"], default=["CG", "PCG"])
     p.add_argument("--tol", type=float, default=1e-8, help="CG relative residual (default 1e-8)")
     p.add_argument("--repeat", type=int, default=3, help="solves per run; the best is kept (default 3)")
-    p.add_argument("--planner", choices=["FFTW_ESTIMATE", "FFTW_MEASURE", "FFTW_PATIENT"],
-                   help="planner effort for the operator (default: ConvolutionOperator's default)")
+    p.add_argument(
+        "--planner",
+        choices=["FFTW_ESTIMATE", "FFTW_MEASURE", "FFTW_PATIENT"],
+        help="planner effort for the operator (default: ConvolutionOperator's default)",
+    )
     p.add_argument("--wisdom", action="store_true", help="load and save FFTW wisdom (planning then takes ms)")
     p.add_argument("--no-full-fft", dest="full_fft", action="store_false", help="skip the unpruned 2-D FFT reference")
-    p.add_argument("--cold", choices=["also", "only", "no"], default="also",
-                   help="the cold-versus-best-plan table (circle_tangential, PCG): also (default), only, no")
+    p.add_argument(
+        "--cold",
+        choices=["also", "only", "no"],
+        default="also",
+        help="the cold-versus-best-plan table (circle_tangential, PCG): also (default), only, no",
+    )
     p.add_argument("--scenes", type=int, default=10, help="scenes of the cold sweep (default 10)")
     p.add_argument("--rounds", type=int, default=1, help="cold table: repeat it, keep each run's fastest (default 1)")
-    p.add_argument("--warm-start", type=int, metavar="N",
-                   help="only the warm-start experiment on N cells across (CG from the previous scene's traction)")
-    p.add_argument("--code", nargs="+", default=[os.path.dirname(os.path.dirname(os.path.abspath(__file__)))],
-                   help="source trees to compare in the cold table, e.g. a `git worktree` of an older commit and "
-                        "this checkout (default: this checkout)")
+    p.add_argument(
+        "--warm-start",
+        type=int,
+        metavar="N",
+        help="only the warm-start experiment on N cells across (CG from the previous scene's traction)",
+    )
+    p.add_argument(
+        "--code",
+        nargs="+",
+        default=[os.path.dirname(os.path.dirname(os.path.abspath(__file__)))],
+        help="source trees to compare in the cold table, e.g. a `git worktree` of an older commit and "
+        "this checkout (default: this checkout)",
+    )
     harness.add_run_options(p, timeout=1800.0)
     args = p.parse_args(argv)
     print(f"solve_speed: {harness.machine_line(args.threads)}")
@@ -458,29 +517,46 @@ def main(argv: list[str] | None = None) -> int:
         warm_start(args.warm_start, args.tol)
         return 0
 
-    print(f"tol {args.tol:g}; {args.clock} clock; "
-          f"FFTW planning: {args.planner or 'default effort'}, {'with' if args.wisdom else 'without'} saved wisdom")
+    print(
+        f"tol {args.tol:g}; {args.clock} clock; "
+        f"FFTW planning: {args.planner or 'default effort'}, {'with' if args.wisdom else 'without'} saved wisdom"
+    )
     rows = []
     for n in args.n if args.cold != "only" else []:
         for case in args.cases:
             for solver in args.solvers:
-                spec = {"case": case, "n": n, "solver": solver, "threads": args.threads, "tol": args.tol,
-                        "repeat": args.repeat, "wisdom": args.wisdom, "full_fft": args.full_fft, "clock": args.clock,
-                        "planner": args.planner}
-                r = harness.call_in_child(__file__, "child", spec, threads=args.threads, timeout=args.timeout).or_error(spec)
+                spec = {
+                    "case": case,
+                    "n": n,
+                    "solver": solver,
+                    "threads": args.threads,
+                    "tol": args.tol,
+                    "repeat": args.repeat,
+                    "wisdom": args.wisdom,
+                    "full_fft": args.full_fft,
+                    "clock": args.clock,
+                    "planner": args.planner,
+                }
+                r = harness.call_in_child(__file__, "child", spec, threads=args.threads, timeout=args.timeout).or_error(
+                    spec
+                )
                 rows.append(r)
                 if "error" in r:
                     print(f"  {case} n={n} {solver}: FAILED: {r['error']}", file=sys.stderr, flush=True)
                 else:
-                    print(f"  {case} n={n} {solver}: {r['iterations']} iterations, {r['per_iter_ms']:.2f} ms/iter "
-                          f"(floor {r['fft_floor_ms']:.2f}), setup {r['setup_s']:.2f} s, solve {r['solve_s']:.3f} s",
-                          file=sys.stderr, flush=True)
+                    print(
+                        f"  {case} n={n} {solver}: {r['iterations']} iterations, {r['per_iter_ms']:.2f} ms/iter "
+                        f"(floor {r['fft_floor_ms']:.2f}), setup {r['setup_s']:.2f} s, solve {r['solve_s']:.3f} s",
+                        file=sys.stderr,
+                        flush=True,
+                    )
     if rows:
         print_tables(rows)
     cold = cold_table(args) if args.cold != "no" else []
     if args.json:
-        harness.write_json(args.json, {"machine": harness.machine_line(args.threads), "clock": args.clock, "rows": rows,
-                                       "cold": cold})
+        harness.write_json(
+            args.json, {"machine": harness.machine_line(args.threads), "clock": args.clock, "rows": rows, "cold": cold}
+        )
     return 0 if all("error" not in r for r in rows + cold) else 1
 
 
@@ -495,29 +571,54 @@ def cold_table(args: argparse.Namespace) -> list[dict]:
 
     def measure(spec: dict, function: str) -> dict:
         """``function(spec)`` in a fresh process that imports hpcontact from ``spec["code"]``."""
-        return harness.call_in_child(__file__, function, spec, threads=args.threads, timeout=args.timeout,
-                                     env=code_environment(spec)).or_error(spec)
+        return harness.call_in_child(
+            __file__, function, spec, threads=args.threads, timeout=args.timeout, env=code_environment(spec)
+        ).or_error(spec)
+
     for round_ in range(args.rounds):
         with tempfile.TemporaryDirectory() as work:
             for n in args.n:
                 for index, code in enumerate(args.code):
-                    common = {"case": case, "n": n, "threads": args.threads, "tol": args.tol, "clock": args.clock,
-                              "code": code, "scenes": args.scenes}
-                    best = measure({**common, "solver": "PCG", "repeat": args.repeat, "wisdom": False,
-                                    "full_fft": False, "planner": "FFTW_MEASURE"}, "child")
+                    common = {
+                        "case": case,
+                        "n": n,
+                        "threads": args.threads,
+                        "tol": args.tol,
+                        "clock": args.clock,
+                        "code": code,
+                        "scenes": args.scenes,
+                    }
+                    best = measure(
+                        {
+                            **common,
+                            "solver": "PCG",
+                            "repeat": args.repeat,
+                            "wisdom": False,
+                            "full_fft": False,
+                            "planner": "FFTW_MEASURE",
+                        },
+                        "child",
+                    )
                     wisdom = os.path.join(work, f"wisdom-{n}-{index}")
-                    runs = {"solve": {"mode": "solve", "wisdom_file": os.path.join(work, f"none-{n}-{index}")},
-                            "sweep": {"mode": "sweep", "wisdom_file": wisdom},
-                            "again": {"mode": "sweep", "wisdom_file": wisdom}}
+                    runs = {
+                        "solve": {"mode": "solve", "wisdom_file": os.path.join(work, f"none-{n}-{index}")},
+                        "sweep": {"mode": "sweep", "wisdom_file": wisdom},
+                        "again": {"mode": "sweep", "wisdom_file": wisdom},
+                    }
                     row = {"n": n, "code": code, "best": best}
                     for name, extra in runs.items():
                         row[name] = measure({**common, **extra}, "cold_child")
                     errors = "; ".join(f"{k}: {row[k]['error']}" for k in ("best", *runs) if "error" in row[k])
                     if errors:
                         row["error"] = errors
-                    print(f"  round {round_ + 1} n={n} {code}: " + ", ".join(
-                        f"{k} {row[k].get('per_iter_ms', float('nan')):.1f} ms/iter" for k in ("best", *runs)),
-                        file=sys.stderr, flush=True)
+                    print(
+                        f"  round {round_ + 1} n={n} {code}: "
+                        + ", ".join(
+                            f"{k} {row[k].get('per_iter_ms', float('nan')):.1f} ms/iter" for k in ("best", *runs)
+                        ),
+                        file=sys.stderr,
+                        flush=True,
+                    )
                     kept = results.get((n, code))
                     if kept is None or "error" in row:
                         results[(n, code)] = row if kept is None or "error" not in kept else kept
@@ -525,10 +626,14 @@ def cold_table(args: argparse.Namespace) -> list[dict]:
                         for name in ("best", *runs):
                             if row[name]["per_iter_ms"] < kept[name]["per_iter_ms"]:
                                 kept[name] = row[name]
-    print(f"\nCold, as users run it ({case}, PCG, tol {args.tol:g}): CG ms per iteration in fresh processes, "
-          f"against the best plans; fastest of {args.rounds} round(s)")
-    print(f"{'code':>24s} {'n':>5s} {'best':>7s} {'plan s':>6s} {'b-even':>6s} | {'solve':>7s} {'ratio':>5s} | "
-          f"{'sweep':>7s} {'ratio':>5s} {'iters':>5s} {'plan s':>6s} | {'again':>7s} {'ratio':>5s}")
+    print(
+        f"\nCold, as users run it ({case}, PCG, tol {args.tol:g}): CG ms per iteration in fresh processes, "
+        f"against the best plans; fastest of {args.rounds} round(s)"
+    )
+    print(
+        f"{'code':>24s} {'n':>5s} {'best':>7s} {'plan s':>6s} {'b-even':>6s} | {'solve':>7s} {'ratio':>5s} | "
+        f"{'sweep':>7s} {'ratio':>5s} {'iters':>5s} {'plan s':>6s} | {'again':>7s} {'ratio':>5s}"
+    )
     for row in results.values():
         b = row["best"]
         if "error" in row:
@@ -539,15 +644,19 @@ def cold_table(args: argparse.Namespace) -> list[dict]:
             r = row[name]
             return f"{r['per_iter_ms']:7.1f} {r['per_iter_ms'] / b['per_iter_ms']:5.2f}"
 
-        print(f"{row['code'][-24:]:>24s} {row['n']:5d} {b['per_iter_ms']:7.1f} {b['plan_s']:6.2f} {b['break_even']:6.0f} | "
-              f"{cell('solve')} | {cell('sweep')} {row['sweep']['iterations']:5d} {row['sweep']['planning_s']:6.2f} | "
-              f"{cell('again')}")
-    print("best = CG ms/iteration with FFTW_MEASURE plans made before the solves (best of the repeats); plan s = that"
-          "\nplanning; b-even = applications after which it pays (plan s / (ESTIMATE − MEASURE time per application));"
-          "\nsolve = one `hpcontact solve` on a machine without FFTW wisdom; sweep = `hpcontact run` of"
-          f" {args.scenes} scenes (nu 0 … 0.45)"
-          "\non one grid, no wisdom (plan s: all FFTW planning of that process, inside the CG or not);"
-          "\nagain = the same sweep with the wisdom the first saved; ratio = / best; each in its own fresh process.")
+        print(
+            f"{row['code'][-24:]:>24s} {row['n']:5d} {b['per_iter_ms']:7.1f} {b['plan_s']:6.2f} {b['break_even']:6.0f} | "
+            f"{cell('solve')} | {cell('sweep')} {row['sweep']['iterations']:5d} {row['sweep']['planning_s']:6.2f} | "
+            f"{cell('again')}"
+        )
+    print(
+        "best = CG ms/iteration with FFTW_MEASURE plans made before the solves (best of the repeats); plan s = that"
+        "\nplanning; b-even = applications after which it pays (plan s / (ESTIMATE − MEASURE time per application));"
+        "\nsolve = one `hpcontact solve` on a machine without FFTW wisdom; sweep = `hpcontact run` of"
+        f" {args.scenes} scenes (nu 0 … 0.45)"
+        "\non one grid, no wisdom (plan s: all FFTW planning of that process, inside the CG or not);"
+        "\nagain = the same sweep with the wisdom the first saved; ratio = / best; each in its own fresh process."
+    )
     return list(results.values())
 
 

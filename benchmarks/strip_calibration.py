@@ -55,7 +55,9 @@ NUS = (0.0, 0.3, 0.5)
 STARTS = {"rectangle": (32, 64), "ellipse": (16, 32)}
 REQUESTS = (1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6, 1e-6, 3e-7, 1e-7)
 KEYS = {"K_xx": "xx", "K_yy": "yy", "K_zz": "zz"}
-VERSION = 2  # records of earlier integrals (before the widths' corrections, ``strip_cells.width_corrections``) are not reused
+VERSION = (
+    2  # records of earlier integrals (before the widths' corrections, ``strip_cells.width_corrections``) are not reused
+)
 
 
 def grids_of(shape: str, aspect: float) -> tuple[int, ...]:
@@ -73,8 +75,13 @@ def solve_grid(shape: str, aspect: float, n: int) -> list[dict[str, Any]]:
     out = []
     for nu in NUS:
         material = Isotropic(1.0, nu)
-        K = {key: sc.stiffness(sc.galerkin_matrix(one, xx, block, material), np.diff(edges))[0] for key, block in KEYS.items()}
-        out.append({"shape": shape, "aspect": aspect, "n": n, "nu": nu, **K, "integrals_cpu_s": formed, "version": VERSION})
+        K = {
+            key: sc.stiffness(sc.galerkin_matrix(one, xx, block, material), np.diff(edges))[0]
+            for key, block in KEYS.items()
+        }
+        out.append(
+            {"shape": shape, "aspect": aspect, "n": n, "nu": nu, **K, "integrals_cpu_s": formed, "version": VERSION}
+        )
     return out
 
 
@@ -88,7 +95,11 @@ def load(cache: Path, cases: list[tuple[str, float]]) -> dict[tuple[str, float, 
             if all((shape, aspect, nu, n) in have for nu in NUS):
                 continue
             rows = solve_grid(shape, aspect, n)
-            print(f"  {shape} b/a {aspect:g}, n = {n}: integrals {rows[0]['integrals_cpu_s']:.2f} s CPU", file=sys.stderr, flush=True)
+            print(
+                f"  {shape} b/a {aspect:g}, n = {n}: integrals {rows[0]['integrals_cpu_s']:.2f} s CPU",
+                file=sys.stderr,
+                flush=True,
+            )
             for r in rows:
                 harness.append_jsonl(cache, r)
                 have[(shape, aspect, r["nu"], n)] = r
@@ -96,8 +107,12 @@ def load(cache: Path, cases: list[tuple[str, float]]) -> dict[tuple[str, float, 
 
 
 def with_ratios(K: dict[str, float]) -> dict[str, float]:
-    return {**K, "K_a_over_K_b": K["K_xx"] / K["K_yy"], "normalized_xx": K["K_xx"] / K["K_zz"],
-            "normalized_yy": K["K_yy"] / K["K_zz"]}
+    return {
+        **K,
+        "K_a_over_K_b": K["K_xx"] / K["K_yy"],
+        "normalized_xx": K["K_xx"] / K["K_zz"],
+        "normalized_yy": K["K_yy"] / K["K_zz"],
+    }
 
 
 def reference(have: dict, shape: str, aspect: float, nu: float) -> tuple[dict[str, float], dict[str, float]]:
@@ -105,7 +120,9 @@ def reference(have: dict, shape: str, aspect: float, nu: float) -> tuple[dict[st
     form for an ellipse (uncertainty 0), the order-2 Richardson of n = 2048, 4096 for a rectangle."""
     if shape == "ellipse":
         K_xx, K_yy = analytic.mindlin_ellipse_stiffness(1.0, aspect, 1.0, nu)
-        exact = with_ratios({"K_xx": K_xx, "K_yy": K_yy, "K_zz": analytic.elliptical_punch_normal_stiffness(1.0, aspect, 1.0, nu)})
+        exact = with_ratios(
+            {"K_xx": K_xx, "K_yy": K_yy, "K_zz": analytic.elliptical_punch_normal_stiffness(1.0, aspect, 1.0, nu)}
+        )
         return exact, {k: 0.0 for k in exact}
 
     def rich(n1: int, n2: int) -> dict[str, float]:
@@ -125,7 +142,10 @@ def replay(have: dict, cases: list[tuple[str, float]]) -> list[dict[str, Any]]:
             for n0 in STARTS[shape]:
                 grids = [(n, 1) for n in grids_of(shape, aspect) if n0 <= n <= acc.STRIP_MAX_N]
                 for request in REQUESTS:
-                    def level(n: int, na: int, shape: str = shape, aspect: float = aspect, nu: float = nu) -> dict[str, Any]:
+
+                    def level(
+                        n: int, na: int, shape: str = shape, aspect: float = aspect, nu: float = nu
+                    ) -> dict[str, Any]:
                         r = have[(shape, aspect, nu, n)]
                         return {**{k: r[k] for k in KEYS}, "K_xy": 0.0, "K_yx": 0.0}
 
@@ -133,10 +153,22 @@ def replay(have: dict, cases: list[tuple[str, float]]) -> list[dict[str, Any]]:
                     values = with_ratios({k: done.values[k] for k in KEYS})
                     true = {k: abs(values[k] - ref[k]) / abs(ref[k]) for k in ref}
                     estimate = max(done.relative.values())
-                    records.append({"shape": shape, "aspect": aspect, "nu": nu, "n0": n0, "request": request,
-                                    "estimate": estimate, "estimates": {k: done.relative[k] for k in true}, "true": true,
-                                    "reference_uncertainty": max(unc.values()), "grids": len(done.levels),
-                                    "finest": grids[len(done.levels) - 1][0], "met": estimate <= request})
+                    records.append(
+                        {
+                            "shape": shape,
+                            "aspect": aspect,
+                            "nu": nu,
+                            "n0": n0,
+                            "request": request,
+                            "estimate": estimate,
+                            "estimates": {k: done.relative[k] for k in true},
+                            "true": true,
+                            "reference_uncertainty": max(unc.values()),
+                            "grids": len(done.levels),
+                            "finest": grids[len(done.levels) - 1][0],
+                            "met": estimate <= request,
+                        }
+                    )
     return records
 
 
@@ -151,10 +183,17 @@ def convergence(have: dict, shape: str, aspect: float, nu: float = 0.3) -> list[
     model = sc.model_error(shape_of)
     out = []
     for k in range(acc.MIN_GRIDS, len(levels) + 1):
-        values, relative, _, _ = acc.extrapolate([{**{q: r[q] for q in KEYS}, "K_xy": 0.0, "K_yx": 0.0} for r in levels[:k]])
+        values, relative, _, _ = acc.extrapolate(
+            [{**{q: r[q] for q in KEYS}, "K_xy": 0.0, "K_yx": 0.0} for r in levels[:k]]
+        )
         true = with_ratios({q: values[q] for q in KEYS})
-        out.append((sum(r["integrals_cpu_s"] for r in levels[:k]), max(relative.values()) + model,
-                    max(abs(true[q] / ref[q] - 1.0) for q in ref)))
+        out.append(
+            (
+                sum(r["integrals_cpu_s"] for r in levels[:k]),
+                max(relative.values()) + model,
+                max(abs(true[q] / ref[q] - 1.0) for q in ref),
+            )
+        )
     return out
 
 
@@ -165,21 +204,29 @@ def summary(records: list[dict[str, Any]]) -> None:
             continue
         ratios = [max(r["true"].values()) / r["estimate"] for r in rs]
         pairs = [(r["true"][k] / r["estimates"][k], k, r) for r in rs for k in r["true"]]
-        print(f"\n{shape}s: {len(rs)} records; honest (true <= estimate): {sum(x <= 1.0 for x in ratios)}; "
-              f"worst true/estimate {max(ratios):.3g}; within 30x: {100.0 * np.mean([x >= 1 / 30 for x in ratios]):.1f} %; "
-              f"median true/estimate {np.median(ratios):.3g}")
+        print(
+            f"\n{shape}s: {len(rs)} records; honest (true <= estimate): {sum(x <= 1.0 for x in ratios)}; "
+            f"worst true/estimate {max(ratios):.3g}; within 30x: {100.0 * np.mean([x >= 1 / 30 for x in ratios]):.1f} %; "
+            f"median true/estimate {np.median(ratios):.3g}"
+        )
         worst = max(pairs, key=lambda p: p[0])
-        print(f"per quantity: {len(pairs)} pairs, {sum(p[0] > 1.0 for p in pairs)} below their true error; worst {worst[0]:.3g} "
-              f"({worst[1]}, b/a {worst[2]['aspect']:g}, nu {worst[2]['nu']}, n0 {worst[2]['n0']}, request {worst[2]['request']:g})")
-        print(f"largest reference uncertainty: {max(r['reference_uncertainty'] for r in rs):.2e}; records whose reference "
-              f"uncertainty exceeds a tenth of the estimate: {sum(r['reference_uncertainty'] > r['estimate'] / 10 for r in rs)}")
+        print(
+            f"per quantity: {len(pairs)} pairs, {sum(p[0] > 1.0 for p in pairs)} below their true error; worst {worst[0]:.3g} "
+            f"({worst[1]}, b/a {worst[2]['aspect']:g}, nu {worst[2]['nu']}, n0 {worst[2]['n0']}, request {worst[2]['request']:g})"
+        )
+        print(
+            f"largest reference uncertainty: {max(r['reference_uncertainty'] for r in rs):.2e}; records whose reference "
+            f"uncertainty exceeds a tenth of the estimate: {sum(r['reference_uncertainty'] > r['estimate'] / 10 for r in rs)}"
+        )
         print("\n| b/a | records | worst true/estimate | within 30x | met | finest n |")
         print("|---|---|---|---|---|---|")
         for aspect in sorted({r["aspect"] for r in rs}, reverse=True):
             sel = [r for r in rs if r["aspect"] == aspect]
             x = [max(r["true"].values()) / r["estimate"] for r in sel]
-            print(f"| {aspect:g} | {len(sel)} | {max(x):.3g} | {100.0 * np.mean([v >= 1 / 30 for v in x]):.0f} % | "
-                  f"{sum(r['met'] for r in sel)} | {max(r['finest'] for r in sel)} |")
+            print(
+                f"| {aspect:g} | {len(sel)} | {max(x):.3g} | {100.0 * np.mean([v >= 1 / 30 for v in x]):.0f} % | "
+                f"{sum(r['met'] for r in sel)} | {max(r['finest'] for r in sel)} |"
+            )
 
 
 def one_cost(shape: str, aspect: float, nu: float, request: float) -> dict[str, Any]:
@@ -187,10 +234,16 @@ def one_cost(shape: str, aspect: float, nu: float, request: float) -> dict[str, 
     scene = Scene.from_params({"shape": shape, "aspect": aspect, "nu": nu, "quantities": "tangential,normal"})
     solved = harness.timed(lambda: acc.solve_to_accuracy(scene, request, strategy="auto", strict=False))
     record = solved.value
-    return {"cpu_s": solved.cpu_s, "peak_mib": harness.peak_rss_mb(),
-            "values": with_ratios({k: record[k] for k in KEYS}), "estimate": record["estimated_error"],
-            "met": record["accuracy_met"], "stopped_by": record["stopped_by"], "grids": record["grids"],
-            "boundary": record["boundary"]}
+    return {
+        "cpu_s": solved.cpu_s,
+        "peak_mib": harness.peak_rss_mb(),
+        "values": with_ratios({k: record[k] for k in KEYS}),
+        "estimate": record["estimated_error"],
+        "met": record["accuracy_met"],
+        "stopped_by": record["stopped_by"],
+        "grids": record["grids"],
+        "boundary": record["boundary"],
+    }
 
 
 def cost(have: dict, cases: list[tuple[str, float]]) -> None:
@@ -204,8 +257,10 @@ def cost(have: dict, cases: list[tuple[str, float]]) -> None:
                 r = harness.call_in_child(__file__, "one_cost", shape, aspect, nu, request, check=True).result
                 true = max(abs(r["values"][k] - ref[k]) / abs(ref[k]) for k in ref)
                 met = "" if r["met"] else f" (not met: {r['stopped_by']})"
-                print(f"| {shape} {aspect:g} | {nu} | {request:g}{met} | {r['boundary']} | {r['estimate']:.2e} | {true:.2e} | "
-                      f"{true / r['estimate']:.3f} | {r['grids'][0]} … {r['grids'][-1]} | {r['cpu_s']:.2f} | {r['peak_mib']:.0f} |")
+                print(
+                    f"| {shape} {aspect:g} | {nu} | {request:g}{met} | {r['boundary']} | {r['estimate']:.2e} | {true:.2e} | "
+                    f"{true / r['estimate']:.3f} | {r['grids'][0]} … {r['grids'][-1]} | {r['cpu_s']:.2f} | {r['peak_mib']:.0f} |"
+                )
 
 
 def cases_of(text: str, shape: str) -> list[tuple[str, float]]:

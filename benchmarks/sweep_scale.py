@@ -18,7 +18,7 @@ What it does, in order:
    over the ranks (each share of the points enumerated with every distinct scene validated,
    ``tasks.enumerate_part``, as the driver's share does: the sum over shares) and the setup on the
    critical path (every rank unpickles and joins all shares, ``tasks.join_parts``; rank 0 checks
-   the journals and decides, ``driver._prepare``; the decision pickled
+   the journals and decides, ``driver.prepare``; the decision pickled
    and unpickled as its broadcast does; every rank makes the chunks for 1024 ranks); the gather spread over the ranks (synthetic solver-like outcomes,
    ``dataset_scale.record``, turned into columns, ``columns.to_columns``) and rank 0's serial
    gather (the columns unpickled and joined, the data set built and written). Best of
@@ -40,7 +40,7 @@ What it does, in order:
 Efficiency = Σ task seconds / (R × makespan). Printed per distribution and R, with the share
 lost to the tail (last rank to finish vs mean), to claims, and to setup + gather; with
 ``--before``, the same replay with the setup and gather all on rank 0 at the per-task times the
-driver of commit ab7d7f9 was measured at (README: 0.24 and 0.35 ms), side by side.
+driver of commit ab7d7f9 was measured at (docs/explanation/sweeps.md: 0.24 and 0.35 ms), side by side.
 """
 
 from __future__ import annotations
@@ -174,8 +174,11 @@ def run_small_sweeps(folder: Path) -> tuple[dict[str, Distribution], dict[str, f
         out[name] = measured(load_spec(spec, output=output))
         n = len(out[name].tasks)
         overhead["driver_s"].append((attrs["sweep_journal_time_s"] + attrs["sweep_schedule_time_s"]) / n)
-        print(f"  {name:12s} {n:4d} tasks, {out[name].seconds.sum():7.1f} s of solves "
-              f"({time.perf_counter() - started:.1f} s with the driver)", flush=True)
+        print(
+            f"  {name:12s} {n:4d} tasks, {out[name].seconds.sum():7.1f} s of solves "
+            f"({time.perf_counter() - started:.1f} s with the driver)",
+            flush=True,
+        )
     return out, {k: statistics.median(v) for k, v in overhead.items()}
 
 
@@ -204,7 +207,7 @@ if team.rank == 1:
 else:
     time.sleep(2.0)  # let every message arrive, then time the server on a full queue
     t = time.perf_counter(); served = 0
-    while counter._serve_one():  # private: no public way to serve one queued message
+    while counter.serve_one():
         served += 1
     print("service", (time.perf_counter() - t) / max(served, 1), served, flush=True)
 counter.close()
@@ -235,7 +238,7 @@ def replicated(case: Distribution, count: int) -> Distribution:
     return Distribution(tasks, np.tile(case.seconds, copies))
 
 
-BEFORE = {"setup_s": 0.24e-3, "gather_s": 0.35e-3}  # rank 0 alone, per task: commit ab7d7f9 (README)
+BEFORE = {"setup_s": 0.24e-3, "gather_s": 0.35e-3}  # rank 0 alone, per task, ab7d7f9 (docs/explanation/sweeps.md)
 SHARES = 64  # ranks the six-axis setup and gather are split over when measured
 
 
@@ -271,7 +274,7 @@ def setup_and_gather(folder: Path, repeats: int) -> dict[str, float]:
         tasks, task_of = join_parts(spec, [pickle.loads(b) for b in sent])  # every rank
         keep: dict = {}
         # private: rank 0's journal check and decision has no public name
-        decision = driver._prepare(spec, tasks, task_of, False, options, 1024, keep)  # rank 0
+        decision = driver.prepare(spec, tasks, task_of, False, options, 1024, keep)  # rank 0
         keep["lock"].release()
         decision = pickle.loads(pickle.dumps(decision, protocol=pickle.HIGHEST_PROTOCOL))  # its broadcast
         make_chunks([tasks[i] for i in decision.shared], 1024)  # every rank
@@ -279,11 +282,23 @@ def setup_and_gather(folder: Path, repeats: int) -> dict[str, float]:
 
     serial_setup, (tasks, decision, keep) = best(prepare, repeats)
     n = len(tasks)
-    entries = [Entry(key=t.key, params=t.params, status=OK, message="", record=record(t.key, dict(t.params)),
-                     wall_time_s=1.0, finished=0.0, rank=i % SHARES, provenance=decision.provenance)
-               for i, t in enumerate(tasks)]
-    spread_gather, columns = best(lambda: [to_columns(entries[r::SHARES], list(range(r, n, SHARES)))
-                                           for r in range(SHARES)], repeats)
+    entries = [
+        Entry(
+            key=t.key,
+            params=t.params,
+            status=OK,
+            message="",
+            record=record(t.key, dict(t.params)),
+            wall_time_s=1.0,
+            finished=0.0,
+            rank=i % SHARES,
+            provenance=decision.provenance,
+        )
+        for i, t in enumerate(tasks)
+    ]
+    spread_gather, columns = best(
+        lambda: [to_columns(entries[r::SHARES], list(range(r, n, SHARES))) for r in range(SHARES)], repeats
+    )
     sent = [pickle.dumps(c, protocol=pickle.HIGHEST_PROTOCOL) for c in columns]
 
     def gather() -> None:
@@ -291,8 +306,13 @@ def setup_and_gather(folder: Path, repeats: int) -> dict[str, float]:
         write_netcdf(dataset_of(spec, keep["task_of"], joined, {"mpi_size": 1024}, derive=False), spec.output)
 
     serial_gather, _ = best(gather, repeats)
-    return {"spread_setup_s": spread_setup / n, "setup_s": serial_setup / n,
-            "spread_gather_s": spread_gather / n, "gather_s": serial_gather / n, "six_axis_tasks": n}
+    return {
+        "spread_setup_s": spread_setup / n,
+        "setup_s": serial_setup / n,
+        "spread_gather_s": spread_gather / n,
+        "gather_s": serial_gather / n,
+        "six_axis_tasks": n,
+    }
 
 
 def six_axis(calibration: dict[str, tuple[float, np.ndarray]], rng: np.random.Generator) -> Distribution:
@@ -309,11 +329,15 @@ def six_axis(calibration: dict[str, tuple[float, np.ndarray]], rng: np.random.Ge
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--specs", nargs="*", default=[], help="specs of real jobs already run: replay their journals too")
+    parser.add_argument(
+        "--specs", nargs="*", default=[], help="specs of real jobs already run: replay their journals too"
+    )
     parser.add_argument("--ranks", nargs="*", type=int, default=[2, 16, 64, 256, 1024, 4096])
     parser.add_argument("--keep", help="keep the small sweeps' outputs in this folder")
     parser.add_argument("--repeats", type=int, default=2, help="best of this many timings of setup and gather")
-    parser.add_argument("--before", action="store_true", help="also replay with setup and gather all on rank 0 (ab7d7f9)")
+    parser.add_argument(
+        "--before", action="store_true", help="also replay with setup and gather all on rank 0 (ab7d7f9)"
+    )
     args = parser.parse_args()
     print(f"sweep_scale: {harness.machine_line(1)}")
     folder = Path(args.keep) if args.keep else Path(tempfile.mkdtemp(prefix="hpcontact-scale-"))
@@ -330,30 +354,43 @@ def main() -> None:
         "server time per message {:.3f} ms; driver {:.2f} ms/task; six-axis job ({} tasks), per task: setup "
         "spread over the ranks {:.3f} ms, on rank 0 alone {:.4f} ms; gather spread {:.4f} ms, on rank 0 alone "
         "{:.4f} ms".format(
-            overhead["claim_busy_s"] * 1e3, overhead["claim_worst_s"] * 1e3, overhead["service_s"] * 1e3,
-            overhead["driver_s"] * 1e3, overhead["six_axis_tasks"], overhead["spread_setup_s"] * 1e3,
-            overhead["setup_s"] * 1e3, overhead["spread_gather_s"] * 1e3, overhead["gather_s"] * 1e3,
+            overhead["claim_busy_s"] * 1e3,
+            overhead["claim_worst_s"] * 1e3,
+            overhead["service_s"] * 1e3,
+            overhead["driver_s"] * 1e3,
+            overhead["six_axis_tasks"],
+            overhead["spread_setup_s"] * 1e3,
+            overhead["setup_s"] * 1e3,
+            overhead["spread_gather_s"] * 1e3,
+            overhead["gather_s"] * 1e3,
         )
     )
 
     calibration: dict[str, tuple[float, np.ndarray]] = {}
-    pooled = [(task_kind(t.params), s / t.cost) for case in distributions.values() for t, s in zip(case.tasks, case.seconds)]
+    pooled = [
+        (task_kind(t.params), s / t.cost) for case in distributions.values() for t, s in zip(case.tasks, case.seconds)
+    ]
     for kind in ("contact", "crystal", "slip"):
         ratios = np.array([ratio for k, ratio in pooled if k == kind])
         rate = float(np.median(ratios))
         calibration[kind] = (rate, ratios / rate)
-        print(f"  {kind:8s}: {len(ratios):4d} tasks, {rate * 1e6:.3g} µs per cost unit; measured/estimated "
-              f"spread (5-95 %) {np.percentile(ratios / rate, 5):.2f} … {np.percentile(ratios / rate, 95):.2f}")
+        print(
+            f"  {kind:8s}: {len(ratios):4d} tasks, {rate * 1e6:.3g} µs per cost unit; measured/estimated "
+            f"spread (5-95 %) {np.percentile(ratios / rate, 5):.2f} … {np.percentile(ratios / rate, 95):.2f}"
+        )
 
     big = six_axis(calibration, np.random.default_rng(1))
     print(f"six-axis job: {len(big.tasks)} tasks, {big.seconds.sum() / 3600:.1f} core-hours modelled")
 
-    cases = {f"{name} x{math.ceil(REPLICATED_TASKS / len(case.tasks))}": replicated(case, REPLICATED_TASKS)
-             for name, case in distributions.items()}
+    cases = {
+        f"{name} x{math.ceil(REPLICATED_TASKS / len(case.tasks))}": replicated(case, REPLICATED_TASKS)
+        for name, case in distributions.items()
+    }
     cases["six-axis job"] = big
-    print(f"\n{'distribution':22s} {'tasks':>7s} {'ranks':>6s} {'chunks':>7s} {'wall s':>9s} {'efficiency':>10s}"
-          f" {'tail':>6s} {'claims':>7s} {'setup+gather':>12s}"
-          + (f" {'before':>7s}" if args.before else ""))
+    print(
+        f"\n{'distribution':22s} {'tasks':>7s} {'ranks':>6s} {'chunks':>7s} {'wall s':>9s} {'efficiency':>10s}"
+        f" {'tail':>6s} {'claims':>7s} {'setup+gather':>12s}" + (f" {'before':>7s}" if args.before else "")
+    )
     model = Overheads(**{f.name: overhead[f.name] for f in fields(Overheads)})
     before = replace(model, spread_setup_s=0.0, spread_gather_s=0.0, **BEFORE)
     for name, case in cases.items():
@@ -361,8 +398,11 @@ def main() -> None:
         for ranks in args.ranks:
             r = replay(case.tasks, seconds, ranks, model)
             old = f" {replay(case.tasks, seconds, ranks, before)['efficiency']:7.3f}" if args.before else ""
-            print(f"{name:22s} {len(case.tasks):7d} {ranks:6d} {r['chunks']:7d} {r['makespan_s']:9.2f} {r['efficiency']:10.3f}"
-                  f" {r['tail']:6.3f} {r['claims']:7.4f} {r['setup_gather']:12.3f}{old}", flush=True)
+            print(
+                f"{name:22s} {len(case.tasks):7d} {ranks:6d} {r['chunks']:7d} {r['makespan_s']:9.2f} {r['efficiency']:10.3f}"
+                f" {r['tail']:6.3f} {r['claims']:7.4f} {r['setup_gather']:12.3f}{old}",
+                flush=True,
+            )
 
 
 if __name__ == "__main__":

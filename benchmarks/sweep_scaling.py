@@ -100,8 +100,7 @@ def report(tasks: str, ranks: int, attrs: dict, command_wall: float) -> str:
     return (
         f"{tasks:>5} {ranks:>5} {count:>5} {attrs['sweep_wall_time_s']:>7.2f} {command_wall:>9.2f} "
         f"{attrs['sweep_task_time_s']:>7.2f} {mean_task:>9.3f} {attrs['sweep_parallel_efficiency']:>10.3f} "
-        f"{1e3 * driver:>9.2f} {driver / mean_task:>12.2%}   "
-        + " / ".join(f"{1e3 * p / count:.2f}" for p in parts)
+        f"{1e3 * driver:>9.2f} {driver / mean_task:>12.2%}   " + " / ".join(f"{1e3 * p / count:.2f}" for p in parts)
     )
 
 
@@ -116,8 +115,10 @@ def main() -> None:
     spec = folder / "scaling.toml"
     spec.write_text(SPEC, encoding="utf-8")
     print(f"sweep_scaling: {harness.machine_line(1)}")
-    print(f"{'tasks':>5} {'ranks':>5} {'count':>5} {'wall s':>7} {'command s':>9} {'task s':>7} {'mean s':>9} "
-          f"{'efficiency':>10} {'driver ms':>9} {'driver/task':>12}   setup / schedule / journal / gather ms per task")
+    print(
+        f"{'tasks':>5} {'ranks':>5} {'count':>5} {'wall s':>7} {'command s':>9} {'task s':>7} {'mean s':>9} "
+        f"{'efficiency':>10} {'driver ms':>9} {'driver/task':>12}   setup / schedule / journal / gather ms per task"
+    )
     try:
         for tasks in args.tasks:
             for ranks in args.ranks:

@@ -92,8 +92,15 @@ def all_grids(max_cells: int) -> list[Grid]:
 
 
 def params_of(aspect: float, nu: float, n: int, na: int) -> dict[str, Any]:
-    return {"shape": "ellipse", "aspect": aspect, "nu": nu, "n": n, "n_across": na,
-            "quantities": ["tangential", "normal"], "tol": TOL}
+    return {
+        "shape": "ellipse",
+        "aspect": aspect,
+        "nu": nu,
+        "n": n,
+        "n_across": na,
+        "quantities": ["tangential", "normal"],
+        "tol": TOL,
+    }
 
 
 def key_of(aspect: float, nu: float, n: int, na: int, strategy: str = STRATEGY) -> str:
@@ -114,9 +121,19 @@ def solve_one(aspect: float, nu: float, n: int, na: int) -> dict[str, Any]:
     scene = Scene.from_params(params_of(aspect, nu, n, na))
     solved = harness.timed(lambda: covered_solve(scene, strategy=STRATEGY))
     r = solved.value
-    return {"aspect": aspect, "nu": nu, "n": n, "n_across": na, "strategy": STRATEGY, "tol": TOL,
-            "cpu_s": solved.cpu_s, "wall_s": solved.wall_s, "load": load1,
-            "iterations": r["iterations"], **{k: r[k] for k in acc.TENSOR_KEYS if k in r}}
+    return {
+        "aspect": aspect,
+        "nu": nu,
+        "n": n,
+        "n_across": na,
+        "strategy": STRATEGY,
+        "tol": TOL,
+        "cpu_s": solved.cpu_s,
+        "wall_s": solved.wall_s,
+        "load": load1,
+        "iterations": r["iterations"],
+        **{k: r[k] for k in acc.TENSOR_KEYS if k in r},
+    }
 
 
 def solve_in_child(aspect: float, nu: float, n: int, na: int) -> dict[str, Any]:
@@ -144,8 +161,11 @@ def collect(cache: Path, aspects: Iterable[float], nus: Iterable[float], max_cel
                 row = solve_in_child(aspect, nu, n, na)
                 cached[key_of(aspect, nu, n, na)] = row
                 harness.append_jsonl(cache, row)
-                print(f"  solved b/a={aspect:g} nu={nu} {n} x {na}: {row['cpu_s']:.2f} s CPU, "
-                      f"{row['wall_s']:.2f} s wall, load {row['load']:.2f}", flush=True)
+                print(
+                    f"  solved b/a={aspect:g} nu={nu} {n} x {na}: {row['cpu_s']:.2f} s CPU, "
+                    f"{row['wall_s']:.2f} s wall, load {row['load']:.2f}",
+                    flush=True,
+                )
 
 
 # ------------------------------------------------------------------------------------------
@@ -161,8 +181,9 @@ def errors(values: dict[str, float], ref: dict[str, float]) -> dict[str, float]:
     return {k: v[k] / ref[k] - 1.0 for k in QUANTITIES}
 
 
-def cached_sequence(cached: dict[str, dict[str, Any]], aspect: float, nu: float, n0: int, na0: int,
-                    max_cells: int) -> list[dict[str, Any]]:
+def cached_sequence(
+    cached: dict[str, dict[str, Any]], aspect: float, nu: float, n0: int, na0: int, max_cells: int
+) -> list[dict[str, Any]]:
     """The start's levels in order, up to the first grid not cached."""
     levels = []
     for n, na in sequence(n0, na0, max_cells):
@@ -179,14 +200,16 @@ def level_table(levels: list[dict[str, Any]], ref: dict[str, float]) -> list[str
     for k, row in enumerate(levels):
         cpu += row["cpu_s"]
         raw = errors(row, ref)
-        line = (f"    {row['n']:5d} x {row['n_across']:4d} {cpu:7.1f} s  raw "
-                + " ".join(f"{raw[q]:+.1e}" for q in QUANTITIES))
+        line = f"    {row['n']:5d} x {row['n_across']:4d} {cpu:7.1f} s  raw " + " ".join(
+            f"{raw[q]:+.1e}" for q in QUANTITIES
+        )
         if k + 1 >= acc.MIN_GRIDS:
             values, relative, _, _ = acc.extrapolate(levels[: k + 1])
             true = {q: abs(e) for q, e in errors(values, ref).items()}
             bad = [q for q in QUANTITIES if true[q] > relative[q]]
-            line += (f" | est {max(relative.values()):.1e} true {max(true.values()):.1e}"
-                     + (f" DISHONEST {','.join(bad)}" if bad else ""))
+            line += f" | est {max(relative.values()):.1e} true {max(true.values()):.1e}" + (
+                f" DISHONEST {','.join(bad)}" if bad else ""
+            )
         lines.append(line)
     return lines
 
@@ -197,10 +220,14 @@ def outcome(levels: list[dict[str, Any]], ref: dict[str, float], request: float)
     done = acc.refine(list(by_grid), lambda n, na: by_grid[(n, na)], request)
     true = {q: abs(e) for q, e in errors(done.values, ref).items()} if done.values else {}
     last = done.levels[-1]
-    return {"stopped_by": done.stopped_by or "cache", "cpu_s": sum(r["cpu_s"] for r in done.levels),
-            "grid": (last["n"], last["n_across"]), "true": max(true.values()) if true else float("nan"),
-            "estimate": max(done.relative.values()) if done.relative else float("nan"),
-            "dishonest": [q for q in QUANTITIES if true and true[q] > done.relative[q]]}
+    return {
+        "stopped_by": done.stopped_by or "cache",
+        "cpu_s": sum(r["cpu_s"] for r in done.levels),
+        "grid": (last["n"], last["n_across"]),
+        "true": max(true.values()) if true else float("nan"),
+        "estimate": max(done.relative.values()) if done.relative else float("nan"),
+        "dishonest": [q for q in QUANTITIES if true and true[q] > done.relative[q]],
+    }
 
 
 def fmt_outcome(o: dict[str, Any]) -> str:
@@ -269,12 +296,15 @@ def report_split(cached: dict[str, dict[str, Any]], aspect: float, nu: float) ->
     if len(fine) >= 3:
         for quantity in QUANTITIES:
             A, B, misfit = split_fit(fine, ref, quantity)
-            print(f"  fit {quantity:13s}: A = {A:+.3e} (along), B = {B:+.3e} (across), best na/n = |B/A| = "
-                  f"{abs(B / A):.3g}, worst misfit {misfit:.0%} over {len(fine)} grids")
+            print(
+                f"  fit {quantity:13s}: A = {A:+.3e} (along), B = {B:+.3e} (across), best na/n = |B/A| = "
+                f"{abs(B / A):.3g}, worst misfit {misfit:.0%} over {len(fine)} grids"
+            )
 
 
-def honesty(cached: dict[str, dict[str, Any]], aspects: Iterable[float], nus: Iterable[float], start: Grid,
-            max_cells: int) -> tuple[int, float, int, float]:
+def honesty(
+    cached: dict[str, dict[str, Any]], aspects: Iterable[float], nus: Iterable[float], start: Grid, max_cells: int
+) -> tuple[int, float, int, float]:
     """Over every case and every grid from the fourth on of ``start``'s sequence: records, worst
     true/estimate of the record (largest true error of K_xx, K_yy, K_zz, K_a/K_b against
     ``estimated_error``), per-quantity pairs above their own estimate, worst per-quantity ratio."""
@@ -305,12 +335,18 @@ def report_summary(cached: dict[str, dict[str, Any]], aspects: list[float], nus:
             costs = []
             for aspect, nu in cases:
                 levels = cached_sequence(cached, aspect, nu, *start, max_cells)
-                o = outcome(levels, references("ellipse", aspect, nu), request) if len(levels) >= acc.MIN_GRIDS else None
+                o = (
+                    outcome(levels, references("ellipse", aspect, nu), request)
+                    if len(levels) >= acc.MIN_GRIDS
+                    else None
+                )
                 ok = o is not None and o["stopped_by"] == "met"
                 costs.append(f"{o['cpu_s']:.1f}{'!' if o['dishonest'] else ''}" if ok else "-")
             cells.append(f"{request:.0e}: " + " ".join(costs))
-        print(f"  {start[0]:2d} x {start[1]:2d}: records {records:3d} worst true/est {worst:.2f}, "
-              f"quantities above own estimate {bad} (worst {worst_q:.2f}) | " + " | ".join(cells))
+        print(
+            f"  {start[0]:2d} x {start[1]:2d}: records {records:3d} worst true/est {worst:.2f}, "
+            f"quantities above own estimate {bad} (worst {worst_q:.2f}) | " + " | ".join(cells)
+        )
 
 
 def main() -> None:

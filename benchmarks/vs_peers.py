@@ -239,7 +239,12 @@ def child(spec: dict) -> dict:
 # ---------------------------------------------------------------------------------------------
 # parent
 # ---------------------------------------------------------------------------------------------
-LABELS = {"ours_pcg": "hpcontact PCG", "ours_cg": "hpcontact CG", "tamaas": "Tamaas", "contactmechanics": "ContactMechanics"}
+LABELS = {
+    "ours_pcg": "hpcontact PCG",
+    "ours_cg": "hpcontact CG",
+    "tamaas": "Tamaas",
+    "contactmechanics": "ContactMechanics",
+}
 
 
 def analytic_force() -> float:
@@ -248,10 +253,14 @@ def analytic_force() -> float:
 
 
 def print_table(rows: list[dict], n_values: list[int]) -> None:
-    print(f"\nFlat punch, radius {RADIUS} in the unit square, E = {E:g}, nu = {NU:g}; "
-          f"continuum force per unit displacement 2aE/(1-nu^2) = {analytic_force():.6f}")
-    head = (f"{'n':>5s} {'code':18s} {'iters':>6s} {'setup s':>8s} {'solve s':>8s} {'total s':>8s} {'ms/iter':>8s}"
-            f" {'force/disp':>11s} {'rel.diff':>9s} {'total/ours':>10s}")
+    print(
+        f"\nFlat punch, radius {RADIUS} in the unit square, E = {E:g}, nu = {NU:g}; "
+        f"continuum force per unit displacement 2aE/(1-nu^2) = {analytic_force():.6f}"
+    )
+    head = (
+        f"{'n':>5s} {'code':18s} {'iters':>6s} {'setup s':>8s} {'solve s':>8s} {'total s':>8s} {'ms/iter':>8s}"
+        f" {'force/disp':>11s} {'rel.diff':>9s} {'total/ours':>10s}"
+    )
     print(head)
     for n in n_values:
         at_n = [r for r in rows if r["n"] == n]
@@ -264,18 +273,24 @@ def print_table(rows: list[dict], n_values: list[int]) -> None:
             rel = abs(r["force"] / ours["force"] - 1.0) if ours else float("nan")
             ratio = r["total_s"] / ours["total_s"] if ours else float("nan")
             iters = r["iterations"] if r["iterations"] is not None else -1
-            print(f"{n:5d} {label:18s} {iters:6d} {r['setup_s']:8.2f} {r['solve_s']:8.2f} {r['total_s']:8.2f}"
-                  f" {r['per_iter_ms']:8.2f} {r['force']:11.6f} {rel:9.1e} {ratio:10.1f}")
-    print("\nrel.diff: |force/force(hpcontact PCG) - 1|; total/ours: total time / hpcontact PCG total time;"
-          "\nms/iter: solve / iterations of the (cold) timed solve; every code runs once, cold, in a fresh process.")
+            print(
+                f"{n:5d} {label:18s} {iters:6d} {r['setup_s']:8.2f} {r['solve_s']:8.2f} {r['total_s']:8.2f}"
+                f" {r['per_iter_ms']:8.2f} {r['force']:11.6f} {rel:9.1e} {ratio:10.1f}"
+            )
+    print(
+        "\nrel.diff: |force/force(hpcontact PCG) - 1|; total/ours: total time / hpcontact PCG total time;"
+        "\nms/iter: solve / iterations of the (cold) timed solve; every code runs once, cold, in a fresh process."
+    )
     for r in rows:
         if "error" not in r:
             print(f"  n={r['n']:<5d} {LABELS[r['code']]:18s} {r['detail']}; contact cells {r['contact_cells']}")
     print("\nhpcontact per iteration against its FFT floor (op.fft_only + the preconditioner's FFTs):")
     for r in rows:
         if r["code"].startswith("ours") and "error" not in r:
-            print(f"  n={r['n']:<5d} {LABELS[r['code']]:14s} {r['steady_per_iter_ms']:8.2f} ms/iter (best of 3 solves; "
-                  f"cold solve {r['per_iter_ms']:.2f}), floor {r['floor_ms']:7.2f} ms, ratio {r['floor_ratio']:.2f}")
+            print(
+                f"  n={r['n']:<5d} {LABELS[r['code']]:14s} {r['steady_per_iter_ms']:8.2f} ms/iter (best of 3 solves; "
+                f"cold solve {r['per_iter_ms']:.2f}), floor {r['floor_ms']:7.2f} ms, ratio {r['floor_ratio']:.2f}"
+            )
     n_top = max(n_values)
     at = {r["code"]: r for r in rows if r["n"] == n_top and "error" not in r}
     if "ours_pcg" in at:
@@ -284,7 +299,9 @@ def print_table(rows: list[dict], n_values: list[int]) -> None:
         if "tamaas" in at:
             ratio = at["tamaas"]["total_s"] / o["total_s"]
             print(f"  faster than Tamaas by >= 8x:          {ratio:6.1f}x  {'PASS' if ratio >= 8 else 'FAIL'}")
-        print(f"  time per iteration <= 1.3x FFT floor: {o['floor_ratio']:6.2f}   {'PASS' if o['floor_ratio'] <= 1.3 else 'FAIL'}")
+        print(
+            f"  time per iteration <= 1.3x FFT floor: {o['floor_ratio']:6.2f}   {'PASS' if o['floor_ratio'] <= 1.3 else 'FAIL'}"
+        )
         if "ours_cg" in at:
             a, b = at["ours_cg"]["iterations"], o["iterations"]
             print(f"  preconditioner: iterations CG -> PCG: {a} -> {b}  {'PASS' if b < a else 'FAIL'}")
@@ -306,16 +323,24 @@ def main(argv: list[str] | None = None) -> int:
     for n in args.n:
         for code in codes:
             spec = {"code": code, "n": n, "tol": args.tol, "threads": args.threads, "clock": args.clock}
-            r = harness.call_in_child(__file__, "child", spec, threads=args.threads, timeout=args.timeout).or_error(spec)
+            r = harness.call_in_child(__file__, "child", spec, threads=args.threads, timeout=args.timeout).or_error(
+                spec
+            )
             rows.append(r)
             if "error" in r:
                 print(f"  n={n} {LABELS[code]}: {r['error']}", file=sys.stderr, flush=True)
             else:
-                print(f"  n={n} {LABELS[code]}: {r['iterations']} iterations, total {r['total_s']:.2f} s, "
-                      f"force {r['force']:.6f}", file=sys.stderr, flush=True)
+                print(
+                    f"  n={n} {LABELS[code]}: {r['iterations']} iterations, total {r['total_s']:.2f} s, "
+                    f"force {r['force']:.6f}",
+                    file=sys.stderr,
+                    flush=True,
+                )
     print_table(rows, args.n)
     if args.json:
-        harness.write_json(args.json, {"machine": harness.machine_line(args.threads), "clock": args.clock, "rows": rows})
+        harness.write_json(
+            args.json, {"machine": harness.machine_line(args.threads), "clock": args.clock, "rows": rows}
+        )
     return 0
 
 

@@ -3,14 +3,12 @@ r"""Extrapolated answers with an honest error estimate (``hpcontact solve --accu
 Why the plain grid sequence cannot be extrapolated
 --------------------------------------------------
 The engine puts a cell in the contact when its centre lies inside the shape (docs/design.md §2.2). The
-staircase area of a curved shape then fluctuates with n (the Gauss circle problem): the circle's
-K_xx error is 1.8e-3 at n = 64, 2.8e-3 at 96, 8.6e-4 at 128, 9.2e-4 at 192, 4.3e-4 at 512 — not
-a smooth function of the cell size h. For an ellipse b/a = 0.1 the fluctuation is ±15 % of the
-O(h) error itself and survives an area correction (the edge's sensitivity is not uniform), so a
-Richardson extrapolation on consecutive grids can land anywhere within that band, and a
-difference of two extrapolants can be small by accident: measured on area-corrected values
-(K·(A/A_n)^½, exact for a circle), |R_k − R_{k−1}| was 6e-5 where the true error was 6e-4.
-Neither is honest.
+staircase area of a curved shape then fluctuates with n (the Gauss circle problem): the error
+is not a smooth function of the cell size h, and the fluctuation survives an area correction
+K·(A/A_n)^½ (the edge's sensitivity is not uniform), so a Richardson extrapolation on
+consecutive grids can land anywhere within that band, and a difference of two extrapolants can
+be small by accident, ten times below the true error. Neither is honest (docs/validation.md
+§"Why the centre-in-cell sequence cannot be extrapolated").
 
 The grid sequence is solved on coverage-weighted boundary cells (``hpcontact.discretizations.boundary_cells``):
 the discrete edge moves continuously with the true one and the error is a smooth expansion
@@ -57,13 +55,11 @@ the sum is pessimistic, but the ratio's own sequence alone fell below its true e
 
 Calibration (``benchmarks/accuracy_sharpness.py``; SAFETY, the guard 16 and ρ^1.5 were chosen
 on it): 24 cases with closed forms (circle and Mindlin ellipses b/a = 0.7 … 1e-8, nu = 0, 0.3,
-0.5), requests 1e-3 … 1e-6, sequences from n₀ = 16 and 32 up to n = 1024: 336 records, the
-reported estimate is above the largest true error of K_xx, K_yy, K_zz, K_a/K_b, K_xx/K_zz,
-K_yy/K_zz in all 336 (worst true/estimate 0.90; 0.63 with the Frobenius bound on K_max/K_min
-used before :func:`principal_error`) and within 30× of it in 94.6 % (94.0 %). Per quantity
-(1652 pairs) one K_yy estimate (b/a = 0.05, nu = 0.5, from n₀ = 16 with 4 cells across, request
-1e-3) is 1.18× below its true error. Singular cells' sequences get their own candidates and
-factor (below).
+0.5), requests 1e-3 … 1e-6, sequences from n₀ = 16 and 32 up to n = 1024: the reported
+estimate is above the largest true error of K_xx, K_yy, K_zz, K_a/K_b, K_xx/K_zz, K_yy/K_zz in
+all 336 records and within 30× of it in most (docs/validation.md §"Calibration on
+coverage-weighted cells"). Singular cells' sequences get their own candidates and factor
+(below).
 
 ``hpcontact solve --accuracy`` uses strategy ``auto``. Unturned rectangles of b/a ≤ 1e-6 and
 unturned ellipses, isotropic — ellipses wider than ``STRIP_WIDE_ASPECT`` = 1e-2 for requests
@@ -75,23 +71,17 @@ strips (``STRIP_N0``; ellipses, whose strips contain the exact traction, from
 request, ``stopped_by`` "model" after four grids). Replayed on every grid of those sequences
 (``benchmarks/strip_calibration.py``: rectangles b/a = 1e-6 … 1e-12 against the strip model's
 limit from 2048 and 4096 strips, ellipses b/a = 1 … 1e-10 against Mindlin and Galin; nu 0, 0.3,
-0.5; n₀ = 32, 64 and 16, 32; requests 1e-3 … 1e-7): honest on all 378 + 864 records (worst
-true/estimate 0.26 rectangles, 0.52 ellipses), within 30x in 95.2 % and 91.7 %; per quantity
-1 of 7452 pairs below its true error (1.15x: K_yy, rectangle 3e-7, nu 0.5,
-request 1e-7, on 512 strips). Otherwise, for requests below 1e-4 (``SINGULAR_BELOW``)
+0.5; n₀ = 32, 64 and 16, 32; requests 1e-3 … 1e-7): honest on every record
+(docs/validation.md §"Calibration on strip cells"). Otherwise, for requests below 1e-4 (``SINGULAR_BELOW``)
 singular cells where they apply, on
 sequences from :func:`singular_start` (near-square cells; b/a = 0.05 starts at 160 × 8), with
 the candidates led by order 1 only (``SINGULAR_EXPANSIONS``) and the spread times
 ``SINGULAR_SAFETY`` = 6, on grids up to ``SINGULAR_MAX_CELLS`` = 2^20 cells. Replayed on every
 grid of those sequences up to 2^20 cells (b/a = 1, 0.7, 0.5, 0.3, 0.2, 0.1, 0.05; nu = 0, 0.3,
 0.5; n₀ = 16 and 32; requests 1e-3 … 1e-6; ``benchmarks/edge_order.py --singular-calibration``):
-honest on all 294 records (worst true/estimate 0.51) and all 1612 per-quantity pairs (worst
-0.90), within 30× in 90.1 % of the records and in 97.0 % of the 168 with requests below
-``SINGULAR_BELOW`` (the ones ``auto`` gives them). With the factor 3 of coverage-weighted cells
-this was honest only up to the sixth grid from n₀ = 32 for b/a ≥ 0.5 and the fifth below
-(worst 0.69); one grid further (b/a 0.3, 0.2, 0.1 at 1024 × 320, 2048 × 512, 2560 × 256) 4
-records and 32 pairs fell below their true error (worst 1.01 and 1.80): singular cells' error
-levels off at a few 1e-7 without a steady sign.
+honest on every record and every per-quantity pair. Their factor is larger than coverage-weighted
+cells' 3 because singular cells' error levels off at a few 1e-7 without a steady sign, which
+no difference of grids shows (docs/validation.md §"Calibration on singular cells").
 
 The refinement stops when the request is met, when the planned grids run out (``max_cells``
 cells, or the memory budget: :func:`plan_grids` counts this process's peak resident set plus the
@@ -105,6 +95,7 @@ record says which (``stopped_by``).
 References: L. F. Richardson, Phil. Trans. R. Soc. A 210, 307–357 (1911); P. J. Roache,
 *Verification and Validation in Computational Science and Engineering*, Hermosa, 1998.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -170,14 +161,20 @@ RATIO = 2.0  # grid refinement ratio r (Roache 1998 recommends r ≥ 1.3; 2 keep
 #: is (an error without a steady sign, as ``hpcontact.discretizations.singular_cells`` measures for its cells).
 #: Which one the data follow is decided per sequence (``estimate``), never assumed.
 EXPANSIONS: tuple[tuple[float, ...], ...] = (
-    (), (1.0,), (1.0, 2.0), (1.0, 1.5), (1.0, 2.0, 3.0), (1.5,), (2.0,), (1.5, 2.0), (2.0, 3.0)
+    (),
+    (1.0,),
+    (1.0, 2.0),
+    (1.0, 1.5),
+    (1.0, 2.0, 3.0),
+    (1.5,),
+    (2.0,),
+    (1.5, 2.0),
+    (2.0, 3.0),
 )
 #: The candidates for singular cells (``hpcontact.discretizations.singular_cells``): those led by order 1. Their
 #: error is led by C/n with a constant that need not be steady (cut-cell quadrature); on the
-#: sequences of :func:`singular_start` (b/a = 1 … 0.05, nu = 0, 0.3, 0.5, n₀ = 16 and 32, 294
-#: records, 1644 per-quantity pairs) leads 1.5 and 2 extrapolated past the true value (79 pairs
-#: below their true error, worst 2.8×, b/a = 0.1 … 0.3); led by 1 none is (worst 0.69, on the
-#: grids then calibrated with the factor 3; ``SINGULAR_SAFETY`` for the factor now).
+#: sequences of :func:`singular_start` leads 1.5 and 2 extrapolated past the true value, leads
+#: of 1 did not (docs/validation.md §"Calibration on singular cells").
 SINGULAR_EXPANSIONS: tuple[tuple[float, ...], ...] = tuple(e for e in EXPANSIONS if not e or e[0] <= 1.0)
 LEAD_SLACK = 0.5  # an expansion may lead with an exponent up to the raw sequence's observed order + 0.5
 SAFETY = 3.0  # estimate = SAFETY × the spread of the chosen extrapolant (calibrated, module docstring)
@@ -190,40 +187,52 @@ STAGNATION_LEVELS = 2  # no fall of the estimate over this many refinements: the
 N0 = 32  # cells along the long side on the first grid
 MIN_ACROSS = 8  # never fewer cells across than 8 at n = N0 (thin shapes; 4 at n = 16, and so on)
 MAX_CELLS = 2**22  # largest grid (nx · ny) the sequence may reach by default
-TENSOR_KEYS = ("K_xx", "K_xy", "K_yx", "K_yy", "K_zz", "K_xz", "K_yz", "K_zx", "K_zy", "K_zz_bonded",
-               "K_xx_coupled", "K_xy_coupled", "K_yx_coupled", "K_yy_coupled")
+TENSOR_KEYS = (
+    "K_xx",
+    "K_xy",
+    "K_yx",
+    "K_yy",
+    "K_zz",
+    "K_xz",
+    "K_yz",
+    "K_zx",
+    "K_zy",
+    "K_zz_bonded",
+    "K_xx_coupled",
+    "K_xy_coupled",
+    "K_yx_coupled",
+    "K_yy_coupled",
+)
 RATIO_SHARE = 0.5  # K_a/K_b: at least half the sum of K_xx's and K_yy's estimates (module docstring)
 #: strategy "auto": singular cells when their square-cell sequence starts at most this many cells
 #: along x (b/a ≥ 8/256 with ``MIN_ACROSS`` = 8 across); thinner ellipses would need ≥ 8 b/a-square
-#: cells across on every grid (1e-3: 8000 × 8 cells first, 27 s CPU for that one grid, measured).
+#: cells across on every grid (1e-3: 8000 × 8 cells first, tens of CPU seconds for that one
+#: grid: docs/performance.md §"Cost and memory of `--accuracy`").
 SINGULAR_MAX_N0 = 256
 #: strategy "auto" takes singular cells only for requests below this: at 1e-3 and 1e-4
-#: coverage-weighted cells meet the request in 0.3–5 s CPU and singular cells need 1.2–6 s (four
-#: grids from 32 × 22 … 160 × 8); below 1e-4 coverage misses (estimates ≥ 1.8e-5 at n = 1024 for
-#: b/a = 1 … 0.05) where singular cells meet 1e-5 in 2.7–15 s (``benchmarks/accuracy_sharpness.py
-#: --cost`` and the replay of :data:`SINGULAR_EXPANSIONS`).
+#: coverage-weighted cells meet the request sooner than singular cells' four grids; below 1e-4
+#: coverage misses within n = 1024 where singular cells meet 1e-5 in seconds
+#: (``benchmarks/accuracy_sharpness.py --cost`` and the replay of :data:`SINGULAR_EXPANSIONS`;
+#: docs/performance.md §"Cost and memory of `--accuracy`").
 SINGULAR_BELOW = 1e-4
 #: Singular cells' grids stop at this many cells: the largest of their calibration
 #: (``benchmarks/edge_order.py --singular-calibration``: every grid of :func:`singular_start`'s
-#: sequences up to 2^20 cells — circle 1024², b/a 0.2 to 2048 × 512). Beyond it their error is
-#: not a steady expansion: a sequence from n₀ = 45 (b/a 0.7, nu 0.3) reached 1440 × 992 with
-#: K_zz's estimate at 0.43 of its true error (3.5e-8 against 8.1e-8; K_yy 0.71). Their error is
-#: a sum of first-order terms of opposite sign (far field and sub-cell quadrature; −2.0e-6 … +1.9e-6 at
-#: 360 × 248 as NEAR and SUBCELLS vary) that cancel to a few 1e-7, so the estimator is trusted
-#: only where it was checked.
+#: sequences up to 2^20 cells — circle 1024², b/a 0.2 to 2048 × 512). Their error is a sum of
+#: first-order terms of opposite sign (far field and sub-cell quadrature) that cancel to a few
+#: 1e-7, not a steady expansion, and beyond these grids the estimate fell below the true error,
+#: so the estimator is trusted only where it was checked (docs/validation.md §"Calibration on
+#: singular cells").
 SINGULAR_MAX_CELLS = 2**20
 #: Coverage-weighted grids stop at this many cells along the long side (x): the finest grid of
-#: their calibration (``benchmarks/accuracy_sharpness.py``, n ≤ 1024). One grid beyond, b/a 1e-3
-#: at 2048 × 512, K_yy's own estimate was 1.5–3.0× below its true error (nu 0.3, 0.5;
-#: ``benchmarks/thin_grids.py``). Masks, refined by splitting their pixels, are not limited.
+#: their calibration (``benchmarks/accuracy_sharpness.py``, n ≤ 1024); one grid beyond, a thin
+#: ellipse's estimate fell below its true error (``benchmarks/thin_grids.py``; docs/validation.md
+#: §"Coverage-weighted grids beyond n = 1024"). Masks, refined by splitting their pixels, are not limited.
 COVERAGE_MAX_N = 1024
 #: The factor on the spread for singular cells' sequences (``SAFETY`` for coverage-weighted
 #: cells). Their error levels off at a few 1e-7 without a steady sign, which no difference of
-#: grids shows: with 3, the calibration over every grid up to ``SINGULAR_MAX_CELLS`` (294
-#: records, 1624 per-quantity pairs) left 4 records (worst 1.01, b/a 0.3, nu 0, 1024 × 320) and
-#: 32 pairs (worst 1.80, K_yy of b/a 0.2, nu 0.3, 2048 × 512: true 1.3e-7) below their true
-#: error; 5.5 is the least that is honest on all (worst pair 0.98), 6 leaves a margin (worst
-#: record 0.51, pair 0.90; within 30x in 90.1 % of the records, 97.0 % below ``SINGULAR_BELOW``).
+#: grids shows: over every grid up to ``SINGULAR_MAX_CELLS`` the factor 3 left records below
+#: their true error, 5.5 is the least that is honest on all, and 6 leaves a margin
+#: (docs/validation.md §"Calibration on singular cells").
 SINGULAR_SAFETY = 6.0
 #: Strip cells' grids (``hpcontact.discretizations.strip_cells``: n strips, one across) start at this many
 #: strips and stop at ``STRIP_MAX_N``, the finest grid of their calibration
@@ -234,8 +243,8 @@ STRIP_MAX_N = 1024
 #: An ellipse's strips contain its exact traction whatever their number (``strip_cells``
 #: docstring), so its sequence starts at ``STRIP_ELLIPSE_N0``; wider than
 #: ``STRIP_WIDE_ASPECT`` nearly every point of its near pairs takes the exact two-width average
-#: (``strip_cells.width_difference``), so its sequence stops at ``STRIP_WIDE_MAX_N`` (b/a 0.7:
-#: 0.7, 1.5, 2.8, 7.7 s for n = 16 … 128 on this machine).
+#: (``strip_cells.width_difference``), whose cost roughly doubles with each doubling of n, so
+#: its sequence stops at ``STRIP_WIDE_MAX_N`` (docs/performance.md §"Cost and memory of `--accuracy`").
 STRIP_ELLIPSE_N0 = 16
 STRIP_WIDE_ASPECT = 1e-2
 STRIP_WIDE_MAX_N = 256
@@ -243,9 +252,8 @@ STRIP_WIDE_MAX_N = 256
 #: two integral matrices, the system and its Cholesky factor; an ellipse's near pairs, which
 #: reach 100 b) + ``STRIP_BYTES_BASE`` (one batch of ``strip_cells.FAR_CHUNK`` far pairs or
 #: width corrections' points, ``strip_cells.TWO_WIDTH_CHUNK`` rows of the two-width averages).
-#: tracemalloc peaks of ``covered_solve`` (tangential and normal): rectangle 1e-8 at n = 128 …
-#: 2048: 15, 41, 102, 142, 332 MiB; ellipse 1e-3 at 1024, 2048: 194, 490 MiB; ellipse 0.7 at
-#: 128, 256: 93, 109 MiB (the bound: 288, 768 and 130, 138 MiB there).
+#: It bounds the ``tracemalloc`` peaks of ``covered_solve`` on rectangles and ellipses
+#: (docs/performance.md §"Cost and memory of `--accuracy`").
 STRIP_BYTES_PER_PAIR = 160.0
 STRIP_BYTES_BASE = 128.0 * 2**20
 
@@ -259,7 +267,9 @@ def extrapolant(values: Sequence[float], exponents: Sequence[float], ratio: floa
     (Richardson 1911; Roache 1998 §5.4), exact for that expansion."""
     if len(values) != len(exponents) + 1:
         raise ValueError("an expansion with m exponents takes m + 1 values")
-    return float(np.dot(_weights(tuple(float(p) for p in exponents), float(ratio)), np.asarray(values, dtype=np.float64)))
+    return float(
+        np.dot(_weights(tuple(float(p) for p in exponents), float(ratio)), np.asarray(values, dtype=np.float64))
+    )
 
 
 @functools.lru_cache(maxsize=64)
@@ -315,8 +325,12 @@ class Estimate:
     expansion: tuple[float, ...]
 
 
-def estimate(values: Sequence[float], ratio: float = RATIO,
-             expansions: Sequence[tuple[float, ...]] | None = None, safety: float | None = None) -> Estimate:
+def estimate(
+    values: Sequence[float],
+    ratio: float = RATIO,
+    expansions: Sequence[tuple[float, ...]] | None = None,
+    safety: float | None = None,
+) -> Estimate:
     """Extrapolated value and error estimate from a sequence on grids h, h/r, h/r², ….
 
     Needs ``MIN_GRIDS`` values. For every candidate expansion of ``EXPANSIONS`` (m exponents)
@@ -335,7 +349,7 @@ def estimate(values: Sequence[float], ratio: float = RATIO,
     p = observed_order(Q[-3], Q[-2], Q[-1], ratio)
     floor = 8.0 * np.finfo(float).eps
     best: Estimate | None = None
-    for exponents in (EXPANSIONS if expansions is None else expansions):
+    for exponents in EXPANSIONS if expansions is None else expansions:
         m = len(exponents)
         if len(Q) < m + 3 or (exponents and math.isfinite(p) and exponents[0] > p + LEAD_SLACK):
             continue
@@ -344,7 +358,9 @@ def estimate(values: Sequence[float], ratio: float = RATIO,
         if best is None or error < best.error:
             best = Estimate(value=E[-1], error=error, order=p, expansion=tuple(exponents))
     if best is None:
-        best = Estimate(value=Q[-1], error=max(SAFETY_TWO_GRID * abs(Q[-1] - Q[-2]), floor * abs(Q[-1])), order=p, expansion=())
+        best = Estimate(
+            value=Q[-1], error=max(SAFETY_TWO_GRID * abs(Q[-1] - Q[-2]), floor * abs(Q[-1])), order=p, expansion=()
+        )
     return best
 
 
@@ -372,7 +388,9 @@ def singular_start(scene: Scene, n0: int, n_across0: int | None) -> tuple[int, i
     return n, na
 
 
-def grid_sequence(shape: Shape, n0: int = N0, n_across0: int | None = None, max_cells: int = MAX_CELLS) -> list[tuple[int, int]]:
+def grid_sequence(
+    shape: Shape, n0: int = N0, n_across0: int | None = None, max_cells: int = MAX_CELLS
+) -> list[tuple[int, int]]:
     """Grids (n, n_across) = (n₀ rᵏ, n_across₀ rᵏ) with at most ``max_cells`` cells (k = 0, 1, …).
 
     The first grid has n₀ cells along x and, unless given, as many across as square cells
@@ -396,18 +414,18 @@ def grid_sequence(shape: Shape, n0: int = N0, n_across0: int | None = None, max_
 
 
 #: Bytes per contact cell that a coverage-weighted solve adds to the engine's arrays (coverage,
-#: damping and preconditioner weights; tracemalloc peaks at n = 256 … 1024, b/a 1 … 1e-3:
-#: 23–104 B, within 14 % of the cost model's estimate plus these).
+#: damping and preconditioner weights; bounds the ``tracemalloc`` peaks: docs/performance.md
+#: §"Cost and memory of `--accuracy`").
 COVERAGE_BYTES_PER_CELL = 128.0
 #: Singular cells' near set (``singular_cells``: cells within BAND + NEAR of a cut cell) per cell
-#: along both sides, n + n_across: 7.9–7.97 on circle 256², 512²; b/a 0.7 512 × 352, 1024 × 704;
-#: 0.3 512 × 160; 0.2 1024 × 256; 0.05 1280 × 64, 2560 × 128 (the boundary crosses ~2(n + n_across)
-#: cells, dilated by BAND and NEAR on both sides).
+#: along both sides, n + n_across: the boundary crosses ~2(n + n_across) cells, dilated by BAND
+#: and NEAR on both sides (counted just below 8 on circles and ellipses b/a 0.7 … 0.05:
+#: docs/performance.md §"Cost and memory of `--accuracy`").
 SINGULAR_NEAR_CELLS_PER_SIDE_CELL = 8.0
 #: Bytes per near-set cell that singular cells add to the coverage-weighted count (sub-cell
-#: weights, the near-field pairs' gathers and sparse corrections): tracemalloc peaks of one
-#: solve minus :func:`grid_bytes` on the grids above were 2.1–8.7 kB per near cell (the peak is
-#: the near field's build on small grids, the FFT arrays on large ones); 9 KiB bounds them all.
+#: weights, the near-field pairs' gathers and sparse corrections): bounds the ``tracemalloc``
+#: peaks of one solve less :func:`grid_bytes` (docs/performance.md §"Cost and memory of
+#: `--accuracy`").
 SINGULAR_BYTES_PER_NEAR_CELL = 9.0 * 1024
 
 
@@ -420,7 +438,11 @@ def grid_bytes(scene: Scene, n: int, n_across: int, strategy: str = "coverage") 
     ``STRIP_BYTES_PER_PAIR`` n² + ``STRIP_BYTES_BASE``."""
     if strategy == "strip":
         return STRIP_BYTES_PER_PAIR * n * n + STRIP_BYTES_BASE
-    near = SINGULAR_BYTES_PER_NEAR_CELL * SINGULAR_NEAR_CELLS_PER_SIDE_CELL * (n + n_across) if strategy == "singular" else 0.0
+    near = (
+        SINGULAR_BYTES_PER_NEAR_CELL * SINGULAR_NEAR_CELLS_PER_SIDE_CELL * (n + n_across)
+        if strategy == "singular"
+        else 0.0
+    )
     return footprint.array_bytes(scene.fields(n=n, n_across=n_across)) + COVERAGE_BYTES_PER_CELL * n * n_across + near
 
 
@@ -469,8 +491,14 @@ def calibrated(strategy: str, shape: Shape) -> Callable[[int, int], bool]:
     return lambda n, na: max(n, na) <= COVERAGE_MAX_N
 
 
-def plan_grids(scene: Scene, n0: int, n_across0: int | None, max_cells: int,
-               memory_budget: float | None, strategy: str = "coverage") -> GridPlan:
+def plan_grids(
+    scene: Scene,
+    n0: int,
+    n_across0: int | None,
+    max_cells: int,
+    memory_budget: float | None,
+    strategy: str = "coverage",
+) -> GridPlan:
     """The grid sequence within ``max_cells`` cells, the estimator's calibrated range
     (:func:`calibrated`) and the memory budget (bytes; default the machine's memory per core,
     ``numerics.memory.default_memory_per_rank``): a grid is used only if this process's peak resident
@@ -481,21 +509,34 @@ def plan_grids(scene: Scene, n0: int, n_across0: int | None, max_cells: int,
     else:
         budget, source = float(memory_budget), "given"
     shape = scene.shape
-    everything = [(n0 * 2**k, 1) for k in range(62)] if strategy == "strip" else grid_sequence(shape, n0, n_across0, 2**62)
+    everything = (
+        [(n0 * 2**k, 1) for k in range(62)] if strategy == "strip" else grid_sequence(shape, n0, n_across0, 2**62)
+    )
     base = resident_bytes()
     within = calibrated(strategy, shape)
     grids: list[tuple[int, int]] = []
     for n, na in everything:
         need = base + grid_bytes(scene, n, na, strategy)
-        limit = "cells" if n * na > max_cells else "calibration" if not within(n, na) else "memory budget" if need > budget else None
+        limit = (
+            "cells"
+            if n * na > max_cells
+            else "calibration"
+            if not within(n, na)
+            else "memory budget"
+            if need > budget
+            else None
+        )
         if limit is not None:
             return GridPlan(grids, limit, (n, na), need, base, float(budget), source, max_cells)
         grids.append((n, na))
     raise AssertionError("the grid sequence is unbounded")  # pragma: no cover - 2**62 cells never fit
 
 
-def extrapolate(levels: Sequence[Mapping[str, Any]], expansions: Sequence[tuple[float, ...]] | None = None,
-                safety: float | None = None) -> tuple[dict[str, float], dict[str, float], dict[str, float], dict[str, list[float]]]:
+def extrapolate(
+    levels: Sequence[Mapping[str, Any]],
+    expansions: Sequence[tuple[float, ...]] | None = None,
+    safety: float | None = None,
+) -> tuple[dict[str, float], dict[str, float], dict[str, float], dict[str, list[float]]]:
     """Extrapolated tensor entries, their estimated relative errors, observed orders and the
     expansion each value comes from.
 
@@ -507,7 +548,11 @@ def extrapolate(levels: Sequence[Mapping[str, Any]], expansions: Sequence[tuple[
     Li's K_xx E*/(K_zz G*) and K_yy E*/(K_zz G*) likewise with K_zz); K_max and K_min get
     :func:`principal_error` / K (Weyl: an eigenvalue moves by at most the perturbation's norm).
     """
-    estimates = {k: estimate([r[k] for r in levels], expansions=expansions, safety=safety) for k in TENSOR_KEYS if k in levels[-1]}
+    estimates = {
+        k: estimate([r[k] for r in levels], expansions=expansions, safety=safety)
+        for k in TENSOR_KEYS
+        if k in levels[-1]
+    }
     values = {k: e.value for k, e in estimates.items()}
     diagonal = [abs(values[k]) for k in ("K_xx", "K_yy", "K_zz") if k in values]
     scale = max(diagonal) if diagonal else 1.0
@@ -548,9 +593,15 @@ def principal_error(e_xx: float, e_xy: float, e_yx: float, e_yy: float) -> float
     return 0.5 * (a + b) + math.hypot(0.5 * (a - b), c)
 
 
-def ratio_error(levels: Sequence[Mapping[str, Any]], top: str, bottom: str, values: Mapping[str, float],
-                relative: Mapping[str, float], expansions: Sequence[tuple[float, ...]] | None = None,
-                safety: float | None = None) -> float:
+def ratio_error(
+    levels: Sequence[Mapping[str, Any]],
+    top: str,
+    bottom: str,
+    values: Mapping[str, float],
+    relative: Mapping[str, float],
+    expansions: Sequence[tuple[float, ...]] | None = None,
+    safety: float | None = None,
+) -> float:
     """Estimated relative error of values[top]/values[bottom]: the estimate of the ratio's own
     sequence (top/bottom per grid) plus the distance of its extrapolant from the ratio of the
     extrapolated entries, and at least ``RATIO_SHARE`` × (e_top + e_bottom). The entries' errors
@@ -581,9 +632,14 @@ class Refinement:
     stopped_by: str | None
 
 
-def refine(grids: Sequence[tuple[int, int]], solve_level: Any, accuracy: float,
-           expansions: Sequence[tuple[float, ...]] | None = None, safety: float | None = None,
-           model_error: float = 0.0) -> Refinement:
+def refine(
+    grids: Sequence[tuple[int, int]],
+    solve_level: Any,
+    accuracy: float,
+    expansions: Sequence[tuple[float, ...]] | None = None,
+    safety: float | None = None,
+    model_error: float = 0.0,
+) -> Refinement:
     """Solve ``solve_level(n, n_across)`` on ``grids`` in turn, extrapolating from the
     ``MIN_GRIDS``-th on, until the largest estimated relative error is ≤ ``accuracy`` (``met``)
     or has not fallen over ``STAGNATION_LEVELS`` refinements (``stagnation``). The one loop of
@@ -629,8 +685,8 @@ def solve_to_accuracy(
     The refinement stops at the first of: the request met; the planned grids used up (limit
     ``cells`` or ``memory budget``); ``max_grids`` grids; the estimate not falling over
     ``STAGNATION_LEVELS`` refinements (``stagnation``: the extrapolants stagnate, finer grids
-    would not help). A request not met follows the rule of every solver here (README: a missed
-    tolerance is an error, exit status 1): :class:`AccuracyNotMet` names the finest grid and the
+    would not help). A request not met follows the rule of every solver here (docs/howto/accuracy.md:
+    a missed tolerance is an error, exit status 1): :class:`AccuracyNotMet` names the finest grid and the
     limit that stopped it; ``strict=False`` returns the record instead (``accuracy_met`` False).
 
     The record has the keys of ``hpcontact.problems.contact.solve`` (extrapolated ``K_*`` and the
@@ -670,7 +726,11 @@ def solve_to_accuracy(
     if memory_budget is not None and not (math.isfinite(memory_budget) and memory_budget > 0):
         raise InputError("memory", "a memory budget > 0 bytes", memory_budget)
     tol = max(min(scene.tol, accuracy * 1e-2), 1e-14)
-    if strategy == "auto" and strip_applies(scene) and (accuracy < SINGULAR_BELOW or scene.shape.aspect <= STRIP_WIDE_ASPECT):
+    if (
+        strategy == "auto"
+        and strip_applies(scene)
+        and (accuracy < SINGULAR_BELOW or scene.shape.aspect <= STRIP_WIDE_ASPECT)
+    ):
         strategy, n0, n_across0 = "strip", n0 or strip_n0(scene.shape), 1  # a slender rectangle, or an ellipse
     if strategy == "auto":  # singular cells on near-square cells where they apply and pay, else coverage
         start = singular_start(scene, n0 or N0, n_across0) if accuracy < SINGULAR_BELOW else None
@@ -684,10 +744,16 @@ def solve_to_accuracy(
     sequence = plan.grids[:max_grids] if max_grids is not None else plan.grids
     if len(sequence) < MIN_GRIDS:
         within = "the estimator's calibrated range" if plan.limit == "calibration" else f"{max_cells} cells"
-        field, limit = ("memory", f"a memory budget above {plan.next_bytes / 2**20:.0f} MiB") if plan.limit == "memory budget" \
+        field, limit = (
+            ("memory", f"a memory budget above {plan.next_bytes / 2**20:.0f} MiB")
+            if plan.limit == "memory budget"
             else ("accuracy", f"a first grid small enough for {MIN_GRIDS} levels within {within}")
-        raise InputError(field, f"{limit} ({MIN_GRIDS} grids are the fewest an estimate needs)",
-                         plan.budget if plan.limit == "memory budget" else sequence[:1])
+        )
+        raise InputError(
+            field,
+            f"{limit} ({MIN_GRIDS} grids are the fewest an estimate needs)",
+            plan.budget if plan.limit == "memory budget" else sequence[:1],
+        )
 
     def solve_level(n: int, na: int) -> dict[str, Any]:
         level = covered_solve(scene.on_grid(n, na, tol), strategy)
@@ -698,11 +764,22 @@ def solve_to_accuracy(
     model = strip_cells.model_error(scene.shape) if strategy == "strip" else 0.0
     if model >= accuracy:  # no grid can bring the strips' estimate below their own bound
         sequence = sequence[:MIN_GRIDS]
-    done = refine(sequence, solve_level, accuracy, SINGULAR_EXPANSIONS if singular else None, SINGULAR_SAFETY if singular else None,
-                  model_error=model)
+    done = refine(
+        sequence,
+        solve_level,
+        accuracy,
+        SINGULAR_EXPANSIONS if singular else None,
+        SINGULAR_SAFETY if singular else None,
+        model_error=model,
+    )
     levels, values, relative, orders, expansions = done.levels, done.values, done.relative, done.orders, done.expansions
-    stopped_by = done.stopped_by or ("model" if model >= accuracy else "grids" if max_grids is not None
-                                     and max_grids < len(plan.grids) else plan.limit)
+    stopped_by = done.stopped_by or (
+        "model"
+        if model >= accuracy
+        else "grids"
+        if max_grids is not None and max_grids < len(plan.grids)
+        else plan.limit
+    )
     finest = levels[-1]
     record: dict[str, Any] = {k: finest[k] for k in ("nx", "ny", "dx", "dy", "contact_cells", "contact_area")}
     record.update(values)
@@ -728,7 +805,10 @@ def solve_to_accuracy(
     ]
     record["iterations"] = int(sum(r["iterations"] for r in levels))
     record["residual"] = max(r["residual"] for r in levels)
-    record["plan"] = {**finest["plan"], "extrapolation": "generalized Richardson over grids ratio 2, expansion of least spread"}
+    record["plan"] = {
+        **finest["plan"],
+        "extrapolation": "generalized Richardson over grids ratio 2, expansion of least spread",
+    }
     record["wall_time_s"] = time.perf_counter() - started
     if strict and not record["accuracy_met"]:
         raise AccuracyNotMet(record, plan)
@@ -748,8 +828,11 @@ def extrapolates_by_default(scene: Scene) -> bool:
     quantities that coverage-weighted cells solve (tangential, normal, coupled)."""
     if scene.grid_given:
         return False
-    return (isinstance(scene.material, Isotropic) and scene.shape.name not in ("rough", "mask")
-            and all(x in SUPPORTED for x in scene.quantities))
+    return (
+        isinstance(scene.material, Isotropic)
+        and scene.shape.name not in ("rough", "mask")
+        and all(x in SUPPORTED for x in scene.quantities)
+    )
 
 
 def default_grids(scene: Scene) -> list[tuple[int, int]]:
@@ -769,9 +852,9 @@ def default_solve(scene: Scene) -> dict[str, Any]:
     ``n`` (one grid, centre-in-cell, as always) or the scene is not one that
     :func:`extrapolates_by_default`; else ``solve_to_accuracy`` on grids 16, 32, … , 256
     (``DEFAULT_GRIDS``), stopping once the estimate is ≤ ``DEFAULT_ACCURACY`` = 1e-4, never an
-    error: the record's ``estimated_error`` says what was reached (README, "What accuracy
-    costs": 0.3–1.1 s CPU, true errors ≤ 9e-5 on ellipses b/a 1 … 1e-8). Its ``nx``, ``ny``,
-    ``dx``, ``dy`` are the finest grid's, ``grids`` and ``grids_across`` list every grid.
+    error: the record's ``estimated_error`` says what was reached (docs/howto/accuracy.md,
+    "Without ``--n``: the default": 0.3–1.1 s CPU, true errors ≤ 9e-5 on ellipses b/a 1 … 1e-8).
+    Its ``nx``, ``ny``, ``dx``, ``dy`` are the finest grid's, ``grids`` and ``grids_across`` list every grid.
 
     A sweep's contact tasks run this too (:func:`task_function`): a spec
     without ``n`` gets the extrapolated default and its data set ``estimated_error``."""
@@ -792,14 +875,17 @@ class AccuracyNotMet(ConvergenceError):
         why = {
             "cells": f"the next grid, {nxt}, exceeds the {plan.max_cells} cells allowed",
             "memory budget": f"the next grid, {nxt}, needs an estimated {plan.next_bytes / 2**20:.0f} MiB, above the memory "
-                             f"budget of {plan.budget / 2**20:.0f} MiB ({plan.budget_source})",
+            f"budget of {plan.budget / 2**20:.0f} MiB ({plan.budget_source})",
             "calibration": f"the next grid, {nxt}, is beyond those on which the error estimate of "
-                           f"{record['boundary']} cells is calibrated ("
-                           + (f"{SINGULAR_MAX_CELLS} cells, accuracy.SINGULAR_MAX_CELLS)" if record["boundary"] == "singular"
-                              else f"{COVERAGE_MAX_N} cells along the long side, accuracy.COVERAGE_MAX_N)"),
+            f"{record['boundary']} cells is calibrated ("
+            + (
+                f"{SINGULAR_MAX_CELLS} cells, accuracy.SINGULAR_MAX_CELLS)"
+                if record["boundary"] == "singular"
+                else f"{COVERAGE_MAX_N} cells along the long side, accuracy.COVERAGE_MAX_N)"
+            ),
             "grids": "the number of grids allowed is used up",
             "model": f"the strips' own error bound, {record.get('model_error', 0.0):.2g} (strip_cells.model_error: what "
-                     "strips leave at this b/a whatever their number), is not below the request",
+            "strips leave at this b/a whatever their number), is not below the request",
             "stagnation": f"the estimate did not fall over the last {STAGNATION_LEVELS} refinements (the extrapolants stagnate)",
         }[record["stopped_by"]]
         super().__init__(

@@ -319,9 +319,7 @@ def thin_ellipse_ratio_asymptote(aspect: ArrayLike, nu: ArrayLike) -> float | np
     return _out((1.0 - nu) + nu * (2.0 - nu) / (lam - nu))
 
 
-def elliptical_punch_normal_stiffness(
-    a: ArrayLike, b: ArrayLike, G: ArrayLike, nu: ArrayLike
-) -> float | np.ndarray:
+def elliptical_punch_normal_stiffness(a: ArrayLike, b: ArrayLike, G: ArrayLike, nu: ArrayLike) -> float | np.ndarray:
     """Normal stiffness K_zz = π a E*/K(m) of a rigid frictionless elliptical flat punch [N/m].
 
     Semi-axes a ≥ b, m = 1 − (b/a)², E* = 2G/(1 − nu). Pressure
@@ -387,8 +385,7 @@ def _load_ratio(name: str, Q: np.ndarray, limit: np.ndarray) -> np.ndarray:
     bad = ratio > 1.0
     if np.any(bad):
         full = np.broadcast_to(Q, ratio.shape)
-        raise InputError(name, "tangential load must satisfy |Q| <= mu*P (no gross sliding)",
-                         _first(full, bad))
+        raise InputError(name, "tangential load must satisfy |Q| <= mu*P (no gross sliding)", _first(full, bad))
     return ratio
 
 
@@ -457,8 +454,7 @@ def _unloading_args(
     bad = np.abs(Q) > Qs
     if np.any(bad):
         full = np.broadcast_to(Q, np.broadcast_shapes(Q.shape, Qs.shape))
-        raise InputError("Q", "load must satisfy -Q_star <= Q <= Q_star on the hysteresis loop",
-                         _first(full, bad))
+        raise InputError("Q", "load must satisfy -Q_star <= Q <= Q_star on the hysteresis loop", _first(full, bad))
     return Q, Qs, limit
 
 
@@ -508,8 +504,7 @@ def mindlin_deresiewicz_reloading_displacement(
     By symmetry δ_reload(Q) = −δ_unload(−Q) (Mindlin & Deresiewicz 1953; Johnson 1985, §7.4).
     """
     Q = _real("Q", Q)
-    return _out(-np.asarray(
-        mindlin_deresiewicz_unloading_displacement(-Q, Q_star, P, mu, a, G, nu)))
+    return _out(-np.asarray(mindlin_deresiewicz_unloading_displacement(-Q, Q_star, P, mu, a, G, nu)))
 
 
 def mindlin_deresiewicz_unloading_stiffness(

@@ -6,49 +6,336 @@ initializes MPI.
 >>> import hpcontact
 >>> record = hpcontact.solve(shape="ellipse", aspect=0.5, nu=0.3, n=64)
 >>> record["K_xx"], record["K_yy"]                      # doctest: +SKIP
->>> path = hpcontact.run_sweep("jobs/demo.toml")          # one process
+>>> record = hpcontact.solve(shape="ellipse", aspect=0.3, accuracy=1e-4)   # extrapolated over grids
+>>> path = hpcontact.run_sweep("jobs/demo.toml")          # one process; again: "up to date"
 >>> ds = hpcontact.open_dataset(path)
 >>> ds.K_nn.sel(shape="rectangle", nu=0.3, aspect=1e-4)  # doctest: +SKIP
+
+``solve_fields`` is the one dispatch of a single scene, shared by ``hpcontact solve`` and
+``hpcontact.solve``: contact or slip scene (``problems.kinds``), ``accuracy`` or the default
+discretization, BLAS limited while it runs (``numerics.blas``).
 """
 
 from __future__ import annotations
 
+import difflib
+import json
+import math
+import numbers
+import os
+import re
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TextIO
 
-from hpcontact.problems.contact import solve as solve_scene
+import numpy as np
+
+from hpcontact.accuracy import default_solve, solve_to_accuracy, task_function
+from hpcontact.errors import InputError
+from hpcontact.numerics.blas import limited_blas
+from hpcontact.numerics.memory import parse_memory
+from hpcontact.problems.kinds import SLIP, scene_kind
 from hpcontact.scene import Scene
 
 if TYPE_CHECKING:
     import xarray as xr
 
+#: The fields of a partial-slip scene beyond those of a contact scene (``--quantities slip``;
+#: ``hpcontact.problems.slip.problem.validate``): name, type, help text of ``hpcontact solve``.
+SLIP_FIELDS: tuple[tuple[str, type, str], ...] = (
+    ("radius_b", float, "second principal radius of body 1 (ellipsoid)"),
+    ("radius2", float, "radius of body 2 (default: a flat)"),
+    ("radius2_b", float, "second principal radius of body 2"),
+    ("body2_angle", float, "angle between the principal axes of the bodies (degrees)"),
+    ("material2", str, "body 2 by name (Cu, Fe/steel, Al, rigid)"),
+    ("E", float, "Young's modulus of body 1"),
+    ("E2", float, "Young's modulus of body 2"),
+    ("G2", float, "shear modulus of body 2"),
+    ("nu2", float, "Poisson ratio of body 2"),
+    ("load", float, "normal load P (> 0)"),
+    ("mu", float, "friction coefficient (>= 0)"),
+    ("q_ratio", float, "tangential load Q/(mu P) in [0, 1)"),
+    ("angle", float, "direction of the tangential load (degrees from x)"),
+    ("steps", int, "tangential load steps"),
+    ("control", str, "force or displacement"),
+    ("displacement", float, "final tangential displacement (with control displacement)"),
+    ("path", str, "load (monotonic), loop (load, unload, reload) or proportional (normal load with the displacement)"),
+    ("coupling", str, "auto, both, coupled or decoupled"),
+    ("tensor", bool, "add the incremental 2 x 2 tangential stiffness tensor"),
+    ("history", bool, "add every load step"),
+    ("normal_friction", bool, "apply the normal load in steps with friction (Spence; coupled path)"),
+    ("anisotropy2", float, "body 2: cubic anisotropy factor A (with nu2 and G2 or E2)"),
+    ("orientation2", float, "body 2: normal along [110] -> [111] -> [001], psi in degrees (lab frame)"),
+    ("miller2", str, 'body 2: lattice direction "h k l" along the lab normal'),
+    ("azimuth2", float, "body 2: in-plane turn of the crystal (degrees)"),
+    ("cubic2", str, 'body 2: cubic crystal "C11=... C12=... C44=..." (GPa)'),
+    ("orthotropic2", str, "body 2: orthotropic engineering constants (GPa), as orthotropic"),
+    ("voigt2", str, "body 2: general 6 x 6 Voigt stiffness, 36 numbers (GPa)"),
+)
+SLIP_NAMES = tuple(name for name, _, _ in SLIP_FIELDS)
 
-def solve(**params: Any) -> dict[str, Any]:
-    """Solve one scene and return its record.
+
+def keyword(field: str) -> str:
+    """A field as a Python caller names it: the keyword itself."""
+    return field
+
+
+def solve_fields(
+    params: Mapping[str, Any],
+    slip: Mapping[str, Any] | None = None,
+    *,
+    accuracy: float | None = None,
+    memory: str | float | None = None,
+    name: Callable[[str], str] = keyword,
+) -> dict[str, Any]:
+    """Solve one scene from its fields and return its record: the dispatch of ``hpcontact
+    solve`` and ``hpcontact.solve``.
+
+    ``params`` are the scene's fields (``hpcontact.scene.DEFAULTS`` names them; ``None`` or
+    missing: the engine's default), ``slip`` the partial-slip fields (``SLIP_FIELDS``, only
+    with ``quantities="slip"``). A slip scene goes to the slip solver
+    (``accuracy.task_function``); a contact scene with ``accuracy`` to ``solve_to_accuracy``
+    (strategy "auto", within the ``memory`` budget: "2G" or bytes; default this machine's
+    memory per core), else to ``default_solve`` (without ``n``: grids 16 … 256 extrapolated to
+    about 1e-4 where that applies; with ``n``: that grid). BLAS is limited while it runs
+    (``numerics.blas``). ``name`` spells a field in a message (``--memory`` on the command line).
+    """
+    fields = {k: os.fspath(v) if isinstance(v, os.PathLike) else v for k, v in params.items() if v is not None}
+    extra = {k: v for k, v in (slip or {}).items() if v is not None}
+    kind = scene_kind(fields)
+    if kind == SLIP:  # the same dispatch as a sweep's (hpcontact.problems.kinds)
+        fields.pop("shape", None)
+        fields.update(extra)
+    elif extra:
+        field = next(iter(extra))
+        raise InputError(name(field), f"only with {name('quantities')} slip", extra[field])
+    if memory is not None and accuracy is None:
+        raise InputError(name("memory"), f"only with {name('accuracy')}", memory)
+    if accuracy is not None and kind == SLIP:
+        raise InputError(
+            name("accuracy"),
+            f"not with {name('quantities')} slip (a slip scene is solved on its grid, n cells across the contact)",
+            accuracy,
+        )
+    budget = None if memory is None else parse_memory(memory, name("memory"))
+    with limited_blas():
+        if kind == SLIP:
+            return dict(task_function(kind)(fields))
+        scene = Scene.from_params(fields)
+        if accuracy is not None:
+            return solve_to_accuracy(scene, accuracy, memory_budget=budget, strategy="auto")
+        return default_solve(scene)  # without n: the extrapolated default where it applies
+
+
+def solve(
+    *,
+    shape: str | None = None,
+    aspect: float | None = None,
+    sides: int | None = None,
+    shape_angle: float | None = None,
+    amplitude: float | None = None,
+    seed: int | None = None,
+    hurst: float | None = None,
+    rms: float | None = None,
+    mask: str | os.PathLike[str] | None = None,
+    nu: float | None = None,
+    G: float | None = None,
+    anisotropy: float | None = None,
+    orientation: float | None = None,
+    miller: str | Sequence[int] | None = None,
+    azimuth: float | None = None,
+    material: str | None = None,
+    cubic: str | Mapping[str, float] | Sequence[float] | None = None,
+    orthotropic: str | Mapping[str, float] | Sequence[float] | None = None,
+    voigt: str | Sequence[float] | Sequence[Sequence[float]] | None = None,
+    n: int | None = None,
+    n_across: int | None = None,
+    tol: float | None = None,
+    quantities: str | Sequence[str] | None = None,
+    radius: float | None = None,
+    depth: float | None = None,
+    threads: int | None = None,
+    precondition: bool | None = None,
+    accuracy: float | None = None,
+    memory: str | int | None = None,
+    **slip: Any,
+) -> dict[str, Any]:
+    """Solve one scene and return its record, as ``hpcontact solve --json`` prints it.
+
+    Every parameter is keyword-only; ``None`` (the default) means the engine's default
+    (``hpcontact.scene.DEFAULTS``, shown in brackets). Lengths are in units of a, the
+    semi-major extent of the contact (the long side's half; 1 on the grid).
 
     Parameters
     ----------
-    **params
-        The scene's fields, the names of ``hpcontact solve`` and of a sweep's [scene] and
-        [numerics] tables (docs/design.md §4.1): ``shape``, ``aspect``, ``nu``, ``quantities``, ``n``,
-        ``tol``, ``material``, ``anisotropy``, ``orientation``, ... Missing fields take the
-        engine's defaults.
+    shape
+        ``circle`` [default], ``ellipse``, ``rectangle``, ``polygon``, ``star``, ``rough`` or
+        ``mask``.
+    aspect
+        b/a of an ellipse or rectangle, in [1e-12, 1] [1].
+    sides
+        Sides of a polygon, lobes of a star (≥ 2) [5].
+    shape_angle
+        Turn of the shape (and of a crystal's lattice with it), degrees [0].
+    amplitude
+        Star modulation ε of r = 1 + ε cos(k φ), in [0, 1) [0.2].
+    seed, hurst, rms
+        The rough surface: random seed [0], Hurst exponent in (0, 1) [0.8], rms height in
+        units of a [0.02].
+    mask
+        Contact mask file (.npy, or .png: dark pixels in contact) for ``shape="mask"``; unit a
+        is half the long side of the contact.
+    nu
+        Poisson ratio in (-1, 0.5] [0.3].
+    G
+        Shear modulus, the stress unit of the scene [1].
+    anisotropy
+        Cubic anisotropy factor A = 2 C44/(C11 − C12) in [0.01, 100]; 1 is isotropic [1].
+    orientation
+        Surface normal along [110] → [111] → [001]: ψ in [0, 90] degrees [[001]].
+    miller
+        Surface normal as Miller indices, ``"1 1 0"`` or ``(1, 1, 0)`` (not with orientation).
+    azimuth
+        In-plane turn of the crystal, degrees [0].
+    material
+        Library crystal by name (``Cu``, ``Al``, ``Fe``, ``Ni``, ``W``, ``Si``, ...; constants
+        in GPa). With ``quantities="slip"``: body 1 (``Cu``, ``Fe``/``steel``, ``Al``,
+        ``rigid``, or ``crystal:NAME``).
+    cubic
+        Cubic crystal ``"C11=... C12=... C44=..."`` (GPa), a mapping or three numbers.
+    orthotropic
+        Orthotropic engineering constants ``"E1=.. E2=.. E3=.. G12=.. G13=.. G23=.. nu12=..
+        nu13=.. nu23=.."`` (GPa), a mapping or nine numbers.
+    voigt
+        General 6 × 6 Voigt stiffness (GPa): 36 numbers row by row or a nested 6 × 6 list.
+    n
+        Cells along the long side. Without it (and without ``accuracy``): grids 16 … 256
+        extrapolated to an estimated 1e-4 where that applies (isotropic, outlined shapes),
+        else 128.
+    n_across
+        Cells across the short side (thin shapes).
+    tol
+        Conjugate-gradient relative residual tolerance in [1e-14, 1e-2] [1e-8].
+    quantities
+        Comma string or list of ``tangential`` [default], ``normal``, ``compliance``,
+        ``coupled``, ``indentation``; or ``slip`` (partial slip of two bodies: give the fields
+        of ``SLIP_FIELDS`` as keywords, e.g. ``radius=0.01, load=100.0, mu=0.3, q_ratio=0.5``).
+    radius, depth
+        Rigid sphere radius and approach (``indentation``), in a length unit L of your choice.
+    threads
+        FFTW threads [1]. BLAS threads: ``$HPCONTACT_BLAS_THREADS`` [1], only while solving.
+    precondition
+        Fourier-preconditioned CG [True]; False for plain CG.
+    accuracy
+        Extrapolate over refined grids until the estimated relative error of every reported
+        stiffness is ≤ this (in [1e-9, 1)), exactly as ``hpcontact solve --accuracy``
+        (``hpcontact.accuracy.solve_to_accuracy``, strategy "auto"); ``n`` is then ignored.
+    memory
+        Memory budget of ``accuracy`` (``"2G"``, ``"512M"`` or bytes) [this machine's memory
+        per core].
+    **slip
+        The partial-slip fields (``SLIP_FIELDS``: ``load``, ``mu``, ``q_ratio``, ``radius2``,
+        ``material2``, ``steps``, ...), only with ``quantities="slip"``.
 
     Returns
     -------
     dict
-        The record of ``hpcontact.problems.contact.solve``: stiffnesses ``K_ij`` in units of G·a (G the
-        shear modulus, a the semi-major extent of the contact), grid, iterations, residual and
-        the plan, for the quantities asked.
+        The record: stiffnesses ``K_ij`` in units of G·a (GPa·a for a crystal given in GPa),
+        principal values and angle, ratios, grid, iterations, residual, ``wall_time_s`` and
+        the ``plan``; with ``accuracy`` (or the extrapolated default) also
+        ``estimated_error``, ``grids`` and ``levels``. Slip scenes: the record of
+        ``hpcontact.problems.slip.partial_slip.solve_slip``.
 
     Raises
     ------
+    TypeError
+        An unknown keyword (the message suggests the closest known one).
     hpcontact.errors.InputError
-        A field is missing, unknown or out of range (the message names it and the range).
+        A field is missing, out of range or not used by the scene (the message names it and
+        the range).
     hpcontact.errors.ConvergenceError
-        A solve did not reach its tolerance.
+        A solve did not reach its tolerance, or ``accuracy`` was not met within the grids the
+        limits allow (``hpcontact.accuracy.AccuracyNotMet`` names the limit).
     """
-    return solve_scene(Scene.from_params(params))
+    unknown = sorted(set(slip) - set(SLIP_NAMES))
+    if unknown:
+        raise TypeError(
+            f"solve() got an unexpected keyword argument {unknown[0]!r}"
+            f"{did_you_mean(unknown[0], _SOLVE_KEYWORDS + SLIP_NAMES, quote=True)}"
+        )
+    params = {
+        "shape": shape,
+        "aspect": aspect,
+        "sides": sides,
+        "shape_angle": shape_angle,
+        "amplitude": amplitude,
+        "seed": seed,
+        "hurst": hurst,
+        "rms": rms,
+        "mask": mask,
+        "nu": nu,
+        "G": G,
+        "anisotropy": anisotropy,
+        "orientation": orientation,
+        "miller": miller,
+        "azimuth": azimuth,
+        "material": material,
+        "cubic": cubic,
+        "orthotropic": orthotropic,
+        "voigt": voigt,
+        "n": n,
+        "n_across": n_across,
+        "tol": tol,
+        "quantities": quantities,
+        "radius": radius,
+        "depth": depth,
+        "threads": threads,
+        "precondition": precondition,
+    }
+    return solve_fields(params, slip, accuracy=accuracy, memory=memory)
+
+
+_SOLVE_KEYWORDS = (
+    "shape",
+    "aspect",
+    "sides",
+    "shape_angle",
+    "amplitude",
+    "seed",
+    "hurst",
+    "rms",
+    "mask",
+    "nu",
+    "G",
+    "anisotropy",
+    "orientation",
+    "miller",
+    "azimuth",
+    "material",
+    "cubic",
+    "orthotropic",
+    "voigt",
+    "n",
+    "n_across",
+    "tol",
+    "quantities",
+    "radius",
+    "depth",
+    "threads",
+    "precondition",
+    "accuracy",
+    "memory",
+)
+
+
+def did_you_mean(word: str, choices: Sequence[str], quote: bool = False) -> str:
+    """``"; did you mean X?"`` with the closest of ``choices`` (difflib), else ``""``."""
+    close = difflib.get_close_matches(word, list(choices), n=1, cutoff=0.6)
+    if not close:
+        close = [c for c in choices if c.lower() == word.lower()]
+    if not close:
+        return ""
+    return f"; did you mean {close[0]!r}?" if quote else f"; did you mean {close[0]}?"
 
 
 def open_dataset(path: str | Path, **options: Any) -> xr.Dataset:
@@ -75,29 +362,190 @@ def open_dataset(path: str | Path, **options: Any) -> xr.Dataset:
     return open_sweep(path, **options)
 
 
-def run_sweep(spec: str | Path, **options: Any) -> Path:
+#: Command-line flags in the sweep's messages and the keywords of ``run_sweep`` that do the same.
+_FLAGS = {
+    "--resume": "resume=True",
+    "--restart": "restart=True",
+    "--accept-stale": "accept_stale=True",
+    "--retry-crashed": "retry_crashed=True",
+    "--break-lock": "break_lock=True",
+    "--mem-per-rank": "mem_per_rank",
+    "--output": "output=",
+}
+_FLAG = re.compile(
+    r"(?<![\w-])(" + "|".join(re.escape(f) for f in sorted(_FLAGS, key=len, reverse=True)) + r")(?![\w-])"
+)
+
+
+def python_message(text: str) -> str:
+    """A sweep message with its command-line flags as ``run_sweep`` keywords (``--resume`` →
+    ``resume=True``): what a Python caller passes."""
+    return _FLAG.sub(lambda m: _FLAGS[m.group(1)], text)
+
+
+def run_sweep(
+    spec: str | os.PathLike[str] | Mapping[str, Any],
+    *,
+    resume: bool = False,
+    restart: bool = False,
+    output: str | os.PathLike[str] | None = None,
+    accept_stale: bool = False,
+    retry_crashed: bool = False,
+    break_lock: bool = False,
+    mem_per_rank: str | int | None = None,
+    task_function: Callable[[Mapping[str, Any]], Mapping[str, Any]] | None = None,
+    stream: TextIO | None = None,
+) -> Path:
     """Run a sweep in this one process and return the path of its data set.
 
     Parameters
     ----------
     spec
-        The sweep spec (TOML), e.g. ``"jobs/demo.toml"``.
-    **options
-        Options of ``hpcontact.sweep.driver.run_sweep``: ``resume=True`` reuses the tasks
-        the journals hold, ``output=PATH`` overrides the spec's output, ``stream`` receives
-        the progress lines (default stdout).
+        The sweep spec: a TOML file (``"jobs/demo.toml"``) or a dict of the same structure
+        (``{"scene": {...}, "numerics": {...}, "axes": {...}, "sweep": {"output": ...}}``),
+        checked by the same parser (``hpcontact.sweep.spec.parse_spec``). A dict's relative
+        mask paths are relative to the working directory, and it needs an output (its
+        ``sweep.output`` or ``output=``).
+    resume
+        Continue from the journals of an earlier run: reuse its finished tasks, run failed
+        ones again.
+    restart
+        Discard the journals of this output first (not with ``resume``).
+    output
+        The data set path (``.nc``), instead of the spec's ``sweep.output``.
+    accept_stale, retry_crashed, break_lock
+        Reuse journal entries of another version or revision; run quarantined tasks again;
+        take the output's lock from a run known to be dead (``hpcontact run --help``).
+    mem_per_rank
+        Refuse a spec with a task whose estimated memory exceeds this (``"4G"`` or bytes);
+        default: not checked.
+    task_function
+        Replaces the solver of one scene (fields → record); default: the spec's scene kind's.
+    stream
+        Receives the progress lines and the summary (default stdout).
 
     Returns
     -------
     pathlib.Path
-        The data set written (read it with ``open_dataset``).
+        The data set (read it with ``open_dataset``). A sweep already finished with this spec
+        and output is up to date: nothing is computed or written, one line says so, and its
+        path is returned (no ``resume`` needed).
 
     Raises
     ------
     hpcontact.errors.InputError
-        The spec is invalid (the message names the key).
+        The spec is invalid (the message names the key), or the run is refused
+        (``hpcontact.sweep.guard.Refused``: journals of an earlier run without ``resume=True``
+        or ``restart=True``, stale journals, the lock held, the output unusable); the message
+        names the keyword to pass.
+    hpcontact.sweep.driver.Stopped
+        The run stopped before writing the data set (journals intact: ``resume=True`` goes on).
     """
-    from hpcontact.sweep.driver import run_sweep as run
+    from hpcontact.sweep.driver import Options, Stopped, execute
+    from hpcontact.sweep.guard import Refused
     from hpcontact.sweep.schedule import SerialTeam
 
-    return run(spec, team=SerialTeam(), **options)
+    if resume and restart:
+        raise InputError(
+            "restart", "not with resume=True (resume continues from the journals, restart discards them)", True
+        )
+    memory = None if mem_per_rank is None else (parse_memory(mem_per_rank, "mem_per_rank"), "mem_per_rank")
+    options = Options(
+        resume=resume,
+        restart=restart,
+        accept_stale=accept_stale,
+        retry_crashed=retry_crashed,
+        break_lock=break_lock,
+        mem_per_rank=memory,
+        up_to_date=task_function is None,
+    )
+    target = None if output is None else os.fspath(output)
+    try:
+        source = _dict_spec(spec, target) if isinstance(spec, Mapping) else spec
+        return execute(
+            source,
+            None if isinstance(spec, Mapping) else target,
+            task_function,
+            team=SerialTeam(),
+            stream=stream,
+            options=options,
+        ).path
+    except Refused as exc:
+        raise Refused(python_message(str(exc))).with_traceback(exc.__traceback__) from None
+    except Stopped as exc:
+        raise Stopped(python_message(str(exc)), exc.status).with_traceback(exc.__traceback__) from None
+    except InputError as exc:
+        if not any(flag in f"{exc.field} {exc.allowed}" for flag in _FLAGS):
+            raise
+        raise InputError(python_message(exc.field), python_message(exc.allowed), exc.value).with_traceback(
+            exc.__traceback__
+        ) from None
+
+
+#: The spec path a dict spec is recorded under (journals, the data set's ``spec_path``).
+DICT_SPEC_PATH = "<dict>"
+
+
+def _dict_spec(spec: Mapping[str, Any], output: str | None) -> Any:
+    """The ``Spec`` of a spec given as a dict: its TOML text through ``parse_spec``."""
+    from hpcontact.sweep.spec import parse_spec
+
+    sweep = spec.get("sweep")
+    if output is None and not (isinstance(sweep, Mapping) and sweep.get("output") is not None):
+        raise InputError(
+            "output",
+            "a data set path ending in .nc: a spec given as a dict names it in its sweep table (output) or by output=",
+        )
+    return parse_spec(toml_text(spec), path=DICT_SPEC_PATH, output=output, check_scenes=False)
+
+
+def toml_text(spec: Mapping[str, Any]) -> str:
+    """A spec given as a dict as TOML text (tables of key = value; nested mappings inline):
+    what ``hpcontact.sweep.spec.parse_spec`` reads. ``None`` and other values TOML cannot
+    hold are refused with an ``InputError`` naming the key."""
+    lines = [
+        f"{_toml_key(key)} = {_toml_value(str(key), value)}"
+        for key, value in spec.items()
+        if not isinstance(value, Mapping)
+    ]
+    for table, values in spec.items():
+        if isinstance(values, Mapping):
+            lines.append(f"[{_toml_key(table)}]")
+            lines += [f"{_toml_key(key)} = {_toml_value(f'{table}.{key}', value)}" for key, value in values.items()]
+    return "\n".join(lines) + "\n"
+
+
+def _toml_key(key: Any) -> str:
+    if not isinstance(key, str):
+        raise InputError("spec", "string keys (a spec as a dict has the structure of its TOML file)", key)
+    return key if re.fullmatch(r"[A-Za-z0-9_-]+", key) else _toml_string(key)
+
+
+def _toml_string(text: str) -> str:
+    return json.dumps(text, ensure_ascii=False).replace("\x7f", "\\u007f")
+
+
+def _toml_value(where: str, value: Any) -> str:
+    if isinstance(value, (bool, np.bool_)):
+        return "true" if value else "false"
+    if isinstance(value, numbers.Integral):
+        return str(int(value))
+    if isinstance(value, numbers.Real):
+        number = float(value)
+        return (
+            ("nan" if math.isnan(number) else "inf" if number > 0 else "-inf")
+            if not math.isfinite(number)
+            else repr(number)
+        )
+    if isinstance(value, (str, os.PathLike)):
+        return _toml_string(os.fspath(value))
+    if isinstance(value, Mapping):
+        items = ", ".join(f"{_toml_key(k)} = {_toml_value(f'{where}.{k}', v)}" for k, v in value.items())
+        return f"{{ {items} }}" if items else "{}"
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_value(where, v) for v in value) + "]"
+    raise InputError(
+        where, "a TOML value: a string, number, boolean, list or table (leave a key out for the default)", value
+    )

@@ -1,158 +1,335 @@
 """Command line: ``hpcontact solve``, ``hpcontact run``, ``hpcontact info`` (docs/design.md §4.1).
 
-Bad input exits with status 2 and one line on stderr naming the field and the allowed range.
+Bad input exits with status 2 and one line on stderr naming the field and the allowed range; an
+unknown option or command names the closest known one ("did you mean --aspect?"). ``hpcontact
+solve`` and ``hpcontact.solve`` share one dispatch (``api.solve_fields``); ``hpcontact solve
+--help`` shows each option's default, grouped (scene, material, numerics, output, partial slip),
+and examples.
 """
 
 from __future__ import annotations
 
 import argparse
+import difflib
 import json
 import os
+import re
+import signal
 import sys
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy
 import pyfftw
 
 from hpcontact import __version__
-from hpcontact.accuracy import default_solve, solve_to_accuracy, task_function
+from hpcontact.api import SLIP_FIELDS, solve_fields
 from hpcontact.errors import ConvergenceError, InputError
 from hpcontact.numerics.convolution import load_wisdom, save_wisdom, wisdom_path
-from hpcontact.numerics.memory import parse_memory
-from hpcontact.problems.kinds import SLIP, scene_kind
-from hpcontact.scene import Scene
+from hpcontact.problems.kinds import SLIP, quantity_names, scene_kind
+from hpcontact.scene import DEFAULTS, SHAPES
 from hpcontact.sweep.arguments import add_run_arguments
+
+#: The partial-slip options of ``hpcontact solve`` (name, type, help), as ``hpcontact.solve`` takes them.
+SLIP_OPTIONS = SLIP_FIELDS
+
+EXAMPLES = """examples:
+  hpcontact solve --shape ellipse --aspect 0.3 --nu 0.3      one scene: K of an ellipse to about 1e-4
+  hpcontact solve --help                                     its options, defaults and examples
+  mpiexec -n 2 hpcontact run jobs/demo.toml                  a sweep (run again: up to date, nothing to do)
+  hpcontact run jobs/demo.toml --dry-run                     its tasks and cost; nothing computed
+  hpcontact info                                             versions, MPI library, FFTW wisdom"""
+
+SOLVE_EXAMPLES = """examples:
+  hpcontact solve --shape ellipse --aspect 0.3 --nu 0.3
+      tangential stiffness of an ellipse b/a = 0.3 (grids 16 ... 256 extrapolated, error about 1e-4)
+  hpcontact solve --shape ellipse --aspect 0.1 --accuracy 1e-6 --json
+      to an estimated relative error of 1e-6, one JSON object
+  hpcontact solve --shape rectangle --aspect 1e-4 --n 512 --n-across 16 --quantities tangential,normal
+      one grid: 512 cells along, 16 across; with K_zz and Li's normalization
+  hpcontact solve --material Cu --miller "1 1 0" --quantities tangential,normal
+      a copper crystal with its (110) plane in contact (K in GPa a)
+  hpcontact solve --quantities indentation --radius 1 --depth 0.01 --n 64
+      rigid sphere on the half-space (load in G L2, L the unit of the radius)
+  hpcontact solve --quantities slip --radius 0.01 --load 100 --mu 0.3 --q-ratio 0.5 --material steel
+      partial slip of a steel sphere on a rigid flat (SI units: N, m)
+
+units: K in G a (G the shear modulus, a the semi-major extent of the contact, 1 on the grid);
+GPa a when the material is a library crystal or constants in GPa; the text output names each
+value's unit."""
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse that reports a bad option in one line (exit status 2), as the contract asks."""
+    """argparse that reports a bad option in one line (exit status 2), as the contract asks, and
+    names the closest known option or command."""
 
     def error(self, message: str) -> None:  # type: ignore[override]
+        choice = re.search(r"invalid choice: '([^']*)' \(choose from (.*)\)", message)
+        if choice:
+            message += _did_you_mean(choice.group(1), re.findall(r"'([^']*)'", choice.group(2)))
         self.exit(2, f"hpcontact: {message}\n")
+
+    def parse_args(self, args: Sequence[str] | None = None, namespace: Any = None) -> argparse.Namespace:  # type: ignore[override]
+        parsed, extras = self.parse_known_args(args, namespace)
+        if extras:
+            self.error(f"unrecognized arguments: {' '.join(extras)}{self._suggestion(extras, parsed)}")
+        return parsed
+
+    def _suggestion(self, extras: Sequence[str], parsed: argparse.Namespace) -> str:
+        """ "; did you mean --aspect?" for the first unknown option, among the options of the
+        command given (else of this parser)."""
+        parser: argparse.ArgumentParser = self
+        for action in self._actions:
+            if isinstance(action, argparse._SubParsersAction) and getattr(parsed, "command", None) in action.choices:
+                parser = action.choices[parsed.command]
+        known = [option for action in parser._actions for option in action.option_strings if option.startswith("--")]
+        for extra in extras:
+            if extra.startswith("--"):
+                return _did_you_mean(extra.split("=", 1)[0], known)
+        return ""
+
+
+def _did_you_mean(word: str, choices: Sequence[str]) -> str:
+    close = difflib.get_close_matches(word, list(choices), n=1, cutoff=0.6)
+    return f"; did you mean {close[0]}?" if close else ""
+
+
+def _default(name: str) -> str:
+    """ " (default: X)" with X the engine's default of the scene field ``name`` (scene.DEFAULTS)."""
+    value = DEFAULTS[name]
+    shown = ",".join(value) if isinstance(value, (list, tuple)) else value
+    return f" (default: {shown})"
+
+
+def _option(name: str) -> str:
+    return f"--{name.replace('_', '-')}"
 
 
 def _solve_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("solve", help="solve one scene")
-    p.add_argument("--shape", default="circle", help="circle, ellipse, rectangle, polygon, star, rough, mask")
-    p.add_argument("--aspect", type=float, help="b/a of ellipse or rectangle, in (0, 1]")
-    p.add_argument("--sides", type=int, help="polygon sides or star lobes")
-    p.add_argument("--shape-angle", type=float, help="turn the shape by this angle (degrees)")
-    p.add_argument("--amplitude", type=float, help="star modulation epsilon of r = 1 + eps cos(k phi)")
-    p.add_argument("--seed", type=int, help="seed of the rough surface")
-    p.add_argument("--mask", help="contact mask file (.npy or .png) for --shape mask")
-    p.add_argument("--nu", type=float, help="Poisson ratio, in [-1, 0.5]")
-    p.add_argument("--G", type=float, help="shear modulus (default 1)")
-    p.add_argument("--anisotropy", type=float, help="cubic anisotropy factor A (1 = isotropic)")
-    p.add_argument("--orientation", type=float, help="surface normal along [110] -> [111] -> [001], psi in degrees")
-    p.add_argument("--miller", help='surface normal as Miller indices "h k l"')
-    p.add_argument("--azimuth", type=float, help="in-plane turn of the crystal (degrees)")
-    p.add_argument(
+    p = sub.add_parser(
+        "solve",
+        help="solve one scene",
+        description="Solve one scene: the stiffness of a bonded punch (or a rigid "
+        "sphere,\nor partial slip of two bodies) on an elastic half-space.",
+        epilog=SOLVE_EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    scene = p.add_argument_group("scene (lengths in units of a, the semi-major extent of the contact)")
+    scene.add_argument("--shape", help=f"{', '.join(SHAPES)}{_default('shape')}")
+    scene.add_argument("--aspect", type=float, help=f"b/a of ellipse or rectangle, in [1e-12, 1]{_default('aspect')}")
+    scene.add_argument("--sides", type=int, help=f"polygon sides or star lobes{_default('sides')}")
+    scene.add_argument(
+        "--shape-angle", type=float, help=f"turn the shape by this angle (degrees){_default('shape_angle')}"
+    )
+    scene.add_argument(
+        "--amplitude", type=float, help=f"star modulation epsilon of r = 1 + eps cos(k phi){_default('amplitude')}"
+    )
+    scene.add_argument("--seed", type=int, help=f"seed of the rough surface{_default('seed')}")
+    scene.add_argument("--hurst", type=float, help=f"Hurst exponent of the rough surface, in (0, 1){_default('hurst')}")
+    scene.add_argument("--rms", type=float, help=f"rms height of the rough surface (units of a){_default('rms')}")
+    scene.add_argument(
+        "--mask", help="contact mask file (.npy or .png) for --shape mask; a = half the long side of the contact"
+    )
+    scene.add_argument(
+        "--quantities",
+        help="comma list: tangential, normal, compliance, coupled, indentation; or slip" + _default("quantities"),
+    )
+    scene.add_argument(
+        "--radius",
+        type=float,
+        help="rigid sphere radius (indentation; unit L of your choice), or radius of body 1 (slip)",
+    )
+    scene.add_argument("--depth", type=float, help="rigid sphere approach (indentation), in [1e-15, 1) x radius")
+
+    material = p.add_argument_group("material (isotropic unless a crystal is named or A != 1)")
+    material.add_argument("--nu", type=float, help=f"Poisson ratio, in (-1, 0.5]{_default('nu')}")
+    material.add_argument("--G", type=float, help=f"shear modulus: the stress unit of the results{_default('G')}")
+    material.add_argument(
+        "--anisotropy",
+        type=float,
+        help=f"cubic anisotropy factor A = 2 C44/(C11 - C12), 1 = isotropic{_default('anisotropy')}",
+    )
+    material.add_argument(
+        "--orientation",
+        type=float,
+        help="surface normal along [110] -> [111] -> [001], psi in [0, 90] degrees (default: [001])",
+    )
+    material.add_argument("--miller", help='surface normal as Miller indices "h k l" (default: "0 0 1")')
+    material.add_argument("--azimuth", type=float, help=f"in-plane turn of the crystal (degrees){_default('azimuth')}")
+    material.add_argument(
         "--material",
-        help="library crystal by name (Cu, Al, Fe, Ni, W, Si, ...); with --quantities slip: the isotropic "
+        help="library crystal by name (Cu, Al, Fe, Ni, W, Si, ...; GPa); with --quantities slip: the isotropic "
         "body 1 (Cu, Fe/steel, Al, rigid) or a crystal as crystal:NAME",
     )
-    p.add_argument("--cubic", help='cubic crystal "C11=... C12=... C44=..." (GPa)')
-    p.add_argument("--orthotropic", help='orthotropic "E1=.. E2=.. E3=.. G12=.. G13=.. G23=.. nu12=.. nu13=.. nu23=.." (GPa)')
-    p.add_argument("--voigt", help="general 6 x 6 Voigt stiffness, 36 numbers row by row (GPa)")
-    p.add_argument("--n", type=int, help="cells along the long side")
-    p.add_argument("--n-across", type=int, help="cells across the short side (thin shapes)")
-    p.add_argument("--tol", type=float, help="CG relative residual tolerance")
-    p.add_argument("--accuracy", type=float, help="extrapolate over grids until the estimated relative error <= REL")
-    p.add_argument("--memory", help="memory budget of --accuracy, e.g. 2G (default: this machine's memory per core)")
-    p.add_argument("--quantities", help="comma list: tangential, normal, compliance, coupled, indentation; or slip")
-    p.add_argument("--radius", type=float, help="rigid sphere radius (indentation)")
-    p.add_argument("--depth", type=float, help="rigid sphere approach (indentation)")
-    p.add_argument("--threads", type=int, help="FFTW threads")
-    p.add_argument("--no-precondition", action="store_true", help="plain CG (for comparison)")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    material.add_argument("--cubic", help='cubic crystal "C11=... C12=... C44=..." (GPa)')
+    material.add_argument(
+        "--orthotropic", help='orthotropic "E1=.. E2=.. E3=.. G12=.. G13=.. G23=.. nu12=.. nu13=.. nu23=.." (GPa)'
+    )
+    material.add_argument("--voigt", help="general 6 x 6 Voigt stiffness, 36 numbers row by row (GPa)")
+
+    numerics = p.add_argument_group("numerics")
+    numerics.add_argument(
+        "--n",
+        type=int,
+        help="cells along the long side (default: grids 16 ... 256 extrapolated to "
+        f"an estimated 1e-4 for isotropic outlined shapes, else {DEFAULTS['n']})",
+    )
+    numerics.add_argument("--n-across", type=int, help="cells across the short side (thin shapes; default: as along)")
+    numerics.add_argument(
+        "--tol", type=float, help=f"CG relative residual tolerance, in [1e-14, 1e-2]{_default('tol')}"
+    )
+    numerics.add_argument(
+        "--accuracy",
+        type=float,
+        metavar="REL",
+        help="extrapolate over grids until the estimated relative error <= REL, in [1e-9, 1) (default: off)",
+    )
+    numerics.add_argument(
+        "--memory",
+        metavar="SIZE",
+        help="memory budget of --accuracy, e.g. 2G (default: this machine's memory per core)",
+    )
+    numerics.add_argument(
+        "--threads", type=int, help=f"FFTW threads{_default('threads')}; BLAS: HPCONTACT_BLAS_THREADS (default: 1)"
+    )
+    numerics.add_argument(
+        "--no-precondition", action="store_true", help="plain CG, for comparison (default: Fourier-preconditioned CG)"
+    )
+
+    output = p.add_argument_group("output")
+    output.add_argument(
+        "--json", action="store_true", help="print one JSON object (default: one value per line, with its unit)"
+    )
+
     slip = p.add_argument_group("partial slip (--quantities slip; see hpcontact.problems.slip.partial_slip)")
     for name, kind, text in SLIP_OPTIONS:
         if kind is bool:
-            slip.add_argument(f"--{name.replace('_', '-')}", action="store_true", default=None, help=text)
+            slip.add_argument(_option(name), action="store_true", default=None, help=text)
         else:
-            slip.add_argument(f"--{name.replace('_', '-')}", type=kind, help=text)
+            slip.add_argument(_option(name), type=kind, help=text)
 
 
-SLIP_OPTIONS = (
-    ("radius_b", float, "second principal radius of body 1 (ellipsoid)"),
-    ("radius2", float, "radius of body 2 (default: a flat)"),
-    ("radius2_b", float, "second principal radius of body 2"),
-    ("body2_angle", float, "angle between the principal axes of the bodies (degrees)"),
-    ("material2", str, "body 2 by name (Cu, Fe/steel, Al, rigid)"),
-    ("E", float, "Young's modulus of body 1"),
-    ("E2", float, "Young's modulus of body 2"),
-    ("G2", float, "shear modulus of body 2"),
-    ("nu2", float, "Poisson ratio of body 2"),
-    ("load", float, "normal load P (> 0)"),
-    ("mu", float, "friction coefficient (>= 0)"),
-    ("q_ratio", float, "tangential load Q/(mu P) in [0, 1)"),
-    ("angle", float, "direction of the tangential load (degrees from x)"),
-    ("steps", int, "tangential load steps"),
-    ("control", str, "force or displacement"),
-    ("displacement", float, "final tangential displacement (with --control displacement)"),
-    ("path", str, "load (monotonic), loop (load, unload, reload) or proportional (normal load with the displacement)"),
-    ("coupling", str, "auto, both, coupled or decoupled"),
-    ("tensor", bool, "add the incremental 2 x 2 tangential stiffness tensor"),
-    ("history", bool, "add every load step"),
-    ("normal_friction", bool, "apply the normal load in steps with friction (Spence; coupled path)"),
-    ("anisotropy2", float, "body 2: cubic anisotropy factor A (with --nu2 and --G2 or --E2)"),
-    ("orientation2", float, "body 2: normal along [110] -> [111] -> [001], psi in degrees (lab frame)"),
-    ("miller2", str, 'body 2: lattice direction "h k l" along the lab normal'),
-    ("azimuth2", float, "body 2: in-plane turn of the crystal (degrees)"),
-    ("cubic2", str, 'body 2: cubic crystal "C11=... C12=... C44=..." (GPa)'),
-    ("orthotropic2", str, "body 2: orthotropic engineering constants (GPa), as --orthotropic"),
-    ("voigt2", str, "body 2: general 6 x 6 Voigt stiffness, 36 numbers (GPa)"),
-)
+#: The scene fields of ``hpcontact solve`` (with ``--no-precondition`` for ``precondition``).
+FIELDS = (
+    "shape aspect sides shape_angle amplitude seed hurst rms mask nu G anisotropy orientation miller azimuth "
+    "material cubic orthotropic voigt n n_across tol quantities radius depth threads"
+).split()
 
 
 def _params(args: argparse.Namespace) -> dict[str, Any]:
-    names = (
-        "shape aspect sides shape_angle amplitude seed mask nu G anisotropy orientation miller azimuth "
-        "material cubic orthotropic voigt n n_across tol quantities radius depth threads"
-    ).split()
-    params = {name: getattr(args, name) for name in names if getattr(args, name) is not None}
+    params = {name: getattr(args, name) for name in FIELDS if getattr(args, name) is not None}
     if args.no_precondition:
         params["precondition"] = False
     return params
 
 
-def _print_record(record: dict[str, Any]) -> None:
+def _stress_unit(params: Mapping[str, Any]) -> str:
+    """GPa when the material comes with its constants in GPa (a library crystal, cubic,
+    orthotropic, Voigt), else G."""
+    named = any(params.get(k) is not None for k in ("material", "cubic", "orthotropic", "voigt"))
+    return "GPa" if named else "G"
+
+
+def _units(record: Mapping[str, Any], params: Mapping[str, Any]) -> dict[str, str]:
+    """The unit of each value of a record, as the text output shows it ("" for pure numbers)."""
+    if scene_kind(params) == SLIP:
+        return _slip_units(record, params)
+    stress = _stress_unit(params)
+    quantities = set(quantity_names(params.get("quantities"))) or set(DEFAULTS["quantities"])
+    length = "L" if quantities == {"indentation"} else "a"
+    units: dict[str, str] = {}
+    for key in record:
+        if re.fullmatch(r"(proxy_)?K_[xyz][xyz](_bonded|_coupled)?|K_max|K_min", key):
+            units[key] = f"{stress}·a"
+        elif key in ("dx", "dy"):
+            units[key] = length
+        elif key == "contact_area":
+            units[key] = "L²" if "indentation" in quantities else "a²"
+        elif key == "load":
+            units[key] = f"{stress}·L²"
+        elif key == "max_pressure":
+            units[key] = stress
+        elif key.endswith("_deg"):
+            units[key] = "deg"
+        elif key.endswith("_s"):
+            units[key] = "s"
+        elif key.endswith("_bytes"):
+            units[key] = "bytes"
+    return units
+
+
+def _slip_units(record: Mapping[str, Any], params: Mapping[str, Any]) -> dict[str, str]:
+    """Units of a slip record: N and m when a body is named or given by constants in GPa, else
+    the input's force and length units F and L."""
+    named = any(
+        isinstance(params.get(k), str) and params[k].strip().lower() != "rigid" for k in ("material", "material2")
+    )
+    constants = any(
+        params.get(f"{family}{suffix}") is not None
+        for family in ("cubic", "orthotropic", "voigt")
+        for suffix in ("", "2")
+    )
+    force, length = ("N", "m") if named or constants else ("F", "L")
+    units: dict[str, str] = {}
+    for key in record:
+        if "ratio" in key or "effect" in key or key in ("dundurs_beta", "coupling_size", "iterations", "residual"):
+            continue
+        if "stiffness" in key:
+            units[key] = f"{force}/{length}"
+        elif key.endswith("_area"):
+            units[key] = f"{length}²"
+        elif key.endswith("_force") or key == "load":
+            units[key] = force
+        elif (
+            key.endswith(("_displacement", "_radius")) or key in ("hertz_a", "hertz_b", "dx", "dy") or "centroid" in key
+        ):
+            units[key] = length
+        elif key.endswith("_deg"):
+            units[key] = "deg"
+        elif key.endswith("_s"):
+            units[key] = "s"
+    return units
+
+
+def _print_record(record: dict[str, Any], params: Mapping[str, Any] | None = None) -> None:
+    """The record as text, one value per line with its unit (``_units``), then what the unit
+    symbols mean."""
+    units = _units(record, params or {})
     for key, value in record.items():
+        unit = f"  {units[key]}" if key in units else ""
         if isinstance(value, float):
-            print(f"{key:>22s}  {value:.10g}")
+            print(f"{key:>22s}  {value:.10g}{unit}")
         elif isinstance(value, dict):
             for sub, items in value.items():
                 shown = ", ".join(map(str, items)) if isinstance(items, (list, tuple)) else items
                 print(f"{key + '.' + sub:>22s}  {shown if shown != '' else '-'}")
         else:
-            print(f"{key:>22s}  {value}")
+            print(f"{key:>22s}  {value}{unit}")
+    symbols = " ".join(units.values())
+    legend = [
+        text
+        for symbol, text in (
+            ("G", "G: shear modulus"),
+            ("GPa", "GPa: the crystal's constants"),
+            ("a", "a: semi-major extent of the contact (1 on the grid)"),
+            ("L", "L: the unit of the radius"),
+            ("F", "F: the force unit of the input"),
+        )
+        if re.search(rf"(?<![\w]){symbol}(?![a-zA-Z])", symbols)
+    ]
+    if legend:
+        print(f"{'units':>22s}  {'; '.join(legend)}")
 
 
 def _cmd_solve(args: argparse.Namespace) -> int:
     load_wisdom()  # FFTW plans measured by earlier runs come back in milliseconds
     params = _params(args)
-    slip_given = {name: getattr(args, name) for name, _, _ in SLIP_OPTIONS if getattr(args, name) is not None}
-    kind = scene_kind(params)
-    if kind == SLIP:  # the same dispatch as a sweep's (hpcontact.problems.kinds)
-        params.pop("shape", None)
-        params.update(slip_given)
-    elif slip_given:
-        field = next(iter(slip_given))
-        raise InputError(field, "only with --quantities slip", slip_given[field])
-    if args.memory is not None and args.accuracy is None:
-        raise InputError("--memory", "only with --accuracy", args.memory)
-    if args.accuracy is not None and kind != SLIP:
-        budget = None if args.memory is None else parse_memory(args.memory, "--memory")
-        record = solve_to_accuracy(Scene.from_params(params), args.accuracy, memory_budget=budget, strategy="auto")
-    elif kind != SLIP:  # no --n: the extrapolated default where it applies (hpcontact.accuracy)
-        record = default_solve(Scene.from_params(params))
-    else:
-        record = task_function(kind)(params)
+    slip = {name: getattr(args, name) for name, _, _ in SLIP_OPTIONS}
+    record = solve_fields(params, slip, accuracy=args.accuracy, memory=args.memory, name=_option)
     if args.json:
         print(json.dumps(record))
     else:
-        _print_record(record)
+        _print_record(record, {**params, **{k: v for k, v in slip.items() if v is not None}})
     try:
         save_wisdom()
     except OSError as exc:  # a read-only home is no reason to fail a finished solve
@@ -184,14 +361,34 @@ def _cmd_info(args: argparse.Namespace) -> int:
     return 0
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    parser = _Parser(prog="hpcontact", description="Anisotropy of contact stiffness (FFT-BEM).")
-    parser.add_argument("--version", action="version", version=f"hpcontact {__version__}")
-    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+RUN_EXAMPLES = """examples:
+  mpiexec -n 2 hpcontact run jobs/demo.toml            run the sweep; run again: up to date, nothing to do
+  hpcontact run jobs/demo.toml --dry-run               the tasks and their estimated cost; nothing computed
+  mpiexec -n 64 hpcontact run jobs/x.toml --resume     continue after a stop (exit 4) or a failure
+  hpcontact run jobs/demo.toml --output /tmp/d.nc      another data set (and journal folder)"""
+
+
+def parser() -> argparse.ArgumentParser:
+    """The ``hpcontact`` argument parser."""
+    top = _Parser(
+        prog="hpcontact",
+        description="Anisotropy of contact stiffness (FFT-BEM).",
+        epilog=EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    top.add_argument("--version", action="version", version=f"hpcontact {__version__}")
+    sub = top.add_subparsers(dest="command", required=True, parser_class=_Parser)
     _solve_parser(sub)
-    add_run_arguments(sub.add_parser("run", help="run a sweep spec (under mpiexec or alone)"))
+    run = sub.add_parser("run", help="run a sweep spec (under mpiexec or alone)")
+    add_run_arguments(run)
+    run.epilog = f"{RUN_EXAMPLES}\n\n{run.epilog}" if run.epilog else RUN_EXAMPLES
+    run.formatter_class = argparse.RawDescriptionHelpFormatter
     sub.add_parser("info", help="versions, MPI library, FFTW wisdom location")
-    args = parser.parse_args(argv)
+    return top
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = parser().parse_args(argv)
     command = {"solve": _cmd_solve, "run": _cmd_run, "info": _cmd_info}[args.command]
     try:
         return command(args)
@@ -207,7 +404,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:  # `hpcontact run SPEC --dry-run | head`: the reader has enough
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit
         return 141  # 128 + SIGPIPE, what a shell reports for a command ended by a closed pipe
+    except KeyboardInterrupt:  # Ctrl-C in `hpcontact solve` (a sweep handles SIGINT as a stop request)
+        print("hpcontact: interrupted", file=sys.stderr)
+        return 130  # 128 + SIGINT
+
+
+def console_main() -> None:
+    """The ``hpcontact`` command (and ``python -m hpcontact``): ``main``, then exit with its
+    status. A stop request that arrives once the work is done (a batch system's SIGTERM at the
+    end of a job, a late Ctrl-C) is ignored: it must not turn a finished run into a death by
+    signal."""
+    status = main()
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, signal.SIG_IGN)
+    sys.exit(status)
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    console_main()

@@ -10,7 +10,13 @@ when its centre lies inside the shape (centre-in-shape rasterization). Lengths a
 
 from __future__ import annotations
 
+import functools
+import hashlib
 import math
+import os
+import stat
+import struct
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -19,6 +25,13 @@ import numpy as np
 from hpcontact.errors import InputError
 
 SHAPES = ("circle", "ellipse", "rectangle", "polygon", "star", "rough", "mask")
+#: The most cells a scene's grid may have (``hpcontact.scene``: n · n_across); a mask file's
+#: pixels count against it, read from its header before anything is decoded (``mask_pixels``).
+MAX_GRID_CELLS = 2**26
+MASK_SUFFIXES = (".npy", ".png")
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+#: .npy element kinds a mask may hold (bool, integers, floats, complex): non-zero is contact.
+MASK_DTYPE_KINDS = "biufc"
 
 
 @dataclass(frozen=True)
@@ -163,24 +176,148 @@ def rasterize(shape: Shape, grid: Grid) -> np.ndarray:
     return shape.contains(x, y)
 
 
+def mask_pixels(path: str | Path) -> tuple[int, int]:
+    """Cells (nx, ny) in [x, y] order of the mask file ``path``, from its header alone.
+
+    A .png's IHDR chunk (signature and first chunk, 33 bytes) gives width × height; a .npy's
+    header (``numpy.lib.format``: version 1.0 or 2.0) its shape and dtype. Nothing is decoded, so
+    an image that would not fit in memory costs a few bytes to refuse: an ``InputError`` (field
+    ``mask``, one line with the file's size in bytes) for a missing file, another suffix, a file
+    that is not a PNG or .npy, a .npy of objects (pickles are never loaded), of a non-numeric
+    dtype, not 2-D, empty or truncated, and a mask of more than ``MAX_GRID_CELLS`` cells (the
+    grid limit of a scene). Cached per (resolved path, inode, size, mtime_ns): a sweep validates
+    its mask scenes at the cost of one ``stat`` each.
+    """
+    return _mask_header(str(path), *_file_identity(path, "mask"))
+
+
+def file_sha256(path: str | Path, field: str = "mask") -> str:
+    """SHA-256 (hex) of the bytes of the input file ``path`` (``field`` names it in errors),
+    read in blocks; cached per (resolved path, inode, size, mtime_ns), so that a sweep reads a
+    file once for all its tasks and again only when the file changed."""
+    return _sha256(*_file_identity(path, field))
+
+
+def _file_identity(path: str | Path, field: str) -> tuple[str, int, int, int]:
+    """(resolved path, inode, size, mtime_ns) of the regular file ``path``; ``InputError``
+    (``field``) when there is none."""
+    try:
+        st = os.stat(path)
+    except (OSError, ValueError):
+        st = None
+    if st is None or not stat.S_ISREG(st.st_mode):
+        raise InputError(field, "an existing .npy or .png file", str(path))
+    return str(Path(path).resolve()), st.st_ino, st.st_size, st.st_mtime_ns
+
+
+@functools.lru_cache(maxsize=1024)
+def _sha256(resolved: str, inode: int, size: int, mtime_ns: int) -> str:
+    with open(resolved, "rb") as f:
+        return hashlib.file_digest(f, "sha256").hexdigest()
+
+
+@functools.lru_cache(maxsize=1024)
+def _mask_header(shown: str, resolved: str, inode: int, size: int, mtime_ns: int) -> tuple[int, int]:
+    """``mask_pixels`` of the file ``shown`` (as given: errors name it) at ``resolved``."""
+    suffix = Path(shown).suffix.lower()
+    if suffix not in MASK_SUFFIXES:
+        raise InputError("mask", "a .npy or .png file", shown)
+    where = f"{shown} ({size} bytes)"
+    try:
+        with open(resolved, "rb") as f:
+            return _png_header(f, where) if suffix == ".png" else _npy_header(f, size, where)
+    except OSError as exc:
+        raise InputError("mask", f"a readable .npy or .png file ({exc.strerror or exc})", shown) from None
+
+
+def _png_header(f, where: str) -> tuple[int, int]:
+    """(width, height) from a PNG's signature and IHDR chunk (PNG spec §5.2, §11.2.2)."""
+    head = f.read(33)
+    if head[:8] != PNG_SIGNATURE:
+        raise InputError("mask", "a PNG image (this file does not start with the PNG signature)", where)
+    if len(head) < 33 or head[12:16] != b"IHDR" or struct.unpack(">I", head[8:12])[0] != 13:
+        raise InputError("mask", "a PNG image whose first chunk is its 13-byte IHDR header", where)
+    width, height = struct.unpack(">II", head[16:24])
+    if width == 0 or height == 0:
+        raise InputError("mask", "a PNG image of at least 1 x 1 pixels", where)
+    _within_grid_limit(width, height, where)
+    return width, height  # columns run along x, rows along y
+
+
+def _npy_header(f, size: int, where: str) -> tuple[int, int]:
+    """(nx, ny) from a .npy header: a complete, numeric, non-empty 2-D array."""
+    from numpy.lib import format as npy
+
+    try:
+        version = npy.read_magic(f)
+        if version == (1, 0):
+            shape, _, dtype = npy.read_array_header_1_0(f)
+        elif version == (2, 0):
+            shape, _, dtype = npy.read_array_header_2_0(f)
+        else:
+            raise ValueError(f"format version {version[0]}.{version[1]}")
+    except (ValueError, SyntaxError, TypeError, KeyError, OverflowError, EOFError) as exc:
+        reason = (str(exc).splitlines() or [type(exc).__name__])[0]
+        raise InputError(
+            "mask", f"a .npy array file written by numpy.save (unreadable header: {reason})", where
+        ) from None
+    if dtype.hasobject:
+        raise InputError("mask", "a numeric .npy array, not Python objects (pickled data is never loaded)", where)
+    if dtype.kind not in MASK_DTYPE_KINDS or dtype.names is not None or dtype.subdtype is not None:
+        raise InputError("mask", f"a numeric .npy array (bool, integer or float), not dtype {dtype}", where)
+    if len(shape) != 2:
+        raise InputError("mask", f"a 2-D array (this one has shape {shape})", where)
+    nx, ny = (int(s) for s in shape)
+    if nx == 0 or ny == 0:
+        raise InputError("mask", f"a non-empty 2-D array (this one has shape {shape})", where)
+    _within_grid_limit(nx, ny, where)
+    needed = f.tell() + nx * ny * dtype.itemsize
+    if size < needed:
+        raise InputError(
+            "mask", f"a complete .npy file ({needed} bytes for its {nx} x {ny} {dtype}; this one is truncated)", where
+        )
+    return nx, ny
+
+
+def _within_grid_limit(nx: int, ny: int, where: str) -> None:
+    if nx * ny > MAX_GRID_CELLS:
+        raise InputError(
+            "mask",
+            f"a mask of at most 2**26 = {MAX_GRID_CELLS} cells, the grid limit of a scene "
+            f"(this one has {nx} x {ny} = {nx * ny} cells)",
+            where,
+        )
+
+
 def load_mask(path: str | Path) -> np.ndarray:
     """A contact mask from a .npy array (non-zero = contact) or a .png image.
 
-    In a PNG, contact cells are the opaque dark pixels (luminance < 0.5 and alpha > 0.5). Image
-    rows run top to bottom, so the array is flipped to put +y up and transposed to [x, y] order.
+    The file's header is checked first (``mask_pixels``: type, shape, the grid limit), so only
+    a mask within the limit is decoded; a .npy is read through a memory map (only the boolean
+    mask is held). In a PNG, contact cells are the opaque dark pixels (luminance < 0.5 and
+    alpha > 0.5). Image rows run top to bottom, so the array is flipped to put +y up and
+    transposed to [x, y] order.
     """
+    nx, ny = mask_pixels(path)
     path = Path(path)
-    if not path.is_file():
-        raise InputError("mask", "an existing .npy or .png file", str(path))
+    where = f"{path} ({path.stat().st_size} bytes)"
     if path.suffix.lower() == ".npy":
-        data = np.load(path, allow_pickle=False)
-        if data.ndim != 2:
-            raise InputError("mask", "a 2-D array", f"{path} with shape {data.shape}")
-        mask = np.asarray(data != 0)
-    elif path.suffix.lower() == ".png":
+        try:
+            data = np.load(path, mmap_mode="r", allow_pickle=False)
+        except (OSError, ValueError) as exc:  # changed since its header was read
+            raise InputError("mask", f"a readable .npy array file ({exc})", where) from None
+        mask = np.asarray(data) != 0
+        del data
+    else:
         import matplotlib.image as mpimg
 
-        img = np.asarray(mpimg.imread(path), dtype=np.float64)
+        try:
+            img = np.asarray(mpimg.imread(path, format="png"))  # float32 in [0, 1]
+        except (OSError, ValueError, SyntaxError, EOFError, struct.error, zlib.error) as exc:
+            reason = (str(exc).splitlines() or [type(exc).__name__])[0]
+            raise InputError("mask", f"a PNG image that decodes ({type(exc).__name__}: {reason})", where) from None
+        if img.shape[:2] != (ny, nx):
+            raise InputError("mask", f"a PNG image of its header's {nx} x {ny} pixels", where)
         if img.ndim == 2:
             mask = img < 0.5
         else:
@@ -188,8 +325,6 @@ def load_mask(path: str | Path) -> np.ndarray:
             alpha = img[..., 3] if img.shape[-1] == 4 else np.ones_like(lum)
             mask = (lum < 0.5) & (alpha > 0.5)
         mask = mask[::-1, :].T
-    else:
-        raise InputError("mask", "a .npy or .png file", str(path))
     if not mask.any():
         raise InputError("mask", "at least one contact cell", str(path))
     return mask
@@ -220,9 +355,7 @@ def crop_to_support(mask: np.ndarray, grid: Grid) -> tuple[np.ndarray, Grid]:
     return sub, Grid(nx=sub.shape[0], ny=sub.shape[1], dx=grid.dx, dy=grid.dy)
 
 
-def self_affine_surface(
-    nx: int, ny: int, dx: float, dy: float, hurst: float, rms: float, seed: int
-) -> np.ndarray:
+def self_affine_surface(nx: int, ny: int, dx: float, dy: float, hurst: float, rms: float, seed: int) -> np.ndarray:
     """A seeded, self-affine random rough height field (units of length) with given rms.
 
     Power spectral density C(q) ∝ q^(−2(1+H)) between the grid's lowest non-zero wavenumber and
@@ -238,4 +371,3 @@ def self_affine_surface(
     h = np.fft.irfft2(amplitude * phase, s=(nx, ny))
     h -= h.mean()
     return h * (rms / np.sqrt(np.mean(h * h)))
-

@@ -1,14 +1,41 @@
 """What a scene needs built and run, and nothing more (docs/design.md §1, "simulate only the effects").
 
-One physical meaning per quantity, for every material (the same table is in the README):
+One physical meaning per quantity, for every material (the same table is in
+docs/reference/quantities.md):
 
-| quantity | bodies | problem | coupling kept | keys |
-|---|---|---|---|---|
-| ``tangential`` | two identical bodies, same material and orientation, bonded; stiffness per body (the pair's is half) | rigid tangential displacement, normal approach held | all the pair has: the interface compliance is 2 Re H(m), so only Re H acts (below) | K_xx K_xy K_yx K_yy |
-| ``coupled`` | one elastic half-space under a rigid bonded punch | unit rigid displacement along x, y, z | all of H(m), 3 × 3 | K_ij, i, j in x y z (with ``tangential``: its 2 × 2 block as K_ij_coupled) |
-| ``normal`` | one elastic half-space, rigid frictionless flat punch | unit approach, tangential traction free | none (zz block) | K_zz (with ``coupled``: the bonded one is K_zz_bonded) |
-| ``compliance`` | as ``tangential`` | uniform tangential traction, mean displacement (Li 2017 §3.2 proxy) | none | proxy_K_ij |
-| ``indentation`` | one elastic half-space, rigid sphere, frictionless | Polonsky–Keer, unknown contact | none (zz block) | load, contact_area, ... |
+.. list-table::
+   :header-rows: 1
+
+   * - quantity
+     - bodies
+     - problem
+     - coupling kept
+     - keys
+   * - ``tangential``
+     - two identical bodies, same material and orientation, bonded; stiffness per body (the pair's is half)
+     - rigid tangential displacement, normal approach held
+     - all the pair has: the interface compliance is 2 Re H(m), so only Re H acts (below)
+     - K_xx K_xy K_yx K_yy
+   * - ``coupled``
+     - one elastic half-space under a rigid bonded punch
+     - unit rigid displacement along x, y, z
+     - all of H(m), 3 × 3
+     - K_ij, i, j in x y z (with ``tangential``: its 2 × 2 block as K_ij_coupled)
+   * - ``normal``
+     - one elastic half-space, rigid frictionless flat punch
+     - unit approach, tangential traction free
+     - none (zz block)
+     - K_zz (with ``coupled``: the bonded one is K_zz_bonded)
+   * - ``compliance``
+     - as ``tangential``
+     - uniform tangential traction, mean displacement (Li 2017 §3.2 proxy)
+     - none
+     - proxy_K_ij
+   * - ``indentation``
+     - one elastic half-space, rigid sphere, frictionless
+     - Polonsky–Keer, unknown contact
+     - none (zz block)
+     - load, contact_area, ...
 
 ``tangential`` is Mindlin's (1949) and Li's (2017, assumption (ii)) decoupled stiffness,
 generalized to crystals. For two bodies the bonded interface responds to its traction t with the

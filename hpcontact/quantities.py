@@ -27,9 +27,7 @@ def directional_stiffness(K: np.ndarray, theta_deg: np.ndarray | float) -> np.nd
     K = np.asarray(K, dtype=np.float64)
     t = np.radians(theta_deg)
     c, s = np.cos(t), np.sin(t)
-    return (
-        c * c * K[..., 0, 0] + c * s * (K[..., 0, 1] + K[..., 1, 0]) + s * s * K[..., 1, 1]
-    )
+    return c * c * K[..., 0, 0] + c * s * (K[..., 0, 1] + K[..., 1, 0]) + s * s * K[..., 1, 1]
 
 
 def rotated_tensor(K: np.ndarray, theta_deg: float) -> np.ndarray:
@@ -120,7 +118,9 @@ def tensor_from_forces(forces: Mapping[str, np.ndarray], quantities: Sequence[st
     return {k: float(v) for k, v in out.items()}
 
 
-def derived_quantities(entries: Mapping[str, float], material: Any, noise: float = 0.0) -> dict[str, float | str | None]:
+def derived_quantities(
+    entries: Mapping[str, float], material: Any, noise: float = 0.0
+) -> dict[str, float | str | None]:
     """Quantities that follow from the tensor entries (the one place they are computed).
 
     From the 2 × 2 block K_xx … K_yy: principal values K_max, K_min and the direction of K_max

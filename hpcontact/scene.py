@@ -12,13 +12,12 @@ import functools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from hpcontact.errors import InputError, finite_number, integer
-from hpcontact.geometry import SHAPES, Shape
+from hpcontact.geometry import SHAPES, Shape, mask_pixels
 from hpcontact.materials.crystal import Crystal, crystal, cubic_from_nu_A
 from hpcontact.materials.elastic_constants import constants_material
 from hpcontact.materials.isotropic import Isotropic
@@ -130,8 +129,10 @@ class Scene:
         if not MIN_ASPECT <= aspect <= 1.0:
             raise InputError("aspect", ASPECT_RANGE, p["aspect"])
         n = integer("n", p["n"], 2, "an integer >= 2 (cells along the long side)")
-        n_across = None if p["n_across"] is None else integer(
-            "n_across", p["n_across"], 1, "an integer >= 1 (cells across the short side)"
+        n_across = (
+            None
+            if p["n_across"] is None
+            else integer("n_across", p["n_across"], 1, "an integer >= 1 (cells across the short side)")
         )
         if n * (n_across or n) > 2**26:
             raise InputError("n", "a grid of at most 2**26 cells", f"{n} x {n_across or n}")
@@ -192,7 +193,9 @@ class Scene:
         """This scene on another grid (n cells along the long side, ``n_across`` across) and,
         where given, another CG tolerance: a grid of the accuracy study's sequence. The material
         and the shape are this scene's, validated once at the edge."""
-        changes: dict[str, Any] = {"n": n, "n_across": n_across} if tol is None else {"n": n, "n_across": n_across, "tol": tol}
+        changes: dict[str, Any] = (
+            {"n": n, "n_across": n_across} if tol is None else {"n": n, "n_across": n_across, "tol": tol}
+        )
         return dataclasses.replace(self, **changes, params=self.fields(**changes))
 
 
@@ -209,7 +212,9 @@ def _refuse_unused(params: Mapping[str, Any], quantities: tuple[str, ...], shape
     ``radius`` and ``depth`` only act with ``indentation``; a shape-only field other than its
     default only with its shapes (``SHAPE_FIELDS``); ``shape_angle`` does not turn a ``mask`` or ``rough`` contact
     (an image and a generated patch have no turned version here). Orientation fields of an
-    isotropic body are accepted: a sweep over A that contains 1 gives them to every scene.
+    isotropic body are accepted: a sweep over A that contains 1 gives them to every scene. A
+    ``mask`` file is checked by its header (``geometry.mask_pixels``: a .npy or .png within the
+    grid limit), so a bad or oversized file is refused before anything is decoded.
     """
     given = {k for k, v in params.items() if v is not None}
     if "indentation" not in quantities:
@@ -221,8 +226,8 @@ def _refuse_unused(params: Mapping[str, Any], quantities: tuple[str, ...], shape
             raise InputError(name, f"only with shape {' or '.join(shapes)}", params[name])
     if shape in ("mask", "rough") and "shape_angle" in given and float(params["shape_angle"]) != 0.0:
         raise InputError("shape_angle", "0 for shape mask or rough (they are not turned)", params["shape_angle"])
-    if shape == "mask" and "mask" in given and not Path(str(params["mask"])).is_file():
-        raise InputError("mask", "an existing .npy or .png file", params["mask"])
+    if shape == "mask" and "mask" in given:  # the file's header: type, shape, the grid limit (nothing decoded)
+        mask_pixels(str(params["mask"]))
 
 
 def _miller(value: Any) -> tuple[int, int, int]:
@@ -276,7 +281,9 @@ def _built_material(p: Mapping[str, Any], G: float, nu: float) -> Material:
     if orientation is not None:
         orientation = finite_number("orientation", orientation, "path angle psi in [0, 90] degrees")
         if not 0.0 <= orientation <= 90.0:
-            raise InputError("orientation", "path angle psi in [0, 90] degrees ([110] -> [111] -> [001])", p["orientation"])
+            raise InputError(
+                "orientation", "path angle psi in [0, 90] degrees ([110] -> [111] -> [001])", p["orientation"]
+            )
     miller = None if p["miller"] is None else _miller(p["miller"])
     if orientation is not None and miller is not None:
         raise InputError("miller", "either miller or orientation, not both", p["miller"])

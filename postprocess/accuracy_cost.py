@@ -1,5 +1,5 @@
-"""What accuracy costs: error versus wall time, error versus n, error versus tol, and the README
-table, from the data set of ``jobs/accuracy_cost.toml`` (issue 4, item 1).
+"""What accuracy costs: error versus wall time, error versus n, error versus tol, and the table
+of docs/howto/accuracy.md, from the data set of ``jobs/accuracy_cost.toml`` (issue 4, item 1).
 
     python postprocess/accuracy_cost.py results/accuracy_cost.nc figures/accuracy_cost/ \
         [--extrapolated results/boundary_treatment.json]
@@ -40,7 +40,12 @@ from common import arguments, colours, open_dataset, panels, save
 from hpcontact import analytic
 
 QUANTITIES = ("K_xx", "K_yy", "K_a_over_K_b", "K_zz")
-TITLES = {"K_xx": "K_xx (along the long axis)", "K_yy": "K_yy (across)", "K_a_over_K_b": "K_a/K_b", "K_zz": "K_zz (normal)"}
+TITLES = {
+    "K_xx": "K_xx (along the long axis)",
+    "K_yy": "K_yy (across)",
+    "K_a_over_K_b": "K_a/K_b",
+    "K_zz": "K_zz (normal)",
+}
 TARGETS = (1e-2, 1e-3, 1e-4)
 EXACT = 1e-12  # errors below this are symmetry (K_a/K_b = 1 of circle and square), not shown on log axes
 LABEL = re.compile(r"^(?P<shape>[a-z]+)(?: b/a=(?P<aspect>[0-9.eE+-]+))?")
@@ -117,8 +122,12 @@ def gather(ds: xr.Dataset) -> dict[str, list[dict]]:
                 if int(point["status"]) != 0:
                     continue
                 record = {
-                    "n": int(n), "na": int(point["ny"]), "tol": float(tol), "nu": nu,
-                    "time": float(point["wall_time_s"]), "iterations": int(point["iterations"]),
+                    "n": int(n),
+                    "na": int(point["ny"]),
+                    "tol": float(tol),
+                    "nu": nu,
+                    "time": float(point["wall_time_s"]),
+                    "iterations": int(point["iterations"]),
                 }
                 record.update({q: float(point[q]) for q in QUANTITIES})
                 cases.setdefault(case_of(str(label)), []).append(record)
@@ -141,8 +150,11 @@ def add_errors(cases: dict[str, list[dict]]) -> dict[str, str]:
             reference, spreads = {}, {}
             for q in QUANTITIES:
                 reference[q], spreads[q] = extrapolated_reference(finest, q, thin)
-            notes[case] = "extrapolated (reference uncertainty " + ", ".join(
-                f"{q} {spreads[q] / abs(reference[q]):.1e}" for q in QUANTITIES) + ")"
+            notes[case] = (
+                "extrapolated (reference uncertainty "
+                + ", ".join(f"{q} {spreads[q] / abs(reference[q]):.1e}" for q in QUANTITIES)
+                + ")"
+            )
         for p in points:
             for q in QUANTITIES:
                 p[f"err_{q}"] = abs(p[q] / reference[q] - 1.0)
@@ -183,8 +195,15 @@ def figure_error_vs_time(cases: dict[str, list[dict]], extrapolated: list[dict],
             ax.loglog(t, e, "-", color=colour, lw=1.5, label=case)
             runs = [r for r in extrapolated if r["case"] == case and r.get(key, 0.0) > EXACT]
             if runs:
-                ax.loglog([r["wall_time_s"] for r in runs], [max(r[key], 1e-16) for r in runs], "*", color=colour, ms=9,
-                          mec="k", mew=0.5)
+                ax.loglog(
+                    [r["wall_time_s"] for r in runs],
+                    [max(r[key], 1e-16) for r in runs],
+                    "*",
+                    color=colour,
+                    ms=9,
+                    mec="k",
+                    mew=0.5,
+                )
         ax.set_xlabel("wall time per scene [s] (one thread)")
         ax.set_ylabel("relative error")
         ax.set_title(TITLES[q], fontsize=10)
@@ -233,8 +252,10 @@ def figure_error_vs_n(cases: dict[str, list[dict]], outdir: Path) -> None:
         ax.grid(True, which="major", alpha=0.3)
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncol=3, fontsize=8)
-    fig.suptitle("Error versus grid at the tightest CG tolerance (the staircase error of curved shapes is not monotone in n)",
-                 fontsize=9)
+    fig.suptitle(
+        "Error versus grid at the tightest CG tolerance (the staircase error of curved shapes is not monotone in n)",
+        fontsize=9,
+    )
     save(fig, outdir, "error_vs_n.png")
 
 
@@ -245,8 +266,13 @@ def figure_thin_grids(cases: dict[str, list[dict]], outdir: Path) -> None:
         return
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(len(thin), len(QUANTITIES), figsize=(3.6 * len(QUANTITIES), 3.3 * len(thin)),
-                             squeeze=False, layout="constrained")
+    fig, axes = plt.subplots(
+        len(thin),
+        len(QUANTITIES),
+        figsize=(3.6 * len(QUANTITIES), 3.3 * len(thin)),
+        squeeze=False,
+        layout="constrained",
+    )
     for row, case in zip(axes, thin):
         pts = _tightest(cases[case])
         across = sorted({p["na"] for p in pts})
@@ -255,8 +281,15 @@ def figure_thin_grids(cases: dict[str, list[dict]], outdir: Path) -> None:
             key = f"err_{q}"
             for shade, na in zip(shades, across):
                 line = sorted((p for p in pts if p["na"] == na and p[key] > EXACT), key=lambda p: p["n"])
-                ax.loglog([p["n"] for p in line], [p[key] for p in line], "o-", color=shade, ms=2.5, lw=1,
-                          label=f"{na} across")
+                ax.loglog(
+                    [p["n"] for p in line],
+                    [p[key] for p in line],
+                    "o-",
+                    color=shade,
+                    ms=2.5,
+                    lw=1,
+                    label=f"{na} across",
+                )
             ax.set_title(f"{case}: {TITLES[q]}", fontsize=8)
             ax.set_xlabel("n (cells along)", fontsize=8)
             ax.grid(True, which="major", alpha=0.3)
@@ -290,8 +323,11 @@ def figure_error_vs_tol(cases: dict[str, list[dict]], outdir: Path, n: int = 256
         ax.invert_xaxis()
         ax.grid(True, which="major", alpha=0.3)
     fig.legend(*axes[0].get_legend_handles_labels(), loc="outside lower center", ncol=3, fontsize=8)
-    fig.suptitle(f"Error and cost versus CG tolerance at n = {n} (thin cases: most cells across)\nK is the energy of "
-                 "the solve: its CG error falls about like the residual squared", fontsize=9)
+    fig.suptitle(
+        f"Error and cost versus CG tolerance at n = {n} (thin cases: most cells across)\nK is the energy of "
+        "the solve: its CG error falls about like the residual squared",
+        fontsize=9,
+    )
     save(fig, outdir, "error_vs_tol.png")
 
 
@@ -321,15 +357,19 @@ def table(cases: dict[str, list[dict]], notes: dict[str, str], extrapolated: lis
         lines.append(f"| {case} | {ref} | " + " | ".join(cells) + " |")
     if extrapolated:
         lines.append("")
-        lines.append("`hpcontact solve --accuracy REL` (coverage-weighted cells, Richardson; time of the whole grid sequence):")
+        lines.append(
+            "`hpcontact solve --accuracy REL` (coverage-weighted cells, Richardson; time of the whole grid sequence):"
+        )
         lines.append("")
         lines.append("| case | requested | estimated | true | grids (n × n_across) | time |")
         lines.append("|---|---|---|---|---|---|")
         for r in extrapolated:
             grids = ", ".join(f"{a}×{b}" for a, b in zip(r["grids"], r["grids_across"]))
             true = r.get("err")
-            lines.append(f"| {r['case']} | {r['accuracy']:.0e} | {r['estimated_error']:.1e} | "
-                         f"{'—' if true is None else f'{true:.1e}'} | {grids} | {r['wall_time_s']:.2g} s |")
+            lines.append(
+                f"| {r['case']} | {r['accuracy']:.0e} | {r['estimated_error']:.1e} | "
+                f"{'—' if true is None else f'{true:.1e}'} | {grids} | {r['wall_time_s']:.2g} s |"
+            )
     nu = float(ds["nu"].values) if "nu" in ds.coords else float("nan")
     lines.append("")
     lines.append(
@@ -343,8 +383,19 @@ def table(cases: dict[str, list[dict]], notes: dict[str, str], extrapolated: lis
 
 
 def main() -> None:
-    args = arguments(__doc__.splitlines()[0], [("--extrapolated", {"type": Path, "default": None,
-                     "help": "JSON of solve --accuracy runs (benchmarks/boundary_treatment.py)"})])
+    args = arguments(
+        __doc__.splitlines()[0],
+        [
+            (
+                "--extrapolated",
+                {
+                    "type": Path,
+                    "default": None,
+                    "help": "JSON of solve --accuracy runs (benchmarks/boundary_treatment.py)",
+                },
+            )
+        ],
+    )
     ds = open_dataset(args.dataset)
     cases = gather(ds)
     notes = add_errors(cases)

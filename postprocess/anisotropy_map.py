@@ -1,18 +1,32 @@
 """K_a/K_b versus b/a and nu: curves on a log axis against Mindlin's ellipse, and filled maps.
 
-    python postprocess/anisotropy_map.py results/demo.nc figures/ [--shapes ellipse rectangle]
+    python postprocess/anisotropy_map.py results/demo.nc figures/ [--shapes ellipse rectangle] [--format pdf]
 
 Writes ``anisotropy_curves.png`` (one panel per shape: K_a/K_b = K_xx/K_yy versus b/a, points
 per nu, Mindlin's bonded ellipse as lines, Li 2017 Fig. 7) and ``anisotropy_map_<shape>.png``
-(filled contours over log10 b/a and nu); shapes whose stiffness ignores b/a are left out. Other
-axes (anisotropy, orientation, n, tol) are taken at their first value and named in the title.
+(filled contours over log10 b/a and nu, the swept points marked on a coarse grid); shapes whose
+stiffness ignores b/a are left out. Other axes (anisotropy, orientation, n, tol) are taken at
+their first value (A = 1 where swept) and named in the title. ``--format pdf`` or ``svg``
+writes those instead of PNGs.
 """
 
 from __future__ import annotations
 
 import matplotlib.pyplot as plt
 import numpy as np
-from common import arguments, by_shape, colours, label, open_dataset, panels, save, scalar_notes, select_rest, shapes
+from common import (
+    arguments,
+    by_shape,
+    colours,
+    label,
+    mark_points,
+    open_dataset,
+    panels,
+    save,
+    scalar_notes,
+    select_rest,
+    shapes,
+)
 from matplotlib.ticker import MaxNLocator
 
 from hpcontact.analytic import mindlin_ellipse_stiffness_ratio
@@ -46,9 +60,18 @@ def curves(ds, names, outdir) -> None:
         ax.set_title(shape or ds.attrs.get("title", ""))
         ax.grid(True, which="both", alpha=0.3)
     handles, labels = axes[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="outside right center", fontsize=8, title="points: sweep\nlines: Mindlin\nellipse", title_fontsize=8)
+    fig.legend(
+        handles,
+        labels,
+        loc="outside right center",
+        fontsize=8,
+        title="points: sweep\nlines: Mindlin\nellipse",
+        title_fontsize=8,
+    )
     notes = ", ".join(filter(None, [note, scalar_notes(ds)]))
-    fig.suptitle(f"Tangential stiffness anisotropy K_a/K_b (a: major axis along x){f' — {notes}' if notes else ''}", fontsize=10)
+    fig.suptitle(
+        f"Tangential stiffness anisotropy K_a/K_b (a: major axis along x){f' — {notes}' if notes else ''}", fontsize=10
+    )
     save(fig, outdir, "anisotropy_curves.png")
 
 
@@ -65,6 +88,7 @@ def maps(ds, names, outdir) -> None:
         filled = ax.contourf(np.log10(da["aspect"]), da["nu"], da.values, levels=levels, cmap="viridis")
         lines = ax.contour(np.log10(da["aspect"]), da["nu"], da.values, levels=levels[::4], colors="w", linewidths=0.6)
         ax.clabel(lines, fmt="%.2f", fontsize=7)
+        mark_points(ax, np.log10(da["aspect"]), da["nu"], da.values)
         fig.colorbar(filled, ax=ax, label="K_a / K_b  (K_xx / K_yy)")
         ax.set_xlabel("log10(b/a)")
         ax.set_ylabel(label(ds["nu"]))

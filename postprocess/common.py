@@ -1,13 +1,19 @@
-"""Helpers shared by the post-processing scripts: arguments, selections, labels, saving.
+"""Helpers shared by the post-processing scripts: arguments, selections, labels, maps, saving.
 
 The scripts read a sweep data set (docs/design.md §4.2) through ``hpcontact.open_dataset`` (the
-labelled hypercube, K_nn along the angle) and write PNGs; run them as
-``python postprocess/<script>.py DATASET OUTDIR [options]``.
+labelled hypercube, K_nn along the angle) and write figures; run them as
+``python postprocess/<script>.py DATASET OUTDIR [--format png|pdf|svg] [options]``.
+
+Every figure uses matplotlib's constrained layout, and ``save`` wraps a title wider than its
+figure (or its axes) onto more lines, so no title is cut. Contour maps of a coarse grid mark
+the grid points they interpolate between (``mark_points``); anisotropy axes carry a tick at
+A = 1, the isotropic body (``anisotropy_ticks``).
 """
 
 from __future__ import annotations
 
 import argparse
+import textwrap
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -24,15 +30,31 @@ import hpcontact  # noqa: E402
 SYMBOLS = {"nu": "ν", "aspect": "b/a", "angle": "θ", "anisotropy": "A", "orientation": "ψ", "n": "n", "tol": "tol"}
 
 
+FORMATS = ("png", "pdf", "svg")
+DPI = 150  # of PNGs (PDF and SVG are vector graphics)
+
+
+def add_format(parser: argparse.ArgumentParser) -> None:
+    """The ``--format`` option (``FORMATS``, default png) of every script; ``use_format`` applies it."""
+    parser.add_argument("--format", choices=FORMATS, default="png", help="file format of the figures (default: png)")
+
+
+def use_format(name: str) -> None:
+    """Save the figures that follow as ``name`` files (``save``: the suffix of each file name)."""
+    plt.rcParams["savefig.format"] = name
+
+
 def arguments(description: str, extra: Iterable[tuple[str, dict]] = ()) -> argparse.Namespace:
-    """``dataset`` and ``outdir`` plus the script's own options."""
+    """``dataset``, ``outdir`` and ``--format`` plus the script's own options."""
     parser = argparse.ArgumentParser(description=description)
     parser.add_argument("dataset", type=Path, help="sweep data set (netCDF) written by hpcontact run")
-    parser.add_argument("outdir", type=Path, help="folder for the PNG files (created if missing)")
+    parser.add_argument("outdir", type=Path, help="folder for the figures (created if missing)")
+    add_format(parser)
     for flag, options in extra:
         parser.add_argument(flag, **options)
     args = parser.parse_args()
     args.outdir.mkdir(parents=True, exist_ok=True)
+    use_format(args.format)
     return args
 
 
@@ -62,7 +84,9 @@ def value_text(ds: xr.Dataset, name: str) -> str:
 PREFERRED = {"anisotropy": 1.0}
 
 
-def select_rest(da: xr.DataArray, keep: Iterable[str], choose: dict[str, float] | None = None) -> tuple[xr.DataArray, str]:
+def select_rest(
+    da: xr.DataArray, keep: Iterable[str], choose: dict[str, float] | None = None
+) -> tuple[xr.DataArray, str]:
     """``da`` reduced to the dimensions ``keep``: every other dimension at the value ``choose``
     gives (nearest), else at ``PREFERRED``'s value where the axis has it, else its first; also a
     note naming the values taken."""
@@ -105,8 +129,12 @@ def panels(count: int, polar: bool = False, size: float = 3.6, columns: int = 3)
     cols = min(columns, max(count, 1))
     rows = -(-count // cols)
     fig, axes = plt.subplots(
-        rows, cols, figsize=(size * cols, size * rows * 0.9), squeeze=False,
-        subplot_kw={"projection": "polar"} if polar else None, layout="constrained",
+        rows,
+        cols,
+        figsize=(size * cols, size * rows * 0.9),
+        squeeze=False,
+        subplot_kw={"projection": "polar"} if polar else None,
+        layout="constrained",
     )
     flat = list(axes.ravel())
     for ax in flat[count:]:
@@ -114,10 +142,65 @@ def panels(count: int, polar: bool = False, size: float = 3.6, columns: int = 3)
     return fig, flat[:count]
 
 
-def save(fig: plt.Figure, outdir: Path, name: str) -> Path:
-    """Write ``fig`` as ``outdir/name`` (PNG, 150 dpi) and close it."""
-    path = outdir / name
-    fig.savefig(path, dpi=150)
+def save(fig: plt.Figure, outdir: Path, name: str, dpi: int = DPI) -> Path:
+    """Write ``fig`` as ``outdir/name`` in the chosen format (``use_format``: the name's suffix
+    becomes .png, .pdf or .svg; PNGs at ``dpi``), its titles fitted (``fit_titles``), and close
+    it."""
+    path = outdir / Path(name).with_suffix("." + plt.rcParams["savefig.format"])
+    fit_titles(fig)
+    fig.savefig(path, dpi=dpi)
     plt.close(fig)
     print(f"wrote {path}")
     return path
+
+
+def fit_titles(fig: plt.Figure) -> None:
+    """Wrap the figure's suptitle and its axes' titles onto more lines where they are wider
+    than the figure (suptitle) or their axes (titles, with a little room to the sides), so
+    that none is cut at the edge of the figure. Constrained layout then makes room."""
+    fig.draw_without_rendering()  # the layout: sizes of the axes and the texts
+    renderer = fig.canvas.get_renderer()
+    texts = [(getattr(fig, "_suptitle", None), fig.bbox.width * 0.96)]
+    for ax in fig.axes:
+        room = min(fig.bbox.width * 0.96, ax.bbox.width * 1.15)
+        texts += [(title, room) for title in (ax.title, ax._left_title, ax._right_title)]
+    for text, room in texts:
+        if text is None or not text.get_text() or not text.get_visible():
+            continue
+        width = text.get_window_extent(renderer).width
+        if width <= room:
+            continue
+        lines = text.get_text().splitlines()
+        longest = max(len(line) for line in lines)
+        columns = max(12, int(longest * room / width))
+        text.set_text("\n".join(textwrap.fill(line, columns, break_on_hyphens=False) for line in lines))
+
+
+COARSE = 40  # a contour map's axis with at most this many values is coarse: its grid points are marked
+
+
+def mark_points(ax, x: np.ndarray, y: np.ndarray, values: np.ndarray) -> None:
+    """Mark the grid points a contour map of ``values`` (shape ``(len(y), len(x))``) draws from,
+    when the grid is coarse (at most ``COARSE`` values along each axis): small dots where the
+    sweep has a value, crosses where it has none (a failed task)."""
+    x, y, values = np.asarray(x, dtype=float), np.asarray(y, dtype=float), np.asarray(values, dtype=float)
+    if len(x) > COARSE or len(y) > COARSE:
+        return
+    X, Y = np.meshgrid(x, y)
+    ok = np.isfinite(values)
+    dots = {"ls": "none", "clip_on": False, "zorder": 4}  # on the edges too: most grids end at their extreme values
+    ax.plot(X[ok], Y[ok], "o", ms=2.6, mfc="w", mec="k", mew=0.5, label="solved points", **dots)
+    if not ok.all():
+        ax.plot(X[~ok], Y[~ok], "x", ms=4.0, color="r", label="failed points", **dots)
+
+
+def anisotropy_ticks(ax, values: Iterable[float], axis: str = "y") -> None:
+    """Ticks at the anisotropy factors ``values`` (every other one beyond six) and always at
+    A = 1, the isotropic body, where the axis spans it."""
+    values = np.unique(np.asarray(list(values), dtype=float))
+    ticks = values[::2] if len(values) > 6 else values
+    if values.min() <= 1.0 <= values.max():
+        ticks = np.union1d(ticks, [1.0])
+    target = ax.yaxis if axis == "y" else ax.xaxis
+    target.set_ticks(ticks, [f"{a:.3g}" for a in ticks])
+    target.set_minor_locator(plt.NullLocator())

@@ -34,7 +34,7 @@ if str(ROOT) not in sys.path:
 import numpy as np  # noqa: E402
 
 from hpcontact.problems.slip.partial_slip import solve_slip  # noqa: E402
-from postprocess.common import arguments, open_dataset, plt  # noqa: E402
+from postprocess.common import arguments, open_dataset, plt, save  # noqa: E402
 
 
 def principal_ratio(ds) -> np.ndarray:
@@ -51,8 +51,12 @@ def isotropic_reference(ds, q: np.ndarray) -> np.ndarray:
     out = []
     for qj in q:
         rec = solve_slip({**fixed, "q_ratio": float(qj), "E": 200e9, "nu": 0.3, "tensor": True})
-        K = np.array([[rec["tangential_stiffness_xx"], rec["tangential_stiffness_xy"]],
-                      [rec["tangential_stiffness_yx"], rec["tangential_stiffness_yy"]]])
+        K = np.array(
+            [
+                [rec["tangential_stiffness_xx"], rec["tangential_stiffness_xy"]],
+                [rec["tangential_stiffness_yx"], rec["tangential_stiffness_yy"]],
+            ]
+        )
         values = np.linalg.eigvalsh(0.5 * (K + K.T))
         out.append(values[0] / values[1])
     return np.array(out)
@@ -66,7 +70,7 @@ def main() -> None:
     psi = ds["orientation"].values
     q = ds["q_ratio"].values
     reference = isotropic_reference(ds, q)
-    fig, axes = plt.subplots(1, len(materials), figsize=(4.2 * len(materials), 3.8), sharey=True)
+    fig, axes = plt.subplots(1, len(materials), figsize=(4.2 * len(materials), 3.8), sharey=True, layout="constrained")
     for ax, name, r in zip(np.atleast_1d(axes), materials, ratio):
         for j, qj in enumerate(q):
             ax.plot(psi, r[:, j], "o-", ms=3, color=f"C{j}", label=f"Q/(mu P) = {qj:g}")
@@ -76,24 +80,27 @@ def main() -> None:
         ax.set_xlabel("ψ [deg]  ([110] → [111] → [001])")
     np.atleast_1d(axes)[0].set_ylabel("k_min / k_max (consistent tangent)")
     np.atleast_1d(axes)[0].legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(args.outdir / "kmin_kmax.png", dpi=110)
-    plt.close(fig)
+    save(fig, args.outdir, "kmin_kmax.png", dpi=110)
 
     kt = ds["tangential_stiffness"].values
-    fig, ax = plt.subplots(figsize=(5.5, 4))
+    fig, ax = plt.subplots(figsize=(5.5, 4), layout="constrained")
     for i, name in enumerate(materials):
         for k in range(len(psi)):
-            ax.plot(q, kt[i, k] / kt[i, k, 0], "-", color=f"C{i}", lw=0.8, alpha=0.7,
-                    label=name.replace("crystal:", "") if k == 0 else None)
+            ax.plot(
+                q,
+                kt[i, k] / kt[i, k, 0],
+                "-",
+                color=f"C{i}",
+                lw=0.8,
+                alpha=0.7,
+                label=name.replace("crystal:", "") if k == 0 else None,
+            )
     qs = np.linspace(0.0, q.max(), 50)
     ax.plot(qs, (1.0 - qs) ** (1.0 / 3.0), "k--", label="Mindlin–Deresiewicz (isotropic)")
     ax.set_xlabel("Q / (mu P)")
     ax.set_ylabel("k_t / k_t(0) along the load")
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(args.outdir / "kt_ratio.png", dpi=110)
-    plt.close(fig)
+    save(fig, args.outdir, "kt_ratio.png", dpi=110)
 
     print("isotropic reference k_min/k_max: " + "  ".join(f"{r:.4f}" for r in reference))
     for i, name in enumerate(materials):

@@ -51,8 +51,19 @@ def row(name: str, plane: str, R: float, d: float, n: int, tol: float) -> dict:
     hkl = tuple(int(v) for v in plane.split())
     material = crystal(name).oriented(miller=hkl)
     started = time.perf_counter()
-    record = solve(Scene.from_params({"quantities": ["indentation"], "material": name, "miller": plane, "radius": R,
-                    "depth": d, "n": n, "tol": tol}))
+    record = solve(
+        Scene.from_params(
+            {
+                "quantities": ["indentation"],
+                "material": name,
+                "miller": plane,
+                "radius": R,
+                "depth": d,
+                "n": n,
+                "tol": tol,
+            }
+        )
+    )
     bem_s = time.perf_counter() - started
     w = willis_sphere_contact(lambda phi: surface_green_fourier(material, phi)[..., 2, 2].real, R, d, n_phi=512)
     return {
@@ -104,8 +115,10 @@ def main(argv: list[str] | None = None) -> int:
     print(text)
     worst_bem = max(abs(r["bem"] / r["willis"] - 1) for r in rows)
     worst_vn = max(abs(r["vn"] / r["willis"] - 1) for r in rows)
-    print(f"\nlargest |BEM - Willis|/Willis = {worst_bem:.2e}; largest |Vlassak-Nix - Willis|/Willis = {worst_vn:.2e}; "
-          f"{len(rows)} BEM solves in {sum(r['bem_s'] for r in rows):.1f} s, total {time.perf_counter() - started:.1f} s")
+    print(
+        f"\nlargest |BEM - Willis|/Willis = {worst_bem:.2e}; largest |Vlassak-Nix - Willis|/Willis = {worst_vn:.2e}; "
+        f"{len(rows)} BEM solves in {sum(r['bem_s'] for r in rows):.1f} s, total {time.perf_counter() - started:.1f} s"
+    )
     if args.output is not None:
         args.output.parent.mkdir(parents=True, exist_ok=True)
         args.output.write_text(text + "\n", encoding="utf-8")

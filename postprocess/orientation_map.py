@@ -2,7 +2,7 @@
 
     python postprocess/orientation_map.py results/tembleque2011_sphere.nc figures/ [--fine 61]
     python postprocess/orientation_map.py results/crystal_tangential.nc figures/ [--nu 0.3]
-    python postprocess/orientation_map.py results/demo.nc figures/ [--nu 0.25] [--shape ellipse]
+    python postprocess/orientation_map.py results/demo.nc figures/ [--nu 0.25] [--shape ellipse] [--format pdf]
 
 What is drawn depends on the data set (both need ``anisotropy`` and ``orientation`` axes; ψ runs
 along [110] (0°) -> [111] (35.26°) -> [001] (90°), docs/design.md §2.5):
@@ -16,7 +16,8 @@ along [110] (0°) -> [111] (35.26°) -> [001] (90°), docs/design.md §2.5):
   BEM-Willis differences are printed. The normalized load is computed here, not stored.
 * a tangential sweep (``K_min``, ``K_max``; jobs/crystal_tangential.toml) gives
   ``orientation_tangential_map.png``: filled map of K_min/K_max (principal values of the 2 x 2
-  tangential stiffness, README convention table: Re H for a crystal) over ψ × A, one panel per contact b/a, and
+  tangential stiffness, docs/reference/quantities.md convention table: Re H for a crystal) over
+  ψ × A, one panel per contact b/a (the swept points marked on a coarse grid, a tick at A = 1), and
   ``orientation_tangential_curves.png``: the same ratio versus ψ, one colour per A. With a nu axis
   the map is drawn at ``--nu`` (default: the value nearest 0.3, crystal_tangential's); with a
   shape axis (jobs/demo.toml) for ``--shape`` (default: the first).
@@ -28,7 +29,18 @@ import functools
 import math
 
 import numpy as np
-from common import arguments, colours, label, open_dataset, panels, save, scalar_notes, select_rest
+from common import (
+    anisotropy_ticks,
+    arguments,
+    colours,
+    label,
+    mark_points,
+    open_dataset,
+    panels,
+    save,
+    scalar_notes,
+    select_rest,
+)
 from matplotlib.ticker import MaxNLocator  # noqa: E402
 
 from hpcontact.analytic import willis_sphere_contact
@@ -84,7 +96,7 @@ def sphere_curves(ds, outdir, fine: int) -> None:
     anis = ratio["anisotropy"].values
     psi_fine = np.union1d(np.linspace(0.0, 90.0, fine), [PSI_111, psi_001])
     fig, axes = panels(2 * len(nus), columns=len(nus), size=4.0)
-    rows = [axes[: len(nus)], axes[len(nus):]]
+    rows = [axes[: len(nus)], axes[len(nus) :]]
     worst = {"b/a": (0.0, None), "P/P[001]": (0.0, None)}
     for col, nu in enumerate(nus):
         at = {"nu": nu} if "nu" in ratio.dims else {}
@@ -97,7 +109,9 @@ def sphere_curves(ds, outdir, fine: int) -> None:
             rows[1][col].plot(psi_fine, [w["load"] / ref_001 for w in refs], "-", lw=1.0, color=colour)
             rows[0][col].plot(r["orientation"], r, "o", ms=3.5, color=colour, label=f"A = {A:g}")
             rows[1][col].plot(p["orientation"], p, "o", ms=3.5, color=colour, label=f"A = {A:g}")
-            at_points = {float(psi): willis(float(nu), float(A), float(psi), R, d, G) for psi in r["orientation"].values}
+            at_points = {
+                float(psi): willis(float(nu), float(A), float(psi), R, d, G) for psi in r["orientation"].values
+            }
             for name, bem, key in (("b/a", r, "b_over_a"), ("P/P[001]", p, "load")):
                 for psi, value in zip(bem["orientation"].values, bem.values):
                     w = at_points[float(psi)][key] / (ref_001 if key == "load" else 1.0)
@@ -111,16 +125,24 @@ def sphere_curves(ds, outdir, fine: int) -> None:
             ax.set_xlabel(PSI_LABEL, fontsize=8)
             ax.grid(True, alpha=0.3)
     handles, labels = rows[0][0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="outside right center", fontsize=8,
-               title="points: BEM\n(Polonsky-Keer)\nlines: Willis\nelliptical Hertz", title_fontsize=8)
+    fig.legend(
+        handles,
+        labels,
+        loc="outside right center",
+        fontsize=8,
+        title="points: BEM\n(Polonsky-Keer)\nlines: Willis\nelliptical Hertz",
+        title_fontsize=8,
+    )
     notes = ", ".join(filter(None, [note, f"d/R = {d / R:.3g}", scalar_notes(ds, ("n", "tol"))]))
     fig.suptitle(f"Rigid sphere on a cubic crystal (Rodríguez-Tembleque et al. 2011, Figs. 9-10)\n{notes}", fontsize=10)
     save(fig, outdir, "orientation_sphere.png")
     for name, (diff, where) in worst.items():
         if where is not None:
             A, nu, psi, value, w = where
-            print(f"largest |BEM - Willis| in {name}: {diff:.2e} at A = {A:g}, nu = {nu:g}, psi = {psi:.2f} "
-                  f"(BEM {value:.6f}, Willis {w:.6f})")
+            print(
+                f"largest |BEM - Willis| in {name}: {diff:.2e} at A = {A:g}, nu = {nu:g}, psi = {psi:.2f} "
+                f"(BEM {value:.6f}, Willis {w:.6f})"
+            )
     hertz_ratio = (load / willis_loads(load, R, d, G)).values
     print(f"BEM load / Willis load over all points: {np.nanmin(hertz_ratio):.6f} ... {np.nanmax(hertz_ratio):.6f}")
 
@@ -168,11 +190,13 @@ def tangential_map(ds, outdir, nu: float | None, shape: str | None) -> None:
     for ax, aspect in zip(axes, aspects):
         da = (ratio.sel(aspect=aspect) if aspect is not None else ratio).transpose("anisotropy", "orientation")
         filled = ax.contourf(da["orientation"], da["anisotropy"], da.values, levels=levels, cmap="viridis")
-        lines = ax.contour(da["orientation"], da["anisotropy"], da.values, levels=levels[::3], colors="w", linewidths=0.5)
+        lines = ax.contour(
+            da["orientation"], da["anisotropy"], da.values, levels=levels[::3], colors="w", linewidths=0.5
+        )
         ax.clabel(lines, fmt="%.2f", fontsize=6)
+        mark_points(ax, da["orientation"], da["anisotropy"], da.values)
         ax.set_yscale("log")
-        ax.set_yticks(da["anisotropy"].values[::2], [f"{a:.3g}" for a in da["anisotropy"].values[::2]])
-        ax.minorticks_off()
+        anisotropy_ticks(ax, da["anisotropy"].values)
         ax.axhline(1.0, color="w", lw=0.6, ls="--")
         pole_ticks(ax)
         ax.set_xlabel(PSI_LABEL, fontsize=8)
@@ -187,10 +211,14 @@ def tangential_map(ds, outdir, nu: float | None, shape: str | None) -> None:
     for ax, aspect in zip(axes, aspects):
         da = ratio.sel(aspect=aspect) if aspect is not None else ratio
         for colour, A in zip(colours(len(anis)), anis):
-            (line,) = ax.plot(da["orientation"], da.sel(anisotropy=A), "o-", ms=3, lw=0.8, color=colour, label=f"A = {A:.3g}")
+            (line,) = ax.plot(
+                da["orientation"], da.sel(anisotropy=A), "o-", ms=3, lw=0.8, color=colour, label=f"A = {A:.3g}"
+            )
             # what is drawn, for checks against the data set: psi then K_min/K_max per point
-            print(f"plotted b/a = {1.0 if aspect is None else aspect:.12g}, A = {A:.12g}: "
-                  + " ".join(f"{x:.12g}:{y:.12g}" for x, y in zip(line.get_xdata(), line.get_ydata())))
+            print(
+                f"plotted b/a = {1.0 if aspect is None else aspect:.12g}, A = {A:.12g}: "
+                + " ".join(f"{x:.12g}:{y:.12g}" for x, y in zip(line.get_xdata(), line.get_ydata()))
+            )
         pole_ticks(ax)
         ax.set_xlabel(PSI_LABEL, fontsize=8)
         ax.set_ylabel("K_min / K_max")
@@ -223,7 +251,9 @@ def main() -> None:
         tangential_map(ds, args.outdir, args.nu, args.shape)
         done = True
     if not done:
-        raise SystemExit(f"{args.dataset}: neither an indentation sweep (load, ellipse_b_over_a) nor a tangential one (K_min, K_max)")
+        raise SystemExit(
+            f"{args.dataset}: neither an indentation sweep (load, ellipse_b_over_a) nor a tangential one (K_min, K_max)"
+        )
 
 
 if __name__ == "__main__":

@@ -1,6 +1,6 @@
 """K_nn(θ), the tangential stiffness along the load direction, per shape (Li 2017 Figs. 2, 3, 6).
 
-    python postprocess/polar.py results/demo.nc figures/ [--aspect 0.2] [--shapes star square]
+    python postprocess/polar.py results/demo.nc figures/ [--aspect 0.2] [--shapes star square] [--format svg]
 
 Writes ``polar.png`` (one polar panel per shape, one curve per nu; θ over the full circle,
 K_nn(θ + 180°) = K_nn(θ)) and ``knn_vs_angle.png`` (the same on Cartesian axes, θ from 0 to
@@ -55,7 +55,9 @@ def polar(ds, da, names, aspect, outdir) -> None:
     if handles:
         fig.legend(handles, labels, loc="outside right center", fontsize=8)
     notes = ", ".join(filter(None, [note, scalar_notes(ds)]))
-    fig.suptitle(f"{label(da)} versus load direction θ (radial axis offset){f' — {notes}' if notes else ''}", fontsize=10)
+    fig.suptitle(
+        f"{label(da)} versus load direction θ (radial axis offset){f' — {notes}' if notes else ''}", fontsize=10
+    )
     save(fig, outdir, "polar.png")
 
 
@@ -65,7 +67,9 @@ def cartesian(ds, da, names, aspect, outdir) -> None:
     for ax, shape in zip(axes, names):
         pairs, note = curves_per_nu(da, shape, aspect)
         for colour, (nu, curve) in zip(colours(len(pairs)), pairs):
-            ax.plot(curve["angle"], curve, "o-", ms=2.5, lw=1.0, color=colour, label=None if nu is None else f"ν = {nu:.2g}")
+            ax.plot(
+                curve["angle"], curve, "o-", ms=2.5, lw=1.0, color=colour, label=None if nu is None else f"ν = {nu:.2g}"
+            )
         ax.set_xlabel(label(ds["angle"], "load direction θ"))
         ax.set_ylabel(label(da, "K_nn E*/(K_zz G*)" if da.name == "normalized_nn" else "K_nn"))
         ax.set_xticks(np.arange(0.0, 181.0, 45.0))

@@ -55,6 +55,7 @@ from hpcontact import analytic  # noqa: E402
 from hpcontact.problems.slip.crystal_pair import pair_from_params  # noqa: E402
 from hpcontact.problems.slip.partial_slip import PathSolver, SlipProblem, solve_slip, validate  # noqa: E402
 from hpcontact.sweep.spec import LABEL_AXES  # noqa: E402
+from postprocess.common import add_format, save, use_format  # noqa: E402
 
 RATIO_BAND = (0.25, 0.35)  # constant-ratio model k_t = c k_n (seed paper, refs. 5 and 6)
 UM = 1e-6  # stiffness shown in N/µm
@@ -87,7 +88,9 @@ def figure_kt_vs_q(ds: xr.Dataset, mu: float, outdir: Path) -> None:
     pairs = [str(p) for p in ds["pair"].values]
     cols = min(3, len(pairs))
     rows = math.ceil(len(pairs) / cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(3.6 * cols, 3.0 * rows), sharex=True, squeeze=False)
+    fig, axes = plt.subplots(
+        rows, cols, figsize=(3.6 * cols, 3.0 * rows), sharex=True, squeeze=False, layout="constrained"
+    )
     q_fine = np.linspace(0.0, 0.999, 200)
     colours = plt.cm.viridis(np.linspace(0.0, 0.85, ds.sizes["load"]))
     for ax, pair in zip(axes.flat, pairs):
@@ -109,19 +112,20 @@ def figure_kt_vs_q(ds: xr.Dataset, mu: float, outdir: Path) -> None:
         ax.set_xlabel("Q/(μP)")
     for ax in axes[:, 0]:
         ax.set_ylabel("k_t [N/µm]")
-    for ax in list(axes.flat)[len(pairs):]:
+    for ax in list(axes.flat)[len(pairs) :]:
         ax.axis("off")
     axes[0, 0].legend(fontsize=7, loc="lower left")
     radii = f"R = {float(ds['radius']) * 1e3:g}/{float(ds['radius2']) * 1e3:g} mm, " if ds["radius2"].ndim == 0 else ""
-    fig.suptitle(f"Sphere pairs, {radii}μ = {mu:g}, n = {int(ds['n'])}: markers solver (open: decoupled), "
-                 f"lines Mindlin–Deresiewicz, bands k_t = (0.25–0.35) k_n", fontsize=9)
-    fig.tight_layout()
-    fig.savefig(outdir / "kt_vs_q.png", dpi=110)
-    plt.close(fig)
+    fig.suptitle(
+        f"Sphere pairs, {radii}μ = {mu:g}, n = {int(ds['n'])}: markers solver (open: decoupled), "
+        f"lines Mindlin–Deresiewicz, bands k_t = (0.25–0.35) k_n",
+        fontsize=9,
+    )
+    save(fig, outdir, "kt_vs_q.png", dpi=110)
 
 
 def figure_ratio(ds: xr.Dataset, outdir: Path) -> None:
-    fig, ax = plt.subplots(figsize=(5.5, 4.2))
+    fig, ax = plt.subplots(figsize=(5.5, 4.2), layout="constrained")
     q_fine = np.linspace(0.0, 0.999, 200)
     ax.plot(q_fine, np.cbrt(1.0 - q_fine), "k-", lw=1.2, label="Mindlin–Deresiewicz (1 − Q/μP)^⅓")
     markers = "osD^v<>p"
@@ -129,24 +133,36 @@ def figure_ratio(ds: xr.Dataset, outdir: Path) -> None:
         ratio = ds["stiffness_ratio"].sel(pair=pair)
         for i, load in enumerate(ds["load"].values):
             for j, mu in enumerate(ds["mu"].values):
-                ax.plot(ds["q_ratio"], ratio.sel(load=load, mu=mu), marker, ms=3, alpha=0.7, mfc="none",
-                        label=str(pair) if i == j == 0 else None)
+                ax.plot(
+                    ds["q_ratio"],
+                    ratio.sel(load=load, mu=mu),
+                    marker,
+                    ms=3,
+                    alpha=0.7,
+                    mfc="none",
+                    label=str(pair) if i == j == 0 else None,
+                )
     band = ds["normal_stiffness"] / ds["no_slip_stiffness"]
-    ax.axhspan(RATIO_BAND[0] * float(band.min()), RATIO_BAND[1] * float(band.max()), color="tab:red", alpha=0.12,
-               lw=0, label="k_t = (0.25–0.35) k_n")
+    ax.axhspan(
+        RATIO_BAND[0] * float(band.min()),
+        RATIO_BAND[1] * float(band.max()),
+        color="tab:red",
+        alpha=0.12,
+        lw=0,
+        label="k_t = (0.25–0.35) k_n",
+    )
     ax.set_xlabel("Q/(μP)")
     ax.set_ylabel("k_t / k_t(Q = 0)")
     ax.set_xlim(0, 1)
     ax.set_ylim(0, 1.05)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, ncol=2)
-    fig.tight_layout()
-    fig.savefig(outdir / "kt_ratio.png", dpi=110)
-    plt.close(fig)
+    save(fig, outdir, "kt_ratio.png", dpi=110)
 
 
-def figure_stick_zones(ds: xr.Dataset, outdir: Path, pair: str, load: float, mu: float,
-                       levels=(0.3, 0.6, 0.9), step: float = 0.1) -> None:
+def figure_stick_zones(
+    ds: xr.Dataset, outdir: Path, pair: str, load: float, mu: float, levels=(0.3, 0.6, 0.9), step: float = 0.1
+) -> None:
     """|t|/(mu p) at a few levels of one monotonic loading path (steps of ``step`` mu P)."""
     point = ds.sel(pair=pair, load=load, mu=mu).isel(q_ratio=0)
     params = {**scene_params(point), "q_ratio": max(levels)}
@@ -156,8 +172,9 @@ def figure_stick_zones(ds: xr.Dataset, outdir: Path, pair: str, load: float, mu:
     x, y = problem.x * problem.L * 1e6, problem.y * problem.L * 1e6  # µm
     a = problem.hertz.a * 1e6
     targets = np.round(np.arange(1, round(max(levels) / step) + 1) * step, 12)
-    fig, axes = plt.subplots(1, len(levels), figsize=(3.0 * len(levels) + 0.8, 3.4), squeeze=False,
-                             layout="constrained")
+    fig, axes = plt.subplots(
+        1, len(levels), figsize=(3.0 * len(levels) + 0.8, 3.4), squeeze=False, layout="constrained"
+    )
     panels = iter(zip(axes[0], levels))
     ax, level = next(panels)
     state = solver.initial
@@ -185,15 +202,27 @@ def figure_stick_zones(ds: xr.Dataset, outdir: Path, pair: str, load: float, mu:
     axes[0, 0].set_ylabel("y [µm]")
     fig.colorbar(image, ax=axes[0].tolist(), label="|t| / (μ p)", shrink=0.8)
     radii = f"{params['radius'] * 1e3:g}/{params.get('radius2', math.inf) * 1e3:g} mm"
-    fig.suptitle(f"{pair}, {radii}, P = {load:g} N, μ = {mu:g}, n = {params.get('n')}: stick zone (cyan), "
-                 f"Cattaneo's circle (dashed), Hertz a = {a:.0f} µm (dotted)", fontsize=9)
-    fig.savefig(outdir / "stick_zones.png", dpi=110)
-    plt.close(fig)
+    fig.suptitle(
+        f"{pair}, {radii}, P = {load:g} N, μ = {mu:g}, n = {params.get('n')}: stick zone (cyan), "
+        f"Cattaneo's circle (dashed), Hertz a = {a:.0f} µm (dotted)",
+        fontsize=9,
+    )
+    save(fig, outdir, "stick_zones.png", dpi=110)
 
 
 def figure_ellipse(outdir: Path, n: int = 128, steps: int = 9) -> None:
-    base = {"radius": 8e-3, "radius_b": 24e-3, "material": "Fe", "material2": "Fe", "load": 100.0, "mu": 0.3,
-            "q_ratio": 0.9, "steps": steps, "n": n, "history": True}
+    base = {
+        "radius": 8e-3,
+        "radius_b": 24e-3,
+        "material": "Fe",
+        "material2": "Fe",
+        "load": 100.0,
+        "mu": 0.3,
+        "q_ratio": 0.9,
+        "steps": steps,
+        "n": n,
+        "history": True,
+    }
     pair = pair_from_params(base)
     h = pair.hertz(100.0)
     K_a, K_b = analytic.mindlin_ellipse_stiffness(h.a, h.b, pair.equivalent.G, pair.equivalent.nu)
@@ -202,7 +231,7 @@ def figure_ellipse(outdir: Path, n: int = 128, steps: int = 9) -> None:
     q_major = np.array(major["tangential_force"]) / (0.3 * 100.0)
     q_minor = np.array(minor["tangential_force"]) / (0.3 * 100.0)
     k_major, k_minor = np.array(major["tangential_stiffness"]), np.array(minor["tangential_stiffness"])
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(9.5, 3.8))
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(9.5, 3.8), layout="constrained")
     ax1.plot(q_major, k_major * UM, "o-", ms=4, label="along the major axis a")
     ax1.plot(q_minor, k_minor * UM, "s-", ms=4, label="along the minor axis b")
     ax1.plot([0, 0], [K_a * UM, K_b * UM], "k*", ms=9, label="Mindlin's bonded ellipse")
@@ -216,11 +245,10 @@ def figure_ellipse(outdir: Path, n: int = 128, steps: int = 9) -> None:
     ax2.set_ylabel("k_b / k_a")
     ax2.legend(fontsize=8)
     ax2.grid(alpha=0.3)
-    fig.suptitle(f"Fe ellipsoid 8 × 24 mm on Fe flat, P = 100 N, n = {n}: Hertz ellipse b/a = {h.aspect:.3f}",
-                 fontsize=10)
-    fig.tight_layout()
-    fig.savefig(outdir / "ellipse_kx_ky.png", dpi=110)
-    plt.close(fig)
+    fig.suptitle(
+        f"Fe ellipsoid 8 × 24 mm on Fe flat, P = 100 N, n = {n}: Hertz ellipse b/a = {h.aspect:.3f}", fontsize=10
+    )
+    save(fig, outdir, "ellipse_kx_ky.png", dpi=110)
 
 
 def summary(ds: xr.Dataset) -> None:
@@ -238,8 +266,10 @@ def summary(ds: xr.Dataset) -> None:
         dev = deviation.sel(pair=pair)
         # Mindlin–Deresiewicz with the solver's k_t(0): k_t = k_t(0) (1 − q)^(1/3) = c k_n
         q_band = [1.0 - (c / r0) ** 3 for c in RATIO_BAND[::-1]]
-        print(f"  {str(pair):12s} {r0:8.4f}     {d0:+.2e}          {float(dev.min()):+.2e} … {float(dev.max()):+.2e}"
-              f"     {q_band[0]:.3f}, {q_band[1]:.3f}")
+        print(
+            f"  {str(pair):12s} {r0:8.4f}     {d0:+.2e}          {float(dev.min()):+.2e} … {float(dev.max()):+.2e}"
+            f"     {q_band[0]:.3f}, {q_band[1]:.3f}"
+        )
     if "coupling_effect_stiffness" in ds:
         print("coupled / decoupled − 1 at the largest Q/(mu P) (k_t, δ), dissimilar pairs:")
         last = ds.isel(q_ratio=-1)
@@ -249,22 +279,32 @@ def summary(ds: xr.Dataset) -> None:
                 continue
             effect_k = last["coupling_effect_stiffness"].sel(pair=pair)
             effect_d = last["coupling_effect_displacement"].sel(pair=pair)
-            print(f"  {str(pair):12s} beta = {beta:+.4f}: k_t {float(effect_k.min()):+.2e} … {float(effect_k.max()):+.2e},"
-                  f" δ {float(effect_d.min()):+.2e} … {float(effect_d.max()):+.2e}")
+            print(
+                f"  {str(pair):12s} beta = {beta:+.4f}: k_t {float(effect_k.min()):+.2e} … {float(effect_k.max()):+.2e},"
+                f" δ {float(effect_d.min()):+.2e} … {float(effect_d.max()):+.2e}"
+            )
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("dataset", type=Path, help="data set of jobs/sphere_pairs.toml (hpcontact run)")
-    parser.add_argument("outdir", type=Path, help="folder for the PNG files")
-    parser.add_argument("--mu", type=float, help="friction coefficient of kt_vs_q.png and the maps (default: the first)")
+    parser.add_argument("outdir", type=Path, help="folder for the figures")
+    add_format(parser)
+    parser.add_argument(
+        "--mu", type=float, help="friction coefficient of kt_vs_q.png and the maps (default: the first)"
+    )
     parser.add_argument("--pair", default="Fe-Fe", help="pair of stick_zones.png (default Fe-Fe, else the first)")
     parser.add_argument("--load", type=float, default=100.0, help="load of stick_zones.png (nearest in the data set)")
-    parser.add_argument("--n-ellipse", type=int, default=128,
-                        help="cells across the ellipse of ellipse_kx_ky.png, 0: leave it out (k_b/k_a carries "
-                             "the stick area's staircase, ±0.3 %% at 64)")
+    parser.add_argument(
+        "--n-ellipse",
+        type=int,
+        default=128,
+        help="cells across the ellipse of ellipse_kx_ky.png, 0: leave it out (k_b/k_a carries "
+        "the stick area's staircase, ±0.3 %% at 64)",
+    )
     args = parser.parse_args()
     args.outdir.mkdir(parents=True, exist_ok=True)
+    use_format(args.format)
     ds = open_dataset(args.dataset)
     mu = float(ds["mu"].values[0]) if args.mu is None else float(ds["mu"].sel(mu=args.mu, method="nearest"))
     pair = args.pair if args.pair in ds["pair"].values else str(ds["pair"].values[0])

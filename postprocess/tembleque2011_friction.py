@@ -54,7 +54,7 @@ from hpcontact.problems.line_contact import finite_cylinder, plane_strain_modulu
 from hpcontact.problems.slip.crystal_pair import PairCompliance  # noqa: E402
 from hpcontact.problems.slip.load_path import rotation, run_path  # noqa: E402
 from hpcontact.problems.slip.partial_slip import SlipProblem, solve_slip, validate  # noqa: E402
-from postprocess.common import arguments, open_dataset, plt  # noqa: E402
+from postprocess.common import arguments, open_dataset, plt, save  # noqa: E402
 
 ORTHO = "E1=25 E2=1 E3=1 G12=0.5 G13=0.5 G23=0.2 nu12=0.25 nu13=0.25 nu23=0.25"
 RATIOS = (1, 2, 4, 8, 16, 32)
@@ -68,7 +68,7 @@ def _ortho(ratio: float, azimuth: float = 0.0):
 
 
 def line_contact(outdir: Path) -> None:
-    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.2))
+    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.2), layout="constrained")
     for azimuth, name, colour in ((0.0, "x1 across the axis", "C0"), (90.0, "x1 along the axis", "C1")):
         body = _ortho(1, azimuth)
         modulus = plane_strain_modulus(body.voigt, 0.0)
@@ -78,14 +78,21 @@ def line_contact(outdir: Path) -> None:
             width = math.sqrt(4.0 * float(np.sum(s.x**2 * s.pressure)) / float(np.sum(s.pressure)))
             errors.append((n, s.pressure.max() / s.peak - 1.0, width / s.half_width - 1.0))
         xs = np.linspace(-1.0, 1.0, 201) * s.half_width
-        left.plot(xs / A, s.peak * np.sqrt(1 - (xs / s.half_width) ** 2) * 1e3, color=colour, lw=1,
-                  label=f"plane strain (Hwu & Fan), {name}: E*_2D = {modulus:.3f} GPa")
+        left.plot(
+            xs / A,
+            s.peak * np.sqrt(1 - (xs / s.half_width) ** 2) * 1e3,
+            color=colour,
+            lw=1,
+            label=f"plane strain (Hwu & Fan), {name}: E*_2D = {modulus:.3f} GPa",
+        )
         left.plot(s.x / A, s.pressure * 1e3, "o", ms=3, color=colour, label="3-D BEM centre section, n = 32")
         e = np.array(errors)
         right.semilogy(e[:, 0], np.abs(e[:, 1]), "o-", color=colour, label=f"peak, {name}")
         right.semilogy(e[:, 0], np.abs(e[:, 2]), "s--", color=colour, label=f"width, {name}")
-        print(f"line contact, {name}: E*_2D = {modulus:.6g} GPa; (n, peak error, width error) = "
-              + ", ".join(f"({n}, {p:+.1e}, {w:+.1e})" for n, p, w in errors))
+        print(
+            f"line contact, {name}: E*_2D = {modulus:.6g} GPa; (n, peak error, width error) = "
+            + ", ".join(f"({n}, {p:+.1e}, {w:+.1e})" for n, p, w in errors)
+        )
     left.set_xlabel("x / 50 mm")
     left.set_ylabel("pressure [MPa] (constants in GPa)")
     left.legend(fontsize=7)
@@ -94,13 +101,18 @@ def line_contact(outdir: Path) -> None:
     right.set_xlabel("n (cells across the contact width)")
     right.set_ylabel("|relative error| against plane strain")
     right.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(outdir / "line_contact.png", dpi=110)
-    plt.close(fig)
+    save(fig, outdir, "line_contact.png", dpi=110)
 
 
-def paper_eq24_compliance(E1: float, E3: float = 1.0, G13: float = 0.5, E2: float = 1.0, nu12: float = 0.25,
-                          nu13: float = 0.25, nu23: float = 0.25) -> float:
+def paper_eq24_compliance(
+    E1: float,
+    E3: float = 1.0,
+    G13: float = 0.5,
+    E2: float = 1.0,
+    nu12: float = 0.25,
+    nu13: float = 0.25,
+    nu23: float = 0.25,
+) -> float:
     """A = 1/(a3 k3 E3) of the paper's eq. 24 (Hwu & Fan 1998), 1/GPa, as we read the extracted
     text: k3 = (E3/G13 + 2 f1 sqrt(E3/E1))^(-1/2), a3 = (1 − nu23 nu32)^(-1/2),
     f1 = sqrt((1 − nu12 nu21)(1 − nu32 nu23)) − sqrt((nu31 − nu21 nu32)(nu13 − nu23 nu12)),
@@ -114,7 +126,9 @@ def paper_eq24_compliance(E1: float, E3: float = 1.0, G13: float = 0.5, E2: floa
 def normal_load(outdir: Path) -> None:
     block = _ortho(1)
     H_block = 2.0 / plane_strain_modulus(block.voigt, 0.0)
-    plane = np.array([2.0 * H_block / (H_block + 2.0 / plane_strain_modulus(_ortho(r).voigt, 0.0)) for r in PLANE_RATIOS])
+    plane = np.array(
+        [2.0 * H_block / (H_block + 2.0 / plane_strain_modulus(_ortho(r).voigt, 0.0)) for r in PLANE_RATIOS]
+    )
     rigid_x1 = 2.0 * H_block / (H_block + 2.0 / plane_strain_modulus(_ortho(1e8).voigt, 0.0))
     A1 = paper_eq24_compliance(25.0)
     paper = np.array([2.0 * A1 / (A1 + paper_eq24_compliance(25.0 * r)) for r in PLANE_RATIOS])
@@ -126,7 +140,7 @@ def normal_load(outdir: Path) -> None:
         width = math.sqrt(4.0 * float(np.sum(s.x**2 * s.pressure)) / float(np.sum(s.pressure)))
         bem.append(s.line_load / width**2)  # P′ at a fixed width: P′ ∝ a² E*
     bem = np.array(bem) / bem[0]
-    fig, ax = plt.subplots(figsize=(6, 4))
+    fig, ax = plt.subplots(figsize=(6, 4), layout="constrained")
     ax.semilogx(PLANE_RATIOS, plane, "-", label="plane strain (Stroh), 2/E* = H_zz(punch) + H_zz(block)")
     ax.semilogx(PLANE_RATIOS, paper, "--", label="paper's eq. 24, A = A1 + A2")
     ax.semilogx(RATIOS, bem, "o", label="3-D BEM, finite cylinder, n = 16")
@@ -135,16 +149,21 @@ def normal_load(outdir: Path) -> None:
     ax.set_ylabel("P at fixed semi-width / P(ratio 1)")
     ax.set_title("§6.1, Fig. 5: orthotropic–orthotropic normal contact")
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(outdir / "normal_load_ratio.png", dpi=110)
-    plt.close(fig)
+    save(fig, outdir, "normal_load_ratio.png", dpi=110)
     at = [int(np.argmin(np.abs(PLANE_RATIOS - r))) for r in (2, 32, 1e3)]
-    print("normal load at fixed width / ratio 1: plane strain "
-          + ", ".join(f"{PLANE_RATIOS[i]:g}: {plane[i]:.4f}" for i in at) + f", rigid in x1: {rigid_x1:.4f}")
-    print("                                       paper eq. 24 "
-          + ", ".join(f"{PLANE_RATIOS[i]:g}: {paper[i]:.4f}" for i in at)
-          + f", rigid in x1: {2.0 * A1 / (A1 + paper_eq24_compliance(25e8)):.4f}")
-    print("                                       3-D BEM      " + ", ".join(f"{r}: {v:.4f}" for r, v in zip(RATIOS, bem)))
+    print(
+        "normal load at fixed width / ratio 1: plane strain "
+        + ", ".join(f"{PLANE_RATIOS[i]:g}: {plane[i]:.4f}" for i in at)
+        + f", rigid in x1: {rigid_x1:.4f}"
+    )
+    print(
+        "                                       paper eq. 24 "
+        + ", ".join(f"{PLANE_RATIOS[i]:g}: {paper[i]:.4f}" for i in at)
+        + f", rigid in x1: {2.0 * A1 / (A1 + paper_eq24_compliance(25e8)):.4f}"
+    )
+    print(
+        "                                       3-D BEM      " + ", ".join(f"{r}: {v:.4f}" for r, v in zip(RATIOS, bem))
+    )
 
 
 def contact_size(ds) -> None:
@@ -160,9 +179,11 @@ def contact_size(ds) -> None:
         return math.sqrt(-offset / slope) * problem.L
 
     along, across = edge(problem.x[:, j], p[:, j]), edge(problem.y[i], p[i])  # grid x: the major axis
-    print(f"similar pair's contact at {float(ds['load'].values):.3g} N (n = 64): semi-axes {across * 1e3:.1f} mm across x1, "
-          f"{along * 1e3:.1f} mm along; p0 = {p.max() * problem.G_ref / 1e6:.1f} MPa "
-          f"(plane strain at a = 50 mm: {A * plane_strain_modulus(_ortho(1).voigt, 0.0) / 2.0 / (2.0 * R) * 1e3:.1f} MPa)")
+    print(
+        f"similar pair's contact at {float(ds['load'].values):.3g} N (n = 64): semi-axes {across * 1e3:.1f} mm across x1, "
+        f"{along * 1e3:.1f} mm along; p0 = {p.max() * problem.G_ref / 1e6:.1f} MPa "
+        f"(plane strain at a = 50 mm: {A * plane_strain_modulus(_ortho(1).voigt, 0.0) / 2.0 / (2.0 * R) * 1e3:.1f} MPa)"
+    )
 
 
 def approach(params: dict) -> float:
@@ -185,7 +206,7 @@ def tangential(ds, outdir: Path) -> None:
     contact_size(ds)
     d = np.array([approach(_scene(ds, labels[i])) for i in index])
     P_fixed = (d[0] / d) ** 1.5
-    fig, (ax, right) = plt.subplots(1, 2, figsize=(11, 4))
+    fig, (ax, right) = plt.subplots(1, 2, figsize=(11, 4), layout="constrained")
     ax.semilogx(ratios, Q / Q[0], "o-", label="Q, coupled (the paper's problem)")
     ax.semilogx(ratios, np.where(np.isnan(Qd), Q, Qd) / Q[0], "x--", label="Q, decoupled (Goodman)")
     ax.semilogx(ratios, P_fixed, "s-", label="P at a fixed approach (ellipsoid)")
@@ -201,25 +222,45 @@ def tangential(ds, outdir: Path) -> None:
     right.set_ylabel("x / 50 mm")
     right.set_title("stick zone (paper, Fig. 6d, ratio 2: mainly x1 < 0)")
     right.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(outdir / "tangential_ratio.png", dpi=110)
-    plt.close(fig)
+    save(fig, outdir, "tangential_ratio.png", dpi=110)
     print("Q / Q(ratio 1): " + ", ".join(f"{r:g}: {q:.4f}" for r, q in zip(ratios, Q / Q[0])))
     print("decoupled Q / Q(ratio 1): " + ", ".join(f"{r:g}: {q:.4f}" for r, q in zip(ratios, Qd / Q[0])))
     print(f"Q(ratio 1) = {Q[0]:.6g} N, Q/(mu P) = {float(ds['force_ratio'].values[index[0]]):.4f}")
     print("P at a fixed approach / ratio 1: " + ", ".join(f"{r:g}: {v:.4f}" for r, v in zip(ratios, P_fixed)))
-    print("coupling size: " + ", ".join(f"{r:g}: {float(ds['coupling_size'].values[i]):.4f}" for r, i in zip(ratios, index)))
+    print(
+        "coupling size: "
+        + ", ".join(f"{r:g}: {float(ds['coupling_size'].values[i]):.4f}" for r, i in zip(ratios, index))
+    )
     iso = labels.index("isotropic") if "isotropic" in labels else None
     if iso is not None:
-        print(f"isotropic punch: Q = {float(ds['tangential_force'].values[iso]):.6g} N, "
-              f"coupling size {float(ds['coupling_size'].values[iso]):.4f}")
-    print("stick centroid x [m]: " + ", ".join(f"{lab}: {float(v):.4e}" for lab, v in zip(labels, ds["stick_centroid_x"].values)))
+        print(
+            f"isotropic punch: Q = {float(ds['tangential_force'].values[iso]):.6g} N, "
+            f"coupling size {float(ds['coupling_size'].values[iso]):.4f}"
+        )
+    print(
+        "stick centroid x [m]: "
+        + ", ".join(f"{lab}: {float(v):.4e}" for lab, v in zip(labels, ds["stick_centroid_x"].values))
+    )
 
 
 def _scene(ds, label: str) -> dict:
     """The data set's scene fields for one pair label (fixed fields plus the pair table)."""
-    keys = ("radius", "radius_b", "orthotropic2", "load", "mu", "q_ratio", "control", "displacement", "angle",
-            "steps", "n", "tol", "quantities", "path")
+    keys = (
+        "radius",
+        "radius_b",
+        "orthotropic2",
+        "load",
+        "mu",
+        "q_ratio",
+        "control",
+        "displacement",
+        "angle",
+        "steps",
+        "n",
+        "tol",
+        "quantities",
+        "path",
+    )
     params = {k: ds[k].values.item() for k in keys if k in ds.coords or k in ds}
     point = ds.sel(pair=label)
     for k in ("orthotropic", "E", "nu"):
@@ -235,7 +276,7 @@ def tractions(ds, outdir: Path) -> dict[str, tuple[float, float]]:
     """Fig. 6 panels; returns each pair's stick band on the centre line (x/50 mm, first and last cell)."""
     labels = ("ortho E1 ratio 1", "ortho E1 ratio 2", "isotropic")
     bands = {}
-    fig, axes = plt.subplots(1, len(labels), figsize=(15, 4))
+    fig, axes = plt.subplots(1, len(labels), figsize=(15, 4), layout="constrained")
     for ax, label in zip(axes, labels):
         problem = SlipProblem(validate(_scene(ds, label)))
         state = run_path(problem, not problem.pair.similar).final
@@ -261,12 +302,12 @@ def tractions(ds, outdir: Path) -> dict[str, tuple[float, float]]:
         ax.set_ylabel("t_x [MPa] (punch moved along +x1: t_x < 0 on it)")
         ax.legend(fontsize=7, loc="lower center")
         centre = float(np.mean(x[stick])) if stick.any() else float("nan")
-        print(f"tractions, {label}: stick cells on the centre line from x/50mm = {x[stick].min():.3f} to "
-              f"{x[stick].max():.3f} (centre {centre:+.4f})")
+        print(
+            f"tractions, {label}: stick cells on the centre line from x/50mm = {x[stick].min():.3f} to "
+            f"{x[stick].max():.3f} (centre {centre:+.4f})"
+        )
         bands[label] = (float(x[stick].min()), float(x[stick].max()))
-    fig.tight_layout()
-    fig.savefig(outdir / "tractions.png", dpi=110)
-    plt.close(fig)
+    save(fig, outdir, "tractions.png", dpi=110)
     return bands
 
 
@@ -283,9 +324,14 @@ def plane_strain_shift(beta: float, mu: float, c: float) -> float:
         mu (e/a) π = β′ ∫_{-π/2}^{π/2} sqrt(1 − (e/a + c sin t)²) dt,
 
     (1/π)∫p/(x−ξ) = p0 x/a on the contact. Solved for e here; for small c, e/a = (β′/mu)/sqrt(1 + (β′/mu)²)."""
+
     def condition(e: float) -> float:
-        return mu * e * math.pi - beta * quad(lambda t: math.sqrt(max(0.0, 1.0 - (e + c * math.sin(t)) ** 2)),
-                                              -0.5 * math.pi, 0.5 * math.pi)[0]
+        return (
+            mu * e * math.pi
+            - beta
+            * quad(lambda t: math.sqrt(max(0.0, 1.0 - (e + c * math.sin(t)) ** 2)), -0.5 * math.pi, 0.5 * math.pi)[0]
+        )
+
     return brentq(condition, 0.0, 1.0 - c)
 
 
@@ -294,15 +340,19 @@ def stick_shift(ds, outdir: Path, bands: dict[str, tuple[float, float]]) -> None
     n = 32 … 96: the shift against the cell size (the similar pair's is 0 by symmetry; the
     spread over the grids is the resolution of the dissimilar pair's), and the dissimilar pair's
     plane-strain estimate (``plane_strain_shift`` with the centre line's stick band)."""
-    fig, ax = plt.subplots(figsize=(6, 4))
+    fig, ax = plt.subplots(figsize=(6, 4), layout="constrained")
     label = "ortho E1 ratio 2"
     H = validate(_scene(ds, label)).pair.compliance.fourier(np.array([0.0]))[0]  # lab frame, along x1
     beta = abs(H[0, 2]) / H[0, 0].real
     low, high = bands[label]
     estimate = plane_strain_shift(beta, float(ds["mu"].values), 0.5 * (high - low))
-    ax.axhline(-estimate * A * 1e3, color="C1", ls="--", lw=0.8, label=f"{label}: plane-strain estimate, β′ = {beta:.3f}")
-    print(f"plane-strain estimate, {label}: beta' = |H_xz|/H_xx = {beta:.4f}, stick half-width {0.5 * (high - low):.3f} a "
-          f"(centre line): |e| = {estimate:.3f} a = {estimate * A * 1e3:.1f} mm")
+    ax.axhline(
+        -estimate * A * 1e3, color="C1", ls="--", lw=0.8, label=f"{label}: plane-strain estimate, β′ = {beta:.3f}"
+    )
+    print(
+        f"plane-strain estimate, {label}: beta' = |H_xz|/H_xx = {beta:.4f}, stick half-width {0.5 * (high - low):.3f} a "
+        f"(centre line): |e| = {estimate:.3f} a = {estimate * A * 1e3:.1f} mm"
+    )
     for label, marker in (("ortho E1 ratio 1", "o"), ("ortho E1 ratio 2", "s"), ("isotropic", "^")):
         rows = []
         for n in GRIDS:
@@ -310,16 +360,16 @@ def stick_shift(ds, outdir: Path, bands: dict[str, tuple[float, float]]) -> None
             rows.append((n, record["dx"], record["stick_centroid_x"]))  # square cells at these n
         r = np.array(rows)
         ax.plot(r[:, 1] * 1e3, r[:, 2] * 1e3, marker + "-", label=label)
-        print(f"stick centroid x, {label}: " + ", ".join(f"n = {n:.0f} (cell {c * 1e3:.2f} mm): {x * 1e3:+.2f} mm"
-                                                         for n, c, x in rows))
+        print(
+            f"stick centroid x, {label}: "
+            + ", ".join(f"n = {n:.0f} (cell {c * 1e3:.2f} mm): {x * 1e3:+.2f} mm" for n, c, x in rows)
+        )
     ax.axhline(0.0, color="k", lw=0.8)
     ax.set_xlabel("cell size [mm]")
     ax.set_ylabel("stick-zone centroid x [mm]")
     ax.set_title("§6.2, Fig. 6d: stick-zone shift against the grid")
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(outdir / "stick_shift.png", dpi=110)
-    plt.close(fig)
+    save(fig, outdir, "stick_shift.png", dpi=110)
 
 
 def main() -> None:

@@ -1,7 +1,7 @@
 """The four tangential stiffness components versus load angle, with the transformation law as
 lines (Li 2017 Fig. 4, eq. 6).
 
-    python postprocess/tensor_components.py results/li2017_rotated.nc figures/ [--nu 0.3] [--aspect 0.2]
+    python postprocess/tensor_components.py results/li2017_rotated.nc figures/ [--nu 0.3] [--aspect 0.2] [--format pdf]
 
 In axes (n, t) turned by θ, n = (cos θ, sin θ), t = (−sin θ, cos θ), the components are
 K_nn = nᵀKn, K_nt = nᵀKt, K_tn = tᵀKn, K_tt = tᵀKt. With c = cos θ, s = sin θ (eq. 6):
@@ -73,7 +73,9 @@ def figure(ds, shape: str, choose: dict, outdir) -> None:
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncols=2, fontsize=8)
     notes = ", ".join(filter(None, [note, scalar_notes(ds)]))
-    fig.suptitle(f"{shape}: tangential stiffness tensor in axes turned by θ{f' — {notes}' if notes else ''}", fontsize=10)
+    fig.suptitle(
+        f"{shape}: tangential stiffness tensor in axes turned by θ{f' — {notes}' if notes else ''}", fontsize=10
+    )
     save(fig, outdir, f"tensor_components_{shape or 'all'}.png")
 
 

@@ -29,29 +29,40 @@ matplotlib.use("Agg")
 
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from common import add_format, save, use_format  # noqa: E402
 
 from hpcontact import analytic  # noqa: E402
 from hpcontact.problems.contact import solve  # noqa: E402
-from hpcontact.scene import Scene
+from hpcontact.scene import Scene  # noqa: E402
 
 LI_2017_RECTANGLE = (1e-8, 0.5, 0.5390)  # (b/a, nu, K_a/K_b) reported by Li 2017
 
 
 def ratios(shape: str, aspects: np.ndarray, nu: float, n: int, n_across: int) -> np.ndarray:
     """K_a/K_b on n cells along and max(n_across, n·b/a) across (square cells where b/a is large)."""
-    return np.array([solve(Scene.from_params({"shape": shape, "aspect": float(a), "nu": nu, "n": n,
-                            "n_across": max(n_across, int(round(n * a)))}))["K_a_over_K_b"] for a in aspects])
+    return np.array(
+        [
+            solve(
+                Scene.from_params(
+                    {"shape": shape, "aspect": float(a), "nu": nu, "n": n, "n_across": max(n_across, int(round(n * a)))}
+                )
+            )["K_a_over_K_b"]
+            for a in aspects
+        ]
+    )
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("outdir", type=Path)
+    parser.add_argument("outdir", type=Path, help="folder for the figure")
+    add_format(parser)
     parser.add_argument("--nu", type=float, nargs="+", default=[0.1, 0.3, 0.5])
     parser.add_argument("--n", type=int, default=64, help="cells along the long side")
     parser.add_argument("--n-across", type=int, default=32, help="cells across (thin shapes)")
     parser.add_argument("--points", type=int, default=25, help="aspects from 1 to 1e-12 (log spaced)")
     args = parser.parse_args()
     args.outdir.mkdir(parents=True, exist_ok=True)
+    use_format(args.format)
     aspects = np.logspace(0, -12, args.points)
     fine_line = np.logspace(0, -12, 400)
     started = time.perf_counter()
@@ -65,11 +76,19 @@ def main() -> None:
             coarse = ratios(shape, aspects, nu, args.n // 2, max(1, args.n_across // 2))
             worst = max(worst, float(np.max(np.abs(fine - coarse))))
             rows.append((shape, nu, fine))
-            left.semilogx(aspects, fine, marker, color=colour, ms=4, mfc="none" if shape == "rectangle" else colour,
-                          label=f"{shape}, ν = {nu:g}")
+            left.semilogx(
+                aspects,
+                fine,
+                marker,
+                color=colour,
+                ms=4,
+                mfc="none" if shape == "rectangle" else colour,
+                label=f"{shape}, ν = {nu:g}",
+            )
             lam = np.log(4.0 / aspects)
-            right.plot(1.0 / lam, fine - (1.0 - nu), marker, color=colour, ms=4,
-                       mfc="none" if shape == "rectangle" else colour)
+            right.plot(
+                1.0 / lam, fine - (1.0 - nu), marker, color=colour, ms=4, mfc="none" if shape == "rectangle" else colour
+            )
         exact = analytic.mindlin_ellipse_stiffness_ratio(fine_line, nu)
         asymptote = analytic.thin_ellipse_ratio_asymptote(fine_line, nu)
         left.semilogx(fine_line, exact, "-", color=colour, lw=1)
@@ -93,16 +112,18 @@ def main() -> None:
     right.set_title("the logarithmic approach: (1 − ν) + ν(2 − ν)/(Λ − ν)", fontsize=9)
     for ax in (left, right):
         ax.grid(True, alpha=0.3)
-    fig.suptitle(f"Thin-strip limit of K_a/K_b (grid {args.n} × {args.n_across}; largest change from the half grid "
-                 f"{worst:.1e})", fontsize=10)
-    path = args.outdir / "thin_strip.png"
-    fig.savefig(path, dpi=150)
-    print(f"wrote {path}")
+    fig.suptitle(
+        f"Thin-strip limit of K_a/K_b (grid {args.n} × {args.n_across}; largest change from the half grid {worst:.1e})",
+        fontsize=10,
+    )
+    save(fig, args.outdir, "thin_strip.png")
     print(f"grid check: largest |K_a/K_b({args.n}×{args.n_across}) − K_a/K_b(half grid)| = {worst:.2e}")
     for shape, nu, fine in rows:
         i8, i12 = int(np.argmin(np.abs(aspects - 1e-8))), len(aspects) - 1
-        print(f"{shape:>9} nu={nu:g}: K_a/K_b = {fine[i8]:.5f} at b/a = {aspects[i8]:.0e}, {fine[i12]:.5f} at "
-              f"{aspects[i12]:.0e} (limit {1 - nu:g}; Mindlin ellipse {analytic.mindlin_ellipse_stiffness_ratio(aspects[i12], nu):.5f})")
+        print(
+            f"{shape:>9} nu={nu:g}: K_a/K_b = {fine[i8]:.5f} at b/a = {aspects[i8]:.0e}, {fine[i12]:.5f} at "
+            f"{aspects[i12]:.0e} (limit {1 - nu:g}; Mindlin ellipse {analytic.mindlin_ellipse_stiffness_ratio(aspects[i12], nu):.5f})"
+        )
     print(f"time {time.perf_counter() - started:.1f} s")
 
 

@@ -150,7 +150,9 @@ def test_memory_budget_bounds_the_grids() -> None:
     from hpcontact.numerics.memory import resident_bytes
 
     params = {"shape": "circle", "nu": 0.3, "tol": 1e-10}
-    budget = resident_bytes() + 0.5 * (acc.grid_bytes(Scene.from_params(params), 128, 128) + acc.grid_bytes(Scene.from_params(params), 256, 256))
+    budget = resident_bytes() + 0.5 * (
+        acc.grid_bytes(Scene.from_params(params), 128, 128) + acc.grid_bytes(Scene.from_params(params), 256, 256)
+    )
     tracemalloc.start()
     with pytest.raises(acc.AccuracyNotMet, match="stopped by memory budget: the next grid, 256 x 256") as caught:
         acc.solve_to_accuracy(Scene.from_params(params), 1e-6, n0=16, memory_budget=budget)
@@ -173,22 +175,35 @@ def test_grids_stop_at_the_estimators_calibrated_range(monkeypatch: pytest.Monke
     monkeypatch.setattr(acc, "SINGULAR_MAX_CELLS", 128 * 128)
     monkeypatch.setattr(acc, "COVERAGE_MAX_N", 64)
     params = {"shape": "circle", "nu": 0.3, "quantities": "tangential,normal"}
-    with pytest.raises(acc.AccuracyNotMet, match=r"stopped by calibration: the next grid, 256 x 256, is beyond those on "
-                                                 r"which the error estimate of singular cells is calibrated \(16384 cells") as caught:
+    with pytest.raises(
+        acc.AccuracyNotMet,
+        match=r"stopped by calibration: the next grid, 256 x 256, is beyond those on "
+        r"which the error estimate of singular cells is calibrated \(16384 cells",
+    ) as caught:
         acc.solve_to_accuracy(Scene.from_params(params), 1e-9, n0=16, strategy="singular")
     r = caught.value.record
     assert r["boundary"] == "singular" and r["grids"] == [16, 32, 64, 128] and r["stopped_by"] == "calibration"
-    with pytest.raises(acc.AccuracyNotMet, match=r"stopped by calibration: the next grid, 128 x 128, .* coverage cells is "
-                                                 r"calibrated \(64 cells along the long side") as caught:
+    with pytest.raises(
+        acc.AccuracyNotMet,
+        match=r"stopped by calibration: the next grid, 128 x 128, .* coverage cells is "
+        r"calibrated \(64 cells along the long side",
+    ) as caught:
         acc.solve_to_accuracy(Scene.from_params(params), 1e-9, n0=8, strategy="coverage")
     assert caught.value.record["grids"] == [8, 16, 32, 64]
     # a user's smaller cell limit is reported as such
-    assert acc.solve_to_accuracy(Scene.from_params(params), 1e-9, n0=4, max_cells=32 * 32, strategy="coverage", strict=False)["stopped_by"] == "cells"
+    assert (
+        acc.solve_to_accuracy(
+            Scene.from_params(params), 1e-9, n0=4, max_cells=32 * 32, strategy="coverage", strict=False
+        )["stopped_by"]
+        == "cells"
+    )
     with pytest.raises(InputError, match="calibrated range"):  # fewer than four grids within it
         acc.solve_to_accuracy(Scene.from_params(params), 1e-9, n0=16, strategy="coverage")
     from hpcontact.geometry import Shape
 
-    assert acc.calibrated("coverage", Shape("mask", mask_path="contact.npy"))(2**20, 2**20)  # masks: no closed form, no limit
+    assert acc.calibrated("coverage", Shape("mask", mask_path="contact.npy"))(
+        2**20, 2**20
+    )  # masks: no closed form, no limit
 
 
 def test_singular_memory_plan_counts_the_near_field() -> None:
@@ -208,7 +223,11 @@ def test_singular_memory_plan_counts_the_near_field() -> None:
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     clear_cache()
-    assert acc.grid_bytes(Scene.from_params(params), 256, 256) < peak <= acc.grid_bytes(Scene.from_params(params), 256, 256, "singular")
+    assert (
+        acc.grid_bytes(Scene.from_params(params), 256, 256)
+        < peak
+        <= acc.grid_bytes(Scene.from_params(params), 256, 256, "singular")
+    )
 
 
 def test_default_discretization() -> None:
@@ -222,7 +241,9 @@ def test_default_discretization() -> None:
     one = acc.default_solve(Scene.from_params({"shape": "ellipse", "aspect": 0.05, "nu": 0.3, "n": 32}))
     assert one["nx"] == 32 and "estimated_error" not in one and "boundary" not in one["plan"]
     assert not acc.extrapolates_by_default(Scene.from_params({"shape": "rough"}))
-    assert not acc.extrapolates_by_default(Scene.from_params({"shape": "circle", "anisotropy": 2.0, "orientation": 30.0}))
+    assert not acc.extrapolates_by_default(
+        Scene.from_params({"shape": "circle", "anisotropy": 2.0, "orientation": 30.0})
+    )
 
 
 def test_command_line_accuracy_and_memory(capsys) -> None:
@@ -258,19 +279,6 @@ def test_solve_to_accuracy_refuses_bad_requests(params: dict, accuracy: float) -
         acc.solve_to_accuracy(Scene.from_params(params), accuracy)
 
 
-def test_the_study_runner_is_hpcontact_run_with_cold_solves(tmp_path, capsys):
-    """``python -m hpcontact.sweep.accuracy_study`` takes ``hpcontact run``'s options and exit statuses."""
-    from hpcontact.sweep.accuracy_study import run_study
-
-    spec = tmp_path / "study.toml"
-    spec.write_text('[scene]\nquantities = ["tangential"]\nshape = "circle"\n[numerics]\ntol = 1e-8\n[axes]\nn = [8, 16]\n')
-    output = tmp_path / "study.nc"
-    assert run_study([str(spec), "--output", str(output)]) == 0 and output.exists()
-    assert run_study([str(spec), "--output", str(output)]) == 2  # journals exist: --resume or --restart
-    assert "--resume" in capsys.readouterr().err
-    assert run_study([str(spec), "--output", str(output), "--resume"]) == 0
-
-
 def test_principal_error_bounds_the_eigenvalue_shift_and_is_below_frobenius() -> None:
     """``principal_error``: for random symmetric-part perturbations with |δK_ij| ≤ e_ij the
     eigenvalues of the symmetric part move by at most the bound (Weyl with ρ(B); tolerance 1e-12
@@ -301,11 +309,13 @@ def test_slender_rectangle_meets_1e_6_on_strip_cells(nu: float) -> None:
     (``hpcontact.discretizations.strip_cells``) and meets its request; the estimate includes the model's bound
     ``MODEL_ERROR`` · b/a. Its K_xx, K_yy, K_zz lie within the estimate of the strip model's limit
     from 512 and 1024 strips (order-2 Richardson; 2x and 4x finer than the 256 ``--accuracy``
-    stopped at). The 2-D reference is checked in ``tests/test_strip_cells.py``."""
+    stopped at). The 2-D reference is checked in ``tests/discretizations/test_strip_cells.py``."""
     from hpcontact.discretizations import strip_cells
     from hpcontact.materials.isotropic import Isotropic
 
-    r = acc.solve_to_accuracy(Scene.from_params({**SLENDER, "nu": nu}), 1e-6, strategy="auto")  # as hpcontact solve --accuracy
+    r = acc.solve_to_accuracy(
+        Scene.from_params({**SLENDER, "nu": nu}), 1e-6, strategy="auto"
+    )  # as hpcontact solve --accuracy
     assert r["boundary"] == "strip" and r["accuracy_met"] and r["stopped_by"] == "met"
     assert r["grids_across"] == [1] * len(r["grids"]) and r["grids"][0] == acc.STRIP_N0
     assert r["model_error"] == strip_cells.MODEL_ERROR * 1e-8
@@ -325,15 +335,25 @@ def test_strip_cells_are_refused_outside_their_range() -> None:
     a crystal, or quantities other than tangential and normal; ``auto`` then takes
     coverage-weighted cells. ``auto`` leaves wide ellipses (b/a > ``STRIP_WIDE_ASPECT``) to
     coverage-weighted cells at requests from ``SINGULAR_BELOW`` up, where those are cheaper."""
-    for params in ({"shape": "ellipse", "aspect": 0.5, "shape_angle": 30.0}, {"shape": "rectangle", "aspect": 1e-3},
-                   {"shape": "circle"}, {"shape": "rectangle", "aspect": 1e-8, "shape_angle": 10.0},
-                   {"shape": "rectangle", "aspect": 1e-8, "anisotropy": 2.0},
-                   {"shape": "rectangle", "aspect": 1e-8, "quantities": "coupled"}):
-        with pytest.raises(InputError, match="strategy.*strip only for unturned ellipses and unturned rectangles of aspect <= 1e-06"):
+    for params in (
+        {"shape": "ellipse", "aspect": 0.5, "shape_angle": 30.0},
+        {"shape": "rectangle", "aspect": 1e-3},
+        {"shape": "circle"},
+        {"shape": "rectangle", "aspect": 1e-8, "shape_angle": 10.0},
+        {"shape": "rectangle", "aspect": 1e-8, "anisotropy": 2.0},
+        {"shape": "rectangle", "aspect": 1e-8, "quantities": "coupled"},
+    ):
+        with pytest.raises(
+            InputError, match="strategy.*strip only for unturned ellipses and unturned rectangles of aspect <= 1e-06"
+        ):
             acc.solve_to_accuracy(Scene.from_params(params), 1e-3, strategy="strip")
-    r = acc.solve_to_accuracy(Scene.from_params({"shape": "rectangle", "aspect": 1e-3}), 1e-3, strict=False, max_grids=4, strategy="auto")
+    r = acc.solve_to_accuracy(
+        Scene.from_params({"shape": "rectangle", "aspect": 1e-3}), 1e-3, strict=False, max_grids=4, strategy="auto"
+    )
     assert r["boundary"] == "coverage"
-    r = acc.solve_to_accuracy(Scene.from_params({"shape": "ellipse", "aspect": 0.3}), 1e-3, strict=False, max_grids=4, strategy="auto")
+    r = acc.solve_to_accuracy(
+        Scene.from_params({"shape": "ellipse", "aspect": 0.3}), 1e-3, strict=False, max_grids=4, strategy="auto"
+    )
     assert r["boundary"] == "coverage"
 
 
@@ -361,8 +381,11 @@ def test_ellipses_meet_1e_6_on_strip_cells(aspect: float, nu: float) -> None:
 
     K_xx, K_yy = analytic.mindlin_ellipse_stiffness(1.0, aspect, 1.0, nu)
     K_zz = analytic.elliptical_punch_normal_stiffness(1.0, aspect, 1.0, nu)
-    r = acc.solve_to_accuracy(Scene.from_params({"shape": "ellipse", "aspect": aspect, "nu": nu, "quantities": "tangential,normal"}),
-                              1e-6, strategy="auto")
+    r = acc.solve_to_accuracy(
+        Scene.from_params({"shape": "ellipse", "aspect": aspect, "nu": nu, "quantities": "tangential,normal"}),
+        1e-6,
+        strategy="auto",
+    )
     assert r["boundary"] == "strip" and r["accuracy_met"] and r["stopped_by"] == "met"
     assert r["grids"][0] == acc.STRIP_ELLIPSE_N0 and r["estimated_error"] >= r["model_error"] > 0.0
     for key, exact in (("K_xx", K_xx), ("K_yy", K_yy), ("K_zz", K_zz), ("K_a_over_K_b", K_xx / K_yy)):
@@ -378,7 +401,9 @@ def test_ellipse_request_below_the_strips_bound_stops_by_model() -> None:
 
     params = {"shape": "ellipse", "aspect": 0.02, "nu": 0.3, "quantities": "tangential,normal"}
     bound = strip_cells.model_error(Shape("ellipse", aspect=0.02))
-    with pytest.raises(acc.AccuracyNotMet, match=f"stopped by model: the strips' own error bound, {bound:.2g}") as caught:
+    with pytest.raises(
+        acc.AccuracyNotMet, match=f"stopped by model: the strips' own error bound, {bound:.2g}"
+    ) as caught:
         acc.solve_to_accuracy(Scene.from_params(params), bound / 2.0, strategy="auto")
     r = caught.value.record
     assert r["stopped_by"] == "model" and r["grids"] == [16, 32, 64, 128] and not r["accuracy_met"]

@@ -127,8 +127,22 @@ def test_no_precondition_same_answer(capsys):
 
 def test_subprocess_solve_json():
     proc = subprocess.run(
-        [sys.executable, "-m", "hpcontact.cli", "solve", "--shape", "ellipse", "--aspect", "0.4", "--n", "12", "--json"],
-        capture_output=True, text=True, timeout=120,
+        [
+            sys.executable,
+            "-m",
+            "hpcontact.cli",
+            "solve",
+            "--shape",
+            "ellipse",
+            "--aspect",
+            "0.4",
+            "--n",
+            "12",
+            "--json",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
     )
     assert proc.returncode == 0, proc.stderr
     lines = proc.stdout.strip().splitlines()
@@ -141,7 +155,9 @@ def test_subprocess_solve_json():
 def test_subprocess_bad_input_exit_2():
     proc = subprocess.run(
         [sys.executable, "-m", "hpcontact.cli", "solve", "--nu", "0.7", "--json"],
-        capture_output=True, text=True, timeout=120,
+        capture_output=True,
+        text=True,
+        timeout=120,
     )
     assert proc.returncode == 2
     assert proc.stdout == ""
@@ -264,3 +280,112 @@ def test_a_run_command_names_itself_in_its_errors(capsys, tmp_path):
     assert err.startswith("python -m hpcontact.sweep.accuracy_study: error: spec = ") and "hpcontact run" not in err
     assert run_main([missing]) == 2
     assert capsys.readouterr().err.startswith("hpcontact run: error: spec = ")
+
+
+def _help(capsys, *args) -> str:
+    with pytest.raises(SystemExit) as info:
+        main([*args, "--help"])
+    assert info.value.code == 0
+    return capsys.readouterr().out
+
+
+def test_solve_help_shows_defaults_groups_and_examples(capsys):
+    """Issue 28: every scene option's engine default (hpcontact.scene.DEFAULTS), the options in
+    groups, and examples."""
+    text = " ".join(_help(capsys, "solve").split("options:", 1)[1].split())  # after the usage; argparse wraps lines
+    for option, default in (
+        ("--nu NU", "0.3"),
+        ("--shape SHAPE", "circle"),
+        ("--aspect ASPECT", "1.0"),
+        ("--tol TOL", "1e-08"),
+        ("--quantities QUANTITIES", "tangential"),
+        ("--threads", "1"),
+    ):
+        assert option in text and f"(default: {default})" in text.split(option, 1)[1][:300], option
+    for group in ("scene (", "material (", "numerics:", "output:", "partial slip ("):
+        assert group in text, group
+    assert "examples: hpcontact solve --shape ellipse --aspect 0.3 --nu 0.3" in text
+    assert "--accuracy" in text.split("examples:")[1] and "--quantities slip" in text.split("examples:")[1]
+    top = _help(capsys)
+    assert "examples:" in top and "mpiexec -n 2 hpcontact run jobs/demo.toml" in top
+    assert "examples:" in _help(capsys, "run") and "exit status:" in _help(capsys, "run")
+
+
+@pytest.mark.parametrize(
+    "args, suggestion",
+    [
+        (["solve", "--aspekt", "0.3"], "did you mean --aspect?"),
+        (["solve", "--quantitys=normal"], "did you mean --quantities?"),
+        (["solve", "--q-ratoi", "0.5"], "did you mean --q-ratio?"),
+        (["slove"], "did you mean solve?"),
+        (["run", "spec.toml", "--restrat"], "did you mean --restart?"),
+    ],
+)
+def test_an_unknown_option_or_command_names_the_closest(capsys, args, suggestion):
+    with pytest.raises(SystemExit) as info:
+        main(args)
+    assert info.value.code == 2
+    captured = capsys.readouterr()
+    lines = captured.err.strip().splitlines()
+    assert captured.out == "" and len(lines) == 1 and lines[0].endswith(suggestion), captured.err
+
+
+def test_an_unknown_spec_key_names_the_closest():
+    from hpcontact.errors import InputError
+    from hpcontact.sweep.spec import parse_spec
+
+    for text, suggestion in (
+        ("[numerics]\ntoll = 1e-8\n[axes]\nnu = [0.1]\n", "numerics.toll: .*did you mean tol\\?$"),
+        ("[axes]\nnuu = [0.1]\n", "axes.nuu: .*did you mean nu\\?$"),
+        ("[scene]\naspekt = 0.5\n[axes]\nnu = [0.1]\n", "scene.aspekt = 0.5: .*did you mean aspect\\?$"),
+    ):
+        with pytest.raises(InputError, match=suggestion):
+            parse_spec(text)
+
+
+def test_text_output_names_units(capsys):
+    code, out, err = _run(capsys, "--shape", "ellipse", "--aspect", "0.5", "--quantities", "tangential,normal", *SMALL)
+    assert code == 0 and err == ""
+    units = {line.split()[0]: line.split()[2:] for line in out.splitlines() if len(line.split()) >= 2}
+    for key in ("K_xx", "K_yy", "K_zz", "K_max"):
+        assert units[key] == ["G·a"], (key, units[key])
+    assert units["dx"] == ["a"] and units["wall_time_s"] == ["s"] and units["principal_angle_deg"] == ["deg"]
+    assert units["K_a_over_K_b"] == [] and units["iterations"] == []  # pure numbers
+    assert "G: shear modulus" in out and "a: semi-major extent of the contact" in out
+    code, out, _ = _run(capsys, "--cubic", "C11=168 C12=121 C44=75", "--n", "8")
+    assert (
+        code == 0
+        and "K_xx" in out
+        and [line.split()[2] for line in out.splitlines() if line.split()[0] == "K_xx"] == ["GPa·a"]
+    )
+    code, out, _ = _run(capsys, "--quantities", "indentation", "--radius", "1", "--depth", "0.01", *SMALL)
+    units = {line.split()[0]: line.split()[2:] for line in out.splitlines() if len(line.split()) >= 2}
+    assert units["load"] == ["G·L²"] and units["contact_area"] == ["L²"] and units["dx"] == ["L"]
+
+
+def test_memory_and_slip_options_are_refused_where_unused(capsys):
+    code, out, err = _exit_code(capsys, *SMALL, "--memory", "2G")
+    assert code == 2 and err.strip() == "hpcontact: error: --memory = '2G': only with --accuracy"
+    code, out, err = _exit_code(capsys, *SMALL, "--load", "3")
+    assert code == 2 and err.strip() == "hpcontact: error: --load = 3.0: only with --quantities slip"
+    code, out, err = _exit_code(
+        capsys,
+        "--quantities",
+        "slip",
+        "--radius",
+        "1",
+        "--load",
+        "1",
+        "--mu",
+        "0.3",
+        "--q-ratio",
+        "0.5",
+        "--accuracy",
+        "1e-3",
+    )
+    assert code == 2 and "--accuracy" in err and "not with --quantities slip" in err
+
+
+def test_python_dash_m_hpcontact():
+    proc = subprocess.run([sys.executable, "-m", "hpcontact", "--version"], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0 and proc.stdout.startswith("hpcontact ")

@@ -22,8 +22,14 @@ from hpcontact.scene import Scene
 
 PSI_111 = float(np.degrees(np.arctan(1.0 / np.sqrt(2.0))))
 ORIENTATIONS = [0.0, 20.0, PSI_111, 90.0]
-BASE = {"shape": "ellipse", "aspect": 0.5, "nu": 0.3, "n": 16, "tol": 1e-13,
-        "quantities": "tangential,normal,coupled,compliance"}
+BASE = {
+    "shape": "ellipse",
+    "aspect": 0.5,
+    "nu": 0.3,
+    "n": 16,
+    "tol": 1e-13,
+    "quantities": "tangential,normal,coupled,compliance",
+}
 SPHERE = {"quantities": "indentation", "radius": 1.0, "depth": 1e-4, "nu": 0.3, "n": 16, "tol": 1e-13}
 # Principal values of a tensor that is isotropic at the point (every shape at nu = 0) split as
 # |nu|: a kink of max/min themselves, not of a convention.
@@ -46,33 +52,42 @@ def test_lower_half_space_of_the_same_crystal_is_the_conjugate():
 
     Measured: ‖P H'(m) P − conj H(m)‖/‖H‖ ≤ 5.7e-16 for three orientations (round-off); the
     bound 2e-15 is 3×. Re H keeps a real normal–tangential coupling for a tilted crystal
-    (0.139 of max |H| at A = 3, psi = 20°): ``tangential`` holds the normal approach for it.
+    (measured 0.1393 of max |H| at A = 3, psi = 20°, 0.0859 at A = 0.4, psi = 55°; the README's
+    "14 % of |H|", asserted to its digit): ``tangential`` holds the normal approach for it.
     """
     P = np.diag([1.0, 1.0, -1.0])
     phi = np.linspace(0.0, 2.0 * np.pi, 37)
-    for material in (cubic_from_nu_A(0.3, 3.0).oriented(psi_deg=20.0),
-                     cubic_from_nu_A(0.3, 0.4).oriented(psi_deg=55.0, azimuth_deg=17.0)):
+    for material, quoted in (
+        (cubic_from_nu_A(0.3, 3.0).oriented(psi_deg=20.0), 0.14),
+        (cubic_from_nu_A(0.3, 0.4).oriented(psi_deg=55.0, azimuth_deg=17.0), None),
+    ):
         reflected = tensor_to_voigt(np.einsum("ia,jb,kc,ld,abcd->ijkl", P, P, P, P, voigt_to_tensor(material.voigt)))
         H = surface_green_fourier(material.voigt, phi)
         lower = P @ surface_green_fourier(reflected, phi) @ P
         assert np.max(np.abs(lower - np.conj(H))) <= 2e-15 * np.max(np.abs(H))
-        assert np.max(np.abs(H.real[:, :2, 2])) > 0.05 * np.max(np.abs(H))  # the real coupling is there
+        coupling = np.max(np.abs(H.real[:, :2, 2])) / np.max(np.abs(H))
+        assert coupling > 0.05  # the real coupling is there
+        if quoted is not None:
+            assert abs(coupling - quoted) < 0.005  # README: Re H_xz up to 14 % of |H| (A = 3, psi = 20°)
 
 
 @pytest.mark.parametrize("psi", ORIENTATIONS)
 def test_crystal_path_at_isotropy_equals_the_isotropic_path(psi):
     """Every quantity, crystal path at A = 1 ± 1e-9 against the closed-form path at A = 1.
 
-    The deviation is the physical slope dK/dA × 1e-9 (measured ≤ 5.3e-10 of the largest K at
-    n = 16, 6.4e-10 at n = 32), under the issue's bound 1e-9. The mean of the two sides is the
-    value at A = 1 itself: measured ≤ 4.3e-14 (kernel round-off, CG tol 1e-13); a step would be
-    ~1e-2. Bound 1.5e-13 (3×). Indentation (Polonsky–Keer): load, area, b/a within 1e-9, the
-    mean within 1.9e-13 (max_pressure); bound 6e-13.
+    The deviation is the physical slope dK/dA × 1e-9 (measured ≤ 5.29e-10 of the largest K at
+    n = 16, 6.4e-10 at n = 32; indentation 4.99e-10); bound 6.4e-10, the README's figure (the
+    issue's bound was 1e-9). The mean of the two sides is the value at A = 1 itself: measured
+    ≤ 6.0e-14 (K_zz_bonded at psi = 90°; kernel round-off, CG tol 1e-13; an earlier code
+    measured 4.3e-14); a step would be ~1e-2. Bound 1.5e-13 (2.5×, round-off). Indentation
+    (Polonsky–Keer): the mean within 1.94e-13 (max_pressure); bound 6e-13.
     """
     for base in (BASE, SPHERE):
         iso = _numbers(solve(Scene.from_params(base)))
-        sides = [_numbers(solve(Scene.from_params({**base, "anisotropy": 1.0 + d, "orientation": psi, "azimuth": 10.0})))
-                 for d in (-1e-9, 1e-9)]
+        sides = [
+            _numbers(solve(Scene.from_params({**base, "anisotropy": 1.0 + d, "orientation": psi, "azimuth": 10.0})))
+            for d in (-1e-9, 1e-9)
+        ]
         scale = _scale(iso) if base is BASE else 1.0
         step = 1.5e-13 if base is BASE else 6e-13
         for key, value in iso.items():
@@ -80,7 +95,7 @@ def test_crystal_path_at_isotropy_equals_the_isotropic_path(psi):
                 continue  # Li's normalization needs the isotropic E* and G*
             ref = max(abs(value), scale) if key.startswith(("K_", "proxy")) else abs(value)
             for side in sides:
-                assert abs(side[key] - value) <= 1e-9 * ref, key
+                assert abs(side[key] - value) <= 6.4e-10 * ref, key
             if key != "ellipse_b_over_a":  # b/a ≤ 1 by definition: 1 − c|A − 1| has its own kink
                 assert abs(0.5 * (sides[0][key] + sides[1][key]) - value) <= step * ref, key
         assert set(sides[0]) == set(iso) - {"normalized_xx", "normalized_yy"}  # Li's E*, G*: isotropic only
@@ -94,7 +109,9 @@ def test_sweep_through_A_1_has_no_step():
     iso = _numbers(solve(Scene.from_params(BASE)))
     scale = _scale(iso)
     for psi in (0.0, 20.0):
-        low, high = (_numbers(solve(Scene.from_params({**BASE, "anisotropy": a, "orientation": psi}))) for a in (0.999, 1.001))
+        low, high = (
+            _numbers(solve(Scene.from_params({**BASE, "anisotropy": a, "orientation": psi}))) for a in (0.999, 1.001)
+        )
         for key, value in iso.items():
             if key.startswith("normalized"):
                 continue
@@ -150,8 +167,10 @@ def test_mirror_shortcut_equals_a_real_y_solve():
     plan = make_plan(scene, mask, grid)
     assert [s.name for s in plan.solves] == ["coupled_x", "coupled_z", "tangential_x"]
     engine = Engine(scene.material, grid, plan.kernels)
-    for x_solve, y_solve in ((Solve("tangential_x", "xy", "x"), Solve("tangential_y", "xy", "y")),
-                             (Solve("coupled_x", "xyz", "x"), Solve("coupled_y", "xyz", "y"))):
+    for x_solve, y_solve in (
+        (Solve("tangential_x", "xy", "x"), Solve("tangential_y", "xy", "y")),
+        (Solve("coupled_x", "xyz", "x"), Solve("coupled_y", "xyz", "y")),
+    ):
         fx, _ = _run_solve(scene, engine, mask, x_solve)
         fy, _ = _run_solve(scene, engine, mask, y_solve)
         assert np.max(np.abs(fy - fx[[1, 0, 2]])) <= 1e-13 * abs(fx[0])

@@ -22,15 +22,18 @@ def _solve(capsys, *args: str) -> tuple[int, str, str]:
     return code, out, err
 
 
-@pytest.mark.parametrize("args, field, allowed", [
-    (["--shape", "ellipse", "--aspect", "1e-300"], "aspect", "[1e-12, 1]"),
-    (["--quantities", "indentation", "--radius", "1e-300", "--depth", "1e-301"], "radius", "[1e-30, 1e30]"),
-    (["--quantities", "indentation", "--radius", "1", "--depth", "1e-300"], "depth", "[1e-15, 1)"),
-    (["--radius", "2"], "radius", "only with quantities indentation"),
-    (["--shape", "circle", "--sides", "6"], "sides", "only with shape polygon or star"),
-    (["--shape", "rough", "--shape-angle", "30"], "shape_angle", "0 for shape mask or rough"),
-    (["--shape", "mask", "--mask", "/nonexistent/contact.npy"], "mask", "an existing .npy or .png file"),
-])
+@pytest.mark.parametrize(
+    "args, field, allowed",
+    [
+        (["--shape", "ellipse", "--aspect", "1e-300"], "aspect", "[1e-12, 1]"),
+        (["--quantities", "indentation", "--radius", "1e-300", "--depth", "1e-301"], "radius", "[1e-30, 1e30]"),
+        (["--quantities", "indentation", "--radius", "1", "--depth", "1e-300"], "depth", "[1e-15, 1)"),
+        (["--radius", "2"], "radius", "only with quantities indentation"),
+        (["--shape", "circle", "--sides", "6"], "sides", "only with shape polygon or star"),
+        (["--shape", "rough", "--shape-angle", "30"], "shape_angle", "0 for shape mask or rough"),
+        (["--shape", "mask", "--mask", "/nonexistent/contact.npy"], "mask", "an existing .npy or .png file"),
+    ],
+)
 def test_bad_input_exits_2_naming_field_and_range(capsys, args, field, allowed):
     code, out, err = _solve(capsys, *args, "--n", "16", "--json")
     assert code == 2 and out == "" and "Traceback" not in err
@@ -61,8 +64,9 @@ def test_accuracy_not_met_exits_1_naming_the_grid(capsys, monkeypatch):
     """The README's rule for a missed tolerance, for --accuracy too: exit 1, say which grid ran
     out (a budget of 64 x 64 cells cannot give 1e-6)."""
     monkeypatch.setattr(acc, "MAX_CELLS", 64 * 64)
-    monkeypatch.setattr(acc.solve_to_accuracy, "__kwdefaults__", {**acc.solve_to_accuracy.__kwdefaults__,
-                                                                  "max_cells": 64 * 64, "n0": 8})
+    monkeypatch.setattr(
+        acc.solve_to_accuracy, "__kwdefaults__", {**acc.solve_to_accuracy.__kwdefaults__, "max_cells": 64 * 64, "n0": 8}
+    )
     code, out, err = _solve(capsys, "--accuracy", "1e-6", "--json")
     assert code == 1 and out == ""
     assert "accuracy 1e-06 not met" in err and "finest grid 64 x 64" in err
@@ -72,8 +76,22 @@ def test_accuracy_for_a_crystal(capsys):
     """--accuracy on a crystal (was AttributeError: no E_star): extrapolated tensor, no Li
     normalization (needs isotropic E*, G*). Checked against the single-grid solve: the first
     level of the sequence is that solve on coverage-weighted cells."""
-    code, out, err = _solve(capsys, "--shape", "ellipse", "--aspect", "0.5", "--anisotropy", "2", "--orientation", "20",
-                            "--quantities", "tangential,normal", "--accuracy", "1e-2", "--json")
+    code, out, err = _solve(
+        capsys,
+        "--shape",
+        "ellipse",
+        "--aspect",
+        "0.5",
+        "--anisotropy",
+        "2",
+        "--orientation",
+        "20",
+        "--quantities",
+        "tangential,normal",
+        "--accuracy",
+        "1e-2",
+        "--json",
+    )
     assert code == 0, err
     r = json.loads(out)
     assert r["accuracy_met"] and r["estimated_error"] <= 1e-2 and "normalized_xx" not in r

@@ -66,7 +66,9 @@ def test_isotropic_tangential_builds_no_zz_or_coupling():
     plan = _plan(shape="ellipse", aspect=0.5, nu=0.3)
     assert set(plan.kernels) == {"xx", "xy", "yx", "yy"}
     assert [(s.name, s.components, s.load) for s in plan.solves] == [
-        ("tangential_x", "xy", "x"), ("tangential_y", "xy", "y")]
+        ("tangential_x", "xy", "x"),
+        ("tangential_y", "xy", "y"),
+    ]
 
 
 def test_circle_runs_one_tangential_solve():
@@ -188,7 +190,9 @@ def test_e2e_normal_alone(spy):
 
 
 def test_e2e_compliance_no_solve(spy):
-    record = solve(Scene.from_params({"shape": "ellipse", "aspect": 0.5, "quantities": "compliance", "nu": 0.3, "n": N}))
+    record = solve(
+        Scene.from_params({"shape": "ellipse", "aspect": 0.5, "quantities": "compliance", "nu": 0.3, "n": N})
+    )
     built, calls = spy()
     assert calls == []
     assert built == ["xx", "xy", "yx", "yy"]
@@ -200,9 +204,14 @@ def test_e2e_compliance_no_solve(spy):
     ia, ja = np.nonzero(mask)
     di = ia[:, None] - ia[None, :] + grid.nx - 1
     dj = ja[:, None] - ja[None, :] + grid.ny - 1
-    B = {b: isotropic_block(scene.material, grid.nx, grid.ny, grid.dx, grid.dy, b)[di, dj] for b in ("xx", "xy", "yx", "yy")}
+    B = {
+        b: isotropic_block(scene.material, grid.nx, grid.ny, grid.dx, grid.dy, b)[di, dj]
+        for b in ("xx", "xy", "yx", "yy")
+    }
     ones = np.ones(ia.size)
-    mean = np.array([[(B["xx"] @ ones).mean(), (B["xy"] @ ones).mean()], [(B["yx"] @ ones).mean(), (B["yy"] @ ones).mean()]])
+    mean = np.array(
+        [[(B["xx"] @ ones).mean(), (B["xy"] @ ones).mean()], [(B["yx"] @ ones).mean(), (B["yy"] @ ones).mean()]]
+    )
     force = ia.size * grid.cell_area
     K = np.linalg.inv(mean / force)
     for i, a in enumerate("xy"):
@@ -238,11 +247,17 @@ def test_e2e_coupled_nu_half_reports_zero_coupling():
 
 
 def test_e2e_nu_zero_normal_derived_equals_real_normal_solve(spy):
-    both = solve(Scene.from_params({"shape": "ellipse", "aspect": 0.5, "quantities": "tangential,normal", "nu": 0.0, "n": N, "tol": 1e-12}))
+    both = solve(
+        Scene.from_params(
+            {"shape": "ellipse", "aspect": 0.5, "quantities": "tangential,normal", "nu": 0.0, "n": N, "tol": 1e-12}
+        )
+    )
     built, calls = spy()
     assert built == ["xx"]
     assert calls == [("cg", 1), ("cg", 1)]
-    normal = solve(Scene.from_params({"shape": "ellipse", "aspect": 0.5, "quantities": "normal", "nu": 0.0, "n": N, "tol": 1e-12}))
+    normal = solve(
+        Scene.from_params({"shape": "ellipse", "aspect": 0.5, "quantities": "normal", "nu": 0.0, "n": N, "tol": 1e-12})
+    )
     assert spy()[0] == ["xx", "zz"]  # the normal-only scene built its own zz
     # same operator at nu = 0 (zz = xx = I1/(2πG)); both solved to 1e-12: 1e-9 relative
     assert both["K_zz"] == pytest.approx(normal["K_zz"], rel=1e-9)
@@ -277,8 +292,9 @@ def triangle_mask(tmp_path):
     return str(path)
 
 
-@pytest.mark.parametrize("quantities, solves", [("tangential", ["tangential_x[xy]"]),
-                                                 ("coupled", ["coupled_x[xyz]", "coupled_z[xyz]"])])
+@pytest.mark.parametrize(
+    "quantities, solves", [("tangential", ["tangential_x[xy]"]), ("coupled", ["coupled_x[xyz]", "coupled_z[xyz]"])]
+)
 def test_mirror_derived_equals_real_y_solve(triangle_mask, quantities, solves):
     params = {"shape": "mask", "mask": triangle_mask, "nu": 0.3, "quantities": quantities, "tol": 1e-12}
     record = solve(Scene.from_params(params))
@@ -323,9 +339,13 @@ def test_tangential_and_coupled_keep_their_own_meanings():
     """Asked together, K_xx … K_yy are the decoupled tangential tensor (as when asked alone)
     and the coupled punch's block is K_ij_coupled (before issue 14 K_xx silently became the
     coupled value). They differ by the coupling (measured 0.9 % at nu = 0.3)."""
-    tangential = solve(Scene.from_params({"shape": "ellipse", "aspect": 0.5, "quantities": "tangential", "nu": 0.3, "n": N}))
+    tangential = solve(
+        Scene.from_params({"shape": "ellipse", "aspect": 0.5, "quantities": "tangential", "nu": 0.3, "n": N})
+    )
     coupled = solve(Scene.from_params({"shape": "ellipse", "aspect": 0.5, "quantities": "coupled", "nu": 0.3, "n": N}))
-    both = solve(Scene.from_params({"shape": "ellipse", "aspect": 0.5, "quantities": "tangential,coupled", "nu": 0.3, "n": N}))
+    both = solve(
+        Scene.from_params({"shape": "ellipse", "aspect": 0.5, "quantities": "tangential,coupled", "nu": 0.3, "n": N})
+    )
     for key in ("K_xx", "K_xy", "K_yx", "K_yy"):
         assert both[key] == tangential[key] and both[f"{key}_coupled"] == coupled[key], key
     assert abs(coupled["K_xx"] / tangential["K_xx"] - 1.0) > 3e-3

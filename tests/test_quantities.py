@@ -77,8 +77,12 @@ def test_directional_stiffness_of_symmetric_part_only():
 
 @pytest.mark.parametrize("angle", [0.0, 30.0, 89.0, 120.0, 179.0])
 def test_principal_values_and_angle(angle):
-    R = np.array([[math.cos(math.radians(angle)), -math.sin(math.radians(angle))],
-                  [math.sin(math.radians(angle)), math.cos(math.radians(angle))]])
+    R = np.array(
+        [
+            [math.cos(math.radians(angle)), -math.sin(math.radians(angle))],
+            [math.sin(math.radians(angle)), math.cos(math.radians(angle))],
+        ]
+    )
     K_sym = R @ np.diag([4.0, 1.5]) @ R.T
     W = np.array([[0.0, 0.3], [-0.3, 0.0]])  # antisymmetric error part: must be ignored
     k_max, k_min, principal = q.principal_stiffness(K_sym + W)

@@ -38,8 +38,17 @@ def test_defaults():
 
 def test_fields_are_converted_and_kept():
     s = Scene.from_params(
-        {"shape": "ellipse", "aspect": "0.25", "nu": 0, "n": 64.0, "n_across": 9, "shape_angle": 30,
-         "quantities": "normal, tangential,normal", "G": 2e9, "tol": 1e-10}
+        {
+            "shape": "ellipse",
+            "aspect": "0.25",
+            "nu": 0,
+            "n": 64.0,
+            "n_across": 9,
+            "shape_angle": 30,
+            "quantities": "normal, tangential,normal",
+            "G": 2e9,
+            "tol": 1e-10,
+        }
     )
     assert s.shape.name == "ellipse" and s.shape.aspect == 0.25 and s.shape.angle_deg == 30.0
     assert s.n == 64 and isinstance(s.n, int) and s.n_across == 9
@@ -106,8 +115,22 @@ def test_refuses_out_of_range(params, field):
     assert _refused(params).field == field
 
 
-NUMERIC_FIELDS = ["nu", "G", "anisotropy", "aspect", "n", "n_across", "tol", "shape_angle", "amplitude",
-                  "seed", "hurst", "rms", "sides", "threads"]
+NUMERIC_FIELDS = [
+    "nu",
+    "G",
+    "anisotropy",
+    "aspect",
+    "n",
+    "n_across",
+    "tol",
+    "shape_angle",
+    "amplitude",
+    "seed",
+    "hurst",
+    "rms",
+    "sides",
+    "threads",
+]
 
 
 @pytest.mark.parametrize("value", [NAN, INF, -INF])

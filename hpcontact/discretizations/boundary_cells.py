@@ -37,8 +37,9 @@ Singular cells
 --------------
 ``covered_solve(params, strategy="singular")`` (or ``"auto"``) solves unturned circles and
 ellipses instead with cells that carry the punch's edge singularity, a Galerkin discretization
-whose error is 200 to several thousand times smaller per grid (measured) but not a smooth
-expansion in h (``hpcontact.discretizations.singular_cells``; ``benchmarks/edge_order.py`` compares the two).
+whose error is 200 to several thousand times smaller per grid but not a smooth expansion in h
+(``hpcontact.discretizations.singular_cells``; ``benchmarks/edge_order.py`` compares the two,
+docs/validation.md §"Singular cells").
 """
 
 from __future__ import annotations
@@ -76,7 +77,9 @@ __all__ = [
 ]
 
 MIN_COVERAGE = 1e-12  # cells covered less than this are left out (D_ii would overflow)
-COVERAGE_ROUNDING = 1e-9  # closed-form coverage loses ~n²·eps to differences (measured 5.7e-11 at n = 1024)
+COVERAGE_ROUNDING = (
+    1e-9  # closed-form coverage loses ~n²·eps to differences (~6e-11 at n = 1024: docs/validation.md §"Boundary cells")
+)
 SUBSAMPLES = 32  # sub-samples per cell side where the coverage has no closed form
 SUPPORTED = ("tangential", "normal", "coupled")
 SINGULAR_SUPPORTED = ("tangential", "normal")  # one scalar block per load direction
@@ -155,7 +158,7 @@ def coverage(shape: Shape, grid: Grid, subsamples: int = SUBSAMPLES) -> np.ndarr
     """Fraction f ∈ [0, 1] of every cell of ``grid`` that the shape covers, shape (nx, ny).
 
     Exact (to rounding) for circles, ellipses and rectangles that are not turned; sub-sampled
-    (``subsamples``² points per boundary cell) for turned shapes, polygons and stars.
+    (``subsamples`` × ``subsamples`` points per boundary cell) for turned shapes, polygons and stars.
     """
     if shape.angle_deg == 0.0:
         if shape.name == "circle":
@@ -197,7 +200,9 @@ def _with_all_solves(plan: Plan, scene: Scene) -> Plan:
     names = {s.name for s in solves}
     nu0 = isinstance(scene.material, Isotropic) and scene.material.nu == 0.0
     if "tangential_x" in names and "tangential_y" not in names:
-        solves.insert([s.name for s in solves].index("tangential_x") + 1, Solve("tangential_y", "y" if nu0 else "xy", "y"))
+        solves.insert(
+            [s.name for s in solves].index("tangential_x") + 1, Solve("tangential_y", "y" if nu0 else "xy", "y")
+        )
     if "coupled_x" in names and "coupled_y" not in names:
         solves.insert([s.name for s in solves].index("coupled_x") + 1, Solve("coupled_y", "xyz", "y"))
     derived = tuple(d for d in plan.derived if "mirror" not in d and "x <-> y" not in d)
@@ -224,8 +229,11 @@ def covered_solve(scene: Scene, strategy: str = "coverage") -> dict[str, Any]:
     if strategy not in STRATEGIES:
         raise InputError("strategy", f"one of {', '.join(STRATEGIES)}", strategy)
     grid = grid_for(scene.shape, scene.n, scene.n_across) if scene.shape.name != "mask" else None
-    singular = (set(scene.quantities) <= set(SINGULAR_SUPPORTED) and grid is not None
-                and singular_cells.supports(scene.shape, scene.material, grid))
+    singular = (
+        set(scene.quantities) <= set(SINGULAR_SUPPORTED)
+        and grid is not None
+        and singular_cells.supports(scene.shape, scene.material, grid)
+    )
     strip = strip_applies(scene)
     if strategy == "singular" and not singular:
         raise InputError(
@@ -374,8 +382,9 @@ def _strip_forces(scene: Scene) -> _Solved:
     ``scene.n`` strips (the cross entries vanish: the profile is symmetric across). The grid
     reported is n × 1 with dx the mean strip length and dy the width."""
     solves = _block_solves(scene)
-    cells = strip_cells.StripCells(scene.shape.aspect, scene.n, scene.material, tuple(block for _, block in solves),
-                                   shape=scene.shape.name)
+    cells = strip_cells.StripCells(
+        scene.shape.aspect, scene.n, scene.material, tuple(block for _, block in solves), shape=scene.shape.name
+    )
     forces: dict[str, np.ndarray] = {}
     residual = 0.0
     for name, block in solves:
@@ -386,10 +395,16 @@ def _strip_forces(scene: Scene) -> _Solved:
         residual = max(residual, block_residual)
     grid = Grid(nx=scene.n, ny=1, dx=2.0 / scene.n, dy=2.0 * scene.shape.aspect)  # dx: the mean strip
     mask = np.ones((scene.n, 1), dtype=bool)
-    description = (f"strip cells: Galerkin on f_i/(pi sqrt(b(x)^2 - y^2)) per strip, {scene.n} strips graded "
-                   f"x = sgn(xi)(1 - (1 - |xi|)^{strip_cells.GRADING:g}), dense Cholesky")
-    plan = Plan(kernels=cells.kernels, solves=tuple(Solve(name, block[0], block[0]) for name, block in solves), derived=(),
-                kernel_source="isotropic point-force solutions averaged over the strip profile (hpcontact.discretizations.strip_cells)")
+    description = (
+        f"strip cells: Galerkin on f_i/(pi sqrt(b(x)^2 - y^2)) per strip, {scene.n} strips graded "
+        f"x = sgn(xi)(1 - (1 - |xi|)^{strip_cells.GRADING:g}), dense Cholesky"
+    )
+    plan = Plan(
+        kernels=cells.kernels,
+        solves=tuple(Solve(name, block[0], block[0]) for name, block in solves),
+        derived=(),
+        kernel_source="isotropic point-force solutions averaged over the strip profile (hpcontact.discretizations.strip_cells)",
+    )
     return _Solved(grid, mask.astype(np.float64), mask, plan, forces, 0, residual, description)
 
 

@@ -48,105 +48,43 @@ Closed forms: ∫∫ (1 − u² − v²)^(−1/2) du dv over [0, U] × [0, V] is
 hemisphere above it, F = U asin(V/√(1−U²)) + V asin(U/√(1−V²)) − atan(UV/√(1−U²−V²)) inside
 the disc, π(U + V − 1)/2 beyond; first moments through ∫ √(c² − v²) dv.
 
-Error (measured, ``benchmarks/edge_order.py``; nu = 0, 0.3, 0.5; K_xx, K_yy, K_zz)
-------------------------------------------------------------------------------------
-Not a clean power series in h. What is left is the sub-cell quadrature of the cut cells (the
-relative error is the same for K_xx, K_yy and K_zz at nu = 0, and within ±0.00025/n_across of
-K_zz's otherwise), a first-order term with a small, geometry-dependent constant that changes sign:
+Error (``benchmarks/edge_order.py``; docs/validation.md §"Singular cells")
+--------------------------------------------------------------------------
+Not a clean power series in h. What is left is the sub-cell quadrature of the cut cells, a
+first-order term with a small, geometry-dependent constant that changes sign, so order-1
+Richardson does not apply and the difference of two grids can be small by accident. The bound
+for an estimator is
 
-    n·(K_xx/K_exact − 1), nu = 0.3, n = 32, 64, 128, 256, 512 (cells along the major axis 2a)
-    circle       +0.00048  +0.00042  +0.00001  −0.00006  −0.00002
-    ellipse 0.7  +0.00130  +0.00054  +0.00059  +0.00006  +0.00015
-    ellipse 0.5  +0.00140  +0.00117  +0.00110  +0.00050  +0.00035
+    |K/K_exact − 1| ≤ C / n_across,        C = ``ERROR_CONSTANT`` = 1.03e-3,
 
-Bound for an estimator: |error| ≤ C/n_across, n_across the cells across the minor axis 2b,
-measured C = 1.03e-3 (largest of all 135 values of ``edge_order.py --bound``: circle, ellipses
-0.7, 0.5 on n = 32 … 256 and 0.05 on 128 × 8 … 512 × 32, i.e. 8 … 32 cells across; the
-largest is ellipse 0.05, nu = 0.5, K_xx at 128 × 8); coverage weighting errs by 0.20/n … 0.30/n
-on the same grids (1.4/n at b/a = 0.05), with a clean first-order expansion. The error falls
-about as fast as 1/n_across, at times faster, without a steady sign (the circle's changes
-between n = 128 and 256), so order-1 Richardson does not apply and the difference of two grids
-can be small by accident
-(ellipse 0.7: 5e-8 between n = 256 and 512 while the error at 512 is 3.0e-7). Raising the sub-cell
-count does not help reliably (16 → 32 sub-cells for adjacent pairs moved the circle's n·error
-from +0.0004 to −0.0014): the cut sub-cells are first order in their own size, and their
-extrapolation in m is not smooth.
+n_across the cells across the minor axis 2b: the largest |n_across·error| over K_xx, K_yy,
+K_zz, nu = 0, 0.3, 0.5, the circle and ellipses 0.7, 0.5 on n = 32 … 256 and 0.05 on 8 … 32
+cells across (``benchmarks/edge_order.py --bound``); coverage weighting errs by 0.2/n … 1.4/n on the same
+grids, with a clean first-order expansion. Raising ``SUBCELLS`` does not help reliably: the cut
+sub-cells are first order in their own size, and their extrapolation in m is not smooth.
 
-What the remaining error is made of (measured 2026-11-23, ellipse 0.7, nu = 0.3, K_xx; an
-experiment whose code was not kept: each configuration is described here). Without the
-extrapolation in m the error is first order in the sub-cell size s = h/m alone, and clean:
-1.85e-3, 8.98e-4, 4.51e-4, 2.25e-4 at n = 32 for adjacent pairs on m = 4, 8, 16, 32 (NEAR = 3,
-other pairs as in (ii) below; n = 64, m = 4 and n = 32,
-m = 8, the same s, agree within 7 %) — the cut cells' edge layer, where a uniform sub-cell
-stands for w ∝ d^(−1/2). After 2K_m − K_{m/2} what is left (+4.3e-6, −4.4e-6, −3.8e-6 at
-n = 32, 64, 128 for m = 16) changes sign and does not fall with n. Two further parts were
-isolated: (i) the far field beyond ``NEAR`` (3 × 3 moment-matched spreading) errs by a clean
-first-order amount, −1.2e-3/n for NEAR = 2 (the increments NEAR 2 → 3 → 4 → 5 halve exactly
-from n = 64 to 128 and fall about as distance^(−2.5)); (ii) non-adjacent near pairs (offset ≥ 2)
-are converged in m once the sub-cells' first moments enter (dipole terms through the gradient of
-Love's integral) and the sub-cell kernel is averaged over the target sub-cell as well (K* of
-sub-cells): K from m = 8 and 16 there agree to 3 digits, where the collocated sub-cell kernel
-left an error ∝ 1/(n m²). With both, n = 256 gives 1.0e-6 in 2.3 s against 1.2e-6 in 1.5 s as
-it is: no better per second, because the adjacent pairs' edge layer stays first order in s and
-not smooth in m (three-level extrapolations in m, (1, 2) or (s log s, s), were erratic). Next
-step: a quadrature that follows the edge for the self and adjacent sub-cells of the cut cells
-(in the variable θ with ρ = sin θ, where w dA = sin θ dθ dφ is smooth).
+What the remaining error is made of: two first-order parts of opposite sign, the far field
+beyond ``NEAR`` (the 3 × 3 moment-matched spreading) and the adjacent pairs' edge layer, first
+order in the sub-cell size h/m (a uniform sub-cell stands for w ∝ d^(−1/2) there). With
+``NEAR`` = 2 and ``SUBCELLS`` = 16 they cancel to a few 1e-7, but what is left does not fall
+steadily with n, which is why ``accuracy`` gives singular cells a larger factor on the spread
+and stops them at the grids it was calibrated on (``accuracy.SINGULAR_SAFETY``,
+``accuracy.SINGULAR_MAX_CELLS``).
 
-The two first-order parts cancel to a few 1e-7 with the constants here (measured 2026-11-23, b/a
-0.7, nu 0.3, K_xx, K_yy, K_zz; module constants varied in place): at 360 × 248 the error is
-+2.7e-7 … −4.6e-7 with NEAR = 2 and m = 16, −1.3e-6 … −2.0e-6 with m = 32, +1.6e-6 … +1.9e-6 with
-NEAR = 3, +3.7e-7 … +6.4e-7 with NEAR = 3 and m = 32; with NEAR = 4 the sequence is smooth but
-first order, n·error = +0.00127, +0.00123, +0.00106, +0.00078 at n = 64 … 512. What is left does
-not fall steadily with n (b/a 0.7 from n₀ = 45: K_yy −4.6e-7, −2.6e-7, −1.7e-7 and K_zz −9.9e-8,
-−7.0e-8, −8.1e-8 at 360 × 248, 720 × 496, 1440 × 992), which is why ``accuracy`` gives singular
-cells a larger factor on the spread and stops them at the grids it was calibrated on
-(``accuracy.SINGULAR_SAFETY``, ``accuracy.SINGULAR_MAX_CELLS``).
-
-Edge quadrature (``near_field="edge"``; measured 2026-11-23)
--------------------------------------------------------------
+Edge quadrature (``near_field="edge"``)
+---------------------------------------
 The exact solution g = const lies in the trial space, so K's error is that of B alone: to first
 order −δE/E with E = Σ B (the energy of Galin's and Mindlin's traction), plus a positive part
-second order in δB from the Galerkin solution's departure from g = const. With sub-cells both
-are of the same size (ellipse 0.7, nu 0.3, K_zz: −δE/E = 3.1e-6, 1.8e-6, 2.1e-7 and K error
-6.2e-6, 3.1e-6, 7.8e-7 at n = 64, 128, 256), and the energy part moves with the sub-cell count
-by first-order amounts (n·(−δE/E) at n = 64: +2.0e-4, −3.8e-4, −7.5e-4 for m = 16, 32, 64).
-With the near field by the edge quadrature the second-order part is gone (K error = −δE/E
-within 3e-7 at n = 32) and what is left is the far field beyond ``NEAR``: first order and
-nearly steady, n_across·error on b/a 0.7's grids 16 × 11 … 512 × 352 (nu 0.3):
-
-    K_xx  −6.3e-4  −5.9e-4  −5.3e-4  −5.5e-4  −5.2e-4  −5.0e-4
-    K_yy  −4.4e-4  −6.6e-4  −6.5e-4  −6.8e-4  −6.7e-4  −6.5e-4
-    K_zz  −5.4e-4  −6.2e-4  −5.9e-4  −6.1e-4  −5.9e-4  −5.7e-4
-
-(order-1 Richardson on consecutive grids leaves 4.0e-7 … 5.0e-7 at 128 × 88 and ≤ 2.8e-7 from
-256 × 176 on; the circle 3.7e-7 at 128² and ≤ 2.1e-7 from 256² on; K_yy of b/a 0.1 and 0.05 is
-not yet first order at 1280 × 128 and 1280 × 64). The quadrature's
-own error, ~1e-7 of K at q = 6 (q = 6 → 8 moved K_xx by 8e-8 at b/a 0.5, 256 × 128), is part
-of what is left. The estimator needs the same factor 6 on these sequences
-(``benchmarks/edge_order.py --singular-calibration CACHE --near-field edge``, every grid up to
-2^18 cells: 294 records honest, worst 0.44, 85.7 % within 30x; 6 of 1654 per-quantity pairs
-below their true error, worst 1.72, all from first grids with 4 or 5 cells across), and the
-setup costs 10–20x that of sub-cells (1.2 s against 0.1 s at 32 × 22, 7.5 s against 0.36 s at 256 × 176), so per CPU second it is
-worse: b/a 0.7 meets 1e-5 at 256 × 176 in 13 s where sub-cells meet it at 512 × 352 in 6 s, and
-1e-6 is met only for the circle (512², 8.7e-7 / 1.9e-7, 40 s). The far field is not the only
-first-order term: the rings of pairs at 3 and 4 cells add +4.9e-4 … +5.7e-4 and +1.4e-4 …
-+1.7e-4 to n_across·error (``NEAR`` varied in place; b/a 0.7, nu 0.3, 32 × 22 and 64 × 44:
-D^−4, the spreading's third moments), and with ``NEAR`` = 3 the
-error (−4e-5 … −9e-5, ten times smaller) is what is left of two first-order terms of opposite
-sign, no longer steady: the same replay then found 17 of 294 records below their true error
-(worst 2.05, the circle at 512²: estimate 1.1e-7, true 2.3e-7). So ``NEAR`` stays 2.
-
-Two more experiments (code not kept; b/a 0.7, nu 0.3, 32 × 22, 64 × 44, 128 × 88, n_across·error
-of K_xx, K_yy, K_zz): (i) near cells spread onto 5 × 5 cell centres, the least-norm correction of
-the 3 × 3 weights that matches the w-distribution's moments through total order 4: with
-``NEAR`` = 2 worse (+9.2e-4, +7.3e-4, +6.2e-4: stencils of reach 2 overlap at 3 cells), with
-``NEAR`` = 3 steady, +4.2e-4 … +4.7e-4 on all three grids and entries — the rings are gone
-(``NEAR`` = 4: +3.4e-4 … +3.9e-4); the same moments for 8 more layers of cells changed nothing.
-(ii) What is then left is the pairs of cells outside the band but within ``NEAR``, taken by the
-far field although w varies across them by ~h/d: K_zz +4.4e-4, +2.3e-4, +1.7e-4 at 32 × 22 for
-``BAND`` = 1, 2, 3 (∝ 1/``BAND``), and not steady beyond 1 (BAND 3: +1.7e-4, +1.5e-4, +1.1e-4).
-So the next step is the band's pairs by a cheaper exact quadrature, not a wider far field; the
-touching-pair quadrature dominates the setup (7.5 s at 256 × 176: rays 6 s).
+second order in δB from the Galerkin solution's departure from g = const. With the near field
+by the edge quadrature the second-order part is gone and what is left is the far field beyond
+``NEAR``: first order and nearly steady (n_across·error ≈ −5e-4 … −7e-4 on b/a 0.7), and the
+estimator needs the same factor 6 on these sequences (``benchmarks/edge_order.py
+--singular-calibration CACHE --near-field edge``). It is not the default: its setup costs
+10–20× that of sub-cells, so per CPU second it is worse; and with ``NEAR`` = 3 its error is
+again two first-order terms of opposite sign, no longer steady, so ``NEAR`` stays 2. The
+measurements, and the experiments on wider spreading stencils and bands that point to the
+band's pairs by a cheaper exact quadrature as the next step: docs/validation.md §"Singular
+cells".
 """
 
 from __future__ import annotations
@@ -364,14 +302,18 @@ class SingularCells:
     (``BlockSystem``); ``force(s)`` = Σ s dx dy.
     """
 
-    def __init__(self, shape: Shape, n: int, n_across: int | None, material: Isotropic, near_field: str = "subcells") -> None:
+    def __init__(
+        self, shape: Shape, n: int, n_across: int | None, material: Isotropic, near_field: str = "subcells"
+    ) -> None:
         if near_field not in NEAR_FIELDS:
             raise InputError("near_field", f"one of {', '.join(NEAR_FIELDS)}", near_field)
         self.near_field = near_field
         full = grid_for(shape, n, n_across)
         if not supports(shape, material, full):
             raise InputError(
-                "shape", f"an unturned circle or ellipse, isotropic, cells dy/dx within 1/{MAX_CELL_ASPECT:g} … {MAX_CELL_ASPECT:g}", shape.name
+                "shape",
+                f"an unturned circle or ellipse, isotropic, cells dy/dx within 1/{MAX_CELL_ASPECT:g} … {MAX_CELL_ASPECT:g}",
+                shape.name,
             )
         a, b = 1.0, (shape.aspect if shape.name == "ellipse" else 1.0)
         dx, dy = full.dx, full.dy
@@ -385,7 +327,7 @@ class SingularCells:
         u1, u2 = ((x - 0.5 * dx) / a)[:, None], ((x + 0.5 * dx) / a)[:, None]
         v1, v2 = ((y - 0.5 * dy) / b)[None, :], ((y + 0.5 * dy) / b)[None, :]
         Wuv = _rect(sphere_area, u1, u2, v1, v2)
-        full_cell = (u1 ** 2 + v1 ** 2 < 1) & (u1 ** 2 + v2 ** 2 < 1) & (u2 ** 2 + v1 ** 2 < 1) & (u2 ** 2 + v2 ** 2 < 1)
+        full_cell = (u1**2 + v1**2 < 1) & (u1**2 + v2**2 < 1) & (u2**2 + v1**2 < 1) & (u2**2 + v2**2 < 1)
         mask = Wuv > MIN_WEIGHT * dx * dy / (a * b)  # barely touched cells (W ~ rounding) are left out
         safe = np.where(mask, Wuv, 1.0)
         xi = np.where(mask, (a * _first_moment(u1, u2, v1, v2) / safe - x[:, None]) / dx, 0.0)
@@ -411,7 +353,7 @@ class SingularCells:
         # second moments about the cell centre (units dx², dy², dx dy): uniform-cell values
         # where w is smooth; on the near set sub-cell sums extrapolated in m ("subcells") or the
         # edge quadrature's nodes ("edge", which its pair integrals use as well)
-        mxx, myy, mxy = 1.0 / 12.0 + xi ** 2, 1.0 / 12.0 + eta ** 2, xi * eta
+        mxx, myy, mxy = 1.0 / 12.0 + xi**2, 1.0 / 12.0 + eta**2, xi * eta
         Wn = self.Wn = self.W[cells[:, 0], cells[:, 1]]
         if near_field == "edge":
             X, Y = x[cells[:, 0]], y[cells[:, 1]]
@@ -428,7 +370,13 @@ class SingularCells:
                 ex = np.repeat((np.arange(mm) + 0.5) / mm - 0.5, mm)
                 ey = np.tile((np.arange(mm) + 0.5) / mm - 0.5, mm)
                 Ws = self.subcells(mm)
-                moments += weight * np.stack([Ws @ (ex ** 2 + 1.0 / (12 * mm * mm)), Ws @ (ey ** 2 + 1.0 / (12 * mm * mm)), Ws @ (ex * ey)]) / Wn
+                moments += (
+                    weight
+                    * np.stack(
+                        [Ws @ (ex**2 + 1.0 / (12 * mm * mm)), Ws @ (ey**2 + 1.0 / (12 * mm * mm)), Ws @ (ex * ey)]
+                    )
+                    / Wn
+                )
         mxx[near], myy[near], mxy[near] = moments
         sx, sy = mxx - 1.0 / 12.0, myy - 1.0 / 12.0
         bx = ((sx - xi) / 2.0, 1.0 - sx, (sx + xi) / 2.0)
@@ -485,7 +433,9 @@ class SingularCells:
                 e = np.arange(m + 1) / m - 0.5
                 u = ((self._x[cells[:, 0], None] + e * g.dx) / a)[:, :, None]
                 F = sphere_area(u, ((self._y[cells[:, 1], None] + e * g.dy) / b)[:, None, :])
-                self._sub[m] = (a * b * (F[:, 1:, 1:] - F[:, :-1, 1:] - F[:, 1:, :-1] + F[:, :-1, :-1])).reshape(len(cells), m * m)
+                self._sub[m] = (a * b * (F[:, 1:, 1:] - F[:, :-1, 1:] - F[:, 1:, :-1] + F[:, :-1, :-1])).reshape(
+                    len(cells), m * m
+                )
         return self._sub[m]
 
     def near_pairs(self) -> list[tuple[tuple[int, int], np.ndarray, np.ndarray, tuple[np.ndarray, ...]]]:
@@ -515,7 +465,11 @@ class SingularCells:
                     keep = in_band[src] | in_band[tgt]
                     src, tgt = src[keep], tgt[keep]
                     if src.size:
-                        integrals = self._edge_pairs(P, Q, src, tgt) if self.near_field == "edge" else self._subcell_pairs(P, Q, src, tgt)
+                        integrals = (
+                            self._edge_pairs(P, Q, src, tgt)
+                            if self.near_field == "edge"
+                            else self._subcell_pairs(P, Q, src, tgt)
+                        )
                         self._near.append(((P, Q), src, tgt, integrals))
         return self._near
 
@@ -534,7 +488,9 @@ class SingularCells:
     def _edge_pairs(self, P: int, Q: int, src: np.ndarray, tgt: np.ndarray) -> tuple[np.ndarray, ...]:
         """``near_pairs``' integrals by the edge quadrature (``hpcontact.discretizations.singular_pairs``) [length³]."""
         if max(abs(P), abs(Q)) <= 1:
-            return singular_pairs.touching_integrals(self.nodes[tgt], self.node_weights[tgt], *self.rects[:, src], *self._axes)
+            return singular_pairs.touching_integrals(
+                self.nodes[tgt], self.node_weights[tgt], *self.rects[:, src], *self._axes
+            )
         nodes, rule = self.separated_rule
         return singular_pairs.separated_integrals(nodes[tgt], rule[tgt], nodes[src], rule[src])
 
@@ -577,7 +533,9 @@ class BlockSystem:
                 rows.append(flat_s)
                 cols.append(flat_t)
                 vals.append(exact - far)
-        self.near = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(nx * ny, nx * ny))
+        self.near = sp.csr_matrix(
+            (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(nx * ny, nx * ny)
+        )
         # far part of the diagonal: βᵀ K₉ β per cell, K₉ the far kernel between the 3 × 3 stencil offsets
         stencil = list(self.beta)
         K9 = np.array([[Kstar[nx - 1 + p - pp, ny - 1 + q - qq] for pp, qq in stencil] for p, q in stencil])

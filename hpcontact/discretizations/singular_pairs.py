@@ -38,7 +38,7 @@ nodes.
 
 Error: the pair sums over every cell pair of an 8 × 8 disc, Σ I₁ = 2π³ and Σ I_xx = π³ (the
 energy of Galin's and Mindlin's traction), are met to 4.0e-6 at q = 6 and 4.2e-8 at q = 8, the
-ellipse 0.7's to 4.1e-6 and 5.6e-8 (``tests/test_singular_pairs.py``); in K on singular cells,
+ellipse 0.7's to 4.1e-6 and 5.6e-8 (``tests/discretizations/test_singular_pairs.py``); in K on singular cells,
 q = 6 → 8 moved K_xx by 8e-8 at b/a 0.5, 256 × 128. Separated pairs' interpolatory rule
 (``SEPARATED_POINTS`` = 6) against the ray quadrature: 1e-5 (I₁) at q = 6 on cells two apart.
 """
@@ -49,7 +49,15 @@ import math
 
 import numpy as np
 
-__all__ = ["POINTS", "SEPARATED_POINTS", "cell_nodes", "interpolatory_rule", "ray_potential", "separated_integrals", "touching_integrals"]
+__all__ = [
+    "POINTS",
+    "SEPARATED_POINTS",
+    "cell_nodes",
+    "interpolatory_rule",
+    "ray_potential",
+    "separated_integrals",
+    "touching_integrals",
+]
 
 POINTS = 6  # Gauss points per piece and direction (q) of the cells' nodes: the module docstring's error figures
 RAY_POINTS = 6  # Gauss points per piece of the directions ψ about a node
@@ -81,7 +89,9 @@ def _wrap(angle: np.ndarray) -> np.ndarray:
 
 
 def _corners(X1, X2, Y1, Y2) -> np.ndarray:
-    return np.stack([np.stack([X1, Y1], -1), np.stack([X2, Y1], -1), np.stack([X2, Y2], -1), np.stack([X1, Y2], -1)], -2)
+    return np.stack(
+        [np.stack([X1, Y1], -1), np.stack([X2, Y1], -1), np.stack([X2, Y2], -1), np.stack([X1, Y2], -1)], -2
+    )
 
 
 def _edge_crossings(X1, X2, Y1, Y2, a: float, b: float) -> tuple[np.ndarray, np.ndarray]:
@@ -89,7 +99,10 @@ def _edge_crossings(X1, X2, Y1, Y2, a: float, b: float) -> tuple[np.ndarray, np.
     and whether each lies on its side (…, 8). Sides x = X (y = Y the same with the axes swapped)
     meet it at y = ±b √(1 − X²/a²)."""
     points, valid = [], []
-    for sides, (lo, hi), (along, across), swap in (((X1, X2), (Y1, Y2), (a, b), False), ((Y1, Y2), (X1, X2), (b, a), True)):
+    for sides, (lo, hi), (along, across), swap in (
+        ((X1, X2), (Y1, Y2), (a, b), False),
+        ((Y1, Y2), (X1, X2), (b, a), True),
+    ):
         for side in sides:
             u = side / along
             half = across * np.sqrt(np.maximum(1.0 - u * u, 0.0))
@@ -113,8 +126,9 @@ def _slab(px, py, ex, ey, X1, X2, Y1, Y2) -> tuple[np.ndarray, np.ndarray]:
     return lo_t, hi_t
 
 
-def cell_nodes(X1: np.ndarray, X2: np.ndarray, Y1: np.ndarray, Y2: np.ndarray, a: float, b: float,
-               q: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+def cell_nodes(
+    X1: np.ndarray, X2: np.ndarray, Y1: np.ndarray, Y2: np.ndarray, a: float, b: float, q: int | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Quadrature nodes of ∫_Ωᵢ f w dA for cells [X1, X2] × [Y1, Y2] (arrays (N,)) of the ellipse with semi-axes a, b: points (N, K, 2) [length] and weights (N, K)
     [area], zero-weight padding where a cell needs fewer nodes (module docstring, "Outer")."""
     q = POINTS if q is None else q
@@ -151,8 +165,9 @@ def cell_nodes(X1: np.ndarray, X2: np.ndarray, Y1: np.ndarray, Y2: np.ndarray, a
     return points[:, used], weights[:, used]
 
 
-def _direction_pieces(px: np.ndarray, py: np.ndarray, X1: np.ndarray, X2: np.ndarray, Y1: np.ndarray,
-                      Y2: np.ndarray, a: float, b: float) -> tuple[np.ndarray, np.ndarray]:
+def _direction_pieces(
+    px: np.ndarray, py: np.ndarray, X1: np.ndarray, X2: np.ndarray, Y1: np.ndarray, Y2: np.ndarray, a: float, b: float
+) -> tuple[np.ndarray, np.ndarray]:
     """The pieces [lo, hi] of the directions ψ about points (px, py) (R,) over which the chord
     through the source cell (R,) is smooth (module docstring, "Inner"): (R, M), unused pieces
     empty (lo = hi) and last."""
@@ -188,8 +203,19 @@ def _direction_pieces(px: np.ndarray, py: np.ndarray, X1: np.ndarray, X2: np.nda
     return np.take_along_axis(lo, order, -1), np.take_along_axis(hi, order, -1)
 
 
-def _chords(px: np.ndarray, py: np.ndarray, X1: np.ndarray, X2: np.ndarray, Y1: np.ndarray, Y2: np.ndarray,
-            lo: np.ndarray, hi: np.ndarray, a: float, b: float, q: int) -> tuple[np.ndarray, np.ndarray]:
+def _chords(
+    px: np.ndarray,
+    py: np.ndarray,
+    X1: np.ndarray,
+    X2: np.ndarray,
+    Y1: np.ndarray,
+    Y2: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    a: float,
+    b: float,
+    q: int,
+) -> tuple[np.ndarray, np.ndarray]:
     """(V₁, V_xx) at rows of points (R,) from their direction pieces (R, M): the chord integrals of
     w in closed form (module docstring), Gauss in ψ after the cosine map."""
     psi, w_psi = _cosine_gauss(lo, hi, q)  # (R, M, q)
@@ -205,34 +231,64 @@ def _chords(px: np.ndarray, py: np.ndarray, X1: np.ndarray, X2: np.ndarray, Y1: 
     hi_r = np.minimum(t_hi, (-B + root) / C)
     chord = (hi_r > lo_r) & (D > 0.0)
     safe = np.where(root > 0.0, root, 1.0)
-    R = np.where(chord, (np.arcsin(np.clip((B + C * hi_r) / safe, -1.0, 1.0))
-                         - np.arcsin(np.clip((B + C * lo_r) / safe, -1.0, 1.0))) / np.sqrt(C), 0.0) * w_psi
+    R = (
+        np.where(
+            chord,
+            (
+                np.arcsin(np.clip((B + C * hi_r) / safe, -1.0, 1.0))
+                - np.arcsin(np.clip((B + C * lo_r) / safe, -1.0, 1.0))
+            )
+            / np.sqrt(C),
+            0.0,
+        )
+        * w_psi
+    )
     return R.sum((-1, -2)), (R * ex**2).sum((-1, -2))
 
 
-def _potential_rows(px: np.ndarray, py: np.ndarray, X1: np.ndarray, X2: np.ndarray, Y1: np.ndarray,
-                    Y2: np.ndarray, a: float, b: float, q: int) -> tuple[np.ndarray, np.ndarray]:
+def _potential_rows(
+    px: np.ndarray,
+    py: np.ndarray,
+    X1: np.ndarray,
+    X2: np.ndarray,
+    Y1: np.ndarray,
+    Y2: np.ndarray,
+    a: float,
+    b: float,
+    q: int,
+) -> tuple[np.ndarray, np.ndarray]:
     """(V₁, V_xx) at rows (R,), ``_ROWS`` at a time: within each, rows sorted by their number of
     direction pieces and taken in blocks only as wide as their widest row (most rows need half
     the widest)."""
     V1, Vxx = np.zeros(px.shape), np.zeros(px.shape)
     for outer in range(0, px.size, _ROWS):
         rows_here = np.arange(outer, min(outer + _ROWS, px.size))
-        lo, hi = _direction_pieces(px[rows_here], py[rows_here], X1[rows_here], X2[rows_here], Y1[rows_here], Y2[rows_here], a, b)
+        lo, hi = _direction_pieces(
+            px[rows_here], py[rows_here], X1[rows_here], X2[rows_here], Y1[rows_here], Y2[rows_here], a, b
+        )
         count = (hi > lo).sum(-1)
         order = np.argsort(count, kind="stable")
         block = _rows_per_block(lo.shape[1] * q)
         for start in range(0, order.size, block):
-            part = order[start:start + block]
+            part = order[start : start + block]
             width = max(int(count[part].max(initial=0)), 1)
             rows = rows_here[part]
-            V1[rows], Vxx[rows] = _chords(px[rows], py[rows], X1[rows], X2[rows], Y1[rows], Y2[rows],
-                                          lo[part, :width], hi[part, :width], a, b, q)
+            V1[rows], Vxx[rows] = _chords(
+                px[rows], py[rows], X1[rows], X2[rows], Y1[rows], Y2[rows], lo[part, :width], hi[part, :width], a, b, q
+            )
     return V1, Vxx
 
 
-def ray_potential(points: np.ndarray, X1: np.ndarray, X2: np.ndarray, Y1: np.ndarray, Y2: np.ndarray,
-                  a: float, b: float, q: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+def ray_potential(
+    points: np.ndarray,
+    X1: np.ndarray,
+    X2: np.ndarray,
+    Y1: np.ndarray,
+    Y2: np.ndarray,
+    a: float,
+    b: float,
+    q: int | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
     """(V₁, V_xx)(x) = ∫_Ωᵢ w(y) (1, (x₁ − y₁)²/r²)/r dy at points (N, K, 2) inside the ellipse,
     source cell i = [X1, X2] × [Y1, Y2] per row (N,): two arrays (N, K) [length] (module
     docstring, "Inner")."""
@@ -247,23 +303,38 @@ def _rows_per_block(per_row: int) -> int:
     return max(1, _CHUNK_ELEMENTS // max(per_row, 1))
 
 
-def touching_integrals(points: np.ndarray, weights: np.ndarray, X1: np.ndarray, X2: np.ndarray,
-                       Y1: np.ndarray, Y2: np.ndarray, a: float, b: float,
-                       q: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+def touching_integrals(
+    points: np.ndarray,
+    weights: np.ndarray,
+    X1: np.ndarray,
+    X2: np.ndarray,
+    Y1: np.ndarray,
+    Y2: np.ndarray,
+    a: float,
+    b: float,
+    q: int | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
     """(I₁, I_xx) of pairs whose target nodes are ``points``/``weights`` (N, K, 2)/(N, K) and whose
     source cells are [X1, X2] × [Y1, Y2] (N,): Σ weights · V (``ray_potential``) over the nodes
     of non-zero weight [length³]."""
     q = RAY_POINTS if q is None else q
     pair, node = np.nonzero(weights)
-    V1, Vxx = _potential_rows(points[pair, node, 0], points[pair, node, 1],
-                              *(np.asarray(Z, dtype=float)[pair] for Z in (X1, X2, Y1, Y2)), a, b, q)
+    V1, Vxx = _potential_rows(
+        points[pair, node, 0],
+        points[pair, node, 1],
+        *(np.asarray(Z, dtype=float)[pair] for Z in (X1, X2, Y1, Y2)),
+        a,
+        b,
+        q,
+    )
     w = weights[pair, node]
     N = weights.shape[0]
     return np.bincount(pair, w * V1, minlength=N), np.bincount(pair, w * Vxx, minlength=N)
 
 
-def separated_integrals(target_points: np.ndarray, target_weights: np.ndarray, source_points: np.ndarray,
-                        source_weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def separated_integrals(
+    target_points: np.ndarray, target_weights: np.ndarray, source_points: np.ndarray, source_weights: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """(I₁, I_xx) of pairs of cells at least one cell apart: both cells' outer nodes (N, K, 2),
     weights (N, K) [length³]."""
     N = target_points.shape[0]
@@ -280,8 +351,15 @@ def separated_integrals(target_points: np.ndarray, target_weights: np.ndarray, s
     return I1, Ixx
 
 
-def interpolatory_rule(X1: np.ndarray, X2: np.ndarray, Y1: np.ndarray, Y2: np.ndarray, points: np.ndarray,
-                       weights: np.ndarray, p: int = SEPARATED_POINTS) -> tuple[np.ndarray, np.ndarray]:
+def interpolatory_rule(
+    X1: np.ndarray,
+    X2: np.ndarray,
+    Y1: np.ndarray,
+    Y2: np.ndarray,
+    points: np.ndarray,
+    weights: np.ndarray,
+    p: int = SEPARATED_POINTS,
+) -> tuple[np.ndarray, np.ndarray]:
     """A p × p rule per cell for ∫_Ωᵢ f w dA with f smooth over the whole rectangle: nodes the tensor
     Gauss points of [X1, X2] × [Y1, Y2], weights ∫ w ℓ_k dA of their Lagrange polynomials ℓ_k
     (from the fine ``cell_nodes`` ``points``/``weights``), so that it is exact for polynomials of

@@ -4,9 +4,9 @@ Why
 ---
 A rectangle of aspect b/a = 1e-8 on coverage-weighted cells (``hpcontact.discretizations.boundary_cells``) needs
 cells 10⁸ times longer than wide and converges as h + h ln h: at 1024 × 256, the end of the
-estimator's calibration, ``--accuracy`` estimates 5.6e-6 … 6.9e-6 (README, "Square and rectangle
-b/a = 1e-8"); thin ellipses stall there at 2.7e-6 … 1.3e-5. Across such a contact nothing varies
-but the edge singularity, so the traction's shape across is known and only its size along x is
+estimator's calibration, ``--accuracy`` estimates 5.6e-6 … 6.9e-6 (docs/explanation/accuracy.md,
+"Square and rectangle b/a = 1e-8, against finer grids"); thin ellipses stall there at 2.7e-6 …
+1.3e-5. Across such a contact nothing varies but the edge singularity, so the traction's shape across is known and only its size along x is
 unknown.
 
 The discretization
@@ -49,7 +49,7 @@ its moments are ⟨t²⟩ = b², ⟨t⁴⟩ = 9b⁴/4, ⟨t⁶⟩ = 25b⁶/4, an
 logarithmic capacity b/2). Averages are Gauss–Legendre sums over τ = |t|/(2b) ∈ (0, 1] on
 panels graded geometrically toward τ = 0 (``TAU_RATIO``, ``TAU_POINTS``, ``TAU_PANELS``: K's
 logarithm there and the kernels' scale |s| are both resolved; ⟨1⟩ = 1 and the moments to
-≤ 3e-15, ``tests/test_strip_cells.py``).
+≤ 3e-15, ``tests/discretizations/test_strip_cells.py``).
 
 B_ij is exact through double antiderivatives in s (F'' = the kernel, F = F' = 0 at s = 0):
 
@@ -59,9 +59,9 @@ B_ij is exact through double antiderivatives in s (F'' = the kernel, F = F' = 0 
 
 A(s) = ⟨F(|s|, t)⟩ — used for every pair closer than ``NEAR_GAP`` strip lengths or
 ``SERIES_REACH`` half-widths (the four terms are O(s ln s) and their sum O(h²/s), so far pairs
-would lose digits; a tiny end strip near a long one still loses some: 1.2e-10 of the entry at
-n = 512, b/a = 1e-8, measured against scipy quadrature, ``tests/test_strip_cells.py``). Farther
-pairs use a ``FAR_POINTS``² Gauss product rule on the moment series
+would lose digits; a tiny end strip near a long one still loses some, ~1e-10 of the entry:
+docs/validation.md §"Strip cells"). Farther
+pairs use a ``FAR_POINTS`` × ``FAR_POINTS`` Gauss product rule on the moment series::
 
     ⟨1/r⟩ = |s|⁻¹ [1 − ⟨t²⟩/(2s²) + 3⟨t⁴⟩/(8s⁴) − 5⟨t⁶⟩/(16s⁶)],
     ⟨s²/r³⟩ = |s|⁻¹ [1 − 3⟨t²⟩/(2s²) + 15⟨t⁴⟩/(8s⁴) − 35⟨t⁶⟩/(16s⁶)]                     (5)
@@ -91,60 +91,42 @@ used, and beyond |s| = ``SPREAD_REACH`` b̄ the series (5) with both widths
 (``width_difference``).
 
 Why: the exact f is constant, so to first order δK/K = −Σ δB_ij / Σ B_ij, the single widths' error
-summed over the plane. With the exact two-width averages that sum predicts the error of one
-width (−9.32e-6 against −9.28e-6 measured, b/a = 1e-2, n = 16; −1.076e-7 against −1.069e-7,
-b/a = 1e-3, n = 32, K_zz, nu 0): 44–47 % from the strips' own diagonals, 52–55 % from touching pairs and
-−2 % … +4 % from the others. One width left |K error| ≤ 0.061 (b/a)² ln(a/b) (b/a = 1e-2 … 1e-5)
-and failed where the strips are not slender (b/a = 0.3: 6e-4 at n = 1024). With (7) the
-strips of an ellipse are exact but for their integrals at every aspect, slender or not — they
-contain Galin's and Mindlin's traction whatever b/a, and nothing of the slender-body limit is
-used — and what is left is measured against the closed forms. Largest relative error of K_xx,
-K_yy, K_zz and K_a/K_b over nu 0, 0.3, 0.5 (``benchmarks/strip_calibration.py``):
-
-    b/a           n = 16    32        64        128       256       1024
-    1, 0.7, 0.5   5.5e-8    1.8e-8    1.6e-8    1.6e-8    1.6e-8
-    0.3           5.7e-8    2.0e-8    1.7e-8    1.7e-8    1.7e-8
-    0.1, 0.05     6.5e-8    1.5e-8    1.0e-8    9.7e-9    9.7e-9
-    0.02          5.3e-8    9.1e-9    5.5e-9    5.4e-9    5.1e-9
-    1e-2          9.4e-8    6.0e-9    2.7e-9    2.3e-9    2.3e-9    2.3e-9
-    1e-3          3.6e-8    6.6e-9    1.4e-9    1.0e-10   3.2e-11   3.2e-11
-    1e-4          1.1e-9    7.2e-10   3.5e-10   8.4e-11   1.9e-11   1.2e-12
-    1e-6 … 1e-10  1.5e-12   1.5e-12   1.4e-12   1.4e-12   1.4e-12   1.4e-12
-
-The first grids' larger errors (the corrections' quadrature on long strips) fall with n, where
-``--accuracy``'s estimator sees them; the level they settle at (the lean two-width rule, the
-expansion's remainder, the quadratures' floor) does not, and ``model_error`` bounds it:
-min(``INTEGRALS_SLOPE`` · b/a, ``INTEGRALS_CAP``) + ``QUADRATURE_FLOOR``, three times the level.
-The exact two-width averages cost: 0.8, 1.5, 2.8, 7.7 s for b/a = 0.7 at n = 16 … 128 (nearly
-every near point), 0.1 … 0.9 s for b/a = 1e-3 at n = 32 … 128.
+summed over the plane; a single width per pair leaves an error of order (b/a)² ln(a/b), which
+fails where the strips are not slender. With (7) the strips of an ellipse are exact but for
+their integrals at every aspect, slender or not — they contain Galin's and Mindlin's traction
+whatever b/a, and nothing of the slender-body limit is used — and what is left is measured
+against the closed forms (``benchmarks/strip_calibration.py``; docs/validation.md §"Ellipses
+against Mindlin and Galin"): at most 1.7e-8 relative in K_xx, K_yy, K_zz and K_a/K_b from
+n = 64 on, falling with b/a to ~1e-12. The first grids' larger errors (the corrections'
+quadrature on long strips) fall with n, where ``--accuracy``'s estimator sees them; the level
+they settle at (the lean two-width rule, the expansion's remainder, the quadratures' floor) does
+not, and ``model_error`` bounds it: min(``INTEGRALS_SLOPE`` · b/a, ``INTEGRALS_CAP``) +
+``QUADRATURE_FLOOR``, three times the level. The exact two-width averages are the costly part
+where nearly every near point needs them (wide ellipses: docs/performance.md §"Cost and memory
+of `--accuracy`").
 
 The mesh
 --------
 The line load varies fastest at the rectangle's ends (slowly, as 1/ln of the distance from the
 end over b), so the strips are graded toward both ends, x_i = a sgn ξ (1 − (1 − |ξ|)^γ) with ξ
 uniform on [−1, 1] and γ = ``GRADING`` (graded meshes for boundary elements at edges:
-T. von Petersdorff and E. P. Stephan, Math. Methods Appl. Sci. 12 (1990) 229–249). Measured on
-b/a = 1e-8, nu 0.3, K_zz from n = 16 to 512: the differences of successive grids fall 1.79× per
-halving of the strips on a uniform mesh (order ≈ 0.85), 2.9–3.4× on a cosine mesh, 3.7–3.9×
-with γ = 3 (order 2).
+T. von Petersdorff and E. P. Stephan, Math. Methods Appl. Sci. 12 (1990) 229–249). With γ = 3
+the differences of successive grids fall ~4× per halving of the strips (order 2), against
+order ≈ 0.85 on a uniform mesh (docs/validation.md §"The mesh").
 
 The model's own error
 ---------------------
 (1) is exact only far from the ends: within a few b of an end the traction is that of the
 3-D corner. Restricting the traction to (1) can only lower K: the Galerkin solution minimizes
 the complementary energy ½⟨p, Gp⟩ − δ∫p over a subspace, so with exact integrals every strip
-value is a lower bound of the true K (the model's limit too). Measured against
-coverage-weighted cells (``solve_to_accuracy`` 1e-5, grids to 1024 × 256; their estimates
-1.6e-6 … 4e-5): K_strip/K − 1 = −(0.010 … 0.035) b/a at b/a = 0.01 and 0.003 (nu 0.3, 0.5;
-K_zz −0.013 and −0.012 b/a, K_xx at nu 0.5 −0.035 and −0.037 b/a); at b/a ≤ 1e-3 the difference is
-within the coverage estimate. ``MODEL_ERROR`` = 0.1 b/a bounds it with a margin of 2.7 over the
-largest (a slow growth such as 0.028 + 0.0015 ln(a/b), which the two aspects allow, stays
-below 0.07 down to b/a = 1e-12); ``--accuracy`` adds it to every estimate, and strips are used
-only where it is ≤ 1e-7 (``MAX_ASPECT`` = 1e-6). The 1e-8 rectangle's strip limit lies above
-every fit of the 2-D reference of ``benchmarks/accuracy_reference.py`` (by 0.75e-7 … 6.3e-7
-relative over all its fits, 0.75e-7 … 3.5e-7 over those it accepts), as a lower bound must; that
-reference is therefore low by at least that much (for K_zz at nu 0.3 by more than its stated
-uncertainty, 1.6e-7).
+value is a lower bound of the true K (the model's limit too). Against coverage-weighted cells
+the model's error is −(0.010 … 0.037) b/a at b/a = 0.01 and 0.003 and within their estimate
+below (docs/validation.md §"The model's own error"). ``MODEL_ERROR`` = 0.1 b/a bounds it with a
+margin of 2.7 over the largest, also for a slow growth in ln(a/b) down to b/a = 1e-12;
+``--accuracy`` adds it to every estimate, and strips are used only where it is ≤ 1e-7
+(``MAX_ASPECT`` = 1e-6). The 1e-8 rectangle's strip limit lies above every fit of the 2-D
+reference of ``benchmarks/accuracy_reference.py``, as a lower bound must, so that reference is
+low by at least that much.
 
 References: K. L. Johnson, *Contact Mechanics*, Cambridge University Press, 1985; P. F. Byrd and
 M. D. Friedman, *Handbook of Elliptic Integrals for Engineers and Scientists*, 2nd ed., Springer,
@@ -188,7 +170,7 @@ __all__ = [
 ]
 
 BLOCKS = ("xx", "yy", "zz")
-GRADING = 3.0  # γ of the mesh x = a sgn ξ (1 − (1 − |ξ|)^γ) (module docstring: order 2 measured)
+GRADING = 3.0  # γ of the mesh x = a sgn ξ (1 − (1 − |ξ|)^γ) (order 2: docs/validation.md §"The mesh")
 NEAR_GAP = 8.0  # pairs closer than this many strip lengths use the exact antiderivatives (4)
 SERIES_REACH = 100.0  # … or closer than this many half-widths b: the series' next terms, (35/128, 315/128)·⟨t⁸⟩/s⁸ with ⟨t⁸⟩ = 19.1 b⁸, are ≤ 5e-15 beyond
 FAR_POINTS = 4  # Gauss points per strip for far pairs: error ≤ (1/(2·NEAR_GAP))^(2·4) ≈ 2e-10 of an entry
@@ -197,26 +179,34 @@ COMPACT_POINTS = 20  # Gauss points of the measure (3) for |s| ≥ b (``double_a
 END_RATIO, END_POINTS, END_PANELS = 0.25, 10, 27  # self pairs: panels toward the strip ends, down to 0.25^27 = 5e-17
 NARROW_LOW, NARROW_PANEL, NARROW_DEGREE = 1e-20, 2.0, 20  # the table of A' for σ = |s|/b < 1 (``_narrow_table``)
 SPREAD_REACH = 10.0  # σ = |s|/b beyond which ``width_difference`` is the series (5) with both widths less that with one (its truncation there: ≤ 5e-8 of ⟨k⟩, of which a width difference keeps ~8 Δb/b)
-SPREAD_LOW = 1e-6  # σ below which σ² q(σ) is held at its value there (measured −0.40526, −0.81040 at σ = 1e-5 and 1e-3)
-SLOPE_LIMIT = 0.005  # |b1 − b2| ≤ 2·this·|s|: the second-order expansion (7); beyond, the exact average (the expansion leaves ≈ 2(|b1 − b2|/2s)² of the difference; the settled error of b/a = 1e-2 at n = 64 was 2.7e-7, 3.5e-8, 5.6e-9, 2.2e-9 for 0.05, 0.02, 0.01, 0.005)
-TWO_WIDTH_FINE, TWO_WIDTH_LEAN = (0.25, 24, 12), (0.2, 12, 8)  # ``two_width_averages``' rules (ratio, panels per half, points)
+SPREAD_LOW = 1e-6  # σ below which σ² q(σ) is held at its value there (already at its limits −0.405, −0.810: docs/validation.md §"Strip cells")
+SLOPE_LIMIT = 0.005  # |b1 − b2| ≤ 2·this·|s|: the second-order expansion (7); beyond, the exact average (the expansion leaves ≈ 2(|b1 − b2|/2s)² of the difference; larger limits raised the settled error: docs/validation.md §"A width that varies")
+TWO_WIDTH_FINE, TWO_WIDTH_LEAN = (
+    (0.25, 24, 12),
+    (0.2, 12, 8),
+)  # ``two_width_averages``' rules (ratio, panels per half, points)
 TWO_WIDTH_CHUNK = 2048  # rows per batch of ``two_width_averages`` and of the graded rule in ``double_antiderivatives``
-CORRECTION_RULE = (12, 6, 6, 6)  # ``width_corrections``: geometric panels toward s = 0, Gauss points on each, points along (m; the shorter side of touching pairs), points per side of separated pairs
+CORRECTION_RULE = (
+    12,
+    6,
+    6,
+    6,
+)  # ``width_corrections``: geometric panels toward s = 0, Gauss points on each, points along (m; the shorter side of touching pairs), points per side of separated pairs
 APART_CLOSE = 3.0  # separated pairs closer than this many strip lengths take CORRECTION_RULE's last entry, farther ones ``FAR_POINTS`` (Gauss' error ~ (3 + √8)^(−2·points) at a gap of one length, ~13^(−8) at three)
 CORRECTION_FLOOR = 1e-4  # … graded toward s = 0 down to this many b (below, the difference is O(s²) ⟨k⟩)
 FAR_CHUNK = 2**16  # far pairs per batch of the Gauss product rule (its arrays: ~800 B a pair, ~52 MB a batch)
 #: Largest b/a of a rectangle on strips (``supports``); see ``MODEL_ERROR``.
 MAX_ASPECT = 1e-6
-#: Bound on the model's relative error in K_xx, K_yy, K_zz as a multiple of b/a (module docstring:
-#: −0.010 … −0.037 b/a measured at b/a = 0.01 and 0.003).
+#: Bound on the model's relative error in K_xx, K_yy, K_zz as a multiple of b/a (module docstring;
+#: 2.7 times the largest against coverage-weighted cells, docs/validation.md §"The model's own error").
 MODEL_ERROR = 0.1
 #: Bound on what an ellipse's integrals leave of K (relative), ``INTEGRALS_SLOPE`` · b/a up to
 #: ``INTEGRALS_CAP``: the level the error settles at with n, against Mindlin and Galin
 #: (``benchmarks/strip_calibration.py``, module docstring), times 3.
 INTEGRALS_SLOPE = 8e-7
 INTEGRALS_CAP = 5e-8
-#: What the quadratures leave of an ellipse's K where the widths' error vanishes (b/a ≤ 1e-6:
-#: 1.0e-12 … 1.7e-12 measured against Mindlin and Galin), times 3.
+#: What the quadratures leave of an ellipse's K where the widths' error vanishes (b/a ≤ 1e-6,
+#: against Mindlin and Galin: docs/validation.md §"Ellipses against Mindlin and Galin"), times 3.
 QUADRATURE_FLOOR = 5e-12
 
 
@@ -239,8 +229,10 @@ def model_error(shape: Shape) -> float:
     return min(INTEGRALS_SLOPE * shape.aspect, INTEGRALS_CAP) + QUADRATURE_FLOOR
 
 
-SUPPORTED_TEXT = (f"strip only for unturned ellipses and unturned rectangles of aspect <= {MAX_ASPECT:g}, isotropic, "
-                  "quantities tangential/normal")
+SUPPORTED_TEXT = (
+    f"strip only for unturned ellipses and unturned rectangles of aspect <= {MAX_ASPECT:g}, isotropic, "
+    "quantities tangential/normal"
+)
 
 
 @functools.lru_cache(maxsize=1)
@@ -269,7 +261,9 @@ def profile_averages(s: np.ndarray, b: float) -> tuple[np.ndarray, np.ndarray]:
     return (1.0 / r) @ weight, (s * s / r**3) @ weight
 
 
-def series_averages(s: np.ndarray, b: np.ndarray | float, b2: np.ndarray | float | None = None) -> tuple[np.ndarray, np.ndarray]:
+def series_averages(
+    s: np.ndarray, b: np.ndarray | float, b2: np.ndarray | float | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """⟨1/r⟩ and ⟨s²/r³⟩ from the moment series (5), for |s| ≥ ``SERIES_REACH`` max(b, b2), y and
     y' of half-widths b and b2 (default b): with P = b², Q = b2², ⟨t²⟩ = (P + Q)/2,
     ⟨t⁴⟩ = 3(P² + Q²)/8 + 3PQ/2, ⟨t⁶⟩ = 5(P³ + Q³)/16 + 45(P²Q + PQ²)/16 (⟨y²ᵏ⟩ = C(2k, k) b²ᵏ/4ᵏ)."""
@@ -323,8 +317,8 @@ def double_antiderivatives(s: np.ndarray, b: np.ndarray | float) -> tuple[np.nda
 
     F is homogeneous of degree one, so A(s; b) = b A(s/b; 1). Where |s| ≥ b, with
     F = s ln(s + r) − s ln t − (1 or 2) s²/(r + t) and ⟨ln t⟩ = ln(b/2): the rest is analytic in
-    τ at distance ≥ 1/2 from [0, 1] and ``_compact_rule`` holds it to ~1e-16 of A (measured
-    against the graded rule). Closer, the graded rule on (4)."""
+    τ at distance ≥ 1/2 from [0, 1] and ``_compact_rule`` holds it to ~1e-16 of A (against the
+    graded rule). Closer, the graded rule on (4)."""
     b = np.asarray(b, dtype=np.float64)
     s, b = np.broadcast_arrays(np.abs(np.asarray(s, dtype=np.float64)), b)
     sigma = s / b
@@ -339,7 +333,7 @@ def double_antiderivatives(s: np.ndarray, b: np.ndarray | float) -> tuple[np.nda
     t, weight = difference_rule(1.0)
     close, flat_one, flat_xx = np.flatnonzero(~wide), one.reshape(-1), xx.reshape(-1)
     for start in range(0, close.size, TWO_WIDTH_CHUNK):  # the graded rule's rows in batches (~8 MB each)
-        rows = close[start:start + TWO_WIDTH_CHUNK]
+        rows = close[start : start + TWO_WIDTH_CHUNK]
         F1, Fx = _antiderivatives(sigma.reshape(-1)[rows][:, None], t)
         flat_one[rows], flat_xx[rows] = F1 @ weight, Fx @ weight
     return b * one, b * xx
@@ -356,7 +350,9 @@ def _first_by_rule(sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return lift @ weight, np.where(x < 0.01, small, lift - x / np.sqrt(1.0 + x2)) @ weight
 
 
-def _log_chebyshev_fit(function: object, low: float, high: float, panel: float, degree: int) -> tuple[np.ndarray, list[np.ndarray]]:
+def _log_chebyshev_fit(
+    function: object, low: float, high: float, panel: float, degree: int
+) -> tuple[np.ndarray, list[np.ndarray]]:
     """Piecewise Chebyshev fits in v = ln σ of the arrays ``function``(σ) returns, for
     ``low`` ≤ σ ≤ ``high``: panels of width ``panel`` in v (the last one shorter), ``degree``
     on each. Returns the panel edges in v and one coefficient array per fitted function."""
@@ -366,7 +362,9 @@ def _log_chebyshev_fit(function: object, low: float, high: float, panel: float, 
     nodes = np.cos(np.pi * (np.arange(degree + 1) + 0.5) / (degree + 1))
     v = edges[:-1, None] + 0.5 * (nodes + 1.0) * np.diff(edges)[:, None]
     fit = np.polynomial.chebyshev.chebfit
-    return edges, [np.array([fit(nodes, f.reshape(v.shape)[k], degree) for k in range(count)]) for f in function(np.exp(v.ravel()))]
+    return edges, [
+        np.array([fit(nodes, f.reshape(v.shape)[k], degree) for k in range(count)]) for f in function(np.exp(v.ravel()))
+    ]
 
 
 def _log_chebyshev_sum(table: tuple[np.ndarray, list[np.ndarray]], sigma: np.ndarray) -> list[np.ndarray]:
@@ -390,8 +388,10 @@ def _log_chebyshev_sum(table: tuple[np.ndarray, list[np.ndarray]], sigma: np.nda
 def _narrow_table() -> tuple[np.ndarray, list[np.ndarray]]:
     """Fits of ln A_1'(σ) and ln A_x'(σ) for ``NARROW_LOW`` ≤ σ < 1 (both are positive and
     smooth in ln σ; against the graded rule ≤ 5e-14 relative on 5000 random σ,
-    ``tests/test_strip_cells.py``)."""
-    return _log_chebyshev_fit(lambda sigma: [np.log(f) for f in _first_by_rule(sigma)], NARROW_LOW, 1.0, NARROW_PANEL, NARROW_DEGREE)
+    ``tests/discretizations/test_strip_cells.py``)."""
+    return _log_chebyshev_fit(
+        lambda sigma: [np.log(f) for f in _first_by_rule(sigma)], NARROW_LOW, 1.0, NARROW_PANEL, NARROW_DEGREE
+    )
 
 
 def _narrow(sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -471,7 +471,9 @@ def _two_width_rule(fine: bool) -> tuple[np.ndarray, np.ndarray]:
     return _two_sided_rule(*(TWO_WIDTH_FINE if fine else TWO_WIDTH_LEAN))
 
 
-def two_width_averages(s: np.ndarray, b1: np.ndarray | float, b2: np.ndarray | float, fine: bool = True) -> tuple[np.ndarray, np.ndarray]:
+def two_width_averages(
+    s: np.ndarray, b1: np.ndarray | float, b2: np.ndarray | float, fine: bool = True
+) -> tuple[np.ndarray, np.ndarray]:
     """⟨1/r⟩ and ⟨s²/r³⟩ [1/m] at separations ``s`` for y and y' drawn from the profile (1) of
     half-widths ``b1`` and ``b2`` (arrays broadcast together).
 
@@ -486,9 +488,10 @@ def two_width_averages(s: np.ndarray, b1: np.ndarray | float, b2: np.ndarray | f
     ``fine``: ≤ 2.6e-12 (1/r) and 1.1e-11 (s²/r³) relative to scipy's two-dimensional
     quadrature in the profiles' angles; lean: ≤ 5.8e-7 of the fine average on 2000 random
     (s, b₁, b₂), but 2.6e-6 at equal widths and |s| ≲ 1e-5 b, where :func:`width_difference`
-    does not use it (``tests/test_strip_cells_widths.py``)."""
-    s, b1, b2 = np.broadcast_arrays(np.abs(np.asarray(s, dtype=np.float64)), np.asarray(b1, dtype=np.float64),
-                                    np.asarray(b2, dtype=np.float64))
+    does not use it (``tests/discretizations/test_strip_cells_widths.py``)."""
+    s, b1, b2 = np.broadcast_arrays(
+        np.abs(np.asarray(s, dtype=np.float64)), np.asarray(b1, dtype=np.float64), np.asarray(b2, dtype=np.float64)
+    )
     shape = s.shape
     u, weight = _two_width_rule(fine)
     wide, narrow = np.maximum(b1, b2).ravel(), np.minimum(b1, b2).ravel()
@@ -518,8 +521,13 @@ def two_width_averages(s: np.ndarray, b1: np.ndarray | float, b2: np.ndarray | f
 def _profile_table() -> tuple[np.ndarray, list[np.ndarray]]:
     """Fits of ln⟨1/r⟩ and ln⟨s²/r³⟩ at unit width (:func:`profile_averages`) for
     ``NARROW_LOW`` ≤ σ ≤ ``SPREAD_REACH``."""
-    return _log_chebyshev_fit(lambda sigma: [np.log(f) for f in profile_averages(sigma, 1.0)], NARROW_LOW, SPREAD_REACH,
-                              NARROW_PANEL, NARROW_DEGREE)
+    return _log_chebyshev_fit(
+        lambda sigma: [np.log(f) for f in profile_averages(sigma, 1.0)],
+        NARROW_LOW,
+        SPREAD_REACH,
+        NARROW_PANEL,
+        NARROW_DEGREE,
+    )
 
 
 @functools.lru_cache(maxsize=1)
@@ -529,6 +537,7 @@ def _spread_table() -> tuple[np.ndarray, list[np.ndarray]]:
     :func:`two_width_averages` at ε and 2ε, ε = min(0.01, σ/20) (the averages are even in ε).
     Against finer differences (ε = σ/40, σ/80): ≤ 8.9e-7 for σ ≥ 1, ≤ 2.0e-4 below (the
     remainder of these steps, ≲ 3e-9 of ⟨k⟩ where the expansion applies)."""
+
     def spread(sigma: np.ndarray) -> list[np.ndarray]:
         eps, ones = np.minimum(0.01, sigma / 20.0), np.ones_like(sigma)
         base = np.array(two_width_averages(sigma, ones, ones))
@@ -536,6 +545,7 @@ def _spread_table() -> tuple[np.ndarray, list[np.ndarray]]:
         far = np.array(two_width_averages(sigma, 1.0 + 2.0 * eps, 1.0 - 2.0 * eps))
         q = (4.0 * (near - base) - 0.25 * (far - base)) / (3.0 * eps * eps)
         return [q[0] * sigma**2, q[1] * sigma**2]
+
     return _log_chebyshev_fit(spread, SPREAD_LOW, SPREAD_REACH, NARROW_PANEL, NARROW_DEGREE)
 
 
@@ -608,11 +618,21 @@ def _self_points(lo: np.ndarray, hi: np.ndarray, outline: Outline) -> tuple[np.n
     s, ws = _graded_from_zero(L, CORRECTION_FLOOR * b, panels, points)
     weight = 2.0 * (half * np.concatenate([w, w])).ravel()[:, None] * ws
     rows = lo.size
-    return tuple(v.reshape(rows, -1) for v in (s, outline.width(m[:, None] + 0.5 * s), outline.width(m[:, None] - 0.5 * s),
-                                                np.broadcast_to(b[:, None], s.shape), weight))
+    return tuple(
+        v.reshape(rows, -1)
+        for v in (
+            s,
+            outline.width(m[:, None] + 0.5 * s),
+            outline.width(m[:, None] - 0.5 * s),
+            np.broadcast_to(b[:, None], s.shape),
+            weight,
+        )
+    )
 
 
-def _touching_points(size_i: np.ndarray, size_j: np.ndarray, corner: np.ndarray, outline: Outline) -> tuple[np.ndarray, ...]:
+def _touching_points(
+    size_i: np.ndarray, size_j: np.ndarray, corner: np.ndarray, outline: Outline
+) -> tuple[np.ndarray, ...]:
     """Points and weights of (7) for touching strips (x = c − p in I_i, x' = c + q in I_j): the
     square p, q < ℓ = min(|I_i|, |I_j|) as two triangles (the longer of p, q graded toward the
     corner, the shorter a fraction of it) and the rest, [ℓ, ℓ + ||I_i| − |I_j||] × [0, ℓ], by a
@@ -631,15 +651,39 @@ def _touching_points(size_i: np.ndarray, size_j: np.ndarray, corner: np.ndarray,
     along_rest = (ell[:, None] + extra[:, None] * y)[:, :, None] * np.ones(far_points)
     across_rest = (ell[:, None] * y)[:, None, :] * np.ones((1, far_points, 1))
     i_longer = (size_i >= size_j)[:, None, None]
-    P = np.concatenate([np.where(p_longer, longer, shorter).reshape(rows, -1), np.where(i_longer, along_rest, across_rest).reshape(rows, -1)], axis=1)
-    Q = np.concatenate([np.where(p_longer, shorter, longer).reshape(rows, -1), np.where(i_longer, across_rest, along_rest).reshape(rows, -1)], axis=1)
-    weight = np.concatenate([(np.tile(wr * r, 2)[:, :, None] * w).reshape(rows, -1),
-                             ((extra[:, None] * wy)[:, :, None] * (ell[:, None] * wy)[:, None, :]).reshape(rows, -1)], axis=1)
-    return P + Q, outline.width(corner[:, None] - P), outline.width(corner[:, None] + Q), np.broadcast_to(b[:, None], P.shape), weight
+    P = np.concatenate(
+        [
+            np.where(p_longer, longer, shorter).reshape(rows, -1),
+            np.where(i_longer, along_rest, across_rest).reshape(rows, -1),
+        ],
+        axis=1,
+    )
+    Q = np.concatenate(
+        [
+            np.where(p_longer, shorter, longer).reshape(rows, -1),
+            np.where(i_longer, across_rest, along_rest).reshape(rows, -1),
+        ],
+        axis=1,
+    )
+    weight = np.concatenate(
+        [
+            (np.tile(wr * r, 2)[:, :, None] * w).reshape(rows, -1),
+            ((extra[:, None] * wy)[:, :, None] * (ell[:, None] * wy)[:, None, :]).reshape(rows, -1),
+        ],
+        axis=1,
+    )
+    return (
+        P + Q,
+        outline.width(corner[:, None] - P),
+        outline.width(corner[:, None] + Q),
+        np.broadcast_to(b[:, None], P.shape),
+        weight,
+    )
 
 
-def _product_points(lo_i: np.ndarray, size_i: np.ndarray, lo_j: np.ndarray, size_j: np.ndarray, outline: Outline,
-                    count: int) -> tuple[np.ndarray, ...]:
+def _product_points(
+    lo_i: np.ndarray, size_i: np.ndarray, lo_j: np.ndarray, size_j: np.ndarray, outline: Outline, count: int
+) -> tuple[np.ndarray, ...]:
     """A ``count``² Gauss product rule on pairs of strips (rows): separations s = x' − x, the
     widths b(x), b(x') and the weights (far pairs of (5), separated pairs of (7))."""
     x, w = np.polynomial.legendre.leggauss(count)
@@ -647,19 +691,32 @@ def _product_points(lo_i: np.ndarray, size_i: np.ndarray, lo_j: np.ndarray, size
     xj = lo_j[:, None] + 0.5 * size_j[:, None] * (x + 1.0)
     shape = (lo_i.size, count * count)
     weight = ((0.5 * size_i[:, None] * w)[:, :, None] * (0.5 * size_j[:, None] * w)[:, None, :]).reshape(shape)
-    return ((xj[:, None, :] - xi[:, :, None]).reshape(shape), np.repeat(outline.width(xi), count, axis=1),
-            np.tile(outline.width(xj), count), weight)
+    return (
+        (xj[:, None, :] - xi[:, :, None]).reshape(shape),
+        np.repeat(outline.width(xi), count, axis=1),
+        np.tile(outline.width(xj), count),
+        weight,
+    )
 
 
-def _apart_points(lo_i: np.ndarray, size_i: np.ndarray, lo_j: np.ndarray, size_j: np.ndarray, gap_middle: np.ndarray,
-                  outline: Outline, count: int) -> tuple[np.ndarray, ...]:
+def _apart_points(
+    lo_i: np.ndarray,
+    size_i: np.ndarray,
+    lo_j: np.ndarray,
+    size_j: np.ndarray,
+    gap_middle: np.ndarray,
+    outline: Outline,
+    count: int,
+) -> tuple[np.ndarray, ...]:
     """Points and weights of (7) for separated strips: :func:`_product_points` and the single
     width b at the middle of the gap."""
     s, b1, b2, weight = _product_points(lo_i, size_i, lo_j, size_j, outline, count)
     return s, b1, b2, np.broadcast_to(outline.width(gap_middle)[:, None], s.shape), weight
 
 
-def width_corrections(edges: np.ndarray, outline: Outline, pairs: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+def width_corrections(
+    edges: np.ndarray, outline: Outline, pairs: tuple[np.ndarray, np.ndarray]
+) -> tuple[np.ndarray, np.ndarray]:
     """∫_{I_i}∫_{I_j} :func:`width_difference` for the near pairs ``pairs`` (i ≤ j) of an
     outline whose width varies, against the single width those pairs were integrated with
     (b(m) along a strip's own diagonal, b at the middle of the gap otherwise) [m]: (7).
@@ -677,10 +734,16 @@ def width_corrections(edges: np.ndarray, outline: Outline, pairs: tuple[np.ndarr
     groups = (
         (np.flatnonzero(i == j), lambda a, c: _self_points(lo[a], hi[a], outline)),
         (np.flatnonzero(j == i + 1), lambda a, c: _touching_points(size[a], size[c], hi[a], outline)),
-        (np.flatnonzero(close), lambda a, c: _apart_points(lo[a], size[a], lo[c], size[c], 0.5 * (hi[a] + lo[c]), outline,
-                                                           CORRECTION_RULE[3])),
-        (np.flatnonzero(apart & ~close), lambda a, c: _apart_points(lo[a], size[a], lo[c], size[c], 0.5 * (hi[a] + lo[c]),
-                                                                    outline, FAR_POINTS)),
+        (
+            np.flatnonzero(close),
+            lambda a, c: _apart_points(
+                lo[a], size[a], lo[c], size[c], 0.5 * (hi[a] + lo[c]), outline, CORRECTION_RULE[3]
+            ),
+        ),
+        (
+            np.flatnonzero(apart & ~close),
+            lambda a, c: _apart_points(lo[a], size[a], lo[c], size[c], 0.5 * (hi[a] + lo[c]), outline, FAR_POINTS),
+        ),
     )
     for selected, points_of in groups:
         if not selected.size:
@@ -688,7 +751,7 @@ def width_corrections(edges: np.ndarray, outline: Outline, pairs: tuple[np.ndarr
         per_pair = points_of(i[selected[:1]], j[selected[:1]])[0].shape[1]
         step = max(1, FAR_CHUNK // per_pair)
         for start in range(0, selected.size, step):
-            batch = selected[start:start + step]
+            batch = selected[start : start + step]
             s, b1, b2, b, weight = points_of(i[batch], j[batch])
             D1, Dx = width_difference(s, b1, b2, b)
             one[batch], xx[batch] = (D1 * weight).sum(axis=1), (Dx * weight).sum(axis=1)
@@ -729,7 +792,9 @@ class Outline:
         return self.width(np.clip(0.0, lo, hi))
 
 
-def galerkin_integrals(edges: np.ndarray, b: float | Outline, with_xx: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+def galerkin_integrals(
+    edges: np.ndarray, b: float | Outline, with_xx: bool = True
+) -> tuple[np.ndarray, np.ndarray | None]:
     """∫_{I_i}∫_{I_j} ⟨1/r⟩ and (``with_xx``, else None) ⟨s²/r³⟩ for every pair of strips [m]
     of a rectangle of half-width ``b`` or an :class:`Outline`: (4) for near pairs (one width, at
     the middle of their gap), :func:`self_integrals` for a strip with itself where the width
@@ -761,8 +826,10 @@ def galerkin_integrals(edges: np.ndarray, b: float | Outline, with_xx: bool = Tr
         xx[corrected] += extra_xx
     far = np.flatnonzero(~near)
     for start in range(0, far.size, FAR_CHUNK):
-        batch = far[start:start + FAR_CHUNK]
-        s, b1, b2, weight = _product_points(lo[i[batch]], size[i[batch]], lo[j[batch]], size[j[batch]], outline, FAR_POINTS)
+        batch = far[start : start + FAR_CHUNK]
+        s, b1, b2, weight = _product_points(
+            lo[i[batch]], size[i[batch]], lo[j[batch]], size[j[batch]], outline, FAR_POINTS
+        )
         h1, hx = series_averages(s, b1, b2)
         one[batch], xx[batch] = (h1 * weight).sum(axis=1), (hx * weight).sum(axis=1)
     matrices = []
@@ -796,7 +863,9 @@ def stiffness(B: np.ndarray, sizes: np.ndarray) -> tuple[float, np.ndarray, floa
     try:
         factor = cho_factor(B, lower=True)
     except np.linalg.LinAlgError as exc:
-        raise ConvergenceError(f"strip cells: the Galerkin matrix is not positive definite ({exc})", 0, math.inf) from exc
+        raise ConvergenceError(
+            f"strip cells: the Galerkin matrix is not positive definite ({exc})", 0, math.inf
+        ) from exc
     f = cho_solve(factor, sizes)
     residual = float(np.linalg.norm(B @ f - sizes) / np.linalg.norm(sizes))
     return float(f @ sizes), f, residual
@@ -808,8 +877,15 @@ class StripCells:
     directions ``blocks`` (the ⟨s²/r³⟩ integrals are formed only where a tangential block
     needs them, nu ≠ 0: ``kernels`` lists what was formed)."""
 
-    def __init__(self, aspect: float, n: int, material: Isotropic, blocks: tuple[str, ...] = BLOCKS,
-                 grading: float = GRADING, shape: str = "rectangle") -> None:
+    def __init__(
+        self,
+        aspect: float,
+        n: int,
+        material: Isotropic,
+        blocks: tuple[str, ...] = BLOCKS,
+        grading: float = GRADING,
+        shape: str = "rectangle",
+    ) -> None:
         self.outline = Outline(shape, float(aspect))
         self.material = material
         self.blocks = tuple(blocks)

@@ -40,7 +40,7 @@ the lab-frame Voigt matrix (see :mod:`hpcontact.materials.crystal`); displacemen
        g(θ) = (1/2π) H_R(θ + π/2) − (1/2π²) P∫_{−π/2}^{π/2} H_I(θ + α)/cos α dα,
 
    (H = H_R + i H_I; the δ-term gives the even part, the principal value the odd part), and
-   term by term, using P∫_0^{2π} e^{inα}/cos α dα = 2π (−1)^{(|n|−1)/2} for odd n,
+   term by term, using P∫_0^{2π} e^{inα}/cos α dα = 2π (−1)^{(|n| − 1)/2} for odd n,
 
        g(θ) = (1/2π) Σ_n i^{|n|} h_n e^{inθ}.
 
@@ -182,8 +182,9 @@ def _inv3(M: NDArray) -> NDArray:
     return out / det[..., None, None]
 
 
-def _bl_sums(MM: NDArray, MN: NDArray, NN: NDArray, m: NDArray, n: NDArray, lam: float,
-             omega: NDArray) -> tuple[NDArray, NDArray]:
+def _bl_sums(
+    MM: NDArray, MN: NDArray, NN: NDArray, m: NDArray, n: NDArray, lam: float, omega: NDArray
+) -> tuple[NDArray, NDArray]:
     """Σ_ω N1 and Σ_ω N3 over the given ω nodes for P directions.
 
     ``MM, MN, NN`` ((P, 3, 3)) are the pairings (m m)', (m n)', (n n)' of the reduced stiffness
@@ -265,8 +266,7 @@ def _surface_green(C6: NDArray, phi: NDArray) -> tuple[NDArray, int]:
         L = -s3 / M
         if S_old is not None:
             # S is dimensionless and O(1); L is measured relative to its largest entry.
-            diff = max(float(np.max(np.abs(S - S_old))),
-                       float(np.max(np.abs(L - L_old))) / float(np.max(np.abs(L))))
+            diff = max(float(np.max(np.abs(S - S_old))), float(np.max(np.abs(L - L_old))) / float(np.max(np.abs(L))))
             if diff < _OMEGA_TOL:
                 break
             if M >= _MAX_OMEGA:
@@ -408,7 +408,8 @@ class AnisotropicKernel:
 
         Returns shape (ncol,) + theta.shape.  Nodes k0 - 1 ... k0 + 2 around u = theta K/2pi,
         k0 = floor(u).  Error <~ (h^4/24) max|g^(4)| with h = 2pi/K <= 4.8e-5: at the 2e-15
-        round-off of the direct series for the bandwidths of 0.25 <= A <= 8 (measured).
+        round-off of the direct series for the bandwidths of 0.25 <= A <= 8 (docs/validation.md
+        §"Anisotropic kernels").
         """
         K = tab.shape[1]
         u = theta * (K / (2 * np.pi))
@@ -499,8 +500,7 @@ class AnisotropicKernel:
         total = (total + rem) * np.where(live, weight, 0.0)
         return total.reshape(ncol, 4, Nc).sum(axis=1)
 
-    def _far_integrals(self, tab: NDArray, X: NDArray, Y: NDArray, a: float, b: float,
-                       px: int, py: int) -> NDArray:
+    def _far_integrals(self, tab: NDArray, X: NDArray, Y: NDArray, a: float, b: float, px: int, py: int) -> NDArray:
         """Tensor Gauss–Legendre (px × py) cell integrals for cells far from the source → (ncol, Nc)."""
         xg, wx = self._gauss(px)
         yg, wy = self._gauss(py)
@@ -522,8 +522,9 @@ class AnisotropicKernel:
         vals = self._cells_from_table(tab, X, np.asarray(Y, float).ravel(), dx, dy)
         return vals.T.reshape(X.size, 3, 3)
 
-    def _cells_from_table(self, tab: NDArray, X: NDArray, Y: NDArray, dx: float, dy: float,
-                          threads: int = 1) -> NDArray:
+    def _cells_from_table(
+        self, tab: NDArray, X: NDArray, Y: NDArray, dx: float, dy: float, threads: int = 1
+    ) -> NDArray:
         """Cell integrals of the table columns (ncol, K) for centres X, Y → (ncol, Nc).
 
         ``threads`` > 1 spreads the far-field chunks over a thread pool (numpy releases the GIL
@@ -634,9 +635,14 @@ def _check_grid(nx: int, ny: int, dx: float, dy: float) -> tuple[int, int, float
 
 
 def anisotropic_offset_blocks(
-    material: Any, nx: int, ny: int, dx: float, dy: float,
+    material: Any,
+    nx: int,
+    ny: int,
+    dx: float,
+    dy: float,
     blocks: Iterable[tuple[int, int]] = tuple((i, j) for i in range(3) for j in range(3)),
-    *, threads: int = 1,
+    *,
+    threads: int = 1,
 ) -> dict[tuple[int, int], NDArray[np.float64]]:
     """Cell influence coefficients of an anisotropic half-space on an nx × ny grid.
 

@@ -44,7 +44,7 @@ is far compared to the thin side but near compared to the long one. docs/design.
 
 2. **Regimes.** Let D be the distance from the target to the (reduced) rectangle, s_x = D/a,
    s_y = D/b. As a function of x' the integrand (and its exact y-integral) is analytic except
-   at x' = x ± i|y − y'|, at distance ≥ D from [−a, a]; it is therefore analytic inside the
+   at x' = x ± i |y' − y|, at distance ≥ D from [−a, a]; it is therefore analytic inside the
    Bernstein ellipse with foci ±a and semi-minor axis D, of parameter β_x = s_x + (s_x² + 1)^½,
    and n-point Gauss–Legendre integration in x has error O(β_x^(−2n)) (Trefethen, *Approximation
    Theory and Approximation Practice*, 2013, Thm 19.3). The same holds in y.
@@ -59,18 +59,16 @@ is far compared to the thin side but near compared to the long one. docs/design.
      atan2 for arctangent differences, log1p for log ratios, a series for asinh(u) − u/(1+u²)^½).
      s_y ≥ 2 > s_x likewise with the roles swapped.
    * s_x, s_y < 2: the target is within two small-side widths of the cell and the corner sum
-     of the F above loses at most ~1.5 digits (measured: ≤ 4e-15 relative; the worst case is
+     of the F above loses at most ~1.5 digits (≤ 4e-15 relative; the worst case is
      xx_over_r3 just beyond the y edge, where Ixx ≪ I1). xy_over_r3 is always evaluated in the
      fully factored, cancellation-free form
      ``16 a b x y [1/(ρ₁₂+ρ₂₂) + 1/(ρ₁₁+ρ₂₁)] / ((ρ₂₁+ρ₂₂)(ρ₁₁+ρ₁₂))`` (ρ_ij at corner (ξ_i, η_j)).
 
    The widths 2a, 2b and the sums 2x, 2y enter the differenced forms exactly (never as
    (x + a) − (x − a)), which is what makes the result relatively accurate to a few ulp of the
-   inputs rather than of the corner coordinates. Measured maximum relative errors: 8e-16 against
-   30-digit mpmath quadrature at the test cases (aspects 1e-10 … 1e10; source, edges, corners,
-   axes, 3, 1e3 and 1e6 cells away; tests/kernels/test_cells.py); in random sweeps of ~5e4
-   (target, kernel) pairs against the corner sum in 150-digit arithmetic, 4e-15 in the corner-sum
-   regime and ≤ 2e-15 in the others.
+   inputs rather than of the corner coordinates: ≤ 4e-15 relative against high-precision
+   references in every regime, aspects 1e-10 … 1e10 (tests/kernels/test_cell_integrals.py;
+   docs/validation.md §"Cell integrals").
 
 Lengths are scaled by a power of two near max(a, b) before evaluation (exact), so no square can
 overflow or underflow for any reasonable input. Everything is vectorised: points are grouped by
@@ -375,9 +373,7 @@ def _reduced(name: str, x, y, a, b):
     both = np.flatnonzero(qx & qy)
     for key, g in _groups(nx[both] * (_NMAX + 1) + ny[both]):
         idx = both[g]
-        out[idx] = _tensor(
-            f, x[idx], y[idx], _take(a, idx), _take(b, idx), key // (_NMAX + 1), key % (_NMAX + 1)
-        )
+        out[idx] = _tensor(f, x[idx], y[idx], _take(a, idx), _take(b, idx), key // (_NMAX + 1), key % (_NMAX + 1))
 
     # Quadrature in x, exact in y.
     only_x = np.flatnonzero(qx & ~qy)
@@ -437,9 +433,7 @@ def _check_half_width(label: str, v: float) -> float:
     return v
 
 
-def cell_integrals(
-    x: np.ndarray, y: np.ndarray, a: float, b: float, which: Iterable[str]
-) -> dict[str, np.ndarray]:
+def cell_integrals(x: np.ndarray, y: np.ndarray, a: float, b: float, which: Iterable[str]) -> dict[str, np.ndarray]:
     r"""Integrals of point-force kernels over the cell [−a, a] × [−b, b] at targets (x, y).
 
     For each requested name (see the module docstring and `NAMES`) returns
@@ -507,9 +501,7 @@ def cell_integrals(
     return out
 
 
-def quadrant_integrals(
-    nx: int, ny: int, dx: float, dy: float, which: Iterable[str]
-) -> dict[str, np.ndarray]:
+def quadrant_integrals(nx: int, ny: int, dx: float, dy: float, which: Iterable[str]) -> dict[str, np.ndarray]:
     """`cell_integrals` of a dx × dy cell at x = i·dx, y = j·dy, 0 ≤ i < nx, 0 ≤ j < ny.
 
     Returns arrays of shape (nx, ny); the FFT operator mirrors them to the other quadrants with

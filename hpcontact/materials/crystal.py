@@ -281,10 +281,18 @@ def isotropic(G: float, nu: float) -> Crystal:
 
 
 def orthotropic(
-    E1: float, E2: float, E3: float,
-    nu12: float, nu13: float, nu23: float,
-    G12: float, G13: float, G23: float,
-    *, name: str = "", citation: str = "",
+    E1: float,
+    E2: float,
+    E3: float,
+    nu12: float,
+    nu13: float,
+    nu23: float,
+    G12: float,
+    G13: float,
+    G23: float,
+    *,
+    name: str = "",
+    citation: str = "",
 ) -> Crystal:
     """Orthotropic stiffness from engineering constants in the orthotropy axes.
 
@@ -295,7 +303,9 @@ def orthotropic(
     """
     E1, E2, E3 = (_positive(n, v) for n, v in (("E1", E1), ("E2", E2), ("E3", E3)))
     G12, G13, G23 = (_positive(n, v) for n, v in (("G12", G12), ("G13", G13), ("G23", G23)))
-    nu12, nu13, nu23 = (finite_number(n, v, "a finite Poisson ratio") for n, v in (("nu12", nu12), ("nu13", nu13), ("nu23", nu23)))
+    nu12, nu13, nu23 = (
+        finite_number(n, v, "a finite Poisson ratio") for n, v in (("nu12", nu12), ("nu13", nu13), ("nu23", nu23))
+    )
     S = np.zeros((6, 6))
     S[0, 0], S[1, 1], S[2, 2] = 1.0 / E1, 1.0 / E2, 1.0 / E3
     S[0, 1] = S[1, 0] = -nu12 / E1
@@ -410,8 +420,10 @@ def rotation_from_miller(hkl: Sequence[int] | str, azimuth_deg: float = 0.0) -> 
 # --------------------------------------------------------------------------------------------
 # Library of real cubic crystals (room temperature, GPa)
 # --------------------------------------------------------------------------------------------
-_SW = ("G. Simmons and H. Wang, Single Crystal Elastic Constants and Calculated Aggregate "
-       "Properties: A Handbook, 2nd ed., MIT Press (1971)")
+_SW = (
+    "G. Simmons and H. Wang, Single Crystal Elastic Constants and Calculated Aggregate "
+    "Properties: A Handbook, 2nd ed., MIT Press (1971)"
+)
 
 #: name → (C11, C12, C44) in GPa, citation.  Room temperature (~295–300 K) values as commonly
 #: quoted from the compilations of Simmons & Wang (1971) and Hirth & Lothe (Theory of
@@ -430,9 +442,20 @@ _LIBRARY: dict[str, tuple[tuple[float, float, float], str]] = {
 #: Read-only view of the library: name → ((C11, C12, C44) GPa, citation).
 CRYSTALS: dict[str, tuple[tuple[float, float, float], str]] = dict(_LIBRARY)
 
-_ALIASES = {"alpha-fe": "Fe", "fe-alpha": "Fe", "α-fe": "Fe", "copper": "Cu", "aluminium": "Al",
-            "aluminum": "Al", "iron": "Fe", "nickel": "Ni", "tungsten": "W", "silicon": "Si",
-            "silver": "Ag", "gold": "Au"}
+_ALIASES = {
+    "alpha-fe": "Fe",
+    "fe-alpha": "Fe",
+    "α-fe": "Fe",
+    "copper": "Cu",
+    "aluminium": "Al",
+    "aluminum": "Al",
+    "iron": "Fe",
+    "nickel": "Ni",
+    "tungsten": "W",
+    "silicon": "Si",
+    "silver": "Ag",
+    "gold": "Au",
+}
 
 
 def crystal(name: str) -> Crystal:
@@ -449,4 +472,3 @@ def crystal(name: str) -> Crystal:
 def library_names() -> list[str]:
     """Names of the library crystals."""
     return sorted(_LIBRARY)
-

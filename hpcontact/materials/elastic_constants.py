@@ -60,7 +60,7 @@ CRYSTAL_PREFIX = "crystal:"
 def crystal_name(name: Any) -> str | None:
     """The library crystal a ``material`` value names explicitly ("crystal:Cu"), else None."""
     if isinstance(name, str) and name.strip().lower().startswith(CRYSTAL_PREFIX):
-        return name.strip()[len(CRYSTAL_PREFIX):].strip()
+        return name.strip()[len(CRYSTAL_PREFIX) :].strip()
     return None
 
 
@@ -69,7 +69,7 @@ def _renamed(error: InputError, prefix: str) -> InputError:
 
 
 def _named_values(field: str, value: Any, names: tuple[str, ...]) -> dict[str, float]:
-    """"A=1 B=2", a mapping or len(names) numbers in order → {name: float}; every name required."""
+    """ "A=1 B=2", a mapping or len(names) numbers in order → {name: float}; every name required."""
     allowed = f"{' '.join(n + '=...' for n in names)} (or {len(names)} numbers in that order)"
     if isinstance(value, Mapping):
         items = dict(value)
@@ -117,14 +117,22 @@ def orthotropic_from_field(field: str, value: Any, gpa: float) -> Crystal:
         if not abs(v) < bound:
             raise InputError(f"{field}.nu{i}{j}", f"|nu{i}{j}| < sqrt(E{i}/E{j}) = {bound:.6g} (positive definite)", v)
     r = {(j, i): v * E[j] / E[i] for (i, j), v in nu.items()}  # nu_ji = nu_ij E_j/E_i
-    delta = (1.0 - nu[1, 2] * r[2, 1] - nu[2, 3] * r[3, 2] - nu[1, 3] * r[3, 1]
-             - 2.0 * r[2, 1] * r[3, 2] * nu[1, 3])
+    delta = 1.0 - nu[1, 2] * r[2, 1] - nu[2, 3] * r[3, 2] - nu[1, 3] * r[3, 1] - 2.0 * r[2, 1] * r[3, 2] * nu[1, 3]
     if not delta > 0.0:
-        raise InputError(f"{field}.nu12,nu13,nu23",
-                         "1 - nu12 nu21 - nu23 nu32 - nu13 nu31 - 2 nu21 nu32 nu13 > 0 (positive definite)", delta)
+        raise InputError(
+            f"{field}.nu12,nu13,nu23",
+            "1 - nu12 nu21 - nu23 nu32 - nu13 nu31 - 2 nu21 nu32 nu13 > 0 (positive definite)",
+            delta,
+        )
     try:
-        base = orthotropic(*(c[n] for n in ORTHOTROPIC[:3]), c["nu12"], c["nu13"], c["nu23"],
-                           *(c[n] for n in ORTHOTROPIC[3:6]), name="orthotropic")
+        base = orthotropic(
+            *(c[n] for n in ORTHOTROPIC[:3]),
+            c["nu12"],
+            c["nu13"],
+            c["nu23"],
+            *(c[n] for n in ORTHOTROPIC[3:6]),
+            name="orthotropic",
+        )
     except InputError as exc:
         raise _renamed(exc, field) from None
     return _in_unit(base, gpa)
@@ -164,7 +172,9 @@ def _orient(base: Crystal, p: Mapping[str, Any], suffix: str, cubic_frame: bool)
     if orientation is not None:
         psi = finite_number(names["orientation"], orientation, "path angle psi in [0, 90] degrees")
         if not 0.0 <= psi <= 90.0:
-            raise InputError(names["orientation"], "path angle psi in [0, 90] degrees ([110] -> [111] -> [001])", orientation)
+            raise InputError(
+                names["orientation"], "path angle psi in [0, 90] degrees ([110] -> [111] -> [001])", orientation
+            )
         return base.oriented(psi_deg=psi, azimuth_deg=azimuth)
     if miller is not None:
         try:
@@ -179,8 +189,9 @@ def _orient(base: Crystal, p: Mapping[str, Any], suffix: str, cubic_frame: bool)
     return base.rotated(R)
 
 
-def anisotropic_material(p: Mapping[str, Any], suffix: str = "", gpa: float = 1.0,
-                         library: bool = True) -> Crystal | None:
+def anisotropic_material(
+    p: Mapping[str, Any], suffix: str = "", gpa: float = 1.0, library: bool = True
+) -> Crystal | None:
     """The body's lab-frame crystal if its fields describe one, else None (isotropic or named).
 
     ``library``: a plain ``material`` name is a library crystal (punch scenes); otherwise only
@@ -209,7 +220,9 @@ def anisotropic_material(p: Mapping[str, Any], suffix: str = "", gpa: float = 1.
     if family != "anisotropy" and family != "material":
         for other in ("nu", "G", "E"):
             if p.get(f[other]) is not None:
-                raise InputError(f[other], f"not with {f[family]} (the constants give the whole stiffness)", p[f[other]])
+                raise InputError(
+                    f[other], f"not with {f[family]} (the constants give the whole stiffness)", p[f[other]]
+                )
     if family == "cubic":
         base = cubic_from_field(f["cubic"], p[f["cubic"]], gpa)
     elif family == "orthotropic":

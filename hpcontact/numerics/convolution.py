@@ -38,34 +38,33 @@ _SPECTRUM_CACHE: OrderedDict[tuple, np.ndarray] = OrderedDict()
 _SPECTRUM_CACHE_BYTES = int(os.environ.get("HPCONTACT_KERNEL_CACHE_MB", "1024")) * 2**20
 _TRANSFORMS: dict[tuple, Transforms] = {}  # FFT buffers and plans per layout (transforms_for)
 _USAGE: dict[tuple, Usage] = {}  # per layout, kept when its buffers are dropped (clear_cache forgets)
-_EXPECTED: dict[tuple, float] = {}  # applications this process expects per (components, padded shape): expect_applications
+_EXPECTED: dict[
+    tuple, float
+] = {}  # applications this process expects per (components, padded shape): expect_applications
 _LOCK = threading.Lock()
 # planner_effort="auto": a layout's plans come from FFTW wisdom at FFTW_MEASURE when there is some
 # (planning then takes milliseconds), else from FFTW_ESTIMATE; they are re-planned with
 # FFTW_MEASURE once the layout's applications (all operators of the process together) number at
 # least MEASURE_AFTER_APPLICATIONS and have taken MEASURE_AFTER_SECONDS + that many mean
 # applications' time, i.e. after n = 35 + 1.3 s / (time of one application) applications. That is
-# ski rental (buy about when the rent paid would have bought). Measured by benchmarks/solve_speed.py
-# (2-core EPYC, one thread, two components, `b-even`): FFTW_MEASURE planning of the four plans
-# takes 0.71 s at n = 512 (1024² padded cells) and 1.5 s at n = 1024, and makes an application
-# 1.35x (30.4 -> 22.6 ms) and 1.46x (154 -> 105 ms) faster: it pays after ~90 and ~31
-# applications; the rule re-plans after ~78 and ~43 (late by ~12 applications, ~0.6 s, at
-# n = 1024). At n = 256 planning (0.53 s) pays after ~670 applications and the rule waits ~280.
+# ski rental (buy about when the rent paid would have bought): FFTW_MEASURE planning pays for
+# itself after a few dozen applications on large grids and hundreds on small ones, and on those
+# grids the rule re-plans within a few dozen applications of that break-even (docs/performance.md
+# §"FFTW planning"; benchmarks/solve_speed.py's cold table, column `b-even`).
 # Small grids keep their ESTIMATE plans unless a long run applies them; measured plans then
 # serve later processes through the wisdom file (save_wisdom).
 # A sweep knows its future (expect_applications): the rule is then applied to the applications
 # the process expects in all, not those made so far, so a layout that will pay re-plans at its
 # first application instead of after ~43-78 (ski rental with a known season: buy at once).
-# Known limit of the calibration (measured 2026-11-23, loaded 2-core machine, one component, the
-# non-power-of-two padded shapes of singular cells): FFTW_MEASURE planning takes 3.1-3.3 s at
-# 2160 x 1440 and 2.6 s at 5184 x 270 and saves 11-22 ms of 40-87 ms per application, paying
-# after 116-234 applications, where the rule buys at 50-68: on such layouts it is eager by ~3x.
+# Known limit: on the non-power-of-two padded shapes of singular cells (one component) planning
+# is slower and saves less, and the rule re-plans ~3x too early (docs/performance.md §"FFTW
+# planning").
 MEASURE_AFTER_APPLICATIONS = 35
 #: Environment variable that sets the default planner effort of every operator of the process:
 #: "auto" (unset) or an FFTW flag. "FFTW_ESTIMATE" makes the plans, and so every result, the same in
 #: every process: "auto" and FFTW_MEASURE choose plans by timing, and different plans round
-#: differently (a stiffness moves by up to ~3e-12 relative through CG on thin contacts; measured
-#: on the cluster-MPI check's demo, 8 ranks on 2 cores against one process, 2026-11-23).
+#: differently (a stiffness moves by up to ~3e-12 relative through CG on thin contacts:
+#: docs/validation.md §"Rounding across FFTW plans").
 PLANNER_ENV = "HPCONTACT_FFTW_PLANNER"
 PLANNER_EFFORTS = ("auto", "FFTW_ESTIMATE", "FFTW_MEASURE", "FFTW_PATIENT", "FFTW_EXHAUSTIVE")
 MEASURE_AFTER_SECONDS = 1.3
@@ -169,8 +168,9 @@ def load_wisdom() -> bool:
     if data is None:
         return False
     if not _import_wisdom(data):
-        warnings.warn(f"FFTW wisdom {path} ignored: not double-precision wisdom this FFTW accepts", RuntimeWarning,
-                      stacklevel=2)
+        warnings.warn(
+            f"FFTW wisdom {path} ignored: not double-precision wisdom this FFTW accepts", RuntimeWarning, stacklevel=2
+        )
         return False
     return True
 
@@ -269,9 +269,7 @@ class Transforms:
         self._rows_forward = make(self.real_in, self.spec_in[:, :nx, :], 2, "FFTW_FORWARD")
         self._columns_forward = make(self.spec_in, self.spec_in, 1, "FFTW_FORWARD")
         self._columns_inverse = make(self.spec_out, self.spec_out, 1, "FFTW_BACKWARD")
-        self._rows_inverse = make(
-            self.spec_out[:, :nx, :], self.real_out, 2, "FFTW_BACKWARD", ("FFTW_DESTROY_INPUT",)
-        )
+        self._rows_inverse = make(self.spec_out[:, :nx, :], self.real_out, 2, "FFTW_BACKWARD", ("FFTW_DESTROY_INPUT",))
         self.real_in[...] = 0.0  # planning may scribble on the arrays
         self.spec_out[...] = 0.0
         self.planning_time_s += time.perf_counter() - t0
@@ -368,9 +366,7 @@ class ConvolutionOperator:
         self.nx, self.ny, self.components = nx, ny, components
         self.shape = padded_shape(nx, ny)
         c = len(components)
-        self.pairs = [
-            [spectra.get(a + b) for b in components] for a in components
-        ]  # pairs[i][j]: block (i, j) or None
+        self.pairs = [[spectra.get(a + b) for b in components] for a in components]  # pairs[i][j]: block (i, j) or None
         for block in spectra:
             if block[0] not in components or block[1] not in components:
                 raise ValueError(f"block {block!r} does not act within components {components!r}")
@@ -393,8 +389,14 @@ class ConvolutionOperator:
                 if np.iscomplexobj(spectrum):
                     factors.append((False, np.asarray(spectrum, dtype=np.complex128)))
                 else:
-                    key = next((k for k, (original, _) in doubled.items() if original is spectrum or
-                                np.array_equal(original, spectrum)), id(spectrum))  # e.g. xy = yx: one copy
+                    key = next(
+                        (
+                            k
+                            for k, (original, _) in doubled.items()
+                            if original is spectrum or np.array_equal(original, spectrum)
+                        ),
+                        id(spectrum),
+                    )  # e.g. xy = yx: one copy
                     if key not in doubled:
                         doubled[key] = (spectrum, np.repeat(np.asarray(spectrum, dtype=np.float64), 2, axis=1))
                     factors.append((True, doubled[key][1]))

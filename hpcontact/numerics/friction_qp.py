@@ -15,8 +15,9 @@ Johnson 1985 §7.2) is resolved; (ii) the active set settles in a few Newton ste
 FFT operator — no dense matrices, no inner ADMM/augmented-Lagrangian loops; (iii) plain
 projected-gradient methods, MPRGP included, turn the slip tractions only through steps of
 length 1/‖A‖, and ‖A‖ is set by the smoothest mode of the half-space compliance (~150× the cell
-self-compliance at 64 cells across the contact): measured ~1500 operator applications per
-load step for tol 1e-8 against ~150–300 for the Newton method, which also reaches 1e-13;
+self-compliance at 64 cells across the contact): they need ~5–10× the operator applications
+per load step of the Newton method, which also reaches 1e-13 (docs/performance.md §"Friction
+discs");
 (iv) Kalker's plain active-set iteration can cycle (it did here from a cold start, without the
 energy test); the descent test and the MPRGP fallback make the iteration globally convergent
 for this convex programme. ``‖A‖`` is bounded by the largest eigenvalue of the 2 × 2 kernel
@@ -122,8 +123,8 @@ def mprgp_disc(
     Globally convergent, but slow on this operator: the rotation of tractions on the slip limit
     moves only through proportioning steps, and ᾱ = 1/‖A‖ is set by the smoothest mode of the
     half-space compliance (‖A‖ ≈ 150× the cell self-compliance at 64 cells across the contact),
-    so they creep (measured: ~1500 operator applications for tol 1e-8 at n = 64, against ~200
-    for ``disc_qp``).
+    so they creep (~5–10× the operator applications of ``disc_qp``: docs/performance.md
+    §"Friction discs").
     """
     mask, b, b_norm = _disc_rhs(b, bound)
     zero = np.zeros_like(b)

@@ -14,11 +14,10 @@ operator application's FFTs when unpadded).
 
 The FFTs are scipy.fft's (pocketfft) on a zero-padded input buffer kept per preconditioner, the
 product taken in place: the same arithmetic as padding on each call (bitwise), without two
-transient arrays of the periodic grid per application (measured 0.64–0.95× the time per
-application on the singular cells' grids of ``--accuracy 1e-6``, b/a 0.7 and 0.05, loaded
-2-core machine). pyFFTW (the operator's ``Transforms``) was measured too: 0.45–0.66× the time
-at the finest grids, but its rounding differs from pocketfft's, and CG carries a difference
-of 1e-16 per application to 1e-10 … 6e-9 relative in the stiffness at tolerance 1e-8.
+transient arrays of the periodic grid per application. Not pyFFTW (the operator's
+``Transforms``), though faster: its rounding differs from pocketfft's, and CG carries a
+difference of 1e-16 per application to up to ~6e-9 relative in the stiffness at tolerance 1e-8
+(docs/performance.md §"Fourier preconditioner").
 """
 
 from __future__ import annotations
@@ -39,10 +38,9 @@ def preconditioner_length(n: int, length: float, other_length: float) -> int:
 
     Unpadded where the contact's periodic images barely touch; doubled (no wrap-around) along an
     axis that is short in cells (n < 64) or physically (``length`` < ``other_length``/4), where
-    the images of a strip would lie side by side. Measured: rectangle b/a = 1e-8, nu = 0.5,
-    256 × 32 cells: 538 CG iterations unpadded, 34 padded; thin ellipse on 256 × 64 cells
-    (physically thin, not in cells): 869 → 63; unchanged (17–34) for circle, ellipse 0.1 and
-    rectangle 0.2 at n = 512.
+    the images of a strip would lie side by side: unpadded, thin contacts took ~15× the CG
+    iterations; contacts that are not thin are unaffected (docs/performance.md §"Fourier
+    preconditioner").
     """
     return scipy.fft.next_fast_len(2 * n if (n < 64 or 4.0 * length < other_length) else n, real=True)
 

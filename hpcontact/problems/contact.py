@@ -73,7 +73,9 @@ def _run_solve(scene: Scene, engine: Engine, mask: np.ndarray, solve: Solve) -> 
     op = engine.operator(solve.components, solve.green)
     rhs = np.zeros((len(solve.components),) + mask.shape)
     rhs[solve.components.index(solve.load)] = 1.0
-    solution = conjugate_gradient(op.apply, rhs, mask, tol=scene.tol, precondition=_preconditioner(scene, engine, solve))
+    solution = conjugate_gradient(
+        op.apply, rhs, mask, tol=scene.tol, precondition=_preconditioner(scene, engine, solve)
+    )
     force = np.zeros(3)
     resultants = q.resultant(solution.traction, engine.grid.cell_area)
     for c, value in zip(solve.components, resultants):
@@ -168,9 +170,10 @@ def _indentation(scene: Scene) -> tuple[dict[str, float], Solution, Grid]:
         raise FloatingPointError("indentation contact reaches the grid edge; the grid is too small")
     load = float(p.sum())
     xc, yc = (p * x).sum() / load, (p * y).sum() / load
-    cov = np.array(
-        [[(p * (x - xc) ** 2).sum(), (p * (x - xc) * (y - yc)).sum()], [0.0, (p * (y - yc) ** 2).sum()]]
-    ) / load
+    cov = (
+        np.array([[(p * (x - xc) ** 2).sum(), (p * (x - xc) * (y - yc)).sum()], [0.0, (p * (y - yc) ** 2).sum()]])
+        / load
+    )
     cov[1, 0] = cov[0, 1]
     values, vectors = np.linalg.eigh(cov)
     out = {

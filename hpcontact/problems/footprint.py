@@ -4,35 +4,32 @@ of the sweep's cost model and of the accuracy study's memory plan.
 
 **Memory.** The arrays of one solve take fixed_k + per_cell_k × padded cells bytes
 (``MEMORY_MODEL``; k = ``task_kind``), float64 array sizes fitted to ``tracemalloc`` peaks of
-single solves with cold kernel caches (``hpcontact.sweep.costmodel`` documents the fit).
+single solves with cold kernel caches (docs/performance.md §"Memory per task").
 
 **Grid.** A contact scene is solved on ``geometry.grid_for(shape, n, n_across)``: n cells along
 x and, unless ``n_across`` is given, max(min(n, 16), round(n Y/X)) across, with (X, Y) the
 half-extents of the *turned* shape's bounding box (``Shape.half_extents``; a rectangle of
 b/a = 0.2 turned by 90° gets 128 × 640 cells at n = 128, not 128 × 26). An indentation-only scene
-is solved on n × n cells around the sphere's contact; a mask scene's grid is its image's (read
-only when it runs): counted here as n × n.
+is solved on n × n cells around the sphere's contact; a mask scene's grid is its image's: counted
+at the pixels its file's header gives (``geometry.mask_pixels``, nothing decoded: a bound on the
+grid cropped to the contact), or at n × n_across when that is larger (the accuracy study's
+refined grids); at n × n when the file cannot be read.
 
 **Iterations.** CG iterations per digit of tolerance grow with the grid's aspect in cells,
 ρ = max(nx, ny) / min(nx, ny): a contact that is thin in *index* space, whether because the
 shape is thin (b/a < 1 with square cells) or because its cells are (n_across fixed: a square on
 512 × 32 cells), has its operator's spectrum spread over the long and the short direction at
-once, and CG needs more iterations. Measured (this machine, 2026-11-22, tangential + normal,
-tol = 1e-10; iterations of the three solves): ρ = 1: 33, 36, 39 (circle n = 128, 256, 512);
-ρ = 2: 42, 56 (ellipse 0.5, n = 64, 256); ρ = 4: 66 (ellipse 1e-4, 64 × 16); ρ = 8: 65, 71
-(rectangle, ellipse 1e-4, 128 × 16); ρ = 16: 51, 59 (ellipse, square on 512 × 32), 58 (b/a
-1/16, square cells), 73–82 (b/a 1e-4 … 1e-8, 512 × 32), 90 (1e-4, 1024 × 64). Iterations ≈
-it(ρ = 1) × (1 + 0.3 log2 ρ) fits these within ±25 % (a least-squares slope of 0.25–0.4 per
-doubling, depending on the points kept), while the time per iteration stays S log S (3.1 ms on
-256 × 256 padded cells, 3.3–3.7 ms on 1024 × 64).
+once, and CG needs more iterations: iterations ≈ it(ρ = 1) × (1 + 0.3 log2 ρ)
+(``ITERATIONS_PER_DOUBLING`` = 0.3, fitted to CG iteration counts within ±25 % for ρ = 1 … 16),
+while the time per iteration stays ∝ S log S.
 
-They grow with the grid as well, in proportion to log2 S (S = 4 nx ny the padded cells):
-measured (this machine, 2026-11-23, tol = 1e-10, tangential + normal) ellipse b/a = 0.5 at
-n = 64, 128, 256, 512, 1024: 42, 50, 56, 61, 68 iterations against 43, 49, 56, 63, 69 for
-56 × log2 S / 17; circle n = 32, 128, 512: 22, 33, 39 against 25, 33, 41. Without it the
-estimate of a 1024² grid, calibrated on 256², missed its iterations by 1.2-1.3×
-(``jobs/accuracy_cost.toml``). The factor is relative to ``REFERENCE_LOG2_CELLS`` = 18 (a
-square contact of 256 cells a side): iteration_factor = (1 + 0.3 log2 ρ) log2 S / 18.
+They grow with the grid as well, in proportion to log2 S (S = 4 nx ny the padded cells). The
+factor is relative to ``REFERENCE_LOG2_CELLS`` = 18 (a square contact of 256 cells a side):
+
+    iteration_factor = (1 + 0.3 log2 ρ) log2 S / 18.
+
+The counts behind both fits and the command that reproduces them: docs/performance.md §"CG
+iterations and grid aspect".
 """
 
 from __future__ import annotations
@@ -42,7 +39,8 @@ import math
 from collections.abc import Iterable, Mapping
 from typing import Any
 
-from hpcontact.geometry import Shape, grid_for
+from hpcontact.errors import InputError
+from hpcontact.geometry import Shape, grid_for, mask_pixels
 from hpcontact.materials.elastic_constants import describes_crystal
 from hpcontact.numerics.convolution import padded_shape
 from hpcontact.numerics.memory import MIB
@@ -53,8 +51,7 @@ from hpcontact.scene import DEFAULTS, Scene
 ITERATIONS_PER_DOUBLING = 0.3  # relative growth of CG iterations per doubling of ρ (module docstring)
 REFERENCE_LOG2_CELLS = 18.0  # log2 of the padded cells at which the grid's own factor is 1 (module docstring)
 # CG iterations per solve and digit of tolerance at iteration factor 1 (fft_applications):
-# ellipse 0.5, n = 256, 56 iterations of 3 solves at 1e-10, factor 1.23: 1.5; circle n = 512,
-# tangential x at 1e-8, 17-18 iterations, factor 1.11: 2.0.
+# between the 1.5 and 2.0 of two reference solves (docs/performance.md §"Iterations per digit").
 ITERATIONS_PER_DIGIT = 1.8
 # Memory per kind: (fixed bytes, bytes per padded cell), fitted as stated in the module docstring.
 MEMORY_MODEL = {
@@ -72,8 +69,9 @@ SLIP_DEFAULT_N = 64
 def task_kind(params: Mapping[str, Any]) -> str:
     """The calibration group: 'slip'; 'crystal' (a named material or A != 1), or
     'crystal_indentation' when a crystal scene asks for the indentation alone (one normal kernel
-    by quadrature and a few solves: a far smaller share of solves in its cost, measured 1.6x
-    slower per cost unit than the crystal punch's); else 'contact'."""
+    by quadrature and a few solves: a far smaller share of solves in its cost, and slower per
+    cost unit than the crystal punch's, docs/performance.md §"Crystal indentation"); else
+    'contact'."""
     if scene_kind(params) == SLIP:
         return "slip"
     if params.get("material") is None and float(params.get("anisotropy", 1.0)) == 1.0:
@@ -101,16 +99,55 @@ def array_bytes(params: Mapping[str, Any]) -> float:
     return fixed + per_cell * padded_cells(params)
 
 
-
 def contact_grid(params: Mapping[str, Any]) -> tuple[int, int]:
-    """Cells (nx, ny) of the contact grid of the contact scene ``params`` (module docstring)."""
-    p = {**DEFAULTS, **{k: v for k, v in params.items() if v is not None}}
+    """Cells (nx, ny) of the contact grid of the contact scene ``params`` (module docstring).
+    Cached per grid-relevant fields: a sweep's cost model asks ~10 times per task."""
+    get = params.get
+    if get("shape") == "mask" and get("mask") is not None:  # the image's pixels, from its header
+        pixels = _mask_cells(str(get("mask")))
+        if pixels is not None:
+            n = int(DEFAULTS["n"] if get("n") is None else get("n"))
+            given = (n, int(get("n_across"))) if get("n_across") is not None else (0, 0)
+            return pixels if pixels[0] * pixels[1] >= given[0] * given[1] else given
+    quantities = get("quantities")
+    return _contact_grid(
+        (
+            get("n"),
+            get("n_across"),
+            get("shape"),
+            get("aspect"),
+            get("sides"),
+            get("shape_angle"),
+            get("amplitude"),
+            tuple(quantities) if isinstance(quantities, list) else quantities,
+        )
+    )
+
+
+GRID_FIELDS = (
+    "n",
+    "n_across",
+    "shape",
+    "aspect",
+    "sides",
+    "shape_angle",
+    "amplitude",
+    "quantities",
+)  # contact_grid's key
+
+
+@functools.lru_cache(maxsize=4096)
+def _contact_grid(values: tuple) -> tuple[int, int]:
+    """``contact_grid`` of the fields ``GRID_FIELDS`` = ``values`` (None: the default)."""
+    p = {**DEFAULTS, **{k: v for k, v in zip(GRID_FIELDS, values) if v is not None}}
     n = int(p["n"])
     if p["n_across"] is not None:
         return n, int(p["n_across"])
     if set(quantity_names(p["quantities"])) == {"indentation"} or p["shape"] == "mask":
         return n, n
-    return _grid(str(p["shape"]), float(p["aspect"]), int(p["sides"]), float(p["shape_angle"]), float(p["amplitude"]), n)
+    return _grid(
+        str(p["shape"]), float(p["aspect"]), int(p["sides"]), float(p["shape_angle"]), float(p["amplitude"]), n
+    )
 
 
 @functools.lru_cache(maxsize=4096)
@@ -119,6 +156,15 @@ def _grid(name: str, aspect: float, sides: int, angle: float, amplitude: float, 
     points, and a sweep asks for the same few shapes many times)."""
     grid = grid_for(Shape(name=name, aspect=aspect, sides=sides, angle_deg=angle, amplitude=amplitude), n)
     return grid.nx, grid.ny
+
+
+def _mask_cells(path: str) -> tuple[int, int] | None:
+    """(nx, ny) of the mask file ``path`` from its header (``geometry.mask_pixels``), or None
+    when it cannot be read (the scene's validation refuses it)."""
+    try:
+        return mask_pixels(path)
+    except InputError:
+        return None
 
 
 def iteration_factor(params: Mapping[str, Any]) -> float:

@@ -22,7 +22,7 @@ kernels:
       E*_2D = 2 sqrt( (C11 C33 − C13²)/C11 · [1/C55 + 2/(sqrt(C11 C33) + C13)]⁻¹ ),
 
   which is 2G/(1 − nu) for an isotropic body and equals the Stroh value to 2e-16 for the
-  orthotropic body of the paper (``tests/test_line_contact.py``).
+  orthotropic body of the paper (``tests/problems/test_line_contact.py``).
 
 Finite cylinder (``finite_cylinder``): length ``length`` with rounded ends (gap
 x²/(2R) + max(|y| − length/2, 0)²/(2 R_end)) or flat ends (R_end = 0: no contact beyond the
@@ -103,8 +103,15 @@ class CylinderContact:
 
 
 def finite_cylinder(
-    material: Isotropic | Crystal | PairCompliance, modulus: float, radius: float, half_width: float, widths: float,
-    n: int, tol: float = 1e-10, end_radius: float | None = None, threads: int = 1,
+    material: Isotropic | Crystal | PairCompliance,
+    modulus: float,
+    radius: float,
+    half_width: float,
+    widths: float,
+    n: int,
+    tol: float = 1e-10,
+    end_radius: float | None = None,
+    threads: int = 1,
 ) -> CylinderContact:
     """A rigid cylinder (or, for a ``PairCompliance``, an elastic one on an elastic flat: the
     interface compliance of both bodies) (axis y, radius ``radius``, length ``widths`` × 2·``half_width``, rounded
@@ -130,8 +137,11 @@ def finite_cylinder(
         raise InputError("end_radius", "a radius >= 0 (0: flat ends)", end_radius)
     line_load = math.pi * half_width**2 * modulus / (4.0 * radius)
     total = line_load * length
-    engine = (PairEngine(material, grid, ("zz",), threads) if isinstance(material, PairCompliance)
-              else Engine(material, grid, ("zz",), threads))
+    engine = (
+        PairEngine(material, grid, ("zz",), threads)
+        if isinstance(material, PairCompliance)
+        else Engine(material, grid, ("zz",), threads)
+    )
     op = engine.operator("z")
     solution = polonsky_keer(op.apply, gap, tol=tol, load=total, cell_area=grid.cell_area)
     p = solution.traction[0]

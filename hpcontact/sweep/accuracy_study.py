@@ -38,8 +38,12 @@ def run_study(argv: Sequence[str] | None = None) -> int:
     journals, signals, exit statuses and the data set of ``hpcontact run``); used for
     ``jobs/accuracy_cost.toml``.
     """
-    return main(argv, prog="python -m hpcontact.sweep.accuracy_study", task_function=cold_solve,
-                description="Run an accuracy-versus-cost sweep, every scene timed with cold kernel caches.")
+    return main(
+        argv,
+        prog="python -m hpcontact.sweep.accuracy_study",
+        task_function=cold_solve,
+        description="Run an accuracy-versus-cost sweep, every scene timed with cold kernel caches.",
+    )
 
 
 if __name__ == "__main__":

@@ -9,14 +9,17 @@ from hpcontact.sweep.signals import STOPPED_STATUS
 
 EXIT_OK, EXIT_UNEXPECTED, EXIT_REFUSED, EXIT_FAILED_TASKS, EXIT_STOPPED = 0, 1, 2, 3, STOPPED_STATUS
 EXIT_STATUS = """exit status:
-  0  every task ok, data set written
+  0  every task ok, data set written (or already up to date: same spec and output, every task
+     in the journals, the data set newer than them; nothing run, nothing written)
   1  anything unexpected (traceback on stderr), or a journal or the data set could not be
-     written (disk full: the message names the file; journals intact, free space and --resume)
+     written (disk full: the message names the file; journals intact, free space and --resume),
+     or a rank showed no sign of life for --stall-timeout (journals intact, --resume)
   2  bad input or a refusal, before any task runs: bad spec, output or journal folder not
      writable, lock held by another run, journals without --resume/--restart, stale journals,
      a task whose estimated memory exceeds --mem-per-rank
   3  data set written, but some tasks failed (the summary names up to 5 with their messages)
-  4  stopped by SIGTERM/SIGUSR1 to any rank: journals intact, run again with --resume"""
+  4  stopped by Ctrl-C (SIGINT), SIGTERM or SIGUSR1 to any rank, in any phase: journals
+     intact, run again with --resume (a stop after the data set is written changes nothing)"""
 
 
 def add_run_arguments(parser: argparse.ArgumentParser) -> None:
@@ -24,24 +27,47 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("spec", help="sweep spec (TOML), e.g. jobs/demo.toml")
     parser.add_argument("--output", help="data set path (.nc), instead of the spec's [sweep].output")
     journals = parser.add_mutually_exclusive_group()
-    journals.add_argument("--resume", action="store_true",
-                          help="continue from the journals: reuse finished tasks, run failed ones again")
+    journals.add_argument(
+        "--resume", action="store_true", help="continue from the journals: reuse finished tasks, run failed ones again"
+    )
     journals.add_argument("--restart", action="store_true", help="discard the journals of this output first")
-    parser.add_argument("--accept-stale", action="store_true",
-                        help="reuse journal entries computed by another version, git revision or numerics")
-    parser.add_argument("--retry-crashed", action="store_true",
-                        help="run quarantined tasks (their process died in 2 runs) again")
-    parser.add_argument("--break-lock", action="store_true",
-                        help="take the output's lock from a run known to be dead")
-    parser.add_argument("--grace", type=float, default=None, metavar="SECONDS",
-                        help="after SIGTERM/SIGUSR1, let the task in flight finish this long (default 30)")
-    parser.add_argument("--dry-run", action="store_true",
-                        help="list the tasks with their indices and estimated cost (core-seconds, peak memory, wall "
-                        "time at 1, 64, 1024 ranks); compute nothing")
+    parser.add_argument(
+        "--accept-stale",
+        action="store_true",
+        help="reuse journal entries computed by another version, git revision or numerics",
+    )
+    parser.add_argument(
+        "--retry-crashed", action="store_true", help="run quarantined tasks (their process died in 2 runs) again"
+    )
+    parser.add_argument("--break-lock", action="store_true", help="take the output's lock from a run known to be dead")
+    parser.add_argument(
+        "--grace",
+        type=float,
+        default=None,
+        metavar="SECONDS",
+        help="after SIGTERM/SIGUSR1, let the task in flight finish this long (default 30)",
+    )
+    parser.add_argument(
+        "--stall-timeout",
+        type=float,
+        default=None,
+        metavar="SECONDS",
+        help="end the run (resumably) when a rank shows no sign of life this long: stopped, frozen "
+        "(default 900; 0: never)",
+    )
+    parser.add_argument(
+        "--dry-run",
+        action="store_true",
+        help="list the tasks with their indices and estimated cost (core-seconds, peak memory, wall "
+        "time at 1, 64, 1024 ranks); compute nothing",
+    )
     parser.add_argument("--json", action="store_true", help="with --dry-run: print one JSON object")
-    parser.add_argument("--mem-per-rank", metavar="SIZE",
-                        help="memory one rank may use (4G, 512M, bytes): a run refuses a spec with a task that needs "
-                        "more, a dry run warns (default: SLURM_MEM_PER_CPU, or SLURM_MEM_PER_NODE / tasks per node, "
-                        "else the machine's memory per core)")
+    parser.add_argument(
+        "--mem-per-rank",
+        metavar="SIZE",
+        help="memory one rank may use (4G, 512M, bytes): a run refuses a spec with a task that needs "
+        "more, a dry run warns (default: SLURM_MEM_PER_CPU, or SLURM_MEM_PER_NODE / tasks per node, "
+        "else the machine's memory per core)",
+    )
     parser.epilog = EXIT_STATUS
     parser.formatter_class = argparse.RawDescriptionHelpFormatter

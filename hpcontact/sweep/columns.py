@@ -179,4 +179,3 @@ def task_positions(where: Mapping[tuple[int, ...], str], shape: tuple[int, ...])
     for index, key in where.items():
         task_of[index] = position.setdefault(key, len(position))
     return list(position), task_of
-

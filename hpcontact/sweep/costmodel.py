@@ -1,7 +1,7 @@
 """Cost model of a sweep: core-seconds, peak memory and wall time before it runs (``--dry-run``).
 
 **Seconds.** A task of kind k (``task_kind``: ``contact``, ``crystal``, ``crystal_indentation``
-or ``slip``) takes, on one core of this machine,
+or ``slip``) takes, on one core of the calibrated host,
 
     seconds = rate_k × cost + solve_k × cost / (S log2 S) + cell_k × S + task_k [+ node_s × ω nodes, slip]
 
@@ -18,42 +18,31 @@ estimate), at a cost proportional to the ω nodes the adaptive rule needs for th
 (``omega_nodes``: 64 for Cu, Ni, Si crystals; 256-1024 for the orthotropic bodies of
 Rodríguez-Tembleque et al. 2011, E1/E2 = 25-800), twice when both the coupled and the
 decoupled path are solved (each builds its preconditioner from them), and independent of the
-grid and the load steps: the third term. ``rate_k`` (seconds per cost unit) and ``solve_k`` are measured by
-``calibrate``: two real solves per kind on a small and a larger grid (each run once untimed
-first, so that FFT plans are warm as in a sweep, then timed twice with the kernel cache cleared,
-as a sweep's first task of a kernel group runs; the lesser time counts) give the two
-coefficients. ``cell_k`` is the task's kernel set (influence coefficients on the padded grid and
-their spectra, built once per task whatever its tolerance): the larger contact scene is timed
-again at tol = 1e-2, and the time extrapolated to zero digits, divided by its S, is cell_k
-(measured: a circle at n = 1024 took 3.5 s at tol = 1e-2, 8 iterations, and 8.4 s at 1e-10,
-42: ~2.4 s of it the kernels, which the other terms, proportional to the iterations, gave as
-0.6 s; accuracy_cost's loose-tolerance tasks on large grids came out at 0.62 without it);
-calibrated for the isotropic contact kind (0 for the others, whose kernel work the two
-coefficients absorb). Since 2026-11-23 the kernels' time is the loose solve less its CG
-iterations at the time per iteration of the two solves (their difference over the difference of
-their iterations), not an extrapolation in digits (iterations are not proportional to digits:
-10 at 1e-2, 56 at 1e-10): the extrapolation gave 4e-9 to 9e-8 s per cell from run to run, the
-iterations 1.6e-7 (measured: 1.2e-7, 2.1e-7, 3.3e-7 at n = 256, 512, 1024, the arrays leaving
-the caches). ``task_k`` is what any task takes whatever its grid (scene, plan, kernels' set-up,
-record): a 16 × 16 circle at tol 1e-2 (``TINY_CONTACT_SCENE``, 4-6 ms), subtracted from the
-other timings before they are fitted; contact kind only. With the iterations' log2 S growth
-(``footprint``), kernels by iterations and ``task_k``, accuracy_cost's estimate went from 0.62-0.63
-of the measured time to 0.92 (same machine, same day). The crystal indentation kind is calibrated on n = 128 and 256 (the shipped
-``tembleque2011_sphere`` runs n = 256): calibrated on 64 and 128 its estimate was 0.62-0.68 of
-the measured time, the time per cost unit rising by ~1.45x once the arrays (4 MB each at 512²
-padded cells) no longer fit the 32 MB L3 cache; on 128 and 256, 0.91. ``node_s`` is what a small slip scene of two orthotropic bodies
-(``ANISOTROPIC_SLIP_SCENE``) takes beyond the slip kind's two terms, per ω node. Times are CPU
-seconds of the process (``time.process_time``; the solvers run one thread unless a scene asks
-for more): the time on a core of its own, as a batch system gives one per rank, and unlike wall
-time not inflated by whatever else shares the machine while it calibrates (measured on this
-shared 2-core machine: wall-time calibrations of the same scenes differ by 2x from minute to
-minute). A pure rate misses by 2-4x: measured 0.115, 0.049, 0.029 µs per unit for an isotropic
-ellipse at n = 32, 64, 128; a constant per task instead of the per-solve term misses the slip
-tasks (whose time follows the steps and passes more than the grid) by 2-3x; without the
-iteration factor, a square on 512 × 32 cells (li2017_aspect) took 2-3x its estimate (59-81
-iterations against 33 on 128 × 128 cells of the same padded size); without the ω-node term
-and the normal-friction passes, the orthotropic pairs took 3.8x theirs. The calibration takes
-~15-35 s and is cached like FFTW wisdom, in ``costmodel-HOST.json`` beside the wisdom file
+grid and the load steps: the third term.
+
+``calibrate`` fits the coefficients. ``rate_k`` (seconds per cost unit) and ``solve_k``: two
+real solves per kind on a small and a larger grid (each run once untimed first, so that FFT
+plans are warm as in a sweep, then timed twice with the kernel cache cleared, as a sweep's
+first task of a kernel group runs; the lesser time counts) give the two coefficients.
+``cell_k`` is the task's kernel set (influence coefficients on the padded grid and their
+spectra, built once per task whatever its tolerance), calibrated for the isotropic contact kind
+(0 for the others, whose kernel work the two coefficients absorb): the larger contact scene is
+timed again at tol = 1e-2, and that loose solve less its CG iterations at the time per
+iteration of the two solves (their difference over the difference of their iterations),
+divided by its S, is cell_k (iterations, not digits of tolerance: the two are not
+proportional). ``task_k`` is what any task takes whatever its grid (scene, plan, kernels'
+set-up, record): the time of a 16 × 16 circle at tol 1e-2 (``TINY_CONTACT_SCENE``), subtracted
+from the other timings before they are fitted; contact kind only. ``node_s`` is what a small
+slip scene of two orthotropic bodies (``ANISOTROPIC_SLIP_SCENE``) takes beyond the slip kind's
+two terms, per ω node. The crystal indentation kind is calibrated on n = 128 and 256, the grids
+of its shipped job (``tembleque2011_sphere``, n = 256), because its time per cost unit rises
+once the arrays leave the L3 cache. Each term is there because the model without it missed
+measured task times by 1.6-4x (docs/performance.md §"Sweep cost model": the fits, the models
+rejected, and the estimates against measurement, ``benchmarks/cost_estimates.py``). Times are
+CPU seconds of the process (``time.process_time``; the solvers run one thread unless a scene
+asks for more): the time on a core of its own, as a batch system gives one per rank, and unlike
+wall time not inflated by whatever else shares the machine while it calibrates. The
+calibration takes tens of seconds and is cached like FFTW wisdom, in ``costmodel-HOST.json`` beside the wisdom file
 ($HPCONTACT_COSTMODEL overrides), keyed by host and package version: a file of another host or
 version, or one that cannot be read as a calibration, is ignored with a warning and replaced.
 ``hpcontact run`` prints the estimate of the tasks it will compute before it starts
@@ -68,16 +57,12 @@ every rank wait for a calibration.
 run imports (the solvers, MPI, xarray); ``padded_cells`` is the padded FFT grid
 (``tasks.padded_cells``). ``fixed_k`` and ``per_cell_k`` are float64 array sizes (no machine
 dependence), fitted to ``tracemalloc`` peaks of single solves with cold kernel caches
-(tangential + normal for contact; this machine, 2026-11-22):
+(``footprint.MEMORY_MODEL``; the fits: docs/performance.md §"Memory per task"):
 
-* contact: n = 64 … 1024, b/a 1 … 1e-3: 2.1 MiB at 8 192 cells, 22.8 MiB at 131 072,
-  89.3 MiB at 524 288, 177.9 MiB at 1 048 576 → 178-182 B/cell (kernels xx, xy, yy, zz
-  spectra, traction and CG vectors for 2 components, FFT buffers) + ~1 MiB;
-* crystal (A = 2, ψ = 30°, tangential): 45.1, 53.2, 77.8 MiB at 1 024, 16 384, 65 536 cells
-  → 525 B/cell (nine complex kernel blocks, 3 components) + 45 MiB (quadrature tables);
-* slip (Cu on Fe, coupled): 2.7 and 12.5 MiB at 1 239 and 19 825 cells → 530 B/cell + 2 MiB;
-  with a crystal body, the crystal's 45 MiB instead of 2 (a Cu crystal under a sphere, n = 32:
-  measured peak 183 MiB against 148 MiB estimated without it).
+* contact: 182 B/cell (kernels xx, xy, yy, zz spectra, traction and CG vectors for 2
+  components, FFT buffers) + 1 MiB;
+* crystal: 525 B/cell (nine complex kernel blocks, 3 components) + 45 MiB (quadrature tables);
+* slip: 530 B/cell + 2 MiB; with a crystal body, the crystal's 45 MiB instead of 2.
 
 The kernel-spectrum cache (``HPCONTACT_KERNEL_CACHE_MB``, default 1 GiB) can hold more than one
 task's kernels on a rank; the model counts one task's, as the refusal must (a task that does not
@@ -104,7 +89,9 @@ import heapq
 import json
 import math
 import os
+import re
 import socket
+import stat
 import statistics
 import time
 import warnings
@@ -138,27 +125,67 @@ CALIBRATION_SCENES: dict[str, tuple[dict[str, Any], dict[str, Any]]] = {
         {"shape": "ellipse", "aspect": 0.5, "nu": 0.3, "n": 256, "quantities": _TANGENTIAL_NORMAL, "tol": 1e-10},
     ),
     "crystal": (
-        {"shape": "circle", "nu": 0.3, "anisotropy": 2.0, "orientation": 30.0, "n": 32, "quantities": ["tangential"],
-         "tol": 1e-10},
-        {"shape": "circle", "nu": 0.3, "anisotropy": 2.0, "orientation": 30.0, "n": 64, "quantities": ["tangential"],
-         "tol": 1e-10},
+        {
+            "shape": "circle",
+            "nu": 0.3,
+            "anisotropy": 2.0,
+            "orientation": 30.0,
+            "n": 32,
+            "quantities": ["tangential"],
+            "tol": 1e-10,
+        },
+        {
+            "shape": "circle",
+            "nu": 0.3,
+            "anisotropy": 2.0,
+            "orientation": 30.0,
+            "n": 64,
+            "quantities": ["tangential"],
+            "tol": 1e-10,
+        },
     ),
     "crystal_indentation": tuple(
-        {"shape": "circle", "nu": 0.3, "anisotropy": 2.0, "orientation": 30.0, "n": n, "quantities": ["indentation"],
-         "radius": 1.0, "depth": 1e-4, "tol": 1e-10}
+        {
+            "shape": "circle",
+            "nu": 0.3,
+            "anisotropy": 2.0,
+            "orientation": 30.0,
+            "n": n,
+            "quantities": ["indentation"],
+            "radius": 1.0,
+            "depth": 1e-4,
+            "tol": 1e-10,
+        }
         for n in (128, 256)
     ),
     "slip": tuple(
-        {"quantities": "slip", "material": "Cu", "material2": "Cu", "radius": 8e-3, "radius2": 9e-3, "load": 10.0,
-         "mu": 0.3, "q_ratio": 0.6, "steps": 3, "n": n, "tol": 1e-8}
+        {
+            "quantities": "slip",
+            "material": "Cu",
+            "material2": "Cu",
+            "radius": 8e-3,
+            "radius2": 9e-3,
+            "load": 10.0,
+            "mu": 0.3,
+            "q_ratio": 0.6,
+            "steps": 3,
+            "n": n,
+            "tol": 1e-8,
+        }
         for n in (32, 64)
     ),
 }
 
 
 # The smallest contact task (16 × 16 cells, tol 1e-2): what any contact task takes beyond its
-# grid's work (scene, plan, kernels' set-up, record; measured 10-15 ms, 2026-11-23).
-TINY_CONTACT_SCENE: dict[str, Any] = {"shape": "circle", "nu": 0.3, "n": 16, "quantities": _TANGENTIAL_NORMAL, "tol": 1e-2}
+# grid's work (scene, plan, kernels' set-up, record; a few ms: docs/performance.md §"Task term").
+TINY_CONTACT_SCENE: dict[str, Any] = {
+    "shape": "circle",
+    "nu": 0.3,
+    "n": 16,
+    "quantities": _TANGENTIAL_NORMAL,
+    "tol": 1e-2,
+}
 
 
 # A slip scene with two anisotropic bodies (the orthotropic pair of Rodríguez-Tembleque et al.
@@ -166,8 +193,17 @@ TINY_CONTACT_SCENE: dict[str, Any] = {"shape": "circle", "nu": 0.3, "n": 16, "qu
 # Barnett–Lothe cost, per ω node.
 _ORTHOTROPIC = "E1=25 E2=1 E3=1 G12=0.5 G13=0.5 G23=0.2 nu12=0.25 nu13=0.25 nu23=0.25"
 ANISOTROPIC_SLIP_SCENE: dict[str, Any] = {
-    "quantities": "slip", "orthotropic": _ORTHOTROPIC, "orthotropic2": _ORTHOTROPIC, "radius": 0.5, "radius_b": 2.0,
-    "load": 1.0e6, "mu": 0.1, "q_ratio": 0.5, "steps": 1, "n": 16, "tol": 1e-8,
+    "quantities": "slip",
+    "orthotropic": _ORTHOTROPIC,
+    "orthotropic2": _ORTHOTROPIC,
+    "radius": 0.5,
+    "radius_b": 2.0,
+    "load": 1.0e6,
+    "mu": 0.1,
+    "q_ratio": 0.5,
+    "steps": 1,
+    "n": 16,
+    "tol": 1e-8,
 }
 
 
@@ -207,8 +243,13 @@ class Calibration:
         rate = self.rates[kind]
         cost = estimated_cost(params) if cost is None else cost
         nodes = omega_nodes(params) if kind == "slip" else 0
-        return (rate.rate_s * cost + rate.solve_s * solve_units(params, cost) + rate.cell_s * padded_cells(params)
-                + rate.node_s * nodes + rate.task_s)
+        return (
+            rate.rate_s * cost
+            + rate.solve_s * solve_units(params, cost)
+            + rate.cell_s * padded_cells(params)
+            + rate.node_s * nodes
+            + rate.task_s
+        )
 
     def task_bytes(self, params: Mapping[str, Any]) -> float:
         """Estimated peak resident bytes of a rank running the scene ``params``."""
@@ -220,8 +261,8 @@ def omega_nodes(params: Mapping[str, Any]) -> int:
     isotropic bodies): the nodes the adaptive trapezoidal rule of
     ``kernels.anisotropic.surface_green_nodes`` counts on 32 in-plane directions, summed over the
     bodies, times the load paths solved (2 for a dissimilar pair under coupling auto or both:
-    each path builds its preconditioner from the pair's Green's function — measured 4.6 of
-    6.3 s of Barnett–Lothe time for an orthotropic pair of Rodríguez-Tembleque et al. 2011)."""
+    each path builds its preconditioner from the pair's Green's function, which is most of the
+    Barnett–Lothe time: docs/performance.md §"Barnett–Lothe share of an anisotropic slip task")."""
     nodes = 0
     for suffix in ("", "2"):
         crystal = anisotropic_material(params, suffix, GPA, library=False)
@@ -239,8 +280,8 @@ def _omega_nodes(voigt: bytes) -> int:
     return surface_green_nodes(stiffness, np.linspace(0.0, 2.0 * math.pi, 32, endpoint=False))
 
 
-# What importing a run's modules can add to a process that has not yet: 3x the measured 80 MiB
-# (hpcontact.solve 60 MiB resident; + xarray 41, + slip 24, + mpi4py.MPI 15; this machine).
+# What importing a run's modules (hpcontact.solve, xarray, the slip solver, mpi4py.MPI) can add
+# to a process that has not yet: 3x the 80 MiB they added (docs/performance.md §"Base memory of a rank").
 IMPORTS_BYTES = 3 * 80 * MIB
 
 
@@ -351,24 +392,80 @@ def save_calibration(calibration: Calibration, path: Path | None = None) -> Path
     return path
 
 
+CALIBRATION_BYTES = 2**20  # a calibration file is ~2 kB: one larger than 1 MiB is not one (nor read further)
+CALIBRATION_DEPTH = 8  # a calibration nests 3 deep ({"rates": {kind: {...}}}): deeper JSON is not one
+_JSON_STRING = re.compile(rb'"(?:[^"\\]|\\.)*"')
+_NOT_BRACKETS = bytes(sorted(set(range(256)) - set(b"[]{}")))
+
+
+def _calibration_bytes(path: Path) -> bytes:
+    """The bytes of the calibration file ``path``, at most ``CALIBRATION_BYTES``: ``ValueError``
+    for a larger file or one that is not a regular file (a symlink to /dev/zero, a FIFO: never
+    read to the end, never waited on)."""
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    try:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            raise ValueError("not a regular file")
+        data = b""
+        while len(data) <= CALIBRATION_BYTES:
+            chunk = os.read(fd, CALIBRATION_BYTES + 1 - len(data))
+            if not chunk:
+                break
+            data += chunk
+    finally:
+        os.close(fd)
+    if len(data) > CALIBRATION_BYTES:
+        raise ValueError(f"larger than {CALIBRATION_BYTES} bytes")
+    return data
+
+
+def _json_depth(data: bytes) -> int:
+    """How deep the arrays and objects of the JSON text ``data`` nest (brackets outside strings)."""
+    depth = deepest = 0
+    for bracket in _JSON_STRING.sub(b"", data).translate(None, _NOT_BRACKETS):
+        depth += 1 if bracket in b"[{" else -1
+        deepest = max(deepest, depth)
+    return deepest
+
+
+def _number(record: Mapping[str, Any], name: str, where: str = "") -> float:
+    value = record.get(name)
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ValueError(f"{where}{name} must be a number")
+    return float(value)
+
+
 def read_calibration(path: Path) -> Calibration:
-    """The calibration in ``path``; ``ValueError`` if it is not one (wrong format, missing or
-    non-finite numbers, a negative rate)."""
-    record = json.loads(path.read_text())
+    """The calibration in ``path``; ``ValueError`` if it is not one (not a regular file, larger
+    than ``CALIBRATION_BYTES``, JSON nested deeper than ``CALIBRATION_DEPTH``, wrong format,
+    missing, non-numeric or non-finite numbers, a negative rate)."""
+    data = _calibration_bytes(Path(path))
+    if _json_depth(data) > CALIBRATION_DEPTH:
+        raise ValueError(f"JSON nested deeper than {CALIBRATION_DEPTH}")
+    record = json.loads(data.decode("utf-8"))
     if not isinstance(record, dict) or record.get("format") != FORMAT:
         raise ValueError("not a calibration file of this format")
+    if not isinstance(record.get("rates"), dict) or not all(
+        isinstance(record.get(k), str) for k in ("host", "version")
+    ):
+        raise ValueError("rates, host and version missing")
     rates = {}
     for kind in KINDS:
-        entry = record["rates"][kind]
-        rates[kind] = Rate(*(float(entry[name]) for name in ("rate_s", "solve_s", "node_s", "cell_s", "task_s")))
+        entry = record["rates"].get(kind)
+        if not isinstance(entry, dict):
+            raise ValueError(f"rates.{kind} missing")
+        rates[kind] = Rate(
+            *(_number(entry, name, f"rates.{kind}.") for name in ("rate_s", "solve_s", "node_s", "cell_s", "task_s"))
+        )
         if not all(math.isfinite(v) and v >= 0.0 for v in asdict(rates[kind]).values()):
             raise ValueError(f"{kind}: rates must be finite and >= 0")
         if rates[kind].rate_s + rates[kind].solve_s <= 0.0:
             raise ValueError(f"{kind}: a task must take time")
-    base = float(record["base_bytes"])
+    base = _number(record, "base_bytes")
     if not (math.isfinite(base) and base >= 0.0):
         raise ValueError("base_bytes must be finite and >= 0")
-    return Calibration(str(record["host"]), str(record["version"]), rates, base, float(record.get("seconds", 0.0)))
+    seconds = _number(record, "seconds") if "seconds" in record else 0.0
+    return Calibration(record["host"], record["version"], rates, base, seconds)
 
 
 def cached_calibration(path: Path | None = None) -> tuple[Calibration | None, str]:
@@ -384,8 +481,10 @@ def cached_calibration(path: Path | None = None) -> tuple[Calibration | None, st
     except (OSError, ValueError, KeyError, TypeError) as exc:
         return None, f"cost calibration {path} ignored: {exc}"
     if cached.host != host or cached.version != __version__:
-        return None, (f"cost calibration {path} ignored: measured on {cached.host} by hpcontact {cached.version}, "
-                      f"not {host} / {__version__}")
+        return None, (
+            f"cost calibration {path} ignored: measured on {cached.host} by hpcontact {cached.version}, "
+            f"not {host} / {__version__}"
+        )
     return cached, ""
 
 
@@ -400,8 +499,12 @@ def load_calibration(path: Path | None = None, stream: Any = None) -> Calibratio
     if path.exists():
         warnings.warn(why, RuntimeWarning, stacklevel=2)
     if stream is not None:
-        print(f"hpcontact: calibrating the cost model on {socket.gethostname()} (once per host and version; cached in "
-              f"{path})", file=stream, flush=True)
+        print(
+            f"hpcontact: calibrating the cost model on {socket.gethostname()} (once per host and version; cached in "
+            f"{path})",
+            file=stream,
+            flush=True,
+        )
     calibration = calibrate()
     try:
         save_calibration(calibration, path)
@@ -420,31 +523,33 @@ def start_line(tasks: Sequence[Task], ranks: int) -> str:
         return f"hpcontact: no cost estimate ({why}; hpcontact run SPEC --dry-run calibrates once, ~30 s)"
     seconds = {t.key: calibration.task_seconds(t.params, t.cost) for t in tasks}
     wall = replay(tasks, seconds, ranks)["makespan_s"] if tasks else 0.0
-    return (f"hpcontact: estimated {sum(seconds.values()):.4g} core-seconds, {wall:.3g} s on {ranks} rank(s) "
-            f"(cost model of {calibration.host}; --dry-run for each task)")
+    return (
+        f"hpcontact: estimated {sum(seconds.values()):.4g} core-seconds, {wall:.3g} s on {ranks} rank(s) "
+        f"(cost model of {calibration.host}; --dry-run for each task)"
+    )
 
 
 @dataclass(frozen=True)
 class Overheads:
-    """Seconds the scheduler and driver add (module docstring). Defaults: measured on the
-    development machine (2 cores, MPICH, shared with other jobs, 2026-11-22): the claim round
-    trip as the scheduler's commit 856c639 measured it, the server's time per message by
-    ``benchmarks/sweep_scale.py``'s probe, the driver's per-task time (scheduling 1.3
-    ms + journal 3.0 ms) by ``benchmarks/sweep_scaling.py`` (README), rank 0's setup and gather
-    and their shares spread over the ranks by ``benchmarks/sweep_scale.py`` on the six-axis job
-    (48 132 tasks; 2026-11-23, load average ~10 on the 2 cores: slow by ~3x)."""
+    """Seconds the scheduler and driver add (module docstring). Defaults measured on the 2-core
+    development machine (docs/performance.md §"Scheduler and driver overheads"): the claim round
+    trip and the server's time per message as ``benchmarks/sweep_scale.py``'s probe measures
+    them, the driver's per-task time (scheduling + journal) by ``benchmarks/sweep_scaling.py``,
+    rank 0's setup and gather and their shares spread over the ranks by
+    ``benchmarks/sweep_scale.py`` on the six-axis job (48 132 tasks)."""
 
     driver_s: float = 4.3e-3
     service_s: float = 4.5e-5  # server time per message on a full queue
-    wake_s: float = 2.5e-3  # claim round trip while rank 0 computes in Python (scheduler of 856c639), less service_s
+    wake_s: float = 2.5e-3  # claim round trip while rank 0 computes in Python, less service_s
     setup_s: float = 3.2e-5  # rank 0 alone: join the shares, decide, broadcast the plan, chunk
     gather_s: float = 3.4e-5  # rank 0 alone: join the ranks' columns, build and write the data set
     spread_setup_s: float = 6.7e-4  # enumeration and validation, 1/R of it on each rank
     spread_gather_s: float = 1.2e-4  # an outcome turned into columns, on the rank that ran it
 
 
-def replay(tasks: Sequence[Task], seconds: Mapping[str, float], ranks: int,
-           overheads: Overheads = Overheads()) -> dict[str, float]:
+def replay(
+    tasks: Sequence[Task], seconds: Mapping[str, float], ranks: int, overheads: Overheads = Overheads()
+) -> dict[str, float]:
     """Discrete-event model of one sweep of ``tasks`` (their one-core ``seconds`` by key) on
     ``ranks`` ranks (module docstring): makespan, efficiency and where the time goes (shares of
     the makespan lost to the tail, to claims, and to setup + gather)."""
@@ -524,8 +629,12 @@ def grid_label(params: Mapping[str, Any]) -> str:
     return f"{task_kind(params)} {padded_cells(params):.0f} padded cells"
 
 
-def estimate(tasks: Sequence[Task], calibration: Calibration, ranks: Sequence[int] = (1, 64, 1024),
-             overheads: Overheads = Overheads()) -> Estimate:
+def estimate(
+    tasks: Sequence[Task],
+    calibration: Calibration,
+    ranks: Sequence[int] = (1, 64, 1024),
+    overheads: Overheads = Overheads(),
+) -> Estimate:
     """Seconds and bytes of every task, and the replayed wall time on each of ``ranks``."""
     seconds = [calibration.task_seconds(t.params, t.cost) for t in tasks]
     result = Estimate(list(tasks), seconds, [calibration.task_bytes(t.params) for t in tasks])

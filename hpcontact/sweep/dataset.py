@@ -1,4 +1,4 @@
-"""Journal entries → labelled xarray Dataset (docs/design.md §4.2, README "The data set") → netCDF4.
+"""Journal entries → labelled xarray Dataset (docs/design.md §4.2, docs/reference/dataset.md) → netCDF4.
 
 Dimensions are the spec's axes in spec order, each a coordinate with CF ``units`` and
 ``long_name``; fixed scalar fields of the spec become scalar coordinates. Data variables are the
@@ -19,7 +19,8 @@ the spec gives the sphere's radius and depth in. Slip scenes (``hpcontact.proble
 lengths in m, stiffnesses in N/m, areas in m² when the scenes name library materials (SI), else
 in the force and length units of the input (F, L). The tables below write units that way;
 ``units.cf_attributes`` turns a unit in scene scales (G, a, L, F) into ``units = "1"`` with the
-scale in ``scale`` and ``long_name``, so every unit parses with UDUNITS as what it means.
+scale in ``scale``, ``comment`` and ``long_name``, so every unit parses with UDUNITS as what it
+means (the convention: ``hpcontact.sweep.units``, and the data set's global ``comment``).
 
 A contact spec without ``n`` (neither fixed nor an axis) is solved by ``hpcontact solve``'s
 extrapolated default (``accuracy.default_solve``, ``kinds``) wherever it applies: the data set
@@ -32,17 +33,29 @@ rough patch, a mask, a crystal) is one grid of n = 128 as before.
 
 With an ``angle`` axis and a tangential tensor, ``derive_directional`` adds the stiffness along
 the load direction ``K_nn`` (and Li's ``normalized_nn``): K_nn = nᵀ K n in tensor mode, K_xx of
-the shape turned by −angle in rotated mode. ``write_netcdf`` stores the data set without them
-(``netcdf.write``: compressed, typed, atomic); ``open_dataset`` reads it back and derives them
-again, giving the data set ``build_dataset`` made. ``history`` gets one line per run; a
-``--resume`` run appends its line to the history of the data set it replaces.
+the shape turned by −angle in rotated mode. ``write_netcdf`` stores them with the rest
+(``netcdf.write``: compressed, typed, atomic; derived there when the data set lacks them), so
+plain ``xarray.open_dataset`` and ``ncdump`` show K_nn over ``angle`` and ``plan`` as text;
+``open_dataset`` reads the file back as the data set ``build_dataset`` made (and derives K_nn
+only for files written before it was stored).
+
+Global attributes: CF's ``title``, ``Conventions``, ``source`` (the code and its method),
+``references`` (the code and the papers its method follows), ``comment`` (the units
+convention) and ``history``: one line per run, "<created>: <command>", the command as it was
+given (``invocation``: the process's command line for ``hpcontact run``, the call for
+``hpcontact.run_sweep(...)``); a ``--resume`` run appends its line to the history of the data
+set it replaces.
 """
 
 from __future__ import annotations
 
+import inspect
 import json
 import numbers
+import os
 import re
+import shlex
+import sys
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -50,22 +63,29 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from hpcontact import __version__
 from hpcontact.materials.elastic_constants import FAMILIES
-from hpcontact.problems.kinds import SLIP
+from hpcontact.problems.kinds import CONTACT, SLIP
 from hpcontact.quantities import directional_stiffness
 from hpcontact.sweep import netcdf
 from hpcontact.sweep.columns import NOT_COMPUTED, Joined, join, task_positions, to_columns
 from hpcontact.sweep.columns import is_number as _is_number
 from hpcontact.sweep.journal import BAD_INPUT, CRASHED, ERROR, NOT_CONVERGED, OK, Entry, to_json
 from hpcontact.sweep.spec import LABEL_AXES, Spec
-from hpcontact.sweep.units import cf_attributes
+from hpcontact.sweep.units import cf_attributes, convention, scale_symbols
 
 FIXED_VARIABLES = ("status", "message", "wall_time_s")  # per task, whatever its record holds
-STATUS_MEANINGS = {OK: "ok", BAD_INPUT: "bad_input", NOT_CONVERGED: "not_converged", ERROR: "error", CRASHED: "crashed",
-                   NOT_COMPUTED: "not_computed"}
+STATUS_MEANINGS = {
+    OK: "ok",
+    BAD_INPUT: "bad_input",
+    NOT_CONVERGED: "not_converged",
+    ERROR: "error",
+    CRASHED: "crashed",
+    NOT_COMPUTED: "not_computed",
+}
 
 TENSOR = ("K_xx", "K_xy", "K_yx", "K_yy")
-DIRECTIONAL = ("K_nn", "normalized_nn")  # derived from the tensor, not stored
+DIRECTIONAL = ("K_nn", "normalized_nn")  # derived from the tensor (stored in the file)
 STIFFNESS = "G a"  # forces per unit displacement in units of G times the semi-major extent a
 AXIS_ATTRS: Mapping[str, Mapping[str, str]] = {
     "shape": {"long_name": "contact shape"},
@@ -95,12 +115,18 @@ AXIS_ATTRS: Mapping[str, Mapping[str, str]] = {
 }
 VARIABLE_ATTRS: dict[str, Mapping[str, str]] = {
     **{
-        f"K_{i}{j}": {"long_name": f"stiffness K_{i}{j}: force along {i} per unit displacement along {j}", "units": STIFFNESS}
+        f"K_{i}{j}": {
+            "long_name": f"stiffness K_{i}{j}: force along {i} per unit displacement along {j}",
+            "units": STIFFNESS,
+        }
         for i in "xyz"
         for j in "xyz"
     },
     **{
-        f"proxy_K_{i}{j}": {"long_name": f"uniform-traction compliance proxy (J^-1)_{i}{j}, Li 2017 sec. 3.2", "units": STIFFNESS}
+        f"proxy_K_{i}{j}": {
+            "long_name": f"uniform-traction compliance proxy (J^-1)_{i}{j}, Li 2017 sec. 3.2",
+            "units": STIFFNESS,
+        }
         for i in "xy"
         for j in "xy"
     },
@@ -109,7 +135,10 @@ VARIABLE_ATTRS: dict[str, Mapping[str, str]] = {
     "principal_angle_deg": {"long_name": "direction of K_max from the x axis", "units": "degree"},
     "principal_angle_note": {"long_name": "why principal_angle_deg is missing (text)"},
     "K_min_over_K_max": {"long_name": "K_min/K_max: principal stiffness ratio (frame-free anisotropy)", "units": "1"},
-    "K_a_over_K_b": {"long_name": "K_a/K_b = K_xx/K_yy in the lab frame (a: major axis along x, b: across)", "units": "1"},
+    "K_a_over_K_b": {
+        "long_name": "K_a/K_b = K_xx/K_yy in the lab frame (a: major axis along x, b: across)",
+        "units": "1",
+    },
     "normalized_xx": {"long_name": "Li's normalized stiffness K_xx E*/(K_zz G*)", "units": "1"},
     "normalized_yy": {"long_name": "Li's normalized stiffness K_yy E*/(K_zz G*)", "units": "1"},
     "K_nn": {"long_name": "tangential stiffness along the load direction K_nn(angle)", "units": STIFFNESS},
@@ -127,7 +156,10 @@ VARIABLE_ATTRS: dict[str, Mapping[str, str]] = {
     "load": {"long_name": "normal load on the rigid sphere", "units": "G L2"},
     "contact_area": {"long_name": "contact area under the sphere", "units": "L2"},
     "max_pressure": {"long_name": "largest contact pressure under the sphere", "units": "G"},
-    "ellipse_b_over_a": {"long_name": "aspect ratio b/a of the ellipse fitted to the contact (pressure moments)", "units": "1"},
+    "ellipse_b_over_a": {
+        "long_name": "aspect ratio b/a of the ellipse fitted to the contact (pressure moments)",
+        "units": "1",
+    },
     "ellipse_angle_deg": {"long_name": "major axis of the fitted ellipse from x", "units": "degree"},
     "plan": {"long_name": "kernels built and solves run (JSON)"},
     "message": {"long_name": "error message of a failed task"},
@@ -145,17 +177,28 @@ VARIABLE_ATTRS: dict[str, Mapping[str, str]] = {
 SLIP_MODE_ATTRS: Mapping[str, tuple[str, str]] = {
     "tangential_force": ("tangential force Q along the load direction", "F"),
     "tangential_displacement": ("tangential displacement delta of body 2 relative to body 1 along the load", "L"),
-    "tangential_stiffness": ("incremental tangential stiffness k_t = dQ/d delta along the load (consistent tangent)", "F L-1"),
+    "tangential_stiffness": (
+        "incremental tangential stiffness k_t = dQ/d delta along the load (consistent tangent)",
+        "F L-1",
+    ),
     "stick_area_stiffness": ("no-slip stiffness of the stick area along the load (frozen slip zone)", "F L-1"),
     "stick_area": ("area of the stick zone", "L2"),
     "contact_area": ("area in contact (grid cells)", "L2"),
 }
 SLIP_ATTRS: Mapping[str, tuple[str, str]] = {
     **SLIP_MODE_ATTRS,
-    **{f"decoupled_{k}": (f"{name}, decoupled (Goodman: pressure of the normal contact)", unit)
-       for k, (name, unit) in SLIP_MODE_ATTRS.items()},
-    **{f"tangential_stiffness_{i}{j}": (f"incremental tangential stiffness tensor, force along {i} per displacement along {j}", "F L-1")
-       for i in "xy" for j in "xy"},
+    **{
+        f"decoupled_{k}": (f"{name}, decoupled (Goodman: pressure of the normal contact)", unit)
+        for k, (name, unit) in SLIP_MODE_ATTRS.items()
+    },
+    **{
+        f"tangential_stiffness_{i}{j}": (
+            f"incremental tangential stiffness tensor, force along {i} per displacement along {j}",
+            "F L-1",
+        )
+        for i in "xy"
+        for j in "xy"
+    },
     "load": ("normal load P", "F"),
     "no_slip_stiffness": ("tangential stiffness k_t at Q = 0 on the grid", "F L-1"),
     "stiffness_ratio": ("k_t / k_t(Q = 0)", "1"),
@@ -224,12 +267,13 @@ def build_dataset(
     return dataset_of(spec, task_of, join(parts, len(keys), FIXED_VARIABLES), attrs)
 
 
-def dataset_of(spec: Spec, task_of: np.ndarray, joined: Joined, attrs: Mapping[str, Any],
-               derive: bool = True) -> xr.Dataset:
+def dataset_of(
+    spec: Spec, task_of: np.ndarray, joined: Joined, attrs: Mapping[str, Any], derive: bool = True
+) -> xr.Dataset:
     """The data set of ``spec`` from the per-task arrays ``joined`` (``columns.join``);
     ``task_of`` gives each point of the task axes its task (0-based position), ``attrs`` are
-    global attributes; with ``derive``, K_nn and normalized_nn (``derive_directional``, which
-    ``write_netcdf`` leaves out). Values are spread from tasks to points by index."""
+    global attributes; with ``derive``, K_nn and normalized_nn (``derive_directional``; without,
+    ``write_netcdf`` derives them). Values are spread from tasks to points by index."""
     axes = spec.task_axes
     dims = tuple(a.name for a in axes)
     shape = tuple(len(a) for a in axes)
@@ -264,7 +308,8 @@ def dataset_of(spec: Spec, task_of: np.ndarray, joined: Joined, attrs: Mapping[s
         if name in renamed and "long_name" in variable_attrs:
             variable_attrs["long_name"] = f"{variable_attrs['long_name']} (task record; differs from the coordinate)"
         ds[name].attrs.update(variable_attrs)
-    ds.attrs.update(_global_attrs(spec, attrs))
+    scales = {s for name in ds.variables for s in scale_symbols(str(ds[name].attrs.get("scale", "")))}
+    ds.attrs.update(_global_attrs(spec, attrs, scales))
     return derive_directional(ds) if derive else ds
 
 
@@ -350,8 +395,10 @@ def _slip_attribute_table(spec: Spec) -> dict[str, dict[str, Any]]:
     else in the input's force and length units F and L; the kind-neutral ones from the
     contact tables (status, message, wall time, grid counts, tol)."""
     units = SI_UNITS if _names_materials(spec) else {"F": "F", "L": "L"}
-    table = {name: dict(VARIABLE_ATTRS.get(name, AXIS_ATTRS.get(name, {})))
-             for name in ("status", "message", "wall_time_s", "nx", "ny", "tol", "plan", "threads", "quantities")}
+    table = {
+        name: dict(VARIABLE_ATTRS.get(name, AXIS_ATTRS.get(name, {})))
+        for name in ("status", "message", "wall_time_s", "nx", "ny", "tol", "plan", "threads", "quantities")
+    }
     for name, (long_name, unit) in SLIP_ATTRS.items():
         attrs: dict[str, Any] = {"long_name": long_name}
         if unit:
@@ -365,9 +412,13 @@ def _names_materials(spec: Spec) -> bool:
     moduli then have units, and the sweep's inputs and results are SI."""
     tables = [spec.fixed] + [fields for axis in spec.axes for fields in axis.fields]
     named = any(
-        isinstance(t.get(key), str) and t[key].strip().lower() != "rigid" for t in tables for key in ("material", "material2")
+        isinstance(t.get(key), str) and t[key].strip().lower() != "rigid"
+        for t in tables
+        for key in ("material", "material2")
     )
-    constants = any(t.get(f"{family}{suffix}") is not None for t in tables for family in FAMILIES for suffix in ("", "2"))
+    constants = any(
+        t.get(f"{family}{suffix}") is not None for t in tables for family in FAMILIES for suffix in ("", "2")
+    )
     return named or constants
 
 
@@ -406,21 +457,24 @@ def derive_directional(ds: xr.Dataset) -> xr.Dataset:
     and a tangential tensor: K_nn = nᵀ K n, n = (cos angle, sin angle) (Li 2017, eq. 6) in
     tensor mode, K_xx of the shape turned by −angle in rotated mode; normalized_nn =
     K_nn · normalized_xx / K_xx. Dimensions in the spec's axis order (the ``sweep_axes``
-    attribute); units those of K_xx. Lazy on dask arrays."""
-    if not _directional(ds):
+    attribute); units those of K_xx. Lazy on dask arrays. Variables ``ds`` has already (read
+    from a file that stores them) are kept, not derived again."""
+    if not _directional(ds) or all(name in ds for name in DIRECTIONAL):
         return ds
     order = ds.attrs.get("sweep_axes", " ".join(map(str, ds.dims))).split()  # files before sweep_axes: as read
     kxx = ds["K_xx"]
-    if "angle" in kxx.dims:  # rotated mode: one solve per angle
-        knn = kxx.copy()
-    else:
-        knn = xr.apply_ufunc(
-            _turned, *(ds[name] for name in TENSOR), ds["angle"], dask="parallelized", output_dtypes=[np.float64]
-        )
-    unit = kxx.attrs.get("scale", kxx.attrs.get("units"))
-    knn.attrs = cf_attributes({"long_name": VARIABLE_ATTRS["K_nn"]["long_name"], "units": unit})
-    out = ds.assign(K_nn=knn.transpose(*[d for d in order if d in knn.dims]))
-    if "normalized_xx" in ds:
+    out = ds
+    if "K_nn" not in ds:
+        if "angle" in kxx.dims:  # rotated mode: one solve per angle
+            knn = kxx.copy()
+        else:
+            knn = xr.apply_ufunc(
+                _turned, *(ds[name] for name in TENSOR), ds["angle"], dask="parallelized", output_dtypes=[np.float64]
+            )
+        unit = kxx.attrs.get("scale", kxx.attrs.get("units"))
+        knn.attrs = cf_attributes({"long_name": VARIABLE_ATTRS["K_nn"]["long_name"], "units": unit})
+        out = ds.assign(K_nn=knn.transpose(*[d for d in order if d in knn.dims]))
+    if "normalized_xx" in ds and "normalized_nn" not in ds:
         normalized = out["K_nn"] * (ds["normalized_xx"] / kxx)
         normalized.attrs = dict(VARIABLE_ATTRS["normalized_nn"])
         out["normalized_nn"] = normalized.transpose(*[d for d in order if d in normalized.dims])
@@ -439,23 +493,71 @@ def _turned(kxx: np.ndarray, kxy: np.ndarray, kyx: np.ndarray, kyy: np.ndarray, 
 
 
 def write_netcdf(ds: xr.Dataset, path: Path) -> Path:
-    """Write the data set ``ds`` to ``path`` (``netcdf.write``: compact, atomic) without the
-    variables ``derive_directional`` makes from the tensor; returns ``path``."""
-    derived = [name for name in DIRECTIONAL if name in ds] if _directional(ds) else []
-    return netcdf.write(ds.drop_vars(derived), path)
+    """Write the data set ``ds`` to ``path`` (``netcdf.write``: compact, atomic) with K_nn and
+    normalized_nn (``derive_directional``, derived here if ``ds`` lacks them), so that every
+    netCDF reader sees them; returns ``path``."""
+    return netcdf.write(derive_directional(ds), path)
 
 
-def open_dataset(path: str | Path, **options: Any) -> xr.Dataset:
+def open_dataset(path: str | Path, verify: bool = True, **options: Any) -> xr.Dataset:
     """The sweep data set at ``path``: the labelled hypercube over the spec's axes as
     ``build_dataset`` made it, lazily (``options`` go to ``xarray.open_dataset``, e.g.
-    ``chunks={}`` for dask arrays), with K_nn(angle) and normalized_nn derived again."""
+    ``chunks={}`` for dask arrays), K_nn(angle) and normalized_nn as stored (derived from the
+    tensor for a file written before they were stored), ``plan`` as text.
+
+    With ``verify`` (the default) the file is read once first and every chunk's checksum
+    checked (``netcdf.verify``): a damaged file raises ``DamagedFile`` (an ``OSError``) naming
+    the file and the first damaged variable, rather than giving wrong numbers later. That read
+    takes about as long as loading the whole file (measured: 3.7 s to verify, 4.2 s to load a
+    140 MB file of 207 MB of float64 on a shared 2-core machine; milliseconds for the demo's
+    220 kB); ``verify=False`` skips it, for a large file opened lazily again and again (a
+    damaged chunk then fails when it is read, with the netCDF library's "NetCDF: HDF error",
+    which names no variable)."""
+    if verify:
+        netcdf.verify(path)
     return derive_directional(netcdf.read(path, **options))
 
 
-def _global_attrs(spec: Spec, attrs: Mapping[str, Any]) -> dict[str, Any]:
+DamagedFile = netcdf.DamagedFile
+
+
+SOFTWARE = (
+    "hpcontact {version}: anisotropy of contact stiffness with FFT-accelerated half-space boundary elements "
+    "(cite as in its CITATION.cff; method: its docs/design.md)"
+)
+METHODS = {
+    CONTACT: "rigid flat punch or sphere bonded to / pressed on an elastic half-space (isotropic or cubic crystal): "
+    "FFT-accelerated boundary elements, conjugate gradients (punch) or Polonsky-Keer (sphere)",
+    SLIP: "two elastic bodies in partial-slip contact under a tangential load path with Coulomb friction: "
+    "FFT-accelerated boundary elements",
+}
+REFERENCES = {
+    CONTACT: (
+        "Q. Li (2017) On the tensor of tangential stiffness in contact problems (K_nn = n K n, normalized stiffness)",
+        "R. D. Mindlin (1949) J. Appl. Mech. 16, 259 (bonded ellipse)",
+        "D. M. Barnett, J. Lothe (1973) Phys. Norv. 7, 13; (1985) Proc. R. Soc. A 402, 135 (anisotropic half-space)",
+        "I. A. Polonsky, L. M. Keer (1999) Wear 231, 206 (sphere contact)",
+        "K. L. Johnson (1985) Contact Mechanics, Cambridge UP",
+    ),
+    SLIP: (
+        "R. D. Mindlin (1949) J. Appl. Mech. 16, 259; R. D. Mindlin, H. Deresiewicz (1953) J. Appl. Mech. 20, 327",
+        "I. A. Polonsky, L. M. Keer (1999) Wear 231, 206",
+        "L. Rodriguez-Tembleque, F. C. Buroni, R. Abascal, A. Saez (2011) Eur. J. Mech. A/Solids 30, 95",
+        "D. M. Barnett, J. Lothe (1973) Phys. Norv. 7, 13; (1985) Proc. R. Soc. A 402, 135 (anisotropic bodies)",
+        "K. L. Johnson (1985) Contact Mechanics, Cambridge UP",
+    ),
+}
+
+
+def _global_attrs(spec: Spec, attrs: Mapping[str, Any], scales: set[str] = frozenset()) -> dict[str, Any]:
+    version = attrs.get("hpcontact_version") or __version__
+    revision = attrs.get("git_revision")
     out: dict[str, Any] = {
         "title": spec.title,
         "Conventions": "CF-1.8",
+        "source": f"hpcontact {version}{f' (git {revision})' if revision else ''}: {METHODS.get(spec.kind, spec.kind)}",
+        "references": "\n".join([SOFTWARE.format(version=version), *REFERENCES.get(spec.kind, ())]),
+        "comment": convention(scales),
         "scene_kind": spec.kind,
         "angle_mode": spec.angle_mode,
         "sweep_axes": " ".join(a.name for a in spec.axes),
@@ -469,13 +571,19 @@ def _global_attrs(spec: Spec, attrs: Mapping[str, Any]) -> dict[str, Any]:
             out["units"] = "F and L: the force and length units of the input (moduli in F/L2, radii in L)"
     else:
         gpa = _names_crystals(spec)
-        stress = "GPa (library crystal constants)" if gpa else "G (shear modulus; (C11 - C12)/2 for a cubic crystal from nu and A)"
-        out.update({
-            "stiffness_units": f"forces per unit displacement in units of {'GPa' if gpa else 'G'} a (a semi-major extent of the punch = 1)",
-            "stress_units": stress,
-            "length_units": "a: semi-major extent of the punch (= 1 on the grid; for a mask, half the long side of the contact); "
-                            "L: unit of the sphere's radius and depth",
-        })
+        stress = (
+            "GPa (library crystal constants)"
+            if gpa
+            else "G (shear modulus; (C11 - C12)/2 for a cubic crystal from nu and A)"
+        )
+        out.update(
+            {
+                "stiffness_units": f"forces per unit displacement in units of {'GPa' if gpa else 'G'} a (a semi-major extent of the punch = 1)",
+                "stress_units": stress,
+                "length_units": "a: semi-major extent of the punch (= 1 on the grid; for a mask, half the long side of the contact); "
+                "L: unit of the sphere's radius and depth",
+            }
+        )
     for name, value in spec.fixed.items():
         if not (_is_number(value) or isinstance(value, str)):
             out[f"scene_{name}"] = json.dumps(value)
@@ -496,12 +604,14 @@ def _attribute_value(value: Any) -> Any:
 
 def _history(spec: Spec, attrs: Mapping[str, Any]) -> str | None:
     """The CF ``history``: one line per run, "<created>: <command>" (``attrs["created"]`` and
-    ``attrs["history"]``); a ``--resume`` run appends its line to the history of the data set
-    it replaces (``spec.output``), a fresh run starts a new one."""
+    the command as given, ``invocation``, else ``attrs["history"]``); a ``--resume`` run (its
+    ``attrs["history"]`` names ``--resume``) appends its line to the history of the data set it
+    replaces (``spec.output``), a fresh run starts a new one."""
     command = attrs.get("history")
     if not command:
         return None
-    line = f"{attrs['created']}: {command}" if attrs.get("created") else str(command)
+    given = invocation() or command
+    line = f"{attrs['created']}: {given}" if attrs.get("created") else str(given)
     if "--resume" not in str(command).split():
         return line
     try:
@@ -510,3 +620,88 @@ def _history(spec: Spec, attrs: Mapping[str, Any]) -> str | None:
     except (OSError, ValueError):
         previous = None
     return f"{previous}\n{line}" if previous else line
+
+
+# The entry points whose call is the command a data set's history records: (module, function) →
+# how it is shown. Python calls as calls, command-line mains as their argv.
+_CALLS = {
+    ("hpcontact.api", "run_sweep"): "hpcontact.run_sweep",
+    ("hpcontact.sweep.driver", "run_sweep"): "hpcontact.sweep.driver.run_sweep",
+}
+_MAINS = {("hpcontact.cli", "main"): "hpcontact", ("hpcontact.sweep.driver", "main"): None}
+
+
+def invocation() -> str | None:
+    """The command that runs the sweep being written, as it was given: the outermost of
+    ``hpcontact.run_sweep(...)`` (its arguments that differ from the defaults:
+    "hpcontact.run_sweep('jobs/demo.toml', resume=True)") and the command-line entry points
+    (``hpcontact run ...``, ``python -m hpcontact.sweep ...``: the process's command line, or
+    the ``argv`` a caller passed to ``main``) on the call stack; None when neither is (a data
+    set built directly)."""
+    found = None
+    frame = sys._getframe(1)
+    while frame is not None:
+        key = (frame.f_globals.get("__name__"), frame.f_code.co_name)
+        if key in _CALLS or key in _MAINS:
+            found = (key, frame)
+        frame = frame.f_back
+    if found is None:
+        return None
+    key, frame = found
+    if key in _CALLS:
+        return _call_text(_CALLS[key], frame.f_globals[key[1]], frame.f_locals)
+    argv = frame.f_locals.get("argv")
+    args = list(sys.argv[1:] if argv is None else argv)
+    program = _MAINS[key] or (frame.f_locals.get("prog") if argv is not None else None) or "hpcontact run"
+    if argv is None and sys.argv and sys.argv[0]:
+        program = _program(sys.argv[0], program)
+    return " ".join([program, shlex.join(map(str, args))]).strip()
+
+
+def _program(argv0: str, default: str) -> str:
+    """How the process was started: ``python -m <module>`` for a module of this package run as
+    a script, else the name of the script (``hpcontact``: the console command)."""
+    path = Path(argv0).resolve()
+    package = Path(__file__).resolve().parents[1]
+    if path.suffix == ".py" and path.is_relative_to(package):
+        parts = path.relative_to(package.parent).with_suffix("").parts
+        return "python -m " + ".".join(parts[:-1] if parts[-1] == "__main__" else parts)
+    return Path(argv0).name or default
+
+
+def _call_text(name: str, function: Any, values: Mapping[str, Any]) -> str:
+    """``name(arguments)``: the arguments of a call of ``function`` (``values``: its frame's
+    locals) that differ from their defaults, positional ones first; streams left out."""
+    shown = []
+    for parameter in inspect.signature(function).parameters.values():
+        if parameter.name not in values or parameter.name == "stream":
+            continue
+        value = values[parameter.name]
+        if parameter.default is not inspect.Parameter.empty and value is parameter.default:
+            continue
+        if (
+            parameter.default is not inspect.Parameter.empty
+            and isinstance(value, (bool, int, float, str))
+            and value == parameter.default
+        ):
+            continue
+        text = _argument_text(value)
+        no_default = parameter.default is inspect.Parameter.empty
+        shown.append(
+            text if no_default and parameter.kind is parameter.POSITIONAL_OR_KEYWORD else f"{parameter.name}={text}"
+        )
+    return f"{name}({', '.join(shown)})"
+
+
+def _argument_text(value: Any) -> str:
+    """An argument as it reads in a call: paths as strings, functions by name, a spec dict
+    in full (its JSON), other objects by their type."""
+    if isinstance(value, os.PathLike):
+        return repr(os.fspath(value))
+    if value is None or isinstance(value, (bool, int, float, str)):
+        return repr(value)
+    if isinstance(value, Mapping):
+        return json.dumps(value, sort_keys=True, default=str)
+    if callable(value) and hasattr(value, "__qualname__"):
+        return value.__qualname__
+    return f"{type(value).__name__}(...)"

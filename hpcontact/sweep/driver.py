@@ -10,7 +10,9 @@ run: a task whose last outcome is ok or bad input (deterministic) is reused, one
 while running it is quarantined (status crashed; ``retry_crashed`` runs it again), and one
 started in a single such run (a suspect) is run by rank 0 alone before it joins the shared
 chunks, so that a second death names the culprit and not the tasks that happened to run beside
-it. Existing journals need ``resume`` (continue) or ``restart`` (discard them); entries computed
+it. Existing journals need ``resume`` (continue) or ``restart`` (discard them), unless the
+data set is ``up_to_date`` and the caller allows that (``hpcontact run``, ``hpcontact.run_sweep``:
+one line, nothing run or written); entries computed
 by another package version, git revision or numerics fingerprint are refused unless
 ``accept_stale`` (``provenance``). The ranks then take chunks of tasks from a shared counter
 (``schedule``), journal each task as started before it runs and its outcome after (``journal``;
@@ -45,6 +47,7 @@ import numpy as np
 
 from hpcontact import accuracy
 from hpcontact.errors import ConvergenceError, InputError
+from hpcontact.numerics.blas import limited_blas
 from hpcontact.numerics.convolution import expect_applications, load_wisdom, save_wisdom
 from hpcontact.numerics.memory import default_memory_per_rank, parse_memory
 from hpcontact.problems.footprint import fft_applications
@@ -59,7 +62,7 @@ from hpcontact.sweep.arguments import (
 )
 from hpcontact.sweep.columns import NOT_COMPUTED, join, to_columns
 from hpcontact.sweep.costmodel import check_memory, start_line
-from hpcontact.sweep.guard import Refused, RunLock, usable_folder
+from hpcontact.sweep.guard import Refused, RunLock, usable_folder, usable_output
 from hpcontact.sweep.journal import (
     BAD_INPUT,
     ERROR,
@@ -70,6 +73,7 @@ from hpcontact.sweep.journal import (
     History,
     Journal,
     clear_journals,
+    journal_files,
     legacy_journals,
     read_history,
     session_name,
@@ -77,12 +81,22 @@ from hpcontact.sweep.journal import (
 )
 from hpcontact.sweep.progress import Progress, Summary
 from hpcontact.sweep.schedule import SLOTS, LaunchError, Team, claimed_chunks, report_done, totals_done, world
-from hpcontact.sweep.signals import DEFAULT_GRACE_S, STOP_NAME, Abandoned, StopControl
+from hpcontact.sweep.signals import ALIVE_PREFIX, DEFAULT_GRACE_S, DEFAULT_STALL_S, STOP_NAME, Abandoned, StopControl
 from hpcontact.sweep.spec import Spec, Validator, load_spec
-from hpcontact.sweep.tasks import Part, Task, enumerate_part, enumerate_tasks, join_parts, make_chunks, points
+from hpcontact.sweep.tasks import (
+    Part,
+    Task,
+    changed_inputs,
+    enumerate_part,
+    join_parts,
+    make_chunks,
+    points,
+    progress_lines,
+)
 
 TaskFunction = Callable[[Mapping[str, Any]], Mapping[str, Any]]
 SHOWN_FAILURES = 5
+
 
 class Stopped(Exception):
     """The run ended without a data set on every rank: stopped by a signal (``status`` 4), or a
@@ -103,14 +117,19 @@ class Options:
     retry_crashed: bool = False
     break_lock: bool = False
     mem_per_rank: tuple[int, str] | None = None  # bytes a rank may use and where that comes from: checked if set
+    up_to_date: bool = (
+        False  # journals without resume/restart: a data set that is ``up_to_date`` is left as is, not refused
+    )
 
 
 @dataclass(frozen=True)
 class Outcome:
-    """What a finished run produced: the data set and its failed tasks (crashed included)."""
+    """What a finished run produced: the data set and its failed tasks (crashed included);
+    ``up_to_date``: nothing was run or written (``up_to_date``)."""
 
     path: Path
     failures: int
+    up_to_date: bool = False
 
 
 @dataclass(frozen=True)
@@ -124,6 +143,7 @@ class Decision:
     session: str
     provenance: dict[str, Any]
     faults: dict[int, str]
+    up_to_date: bool = False  # the data set is the one this run would write: nothing to do
 
 
 @dataclass(frozen=True)
@@ -144,8 +164,9 @@ class Plan:
         return cls(spec, tasks, decision, [tasks[i] for i in decision.isolated], [tasks[i] for i in decision.shared])
 
 
-def run_task(function: TaskFunction, task: Task, rank: int, stop: StopControl | None = None,
-             fault: str | None = None) -> Entry:
+def run_task(
+    function: TaskFunction, task: Task, rank: int, stop: StopControl | None = None, fault: str | None = None
+) -> Entry:
     """Call ``function`` on the task's parameters; any exception becomes a failed entry.
     ``Abandoned`` (a stop request's grace is over) and other BaseExceptions propagate."""
     started = time.perf_counter()
@@ -179,21 +200,28 @@ def run_task(function: TaskFunction, task: Task, rank: int, stop: StopControl | 
     )
 
 
-def _decide(spec: Spec, tasks: list[Task], history: History, options: Options, now: Mapping[str, Any]
-            ) -> tuple[list[int], list[int], set[str], set[str]]:
+def _decide(
+    spec: Spec, tasks: list[Task], history: History, options: Options, now: Mapping[str, Any]
+) -> tuple[list[int], list[int], set[str], set[str]]:
     """Suspects to isolate and the rest to share (positions), the reused keys, and the
     quarantined keys."""
     keys = {t.key for t in tasks}
     reused = []
     for task in tasks:
         entry = history.entries.get(task.key)
-        if entry is not None and entry.status not in RETRIED and entry.resolved == provenance.resolved_scene(task.params):
+        if (
+            entry is not None
+            and entry.status not in RETRIED
+            and entry.resolved == provenance.resolved_scene(task.params)
+        ):
             reused.append(entry)
     if not options.accept_stale:
         mismatch = provenance.first_mismatch(reused, now)
         if mismatch is not None:
-            raise Refused(f"stale journals in {spec.journal}: {mismatch}; pass --accept-stale to reuse such "
-                          f"results or --restart to discard them")
+            raise Refused(
+                f"stale journals in {spec.journal}: {mismatch}; pass --accept-stale to reuse such "
+                f"results or --restart to discard them"
+            )
     done = {e.key for e in reused}
     suspects = {k: s for k, s in history.suspects().items() if k in keys and k not in done}
     crashed = set() if options.retry_crashed else {k for k in history.crashed() if k in suspects}
@@ -237,29 +265,43 @@ def _joined(spec: Spec, shares: list[Share]) -> tuple[list[Task], Any, bool]:
     return tasks, task_of, any(over for _, over, _ in shares)
 
 
-def _prepare(spec: Spec, tasks: list[Task], task_of: Any, over: bool, options: Options, ranks: int,
-             keep: dict[str, Any]) -> Decision:
+def prepare(
+    spec: Spec, tasks: list[Task], task_of: Any, over: bool, options: Options, ranks: int, keep: dict[str, Any]
+) -> Decision:
     """Rank 0's preparation (see the module docstring); ``keep`` receives what stays on rank 0
     (each point's task, the lock, the history, the reused and quarantined keys)."""
     if over:
         check_memory(tasks, *options.mem_per_rank)
     injected = faults.faults_from_environment()
-    usable_folder(Path(spec.output).parent, "output folder")
+    usable_output(Path(spec.output))
     usable_folder(spec.journal, "journal folder")
     lock = RunLock(spec.journal, ranks)
     note = lock.acquire(options.break_lock)
     try:
         (spec.journal / STOP_NAME).unlink(missing_ok=True)
+        for beat in spec.journal.glob(f"{ALIVE_PREFIX}*"):  # an earlier run's heartbeats
+            beat.unlink(missing_ok=True)
         history = read_history(spec.journal)
+        faults.slow_phase("setup")
         if history.files and not (options.resume or options.restart):
-            raise Refused(f"{len(history.entries)} finished tasks in {spec.journal}; pass --resume to continue or "
-                          f"--restart to discard them")
+            now = provenance.current()
+            if options.up_to_date and up_to_date(spec, tasks, history, now):
+                keep.update(
+                    task_of=task_of, lock=lock, history=history, reused={t.key for t in tasks}, crashed=set(), note=note
+                )
+                return Decision([], [], len(tasks), 0, session_name(), now, injected, up_to_date=True)
+            raise Refused(
+                f"{len(history.entries)} finished tasks in {spec.journal}; pass --resume to continue or "
+                f"--restart to discard them"
+            )
         if options.restart:
             clear_journals(spec.journal)
             history = History()
         elif legacy_journals(spec.journal):
-            raise Refused(f"{spec.journal} holds HDF5 journals of an earlier hpcontact (rank*.h5), which carry no "
-                          f"provenance and cannot be reused; pass --restart to discard them")
+            raise Refused(
+                f"{spec.journal} holds HDF5 journals of an earlier hpcontact (rank*.h5), which carry no "
+                f"provenance and cannot be reused; pass --restart to discard them"
+            )
         now = provenance.current()
         isolated, shared, reused, crashed = _decide(spec, tasks, history, options, now)
     except BaseException:
@@ -267,6 +309,43 @@ def _prepare(spec: Spec, tasks: list[Task], task_of: Any, over: bool, options: O
         raise
     keep.update(task_of=task_of, lock=lock, history=history, reused=reused, crashed=crashed, note=note)
     return Decision(isolated, shared, len(reused), len(crashed), session_name(), now, injected)
+
+
+def up_to_date(spec: Spec, tasks: list[Task], history: History, now: Mapping[str, Any]) -> bool:
+    """Whether the data set of ``spec`` is the one a run would write now, so that a run without
+    ``resume`` or ``restart`` has nothing to do (``Options.up_to_date``; the README's command run
+    twice): the data set exists; every task of the spec is in the journals, its last outcome ok,
+    for the same resolved scene and computed by this code (version, git revision, numerics: what
+    ``resume`` would reuse), so none would run; no journal line was dropped and no HDF5 journal
+    of an earlier hpcontact is there; the data set was written from this very spec (its ``spec``
+    attribute), holds as many tasks, none failed, and no journal changed after it was written (a
+    later run that stopped before writing its own). Anything else: False (the run is refused as
+    before). Reads the data set's attributes only; changes nothing."""
+    output = Path(spec.output)
+    if not tasks or not output.is_file() or history.dropped or legacy_journals(spec.journal):
+        return False
+    entries = [history.entries.get(task.key) for task in tasks]
+    if any(
+        e is None or e.status != OK or e.resolved != provenance.resolved_scene(t.params) for e, t in zip(entries, tasks)
+    ):
+        return False
+    if provenance.first_mismatch(entries, now) is not None:
+        return False
+    written = output.stat().st_mtime_ns
+    if any(path.stat().st_mtime_ns > written for path in journal_files(spec.journal)):
+        return False
+    try:
+        import netCDF4
+
+        with netCDF4.Dataset(output, "r") as nc:
+            attrs = {
+                name: nc.getncattr(name) for name in ("spec", "sweep_tasks", "sweep_failures") if name in nc.ncattrs()
+            }
+    except (OSError, RuntimeError, ValueError):  # not a readable netCDF file: a run writes it again
+        return False
+    return (
+        attrs.get("spec") == spec.text and attrs.get("sweep_tasks") == len(tasks) and attrs.get("sweep_failures") == 0
+    )
 
 
 def _shared(team: Team, make: Callable[[], Any]) -> Any:
@@ -302,12 +381,20 @@ def run_sweep(
 ) -> Path:
     """Run the sweep of ``spec_path`` on ``team`` (default: MPI world, or one process) and return
     the path of the data set written (see ``execute``)."""
-    return execute(spec_path, output, task_function, team=team, validate=validate, stream=stream,
-                   options=options if options is not None else Options(resume=resume), stop=stop).path
+    return execute(
+        spec_path,
+        output,
+        task_function,
+        team=team,
+        validate=validate,
+        stream=stream,
+        options=options if options is not None else Options(resume=resume),
+        stop=stop,
+    ).path
 
 
 def execute(
-    spec_path: str | Path,
+    spec_path: str | Path | Spec,
     output: str | Path | None = None,
     task_function: TaskFunction | None = None,
     *,
@@ -325,28 +412,56 @@ def execute(
     progress and the summary to ``stream`` (default stdout); ``stop`` is this rank's stop
     control (default: one without signal handlers, which still stops with the other ranks).
     Spec errors and refusals raise ``InputError`` (``Refused``) on every rank before any work
-    starts; a stopped run raises ``Stopped`` on every rank.
+    starts; a stopped run raises ``Stopped`` on every rank. ``spec_path`` may be a ``Spec``
+    already parsed (``spec.parse_spec`` with ``check_scenes=False``; ``output`` None): a spec
+    given as a dict (``hpcontact.run_sweep``). With ``options.up_to_date``, a sweep whose data
+    set is ``up_to_date`` prints one line and returns it (``Outcome.up_to_date``): nothing is
+    run or written.
     """
     team = team if team is not None else world()
     started = time.perf_counter()  # after the imports and MPI start-up
     stream = stream if stream is not None else sys.stdout
     stop = stop if stop is not None else StopControl()
     keep: dict[str, Any] = {}  # rank 0 only
-    spec = _shared(team, lambda: load_spec(spec_path, output=output, validate=validate, check_scenes=False))
+    spec = _shared(
+        team,
+        lambda: (
+            spec_path
+            if isinstance(spec_path, Spec) and output is None
+            else load_spec(spec_path, output=output, validate=validate, check_scenes=False)
+        ),
+    )
     mine = pickle.dumps(_share(spec, team.rank, team.size, validate, options), protocol=pickle.HIGHEST_PROTOCOL)
     tasks, task_of, over = _joined(spec, [pickle.loads(b) for b in team.bcast(team.gather(mine))])
-    d: Decision = _shared(team, lambda: _prepare(spec, tasks, task_of, over, options, team.size, keep))
+    d: Decision = _shared(team, lambda: prepare(spec, tasks, task_of, over, options, team.size, keep))
     plan = Plan.of(spec, tasks, d)
     try:
-        return _run(team, plan, keep, task_function, stream, stop, options, started)
+        if d.up_to_date:
+            if team.rank == 0:
+                print(
+                    f"hpcontact: {spec.output} is up to date ({len(tasks)} tasks from journals); nothing to do",
+                    file=stream,
+                    flush=True,
+                )
+            return Outcome(Path(spec.output), 0, up_to_date=True)
+        with limited_blas():  # HPCONTACT_BLAS_THREADS while the tasks run (numerics.blas)
+            return _run(team, plan, keep, task_function, stream, stop, options, started)
     finally:
         stop.close()
         if team.rank == 0:
             keep["lock"].release()
 
 
-def _run(team: Team, plan: Plan, keep: dict[str, Any], task_function: TaskFunction | None, stream: TextIO,
-         stop: StopControl, options: Options, started: float) -> Outcome:
+def _run(
+    team: Team,
+    plan: Plan,
+    keep: dict[str, Any],
+    task_function: TaskFunction | None,
+    stream: TextIO,
+    stop: StopControl,
+    options: Options,
+    started: float,
+) -> Outcome:
     """Every rank: the work of ``plan``, then rank 0 assembles the data set (see ``execute``)."""
     spec, tasks = plan.spec, plan.tasks
     if task_function is None:
@@ -363,6 +478,11 @@ def _run(team: Team, plan: Plan, keep: dict[str, Any], task_function: TaskFuncti
     if team.rank == 0:
         if keep["note"]:
             print(f"hpcontact: {keep['note']}", file=stream)
+        if keep["history"].dropped:
+            print(f"hpcontact: warning: {keep['history'].dropped_note(spec.journal)}", file=stream)
+        changed = changed_inputs(tasks, keep["history"].entries)  # a mask replaced under its path
+        if changed:
+            print(f"hpcontact: {changed}", file=stream)
         print(
             f"hpcontact: {spec.title}: {len(tasks)} tasks, {len(todo)} to run"
             f"{f' ({plan.decision.reused} from journals)' if plan.decision.reused else ''}"
@@ -379,10 +499,13 @@ def _run(team: Team, plan: Plan, keep: dict[str, Any], task_function: TaskFuncti
     task_s = schedule_s = journal_s = 0.0
     run = 0
     failure: str | None = None
-    stop.watch(spec.journal, team.rank)
+    stop.watch(spec.journal, team.rank, team.size)
     counter = team.counter(SLOTS)
-    journal = Journal(_journal_path(spec, team.rank, plan.decision.session), team.rank,
-                      {"session": plan.decision.session, "spec_path": str(spec.path), **plan.decision.provenance})
+    journal = Journal(
+        _journal_path(spec, team.rank, plan.decision.session),
+        team.rank,
+        {"session": plan.decision.session, "spec_path": str(spec.path), **plan.decision.provenance},
+    )
     done: list[Entry] = []  # this rank's outcomes, and their tasks' positions
     done_at: list[int] = []
 
@@ -439,9 +562,20 @@ def _run(team: Team, plan: Plan, keep: dict[str, Any], task_function: TaskFuncti
         failure = f"cannot write {exc.filename or spec.journal}: {exc.strerror or exc}"
         stop.request(f"rank {team.rank}: {failure}", failed=True)
     counter.close()
-    stop.close()
-    totals = team.gather((task_s, run, schedule_s, journal_s, journal.sync_s, stop.reason, stop.failed, failure,
-                          None if stop.reason is not None else to_columns(done, done_at)))
+    stop.enter("finish")
+    totals = team.gather(
+        (
+            task_s,
+            run,
+            schedule_s,
+            journal_s,
+            journal.sync_s,
+            stop.reason,
+            stop.failed,
+            failure,
+            None if stop.reason is not None else to_columns(done, done_at),
+        )
+    )
 
     def finish() -> tuple[Outcome | None, str, int]:
         reasons = [t for t in totals if t[5] is not None]
@@ -450,15 +584,31 @@ def _run(team: Team, plan: Plan, keep: dict[str, Any], task_function: TaskFuncti
             ran = sum(t[1] for t in totals)
             status = EXIT_UNEXPECTED if any(t[6] for t in reasons) else EXIT_STOPPED
             what = f"stopped ({'; '.join(failed) if failed else reasons[0][5]})"
-            return None, (f"hpcontact: {what}: {ran} tasks finished in this run; journals intact in "
-                          f"{spec.journal}; run again with --resume"), status
+            return (
+                None,
+                (
+                    f"hpcontact: {what}: {ran} tasks finished in this run; journals intact in "
+                    f"{spec.journal}; run again with --resume"
+                ),
+                status,
+            )
         try:
-            return _assemble(spec, plan, keep, team.size, totals, started, setup_s, options, stream), "", EXIT_OK
+            outcome = _assemble(spec, plan, keep, team.size, totals, started, setup_s, options, stream)
+            stop.enter("done")  # the data set is written: a stop request changes nothing now
+            faults.slow_phase("done")
+            return outcome, "", EXIT_OK
         except OSError as exc:  # a full disk at the end: the journals hold everything
-            return None, (f"hpcontact: cannot write the data set {exc.filename or spec.output}: {exc.strerror or exc}; "
-                          f"journals intact in {spec.journal}; free space and run again with --resume"), EXIT_UNEXPECTED
+            return (
+                None,
+                (
+                    f"hpcontact: cannot write the data set {exc.filename or spec.output}: {exc.strerror or exc}; "
+                    f"journals intact in {spec.journal}; free space and run again with --resume"
+                ),
+                EXIT_UNEXPECTED,
+            )
 
     outcome, message, status = _shared(team, finish)
+    stop.enter("done")
     if outcome is None:
         raise Stopped(message, status)
     return outcome
@@ -469,8 +619,17 @@ def _journal_path(spec: Spec, rank: int, session: str) -> Path:
     return spec.journal / f"rank{rank:05d}-{session}.jsonl"
 
 
-def _assemble(spec: Spec, plan: Plan, keep: Mapping[str, Any], ranks: int, totals: list, started: float,
-              setup_s: float, options: Options, stream: TextIO) -> Outcome:
+def _assemble(
+    spec: Spec,
+    plan: Plan,
+    keep: Mapping[str, Any],
+    ranks: int,
+    totals: list,
+    started: float,
+    setup_s: float,
+    options: Options,
+    stream: TextIO,
+) -> Outcome:
     """Rank 0: the data set from the ranks' columns of this run and the outcomes reused from
     earlier journals, its summary, and the netCDF file (xarray is imported here: the other
     ranks, and runs that stop, never need it)."""
@@ -478,8 +637,11 @@ def _assemble(spec: Spec, plan: Plan, keep: Mapping[str, Any], ranks: int, total
 
     gather_started = time.perf_counter()
     history: History = keep["history"]
-    earlier = [(history.crashed_entry(t.key, t.params) if t.key in keep["crashed"] else history.entries[t.key], i)
-               for i, t in enumerate(plan.tasks) if t.key in keep["crashed"] or t.key in keep["reused"]]
+    earlier = [
+        (history.crashed_entry(t.key, t.params) if t.key in keep["crashed"] else history.entries[t.key], i)
+        for i, t in enumerate(plan.tasks)
+        if t.key in keep["crashed"] or t.key in keep["reused"]
+    ]
     parts = [to_columns([e for e, _ in earlier], [i for _, i in earlier])] + [t[8] for t in totals]
     joined = join(parts, len(plan.tasks), FIXED_VARIABLES)
     failed = [int(i) for i in np.flatnonzero((joined.status != OK) & (joined.status != NOT_COMPUTED))]
@@ -497,7 +659,7 @@ def _assemble(spec: Spec, plan: Plan, keep: Mapping[str, Any], ranks: int, total
             "history": f"hpcontact run {spec.path}{' --resume' if options.resume else ''}",
             "sweep_journal_sync_time_s": sum(t[4] for t in totals),
         },
-        derive=False,  # write_netcdf leaves K_nn out: open_dataset derives it
+        derive=False,  # write_netcdf stores K_nn and normalized_nn (it derives them once, there)
     )
     now = time.perf_counter()
     summary = Summary(
@@ -515,9 +677,12 @@ def _assemble(spec: Spec, plan: Plan, keep: Mapping[str, Any], ranks: int, total
         gather_s=now - gather_started,
     )
     dataset.attrs.update(summary.attrs())
+    faults.slow_phase("write")
     path = write_netcdf(dataset, spec.output)
-    shown = [f"{json.dumps(dict(plan.tasks[i].params), sort_keys=True)}: {joined.message[i]}"
-             for i in failed[:SHOWN_FAILURES]]
+    shown = [
+        f"{json.dumps(dict(plan.tasks[i].params), sort_keys=True)}: {joined.message[i]}"
+        for i in failed[:SHOWN_FAILURES]
+    ]
     print(summary.text(shown), file=stream)
     unseen = [r for r, t in enumerate(totals) if t[1] and not _journal_path(spec, r, plan.decision.session).exists()]
     if unseen:
@@ -530,8 +695,15 @@ def _assemble(spec: Spec, plan: Plan, keep: Mapping[str, Any], ranks: int, total
     return Outcome(path, len(failed))
 
 
-def dry_run(spec_path: str | Path, output: str | Path | None = None, stream: TextIO | None = None, *,
-            as_json: bool = False, mem_per_rank: int | None = None, calibration: Any = None) -> int:
+def dry_run(
+    spec_path: str | Path,
+    output: str | Path | None = None,
+    stream: TextIO | None = None,
+    *,
+    as_json: bool = False,
+    mem_per_rank: int | None = None,
+    calibration: Any = None,
+) -> int:
     """``hpcontact run SPEC --dry-run``: the tasks with their 0-based indices (the order
     ``HPCONTACT_FAULTS`` counts in), relative cost, estimated seconds and peak memory and
     parameters; the distinct grids and kernel sets; the totals (core-seconds, core-hours, peak
@@ -540,8 +712,8 @@ def dry_run(spec_path: str | Path, output: str | Path | None = None, stream: Tex
     ``as_json``, one JSON object instead. Nothing is computed but the cost model's calibration
     (once per host and version, ``costmodel.load_calibration``)."""
     stream = stream if stream is not None else sys.stdout
-    spec = load_spec(spec_path, output=output)
-    tasks, _ = enumerate_tasks(spec)
+    spec = load_spec(spec_path, output=output, check_scenes=False)  # checked once, while enumerating:
+    tasks, _ = join_parts(spec, [enumerate_part(spec, check=True, progress=progress_lines(sys.stderr, points(spec)))])
     limit, source = (mem_per_rank, "--mem-per-rank") if mem_per_rank is not None else default_memory_per_rank()
     if calibration is None:
         calibration = costmodel.load_calibration(stream=sys.stderr)
@@ -550,45 +722,70 @@ def dry_run(spec_path: str | Path, output: str | Path | None = None, stream: Tex
     peak_task = max(range(len(tasks)), key=lambda i: est.bytes[i], default=None)
     if over:
         shown = ", ".join(map(str, over[:SHOWN_FAILURES])) + (", ..." if len(over) > SHOWN_FAILURES else "")
-        print(f"hpcontact: warning: {len(over)} task(s) need more memory than {limit / 2**20:.0f} MiB per rank "
-              f"({source}): {shown}; hpcontact run refuses this spec", file=sys.stderr)
+        print(
+            f"hpcontact: warning: {len(over)} task(s) need more memory than {limit / 2**20:.0f} MiB per rank "
+            f"({source}): {shown}; hpcontact run refuses this spec",
+            file=sys.stderr,
+        )
     if as_json:
-        print(json.dumps({
-            "title": spec.title,
-            "output": str(spec.output),
-            "tasks": len(tasks),
-            "estimated_task_seconds": est.total_seconds,
-            "estimated_core_hours": est.total_seconds / 3600.0,
-            "estimated_peak_memory_bytes": est.peak_bytes,
-            "peak_memory_task": peak_task,
-            "wall_time_s": {str(r): w for r, w in est.wall_s.items()},
-            "efficiency": {str(r): e for r, e in est.efficiency.items()},
-            "grids": est.grids(),
-            "kernel_sets": est.kernel_sets(),
-            "mem_per_rank_bytes": limit,
-            "mem_per_rank_source": source,
-            "tasks_over_memory": over,
-            "calibration": {"host": calibration.host, "version": calibration.version},
-            "tasks_list": [
-                {"index": i, "key": t.key, "cost": t.cost, "estimated_seconds": s, "estimated_peak_memory_bytes": b}
-                for i, (t, s, b) in enumerate(zip(tasks, est.seconds, est.bytes))
-            ],
-        }), file=stream)
+        print(
+            json.dumps(
+                {
+                    "title": spec.title,
+                    "output": str(spec.output),
+                    "tasks": len(tasks),
+                    "estimated_task_seconds": est.total_seconds,
+                    "estimated_core_hours": est.total_seconds / 3600.0,
+                    "estimated_peak_memory_bytes": est.peak_bytes,
+                    "peak_memory_task": peak_task,
+                    "wall_time_s": {str(r): w for r, w in est.wall_s.items()},
+                    "efficiency": {str(r): e for r, e in est.efficiency.items()},
+                    "grids": est.grids(),
+                    "kernel_sets": est.kernel_sets(),
+                    "mem_per_rank_bytes": limit,
+                    "mem_per_rank_source": source,
+                    "tasks_over_memory": over,
+                    "calibration": {"host": calibration.host, "version": calibration.version},
+                    "tasks_list": [
+                        {
+                            "index": i,
+                            "key": t.key,
+                            "cost": t.cost,
+                            "estimated_seconds": s,
+                            "estimated_peak_memory_bytes": b,
+                        }
+                        for i, (t, s, b) in enumerate(zip(tasks, est.seconds, est.bytes))
+                    ],
+                }
+            ),
+            file=stream,
+        )
         return EXIT_OK
-    print(f"# {spec.title}: {len(tasks)} tasks -> {spec.output} (index, key, relative cost, estimated seconds, "
-          f"estimated peak MiB, scene)", file=stream)
+    print(
+        f"# {spec.title}: {len(tasks)} tasks -> {spec.output} (index, key, relative cost, estimated seconds, "
+        f"estimated peak MiB, scene)",
+        file=stream,
+    )
+    shown = json.JSONEncoder(sort_keys=True).encode  # json.dumps(..., sort_keys=True) without an encoder per line
     for i, task in enumerate(tasks):
-        print(f"{i:6d}  {task.key[:12]}  {task.cost:10.3g}  {est.seconds[i]:9.3g}  {est.bytes[i] / 2**20:7.0f}  "
-              f"{json.dumps(dict(task.params), sort_keys=True)}", file=stream)
-    grids = "; ".join(f"{label}: {count} tasks" for label, count in est.grids().items())
-    print(f"# {len(est.grids())} grid(s) ({grids}); {est.kernel_sets()} kernel set(s)", file=stream)
-    print(f"# estimated: {est.total_seconds:.4g} core-seconds = {est.total_seconds / 3600.0:.3g} core-hours; peak memory "
-          f"{est.peak_bytes / 2**20:.0f} MiB (task {peak_task}); limit {limit / 2**20:.0f} MiB per rank ({source})",
-          file=stream)
-    walls = ", ".join(f"{r} rank(s) {_duration(w)} (efficiency {est.efficiency[r]:.2f})"
-                      for r, w in est.wall_s.items())
-    print(f"# wall time: {walls}; cost model calibrated on {calibration.host} by hpcontact {calibration.version}",
-          file=stream)
+        print(
+            f"{i:6d}  {task.key[:12]}  {task.cost:10.3g}  {est.seconds[i]:9.3g}  {est.bytes[i] / 2**20:7.0f}  "
+            f"{shown(dict(task.params))}",
+            file=stream,
+        )
+    counts = est.grids()  # once: a label per task
+    grids = "; ".join(f"{label}: {count} tasks" for label, count in counts.items())
+    print(f"# {len(counts)} grid(s) ({grids}); {est.kernel_sets()} kernel set(s)", file=stream)
+    print(
+        f"# estimated: {est.total_seconds:.4g} core-seconds = {est.total_seconds / 3600.0:.3g} core-hours; peak memory "
+        f"{est.peak_bytes / 2**20:.0f} MiB (task {peak_task}); limit {limit / 2**20:.0f} MiB per rank ({source})",
+        file=stream,
+    )
+    walls = ", ".join(f"{r} rank(s) {_duration(w)} (efficiency {est.efficiency[r]:.2f})" for r, w in est.wall_s.items())
+    print(
+        f"# wall time: {walls}; cost model calibrated on {calibration.host} by hpcontact {calibration.version}",
+        file=stream,
+    )
     return EXIT_OK
 
 
@@ -599,9 +796,15 @@ def _duration(seconds: float) -> str:
     return f"{seconds / 60.0:.3g} min" if seconds < 7200.0 else f"{seconds / 3600.0:.3g} h"
 
 
-def run_command(spec: str | Path, options: Options = Options(), output: str | Path | None = None,
-                grace_s: float | None = None, task_function: TaskFunction | None = None,
-                prog: str = "hpcontact run") -> int:
+def run_command(
+    spec: str | Path,
+    options: Options = Options(),
+    output: str | Path | None = None,
+    grace_s: float | None = None,
+    task_function: TaskFunction | None = None,
+    prog: str = "hpcontact run",
+    stall_s: float | None = None,
+) -> int:
     """``hpcontact run`` on every rank: the exit status (``EXIT_STATUS``). Refusals and bad
     input print one line on stderr from rank 0, prefixed ``prog``; any other error prints its
     traceback and, under MPI, aborts every rank (a rank left waiting in a collective would hang
@@ -611,10 +814,15 @@ def run_command(spec: str | Path, options: Options = Options(), output: str | Pa
     except LaunchError as exc:
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return EXIT_REFUSED
-    stop = StopControl(DEFAULT_GRACE_S if grace_s is None else grace_s).install()
-    load_wisdom()  # FFTW plans of earlier runs: measured plans in milliseconds
+    stop = StopControl(
+        DEFAULT_GRACE_S if grace_s is None else grace_s, DEFAULT_STALL_S if stall_s is None else stall_s
+    ).install(team.rank)
     try:
+        load_wisdom()  # FFTW plans of earlier runs: measured plans in milliseconds
         outcome = execute(spec, output, task_function, team=team, options=options, stop=stop)
+        if not outcome.up_to_date:  # an up-to-date sweep planned nothing new
+            _keep_wisdom()  # every rank: save_wisdom merges the ranks' plans into one file
+        return EXIT_FAILED_TASKS if outcome.failures else EXIT_OK
     except InputError as exc:
         if team.rank == 0:
             print(f"{prog}: error: {exc}", file=sys.stderr)
@@ -630,8 +838,6 @@ def run_command(spec: str | Path, options: Options = Options(), output: str | Pa
     finally:
         stop.close()
         stop.uninstall()
-    _keep_wisdom()  # every rank: save_wisdom merges the ranks' plans into one file
-    return EXIT_FAILED_TASKS if outcome.failures else EXIT_OK
 
 
 def _keep_wisdom() -> None:
@@ -642,8 +848,9 @@ def _keep_wisdom() -> None:
         print(f"hpcontact: FFTW wisdom not saved ({exc})", file=sys.stderr)
 
 
-def run_from_arguments(args: argparse.Namespace, task_function: TaskFunction | None = None,
-                       prog: str = "hpcontact run") -> int:
+def run_from_arguments(
+    args: argparse.Namespace, task_function: TaskFunction | None = None, prog: str = "hpcontact run"
+) -> int:
     """Run what ``add_run_arguments`` parsed (``task_function``, ``prog``: see ``run_command``)."""
     memory = (parse_memory(args.mem_per_rank), "--mem-per-rank") if args.mem_per_rank is not None else None
     if args.dry_run:
@@ -652,14 +859,28 @@ def run_from_arguments(args: argparse.Namespace, task_function: TaskFunction | N
         raise InputError("--json", "only with --dry-run", True)
     if args.grace is not None and not args.grace >= 0.0:
         raise InputError("--grace", "seconds >= 0", args.grace)
-    options = Options(resume=args.resume, restart=args.restart, accept_stale=args.accept_stale,
-                      retry_crashed=args.retry_crashed, break_lock=args.break_lock,
-                      mem_per_rank=memory if memory is not None else default_memory_per_rank())
-    return run_command(args.spec, options, args.output, args.grace, task_function, prog)
+    if args.stall_timeout is not None and not args.stall_timeout >= 0.0:
+        raise InputError("--stall-timeout", "seconds >= 0 (0: off)", args.stall_timeout)
+    # up to date: a finished sweep run again exits 0 (the journals identify the code, not a task
+    # function that replaces the spec's solver, so only the spec's own solver qualifies)
+    options = Options(
+        resume=args.resume,
+        restart=args.restart,
+        accept_stale=args.accept_stale,
+        retry_crashed=args.retry_crashed,
+        break_lock=args.break_lock,
+        mem_per_rank=memory if memory is not None else default_memory_per_rank(),
+        up_to_date=task_function is None,
+    )
+    return run_command(args.spec, options, args.output, args.grace, task_function, prog, args.stall_timeout)
 
 
-def main(argv: Sequence[str] | None = None, prog: str = "hpcontact run",
-         description: str = "Run a parameter sweep (under mpiexec or alone).", task_function: TaskFunction | None = None) -> int:
+def main(
+    argv: Sequence[str] | None = None,
+    prog: str = "hpcontact run",
+    description: str = "Run a parameter sweep (under mpiexec or alone).",
+    task_function: TaskFunction | None = None,
+) -> int:
     """``python -m hpcontact.sweep SPEC [options]`` (see ``add_run_arguments``); another
     ``task_function`` makes another command with the same options and exit statuses
     (``python -m hpcontact.sweep.accuracy_study``)."""

@@ -2,27 +2,45 @@
 
 * The output's folder and the journal folder must be writable (each is created when its parent
   exists; a missing grandparent is a typo, refused), so a run never fails at its end for want of
-  a place to write.
+  a place to write; the output itself, where it exists, must be a file (a folder in its place
+  is refused, not found when the data set is renamed into place at the end).
 * One run per output: a lock file ``LOCK`` in the journal folder holds the holder's host, pid,
   MPI size, start time and batch job id. A second run is refused with one line naming the
   holder. A lock left by a dead run is taken over when the new run belongs to the same batch job
   (a requeued job) or runs on the same host where the holder's pid is gone; otherwise the message
   says to pass ``--break-lock`` once the holder is known to be dead.
+* The lock appears complete or not at all: its record is written to a temporary file and synced
+  (``fsync``) before a hard link gives it the name ``LOCK`` (exclusive: of two runs, one gets
+  it), and the folder is synced after; a takeover renames the dead run's lock away first, so of
+  two runs taking it over at once one gets it. A lock that cannot be read as a record (empty,
+  zero-filled or garbage: left by a crash of an older hpcontact, which did not sync it, or
+  damaged) is a dead run's lock, since a live run's lock is always complete. Its holder is
+  then known only from the journals its run wrote (those at least as new as the lock; each
+  journal's header names its host, pid and batch job): it is taken over when one of them names
+  this run's batch job, or when all name this host and their pids are gone; otherwise (no such
+  journal: the run died before its first task reached the disk) the refusal names the lock and
+  ``--break-lock``.
 """
 
 from __future__ import annotations
 
 import datetime
+import errno
 import json
 import os
+import secrets
 import socket
 from pathlib import Path
 from typing import Any
 
 from hpcontact.errors import InputError
+from hpcontact.sweep.journal import JOB_VARIABLES, batch_job, journal_files, read_file
+
+__all__ = ["JOB_VARIABLES", "LOCK_NAME", "Refused", "RunLock", "batch_job", "usable_folder", "usable_output"]
 
 LOCK_NAME = "LOCK"
-JOB_VARIABLES = ("SLURM_JOB_ID", "PBS_JOBID", "LSB_JOBID", "JOB_ID")  # Slurm, PBS/Torque, LSF, SGE
+LOCK_BYTES = 4096  # a lock record is ~150 bytes: a larger file is not one
+JOURNAL_SLACK_S = 2.0  # journals this much older than an unreadable lock still count as its run's
 
 
 class Refused(InputError):
@@ -59,9 +77,64 @@ def usable_folder(folder: Path, what: str) -> None:
         raise Refused(f"cannot write in the {what} {folder}: {exc.strerror}") from None
 
 
-def batch_job() -> str | None:
-    """The batch system's job id, if any."""
-    return next((os.environ[name] for name in JOB_VARIABLES if os.environ.get(name)), None)
+def usable_output(path: Path) -> None:
+    """The output ``path`` may be written: its folder is usable (``usable_folder``) and
+    ``path``, where it exists, is a file (not a folder or a device)."""
+    path = Path(path)
+    usable_folder(path.parent, "output folder")
+    if path.exists() and not path.is_file():
+        what = "a folder" if path.is_dir() else "not a regular file"
+        raise Refused(
+            f"the output {path} is {what}, not a file: name another output ([sweep].output or --output) or move it away"
+        )
+
+
+def _sync_folder(folder: Path) -> None:
+    """Make the names in ``folder`` durable (best effort: some file systems refuse it)."""
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+def _read(path: Path) -> bytes | None:
+    """The first bytes of the lock ``path`` (at most ``LOCK_BYTES`` + 1); None when it does not
+    exist, b"" when it cannot be read."""
+    try:
+        with open(path, "rb") as fh:
+            return fh.read(LOCK_BYTES + 1)
+    except FileNotFoundError:
+        return None
+    except OSError:
+        return b""
+
+
+def _record(data: bytes | None) -> dict[str, Any] | None:
+    """The lock record in ``data`` (``_read``): None for no lock, ``{}`` for an unreadable one."""
+    if data is None:
+        return None
+    try:
+        record = json.loads(data.decode("utf-8")) if len(data) <= LOCK_BYTES else None
+    except (ValueError, RecursionError):
+        record = None
+    return record if _valid_holder(record) else {}
+
+
+def _valid_holder(record: Any) -> bool:
+    """Whether ``record`` reads as a lock record: a host name and a pid at least."""
+    return (
+        isinstance(record, dict)
+        and isinstance(record.get("host"), str)
+        and record["host"] != ""
+        and isinstance(record.get("pid"), int)
+        and not isinstance(record.get("pid"), bool)
+    )
 
 
 def _pid_alive(pid: int) -> bool:
@@ -80,55 +153,153 @@ class RunLock:
     def __init__(self, folder: Path, ranks: int) -> None:
         self.path = Path(folder) / LOCK_NAME
         self.info = {
-            "host": socket.gethostname(), "pid": os.getpid(), "ranks": ranks, "job": batch_job(),
+            "host": socket.gethostname(),
+            "pid": os.getpid(),
+            "ranks": ranks,
+            "job": batch_job(),
             "started": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
         }
         self.held = False
 
     def holder(self) -> dict[str, Any] | None:
-        """The current holder's record (an unreadable lock reads as an unknown holder)."""
+        """The current holder's record: None when there is no lock, ``{}`` when it cannot be
+        read as a record (empty, zero-filled, garbage, not a file)."""
+        return _record(_read(self.path))
+
+    def _journal_evidence(self) -> str | None:
+        """For an unreadable lock (module docstring): the takeover reason the journals of its
+        run give, else None."""
         try:
-            return json.loads(self.path.read_text(encoding="utf-8"))
-        except FileNotFoundError:
+            since = self.path.stat().st_mtime - JOURNAL_SLACK_S
+        except OSError:
             return None
-        except (OSError, ValueError):
-            return {}
+        headers = []
+        for path in journal_files(self.path.parent):
+            try:
+                if path.stat().st_mtime >= since:
+                    headers.append(read_file(path)[0])
+            except OSError:
+                continue
+        headers = [h for h in headers if _valid_holder(h)]
+        job = self.info["job"]
+        if job is not None and any(h.get("job") == job for h in headers):
+            return f"its run's journals name batch job {job}, which was requeued"
+        if headers and all(h["host"] == self.info["host"] and not _pid_alive(h["pid"]) for h in headers):
+            pids = ", ".join(sorted({str(h["pid"]) for h in headers}))
+            return f"its run's journals name this host, where pid {pids} is gone"
+        return None
 
     def _takeover_reason(self, holder: dict[str, Any]) -> str | None:
         job = self.info["job"]
         if job is not None and holder.get("job") == job:
             return f"batch job {job} was requeued"
-        if holder.get("host") == self.info["host"] and isinstance(holder.get("pid"), int) and not _pid_alive(holder["pid"]):
+        if (
+            holder.get("host") == self.info["host"]
+            and isinstance(holder.get("pid"), int)
+            and not _pid_alive(holder["pid"])
+        ):
             return f"pid {holder['pid']} on this host is gone"
         return None
 
     def acquire(self, break_lock: bool = False) -> str | None:
         """Take the lock; the reason when a dead holder's lock was taken over. ``Refused`` when
-        another run holds it."""
-        text = json.dumps(self.info, sort_keys=True)
+        another run holds it (module docstring)."""
+        for _ in range(10):  # another run may release or take the lock in between: look again
+            if self._create():
+                self.held = True
+                return None
+            data = _read(self.path)
+            holder = _record(data)
+            if holder is None:
+                continue  # released in between
+            if holder:
+                reason = "--break-lock" if break_lock else self._takeover_reason(holder)
+                whose = f"the lock of {holder['host']} pid {holder['pid']}"
+            else:
+                reason = "--break-lock" if break_lock else self._journal_evidence()
+                whose = f"the unreadable lock {self.path}"
+            if reason is None:
+                raise Refused(self._refusal(holder))
+            if self._take_over(data):
+                self.held = True
+                return f"took over {whose} ({reason})"
+        raise Refused(f"{self.path} keeps changing (other runs starting on this output?); try again")
+
+    def _refusal(self, holder: dict[str, Any]) -> str:
+        if not holder:
+            return (
+                f"the lock {self.path} is unreadable (empty or damaged: left by a run that died before it "
+                f"reached the disk?) and no journal of that run names this batch job, or this host with its "
+                f"process gone; if no run is using {self.path.parent}, pass --break-lock"
+            )
+        return (
+            f"{self.path.parent} is in use by a run on {holder['host']} (pid {holder['pid']}, "
+            f"{holder.get('ranks', '?')} ranks, since {holder.get('started', '?')}"
+            f"{', job ' + str(holder['job']) if holder.get('job') else ''}); if that run is dead, pass "
+            f"--break-lock"
+        )
+
+    def _temporary(self) -> Path:
+        """This run's record in a new temporary file beside the lock, synced."""
+        tmp = self.path.with_name(f".{LOCK_NAME}.{os.getpid()}.{secrets.token_hex(4)}")
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+        try:
+            os.write(fd, json.dumps(self.info, sort_keys=True).encode("utf-8"))
+            os.fsync(fd)
+        except BaseException:
+            os.close(fd)
+            tmp.unlink(missing_ok=True)
+            raise
+        os.close(fd)
+        return tmp
+
+    def _create(self) -> bool:
+        """Create the lock with this run's record, complete, if there is none; whether it did."""
+        tmp = self._temporary()
+        try:
+            os.link(tmp, self.path)
+        except FileExistsError:
+            return False
+        except OSError as exc:  # a file system without hard links: exclusive create, then sync
+            if exc.errno not in (errno.EPERM, errno.ENOTSUP, errno.EOPNOTSUPP, errno.EXDEV, errno.EMLINK):
+                raise
+            return self._create_in_place()
+        finally:
+            tmp.unlink(missing_ok=True)
+        _sync_folder(self.path.parent)
+        return True
+
+    def _create_in_place(self) -> bool:
         try:
             fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
         except FileExistsError:
-            holder = self.holder()
-            if holder is None:
-                return self.acquire(break_lock)  # released in between
-            reason = "--break-lock" if break_lock else self._takeover_reason(holder)
-            if reason is None:
-                raise Refused(
-                    f"{self.path.parent} is in use by a run on {holder.get('host', '?')} (pid {holder.get('pid', '?')}, "
-                    f"{holder.get('ranks', '?')} ranks, since {holder.get('started', '?')}"
-                    f"{', job ' + str(holder['job']) if holder.get('job') else ''}); if that run is dead, pass "
-                    f"--break-lock"
-                ) from None
-            tmp = self.path.with_name(f".{LOCK_NAME}.{os.getpid()}")
-            tmp.write_text(text, encoding="utf-8")
-            os.replace(tmp, self.path)
-            self.held = True
-            return f"took over the lock of {holder.get('host', '?')} pid {holder.get('pid', '?')} ({reason})"
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        self.held = True
-        return None
+            return False
+        try:
+            os.write(fd, json.dumps(self.info, sort_keys=True).encode("utf-8"))
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+        _sync_folder(self.path.parent)
+        return True
+
+    def _take_over(self, judged: bytes | None) -> bool:
+        """Move the dead run's lock (which read as ``judged``) away, then create this run's
+        (``_create``); False when another run changed the lock in between (it is put back) or
+        created one first."""
+        stale = self.path.with_name(f".{LOCK_NAME}.stale.{os.getpid()}.{secrets.token_hex(4)}")
+        try:
+            os.rename(self.path, stale)
+        except FileNotFoundError:
+            return False
+        if _read(stale) != judged:  # another run took it over in between: put its lock back
+            try:
+                os.link(stale, self.path)
+            except OSError:
+                pass
+            stale.unlink(missing_ok=True)
+            return False
+        stale.unlink(missing_ok=True)
+        return self._create()
 
     def release(self) -> None:
         """Remove the lock if this run still holds it."""

@@ -6,10 +6,13 @@ folder (one writer per file, no file locking, which Lustre and NFS often lack). 
 sequence of lines ``CRC32 JSON\\n`` (the CRC, 8 hex digits, of the JSON bytes); each line is one
 ``os.write`` on a file opened with ``O_APPEND``. A reader keeps every line whose newline and CRC
 are present and skips any other (a torn tail left by a kill or a full disk), so a file cut at
-any byte keeps every entry before the cut. Events:
+any byte keeps every entry before the cut; a line whose CRC matches but whose event lacks a
+field its kind needs, or has one of the wrong type, is skipped as well (``well_formed``). What
+is skipped is counted (``History.dropped``), never fatal: those tasks are computed again, and
+the run says how many lines it dropped in one line. Events:
 
-* ``run``: the first line, the writer's provenance (session, rank, host, pid, package version,
-  git revision, numerics fingerprint, spec path);
+* ``run``: the first line, the writer's provenance (session, rank, host, pid, batch job id,
+  package version, git revision, numerics fingerprint, spec path);
 * ``started``: a task is about to run (written before it runs, not synced: it survives the death
   of the process, which is what it is for; a task started in runs that died while running it is
   quarantined, see ``History.crashed``);
@@ -19,16 +22,16 @@ any byte keeps every entry before the cut. Events:
 Durability: a line reaches the page cache at once (it survives the death of the process); it
 reaches the disk (``fsync``) at the first outcome ``SYNC_INTERVAL_S`` after the last sync, after
 an interruption and on close, so a node failure loses at most the last few seconds of results.
-Measured on the demo (228 tasks in 108 chunks, 2 ranks, ext4): 0.008 s of fsync for 8.5 s of
-task time on an idle machine, 0.11 s for 27 s on a busy one (0.09–0.4 %; every journal write
-together 0.8–1.2 %); a sync per chunk would cost 108 fsyncs of 2.7–8 ms, 3–10 % of the task time,
-over the 2 % budget. Results travel as JSON text (exact float64 round trip, NaN and inf kept).
+Why not a sync per chunk: it would cost 3–10 % of the task time, over the 2 % budget, where
+syncing by interval costs well under 1 % (docs/performance.md §"Journal durability"). Results
+travel as JSON text (exact float64 round trip, NaN and inf kept).
 """
 
 from __future__ import annotations
 
 import errno
 import json
+import math
 import os
 import secrets
 import socket
@@ -48,6 +51,12 @@ OK, BAD_INPUT, NOT_CONVERGED, ERROR, CRASHED = 0, 1, 2, 3, 4  # task status code
 RETRIED = (NOT_CONVERGED, ERROR)  # outcomes --resume runs again (bad input is deterministic: kept)
 SYNC_INTERVAL_S = 2.0
 CRASH_RUNS = 2  # a task started in this many runs that died while running it is quarantined
+JOB_VARIABLES = ("SLURM_JOB_ID", "PBS_JOBID", "LSB_JOBID", "JOB_ID")  # Slurm, PBS/Torque, LSF, SGE
+
+
+def batch_job() -> str | None:
+    """The batch system's job id, if any."""
+    return next((os.environ[name] for name in JOB_VARIABLES if os.environ.get(name)), None)
 
 
 @dataclass(frozen=True)
@@ -105,16 +114,29 @@ def encode_line(event: Mapping[str, Any]) -> bytes:
 def decode_lines(data: bytes) -> Iterator[dict[str, Any]]:
     """The events of a journal file's bytes: complete lines with a matching CRC; anything else
     (a torn tail, a damaged line) is skipped."""
-    for line in data.split(b"\n")[:-1]:  # the last piece has no newline: torn or empty
+    yield from scan_lines(data)[0]
+
+
+def scan_lines(data: bytes) -> tuple[list[dict[str, Any]], int]:
+    """The events of a journal file's bytes (``decode_lines``) and the number of lines dropped:
+    damaged (CRC mismatch, not a JSON object) or incomplete (a last line without its newline)."""
+    events, dropped = [], 0
+    lines = data.split(b"\n")
+    if lines[-1]:  # the last piece has no newline: a torn tail (empty when the file ends a line)
+        dropped += 1
+    for line in lines[:-1]:
         crc, _, payload = line.partition(b" ")
         try:
             if int(crc, 16) != zlib.crc32(payload):
-                continue
+                raise ValueError("CRC mismatch")
             event = json.loads(payload)
-        except ValueError:
-            continue
+        except (ValueError, RecursionError):
+            event = None
         if isinstance(event, dict):
-            yield event
+            events.append(event)
+        else:
+            dropped += 1
+    return events, dropped
 
 
 class Journal:
@@ -125,7 +147,14 @@ class Journal:
     def __init__(self, path: Path, rank: int, header: Mapping[str, Any]) -> None:
         self.path = Path(path)
         self.rank = rank
-        self.header = {"event": "run", "rank": rank, "host": socket.gethostname(), "pid": os.getpid(), **header}
+        self.header = {
+            "event": "run",
+            "rank": rank,
+            "host": socket.gethostname(),
+            "pid": os.getpid(),
+            "job": batch_job(),
+            **header,
+        }
         self.rows = 0
         self.sync_s = 0.0  # time spent in fsync (for the summary and the cost measurement)
         self._fd: int | None = None
@@ -166,11 +195,20 @@ class Journal:
     @staticmethod
     def line(entry: Entry) -> bytes:
         """The journal line of a task's outcome."""
-        return encode_line({
-            "event": "finished", "key": entry.key, "params": entry.params, "status": entry.status,
-            "message": entry.message, "record": entry.record, "wall_time_s": entry.wall_time_s,
-            "finished": entry.finished, "resolved": entry.resolved, "provenance": entry.provenance,
-        })
+        return encode_line(
+            {
+                "event": "finished",
+                "key": entry.key,
+                "params": entry.params,
+                "status": entry.status,
+                "message": entry.message,
+                "record": entry.record,
+                "wall_time_s": entry.wall_time_s,
+                "finished": entry.finished,
+                "resolved": entry.resolved,
+                "provenance": entry.provenance,
+            }
+        )
 
     def append(self, entry: Entry) -> None:
         """Record a task's outcome; synced when the last sync is ``SYNC_INTERVAL_S`` old."""
@@ -220,20 +258,95 @@ def journal_files(folder: Path) -> list[Path]:
     return sorted(Path(folder).glob(PATTERN)) if Path(folder).is_dir() else []
 
 
+def _text(value: Any) -> bool:
+    return isinstance(value, str)
+
+
+def _integer(value: Any) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _finite(value: Any) -> bool:
+    return _number(value) and math.isfinite(value)
+
+
+def _mapping(value: Any) -> bool:
+    return isinstance(value, dict)
+
+
+def _status(value: Any) -> bool:
+    return _integer(value) and value in (OK, BAD_INPUT, NOT_CONVERGED, ERROR)
+
+
+# The fields each event needs, and those it may have, with their checks.
+REQUIRED: Mapping[str, Mapping[str, Any]] = {
+    "run": {},
+    "started": {"key": _text, "time": _finite},
+    "finished": {
+        "key": _text,
+        "params": _mapping,
+        "status": _status,
+        "message": _text,
+        "record": _mapping,
+        "wall_time_s": _number,
+        "finished": _finite,
+    },
+    "interrupted": {"key": _text},
+}
+OPTIONAL: Mapping[str, Mapping[str, Any]] = {
+    "run": {"rank": _integer, "host": _text, "session": _text, "pid": _integer},
+    "finished": {"resolved": _mapping, "provenance": _mapping},
+}
+
+
+def well_formed(event: Mapping[str, Any]) -> bool:
+    """Whether a decoded event has every field its kind needs, each of the right type (a
+    ``finished`` event without its ``record``, a ``started`` one without its ``time``: written
+    by a faulty tool, not by a torn write, since their CRC matches). An event of a kind this
+    version does not know is well formed (kept, and ignored)."""
+    kind = event.get("event")
+    if not isinstance(kind, str):
+        return False
+    required, optional = REQUIRED.get(kind, {}), OPTIONAL.get(kind, {})
+    return all(name in event and check(event[name]) for name, check in required.items()) and all(
+        check(event[name]) for name, check in optional.items() if name in event
+    )
+
+
 def read_file(path: Path) -> tuple[dict[str, Any], list[dict[str, Any]]]:
     """The header (``run`` event; empty if torn) and the other events of one journal file."""
-    events = list(decode_lines(Path(path).read_bytes()))
+    header, events, _ = scan_file(path)
+    return header, events
+
+
+def scan_file(path: Path) -> tuple[dict[str, Any], list[dict[str, Any]], int]:
+    """``read_file`` and the number of lines dropped: damaged, incomplete (``scan_lines``) or
+    malformed (``well_formed``)."""
+    decoded, dropped = scan_lines(Path(path).read_bytes())
+    events = [e for e in decoded if well_formed(e)]
+    dropped += len(decoded) - len(events)
     if events and events[0].get("event") == "run":
-        return events[0], events[1:]
-    return {}, events
+        return events[0], events[1:], dropped
+    return {}, events, dropped
 
 
 def _entry(event: Mapping[str, Any], header: Mapping[str, Any]) -> Entry:
     return Entry(
-        key=event["key"], params=event["params"], status=int(event["status"]), message=event["message"],
-        record=event["record"], wall_time_s=float(event["wall_time_s"]), finished=float(event["finished"]),
-        rank=int(header.get("rank", -1)), host=str(header.get("host", "")),
-        resolved=event.get("resolved", {}), provenance=event.get("provenance", {}),
+        key=event["key"],
+        params=event["params"],
+        status=int(event["status"]),
+        message=event["message"],
+        record=event["record"],
+        wall_time_s=float(event["wall_time_s"]),
+        finished=float(event["finished"]),
+        rank=int(header.get("rank", -1)),
+        host=str(header.get("host", "")),
+        resolved=event.get("resolved", {}),
+        provenance=event.get("provenance", {}),
     )
 
 
@@ -241,12 +354,22 @@ def _entry(event: Mapping[str, Any], header: Mapping[str, Any]) -> Entry:
 class History:
     """What the journals of one output hold: the last outcome of each task (``entries``, by
     finish time; the files keep every earlier one), the starts that never got an outcome
-    (``unfinished``), the headers of the runs and the number of files."""
+    (``unfinished``), the headers of the runs, the number of files and the number of lines
+    dropped (damaged, incomplete or malformed: ``scan_file``; never fatal, their tasks are
+    simply computed again)."""
 
     entries: dict[str, Entry] = field(default_factory=dict)
     unfinished: dict[str, list[Start]] = field(default_factory=dict)
     headers: list[dict[str, Any]] = field(default_factory=list)
     files: int = 0
+    dropped: int = 0
+
+    def dropped_note(self, folder: Path) -> str | None:
+        """The line a run prints when lines were dropped, else None."""
+        if not self.dropped:
+            return None
+        lines = "line" if self.dropped == 1 else "lines"
+        return f"{self.dropped} journal {lines} dropped (damaged or incomplete) in {folder}"
 
     def suspects(self) -> dict[str, list[Start]]:
         """Per task, the runs that died while running it after its last outcome."""
@@ -271,8 +394,17 @@ class History:
             f"the process died while running this task in {len(starts)} runs (last: {last.host}, rank "
             f"{last.rank}, {when}): likely out of memory or a crash"
         )
-        return Entry(key=key, params=params, status=CRASHED, message=message, record={}, wall_time_s=float("nan"),
-                     finished=last.time, rank=last.rank, host=last.host)
+        return Entry(
+            key=key,
+            params=params,
+            status=CRASHED,
+            message=message,
+            record={},
+            wall_time_s=float("nan"),
+            finished=last.time,
+            rank=last.rank,
+            host=last.host,
+        )
 
 
 def read_history(folder: Path) -> History:
@@ -281,14 +413,19 @@ def read_history(folder: Path) -> History:
     history = History()
     for path in journal_files(folder):
         try:
-            header, events = read_file(path)
+            header, events, dropped = scan_file(path)
         except OSError as exc:
             print(f"hpcontact: skipping unreadable journal {path}: {exc}", file=sys.stderr)
             continue
         history.files += 1
+        history.dropped += dropped
         if header:
             history.headers.append(header)
-        rank, host, session = int(header.get("rank", -1)), str(header.get("host", "?")), str(header.get("session", path.stem))
+        rank, host, session = (
+            int(header.get("rank", -1)),
+            str(header.get("host", "?")),
+            str(header.get("session", path.stem)),
+        )
         open_starts: dict[str, float] = {}
         for event in events:
             kind, key = event.get("event"), event.get("key")

@@ -9,19 +9,30 @@
   other (a polygon's values repeat along b/a), which the compression stores nearly for free;
 * counts (``COUNTS``: iterations, grid cells, polygon sides) as int32 with ``INT_FILL`` where
   a task has none; 64-bit integers as int32; coordinates without ``_FillValue``;
-* text (labels, messages) as char arrays, which the CF checkers read;
-* ``plan`` once per distinct plan: int32 codes per point (``INT_FILL`` where a task has no
-  plan) into the JSON list of the distinct plans in the variable's attribute ``plan_table``;
+* text (labels, messages, ``plan``: the JSON of each point's plan, "" where a task has none)
+  as char arrays, which the CF checkers, ``ncdump`` and plain ``xarray.open_dataset`` read as
+  text; compressed in chunks like the numbers (a sweep's few distinct plans repeat: the
+  demo's 900 plans of up to 350 characters, 315 kB as characters, take 3 kB);
 
-to a temporary file in the same folder, then renamed, so ``path`` is always either the old
-file or the complete new one. ``read(path)`` opens it lazily with xarray and undoes the one
-step xarray does not: the plan codes become the JSON text again (one string object per
-distinct plan, shared by the points). Counts come back as float64 with NaN where missing
-(xarray's decoding of an integer with a fill value).
+* every variable with dimensions with a Fletcher-32 checksum per chunk (``fletcher32``; HDF5
+  filters need chunked storage, which scalars cannot have): a damaged chunk fails its read
+  loudly (``dataset.open_dataset`` names the variable) instead of giving wrong numbers;
+
+to a temporary file in the same folder, synced (``fsync``), then renamed, and the folder synced,
+so ``path`` is always either the old file or the complete new one. A failure to write (a full
+disk, which the netCDF library reports as "NetCDF: HDF error") raises ``OSError`` naming
+``path``, with ``ENOSPC`` when its file system has less free space than the data set's size or
+``FULL_BYTES``; the temporary file is removed. ``read(path)`` opens it lazily with xarray: what
+was stored comes back (counts as float64 with NaN where missing: xarray's decoding of an
+integer with a fill value). Files written before ``plan`` was text hold int32 codes into the
+JSON list of the distinct plans in the attribute ``plan_table``: ``read`` turns them into the
+text again (one string object per distinct plan).
 """
 
 from __future__ import annotations
 
+import errno
+import itertools
 import json
 import math
 import os
@@ -32,13 +43,17 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
+from hpcontact.sweep import faults
+
 COUNTS = frozenset({"iterations", "nx", "ny", "contact_cells", "sides", "n", "n_across", "steps", "seed", "threads"})
 INT_FILL = -2147483647  # NC_FILL_INT, netCDF's default fill of int32
 CHUNK_BYTES = 4 * 2**20
 COMPLEVEL = 4  # zlib: level 9 made the demo's file 1.5 % smaller (263 against 267 kB), level 1 0.5 % larger
 PLAN = "plan"
-PLAN_TABLE = "plan_table"  # attribute of the stored codes: the distinct plans
-TEXT_ATTRS = "text_attributes"  # attribute of the stored codes: the attributes of the text
+PLAN_TABLE = "plan_table"  # files before plan was text: attribute of the stored codes, the distinct plans
+TEXT_ATTRS = "text_attributes"  # files before plan was text: attribute of the stored codes, the text's attributes
+VERIFY_BYTES = 64 * 2**20  # ``verify`` reads at most this much at a time
+FULL_BYTES = 2**20  # a write that fails with less free space than this (or the data set's size) failed for want of it
 
 
 def chunk_shape(shape: tuple[int, ...], itemsize: int, limit: int = CHUNK_BYTES) -> tuple[int, ...]:
@@ -57,23 +72,107 @@ def write(ds: xr.Dataset, path: Path) -> Path:
     docstring), atomically; returns ``path``."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    stored = _with_plan_codes(ds)
-    stored = stored.assign_attrs({k: _attribute(v) for k, v in stored.attrs.items()})
+    stored = ds.assign_attrs({k: _attribute(v) for k, v in ds.attrs.items()})
     encoding = {name: _encoding(stored, name) for name in stored.variables}
     tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
     try:
-        stored.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding)
-        os.replace(tmp, path)
+        try:
+            with faults.data_set_limit():
+                stored.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding)
+            _sync(tmp)
+            os.replace(tmp, path)
+        except RuntimeError as exc:  # the netCDF library's errors: "NetCDF: HDF error" on a full disk
+            raise _write_error(str(exc), path, stored.nbytes) from exc
+        except OSError as exc:  # named after the output, not the temporary file
+            raise _write_error(exc.strerror or str(exc), path, stored.nbytes, exc.errno) from exc
+        _sync(path.parent, folder=True)
     finally:
         if tmp.exists():
             tmp.unlink()
     return path
 
 
+def _sync(path: Path, folder: bool = False) -> None:
+    """Push the file ``path`` to the disk; with ``folder``, the names in the folder ``path``
+    (best effort: some file systems refuse it)."""
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        if folder:
+            return
+        raise
+    try:
+        os.fsync(fd)
+    except OSError:
+        if not folder:
+            raise
+    finally:
+        os.close(fd)
+
+
+def _write_error(message: str, path: Path, size: int, number: int | None = None) -> OSError:
+    """The ``OSError`` of a failed write of ``path`` (module docstring)."""
+    try:
+        stats = os.statvfs(path.parent)
+        free = stats.f_bavail * stats.f_frsize
+    except OSError:
+        free = None
+    if number == errno.ENOSPC or (number is None and free is not None and free < max(size, FULL_BYTES)):
+        shown = message if number == errno.ENOSPC else f"{os.strerror(errno.ENOSPC)} ({message})"
+        return OSError(errno.ENOSPC, shown if free is None else f"{shown}; {free} bytes free", str(path))
+    return OSError(number if number is not None else errno.EIO, message, str(path))
+
+
+class DamagedFile(OSError):
+    """A variable of a netCDF file cannot be read back: a chunk fails its checksum or does not
+    decompress (``verify``). ``variable`` names it; ``filename`` is the file."""
+
+    def __init__(self, path: str | Path, variable: str, reason: str) -> None:
+        super().__init__(
+            errno.EIO,
+            f"variable {variable} is damaged ({reason}: a chunk fails its checksum or does not decompress)",
+            str(path),
+        )
+        self.variable = variable
+
+    def __str__(self) -> str:
+        return f"{self.filename}: {self.strerror}"
+
+
+def verify(path: str | Path) -> None:
+    """Read every variable of the netCDF file ``path`` once, a few chunks at a time (at most
+    ``VERIFY_BYTES``), so that each chunk's checksum is checked: ``DamagedFile`` naming the
+    first variable that cannot be read. A file netCDF cannot open raises its ``OSError``."""
+    import netCDF4
+
+    with netCDF4.Dataset(path) as nc:
+        for name, var in nc.variables.items():
+            var.set_auto_maskandscale(False)
+            var.set_auto_chartostring(False)
+            chunking = var.chunking()
+            chunks = var.shape if chunking == "contiguous" or chunking is None else tuple(chunking)
+            try:
+                for region in _regions(var.shape, chunks, getattr(var.dtype, "itemsize", 8)):
+                    var[region]
+            except (RuntimeError, OSError) as exc:
+                raise DamagedFile(path, name, str(exc)) from None
+
+
+def _regions(shape: tuple[int, ...], chunks: tuple[int, ...], itemsize: int) -> Any:
+    """Index tuples that cover an array of ``shape`` stored in ``chunks``: whole chunks along the
+    fewest leading axes that keep a region under ``VERIFY_BYTES``, the trailing axes whole."""
+    lead = 0
+    while lead < len(shape) and math.prod(chunks[:lead]) * math.prod(shape[lead:]) * itemsize > VERIFY_BYTES:
+        lead += 1
+    starts = [range(0, n, c) for n, c in zip(shape[:lead], chunks[:lead])]
+    for corner in itertools.product(*starts):
+        yield tuple(slice(s, s + c) for s, c in zip(corner, chunks[:lead])) + (slice(None),) * (len(shape) - lead)
+
+
 def read(path: str | Path, **options: Any) -> xr.Dataset:
     """The data set ``write`` stored at ``path``, read lazily (``options`` go to
-    ``xarray.open_dataset``, e.g. ``chunks={}`` for dask arrays), with ``plan`` the JSON text
-    of each point's plan again."""
+    ``xarray.open_dataset``, e.g. ``chunks={}`` for dask arrays); the plan codes of an older
+    file as the JSON text of each point's plan (module docstring)."""
     ds = xr.open_dataset(path, engine="netcdf4", **options)
     if PLAN not in ds.data_vars or PLAN_TABLE not in ds[PLAN].attrs:
         return ds
@@ -86,26 +185,6 @@ def read(path: str | Path, **options: Any) -> xr.Dataset:
     return ds.assign({PLAN: xr.Variable(codes.dims, text, json.loads(codes.attrs[TEXT_ATTRS]))})
 
 
-def _with_plan_codes(ds: xr.Dataset) -> xr.Dataset:
-    """``ds`` with its ``plan`` text replaced by codes (float64, NaN for no plan; stored as
-    int32) into the JSON list of the distinct plans in its attribute ``plan_table``."""
-    if PLAN not in ds.data_vars or ds[PLAN].dtype != object:
-        return ds
-    text = ds[PLAN].values
-    flat = text.ravel()
-    present = flat != ""
-    found, distinct = pd.factorize(flat[present])  # codes in first-appearance order
-    codes = np.full(flat.shape, np.nan)
-    codes[present] = found
-    attrs = {
-        "long_name": f"plan of the task: position in the JSON list {PLAN_TABLE} of the distinct plans",
-        "units": "1",
-        PLAN_TABLE: json.dumps(list(distinct)),
-        TEXT_ATTRS: json.dumps(ds[PLAN].attrs),
-    }
-    return ds.assign({PLAN: xr.Variable(ds[PLAN].dims, codes.reshape(text.shape), attrs)})
-
-
 def _encoding(ds: xr.Dataset, name: str) -> dict[str, Any]:
     """How ``name`` is stored: dtype, fill value, compression and chunks (module docstring)."""
     var = ds[name]
@@ -116,16 +195,20 @@ def _encoding(ds: xr.Dataset, name: str) -> dict[str, Any]:
         # xarray reads trailing digits of the name as the length: name the length there
         width = max((len(str(v).encode("utf-8")) for v in pd.unique(np.ravel(var.values))), default=0)
         encoding.update(dtype="S1", char_dim_name=f"{name}_strlen{max(width, 1)}")
-    elif (var.dtype.kind == "f" and name in COUNTS) or name == PLAN:
+    elif var.dtype.kind == "f" and name in COUNTS:
         encoding.update(dtype="int32", _FillValue=None if dimension else INT_FILL)
     elif var.dtype.kind in "iu":
         encoding.update(dtype="int32", _FillValue=None)
     elif var.dtype.kind == "f":
         missing = coordinate and bool(np.isnan(var.values).any()) and not dimension
         encoding.update(_FillValue=np.nan if missing or not coordinate else None)
+    if var.ndim:
+        encoding["fletcher32"] = True
     if var.ndim and var.size:
         encoding.update(zlib=True, shuffle=True, complevel=COMPLEVEL)
-        if "char_dim_name" not in encoding:
+        if "char_dim_name" in encoding:  # the characters: one more, trailing, dimension
+            encoding["chunksizes"] = chunk_shape((*var.shape, max(width, 1)), 1)
+        else:
             itemsize = 4 if encoding.get("dtype") == "int32" else var.dtype.itemsize
             encoding["chunksizes"] = chunk_shape(var.shape, itemsize)
     return encoding

@@ -43,10 +43,16 @@ def git_revision() -> str | None:
     if not (root / ".git").exists():
         return None
     try:
-        head = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True, text=True,
-                              timeout=10, check=True).stdout.strip()
-        changes = subprocess.run(["git", "-C", str(root), "status", "--porcelain", "--untracked-files=no"],
-                                 capture_output=True, text=True, timeout=30, check=True).stdout.strip()
+        head = subprocess.run(
+            ["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True, text=True, timeout=10, check=True
+        ).stdout.strip()
+        changes = subprocess.run(
+            ["git", "-C", str(root), "status", "--porcelain", "--untracked-files=no"],
+            capture_output=True,
+            text=True,
+            timeout=30,
+            check=True,
+        ).stdout.strip()
     except (OSError, subprocess.SubprocessError):
         return None
     return f"{head}-dirty" if head and changes else head or None
@@ -59,8 +65,12 @@ def numerics() -> dict[str, str]:
     import pyfftw
     import scipy
 
-    return {"numpy": numpy.__version__, "scipy": scipy.__version__, "pyfftw": pyfftw.__version__,
-            "machine": platform.machine()}
+    return {
+        "numpy": numpy.__version__,
+        "scipy": scipy.__version__,
+        "pyfftw": pyfftw.__version__,
+        "machine": platform.machine(),
+    }
 
 
 def fingerprint(settings: Mapping[str, Any]) -> str:
@@ -82,8 +92,10 @@ def resolved_scene(params: Mapping[str, Any]) -> dict[str, Any]:
 
 def describe(provenance: Mapping[str, Any]) -> str:
     """``hpcontact 0.1.0 (git abc123-dirty, numerics 0123456789ab)``."""
-    return (f"hpcontact {provenance.get('hpcontact_version')} (git {provenance.get('git_revision') or 'unknown'}, "
-            f"numerics {provenance.get('numerics')})")
+    return (
+        f"hpcontact {provenance.get('hpcontact_version')} (git {provenance.get('git_revision') or 'unknown'}, "
+        f"numerics {provenance.get('numerics')})"
+    )
 
 
 def first_mismatch(entries: Iterable[Entry], now: Mapping[str, Any]) -> str | None:
@@ -91,8 +103,10 @@ def first_mismatch(entries: Iterable[Entry], now: Mapping[str, Any]) -> str | No
     for entry in entries:
         for name in FIELDS:
             if entry.provenance.get(name) != now.get(name):
-                return (f"task {entry.key[:12]} was computed by {describe(entry.provenance)} on {entry.host or '?'}, "
-                        f"rank {entry.rank}; this is {describe(now)} (first difference: {NAMES[name]})")
+                return (
+                    f"task {entry.key[:12]} was computed by {describe(entry.provenance)} on {entry.host or '?'}, "
+                    f"rank {entry.rank}; this is {describe(now)} (first difference: {NAMES[name]})"
+                )
     return None
 
 

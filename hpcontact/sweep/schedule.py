@@ -1,15 +1,12 @@
 """Dynamic distribution of chunks over ranks: rank 0 holds the work counter and serves it over
 two-sided messages from a thread, every rank (rank 0 included) computes.
 
-Why not one-sided atomics. The first scheduler kept the counter in an MPI window and let each
-rank ``Fetch_and_op`` the next chunk index. MPI does not promise that a passive-target
-operation completes while the target computes, and multi-node transports do not give that
-progress (measured, demo on 2 ranks, issue 15): Open MPI ``osc/ucx`` left rank 1 inside its first
-``Fetch_and_op`` + ``Flush`` for the whole run (efficiency 0.48, rank 0 ran all 228 tasks);
-Debian's MPICH over UCX answered each operation only when rank 0 next entered MPI (0.9–2 s
-stalls, tasks split 170/58); Open MPI over TCP without shared-memory windows could not create
-the window at all (``osc/pt2pt`` refuses ``MPI_THREAD_MULTIPLE``). Only shared-memory windows on
-one node worked — exactly the case clusters are not.
+Why not one-sided atomics (a counter in an MPI window, ``Fetch_and_op`` per chunk). MPI does
+not promise that a passive-target operation completes while the target computes, and
+multi-node transports do not give that progress: under Open MPI ``osc/ucx`` and MPICH over UCX
+the workers stalled until rank 0 next entered MPI, and Open MPI over TCP could not create the
+window; only shared-memory windows on one node worked — exactly the case clusters are not
+(docs/performance.md §"Sweep scheduler").
 
 Why not ``mpi4py.futures.MPICommExecutor``. It dedicates rank 0 to serving (half of a 2-rank
 job idle) and funnels every result through it.
@@ -21,9 +18,8 @@ chunk indices from the same counter under a lock, without MPI. Point-to-point me
 on every transport as soon as the server thread polls, so a worker waits at most ``IDLE_POLL_S`` plus
 one GIL switch interval (1 ms while serving) for a chunk, whatever rank 0 computes (FFTW and numpy release the
 GIL). A server blocked in ``Recv`` would be simpler, but Open MPI's blocking receive busy-polls
-a core, which takes it from rank 0's own solves (measured on 2 cores: speedup 1.26 with a
-blocking server thread, 1.55–1.66 with a sleeping poll, 1.67 for a static split of the same
-work).
+a core, which takes it from rank 0's own solves (on 2 cores a blocking server thread cost about
+half of what two ranks gain over one: docs/performance.md §"Sweep scheduler").
 
 Thread level. Only one thread of rank 0 calls MPI at a time (the main thread makes no MPI call
 between starting and joining the server), so ``MPI_THREAD_SERIALIZED`` suffices; it is requested
@@ -58,8 +54,16 @@ import numpy as np
 # Open MPI 5), Open MPI's own launcher (OMPI_*), Cray PALS (its PMI reads PALS_*), MPICH's
 # MPI_LOCALNRANKS.
 LAUNCHER_VARIABLES = (
-    "PMI_RANK", "PMI_SIZE", "PMI_FD", "PMIX_RANK", "PMIX_NAMESPACE", "OMPI_COMM_WORLD_SIZE",
-    "OMPI_COMM_WORLD_RANK", "MV2_COMM_WORLD_RANK", "PALS_RANKID", "MPI_LOCALNRANKS",
+    "PMI_RANK",
+    "PMI_SIZE",
+    "PMI_FD",
+    "PMIX_RANK",
+    "PMIX_NAMESPACE",
+    "OMPI_COMM_WORLD_SIZE",
+    "OMPI_COMM_WORLD_RANK",
+    "MV2_COMM_WORLD_RANK",
+    "PALS_RANKID",
+    "MPI_LOCALNRANKS",
 )
 # Variables whose value is the number of processes the launcher started (checked against
 # MPI.COMM_WORLD.size).
@@ -80,8 +84,8 @@ BATCH_LAUNCHES = (
 # (Python's default, 5 ms, is how long a waking server waits for a main thread busy in Python
 # code). A worker's claim then waits at most ~IDLE_POLL_S + SWITCH_INTERVAL_S, and rank 0's own
 # work is interrupted at most 1/IDLE_POLL_S times a second (one GIL hand-over, ~µs, each).
-# Measured, demo on 2 ranks (228 tasks, ~100 claims): 16 ms polls and the default interval cost
-# the ranks 1.1 s of waiting in all.
+# 16 ms polls with the default interval cost a 2-rank demo about a second of waiting
+# (docs/performance.md §"Sweep scheduler").
 POLL_S = 0.0005
 IDLE_POLL_S = 0.004
 SWITCH_INTERVAL_S = 0.001
@@ -210,7 +214,7 @@ class ServedCounter:
         self._threaded = threaded
 
     # rank 0 -----------------------------------------------------------------------------------
-    def _serve_one(self) -> bool:
+    def serve_one(self) -> bool:
         """Answer one pending request; False when none is waiting."""
         status = self._MPI.Status()
         if not self._comm.Iprobe(source=self._MPI.ANY_SOURCE, tag=REQUEST_TAG, status=status):
@@ -234,7 +238,7 @@ class ServedCounter:
         try:
             pause = POLL_S
             while self._workers:
-                if self._serve_one():
+                if self.serve_one():
                     pause = POLL_S
                 else:
                     time.sleep(pause)
@@ -247,7 +251,7 @@ class ServedCounter:
     def _drain(self) -> None:
         """Unthreaded rank 0: answer what is pending now."""
         if not self._threaded:
-            while self._workers and self._serve_one():
+            while self._workers and self.serve_one():
                 pass
 
     # every rank -------------------------------------------------------------------------------
@@ -357,8 +361,12 @@ def check_launch(environ: Mapping[str, str] | None = None) -> None:
 
 
 def _thread_level_name(MPI: Any, level: int) -> str:
-    names = {MPI.THREAD_SINGLE: "SINGLE", MPI.THREAD_FUNNELED: "FUNNELED", MPI.THREAD_SERIALIZED: "SERIALIZED",
-             MPI.THREAD_MULTIPLE: "MULTIPLE"}
+    names = {
+        MPI.THREAD_SINGLE: "SINGLE",
+        MPI.THREAD_FUNNELED: "FUNNELED",
+        MPI.THREAD_SERIALIZED: "SERIALIZED",
+        MPI.THREAD_MULTIPLE: "MULTIPLE",
+    }
     return names.get(level, str(level))
 
 

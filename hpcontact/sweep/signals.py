@@ -1,5 +1,26 @@
-"""Stopping a sweep on every rank: SIGTERM or SIGUSR1 to any rank (what SLURM's ``--signal``
-sends ahead of a time limit), or a rank that cannot write its journal.
+"""Stopping a sweep on every rank: SIGINT (Ctrl-C, which ``mpiexec`` forwards to every rank),
+SIGTERM or SIGUSR1 to any rank (what SLURM's ``--signal`` sends ahead of a time limit), or a
+rank that cannot write its journal. Each is a stop request: no traceback, journals synced, exit
+status 4, ``--resume`` goes on.
+
+A rank that makes no progress — stopped for good (SIGSTOP), its node frozen — would leave the
+others waiting in a collective until the batch limit. Each rank's stop thread therefore writes a
+heartbeat (a counter in ``alive-rankNNNNN`` in the journal folder) every ``HEARTBEAT_S`` (or
+a quarter of the stall timeout, if shorter); rank 0's
+thread watches the others' (and theirs rank 0's) and, when one has not changed for ``stall_s``
+seconds (``hpcontact run --stall-timeout``, default ``DEFAULT_STALL_S``; 0 turns it off),
+requests a stop naming that rank (status 1): the live ranks end as after any stop — at once
+outside the tasks' phase, where the next collective would wait for the stalled rank forever —
+and ``--resume`` goes on. The heartbeat
+comes from a thread, so a long task does not stop it (the solvers release the GIL); only a
+frozen process does. A counter, not a time stamp: nodes' clocks need not agree.
+
+Every phase of a run honours a stop request (``phase``). While the ranks set up (spec, shares, journal
+reading, the plan's broadcast) or gather and write the data set, no task is in flight: a rank
+that is still there ``grace_s`` after the request (blocked in a collective with a rank that
+is, or in a long read or write) prints one line and ends with status 4 — the journals hold
+every finished task, and the data set is written atomically, so nothing is lost. Once the
+data set is written (``done``) a request changes nothing: the run ends with its own status.
 
 A rank that receives the signal (or fails) records the reason and drops a stop file ``STOP`` in
 the journal folder (the signal also reaches the polling thread below through
@@ -27,11 +48,16 @@ from pathlib import Path
 from types import FrameType
 
 STOP_NAME = "STOP"
-SIGNALS = (signal.SIGTERM, signal.SIGUSR1)
+SIGNALS = (signal.SIGTERM, signal.SIGUSR1, signal.SIGINT)
+#: The phases of a run, as the stop thread sees them (module docstring).
+PHASES = ("setup", "tasks", "finish", "done")
 ABANDON = signal.SIGUSR2
 POLL_S = 0.2
 DEFAULT_GRACE_S = 30.0
 HARD_EXIT_S = 10.0
+HEARTBEAT_S = 5.0
+DEFAULT_STALL_S = 900.0
+ALIVE_PREFIX = "alive-rank"
 STOPPED_STATUS = 4
 
 
@@ -46,10 +72,17 @@ class StopControl:
     ``install`` (``run_sweep`` called from a program) the rank still stops claiming work when
     another rank asks, but its task in flight runs to its end and the process is never ended."""
 
-    def __init__(self, grace_s: float = DEFAULT_GRACE_S) -> None:
+    def __init__(self, grace_s: float = DEFAULT_GRACE_S, stall_s: float = DEFAULT_STALL_S) -> None:
         if not grace_s >= 0.0:
             raise ValueError(f"grace_s = {grace_s}: a number of seconds >= 0")
+        if not stall_s >= 0.0:
+            raise ValueError(f"stall_s = {stall_s}: a number of seconds >= 0 (0: off)")
         self.grace_s = grace_s
+        self.stall_s = stall_s
+        self.ranks = 1
+        self._beats = 0
+        self._seen: dict[Path, tuple[bytes, float]] = {}  # rank 0: heartbeat file -> (content, when it last changed)
+        self._next_beat = 0.0
         self.reason: str | None = None
         self.failed = False  # stopped by an error (a full disk), not by a signal
         self.running = False  # the main thread is inside a task function
@@ -61,14 +94,18 @@ class StopControl:
         self._previous: dict[int, object] = {}
         self._wakeup: tuple[int, int] | None = None  # pipe the C-level handler writes signal numbers to
         self._previous_wakeup = -1
+        self.phase = "setup"
+        self._phase_at = time.monotonic()
 
     @property
     def stopping(self) -> bool:
         """True once a stop was requested on any rank (as far as this rank has seen)."""
         return self.reason is not None
 
-    def install(self) -> StopControl:
-        """Handle SIGTERM and SIGUSR1 (stop) and SIGUSR2 (abandon the task in flight)."""
+    def install(self, rank: int = 0) -> StopControl:
+        """Handle SIGINT, SIGTERM and SIGUSR1 (stop) and SIGUSR2 (abandon the task in flight),
+        and start the stop thread: from here on a request ends this rank in every phase."""
+        self.rank = rank
         for signum in SIGNALS:
             self._previous[signum] = signal.signal(signum, self._on_signal)
         self._previous[ABANDON] = signal.signal(ABANDON, self._on_abandon)
@@ -76,17 +113,30 @@ class StopControl:
         for fd in self._wakeup:
             os.set_blocking(fd, False)
         self._previous_wakeup = signal.set_wakeup_fd(self._wakeup[1], warn_on_full_buffer=False)
+        self._start()
         return self
 
-    def watch(self, folder: Path, rank: int) -> None:
-        """Start polling for the stop file in ``folder`` (after rank 0 removed an old one)."""
-        self.rank = rank
+    def watch(self, folder: Path, rank: int, ranks: int = 1) -> None:
+        """Poll for the stop file in ``folder`` (after rank 0 removed an old one) and keep the
+        heartbeats of ``ranks`` ranks there: the tasks' phase begins."""
+        self.rank, self.ranks = rank, ranks
         self._file = Path(folder) / STOP_NAME
+        self.enter("tasks")
         if self.reason is not None:
             self._drop_file()
-        self._done.clear()
-        self._thread = threading.Thread(target=self._poll, name="hpcontact-stop", daemon=True)
-        self._thread.start()
+        self._start()
+
+    def enter(self, phase: str) -> None:
+        """The run moves on to ``phase`` (``PHASES``)."""
+        if phase not in PHASES:
+            raise ValueError(f"phase = {phase!r}: one of {', '.join(PHASES)}")
+        self.phase, self._phase_at = phase, time.monotonic()
+
+    def _start(self) -> None:
+        if self._thread is None:
+            self._done.clear()
+            self._thread = threading.Thread(target=self._poll, name="hpcontact-stop", daemon=True)
+            self._thread.start()
 
     def request(self, reason: str, failed: bool = False) -> None:
         """Stop every rank: record ``reason`` and drop the stop file (best effort)."""
@@ -134,8 +184,10 @@ class StopControl:
             os.close(fd)
 
     def _read_file(self) -> None:
+        if self._file is None:
+            return  # setting up: the journal folder is not known yet
         try:
-            text = self._file.read_text(encoding="utf-8").strip() if self._file is not None else ""
+            text = self._file.read_text(encoding="utf-8").strip()
         except FileNotFoundError:
             return
         except OSError:
@@ -157,16 +209,77 @@ class StopControl:
     def _poll(self) -> None:
         abandoned = False
         while not self._done.wait(POLL_S):
+            if self.phase == "done":
+                continue  # the data set is written: a request changes nothing
             if self.reason is None:
                 self._signalled()
                 self._read_file()
-                continue
-            if self._wakeup is None:
-                continue  # not installed (a library call): no abandoning, no forced exit
-            late = time.monotonic() - self._stopped_at - self.grace_s
-            if late >= 0.0 and self.running and not abandoned:
-                abandoned = True
-                signal.pthread_kill(threading.main_thread().ident, ABANDON)
-            if late >= HARD_EXIT_S:
-                os.sync()
-                os._exit(1 if self.failed else STOPPED_STATUS)
+            stalled = self._heartbeat()
+            if stalled is not None:
+                if self.phase == "tasks" and self.reason is None:
+                    self.request(stalled, failed=True)  # the live ranks stop as after any request
+                elif self._wakeup is not None:
+                    self.reason, self.failed = stalled, True
+                    self._exit_now()  # a collective with the stalled rank would never return
+            if self.reason is None or self._wakeup is None:
+                continue  # nothing asked, or not installed (a library call): no abandoning, no forced exit
+            now = time.monotonic()
+            late = now - self._stopped_at - self.grace_s
+            if self.phase == "tasks":
+                if late >= 0.0 and self.running and not abandoned:
+                    abandoned = True
+                    signal.pthread_kill(threading.main_thread().ident, ABANDON)
+                if late >= HARD_EXIT_S:
+                    self._exit_now()
+            elif (self.phase == "setup" or self.rank == 0) and late >= 0.0 and now - self._phase_at >= HARD_EXIT_S:
+                # no task in flight: the grace, and the phase's own HARD_EXIT_S to end cleanly. While
+                # rank 0 writes the data set the others wait for its word (or for its heartbeat to stop).
+                self._exit_now()
+
+    def _heartbeat(self) -> str | None:
+        """Write this rank's heartbeat and look at the ranks it waits for: rank 0 at every other,
+        the others at rank 0 (module docstring). The stall found, if any."""
+        now = time.monotonic()
+        if self._file is None or self.stall_s == 0.0 or self.ranks < 2 or now < self._next_beat:
+            return None
+        self._next_beat = now + min(HEARTBEAT_S, self.stall_s / 4.0)  # a stall is 4 beats missed at least
+        self._beats += 1
+        folder = self._file.parent
+        try:
+            (folder / f"{ALIVE_PREFIX}{self.rank:05d}").write_bytes(str(self._beats).encode())
+        except OSError:
+            pass  # a full disk stops the run through the journal, not here
+        for other in range(1, self.ranks) if self.rank == 0 else (0,):
+            path = folder / f"{ALIVE_PREFIX}{other:05d}"
+            try:
+                content = path.read_bytes()
+            except OSError:
+                content = b""  # not written yet: counts as unchanged from the start
+            seen = self._seen.get(path)
+            if seen is None or seen[0] != content:
+                self._seen[path] = (content, now)
+            elif now - seen[1] >= self.stall_s:
+                return f"rank {other} made no progress for {now - seen[1]:.0f} s (--stall-timeout)"
+        return None
+
+    def _exit_now(self) -> None:
+        """End this rank from the stop thread (the main thread is blocked): one line, the file
+        systems synced, status 4 (1 after a write failure)."""
+        status = 1 if self.failed else STOPPED_STATUS
+        where = {
+            "setup": "while setting up",
+            "tasks": "with a task that did not end",
+            "finish": "before the data set was written",
+        }[self.phase]
+        try:
+            os.write(
+                2,
+                (
+                    f"hpcontact: rank {self.rank} stopped {where} ({self.reason}); journals intact; "
+                    "run again with --resume\n"
+                ).encode(),
+            )
+        except OSError:
+            pass
+        os.sync()
+        os._exit(status)

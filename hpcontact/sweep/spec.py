@@ -46,6 +46,13 @@ refused with an ``InputError`` naming the key (``axes.nu``, ``scene.G``, …), s
 reaches a rank's work loop. Values are checked by the scene's own validator for every distinct
 scene of the sweep.
 
+A ``mask`` file (``shape = "mask"``, a .npy or .png contact mask; in [scene] or a shape table)
+given by a relative path is found relative to the spec file's folder, not the working directory
+(an absolute path stays as is); scenes hold it absolute. Its header is read when the spec is
+checked (``geometry.mask_pixels``: a wrong type or a mask over the grid limit is refused before
+anything is decoded), and its content is part of the task key (``tasks.task_key``): ``--resume``
+after the file changed computes its tasks again.
+
 Partial-slip scenes (``quantities = "slip"``: ``hpcontact.problems.slip.partial_slip``, two bodies pressed by a load P
 and loaded tangentially to Q = q_ratio mu P; the scene kind, ``kinds``) take the axes ``load``,
 ``mu``, ``q_ratio`` and ``pair``; a ``pair`` value is a table with a ``label`` and body fields
@@ -78,7 +85,7 @@ import json
 import math
 import tomllib
 from collections.abc import Callable, Iterator, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -92,8 +99,21 @@ TABLES = ("sweep", "scene", "numerics", "axes")
 SWEEP_KEYS = ("title", "output", "journal", "angle_mode", "progress_interval")
 NUMERIC_KEYS = ("n", "n_across", "tol")
 AXIS_NAMES = (
-    "shape", "angle", "nu", "aspect", "anisotropy", "orientation", "material", "n", "tol",
-    "pair", "load", "mu", "q_ratio", "orientation2", "anisotropy2",
+    "shape",
+    "angle",
+    "nu",
+    "aspect",
+    "anisotropy",
+    "orientation",
+    "material",
+    "n",
+    "tol",
+    "pair",
+    "load",
+    "mu",
+    "q_ratio",
+    "orientation2",
+    "anisotropy2",
 )
 # Axes whose values may be tables with a ``label`` (the coordinate) and scene fields, and the
 # field a plain string value sets (None: tables only).
@@ -101,10 +121,37 @@ LABEL_AXES: Mapping[str, str | None] = {"shape": "shape", "pair": None}
 ANGLE_MODES = ("tensor", "rotated")
 ANGLE_FIELD = "field"  # slip sweeps: angle is the load direction of each scene (no angle_mode)
 FLOAT_FIELDS = frozenset(
-    {"angle", "nu", "aspect", "anisotropy", "orientation", "tol", "G", "shape_angle", "amplitude",
-     "hurst", "rms", "radius", "depth", "azimuth",
-     "load", "mu", "q_ratio", "radius_b", "radius2", "radius2_b", "body2_angle", "E", "E2", "G2", "nu2",
-     "displacement", "anisotropy2", "orientation2", "azimuth2"}
+    {
+        "angle",
+        "nu",
+        "aspect",
+        "anisotropy",
+        "orientation",
+        "tol",
+        "G",
+        "shape_angle",
+        "amplitude",
+        "hurst",
+        "rms",
+        "radius",
+        "depth",
+        "azimuth",
+        "load",
+        "mu",
+        "q_ratio",
+        "radius_b",
+        "radius2",
+        "radius2_b",
+        "body2_angle",
+        "E",
+        "E2",
+        "G2",
+        "nu2",
+        "displacement",
+        "anisotropy2",
+        "orientation2",
+        "azimuth2",
+    }
 )
 # Radii that may be infinite (a flat direction): inf, or the strings "inf" / "flat".
 FLAT_FIELDS = frozenset({"radius_b", "radius2", "radius2_b"})
@@ -114,7 +161,12 @@ STRING_FIELDS: Mapping[str, str] = {
     "control": "force or displacement",
     "path": "load or loop",
     "coupling": "auto, both, coupled or decoupled",
+    "mask": "a .npy or .png mask file; a relative path is relative to the spec's folder",
 }
+# Fields naming an input file: a relative path is taken relative to the spec file's folder (not
+# the working directory) and stored absolute, so a spec means the same files wherever it is run
+# from; the file's content is part of the task key (``tasks.task_key``).
+PATH_FIELDS = frozenset({"mask"})
 INT_FIELDS = frozenset({"n", "n_across", "sides", "seed", "threads", "steps"})
 # Geometry fields and the shapes they apply to (docs/design.md §4.1, hpcontact.geometry.Shape): a field a
 # shape ignores is dropped from its scene, so e.g. a circle on an aspect axis is solved once.
@@ -129,6 +181,12 @@ SHAPE_ONLY_FIELDS: Mapping[str, frozenset[str]] = {
 }
 # Material fields a scene ignores (hpcontact.scene._material): orientation fields of an isotropic
 # body (no named crystal, A = 1), isotropic constants when a library crystal is named.
+#: Points of a spec at most (the product of its axes' lengths, the data set's size): enumerating
+#: and checking a point costs ~10-30 µs and its task ~0.5 kB (a dry run of 10^6 points: see
+#: ``scene_texts``), so 10^7 points take minutes and gigabytes; a larger spec is refused before
+#: anything is enumerated (split it, or coarsen an axis).
+MAX_POINTS = 10**7
+PROGRESS_POINTS = 100_000  # points between calls of scene_texts' progress callback
 ORIENTATION_FIELDS = ("orientation", "miller", "azimuth")
 ISOTROPIC_CONSTANTS = ("nu", "G", "anisotropy")
 
@@ -229,13 +287,19 @@ def _drop_ignored_material_fields(params: dict[str, Any]) -> None:
             params.pop(name, None)
 
 
+# json.dumps(params, sort_keys=True, separators=(",", ":")) builds an encoder per call; this one
+# is built once (same output; a third of the time on a sweep's small scenes).
+_CANONICAL = json.JSONEncoder(sort_keys=True, separators=(",", ":"))
+
+
 def canonical_json(params: Mapping[str, Any]) -> str:
     """A scene's parameters as canonical JSON (sorted keys, exact floats): its identity."""
-    return json.dumps(params, sort_keys=True, separators=(",", ":"))
+    return _CANONICAL.encode(params)
 
 
-def load_spec(path: str | Path, output: str | Path | None = None, validate: Validator | None = None,
-              check_scenes: bool = True) -> Spec:
+def load_spec(
+    path: str | Path, output: str | Path | None = None, validate: Validator | None = None, check_scenes: bool = True
+) -> Spec:
     """Read and check the spec at ``path``; ``output`` overrides [sweep].output.
 
     ``validate`` checks one scene's parameters (default: the validator of the spec's scene kind,
@@ -248,11 +312,18 @@ def load_spec(path: str | Path, output: str | Path | None = None, validate: Vali
         text = path.read_text(encoding="utf-8")
     except OSError as exc:
         raise InputError("spec", f"a readable TOML file ({exc.strerror})", str(path)) from None
+    except UnicodeDecodeError as exc:
+        raise InputError("spec", f"a TOML file in UTF-8 (byte {exc.start} is not UTF-8)", str(path)) from None
+    if not any(line.strip() and not line.lstrip().startswith("#") for line in text.splitlines()):
+        raise InputError("spec", "a TOML spec with content (this file is empty or holds only comments)", str(path))
     return parse_spec(text, path=path, output=output, validate=validate, check_scenes=check_scenes)
 
 
 def parse_spec(
-    text: str, path: str | Path = "<string>", output: str | Path | None = None, validate: Validator | None = None,
+    text: str,
+    path: str | Path = "<string>",
+    output: str | Path | None = None,
+    validate: Validator | None = None,
     check_scenes: bool = True,
 ) -> Spec:
     """Check the TOML ``text`` of a spec and build the ``Spec`` (see the module docstring and
@@ -279,6 +350,16 @@ def parse_spec(
     fixed = {key: _normalize(f"scene.{key}", key, value) for key, value in scene.items()}
     fixed.update({key: _normalize(f"numerics.{key}", key, value) for key, value in numerics.items()})
     axes = tuple(_axis(name, value) for name, value in axes_table.items())
+    base = Path(path).parent.absolute()
+    fixed = _with_paths(fixed, base)
+    axes = tuple(replace(a, fields=tuple(_with_paths(f, base) for f in a.fields)) for a in axes)
+    total = math.prod(len(a) for a in axes)
+    if total > MAX_POINTS:
+        raise InputError(
+            "axes",
+            f"at most {MAX_POINTS} points, the product of the axes' lengths (this spec has "
+            f"{' x '.join(str(len(a)) for a in axes)} = {total}); split it or coarsen an axis",
+        )
     for axis in axes:
         section = "numerics" if axis.name in numerics else "scene"
         if axis.name in fixed:
@@ -288,7 +369,9 @@ def parse_spec(
     if kind == SLIP:
         if "angle_mode" in sweep:
             raise InputError(
-                "sweep.angle_mode", "not used by slip scenes (angle is the load direction, solved per value)", sweep["angle_mode"]
+                "sweep.angle_mode",
+                "not used by slip scenes (angle is the load direction, solved per value)",
+                sweep["angle_mode"],
             )
         angle_mode = ANGLE_FIELD
     else:
@@ -303,10 +386,16 @@ def parse_spec(
     title = sweep.get("title", Path(path).stem)
     if not isinstance(title, str):
         raise InputError("sweep.title", "a string", title)
-    out = Path(output) if output is not None else Path(_string("sweep.output", sweep.get("output", f"{Path(path).stem}.nc")))
+    out = (
+        Path(output)
+        if output is not None
+        else Path(_string("sweep.output", sweep.get("output", f"{Path(path).stem}.nc")))
+    )
     if out.suffix != ".nc":
         raise InputError("output" if output is not None else "sweep.output", "a path ending in .nc", str(out))
-    journal = Path(_string("sweep.journal", sweep["journal"])) if "journal" in sweep else out.with_name(out.name + ".journal")
+    journal = (
+        Path(_string("sweep.journal", sweep["journal"])) if "journal" in sweep else out.with_name(out.name + ".journal")
+    )
 
     spec = Spec(
         path=Path(path),
@@ -329,7 +418,30 @@ def parse_spec(
 def _known_keys(prefix: str, table: Mapping[str, Any], allowed: tuple[str, ...]) -> None:
     for key in table:
         if key not in allowed:
-            raise InputError(f"{prefix}{key}", f"unknown key; allowed: {', '.join(allowed)}")
+            raise InputError(
+                f"{prefix}{key}", f"unknown key; allowed: {', '.join(allowed)}{_did_you_mean(key, allowed)}"
+            )
+
+
+def _did_you_mean(key: Any, allowed: Any) -> str:
+    """ "; did you mean X?" with the known name closest to an unknown ``key`` (difflib), else "".
+    ``allowed``: the names, or a validator's "a known field (a, b, ...)" text."""
+    import difflib
+
+    if isinstance(allowed, str):  # the field list of an unknown-field message, else nothing to suggest
+        allowed = (
+            allowed[allowed.index("(") + 1 : -1].split(", ") if "field" in allowed and allowed.endswith(")") else []
+        )
+    close = difflib.get_close_matches(str(key), list(allowed), n=1, cutoff=0.6)
+    return f"; did you mean {close[0]}?" if close and close[0] != key else ""
+
+
+def _with_paths(fields: Mapping[str, Any], base: Path) -> Mapping[str, Any]:
+    """``fields`` with every input file (``PATH_FIELDS``) made absolute: a relative path joined
+    to ``base`` (the spec's folder), an absolute one unchanged."""
+    if not any(name in fields for name in PATH_FIELDS):
+        return fields
+    return {k: str(base / v) if k in PATH_FIELDS and not Path(v).is_absolute() else v for k, v in fields.items()}
 
 
 def _string(key: str, value: Any) -> str:
@@ -351,7 +463,7 @@ def _normalize(key: str, name: str, value: Any) -> Any:
         if isinstance(value, float) and value == math.inf:
             return value
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise InputError(key, "a finite radius, or inf / \"flat\" for a flat direction", value)
+            raise InputError(key, 'a finite radius, or inf / "flat" for a flat direction', value)
         return float(value)
     if name in FLOAT_FIELDS or name in INT_FIELDS:
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
@@ -399,6 +511,8 @@ def _generated(key: str, raw: dict) -> list[float]:
     start, stop, num = args
     if num < 1:
         raise InputError(f"{key}.{kind}", "num >= 1 (the axis is empty)", args)
+    if num > MAX_POINTS:
+        raise InputError(f"{key}.{kind}", f"num <= {MAX_POINTS} (the most points a spec may have)", args)
     make = np.linspace if kind == "linspace" else np.logspace
     # 15 significant digits drop the generator's last-bit error (0.30000000000000004 -> 0.3,
     # 9.999999999999999e-05 -> 1e-4) so that labels select exactly: ds.sel(nu=0.3)
@@ -414,7 +528,9 @@ def _label_values(key: str, name: str, values: list) -> tuple[tuple[str, ...], t
     if plain is not None:
         expected = f"a {plain} name or a table {{label = ..., {plain} = ..., ...}}"
     else:
-        expected = 'a table {label = ..., field = value, ...} (e.g. {label = "Cu-Fe", material = "Cu", material2 = "Fe"})'
+        expected = (
+            'a table {label = ..., field = value, ...} (e.g. {label = "Cu-Fe", material = "Cu", material2 = "Fe"})'
+        )
     coords, fields = [], []
     for i, value in enumerate(values):
         if plain is not None and isinstance(value, str):
@@ -425,7 +541,9 @@ def _label_values(key: str, name: str, values: list) -> tuple[tuple[str, ...], t
         if not isinstance(value, dict):
             raise InputError(where, expected, value)
         if not isinstance(value.get("label"), str) or not value["label"]:
-            raise InputError(f"{where}.label", f"a non-empty string naming the {name} in the data set", value.get("label"))
+            raise InputError(
+                f"{where}.label", f"a non-empty string naming the {name} in the data set", value.get("label")
+            )
         if plain is not None and plain not in value:
             raise InputError(f"{where}.{plain}", f"the {plain} name (circle, polygon, ...)")
         if name == "shape" and "angle" in value:
@@ -437,8 +555,9 @@ def _label_values(key: str, name: str, values: list) -> tuple[tuple[str, ...], t
     return tuple(coords), tuple(fields)
 
 
-def scenes(spec: Spec, validate: Validator | None = None, start: int = 0, stop: int | None = None,
-           check: bool = True) -> Iterator[tuple[tuple[int, ...], dict[str, Any]]]:
+def scenes(
+    spec: Spec, validate: Validator | None = None, start: int = 0, stop: int | None = None, check: bool = True
+) -> Iterator[tuple[tuple[int, ...], dict[str, Any]]]:
     """The points ``start`` … ``stop - 1`` of the task axes (0-based positions in the C order of
     ``Spec.points``) with their scene parameters (``Spec.scene_params``); with ``check``, the
     validator (``validate``, default: the scene kind's) runs once per distinct scene of the range
@@ -446,22 +565,44 @@ def scenes(spec: Spec, validate: Validator | None = None, start: int = 0, stop: 
 
     Scenes are validated before ignored material fields are dropped, so an impossible
     orientation is refused even at A = 1."""
+    for index, params, _ in scene_texts(spec, validate, start, stop, check):
+        yield index, params
+
+
+def scene_texts(
+    spec: Spec,
+    validate: Validator | None = None,
+    start: int = 0,
+    stop: int | None = None,
+    check: bool = True,
+    progress: Callable[[int], None] | None = None,
+) -> Iterator[tuple[tuple[int, ...], dict[str, Any], str]]:
+    """``scenes`` with the canonical JSON of each point's parameters (``canonical_json``: the
+    task key's text), made once per point; ``progress(done)`` is called every
+    ``PROGRESS_POINTS`` points of the range. The validator runs once per distinct scene of
+    the range (distinct before ignored material fields are dropped, as ``scenes``)."""
     if check and validate is None:
         validate = validator(spec.kind)
     seen: set[str] = set()
-    for index in itertools.islice(spec.points(), start, stop):
+    contact = spec.kind == CONTACT
+    for done, index in enumerate(itertools.islice(spec.points(), start, stop)):
+        if progress is not None and done and not done % PROGRESS_POINTS:
+            progress(done)
         params = spec.scene_params(index, reduce_material=False)
-        if check:
-            text = canonical_json(params)
-            if text not in seen:
-                seen.add(text)
-                try:
-                    validate(dict(params))
-                except InputError as exc:
-                    raise InputError(_locate(spec, index, exc.field), exc.allowed, exc.value) from None
-        if spec.kind == CONTACT:
+        text = canonical_json(params)
+        if check and text not in seen:
+            seen.add(text)
+            try:
+                validate(dict(params))
+            except InputError as exc:
+                hint = _did_you_mean(exc.field, exc.allowed)  # an unknown [scene] field: the closest known one
+                raise InputError(_locate(spec, index, exc.field), exc.allowed + hint, exc.value) from None
+        if contact:
+            fields = len(params)
             _drop_ignored_material_fields(params)
-        yield index, params
+            if len(params) != fields:
+                text = canonical_json(params)
+        yield index, params, text
 
 
 def _locate(spec: Spec, index: tuple[int, ...], name: str) -> str:

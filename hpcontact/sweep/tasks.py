@@ -7,7 +7,9 @@ default over grids 16 … 256, ``accuracy.default_solve``, costed over every gri
 parameter space whose scenes are equal (a circle on an aspect axis, the load angle in tensor
 mode) share a task. A task's key is the SHA-1 of its canonical parameter JSON: it names the
 scene itself, not its place in the spec, so ``--resume`` after an edit of the spec reuses exactly
-the scenes that did not change and recomputes those that did (a changed ``tol``, say).
+the scenes that did not change and recomputes those that did (a changed ``tol``, say). The key of
+a scene that reads a file (a mask) also hashes the file's content (``task_key``), so a file
+replaced under the same path is computed again too, and ``changed_inputs`` says so.
 
 Tasks are handed out in chunks, largest estimated cost first (longest-processing-time order
 keeps the tail short). A chunk holds tasks that can share kernels: same material, ``n``,
@@ -26,31 +28,63 @@ import functools
 import hashlib
 import json
 import math
-from collections.abc import Mapping, Sequence
+import time
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, TextIO
 
 import numpy as np
 
 from hpcontact.accuracy import DEFAULT_ACCURACY, default_grids
+from hpcontact.geometry import file_sha256
 from hpcontact.problems import footprint
 from hpcontact.problems.footprint import iteration_factor
 from hpcontact.problems.kinds import SLIP, quantity_names, scene_kind
 from hpcontact.problems.slip.crystal_pair import pair_from_params
 from hpcontact.scene import Scene
-from hpcontact.sweep.spec import Spec, Validator, canonical_json, scenes
+from hpcontact.sweep.spec import PATH_FIELDS, Spec, Validator, canonical_json, scene_texts
 
 # Fields that change a scene's outline or its solves but not its material or grid spacing:
 # tasks differing only in these may share kernels (when their bounding boxes match).
 KERNEL_NEUTRAL_FIELDS = (
-    "shape", "sides", "amplitude", "shape_angle", "seed", "hurst", "rms", "mask",
-    "tol", "quantities", "threads", "precondition",
+    "shape",
+    "sides",
+    "amplitude",
+    "shape_angle",
+    "seed",
+    "hurst",
+    "rms",
+    "mask",
+    "tol",
+    "quantities",
+    "threads",
+    "precondition",
 )
+# Fields that do not change the grids ``accuracy.default_grids`` picks (it reads the shape, the
+# quantities and whether the body is isotropic, not its constants or the solver's settings):
+# left out of ``solved_grids``' cache key, so an axis over nu builds one Scene for its grids.
+GRID_NEUTRAL_FIELDS = frozenset({"nu", "G", "tol", "threads", "precondition"})
+# Fields that do not change a contact scene's estimated cost (it reads the grid, the solves, the
+# tolerance and whether the body is a crystal: not an isotropic body's constants).
+COST_NEUTRAL_FIELDS = frozenset({"nu", "G", "threads", "precondition"})
 # Fields of a slip scene that set its loading, not its kernels (hpcontact.problems.slip.partial_slip: lengths are
 # scaled by the Hertz radius, so the grid depends on n and b/a only, the kernel on nu_eq).
 SLIP_KERNEL_NEUTRAL_FIELDS = (
-    "load", "mu", "q_ratio", "angle", "steps", "control", "displacement", "path", "coupling",
-    "tensor", "history", "tol", "quantities", "threads", "precondition",
+    "load",
+    "mu",
+    "q_ratio",
+    "angle",
+    "steps",
+    "control",
+    "displacement",
+    "path",
+    "coupling",
+    "tensor",
+    "history",
+    "tol",
+    "quantities",
+    "threads",
+    "precondition",
 )
 # Relative number of operator solves per requested quantity (tangential: x and y loads).
 SOLVES_PER_QUANTITY = {"tangential": 2.0, "normal": 1.0, "compliance": 0.1, "coupled": 3.0, "indentation": 3.0}
@@ -61,7 +95,8 @@ DEFAULT_QUANTITIES = ("tangential",)
 CHUNKS_PER_RANK = 4
 # A crystal scene (named material or A != 1): the tangential tensor comes from the coupled 3 x 3
 # bonded punch (three solves, nine kernel blocks per operator application instead of four), and
-# its kernels are integrated by quadrature (measured: ~10x an isotropic scene at n = 64).
+# its kernels are integrated by quadrature (~10x an isotropic scene: docs/performance.md §"Task
+# cost constants").
 CRYSTAL_TANGENTIAL_SOLVES = 3.0 * 9.0 / 4.0
 CRYSTAL_FACTOR = 2.0
 # A slip scene (hpcontact.problems.slip.partial_slip): one Polonsky–Keer normal solve, then ~8 CG-sized solves per load
@@ -69,18 +104,16 @@ CRYSTAL_FACTOR = 2.0
 # (≈ 1.1 n cells a side). A dissimilar pair solved coupled alternates normal and tangential
 # solves (Panagiotopoulos passes) until they agree to the tolerance: the passes converge at the
 # rate of the coupling size β, so a step takes digits / (−log10 β) of them, each at ~0.5 of a
-# decoupled step's work (warm started; measured: 6.7x the decoupled work for a Cu crystal under
-# a rigid sphere, β = 0.25-0.37, 12 passes a step; ~3x for the seed's metal pairs, β = 0.03-0.1).
+# decoupled step's work (warm started; ``SLIP_PASS_WORK``, docs/performance.md §"Task cost
+# constants").
 SLIP_SOLVES_PER_STEP = 8.0
 SLIP_TENSOR_SOLVES_PER_STEP = 2.0  # a step without tangential load: the 2 x 2 tangent tensor only
 SLIP_PASS_WORK = 0.5
 SLIP_DEFAULT_STEPS = 10
 # A scene extrapolated by default (``solved_grids``) costs this many times the one-grid solves of
-# its grids: coverage-weighted cells take 2-18 % more CG iterations (33 against 28 for a circle
-# on 256 x 256 cells, 50 against 43 for b/a = 0.5) and build their coverage, and every grid from
-# the fourth on is extrapolated. Measured (CPU s, same process, 2026-11-23, load ~4 on 2 cores):
-# default_solve against the sum of solve() on its five grids: 0.49/0.39, 0.31/0.22, 0.63/0.39 for
-# ellipses b/a = 0.5, 0.05 and the circle, nu = 0.3 (1.27, 1.40, 1.60).
+# its grids: coverage-weighted cells take 2-18 % more CG iterations and build their coverage,
+# and every grid from the fourth on is extrapolated; default_solve took 1.27-1.60x the sum of
+# solve() on its five grids (docs/performance.md §"Task cost constants").
 EXTRAPOLATION_WORK = 1.4
 
 
@@ -95,9 +128,36 @@ class Task(NamedTuple):
     group: str
 
 
-def task_key(params: Mapping[str, Any]) -> str:
-    """The key of the scene ``params``: SHA-1 (hex) of its canonical JSON."""
-    return hashlib.sha1(canonical_json(params).encode("utf-8")).hexdigest()
+def task_key(params: Mapping[str, Any], text: str | None = None) -> str:
+    """The key of the scene ``params``: SHA-1 (hex) of its canonical JSON (``text``, when the
+    caller has it) and, for a scene that reads input files (``spec.PATH_FIELDS``: a mask), of
+    the SHA-256 of each file's content (``geometry.file_sha256``, cached per file and
+    modification): a file replaced under the same path gives its tasks new keys, so
+    ``--resume`` computes them again instead of reusing results of the old content."""
+    text = canonical_json(params) if text is None else text
+    files = {name: params[name] for name in PATH_FIELDS if params.get(name) is not None}
+    if files:
+        text += "\n" + canonical_json({name: file_sha256(path, name) for name, path in files.items()})
+    return hashlib.sha1(text.encode("utf-8")).hexdigest()
+
+
+def changed_inputs(tasks: Sequence[Task], entries: Mapping[str, Any]) -> str:
+    """One line on the ``tasks`` that run again because an input file changed: tasks reading a
+    file (``spec.PATH_FIELDS``) whose key has no entry in the journals (``entries``, by key:
+    ``journal.Entry``) while an entry has the same parameters under another key (computed on
+    other file content); "" when there are none."""
+    readers = [t for t in tasks if t.key not in entries and any(t.params.get(n) is not None for n in PATH_FIELDS)]
+    if not readers:
+        return ""
+    earlier = {
+        canonical_json(e.params) for e in entries.values() if any(e.params.get(n) is not None for n in PATH_FIELDS)
+    }
+    changed = [t for t in readers if canonical_json(t.params) in earlier]
+    if not changed:
+        return ""
+    files = sorted({f"{n} {t.params[n]}" for t in changed for n in PATH_FIELDS if t.params.get(n) is not None})
+    shown = ", ".join(files[:3]) + (f", ... ({len(files)} files)" if len(files) > 3 else "")
+    return f"{len(changed)} task(s) recomputed: their input file changed since the journals' run ({shown})"
 
 
 @dataclass(frozen=True)
@@ -115,26 +175,51 @@ def points(spec: Spec) -> int:
     return math.prod(len(a) for a in spec.task_axes)
 
 
-def enumerate_part(spec: Spec, start: int = 0, stop: int | None = None, validate: Validator | None = None,
-                   check: bool = False) -> Part:
-    """The tasks of the points ``start`` … ``stop - 1`` (``spec.scenes``; with ``check`` every
-    distinct scene of the range validated first): each distinct scene once, its key, estimated
-    cost and kernel group. Ranges are independent: the driver gives each rank one and joins
-    them with ``join_parts``."""
+def progress_lines(stream: TextIO, total: int, what: str = "points checked") -> Callable[[int], None]:
+    """A ``progress`` callback for ``enumerate_part`` that prints one line per call on
+    ``stream``: ``hpcontact: 300000 of 1000000 points checked (30 %, 9.1 s)`` (a call comes every
+    ``spec.PROGRESS_POINTS`` points, so only long enumerations print)."""
+    started = time.perf_counter()
+
+    def report(done: int) -> None:
+        print(
+            f"hpcontact: {done} of {total} {what} ({100.0 * done / max(total, 1):.0f} %, "
+            f"{time.perf_counter() - started:.1f} s)",
+            file=stream,
+            flush=True,
+        )
+
+    return report
+
+
+def enumerate_part(
+    spec: Spec,
+    start: int = 0,
+    stop: int | None = None,
+    validate: Validator | None = None,
+    check: bool = False,
+    progress: Callable[[int], None] | None = None,
+) -> Part:
+    """The tasks of the points ``start`` … ``stop - 1`` (``spec.scene_texts``; with ``check``
+    every distinct scene of the range validated first; ``progress`` sees the points done every
+    ``spec.PROGRESS_POINTS``): each distinct scene once, its key, estimated cost and kernel
+    group, each made once per distinct scene (points are told apart by their canonical JSON).
+    Ranges are independent: the driver gives each rank one and joins them with ``join_parts``."""
     ignored = SLIP_KERNEL_NEUTRAL_FIELDS if spec.kind == SLIP else KERNEL_NEUTRAL_FIELDS
-    rows: dict[str, tuple[str, dict[str, Any], float, str]] = {}
+    rows: list[tuple[str, dict[str, Any], float, str]] = []
     row_of: dict[str, int] = {}
     groups: dict[str, str] = {}
     stop = points(spec) if stop is None else stop
     task_of = np.empty(max(stop - start, 0), dtype=np.intp)
-    for i, (_, params) in enumerate(scenes(spec, validate, start, stop, check)):
-        key = task_key(params)
-        if key not in row_of:
-            group = canonical_json({k: v for k, v in params.items() if k not in ignored})
-            row_of[key] = len(rows)
-            rows[key] = (key, params, estimated_cost(params), groups.setdefault(group, group))
-        task_of[i] = row_of[key]
-    return Part(list(rows.values()), task_of)
+    for i, (_, params, text) in enumerate(scene_texts(spec, validate, start, stop, check, progress)):
+        at = row_of.get(text)
+        if at is None:
+            neutral = [k for k in params if k in ignored]
+            group = canonical_json({k: v for k, v in params.items() if k not in ignored}) if neutral else text
+            at = row_of[text] = len(rows)
+            rows.append((task_key(params, text), params, estimated_cost(params), groups.setdefault(group, group)))
+        task_of[i] = at
+    return Part(rows, task_of)
 
 
 def join_parts(spec: Spec, parts: Sequence[Part]) -> tuple[list[Task], np.ndarray]:
@@ -158,10 +243,13 @@ def join_parts(spec: Spec, parts: Sequence[Part]) -> tuple[list[Task], np.ndarra
     return tasks, task_of.reshape(tuple(len(a) for a in spec.task_axes))
 
 
-def enumerate_tasks(spec: Spec) -> tuple[list[Task], dict[tuple[int, ...], str]]:
+def enumerate_tasks(
+    spec: Spec, validate: Validator | None = None, check: bool = False, progress: Callable[[int], None] | None = None
+) -> tuple[list[Task], dict[tuple[int, ...], str]]:
     """The distinct tasks of ``spec`` in first-appearance order (C order over the task axes),
-    and the task key of every point (index tuple over ``spec.task_axes``)."""
-    tasks, task_of = join_parts(spec, [enumerate_part(spec)])
+    and the task key of every point (index tuple over ``spec.task_axes``); ``validate``,
+    ``check`` and ``progress`` as for ``enumerate_part``."""
+    tasks, task_of = join_parts(spec, [enumerate_part(spec, validate=validate, check=check, progress=progress)])
     return tasks, {index: tasks[task_of[index]].key for index in np.ndindex(task_of.shape)}
 
 
@@ -171,20 +259,22 @@ def solved_grids(params: Mapping[str, Any]) -> list[Mapping[str, Any]]:
     without ``n`` that extrapolates by default (``accuracy.default_solve``, which the sweep's
     task function runs), one scene per grid of ``accuracy.default_grids`` (16 … 256 along the
     long side, five grids) with that grid's ``n``, ``n_across`` and the CG tolerance
-    ``solve_to_accuracy`` uses (at most the default accuracy / 100). Cached per scene."""
+    ``solve_to_accuracy`` uses (at most the default accuracy / 100). Cached per scene, the
+    fields that do not change its grids (``GRID_NEUTRAL_FIELDS``) aside."""
     if scene_kind(params) == SLIP or params.get("n") is not None:
         return [params]
-    grids = _default_grids(canonical_json(params))
-    return [{**params, "n": n, "n_across": na, "tol": tol} for n, na, tol in grids] if grids else [params]
+    grids = _default_grids(canonical_json({k: v for k, v in params.items() if k not in GRID_NEUTRAL_FIELDS}))
+    if not grids:
+        return [params]
+    tol = max(min(float(params.get("tol", DEFAULT_TOL)), DEFAULT_ACCURACY * 1e-2), 1e-14)
+    return [{**params, "n": n, "n_across": na, "tol": tol} for n, na in grids]
 
 
 @functools.lru_cache(maxsize=4096)
-def _default_grids(text: str) -> tuple[tuple[int, int, float], ...]:
-    """(n, n_across, tol) of every grid ``accuracy.default_solve`` solves the scene ``text``
-    (canonical JSON) on; () when it solves one grid."""
-    params = json.loads(text)
-    tol = max(min(float(params.get("tol", DEFAULT_TOL)), DEFAULT_ACCURACY * 1e-2), 1e-14)
-    return tuple((n, na, tol) for n, na in default_grids(Scene.from_params(params)))
+def _default_grids(text: str) -> tuple[tuple[int, int], ...]:
+    """(n, n_across) of every grid ``accuracy.default_solve`` solves the scene ``text``
+    (canonical JSON, ``GRID_NEUTRAL_FIELDS`` left out) on; () when it solves one grid."""
+    return tuple(default_grids(Scene.from_params(json.loads(text))))
 
 
 def estimated_cost(params: Mapping[str, Any]) -> float:
@@ -194,12 +284,27 @@ def estimated_cost(params: Mapping[str, Any]) -> float:
     (the rule of ``geometry.grid_for`` on the turned shape); crystal scenes cost more
     (``CRYSTAL_FACTOR``, coupled tangential solves); slip scenes see ``slip_cost``. A contact
     scene without ``n`` that is extrapolated by default costs ``EXTRAPOLATION_WORK`` × the sum
-    over the grids it solves (``solved_grids``)."""
+    over the grids it solves (``solved_grids``). Cached per scene, the fields that do not
+    change the cost (``COST_NEUTRAL_FIELDS``) aside, except for scenes reading a file (a mask:
+    its grid is the file's)."""
     if scene_kind(params) == SLIP:
         return slip_cost(params)
+    if any(params.get(name) is not None for name in PATH_FIELDS):
+        return _contact_cost(params)
+    return _cached_contact_cost(canonical_json({k: v for k, v in params.items() if k not in COST_NEUTRAL_FIELDS}))
+
+
+@functools.lru_cache(maxsize=4096)
+def _cached_contact_cost(text: str) -> float:
+    """``_contact_cost`` of the scene ``text`` (canonical JSON)."""
+    return _contact_cost(json.loads(text))
+
+
+def _contact_cost(params: Mapping[str, Any]) -> float:
+    """``estimated_cost`` of the contact scene ``params``."""
     levels = solved_grids(params)
     if len(levels) > 1:
-        return EXTRAPOLATION_WORK * sum(estimated_cost(level) for level in levels)
+        return EXTRAPOLATION_WORK * sum(_contact_cost(level) for level in levels)
     quantities = quantity_names(params.get("quantities", DEFAULT_QUANTITIES))
     size = padded_cells(params)
     crystal = params.get("material") is not None or float(params.get("anisotropy", 1.0)) != 1.0
@@ -225,13 +330,12 @@ def slip_cost(params: Mapping[str, Any]) -> float:
     passes) × digits of tolerance, on the n × n contact grid with its margin. A step under a
     tangential load (q_ratio > 0, or displacement control) costs ~8 CG-sized solves (semismooth
     Newton steps and the tangent tensor); without one (q_ratio = 0 under force control) only the
-    tangent tensor's 2 (measured: 0.64 s against 2.5 s for q_ratio = 0.5, Cu crystal, n = 32);
-    a loop path has 5 × steps steps. A dissimilar pair pays for its coupled path (0.5 × digits /
-    (−log10 β) decoupled steps per step, β the pair's coupling size: ``SLIP_PASS_WORK``; and the
-    decoupled one with coupling auto/both); with ``normal_friction`` the normal load too is
-    applied in ``steps`` coupled steps, so the coupled path's work doubles (measured iterations
-    with/without: 3182/1614 … 4206/1733 for the orthotropic pairs of Rodríguez-Tembleque et al.
-    2011). Same units as ``estimated_cost``; the Barnett–Lothe cost of anisotropic bodies is
+    tangent tensor's 2; a loop path has 5 × steps steps. A dissimilar pair pays for its coupled
+    path (0.5 × digits / (−log10 β) decoupled steps per step, β the pair's coupling size:
+    ``SLIP_PASS_WORK``; and the decoupled one with coupling auto/both); with ``normal_friction``
+    the normal load too is applied in ``steps`` coupled steps, so the coupled path's work
+    doubles. The counts behind these factors: docs/performance.md §"Task cost constants".
+    Same units as ``estimated_cost``; the Barnett–Lothe cost of anisotropic bodies is
     a per-task term of the cost model (``costmodel``)."""
     size = padded_cells(params)
     steps = int(params.get("steps", SLIP_DEFAULT_STEPS)) * (5 if params.get("path") == "loop" else 1)

@@ -94,8 +94,13 @@ def test_coverage_removes_the_staircase_fluctuation() -> None:
     versus < 3 % of the mean (measured 84 % and 2.5 %)."""
     exact = analytic.circle_tangential_stiffness(1.0, 1.0, 0.3)
     spreads = {}
-    for name, function in (("centre", lambda p: solve(Scene.from_params(p))), ("coverage", lambda p: bc.covered_solve(Scene.from_params(p), strategy="coverage"))):
-        scaled = [n * (function({"shape": "circle", "nu": 0.3, "n": n})["K_xx"] / exact - 1.0) for n in (64, 80, 96, 128, 160)]
+    for name, function in (
+        ("centre", lambda p: solve(Scene.from_params(p))),
+        ("coverage", lambda p: bc.covered_solve(Scene.from_params(p), strategy="coverage")),
+    ):
+        scaled = [
+            n * (function({"shape": "circle", "nu": 0.3, "n": n})["K_xx"] / exact - 1.0) for n in (64, 80, 96, 128, 160)
+        ]
         spreads[name] = (max(scaled) - min(scaled)) / abs(np.mean(scaled))
     assert spreads["centre"] > 0.2
     assert spreads["coverage"] < 0.03

@@ -44,7 +44,9 @@ def test_sphere_area_is_the_integral_of_w(u1: float, u2: float, v1: float, v2: f
             return 0.0
         return math.asin(hi / c) - math.asin(lo / c)  # ∫ (c² − v²)^(−½) dv, exact
 
-    expected = integrate.quad(inner, u1, u2, epsabs=1e-12, limit=200, points=[-1.0, 1.0] if u1 < -1 < 1 < u2 else None)[0]
+    expected = integrate.quad(inner, u1, u2, epsabs=1e-12, limit=200, points=[-1.0, 1.0] if u1 < -1 < 1 < u2 else None)[
+        0
+    ]
     got = float(sc.sphere_area(u2, v2) - sc.sphere_area(u1, v2) - sc.sphere_area(u2, v1) + sc.sphere_area(u1, v1))
     assert got == pytest.approx(expected, abs=1e-7)
 
@@ -61,7 +63,6 @@ def test_cell_weights_sum_to_the_hemisphere() -> None:
     assert abs(system.near - system.near.T).max() == 0.0  # the near correction is symmetric (built so)
 
 
-
 def test_sparse_spreading_is_the_shifted_array_loop_bitwise() -> None:
     """P s and Pᵀ u as sparse products (``SingularCells.spreading``) against the loop over the
     3 × 3 stencil of shifted-array products they replaced: equal bit for bit (the terms are the
@@ -74,9 +75,12 @@ def test_sparse_spreading_is_the_shifted_array_loop_bitwise() -> None:
     nx, ny = s.shape
     spread, gather = np.zeros_like(s), np.zeros_like(u)
     for (p, q), bw in cells.beta.items():
-        spread[max(p, 0) : nx + min(p, 0), max(q, 0) : ny + min(q, 0)] += (bw * s)[max(-p, 0) : nx - max(p, 0), max(-q, 0) : ny - max(q, 0)]
+        spread[max(p, 0) : nx + min(p, 0), max(q, 0) : ny + min(q, 0)] += (bw * s)[
+            max(-p, 0) : nx - max(p, 0), max(-q, 0) : ny - max(q, 0)
+        ]
         gather[max(-p, 0) : nx - max(p, 0), max(-q, 0) : ny - max(q, 0)] += (
-            bw[max(-p, 0) : nx - max(p, 0), max(-q, 0) : ny - max(q, 0)] * u[max(p, 0) : nx + min(p, 0), max(q, 0) : ny + min(q, 0)]
+            bw[max(-p, 0) : nx - max(p, 0), max(-q, 0) : ny - max(q, 0)]
+            * u[max(p, 0) : nx + min(p, 0), max(q, 0) : ny + min(q, 0)]
         )
     assert np.array_equal(system.spread(s), spread)
     assert np.array_equal(system.gather(u), gather)
@@ -86,8 +90,12 @@ def test_sparse_spreading_is_the_shifted_array_loop_bitwise() -> None:
     expected = np.zeros(50)
     for (p, q), bt in cells.beta.items():
         for (pp, qq), bs in cells.beta.items():
-            expected += bt[ct[:, 0], ct[:, 1]] * bs[cs[:, 0], cs[:, 1]] * Kstar[nx - 1 + 1 + p - pp, ny - 1 - 2 + q - qq]
-    assert np.array_equal(system._far(Kstar, 1, -2, cells.beta_near[:, pairs[0]], cells.beta_near[:, pairs[1]]), expected)
+            expected += (
+                bt[ct[:, 0], ct[:, 1]] * bs[cs[:, 0], cs[:, 1]] * Kstar[nx - 1 + 1 + p - pp, ny - 1 - 2 + q - qq]
+            )
+    assert np.array_equal(
+        system._far(Kstar, 1, -2, cells.beta_near[:, pairs[0]], cells.beta_near[:, pairs[1]]), expected
+    )
 
 
 def test_double_average_kernel_series_meets_the_quadrature() -> None:
@@ -113,7 +121,15 @@ def test_singular_cells_against_mindlin_and_galin(aspect: float) -> None:
     grid errs by 3.3e-3 … 4.1e-3 — asserted ≥ 100× worse."""
     shape = "circle" if aspect == 1.0 else "ellipse"
     na = 64 if aspect == 1.0 else 44
-    params = {"shape": shape, "aspect": aspect, "nu": 0.3, "n": 64, "n_across": na, "tol": 1e-12, "quantities": "tangential,normal"}
+    params = {
+        "shape": shape,
+        "aspect": aspect,
+        "nu": 0.3,
+        "n": 64,
+        "n_across": na,
+        "tol": 1e-12,
+        "quantities": "tangential,normal",
+    }
     singular = bc.covered_solve(Scene.from_params(params), strategy="singular")
     coverage = bc.covered_solve(Scene.from_params(params), strategy="coverage")
     K_a, K_b = analytic.mindlin_ellipse_stiffness(1.0, aspect, 1.0, 0.3)
@@ -134,7 +150,9 @@ def test_strategy_choice_and_refusals() -> None:
     with pytest.raises(InputError):
         bc.covered_solve(Scene.from_params(square), strategy="singular")
     with pytest.raises(InputError):  # elongated cells (dy/dx = 1/4): the near field is sized in cells
-        bc.covered_solve(Scene.from_params({"shape": "ellipse", "aspect": 0.25, "n": 32, "n_across": 32}), strategy="singular")
+        bc.covered_solve(
+            Scene.from_params({"shape": "ellipse", "aspect": 0.25, "n": 32, "n_across": 32}), strategy="singular"
+        )
     with pytest.raises(InputError):
         bc.covered_solve(Scene.from_params({"shape": "circle", "n": 16, "quantities": "coupled"}), strategy="singular")
     with pytest.raises(InputError):
@@ -177,15 +195,23 @@ def test_auto_accuracy_is_honest_per_quantity_on_singular_cells() -> None:
     assert r["boundary"] == "singular" and r["accuracy_met"] and r["stopped_by"] == "met"
     assert (r["grids"][0], r["grids_across"][0]) == (16, 4)
     K_a, K_b = analytic.mindlin_ellipse_stiffness(1.0, 0.2, 1.0, 0.3)
-    exact = {"K_xx": K_a, "K_yy": K_b, "K_zz": analytic.elliptical_punch_normal_stiffness(1.0, 0.2, 1.0, 0.3),
-             "K_a_over_K_b": K_a / K_b}
+    exact = {
+        "K_xx": K_a,
+        "K_yy": K_b,
+        "K_zz": analytic.elliptical_punch_normal_stiffness(1.0, 0.2, 1.0, 0.3),
+        "K_a_over_K_b": K_a / K_b,
+    }
     for key, value in exact.items():
         true = abs(r[key] / value - 1.0)
         assert true <= r["estimated_errors"][key], (key, true, r["estimated_errors"][key])
     assert all(e[0] <= 1.0 for e in r["expansion"].values() if e)
-    loose = acc.solve_to_accuracy(Scene.from_params(params), 1e-2, strategy="auto")  # coverage pays at requests ≥ SINGULAR_BELOW
+    loose = acc.solve_to_accuracy(
+        Scene.from_params(params), 1e-2, strategy="auto"
+    )  # coverage pays at requests ≥ SINGULAR_BELOW
     assert loose["boundary"] == "coverage"
-    thin = acc.solve_to_accuracy(Scene.from_params({**params, "aspect": 1e-3}), 3e-5, n0=8, max_cells=64 * 16, strict=False, strategy="auto")
+    thin = acc.solve_to_accuracy(
+        Scene.from_params({**params, "aspect": 1e-3}), 3e-5, n0=8, max_cells=64 * 16, strict=False, strategy="auto"
+    )
     assert thin["boundary"] == "strip"  # too thin for singular cells: strips (hpcontact.discretizations.strip_cells)
 
 

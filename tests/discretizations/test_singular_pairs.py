@@ -46,10 +46,26 @@ def _potential_sum(a: float, b: float, points, q: int, n: int = 8) -> tuple[np.n
 
 # points inside: the centre (a cell corner), a cell corner (0.25, 0.5), 0.999 of each semi-axis,
 # 0.999 of the way to the edge in an oblique direction, and generic interior points
-DISC_POINTS = [(0.0, 0.0), (0.3, -0.2), (0.5, 0.5), (0.25, 0.5), (0.999, 0.0), (0.0, 0.999), (-0.6, 0.7),
-               (0.999 * math.cos(1.0), 0.999 * math.sin(1.0))]
-ELLIPSE_POINTS = [(0.0, 0.0), (0.3, -0.2), (0.5, 0.35), (0.999, 0.0), (0.0, 0.999 * ELLIPSE_B), (0.25, 0.175),
-                  (-0.6, 0.5 * ELLIPSE_B), (0.999 * math.cos(1.0), 0.999 * ELLIPSE_B * math.sin(1.0))]  # (0.25, 0.175): a corner
+DISC_POINTS = [
+    (0.0, 0.0),
+    (0.3, -0.2),
+    (0.5, 0.5),
+    (0.25, 0.5),
+    (0.999, 0.0),
+    (0.0, 0.999),
+    (-0.6, 0.7),
+    (0.999 * math.cos(1.0), 0.999 * math.sin(1.0)),
+]
+ELLIPSE_POINTS = [
+    (0.0, 0.0),
+    (0.3, -0.2),
+    (0.5, 0.35),
+    (0.999, 0.0),
+    (0.0, 0.999 * ELLIPSE_B),
+    (0.25, 0.175),
+    (-0.6, 0.5 * ELLIPSE_B),
+    (0.999 * math.cos(1.0), 0.999 * ELLIPSE_B * math.sin(1.0)),
+]  # (0.25, 0.175): a corner
 
 
 @pytest.mark.parametrize("q, bound_1, bound_xx", [(6, 1e-5, 1e-5), (8, 1.5e-6, 1.5e-6)])
@@ -119,8 +135,9 @@ def _energy(a: float, b: float, q: int, n: int = 8, p: int = 6) -> tuple[float, 
     points, weights = sp.cell_nodes(X1, X2, Y1, Y2, a, b, q)
     t, s = (Z.ravel() for Z in np.meshgrid(np.arange(len(X1)), np.arange(len(X1)), indexing="ij"))
     touch = np.maximum(np.abs(I[t] - I[s]), np.abs(J[t] - J[s])) <= 1
-    T1, Txx = sp.touching_integrals(points[t[touch]], weights[t[touch]], X1[s[touch]], X2[s[touch]],
-                                    Y1[s[touch]], Y2[s[touch]], a, b, q)
+    T1, Txx = sp.touching_integrals(
+        points[t[touch]], weights[t[touch]], X1[s[touch]], X2[s[touch]], Y1[s[touch]], Y2[s[touch]], a, b, q
+    )
     rp, rw = sp.interpolatory_rule(X1, X2, Y1, Y2, points, weights, p)
     far_t, far_s = t[~touch], s[~touch]
     S1, Sxx = sp.separated_integrals(rp[far_t], rw[far_t], rp[far_s], rw[far_s])

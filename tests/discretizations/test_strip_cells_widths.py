@@ -8,7 +8,7 @@ half-widths b₁ = b(x), b₂ = b(x') (``two_width_averages``, the closed-form d
 The references here are not the module's numbers: scipy's two-dimensional adaptive quadrature
 in the profiles' angles (y = b₁ cos θ, y' = b₂ cos φ: the arcsine weights become the uniform
 1/π² dθ dφ); the one-width rule ``profile_averages`` (itself checked against 20-digit mpmath in
-``tests/test_strip_cells.py``); the binomial series of the kernels with the exact moments of
+``tests/discretizations/test_strip_cells.py``); the binomial series of the kernels with the exact moments of
 the arcsine laws (⟨y²ᵏ⟩ = C(2k, k) b²ᵏ/4ᵏ, as rationals); Richardson finite differences of the
 fine two-width average; brute-force tensor Gauss rules graded toward the singular edges and
 corners of the pair integrals; and Mindlin's and Galin's closed-form stiffnesses of the
@@ -169,8 +169,10 @@ def _q_series(sigma: float, terms: int) -> list[float]:
     """q(σ) for 1/r and s²/r³ from the binomial series of (1 + t²/σ²)^(−1/2) and ^(−3/2) over
     σ: Σ_n C(α, n) [ε²]⟨t²ⁿ⟩ / σ^(2n+1), n = 1 … ``terms`` (at σ = 10, |t| < 2: the terms fall
     by ≥ 25×)."""
-    return [sum(float(_binomial(alpha, n) * _moment_eps2(n)) / sigma ** (2 * n + 1) for n in range(1, terms + 1))
-            for alpha in (Fraction(-1, 2), Fraction(-3, 2))]
+    return [
+        sum(float(_binomial(alpha, n) * _moment_eps2(n)) / sigma ** (2 * n + 1) for n in range(1, terms + 1))
+        for alpha in (Fraction(-1, 2), Fraction(-3, 2))
+    ]
 
 
 def test_spread_table_at_the_series_end() -> None:
@@ -186,7 +188,8 @@ def test_spread_table_at_the_series_end() -> None:
     from it by the truncation, 5.9e-6 and 1.77e-5 (bound 2e-5: exact arithmetic, no margin needed)."""
     assert [_moment_eps2(n) for n in (1, 2, 3)] == [1, Fraction(3, 2), Fraction(15, 4)]
     three_coefficients = [
-        [float(_binomial(alpha, n) * _moment_eps2(n)) for n in (1, 2, 3)] for alpha in (Fraction(-1, 2), Fraction(-3, 2))
+        [float(_binomial(alpha, n) * _moment_eps2(n)) for n in (1, 2, 3)]
+        for alpha in (Fraction(-1, 2), Fraction(-3, 2))
     ]
     assert three_coefficients == [[-0.5, 0.5625, -1.171875], [-1.5, 2.8125, -8.203125]]
     sigma = sc.SPREAD_REACH
@@ -293,14 +296,19 @@ def test_width_difference_expansion() -> None:
     rng = np.random.default_rng(8)
     n = 1500
     b = np.exp(rng.uniform(math.log(1e-3), 0.0, 3 * n))
-    sigma = np.concatenate([np.exp(rng.uniform(0.0, math.log(9.5), n)), np.exp(rng.uniform(math.log(1e-4), 0.0, n)),
-                            np.exp(rng.uniform(math.log(1e-4), math.log(9.5), n))])
+    sigma = np.concatenate(
+        [
+            np.exp(rng.uniform(0.0, math.log(9.5), n)),
+            np.exp(rng.uniform(math.log(1e-4), 0.0, n)),
+            np.exp(rng.uniform(math.log(1e-4), math.log(9.5), n)),
+        ]
+    )
     slope = rng.uniform(0.0025, 0.0049, 3 * n) * rng.choice([-1.0, 1.0], 3 * n)
     s = sigma * b * rng.choice([-1.0, 1.0], 3 * n)
     eps = slope * np.abs(s)
     b1, b2 = b + eps, b - eps
     single = b.copy()
-    single[2 * n:] *= 1.0 + rng.uniform(-1e-2, 1e-2, n)
+    single[2 * n :] *= 1.0 + rng.uniform(-1e-2, 1e-2, n)
     assert np.all(np.abs(b1 - b2) <= 2.0 * sc.SLOPE_LIMIT * np.abs(s))
     assert np.all(np.abs(s) < sc.SPREAD_REACH * np.maximum(np.maximum(b1, b2), single))
     error, exact, one = _regime_errors(s, b1, b2, single)
@@ -481,7 +489,9 @@ def test_ellipse_needs_the_width_corrections(monkeypatch: pytest.MonkeyPatch) ->
     """Without (7) (``width_corrections`` returning zeros) the b/a = 0.05 ellipse on 32 strips,
     nu 0.5, is off by −3.90e-4 (K_xx), +6.07e-5 (K_yy), −2.12e-4 (K_zz) (measured; −2.12e-4 for
     all three at nu 0): assert > 2e-5 (3× below the smallest), against ≤ 1.5e-8 with them."""
-    monkeypatch.setattr(sc, "width_corrections", lambda edges, outline, pairs: (np.zeros(pairs[0].size), np.zeros(pairs[0].size)))
+    monkeypatch.setattr(
+        sc, "width_corrections", lambda edges, outline, pairs: (np.zeros(pairs[0].size), np.zeros(pairs[0].size))
+    )
     strips = sc.StripCells(0.05, 32, Isotropic(1.0, 0.5), shape="ellipse")
     exact = _exact_stiffness(0.05, 0.5)
     for block in sc.BLOCKS:

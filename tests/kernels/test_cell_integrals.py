@@ -17,8 +17,13 @@ computed this way agree with the corner antiderivatives (evaluated in 80 digits)
 table in the module docstring.
 
 Tolerance: docs/design.md §2.2 requires the influence coefficients to be accurate to 1e-12 relative for
-cell aspect ratios 1e-10 … 1e10 and distances up to 1e6 cells; that is the bound asserted here
-(the measured error is ~1e-15).
+cell aspect ratios 1e-10 … 1e10 and distances up to 1e6 cells. The README quotes what the code
+achieves, "≤ 7.6e-16 relative" against this quadrature, and that is what is asserted (REL_QUOTED):
+measured 7.58e-16 (yy_over_r3, b/a = 1e-3, 3 cells along x; 2026-11-23, 2-core development
+machine), bound 1e-15 — the margin is for numpy's transcendental functions, which differ by an
+ulp or two between CPU builds (4.4e-16 relative per ulp of a term). The denser sweep against the
+100-digit corner sums (150 random points, edges hugged to 1e-12) measured 2.03e-15 (yy_over_r3,
+b/a = 0.063, on the x = −2a edge line); bound 3e-15 (REL_SWEEP).
 """
 
 from __future__ import annotations
@@ -35,6 +40,10 @@ from hpcontact.kernels.cell_integrals import NAMES, PARITY, cell_integrals, quad
 
 # docs/design.md §2.2: influence coefficients accurate to 1e-12 relative.
 REL_DESIGN = 1e-12
+# README "What the engine gets right": ≤ 7.6e-16 against the quadrature (measured 7.58e-16);
+# the denser corner-sum sweep measured 2.03e-15. Margins: module docstring.
+REL_QUOTED = 1e-15
+REL_SWEEP = 3e-15
 
 ASPECTS = [1e-10, 1e-3, 1.0, 1e3, 1e10]  # b/a
 # Targets in cells: x = i·dx, y = j·dy (dx = 2a, dy = 2b).
@@ -218,9 +227,9 @@ def test_against_quadrature(aspect, target):
             assert abs(ref[name]) < mp.mpf(10) ** -25 * scale  # the quadrature agrees
             continue
         errors[name] = float(abs((mp.mpf(v) - ref[name]) / ref[name]))
-    # docs/design.md §2.2: 1e-12 relative.
-    bad = {k: e for k, e in errors.items() if not e < REL_DESIGN}
-    assert not bad, f"relative errors above {REL_DESIGN:g} at {(x, y, a, b)}: {bad}"
+    # README: ≤ 7.6e-16 relative (docs/design.md §2.2 demands 1e-12).
+    bad = {k: e for k, e in errors.items() if not e < REL_QUOTED}
+    assert not bad, f"relative errors above {REL_QUOTED:g} at {(x, y, a, b)}: {bad}"
 
 
 def test_reference_quadrature_matches_antiderivatives():
@@ -279,8 +288,7 @@ def test_sweep_all_regimes():
             ref = closed_form(name, x, y, a, b, dps=100)
             err = float(abs((mp.mpf(v) - ref) / ref))
             worst = max(worst, err)
-            assert err < REL_DESIGN, (name, x, y, a, b, v, ref)  # docs/design.md §2.2
-    assert worst < 1e-13  # measured ~1e-15; flags any regression long before the design bound
+            assert err < REL_SWEEP, (name, x, y, a, b, v, ref)  # measured ≤ 2.03e-15; design bound 1e-12
 
 
 # ----------------------------------------------------------------------------------------------
@@ -314,8 +322,14 @@ def test_transpose_symmetry(aspect):
     X, Y = np.meshgrid(x, y, indexing="ij")
     p = cell_integrals(X, Y, a, b, NAMES)
     q = cell_integrals(Y, X, b, a, NAMES)
-    pairs = {"one_over_r": "one_over_r", "xx_over_r3": "yy_over_r3", "yy_over_r3": "xx_over_r3",
-             "xy_over_r3": "xy_over_r3", "x_over_r2": "y_over_r2", "y_over_r2": "x_over_r2"}
+    pairs = {
+        "one_over_r": "one_over_r",
+        "xx_over_r3": "yy_over_r3",
+        "yy_over_r3": "xx_over_r3",
+        "xy_over_r3": "xy_over_r3",
+        "x_over_r2": "y_over_r2",
+        "y_over_r2": "x_over_r2",
+    }
     for n1, n2 in pairs.items():
         np.testing.assert_allclose(p[n1], q[n2], rtol=1e-14, atol=0, err_msg=n1)
 
@@ -329,8 +343,7 @@ def test_exact_zeros_on_axes(aspect):
     for arr in (*on_y_axis.values(), *on_x_axis.values()):
         assert np.all(arr == 0.0)
     # ... and not zero (with the right sign) just off the axes
-    off = cell_integrals(np.full(4, 1e-9 * a), np.array([0.5, 3.0, -3.0, 1e6]) * b, a, b,
-                         ["xy_over_r3", "x_over_r2"])
+    off = cell_integrals(np.full(4, 1e-9 * a), np.array([0.5, 3.0, -3.0, 1e6]) * b, a, b, ["xy_over_r3", "x_over_r2"])
     assert np.all(off["x_over_r2"] > 0)
     assert np.all(np.sign(off["xy_over_r3"]) == [1, 1, -1, 1])
 
@@ -341,6 +354,7 @@ def test_one_over_r_is_sum_of_squares(aspect):
     q = quadrant_integrals(40, 40, 2 * a, 2 * b, ["one_over_r", "xx_over_r3", "yy_over_r3"])
     np.testing.assert_allclose(q["xx_over_r3"] + q["yy_over_r3"], q["one_over_r"], rtol=1e-13)
     rng = np.random.default_rng(5)
+
     def cells_out():
         far = rng.uniform(-1, 1, 100) * 10 ** rng.uniform(0, 6, 100)
         return np.concatenate([rng.uniform(-6, 6, 100), far])
@@ -363,8 +377,7 @@ def _awkward_targets(a: float, b: float) -> tuple[np.ndarray, np.ndarray]:
 @pytest.mark.parametrize("aspect", ASPECTS)
 def test_no_warnings_no_nan(aspect, monkeypatch):
     # Inside the module too: no division by zero, overflow or invalid operation in any branch.
-    monkeypatch.setattr(cells, "_ERRSTATE", {"divide": "raise", "over": "raise",
-                                             "invalid": "raise", "under": "ignore"})
+    monkeypatch.setattr(cells, "_ERRSTATE", {"divide": "raise", "over": "raise", "invalid": "raise", "under": "ignore"})
     a, b = 1.0, aspect
     X, Y = _awkward_targets(a, b)
     with warnings.catch_warnings():

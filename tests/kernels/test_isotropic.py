@@ -59,8 +59,14 @@ def _terms(block: str, G: float, nu: float) -> list[tuple[float, str]]:
 def _point(name: str, x, y):
     r2 = x * x + y * y
     r = np.sqrt(r2)
-    return {"1/r": 1 / r, "x2/r3": x * x / (r2 * r), "y2/r3": y * y / (r2 * r), "xy/r3": x * y / (r2 * r),
-            "x/r2": x / r2, "y/r2": y / r2}[name]
+    return {
+        "1/r": 1 / r,
+        "x2/r3": x * x / (r2 * r),
+        "y2/r3": y * y / (r2 * r),
+        "xy/r3": x * y / (r2 * r),
+        "x/r2": x / r2,
+        "y/r2": y / r2,
+    }[name]
 
 
 def _inner(name: str, xi: float, eta: float) -> float:

@@ -61,10 +61,12 @@ def test_orthotropic_compliance_and_isotropic_special_case() -> None:
 # ------------------------------------------------------------------ validation
 @pytest.mark.parametrize(
     "args, field",
-    [((1.0, 1.2, 0.5), "C12"),   # C11 − C12 < 0
-     ((1.0, 0.5, 0.0), "C44"),   # C44 = 0
-     ((1.0, -0.6, 0.5), "C12"),  # C11 + 2 C12 < 0
-     ((float("nan"), 0.5, 0.5), "C11")],
+    [
+        ((1.0, 1.2, 0.5), "C12"),  # C11 − C12 < 0
+        ((1.0, 0.5, 0.0), "C44"),  # C44 = 0
+        ((1.0, -0.6, 0.5), "C12"),  # C11 + 2 C12 < 0
+        ((float("nan"), 0.5, 0.5), "C11"),
+    ],
 )
 def test_cubic_refuses_unstable(args, field) -> None:
     with pytest.raises(InputError) as e:
@@ -125,8 +127,10 @@ def _is_rotation(R) -> bool:
     return np.max(np.abs(R @ R.T - np.eye(3))) < 1e-14 and abs(np.linalg.det(R) - 1) < 1e-14
 
 
-@pytest.mark.parametrize("hkl", [(0, 0, 1), (1, 1, 0), (1, 1, 1), (1, 0, 0), (0, 1, 0), (1, 2, 3),
-                                 (-1, 1, 2), (0, 0, -1), (3, -1, 0), (1, 1, 5)])
+@pytest.mark.parametrize(
+    "hkl",
+    [(0, 0, 1), (1, 1, 0), (1, 1, 1), (1, 0, 0), (0, 1, 0), (1, 2, 3), (-1, 1, 2), (0, 0, -1), (3, -1, 0), (1, 1, 5)],
+)
 def test_miller_rotation_is_proper_and_normal_is_hkl(hkl) -> None:
     for az in (0.0, 37.0):
         R = cr.rotation_from_miller(hkl, az)

@@ -35,8 +35,12 @@ def synthetic(params: Mapping[str, Any]) -> dict[str, Any]:
     shape, nu, aspect = params.get("shape"), float(params.get("nu", 0.0)), float(params.get("aspect", 1.0))
     if shape == "rectangle" and nu == 0.3:
         raise RuntimeError(f"synthetic failure at b/a = {aspect}")
-    record: dict[str, Any] = {"K_xx": (1.0 + nu) * math.sqrt(aspect), "K_yy": math.log1p(aspect) / (2.0 - nu),
-                              "iterations": 10 + int(params.get("sides", 0)), "plan": {"shape": shape, "thin": aspect < 0.1}}
+    record: dict[str, Any] = {
+        "K_xx": (1.0 + nu) * math.sqrt(aspect),
+        "K_yy": math.log1p(aspect) / (2.0 - nu),
+        "iterations": 10 + int(params.get("sides", 0)),
+        "plan": {"shape": shape, "thin": aspect < 0.1},
+    }
     if aspect < 0.1:
         record["note"] = f"thin: b/a = {aspect}"
     return record

@@ -77,8 +77,9 @@ def reference(tmp_path_factory) -> Path:
     return run_sweep(folder / "spec.toml", output=folder / "out.nc", team=SerialTeam(), stream=io.StringIO())
 
 
-def start(folder: Path, *options: str, revision: str = "a", faults: str | None = None,
-          procs: list | None = None) -> subprocess.Popen:
+def start(
+    folder: Path, *options: str, revision: str = "a", faults: str | None = None, procs: list | None = None
+) -> subprocess.Popen:
     """``mpiexec -n 2 hpcontact run spec.toml OPTIONS`` in ``folder``."""
     (folder / "spec.toml").write_text(SPEC)
     env = {k: v for k, v in os.environ.items() if k not in ("HPCONTACT_MPI", "HPCONTACT_FAULTS")}
@@ -87,7 +88,12 @@ def start(folder: Path, *options: str, revision: str = "a", faults: str | None =
         env["HPCONTACT_FAULTS"] = faults
     proc = subprocess.Popen(
         [MPIEXEC, "-n", "2", sys.executable, "-m", "hpcontact.cli", "run", "spec.toml", *options],
-        cwd=folder, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+        cwd=folder,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
     )
     if procs is not None:
         procs.append(proc)
@@ -197,9 +203,13 @@ def test_concurrent_run_refused_sigterm_stops_within_the_grace_and_resume_comple
     assert not history.suspects()  # the abandoned task is not counted as a crash
 
     files = journal_files(tmp_path / "out.nc.journal")
+    code, out, err = run(tmp_path)  # the same spec and output again: up to date, nothing run
+    assert code == 0 and f"is up to date ({TASKS} tasks from journals)" in out, out + err
+    (tmp_path / "out.nc").rename(tmp_path / "kept.nc")  # journals without their data set: still refused
     code, _, err = run(tmp_path)
     assert code == 2 and f"{TASKS} finished tasks in" in err and "--resume" in err and "--restart" in err, err
     assert journal_files(tmp_path / "out.nc.journal") == files  # nothing deleted
+    (tmp_path / "kept.nc").rename(tmp_path / "out.nc")
     code, _, err = run(tmp_path, "--output", "/proc/hpcontact/out.nc")
     assert code == 2 and "/proc/hpcontact" in err and err.count("\n") == 1, err
 
@@ -214,8 +224,9 @@ def started_by_rank(folder: Path) -> dict[int, tuple[int, set[str]]]:
     return out
 
 
-def test_a_raising_task_exits_3_and_stale_journals_are_refused_unless_accepted(tmp_path, reference,
-                                                                                assert_same_results):
+def test_a_raising_task_exits_3_and_stale_journals_are_refused_unless_accepted(
+    tmp_path, reference, assert_same_results
+):
     code, out, err = run(tmp_path, faults="3:raise", revision="a")
     assert code == 3, out + err
     assert "1 failed" in out and "injected fault (HPCONTACT_FAULTS)" in out
@@ -340,8 +351,9 @@ def test_a_journal_cut_at_any_byte_keeps_every_complete_entry_before_the_cut(tmp
         assert set(read_history(folder).entries) == expected, cut
 
 
-def test_a_full_disk_stops_cleanly_naming_the_journal_and_resume_completes(tmp_path, reference, assert_same_results,
-                                                                           launched):
+def test_a_full_disk_stops_cleanly_naming_the_journal_and_resume_completes(
+    tmp_path, reference, assert_same_results, launched
+):
     # The limit is set on one running rank (after MPI's start-up, whose shared-memory files it would break).
     proc = start(tmp_path, procs=launched)
     wait_for(lambda: len(started_by_rank(tmp_path)) == 2, proc)

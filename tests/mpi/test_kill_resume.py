@@ -55,8 +55,20 @@ def launch(spec: Path, output: Path, log: Path, *extra: str) -> subprocess.Popen
     env = {k: v for k, v in os.environ.items() if k != "HPCONTACT_MPI"}
     env.update(PYTHONPATH=f"{ROOT}{os.pathsep}{env.get('PYTHONPATH', '')}", OMP_NUM_THREADS="1")
     env["HPCONTACT_GIT_REVISION"] = "test"  # a commit by someone else between the runs is not a stale journal
-    command = [MPIEXEC, "-n", "2", sys.executable, str(RUNNER), str(spec), "--output", str(output), "--log", str(log),
-               "--parent", str(os.getpid())]
+    command = [
+        MPIEXEC,
+        "-n",
+        "2",
+        sys.executable,
+        str(RUNNER),
+        str(spec),
+        "--output",
+        str(output),
+        "--log",
+        str(log),
+        "--parent",
+        str(os.getpid()),
+    ]
     return subprocess.Popen(
         [*command, *extra], env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True
     )
@@ -101,8 +113,11 @@ def test_resume_after_a_killed_rank_loses_nothing_and_recomputes_nothing(tmp_pat
     assert f"({len(journaled)} from journals)" in text
 
     reference = run_sweep(
-        spec, output=tmp_path / "reference.nc", task_function=lambda fields: solve(Scene.from_params(fields)),
-        team=SerialTeam(), stream=io.StringIO()
+        spec,
+        output=tmp_path / "reference.nc",
+        task_function=lambda fields: solve(Scene.from_params(fields)),
+        team=SerialTeam(),
+        stream=io.StringIO(),
     )
     with xr.open_dataset(output) as a, xr.open_dataset(reference) as b:
         assert a.attrs["mpi_size"] == 2 and a.attrs["sweep_tasks_reused"] == len(journaled)

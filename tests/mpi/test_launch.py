@@ -54,9 +54,17 @@ def test_srun_without_mpi_plugin_is_refused_with_one_line(tmp_path):
     spec = tmp_path / "spec.toml"
     spec.write_text(SPEC, encoding="utf-8")
     output = tmp_path / "out.nc"
-    step = {"SLURM_JOB_ID": "4242", "SLURM_STEP_ID": "0", "SLURM_NTASKS": "2", "SLURM_NPROCS": "2",
-            "SLURM_STEP_NUM_TASKS": "2", "SLURM_NNODES": "1"}
-    procs = [_start(spec, output, _plain_environment(SLURM_PROCID=str(r), SLURM_LOCALID=str(r), **step)) for r in (0, 1)]
+    step = {
+        "SLURM_JOB_ID": "4242",
+        "SLURM_STEP_ID": "0",
+        "SLURM_NTASKS": "2",
+        "SLURM_NPROCS": "2",
+        "SLURM_STEP_NUM_TASKS": "2",
+        "SLURM_NNODES": "1",
+    }
+    procs = [
+        _start(spec, output, _plain_environment(SLURM_PROCID=str(r), SLURM_LOCALID=str(r), **step)) for r in (0, 1)
+    ]
     for proc in procs:
         stdout, stderr = proc.communicate(timeout=120)
         lines = stderr.strip().splitlines()

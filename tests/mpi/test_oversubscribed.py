@@ -51,8 +51,21 @@ def sweep(spec: Path, ranks: int, folder: Path) -> tuple[xr.Dataset, int]:
     env = {k: v for k, v in os.environ.items() if k != "HPCONTACT_MPI"}
     env.update(PYTHONPATH=f"{ROOT}{os.pathsep}{env.get('PYTHONPATH', '')}", OMP_NUM_THREADS="1")
     launcher = [] if ranks == 1 else [MPIEXEC, "-n", str(ranks)]
-    command = [*launcher, sys.executable, str(RUNNER), str(spec), "--output", str(output), "--log", str(log),
-               "--synthetic", "--delay", "0.01", "--parent", str(os.getpid())]
+    command = [
+        *launcher,
+        sys.executable,
+        str(RUNNER),
+        str(spec),
+        "--output",
+        str(output),
+        "--log",
+        str(log),
+        "--synthetic",
+        "--delay",
+        "0.01",
+        "--parent",
+        str(os.getpid()),
+    ]
     done = subprocess.run(command, check=False, env=env, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
     with open_dataset(output) as ds:

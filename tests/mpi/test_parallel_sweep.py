@@ -91,9 +91,26 @@ def test_data_set_schema(runs, team):
         for axis in ("aspect", "nu", "angle"):
             assert ds[axis].dtype == np.float64 and {"units", "long_name"} <= set(ds[axis].attrs)
         assert ds["shape"].values.tolist() == ["circle", "ellipse", "rectangle", "hexagon"]
-        for name in ("K_xx", "K_xy", "K_yx", "K_yy", "K_zz", "K_max", "K_min", "principal_angle_deg",
-                     "K_a_over_K_b", "normalized_xx", "normalized_yy", "iterations", "residual", "nx", "ny",
-                     "dx", "dy", "wall_time_s"):
+        for name in (
+            "K_xx",
+            "K_xy",
+            "K_yx",
+            "K_yy",
+            "K_zz",
+            "K_max",
+            "K_min",
+            "principal_angle_deg",
+            "K_a_over_K_b",
+            "normalized_xx",
+            "normalized_yy",
+            "iterations",
+            "residual",
+            "nx",
+            "ny",
+            "dx",
+            "dy",
+            "wall_time_s",
+        ):
             assert ds[name].dims == ("shape", "aspect", "nu"), name
             assert ds[name].dtype == np.float64 and {"units", "long_name"} <= set(ds[name].attrs), name
         assert ds["status"].dtype == np.int32 and ds["message"].dims == ("shape", "aspect", "nu")

@@ -62,8 +62,10 @@ def test_mask_is_a_real_test_case():
     assert 40 < MASK.sum() < MASK.size  # irregular: some cells out, most in
 
 
-@pytest.mark.parametrize("components, load, nu", [("xy", "x", 0.3), ("xy", "y", 0.3), ("x", "x", 0.0),
-                                                   ("z", "z", 0.5), ("xyz", "z", 0.3), ("xyz", "x", 0.2)])
+@pytest.mark.parametrize(
+    "components, load, nu",
+    [("xy", "x", 0.3), ("xy", "y", 0.3), ("x", "x", 0.0), ("z", "z", 0.5), ("xyz", "z", 0.3), ("xyz", "x", 0.2)],
+)
 def test_cg_matches_dense_solve(components, load, nu):
     material = Isotropic(G=1.5, nu=nu)
     op = _operator(material, GRID, components)
@@ -76,7 +78,11 @@ def test_cg_matches_dense_solve(components, load, nu):
     expected = np.linalg.solve(A, b)
     plain = conjugate_gradient(op.apply, rhs, MASK, tol=1e-12)
     pre = conjugate_gradient(
-        op.apply, rhs, MASK, tol=1e-12, precondition=FourierPreconditioner(GRID, partial(isotropic_surface_green, material), components).apply
+        op.apply,
+        rhs,
+        MASK,
+        tol=1e-12,
+        precondition=FourierPreconditioner(GRID, partial(isotropic_surface_green, material), components).apply,
     )
     for solution in (plain, pre):
         t = solution.traction
@@ -98,7 +104,13 @@ def test_preconditioner_saves_iterations_on_a_larger_problem():
     rhs = np.zeros((2,) + mask.shape)
     rhs[0] = 1.0
     plain = conjugate_gradient(op.apply, rhs, mask, tol=1e-10)
-    pre = conjugate_gradient(op.apply, rhs, mask, tol=1e-10, precondition=FourierPreconditioner(grid, partial(isotropic_surface_green, material), "xy").apply)
+    pre = conjugate_gradient(
+        op.apply,
+        rhs,
+        mask,
+        tol=1e-10,
+        precondition=FourierPreconditioner(grid, partial(isotropic_surface_green, material), "xy").apply,
+    )
     assert pre.iterations < plain.iterations
     # the same answer: both to tol 1e-10, cond ~ √N ≈ 40 → ≤ 1e-8 relative
     np.testing.assert_allclose(pre.traction, plain.traction, rtol=0, atol=1e-7 * np.max(np.abs(plain.traction)))

@@ -399,4 +399,3 @@ def test_planner_effort_from_the_environment(monkeypatch):
     monkeypatch.setenv(op_mod.PLANNER_ENV, "fast")
     with pytest.raises(InputError, match="HPCONTACT_FFTW_PLANNER.*one of auto, FFTW_ESTIMATE"):
         op_mod.ConvolutionOperator(16, 8, "z", spectra)
-

@@ -25,7 +25,9 @@ def _reference(pc: FourierPreconditioner, r: np.ndarray) -> np.ndarray:
 @pytest.mark.parametrize("components", ["z", "x", "xy", "xyz"])
 @pytest.mark.parametrize("nx, ny, dy", [(40, 30, 0.05), (70, 9, 0.01), (91, 91, 0.02)])
 def test_apply_is_bitwise_a_fresh_padded_transform(components, nx, ny, dy):
-    pc = FourierPreconditioner(Grid(nx=nx, ny=ny, dx=0.02, dy=dy), partial(isotropic_surface_green, Isotropic(G=1.0, nu=0.3)), components)
+    pc = FourierPreconditioner(
+        Grid(nx=nx, ny=ny, dx=0.02, dy=dy), partial(isotropic_surface_green, Isotropic(G=1.0, nu=0.3)), components
+    )
     assert pc.shape[0] >= nx and pc.shape[1] >= ny and pc.shape != (nx, ny)  # some padding to keep zero
     rng = np.random.default_rng(nx + ny)
     first = rng.normal(size=(len(components), nx, ny))

@@ -59,8 +59,9 @@ def test_fft_applications_count_a_ranks_share_per_layout():
     shape = padded_shape(64, 64)
     per_solve = ITERATIONS_PER_DIGIT * 8 * iteration_factor(circle)
     # tangential: x and y solves on the two-component operator; normal: one solve on z
-    assert fft_applications([circle] * 2) == pytest.approx({(2, shape): 4 * per_solve, (1, shape): 2 * per_solve},
-                                                                   rel=1e-15)
+    assert fft_applications([circle] * 2) == pytest.approx(
+        {(2, shape): 4 * per_solve, (1, shape): 2 * per_solve}, rel=1e-15
+    )
     # nu = 0: the tangential solves are one-component and the normal one is theirs (plan.plan_for)
     assert fft_applications([{**circle, "nu": 0.0}]) == pytest.approx({(1, shape): 2 * per_solve}, rel=1e-15)
     # an indentation scene: one Polonsky-Keer solve on z (its radius is needed to make the plan)

@@ -38,8 +38,10 @@ def write_spec(tmp_path: Path) -> Callable[[str], Path]:
 
     def write(text: str, name: str = "spec.toml") -> Path:
         if "output" not in text:
-            text = f'[sweep]\noutput = "{tmp_path / "out.nc"}"\n' + text if "[sweep]" not in text else text.replace(
-                "[sweep]", f'[sweep]\noutput = "{tmp_path / "out.nc"}"', 1
+            text = (
+                f'[sweep]\noutput = "{tmp_path / "out.nc"}"\n' + text
+                if "[sweep]" not in text
+                else text.replace("[sweep]", f'[sweep]\noutput = "{tmp_path / "out.nc"}"', 1)
             )
         path = tmp_path / name
         path.write_text(text, encoding="utf-8")

@@ -18,9 +18,17 @@ def entry(i: int, status: int = OK, version: str = "1") -> Entry:
     record = {"K": 1.0 / (i + 1), "n": i, "plan": {"solves": i % 2}, "mixed": "x" if i == 3 else float(i)}
     if i % 3 == 0:
         record["note"] = f"thin {i}"
-    return Entry(key=f"k{i}", params={}, status=status, message="" if status == OK else f"failed {i}",
-                 record=record if status == OK else {}, wall_time_s=float(i), finished=0.0, rank=0,
-                 provenance={"hpcontact_version": version, "git_revision": "r", "numerics": {}})
+    return Entry(
+        key=f"k{i}",
+        params={},
+        status=status,
+        message="" if status == OK else f"failed {i}",
+        record=record if status == OK else {},
+        wall_time_s=float(i),
+        finished=0.0,
+        rank=0,
+        provenance={"hpcontact_version": version, "git_revision": "r", "numerics": {}},
+    )
 
 
 def joined(parts: list[list[int]], entries: dict[int, Entry], tasks: int):

@@ -10,8 +10,6 @@ from dataclasses import replace
 import pytest
 
 from hpcontact import __version__
-from hpcontact.errors import InputError
-from hpcontact.numerics import memory
 from hpcontact.problems import footprint
 from hpcontact.problems.slip.crystal_pair import pair_from_params
 from hpcontact.sweep import costmodel
@@ -33,8 +31,9 @@ aspect = [1.0, 0.5]
 nu = [0.0, 0.3]
 """
 TASKS = 2 + 2 * 2  # the circle ignores the aspect
-NO_OVERHEADS = Overheads(driver_s=0.0, service_s=0.0, wake_s=0.0, setup_s=0.0, gather_s=0.0, spread_setup_s=0.0,
-                         spread_gather_s=0.0)
+NO_OVERHEADS = Overheads(
+    driver_s=0.0, service_s=0.0, wake_s=0.0, setup_s=0.0, gather_s=0.0, spread_setup_s=0.0, spread_gather_s=0.0
+)
 
 
 def toy(seconds: list[float]) -> tuple[list[Task], dict[str, float]]:
@@ -52,8 +51,9 @@ def test_four_equal_tasks_on_two_ranks_take_two_tasks_time():
 
 def test_replay_with_overheads_matches_a_hand_computation():
     tasks, seconds = toy([1.0] * 4)
-    o = Overheads(driver_s=0.1, service_s=0.01, wake_s=0.02, setup_s=0.05, gather_s=0.025, spread_setup_s=0.0,
-                  spread_gather_s=0.0)
+    o = Overheads(
+        driver_s=0.1, service_s=0.01, wake_s=0.02, setup_s=0.05, gather_s=0.025, spread_setup_s=0.0, spread_gather_s=0.0
+    )
     # setup 4 x 0.05 = 0.2. Rank 0 takes chunk 1 at 0.2, ends 1.3. Rank 1 is served at 0.21,
     # starts 0.23, ends 1.33. Rank 0 claims at 1.3 (no message), ends 2.4; rank 1 is served at
     # 1.34, starts 1.36, ends 2.46. Gather 4 x 0.025 = 0.1: makespan 2.56.
@@ -88,7 +88,9 @@ def test_task_estimate_is_rate_times_cost_plus_per_solve_and_memory_grows_with_t
     fixed, per_cell = footprint.MEMORY_MODEL["contact"]
     assert calibration.task_bytes(params) == 1000.0 + fixed + per_cell * 4096
     crystal = {**params, "anisotropy": 2.0}
-    assert footprint.task_kind(crystal) == "crystal" and calibration.task_bytes(crystal) > calibration.task_bytes(params)
+    assert footprint.task_kind(crystal) == "crystal" and calibration.task_bytes(crystal) > calibration.task_bytes(
+        params
+    )
 
 
 def test_the_fit_recovers_the_rates_of_two_scenes():
@@ -112,13 +114,16 @@ def test_calibration_cache_round_trips_and_is_used_without_calibrating(tmp_path,
     assert costmodel.load_calibration(path) == saved
 
 
-@pytest.mark.parametrize("content", [
-    "{not json",
-    '{"format": 1}',
-    '{"format": 1, "host": "h", "version": "v", "base_bytes": 1.0, "rates": {"contact": {"solve_s": "NaN", '
-    '"rate_s": 1e-7}, "crystal": {"solve_s": 0, "rate_s": 1e-7}, "slip": {"solve_s": 0, "rate_s": 1e-7}}}',
-    "FOREIGN",
-])
+@pytest.mark.parametrize(
+    "content",
+    [
+        "{not json",
+        '{"format": 1}',
+        '{"format": 1, "host": "h", "version": "v", "base_bytes": 1.0, "rates": {"contact": {"solve_s": "NaN", '
+        '"rate_s": 1e-7}, "crystal": {"solve_s": 0, "rate_s": 1e-7}, "slip": {"solve_s": 0, "rate_s": 1e-7}}}',
+        "FOREIGN",
+    ],
+)
 def test_a_corrupt_or_foreign_cache_is_ignored_with_a_warning_and_replaced(tmp_path, monkeypatch, content):
     path = tmp_path / "cm.json"
     fresh = Calibration(socket.gethostname(), __version__, {k: Rate(1e-7, 0.0) for k in costmodel.KINDS}, 1.0)
@@ -160,21 +165,19 @@ def test_a_task_over_the_memory_per_rank_is_warned_by_dry_run_and_refused_by_run
     assert not (spec.parent / "out.nc.journal").exists()  # refused before any work
 
 
-def test_memory_sizes_and_the_batch_systems_share():
-    assert memory.parse_memory("4G") == 4 * 2**30 and memory.parse_memory("512MiB") == 512 * 2**20
-    assert memory.parse_memory("1000") == 1000
-    for bad in ("", "-1G", "lots", "0"):
-        with pytest.raises(InputError, match="--mem-per-rank"):
-            memory.parse_memory(bad)
-    slurm = {"SLURM_MEM_PER_CPU": "2000", "SLURM_CPUS_PER_TASK": "2"}
-    assert memory.default_memory_per_rank(slurm) == (4000 * 2**20, "SLURM_MEM_PER_CPU")
-    node = {"SLURM_MEM_PER_NODE": "64000", "SLURM_TASKS_PER_NODE": "16(x4)"}
-    assert memory.default_memory_per_rank(node) == (4000 * 2**20, "SLURM_MEM_PER_NODE / tasks per node")
-    assert memory.default_memory_per_rank({})[1] == "physical memory / cores"
-
-
-SIMILAR_SLIP = {"quantities": "slip", "material": "Cu", "material2": "Cu", "radius": 8e-3, "radius2": 9e-3, "load": 10.0,
-                "mu": 0.3, "q_ratio": 0.6, "steps": 5, "n": 32, "tol": 1e-8}
+SIMILAR_SLIP = {
+    "quantities": "slip",
+    "material": "Cu",
+    "material2": "Cu",
+    "radius": 8e-3,
+    "radius2": 9e-3,
+    "load": 10.0,
+    "mu": 0.3,
+    "q_ratio": 0.6,
+    "steps": 5,
+    "n": 32,
+    "tol": 1e-8,
+}
 
 
 def test_slip_work_follows_the_load_path():
@@ -191,7 +194,8 @@ def test_slip_work_follows_the_load_path():
     assert passes > 1.0
     assert estimated_cost(coupled) == pytest.approx(similar * (1.0 + 40.0 * passes) / 41.0, rel=1e-12)
     assert estimated_cost({**coupled, "normal_friction": True}) == pytest.approx(
-        estimated_cost(coupled) * (1.0 + 40.0 * 2.0 * passes) / (1.0 + 40.0 * passes), rel=1e-12)
+        estimated_cost(coupled) * (1.0 + 40.0 * 2.0 * passes) / (1.0 + 40.0 * passes), rel=1e-12
+    )
     # a stronger coupling (a Cu crystal under a rigid sphere, beta ~ 0.3) needs more passes
     crystal = {**SIMILAR_SLIP, "material": "crystal:Cu", "material2": "rigid", "coupling": "coupled"}
     assert estimated_cost(crystal) > estimated_cost(coupled)
@@ -243,5 +247,8 @@ def test_the_kernel_term_is_per_padded_cell_whatever_the_tolerance():
     calibration = Calibration("h", "v", rates, base_bytes=0.0)
     circle = {"shape": "circle", "n": 64, "quantities": ["tangential"], "tol": 1e-10}
     # 4 x 64 x 64 padded cells, once per task: the kernel set is built before any iteration
-    assert calibration.task_seconds(circle) == calibration.task_seconds({**circle, "tol": 1e-2}) == pytest.approx(
-        1e-7 * 16384, rel=1e-15)
+    assert (
+        calibration.task_seconds(circle)
+        == calibration.task_seconds({**circle, "tol": 1e-2})
+        == pytest.approx(1e-7 * 16384, rel=1e-15)
+    )

@@ -3,12 +3,20 @@ exact labels, compact storage, history, atomic write; the CF checkers where they
 
 from __future__ import annotations
 
+import functools
+import importlib
+import importlib.resources
+import io
 import json
+import os
 import re
 import shutil
 import subprocess
+import sys
+import sysconfig
 from pathlib import Path
 
+import h5py
 import netCDF4
 import numpy as np
 import pytest
@@ -25,6 +33,21 @@ from hpcontact.sweep.spec import parse_spec
 from hpcontact.sweep.tasks import enumerate_tasks
 
 ROOT = Path(__file__).resolve().parents[2]
+CI = os.environ.get("CI", "").strip().lower() in ("1", "true", "yes")
+
+
+def required(module: str, what: str):
+    """``module``, imported. The `test` extra installs every module these tests need, so a
+    missing one fails the test under CI (``CI=true``), where nothing may be skipped silently;
+    elsewhere the test skips, naming the install."""
+    try:
+        return importlib.import_module(module)
+    except ImportError:
+        message = f"{what} is not installed: pip install -e '.[test]'"
+        if CI:
+            pytest.fail(f"{message} (CI=true: this test must run)", pytrace=False)
+        pytest.skip(message)
+
 
 SPEC = """
 [sweep]
@@ -50,8 +73,14 @@ def entries_of(spec, solve, fail=None, missing=None):
             continue
         failed = t.params == fail
         entries[t.key] = Entry(
-            key=t.key, params=t.params, status=ERROR if failed else OK, message="RuntimeError: x" if failed else "",
-            record={} if failed else solve(t.params), wall_time_s=0.5, finished=0.0, rank=0,
+            key=t.key,
+            params=t.params,
+            status=ERROR if failed else OK,
+            message="RuntimeError: x" if failed else "",
+            record={} if failed else solve(t.params),
+            wall_time_s=0.5,
+            finished=0.0,
+            rank=0,
         )
     return entries, where
 
@@ -79,8 +108,12 @@ def test_schema(fake_solve):
     assert ds.attrs["spec"] == SPEC and ds.attrs["title"] == "test" and ds.attrs["mpi_size"] == 2
     assert ds.attrs["scene_quantities"] == '["tangential", "normal"]'
     # the circle ignores aspect: one solve, the same record at both aspects
-    assert float(ds.K_yy.sel(shape="circle", aspect=0.1, nu=0.5)) == float(ds.K_yy.sel(shape="circle", aspect=1, nu=0.5))
-    assert float(ds.K_yy.sel(shape="ellipse", aspect=0.1, nu=0.5)) != float(ds.K_yy.sel(shape="ellipse", aspect=1, nu=0.5))
+    assert float(ds.K_yy.sel(shape="circle", aspect=0.1, nu=0.5)) == float(
+        ds.K_yy.sel(shape="circle", aspect=1, nu=0.5)
+    )
+    assert float(ds.K_yy.sel(shape="ellipse", aspect=0.1, nu=0.5)) != float(
+        ds.K_yy.sel(shape="ellipse", aspect=1, nu=0.5)
+    )
 
 
 def test_directional_stiffness_is_derived_from_the_tensor(fake_solve):
@@ -160,8 +193,9 @@ def test_the_hypercube_comes_back_point_by_point_from_the_file(fake_solve, tmp_p
         for name in ("K_xx", "K_yy", "K_zz", "iterations"):
             value = float(ds[name].isel(at))
             assert (np.isnan(value) and entry.status != OK) or value == entry.record[name], (name, index)
-        assert str(ds["plan"].isel(at).values) == ("" if entry.status != OK else
-                                                   '{"kernels": ["xx", "yy"], "solves": 2}')
+        assert str(ds["plan"].isel(at).values) == (
+            "" if entry.status != OK else '{"kernels": ["xx", "yy"], "solves": 2}'
+        )
         assert int(ds["status"].isel(at)) == entry.status
     # K_nn from the stored tensor: n K n at every angle (Li 2017, eq. 6); rounding only
     K = ds[["K_xx", "K_xy", "K_yx", "K_yy"]].sel(shape="hexagon", aspect=1.0, nu=0.5)
@@ -171,7 +205,7 @@ def test_the_hypercube_comes_back_point_by_point_from_the_file(fake_solve, tmp_p
 
 
 def test_open_dataset_is_lazy_with_dask(fake_solve, tmp_path):
-    pytest.importorskip("dask", reason="dask is not installed (xarray's chunks={} needs it)")
+    required("dask", "dask (xarray's chunks={} needs it)")
     _, ds = build(fake_solve, LABELS)
     path = write_netcdf(ds, tmp_path / "lazy.nc")
     with hpcontact.open_dataset(path, chunks={}) as lazy:
@@ -188,16 +222,24 @@ def test_storage_is_compact_and_typed(fake_solve, tmp_path):
         raw.set_auto_mask(False)
         for name in ("shape", "aspect", "nu", "angle", "n" if "n" in raw.variables else "aspect"):
             assert "_FillValue" not in raw[name].ncattrs(), name  # coordinates carry no fill value
-        for name in ("iterations", "status", "plan"):
+        for name in ("iterations", "status"):
             assert raw[name].dtype == np.int32, name
         assert raw["iterations"].getncattr("_FillValue") == INT_FILL
-        assert json.loads(raw["plan"].getncattr("plan_table")) == ['{"kernels": ["xx", "yy"], "solves": 2}']
-        assert "K_nn" not in raw.variables and "normalized_nn" not in raw.variables  # derived on open
-        for name in ("K_xx", "message", "plan"):
+        # plan: text (issue 28 item 7; was int32 codes into a plan_table attribute), compressed
+        assert raw["plan"].dtype == "S1" and "plan_table" not in raw["plan"].ncattrs()
+        assert raw["plan"].dimensions[:3] == ("shape", "aspect", "nu")
+        # K_nn and normalized_nn are stored over angle (issue 28 item 7; were derived on open only)
+        for name in ("K_nn", "normalized_nn"):
+            assert raw[name].dimensions == ("shape", "aspect", "nu", "angle"), name
+        for name in ("K_xx", "message", "plan", "K_nn"):
             filters = raw[name].filters()
-            assert filters["zlib"] and filters["shuffle"], name
+            assert filters["zlib"] and filters["shuffle"] and filters["fletcher32"], name
         assert raw["K_xx"].chunking() == list(raw["K_xx"].shape)  # small: one chunk
+        assert raw["plan"].chunking() == list(raw["plan"].shape)
         assert raw["shape"].dtype == "S1"  # labels as char arrays (CF checkers read them)
+    with h5py.File(path, "r") as raw:  # the one distinct plan repeats over the points: stored for almost nothing
+        plan = raw["plan"]
+        assert plan.id.get_storage_size() < 0.02 * plan.size, (plan.id.get_storage_size(), plan.size)
     # a 5 x 20 x 10^4 float64 array (8 MB): ≤ 4 MiB chunks, split along the first axis only
     assert chunk_shape((5, 20, 10_000), 8) == (2, 20, 10_000)
     assert chunk_shape((3, 2), 8) == (3, 2)
@@ -216,6 +258,145 @@ def test_history_gains_a_line_per_resumed_run(fake_solve, tmp_path):
     ]
     _, fresh = build(fake_solve, text, attrs=run)
     assert fresh.attrs["history"] == "2026-01-01T00:00:00+00:00: hpcontact run labels.toml"
+
+
+def test_plain_xarray_reads_K_nn_over_angle_and_the_plan_as_text(fake_solve, tmp_path):
+    """Any netCDF reader, not only hpcontact.open_dataset, sees what the sweep computed: K_nn and
+    normalized_nn over angle, the plan as text, CF attributes that say what the numbers are."""
+    spec = parse_spec(LABELS, validate=lambda params: None)
+    entries, where = entries_of(spec, fake_solve)
+    built = build_dataset(spec, where, entries, {"hpcontact_version": "0.1.0", "git_revision": "abc123"})
+    path = write_netcdf(built.drop_vars(["K_nn", "normalized_nn"]), tmp_path / "plain.nc")  # as the driver hands it
+    with xr.open_dataset(path) as ds:  # plain xarray: no hpcontact decoding
+        assert ds.K_nn.dims == ("shape", "aspect", "nu", "angle") and ds.normalized_nn.dims == ds.K_nn.dims
+        K = ds.sel(shape="hexagon", aspect=1.0, nu=0.5)
+        tensor = np.array([[K.K_xx, K.K_xy], [K.K_yx, K.K_yy]], dtype=np.float64)
+        expected = [rotated_tensor(tensor, a)[0, 0] for a in ds.angle.values]
+        np.testing.assert_allclose(K.K_nn, expected, rtol=1e-14)
+        np.testing.assert_allclose(ds.normalized_nn.isel(angle=0), ds.normalized_xx, rtol=1e-14)
+        plans = ds.plan.values
+        assert plans.dtype == object and {str(p) for p in plans.ravel()} == {'{"kernels": ["xx", "yy"], "solves": 2}'}
+        assert json.loads(plans[0, 0, 0]) == {"kernels": ["xx", "yy"], "solves": 2}
+        # units: the dimensionless ratio to G a, said in long_name, comment and scale; a readable plot label
+        attrs = ds.K_nn.attrs
+        assert attrs["units"] == "1" and attrs["scale"] == "G a" and attrs["long_name"].endswith("(in units of G a)")
+        assert "multiply by G a for the quantity" in attrs["comment"] and "shear modulus" in attrs["comment"]
+        label = " ".join(xr.plot.utils.label_from_attrs(ds.K_nn).split())
+        assert label == "tangential stiffness along the load direction K_nn(angle) (in units of G a) [1]"
+        assert ds.plan.attrs["long_name"] == "kernels built and solves run (JSON)" and "units" not in ds.plan.attrs
+        # global CF attributes: source, references, the units convention
+        assert ds.attrs["source"].startswith("hpcontact 0.1.0 (git abc123): rigid flat punch")
+        assert ds.attrs["references"].splitlines()[0].startswith("hpcontact 0.1.0: ")
+        assert any(line.startswith("Q. Li (2017)") for line in ds.attrs["references"].splitlines())
+        assert ds.attrs["comment"].startswith("Units convention (hpcontact.sweep.units)")
+        assert "(G, a)" in ds.attrs["comment"] and 'units = "1"' in ds.attrs["comment"]
+    with netCDF4.Dataset(path) as raw:  # what ncdump shows: the variables and their text
+        assert raw["K_nn"].dimensions == ("shape", "aspect", "nu", "angle")
+        assert raw["plan"].dimensions[:3] == ("shape", "aspect", "nu") and raw["plan"].dtype == "S1"
+        assert str(raw["plan"][0, 0, 0]) == '{"kernels": ["xx", "yy"], "solves": 2}'  # chartostring via _Encoding
+    with open_dataset(path) as back:  # and hpcontact's reader gives the data set as built
+        xr.testing.assert_identical(back.load(), built)
+
+
+def test_open_dataset_reads_the_stored_K_nn_and_does_not_derive_it_again(fake_solve, tmp_path):
+    _, ds = build(fake_solve)
+    path = write_netcdf(ds, tmp_path / "stored.nc")
+    with netCDF4.Dataset(path, "a") as raw:  # a stored K_nn that the tensor does not give
+        raw["K_nn"][:] = 42.0
+    with open_dataset(path) as back:
+        assert (back.K_nn == 42.0).all() and back.K_nn.attrs == ds.K_nn.attrs
+        np.testing.assert_allclose(back.normalized_nn, ds.normalized_nn, rtol=0)  # untouched: as stored
+
+
+def test_files_without_K_nn_and_with_plan_codes_still_open(fake_solve, tmp_path):
+    """A data set written before K_nn and the plan text were stored (K_nn left out, plan as codes
+    into the attribute plan_table) opens as the data set built: K_nn derived, plan text."""
+    _, ds = build(fake_solve, LABELS)
+    text = ds["plan"]
+    distinct = list(dict.fromkeys(v for v in text.values.ravel() if v))
+    codes = np.array([distinct.index(v) if v else np.nan for v in text.values.ravel()]).reshape(text.shape)
+    old = ds.drop_vars(["K_nn", "normalized_nn"]).assign(
+        plan=xr.Variable(
+            text.dims,
+            codes,
+            {
+                "long_name": "plan of the task: position in the JSON list plan_table of the distinct plans",
+                "units": "1",
+                "plan_table": json.dumps(distinct),
+                "text_attributes": json.dumps(text.attrs),
+            },
+        )
+    )
+    path = tmp_path / "old.nc"
+    old.to_netcdf(path, engine="netcdf4", encoding={"plan": {"dtype": "int32", "_FillValue": INT_FILL}})
+    with open_dataset(path) as back:
+        xr.testing.assert_identical(back.load(), ds)
+
+
+def test_history_is_the_command_as_given(fake_solve, write_spec, tmp_path, monkeypatch):
+    """history names the command a user ran: the run_sweep call from Python, the command line
+    from a shell (the process's argv, or the argv a caller hands to main)."""
+    import hpcontact.cli
+    from hpcontact.sweep import driver
+
+    spec = write_spec(SPEC)
+    out = hpcontact.run_sweep(spec, output=tmp_path / "python.nc", task_function=fake_solve, stream=io.StringIO())
+    with xr.open_dataset(out) as ds:  # the driver's file: K_nn and the plan text for any reader
+        created, command = ds.attrs["history"].split(": ", 1)
+        assert ds.K_nn.dims == ("shape", "aspect", "nu", "angle") and ds.plan.dtype == object
+        assert json.loads(str(ds.plan.values[0, 0, 0])) == {"kernels": ["xx", "yy"], "solves": 2}
+    assert (
+        command
+        == f"hpcontact.run_sweep({str(spec)!r}, output={str(tmp_path / 'python.nc')!r}, task_function=_fake_solve)"
+    )
+    assert created == ds.attrs["created"]
+    # python -m hpcontact.sweep SPEC --output X: main's argv as given
+    assert driver.main([str(spec), "--output", str(tmp_path / "cli.nc")], task_function=fake_solve) == 0
+    with xr.open_dataset(tmp_path / "cli.nc") as ds:
+        assert ds.attrs["history"].split(": ", 1)[1] == f"hpcontact run {spec} --output {tmp_path / 'cli.nc'}"
+    # the console command: sys.argv as the shell passed it, --resume appending a line
+    monkeypatch.setattr(
+        driver, "run_from_arguments", functools.partial(driver.run_from_arguments, task_function=fake_solve)
+    )
+    monkeypatch.setattr(
+        "sys.argv", ["/somewhere/bin/hpcontact", "run", str(spec), "--output", str(tmp_path / "cli.nc"), "--resume"]
+    )
+    assert hpcontact.cli.main() == 0
+    with xr.open_dataset(tmp_path / "cli.nc") as ds:
+        lines = [line.split(": ", 1)[1] for line in ds.attrs["history"].splitlines()]
+    assert lines == [
+        f"hpcontact run {spec} --output {tmp_path / 'cli.nc'}",
+        f"hpcontact run {spec} --output {tmp_path / 'cli.nc'} --resume",
+    ]
+    # python -m hpcontact.sweep: the module, then the arguments
+    monkeypatch.undo()
+    monkeypatch.setattr(
+        "sys.argv",
+        [str(ROOT / "hpcontact" / "sweep" / "__main__.py"), str(spec), "--output", str(tmp_path / "module.nc")],
+    )
+    assert driver.main(task_function=fake_solve) == 0
+    with xr.open_dataset(tmp_path / "module.nc") as ds:
+        assert (
+            ds.attrs["history"].split(": ", 1)[1]
+            == f"python -m hpcontact.sweep {spec} --output {tmp_path / 'module.nc'}"
+        )
+
+
+def test_dimensional_applies_the_scale(fake_solve):
+    cf_units = required("cf_units", "cf-units (UDUNITS)")
+    from hpcontact.sweep.units import dimensional
+
+    _, ds = build(fake_solve)
+    K = dimensional(ds.K_xx, G=80e9, a=1e-3)  # a steel-like shear modulus, a 1 mm punch
+    np.testing.assert_allclose(K, ds.K_xx * 8e7, rtol=1e-15)
+    assert K.attrs["units"] == "Pa m" and cf_units.Unit(K.attrs["units"]).is_convertible(cf_units.Unit("N m-1"))
+    assert K.attrs["long_name"] == "stiffness K_xx: force along x per unit displacement along x"
+    assert "scale" not in K.attrs and "comment" not in K.attrs
+    assert dimensional(ds.K_xx, units="N mm-1", G=80e3, a=1.0).attrs["units"] == "N mm-1"  # MPa mm = N/mm
+    with pytest.raises(ValueError, match="give a"):
+        dimensional(ds.K_xx, G=80e9)
+    nu = ds.nu
+    assert dimensional(nu, G=1.0) is nu  # not scaled: unchanged
 
 
 @pytest.fixture(scope="module")
@@ -246,16 +427,29 @@ def test_every_shipped_job_round_trips_through_the_file(job_datasets, tmp_path):
 
 # The physical dimension of each kind of quantity (an independent statement, not the code's tables).
 DIMENSIONS = {
-    "K_xx": "N m-1", "K_nn": "N m-1", "dx": "m", "load": "N", "contact_area": "m2", "angle": "radian",
-    "orientation": "radian", "wall_time_s": "s", "tangential_stiffness": "N m-1", "stick_area": "m2",
-    "tangential_force": "N", "E": "Pa", "radius2": "m", "nu": "1", "iterations": "1", "max_pressure": "Pa",
+    "K_xx": "N m-1",
+    "K_nn": "N m-1",
+    "dx": "m",
+    "load": "N",
+    "contact_area": "m2",
+    "angle": "radian",
+    "orientation": "radian",
+    "wall_time_s": "s",
+    "tangential_stiffness": "N m-1",
+    "stick_area": "m2",
+    "tangential_force": "N",
+    "E": "Pa",
+    "radius2": "m",
+    "nu": "1",
+    "iterations": "1",
+    "max_pressure": "Pa",
 }
 # A scene's scales in SI, to check the dimension of a ``scale``: G a shear modulus, a and L lengths, F a force.
 SCALES_SI = {"G": "Pa", "a": "m", "L": "m", "F": "N"}
 
 
 def test_every_unit_of_every_shipped_job_parses_to_its_dimension(job_datasets):
-    cf_units = pytest.importorskip("cf_units", reason="cf-units (UDUNITS) is not installed: pip install cf-units")
+    cf_units = required("cf_units", "cf-units (UDUNITS)")
     checked = set()
     for job, ds in job_datasets:
         for name, var in ds.variables.items():
@@ -269,7 +463,9 @@ def test_every_unit_of_every_shipped_job_parses_to_its_dimension(job_datasets):
             assert not unit.is_unknown(), (job, name)
             if "scale" in var.attrs:  # a ratio to the scene's scale: dimensionless, the scale in the name
                 assert var.attrs["units"] == "1" and var.attrs["scale"] in var.attrs["long_name"], (job, name)
-                unit = cf_units.Unit(re.sub(r"\b([GaLF])(?=-?\d*\b)", lambda m: SCALES_SI[m.group(1)], var.attrs["scale"]))
+                unit = cf_units.Unit(
+                    re.sub(r"\b([GaLF])(?=-?\d*\b)", lambda m: SCALES_SI[m.group(1)], var.attrs["scale"])
+                )
             if name in DIMENSIONS:
                 assert unit.is_convertible(cf_units.Unit(DIMENSIONS[name])), (job, name, var.attrs)
                 checked.add(name)
@@ -279,9 +475,9 @@ def test_every_unit_of_every_shipped_job_parses_to_its_dimension(job_datasets):
 def test_every_unit_parses_with_pint_as_udunits_reads_it(job_datasets):
     """pint (cf_xarray's UDUNITS-syntax registry) reads every unit as the same amount of the
     same base units as UDUNITS, and pint-xarray quantifies every data set."""
-    units = pytest.importorskip("cf_xarray.units", reason="cf_xarray and pint are not installed").units
-    pytest.importorskip("pint_xarray", reason="pint-xarray is not installed")
-    cf_units = pytest.importorskip("cf_units", reason="cf-units (UDUNITS) is not installed")
+    units = required("cf_xarray.units", "cf_xarray and pint").units
+    required("pint_xarray", "pint-xarray")
+    cf_units = required("cf_units", "cf-units (UDUNITS)")
     for job, ds in job_datasets:
         ds.drop_vars([name for name in ds.variables if ds[name].dtype.kind in "OU"]).pint.quantify(unit_registry=units)
         for name, var in ds.variables.items():
@@ -292,14 +488,15 @@ def test_every_unit_parses_with_pint_as_udunits_reads_it(job_datasets):
 
 
 def _stub_tables(folder: Path) -> list[str]:
-    """cfchecks' three XML tables as empty stubs (the data sets use no standard names, area
-    types or regions), so the checker runs offline."""
-    tables = {"-s": ("standard_name_table", "s.xml"), "-a": ("standard_area_type_table", "a.xml"),
-              "-r": ("standardized_region_list", "r.xml")}
+    """cfchecks' area-type and region tables as empty stubs (the data sets use neither), so the
+    checker runs offline (it downloads them otherwise; the standard names: ``cfchecks``)."""
+    tables = {"-a": ("standard_area_type_table", "a.xml"), "-r": ("standardized_region_list", "r.xml")}
     args = []
     for flag, (root, name) in tables.items():
-        (folder / name).write_text(f'<?xml version="1.0"?>\n<{root}><version_number>0</version_number>'
-                                   f"<date>none</date><last_modified>none</last_modified></{root}>\n")
+        (folder / name).write_text(
+            f'<?xml version="1.0"?>\n<{root}><version_number>0</version_number>'
+            f"<date>none</date><last_modified>none</last_modified></{root}>\n"
+        )
         args += [flag, str(folder / name)]
     return args
 
@@ -310,8 +507,14 @@ def real_demo(tmp_path_factory) -> Path:
     engine (~3 s)."""
     folder = tmp_path_factory.mktemp("demo")
     text = (ROOT / "jobs" / "demo.toml").read_text()
-    for key, value in (("n", "16"), ("tol", "1e-8"), ("aspect", "[1.0, 1e-4]"), ("nu", "[0.0, 0.3]"),
-                       ("anisotropy", "[1.0, 2.0]"), ("orientation", "[20.0]")):
+    for key, value in (
+        ("n", "16"),
+        ("tol", "1e-8"),
+        ("aspect", "[1.0, 1e-4]"),
+        ("nu", "[0.0, 0.3]"),
+        ("anisotropy", "[1.0, 2.0]"),
+        ("orientation", "[20.0]"),
+    ):
         text, count = re.subn(rf"(?m)^{key} = .*$", f"{key} = {value}", text)
         assert count == 1, key
     spec = parse_spec(text, path=ROOT / "jobs" / "demo.toml", validate=lambda params: None)
@@ -332,35 +535,102 @@ def checked(real_demo, job_datasets, tmp_path_factory) -> list[Path]:
     """The files the CF checkers read: the real demo and every shipped job's synthetic data set."""
     folder = tmp_path_factory.mktemp("jobs")
     run = {"history": "2026-01-01T00:00:00+00:00: hpcontact run"}  # as the driver's provenance gives it
-    return [real_demo, *(write_netcdf(ds.assign_attrs(run), folder / f"{Path(job).stem}.nc") for job, ds in job_datasets)]
+    return [
+        real_demo,
+        *(write_netcdf(ds.assign_attrs(run), folder / f"{Path(job).stem}.nc") for job, ds in job_datasets),
+    ]
+
+
+# cfchecker reads units through cfunits, which loads the UDUNITS-2 C library with
+# ctypes.util.find_library("udunits2") and its XML database from UDUNITS2_XML_PATH (else the
+# path compiled into the library). No system package (Debian libudunits2-0) or root is needed:
+# the cf-units wheel of the `test` extra bundles both (cf_units.libs/libudunits2-*.so* on Linux,
+# cf_units/.dylibs on macOS; cf_units/etc/share/udunits2.xml). CFCHECKS runs cfchecks' own
+# main() with find_library pointed at that copy; where cf-units was built against a system
+# UDUNITS (no bundled copy), the system's is found as before.
+CFCHECKS = """
+import ctypes.util, os, sys
+from pathlib import Path
+import cf_units
+root = Path(cf_units.__file__).resolve().parent
+bundled = sorted(root.parent.glob("cf_units.libs/libudunits2*")) + sorted(root.glob(".dylibs/libudunits2*"))
+if bundled:
+    system = ctypes.util.find_library
+    ctypes.util.find_library = lambda name: str(bundled[0]) if name == "udunits2" else system(name)
+if (root / "etc" / "share" / "udunits2.xml").is_file():
+    os.environ.setdefault("UDUNITS2_XML_PATH", str(root / "etc" / "share" / "udunits2.xml"))
+from cfchecker.cfchecks import main
+sys.argv[0] = "cfchecks"
+sys.exit(main())
+"""
 
 
 @pytest.fixture(scope="module")
-def cfchecks() -> str:
-    path = shutil.which("cfchecks")
-    if path is None:
-        pytest.skip("cfchecks is not installed (pip install cfchecker; needs the UDUNITS C library, "
-                    "Debian: libudunits2-0)")
-    return path
+def cfchecks(tmp_path_factory) -> list[str]:
+    """The cfchecks command, offline: the CF standard-name table that compliance-checker ships
+    (4.5 MB, CF's own table; the data sets use no standard names, but a wrong one would be
+    caught), empty area-type and region tables (the data sets use neither)."""
+    required("cfchecker", "cfchecker")
+    required("cf_units", "cf-units (its wheel bundles the UDUNITS library cfchecker needs)")
+    table = (
+        importlib.resources.files(required("compliance_checker", "compliance-checker"))
+        / "data"
+        / "cf-standard-name-table.xml"
+    )
+    folder = tmp_path_factory.mktemp("cftables")
+    return [sys.executable, "-c", CFCHECKS, "-v", "1.8", "-s", str(table), *_stub_tables(folder)]
 
 
 @pytest.fixture(scope="module")
-def compliance_checker() -> str:
-    path = shutil.which("compliance-checker")
-    if path is None:
-        pytest.skip("compliance-checker is not installed (pip install compliance-checker)")
+def compliance_checker() -> list[str]:
+    """The compliance-checker command of this interpreter's environment (``.venv/bin``: PATH
+    need not hold it), else the one on PATH."""
+    required("compliance_checker", "compliance-checker")
+    script = Path(sysconfig.get_path("scripts")) / "compliance-checker"
+    found = str(script) if script.is_file() else shutil.which("compliance-checker")
+    if found is None:
+        pytest.fail("compliance_checker is importable but its compliance-checker command is not installed")
+    return [found]
+
+
+@pytest.fixture(scope="module")
+def broken(checked, tmp_path_factory) -> Path:
+    """A copy of a checked file with an invalid unit and an invalid standard name: each checker
+    must report both (it reads UDUNITS and the standard-name table, rather than passing blind)."""
+    path = tmp_path_factory.mktemp("broken") / "broken.nc"
+    path.write_bytes(checked[0].read_bytes())
+    with netCDF4.Dataset(path, "a") as raw:
+        raw["K_xx"].units = "bananas"
+        raw["K_yy"].standard_name = "no_such_standard_name"
     return path
 
 
-def test_cfchecks_reports_no_error(cfchecks, checked, tmp_path):
-    done = subprocess.run([cfchecks, "-v", "1.8", *_stub_tables(tmp_path), *map(str, checked)],
-                          capture_output=True, text=True, timeout=300)
+def test_cfchecks_reports_no_error(cfchecks, checked, broken):
+    done = subprocess.run([*cfchecks, *map(str, checked)], capture_output=True, text=True, timeout=300)
     assert done.stdout.count("ERRORS detected: 0") == len(checked), done.stdout + done.stderr
+    done = subprocess.run([*cfchecks, str(broken)], capture_output=True, text=True, timeout=300)
+    assert "ERRORS detected: 2" in done.stdout, done.stdout + done.stderr
+    assert "Invalid units: bananas" in done.stdout and "Invalid standard_name: no_such_standard_name" in done.stdout
 
 
-def test_compliance_checker_cf_suite_has_no_failure(compliance_checker, checked):
+def test_compliance_checker_cf_suite_has_no_failure(compliance_checker, checked, broken):
     # ~10 s a file: the real demo and one job of each kind (slip in SI, crystal slip, sphere indentation)
-    files = [checked[0], *(p for p in checked[1:] if p.stem in ("sphere_pairs", "crystal_friction_map", "tembleque2011_sphere"))]
-    done = subprocess.run([compliance_checker, "--test=cf:1.8", "--criteria=strict", *map(str, files)],
-                          capture_output=True, text=True, timeout=600)
+    files = [
+        checked[0],
+        *(p for p in checked[1:] if p.stem in ("sphere_pairs", "crystal_friction_map", "tembleque2011_sphere")),
+    ]
+    done = subprocess.run(
+        [*compliance_checker, "--test=cf:1.8", "--criteria=strict", *map(str, files)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert done.returncode == 0 and done.stdout.count("All tests passed!") == len(files), done.stdout + done.stderr
+    done = subprocess.run(
+        [*compliance_checker, "--test=cf:1.8", "--criteria=strict", str(broken)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert done.returncode != 0 and '"bananas" are not recognized by UDUNITS' in done.stdout, done.stdout + done.stderr
+    assert "standard_name no_such_standard_name is not defined" in done.stdout

@@ -37,7 +37,10 @@ def test_a_sweep_without_n_is_extrapolated_with_its_estimate(write_spec, capsys)
             # the estimate bounds the true error (the claim under test), so no other tolerance
             assert abs(float(point["K_xx"]) / K_a - 1.0) <= estimate
             assert abs(float(point["K_yy"]) / K_b - 1.0) <= estimate
-            assert abs(float(point["K_a_over_K_b"]) / analytic.mindlin_ellipse_stiffness_ratio(aspect, NU) - 1.0) <= estimate
+            assert (
+                abs(float(point["K_a_over_K_b"]) / analytic.mindlin_ellipse_stiffness_ratio(aspect, NU) - 1.0)
+                <= estimate
+            )
             # nx, ny: the finest grid of the sequence 16 … 256 along the long side
             assert int(point["nx"]) == DEFAULT_N0 * 2 ** (DEFAULT_GRIDS - 1)
             assert str(point["grids"].values) == "[16, 32, 64, 128, 256]"
@@ -48,7 +51,11 @@ def test_a_sweep_without_n_is_extrapolated_with_its_estimate(write_spec, capsys)
     # the dry run and the scheduler see every grid: cost summed over the sequence, memory of the finest
     scene = {"shape": "ellipse", "aspect": 0.5, "nu": NU, "quantities": ["tangential", "normal"]}
     levels = solved_grids(scene)
-    assert [(p["n"], p["n_across"]) for p in levels] == default_grids(Scene.from_params(scene)) == [(16, 8), (32, 16), (64, 32), (128, 64), (256, 128)]
+    assert (
+        [(p["n"], p["n_across"]) for p in levels]
+        == default_grids(Scene.from_params(scene))
+        == [(16, 8), (32, 16), (64, 32), (128, 64), (256, 128)]
+    )
     assert estimated_cost(scene) == pytest.approx(EXTRAPOLATION_WORK * sum(estimated_cost(p) for p in levels))
     assert padded_cells(scene) == 4 * 256 * 128
     assert main([str(spec), "--dry-run"]) == 0

@@ -70,7 +70,12 @@ def test_a_sweep_runs_every_task_once_and_writes_the_data_set(write_spec, fake_s
     path = sweep(write_spec(SPEC), task_function=counting(fake_solve, calls), stream=stream)
     assert path == tmp_path / "out.nc" and len(calls) == TASKS
     with xr.open_dataset(path) as ds:
-        assert {a: ds.sizes[a] for a in ("shape", "aspect", "nu", "angle")} == {"shape": 3, "aspect": 3, "nu": 3, "angle": 5}
+        assert {a: ds.sizes[a] for a in ("shape", "aspect", "nu", "angle")} == {
+            "shape": 3,
+            "aspect": 3,
+            "nu": 3,
+            "angle": 5,
+        }
         assert (ds.status == OK).all() and ds.attrs["mpi_size"] == 1 and ds.attrs["sweep_tasks_run"] == TASKS
         for name in ("hpcontact_version", "created", "spec", "sweep_parallel_efficiency"):
             assert name in ds.attrs
@@ -97,7 +102,9 @@ def test_failing_tasks_are_recorded_and_the_others_complete(write_spec, fake_sol
         assert (status.sel(shape="ellipse", aspect=0.01) == NOT_CONVERGED).all()
         assert int(status.sel(shape="hexagon", aspect=0.1, nu=0.5)) == BAD_INPUT
         assert (status.sel(shape="circle", nu=0.0) == ERROR).all()
-        assert "ZeroDivisionError: float division by zero" in str(ds.message.sel(shape="circle", nu=0.0, aspect=1.0).values)
+        assert "ZeroDivisionError: float division by zero" in str(
+            ds.message.sel(shape="circle", nu=0.0, aspect=1.0).values
+        )
         assert "not a mapping" in str(ds.message.sel(shape="circle", nu=0.25, aspect=1.0).values)
         assert int((status == OK).sum()) == 27 - 4 * 3
         assert np.isfinite(ds.K_xx.where(status == OK)).sum() == (status == OK).sum()
@@ -171,15 +178,24 @@ def test_resume_retries_errors_and_non_convergence_and_keeps_bad_input(write_spe
     outcome = execute(spec, task_function=first, team=SerialTeam(), stream=io.StringIO())
     assert outcome.failures == 3
     calls = []
-    outcome = execute(spec, task_function=counting(fake_solve, calls), team=SerialTeam(), stream=io.StringIO(),
-                      options=Options(resume=True))
+    outcome = execute(
+        spec,
+        task_function=counting(fake_solve, calls),
+        team=SerialTeam(),
+        stream=io.StringIO(),
+        options=Options(resume=True),
+    )
     assert sorted(p["nu"] for p in calls) == [0.0, 0.25] and outcome.failures == 1  # bad input is deterministic
     with xr.open_dataset(outcome.path) as ds:
         circle = ds.status.sel(shape="circle", aspect=1.0)
         assert circle.values.tolist() == [OK, OK, BAD_INPUT]  # the last outcome of each task
     history = read_history(tmp_path / "out.nc.journal")
-    statuses = [json.loads(line.split(b" ", 1)[1])["status"] for path in journal_files(tmp_path / "out.nc.journal")
-                for line in path.read_bytes().splitlines() if b'"finished"' in line and b'"circle"' in line]
+    statuses = [
+        json.loads(line.split(b" ", 1)[1])["status"]
+        for path in journal_files(tmp_path / "out.nc.journal")
+        for line in path.read_bytes().splitlines()
+        if b'"finished"' in line and b'"circle"' in line
+    ]
     assert sorted(statuses) == sorted([NOT_CONVERGED, ERROR, BAD_INPUT, OK, OK])  # the journals keep the history
     assert len(history.entries) == TASKS
 
@@ -201,7 +217,9 @@ def test_stale_journals_are_refused_unless_accepted_and_provenance_lists_every_c
     with pytest.raises(Interrupted):
         sweep(spec, task_function=dies_at_fourth)
     monkeypatch.setenv("HPCONTACT_GIT_REVISION", "bbbb-dirty")
-    with pytest.raises(Refused, match=r"computed by hpcontact .*\(git aaaa,.*this is .*\(git bbbb-dirty,.*git revision.*--accept-stale"):
+    with pytest.raises(
+        Refused, match=r"computed by hpcontact .*\(git aaaa,.*this is .*\(git bbbb-dirty,.*git revision.*--accept-stale"
+    ):
         sweep(spec, resume=True, task_function=fake_solve)
     resumed = []
     path = sweep(spec, task_function=counting(fake_solve, resumed), options=Options(resume=True, accept_stale=True))
@@ -231,10 +249,14 @@ def test_one_run_per_output(write_spec, fake_solve, tmp_path, monkeypatch):
     monkeypatch.delenv("SLURM_JOB_ID", raising=False)
 
     def hold(**holder):
-        lock.write_text(json.dumps({"host": host, "pid": os.getpid(), "ranks": 2, "started": "T", "job": None, **holder}))
+        lock.write_text(
+            json.dumps({"host": host, "pid": os.getpid(), "ranks": 2, "started": "T", "job": None, **holder})
+        )
 
     hold()  # a live process on this host
-    with pytest.raises(Refused, match=rf"in use by a run on {host} \(pid {os.getpid()}, 2 ranks, since T\).*--break-lock"):
+    with pytest.raises(
+        Refused, match=rf"in use by a run on {host} \(pid {os.getpid()}, 2 ranks, since T\).*--break-lock"
+    ):
         sweep(spec, task_function=fake_solve)
     hold(host="elsewhere", pid=1)
     with pytest.raises(Refused, match="elsewhere"):
@@ -308,13 +330,16 @@ def test_main_exits_2_with_one_line_naming_the_key(write_spec, capsys, monkeypat
     assert err.count("\n") == 1 and "numerics.colour" in err
 
 
-def test_a_data_set_that_cannot_be_written_stops_cleanly_and_resume_writes_it(write_spec, fake_solve, tmp_path):
+def test_a_data_set_that_cannot_be_written_stops_cleanly_and_resume_writes_it(
+    write_spec, fake_solve, tmp_path, monkeypatch
+):
     spec = write_spec(SPEC)
-    (tmp_path / "out.nc").mkdir()  # in the way of the data set's final rename
+    monkeypatch.setenv("HPCONTACT_DATA_SET_LIMIT", "4096")  # the netCDF library fails as on a full disk
     with pytest.raises(Stopped, match="cannot write the data set .*out.nc.*journals intact.*--resume") as info:
         sweep(spec, task_function=fake_solve)
     assert info.value.status == 1 and len(read_journals(tmp_path / "out.nc.journal")) == TASKS
-    (tmp_path / "out.nc").rmdir()
+    assert not (tmp_path / "out.nc").exists() and not list(tmp_path.glob(".out.nc.tmp-*"))
+    monkeypatch.delenv("HPCONTACT_DATA_SET_LIMIT")
     calls = []
     assert sweep(spec, resume=True, task_function=counting(fake_solve, calls)).is_file() and calls == []
 
@@ -334,3 +359,93 @@ def test_a_malformed_fault_list_is_refused(write_spec, capsys, monkeypatch):
     monkeypatch.setenv("HPCONTACT_FAULTS", "3:explode")
     assert main([str(write_spec(SPEC))]) == 2
     assert "HPCONTACT_FAULTS" in capsys.readouterr().err
+
+
+UP_TO_DATE = Options(up_to_date=True)  # what `hpcontact run` and hpcontact.run_sweep pass
+
+
+def test_a_finished_sweep_run_again_is_up_to_date_and_touches_nothing(write_spec, fake_solve, tmp_path):
+    """Issue 28: the README's command run twice. Nothing runs, the data set keeps its bytes and
+    mtime, one line says so; without ``up_to_date`` (the library default) it is refused as before."""
+    spec = write_spec(SPEC)
+    path = sweep(spec, task_function=fake_solve)
+    data, mtime = path.read_bytes(), path.stat().st_mtime_ns
+    journals = {p: p.stat().st_mtime_ns for p in journal_files(tmp_path / "out.nc.journal")}
+    calls, stream = [], io.StringIO()
+    outcome = execute(spec, None, counting(fake_solve, calls), team=SerialTeam(), stream=stream, options=UP_TO_DATE)
+    assert outcome.up_to_date and outcome.path == path and outcome.failures == 0 and calls == []
+    assert stream.getvalue() == f"hpcontact: {path} is up to date ({TASKS} tasks from journals); nothing to do\n"
+    assert path.read_bytes() == data and path.stat().st_mtime_ns == mtime
+    assert {p: p.stat().st_mtime_ns for p in journal_files(tmp_path / "out.nc.journal")} == journals
+    assert not (tmp_path / "out.nc.journal" / "LOCK").exists()  # the lock is released
+    with pytest.raises(Refused, match="finished tasks"):
+        sweep(spec, task_function=fake_solve)
+
+
+def _refused_unless_resumed(spec, fake_solve):
+    with pytest.raises(Refused, match=r"finished tasks in .*; pass --resume .* --restart"):
+        sweep(spec, task_function=fake_solve, options=UP_TO_DATE)
+
+
+def test_up_to_date_means_every_task_ok_in_the_journals_and_the_data_set_written_after_them(
+    write_spec, fake_solve, tmp_path, monkeypatch
+):
+    """Anything short of "the data set is the one a run would write now" keeps the refusal."""
+    spec = write_spec(SPEC)
+    path = sweep(spec, task_function=fake_solve)
+    journal = tmp_path / "out.nc.journal"
+
+    later = path.stat().st_mtime + 10.0  # a journal written after the data set (a later run that stopped)
+    newest = journal_files(journal)[-1]
+    os.utime(newest, (later, later))
+    _refused_unless_resumed(spec, fake_solve)
+    os.utime(newest, (later - 20.0, later - 20.0))
+    sweep(spec, task_function=fake_solve, options=UP_TO_DATE)  # back in order: up to date
+
+    edited = write_spec(SPEC + "# a comment\n")  # another spec text: its data set was not written from it
+    _refused_unless_resumed(edited, fake_solve)
+    more = write_spec(SPEC.replace("nu = [0.0, 0.25, 0.5]", "nu = [0.0, 0.25, 0.3, 0.5]"))  # tasks not journaled
+    _refused_unless_resumed(more, fake_solve)
+    fewer = write_spec(SPEC.replace("nu = [0.0, 0.25, 0.5]", "nu = [0.0, 0.25]"))  # every task ok, other data set
+    _refused_unless_resumed(fewer, fake_solve)
+    write_spec(SPEC)
+
+    monkeypatch.setenv("HPCONTACT_GIT_REVISION", "another-revision")  # other code: stale, not up to date
+    _refused_unless_resumed(spec, fake_solve)
+    monkeypatch.delenv("HPCONTACT_GIT_REVISION")
+
+    data = path.read_bytes()
+    path.unlink()  # journals without their data set
+    _refused_unless_resumed(spec, fake_solve)
+    path.write_bytes(data[: len(data) // 2])  # a damaged data set
+    _refused_unless_resumed(spec, fake_solve)
+
+
+def test_a_sweep_with_failed_tasks_is_not_up_to_date(write_spec, fake_solve):
+    def bad_at_half(params):
+        if params["nu"] == 0.5:
+            raise InputError("nu", "a Poisson ratio below 0.5 here")
+        return fake_solve(params)
+
+    spec = write_spec(SPEC)
+    sweep(spec, task_function=bad_at_half)
+    _refused_unless_resumed(spec, fake_solve)  # bad input is kept by --resume, but the data set is not all ok
+
+
+def test_the_command_line_run_twice_exits_0_the_second_time(write_spec, tmp_path, capsys, monkeypatch):
+    """``hpcontact run SPEC`` twice with the real solver (tiny grids): exit 0, one line, nothing
+    written; a replaced task function (``task_function``: the accuracy study) keeps the refusal."""
+    monkeypatch.setenv("HPCONTACT_MPI", "0")
+    monkeypatch.setenv("HPCONTACT_WISDOM", str(tmp_path / "wisdom"))
+    spec = write_spec('[scene]\nshape = "circle"\n[numerics]\nn = 8\n[axes]\nnu = [0.0, 0.3]\n')
+    assert main([str(spec)]) == 0
+    capsys.readouterr()
+    mtime = (tmp_path / "out.nc").stat().st_mtime_ns
+    started = time.perf_counter()
+    assert main([str(spec)]) == 0
+    seconds = time.perf_counter() - started
+    out, err = capsys.readouterr()
+    assert out == f"hpcontact: {tmp_path / 'out.nc'} is up to date (2 tasks from journals); nothing to do\n", out + err
+    assert (tmp_path / "out.nc").stat().st_mtime_ns == mtime and seconds < 20.0
+    assert main([str(spec)], task_function=lambda params: {"K_xx": 1.0}) == 2
+    assert "--resume" in capsys.readouterr().err

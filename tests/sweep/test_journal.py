@@ -28,8 +28,14 @@ from hpcontact.sweep.journal import (
 
 def entry(key: str, status: int = OK, finished: float = 1.0, **record) -> Entry:
     return Entry(
-        key=key, params={"nu": 0.3, "shape": "circle"}, status=status, message="" if status == OK else "boom",
-        record=record, wall_time_s=0.25, finished=finished, rank=0,
+        key=key,
+        params={"nu": 0.3, "shape": "circle"},
+        status=status,
+        message="" if status == OK else "boom",
+        record=record,
+        wall_time_s=0.25,
+        finished=finished,
+        rank=0,
     )
 
 
@@ -129,7 +135,9 @@ def test_a_writer_killed_mid_append_leaves_a_readable_journal(tmp_path):
     env = {**os.environ, "PYTHONPATH": f"{root}{os.pathsep}{os.environ.get('PYTHONPATH', '')}"}
     for attempt in range(3):
         path = tmp_path / f"rank0000{attempt}-k.jsonl"
-        proc = subprocess.Popen([sys.executable, "-c", WRITER, str(path), str(attempt)], stdout=subprocess.PIPE, env=env)
+        proc = subprocess.Popen(
+            [sys.executable, "-c", WRITER, str(path), str(attempt)], stdout=subprocess.PIPE, env=env
+        )
         assert proc.stdout.readline().strip() == b"ready"
         time.sleep(0.05 * attempt)
         proc.send_signal(signal.SIGKILL)

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from matplotlib.backends.backend_agg import FigureCanvasAgg
 
 import hpcontact
 from hpcontact.quantities import rotated_tensor
@@ -54,9 +55,19 @@ def plotted(monkeypatch, tmp_path):
 
     def capture(fig, outdir, name):
         figures[name] = [
-            (ax.get_title(), [(np.asarray(line.get_xdata(), dtype=float), np.asarray(line.get_ydata(), dtype=float),
-                               line.get_marker()) for line in ax.get_lines()])
-            for ax in fig.axes if ax.get_lines()
+            (
+                ax.get_title(),
+                [
+                    (
+                        np.asarray(line.get_xdata(), dtype=float),
+                        np.asarray(line.get_ydata(), dtype=float),
+                        line.get_marker(),
+                    )
+                    for line in ax.get_lines()
+                ],
+            )
+            for ax in fig.axes
+            if ax.get_lines()
         ]
         path = save(fig, outdir, name)
         assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
@@ -80,7 +91,7 @@ def points(panel):
 def test_anisotropy_curves_plot_K_a_over_K_b_of_the_data_set(plotted, dataset):
     figures = plotted("anisotropy_map.py", str(dataset))
     assert set(figures) == {"anisotropy_curves.png", "anisotropy_map_ellipse.png"}  # the hexagon ignores b/a
-    (title, _), = figures["anisotropy_curves.png"]
+    ((title, _),) = figures["anisotropy_curves.png"]
     assert title == "ellipse"
     with hpcontact.open_dataset(dataset) as ds:
         ratio = ds.K_a_over_K_b.sel(shape="ellipse").load()
@@ -120,7 +131,147 @@ def test_tensor_components_plot_the_turned_tensor(plotted, dataset):
     panels = figures["tensor_components_ellipse.png"]
     assert len(panels) == 4
     for k, (_, lines) in enumerate(panels):
-        (x, y), = points(("", lines))
+        ((x, y),) = points(("", lines))
         np.testing.assert_allclose(y, [rotated_tensor(K, a).ravel()[k] for a in x], rtol=EXACT, atol=EXACT * K.max())
         if k == 0:  # K_nn: the data set's own K_nn(angle)
             np.testing.assert_allclose(y, point.K_nn.values, rtol=EXACT)
+
+
+@pytest.fixture
+def saved(monkeypatch, tmp_path):
+    """Run ``postprocess/<script>`` with arguments (``tmp_path/fig`` the output folder); returns
+    {file name: the matplotlib figure} of what it saved, after saving."""
+    monkeypatch.syspath_prepend(str(ROOT / "postprocess"))
+    import common
+
+    figures: dict[str, object] = {}
+    save = common.save
+
+    def keep(fig, outdir, name, **options):
+        path = save(fig, outdir, name, **options)
+        figures[path.name] = fig
+        return path
+
+    monkeypatch.setattr(common, "save", keep)
+
+    def run(script: str, *args: str) -> dict[str, object]:
+        figures.clear()
+        monkeypatch.setattr(sys, "argv", [script, *args, str(tmp_path / "fig")])
+        runpy.run_path(str(ROOT / "postprocess" / script), run_name="__main__")
+        return dict(figures)
+
+    return run
+
+
+@pytest.mark.parametrize("fmt, magic", [("pdf", b"%PDF-"), ("svg", b"<svg")])
+def test_format_writes_pdf_and_svg(saved, dataset, tmp_path, fmt, magic):
+    figures = saved("polar.py", str(dataset), "--format", fmt)
+    assert set(figures) == {f"polar.{fmt}", f"knn_vs_angle.{fmt}"}
+    written = sorted(p.name for p in (tmp_path / "fig").iterdir())
+    assert written == [f"knn_vs_angle.{fmt}", f"polar.{fmt}"]  # no PNG beside them
+    for name in written:
+        head = (tmp_path / "fig" / name).read_bytes()[:400]
+        assert head.startswith(magic) if fmt == "pdf" else magic in head, name
+    # the next run without --format writes PNGs again (the format is not left over)
+    assert set(saved("tensor_components.py", str(dataset))) == {
+        "tensor_components_ellipse.png",
+        "tensor_components_hexagon.png",
+    }
+
+
+def titles_inside(fig) -> list[str]:
+    """The suptitle and axes titles of ``fig`` (laid out as saved), each checked to lie inside it."""
+    canvas = FigureCanvasAgg(fig)  # closed after saving: a canvas again, laid out as saved
+    canvas.draw()
+    renderer = canvas.get_renderer()
+    shown = []
+    for text in [fig._suptitle, *(ax.title for ax in fig.axes)]:
+        if text is None or not text.get_text():
+            continue
+        box = text.get_window_extent(renderer)
+        assert box.x0 >= 0 and box.x1 <= fig.bbox.width and box.y1 <= fig.bbox.height, text.get_text()
+        shown.append(text.get_text())
+    return shown
+
+
+def test_titles_fit_in_their_figures(saved, dataset):
+    """Constrained layout; every title inside its figure."""
+    figures = {
+        **saved("tensor_components.py", str(dataset)),
+        **saved("anisotropy_map.py", str(dataset)),
+        **saved("polar.py", str(dataset)),
+    }
+    assert len(figures) == 6
+    for fig in figures.values():
+        assert type(fig.get_layout_engine()).__name__ == "ConstrainedLayoutEngine"
+        assert titles_inside(fig)
+
+
+def test_save_wraps_titles_wider_than_the_figure(monkeypatch, tmp_path):
+    """A title wider than its figure (the demo's tensor components: b/a, nu, A, psi, n and tol
+    in the suptitle of a 7.2-inch figure, cut at both ends before) is wrapped, not cut."""
+    monkeypatch.syspath_prepend(str(ROOT / "postprocess"))
+    import common
+
+    common.use_format("png")
+    long = (
+        "ellipse: tangential stiffness tensor in axes turned by θ — b/a = 0.01, ν = 0.45, A = 1, ψ = 0, "
+        "n = 64, tol = 1e-10"
+    )
+    fig, axes = common.panels(4, columns=2)
+    fig.suptitle(long, fontsize=10)
+    axes[0].set_title(long)
+    common.save(fig, tmp_path, "wide.png")
+    suptitle, title = titles_inside(fig)[:2]
+    for text in (suptitle, title):
+        assert "\n" in text and " ".join(text.split()) == long  # wrapped, every word kept
+
+
+def test_the_anisotropy_map_marks_the_swept_points(plotted, dataset):
+    figures = plotted("anisotropy_map.py", str(dataset))
+    ((title, lines),) = figures["anisotropy_map_ellipse.png"]
+    ((x, y),) = points((title, lines))
+    aspects, nus = np.meshgrid(np.log10([1.0, 0.1, 0.01]), [0.1, 0.3, 0.5])
+    assert sorted(zip(x, y)) == sorted(zip(aspects.ravel(), nus.ravel()))  # every (b/a, nu) of the sweep, once
+
+
+CRYSTAL = """
+[scene]
+quantities = ["tangential"]
+shape = "ellipse"
+[axes]
+aspect = [1.0, 0.5]
+anisotropy = [0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0]
+orientation = [0.0, 35.26438968275465, 90.0]
+"""
+
+
+def crystal_solve(params):
+    """A stand-in with principal stiffnesses: K_min/K_max = 1 - 0.1 |ln A| (1 + cos ψ) (1.5 - b/a) - 0.01
+    (an isotropic body, A = 1, has no orientation)."""
+    A, psi, aspect = float(params["anisotropy"]), float(params.get("orientation", 0.0)), float(params["aspect"])
+    ratio = 1.0 - 0.1 * abs(np.log(A)) * (1.0 + np.cos(np.radians(psi))) * (1.5 - aspect) - 0.01
+    return {"K_max": 2.0, "K_min": 2.0 * ratio}
+
+
+def test_the_orientation_map_has_a_tick_at_A_1_and_marks_the_points(saved, tmp_path_factory):
+    folder = tmp_path_factory.mktemp("crystal")
+    (folder / "spec.toml").write_text(CRYSTAL)
+    path = run_sweep(
+        folder / "spec.toml",
+        output=folder / "crystal.nc",
+        task_function=crystal_solve,
+        team=SerialTeam(),
+        stream=io.StringIO(),
+    )
+    figures = saved("orientation_map.py", str(path))
+    fig = figures["orientation_tangential_map.png"]
+    maps = [ax for ax in fig.axes if ax.get_yscale() == "log"]
+    assert len(maps) == 2  # one per b/a
+    for ax in maps:
+        ticks = list(ax.get_yticks())
+        assert 1.0 in ticks and ticks == [0.25, 0.75, 1.0, 1.5, 3.0]  # every other A of eight, and A = 1
+        assert [t.get_text() for t in ax.get_yticklabels()] == ["0.25", "0.75", "1", "1.5", "3"]
+        (dots,) = [line for line in ax.get_lines() if line.get_marker() == "o"]
+        assert len(dots.get_xdata()) == 8 * 3  # every (ψ, A) point of the sweep
+        assert set(np.round(dots.get_ydata(), 12)) == {0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0}

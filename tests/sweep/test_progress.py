@@ -27,8 +27,18 @@ def test_progress_is_due_every_interval():
 
 def test_summary_efficiency_and_overhead():
     summary = Summary(
-        tasks=10, points=40, run=8, reused=2, failures=1, ranks=2, wall_s=5.0, task_s=9.0,
-        setup_s=0.1, schedule_s=0.01, journal_s=0.02, gather_s=0.3,
+        tasks=10,
+        points=40,
+        run=8,
+        reused=2,
+        failures=1,
+        ranks=2,
+        wall_s=5.0,
+        task_s=9.0,
+        setup_s=0.1,
+        schedule_s=0.01,
+        journal_s=0.02,
+        gather_s=0.3,
     )
     assert summary.efficiency == 0.9
     assert summary.overhead_per_task_s == 0.125

@@ -65,8 +65,16 @@ def test_a_spec_with_a_pair_axis_validates_with_the_slip_validator():
     assert spec.fixed["steps"] == 2 and isinstance(spec.fixed["steps"], int)
     params = spec.scene_params((1, 0, 0, 1))
     assert params == {
-        "quantities": "slip", "radius": 8e-3, "radius2": math.inf, "steps": 2, "n": 24, "material": "Cu",
-        "material2": "Fe", "load": 100.0, "mu": 0.3, "q_ratio": 0.6,
+        "quantities": "slip",
+        "radius": 8e-3,
+        "radius2": math.inf,
+        "steps": 2,
+        "n": 24,
+        "material": "Cu",
+        "material2": "Fe",
+        "load": 100.0,
+        "mu": 0.3,
+        "q_ratio": 0.6,
     }  # the pair table wins over the fixed radius2; nothing dropped for a slip scene
     assert spec.scene_params((0, 0, 0, 0))["radius2"] == 9e-3
     assert kinds.scene_kind({"quantities": ["slip"]}) == kinds.SLIP
@@ -76,7 +84,9 @@ def test_a_spec_with_a_pair_axis_validates_with_the_slip_validator():
 def test_in_a_slip_sweep_angle_is_the_load_direction_solved_per_value():
     spec = slip_spec(SPEC.replace("q_ratio = [0.0, 0.6]", "q_ratio = [0.6]\nangle = [0.0, 90.0]"))
     assert [a.name for a in spec.task_axes] == ["pair", "load", "mu", "q_ratio", "angle"]
-    assert spec.scene_params((0, 0, 0, 0, 1))["angle"] == 90.0 and "shape_angle" not in spec.scene_params((0, 0, 0, 0, 1))
+    assert spec.scene_params((0, 0, 0, 0, 1))["angle"] == 90.0 and "shape_angle" not in spec.scene_params(
+        (0, 0, 0, 0, 1)
+    )
     assert len(enumerate_tasks(spec)[0]) == 4
 
 
@@ -84,10 +94,14 @@ def test_in_a_slip_sweep_angle_is_the_load_direction_solved_per_value():
     "old, new, key",
     [
         ('radius2 = "flat" }', 'radius2 = "flat", mu = -0.1 }', "axes.pair[1].mu"),
-        ('material2 = "Fe" },\n    { label = "Cu-Fe flat"', 'material2 = "Ti" },\n    { label = "Cu-Fe flat"', "axes.pair[0].material2"),
+        (
+            'material2 = "Fe" },\n    { label = "Cu-Fe flat"',
+            'material2 = "Ti" },\n    { label = "Cu-Fe flat"',
+            "axes.pair[0].material2",
+        ),
         ('radius2 = "flat" }', 'radius2 = "big" }', "axes.pair[1].radius2"),
         ('{ label = "Fe-Fe", material = "Fe", material2 = "Fe" }', '"Fe-Fe"', "axes.pair[0]"),
-        ('{ label = "Fe-Fe", ', '{ ', "axes.pair[0].label"),
+        ('{ label = "Fe-Fe", ', "{ ", "axes.pair[0].label"),
         ('radius2 = "flat" }', 'radius2 = "flat", colour = 1 }', "axes.pair[1].colour"),
         ("q_ratio = [0.0, 0.6]", "q_ratio = [0.0, 1.0]", "axes.q_ratio"),
         ("load = [100.0]", "load = [100.0, -1.0]", "axes.load"),
@@ -111,8 +125,17 @@ def test_the_command_line_exits_2_naming_the_pair_field(tmp_path, capsys, monkey
 
 
 def test_slip_cost_follows_grid_steps_and_coupling_and_groups_ignore_the_loading():
-    base = {"quantities": "slip", "radius": 8e-3, "material": "Fe", "material2": "Fe", "load": 10.0, "mu": 0.3,
-            "q_ratio": 0.5, "n": 32, "steps": 4}
+    base = {
+        "quantities": "slip",
+        "radius": 8e-3,
+        "material": "Fe",
+        "material2": "Fe",
+        "load": 10.0,
+        "mu": 0.3,
+        "q_ratio": 0.5,
+        "n": 32,
+        "steps": 4,
+    }
     cost = estimated_cost(base)
     assert estimated_cost({**base, "n": 64}) > 4.0 * cost
     assert estimated_cost({**base, "steps": 8}) == pytest.approx(cost * 65.0 / 33.0)
@@ -140,13 +163,17 @@ def test_record_keys_naming_coordinates_are_left_out_when_equal_and_kept_when_no
     ds = _dataset(spec, lambda p: {"load": p["load"], "tangential_stiffness": 1e7 * p["load"]})
     assert "record_load" not in ds and ds["load"].dims == ("load",) and "tangential_stiffness" in ds
     # a table that overrides an axis: the record differs from the coordinate and is kept
-    text = SPEC.replace("load = [100.0]", "load = [10.0, 100.0]").replace('radius2 = "flat" }', 'radius2 = "flat", load = 50.0 }')
+    text = SPEC.replace("load = [100.0]", "load = [10.0, 100.0]").replace(
+        'radius2 = "flat" }', 'radius2 = "flat", load = 50.0 }'
+    )
     ds = _dataset(slip_spec(text), lambda p: {"load": p["load"]})
     assert ds["record_load"].sel(pair="Cu-Fe flat").values.ravel().tolist() == [50.0] * 4
     assert ds["record_load"].attrs["units"] == "N"
     # a fixed field: the scalar coordinate stands
-    ds = _dataset(slip_spec(SPEC.replace("load = [100.0]\n", "").replace("steps = 2", "steps = 2\nload = 100.0")),
-                  lambda p: {"load": p["load"]})
+    ds = _dataset(
+        slip_spec(SPEC.replace("load = [100.0]\n", "").replace("steps = 2", "steps = 2\nload = 100.0")),
+        lambda p: {"load": p["load"]},
+    )
     assert "record_load" not in ds and float(ds["load"]) == 100.0
 
 
@@ -156,7 +183,8 @@ def test_units_follow_the_scene_kind():
     assert slip["load"].attrs["units"] == "N" and slip["radius2"].attrs["units"] == "m"
     assert slip.attrs["scene_kind"] == "slip" and "SI" in slip.attrs["units"]
     moduli = SPEC.replace('material = "Fe", material2 = "Fe"', "E = 2.0, E2 = 2.0").replace(
-        'material = "Cu", material2 = "Fe"', "E = 1.0, E2 = 2.0")
+        'material = "Cu", material2 = "Fe"', "E = 1.0, E2 = 2.0"
+    )
     plain = _dataset(slip_spec(moduli), lambda p: {"contact_area": 1.0})
     # input units F and L: ratios to them (units "1", the scale named)
     assert plain["contact_area"].attrs["scale"] == "L2" and plain["radius"].attrs["scale"] == "L"
@@ -164,11 +192,13 @@ def test_units_follow_the_scene_kind():
     # bodies by elastic constants (GPa) are SI like library materials
     iron, copper = "cubic = [230.0, 135.0, 117.0]", "cubic = [168.4, 121.4, 75.4]"
     constants = SPEC.replace('material = "Fe", material2 = "Fe"', f"{iron}, {iron.replace('cubic', 'cubic2')}").replace(
-        'material = "Cu", material2 = "Fe"', f"{copper}, {iron.replace('cubic', 'cubic2')}")
+        'material = "Cu", material2 = "Fe"', f"{copper}, {iron.replace('cubic', 'cubic2')}"
+    )
     crystal = _dataset(slip_spec(constants), lambda p: {"contact_area": 1e-8})
     assert crystal["contact_area"].attrs["units"] == "m2" and "SI" in crystal.attrs["units"]
     indentation = parse_spec(
-        '[scene]\nquantities = ["indentation"]\nradius = 1.0\ndepth = 1e-3\n[axes]\nnu = [0.3]\n', validate=lambda p: None
+        '[scene]\nquantities = ["indentation"]\nradius = 1.0\ndepth = 1e-3\n[axes]\nnu = [0.3]\n',
+        validate=lambda p: None,
     )
     ds = _dataset(indentation, lambda p: {"contact_area": 1e-3, "load": 1e-4})
     assert ds["contact_area"].attrs["scale"] == "L2" and ds["load"].attrs["scale"] == "G L2"
@@ -195,16 +225,32 @@ def test_a_tiny_slip_sweep_writes_the_data_set(tiny_sweep):
         assert (ds.status == OK).all()
         assert ds["radius2"].dims == ("pair",) and ds["radius2"].values.tolist() == [9e-3, math.inf]
         assert ds["material2"].values.tolist() == ["Fe", "Fe"] and float(ds["radius"]) == 8e-3
-        names = ("tangential_force", "tangential_displacement", "tangential_stiffness", "stick_area", "contact_area",
-                 "stick_area_stiffness", "no_slip_stiffness", "stiffness_ratio", "mindlin_stiffness", "normal_stiffness",
-                 "decoupled_tangential_stiffness", "coupling_effect_displacement", "iterations", "wall_time_s", "plan")
+        names = (
+            "tangential_force",
+            "tangential_displacement",
+            "tangential_stiffness",
+            "stick_area",
+            "contact_area",
+            "stick_area_stiffness",
+            "no_slip_stiffness",
+            "stiffness_ratio",
+            "mindlin_stiffness",
+            "normal_stiffness",
+            "decoupled_tangential_stiffness",
+            "coupling_effect_displacement",
+            "iterations",
+            "wall_time_s",
+            "plan",
+        )
         for name in names:
             assert ds[name].dims == ("pair", "load", "mu", "q_ratio"), name
         assert "record_load" not in ds and ds["load"].values.tolist() == [100.0]
         assert ds["tangential_stiffness"].attrs["units"] == "N m-1" and ds["stick_area"].attrs["units"] == "m2"
         point = ds.sel(load=100.0, mu=0.3)
         # Q = 0: k_t is the no-slip stiffness; the coupled-decoupled δ difference of two zeros is 0
-        np.testing.assert_allclose(point.tangential_stiffness.sel(q_ratio=0.0), point.no_slip_stiffness.sel(q_ratio=0.0))
+        np.testing.assert_allclose(
+            point.tangential_stiffness.sel(q_ratio=0.0), point.no_slip_stiffness.sel(q_ratio=0.0)
+        )
         assert float(point.coupling_effect_displacement.sel(pair="Cu-Fe flat", q_ratio=0.0)) == 0.0
         # Q = 0.6 mu P: Mindlin–Deresiewicz k_t/k_t(0) = (1 − 0.6)^(1/3) to the grid's accuracy (n = 24)
         np.testing.assert_allclose(point.stiffness_ratio.sel(q_ratio=0.6), np.cbrt(0.4), rtol=0.03)
@@ -218,8 +264,13 @@ def test_the_postprocess_script_reads_the_sweep_data_set(tiny_sweep, tmp_path):
     path, _ = tiny_sweep
     script = ROOT / "postprocess" / "slip_stiffness.py"
     env = {**os.environ, "PYTHONPATH": f"{ROOT}{os.pathsep}{os.environ.get('PYTHONPATH', '')}", "MPLBACKEND": "Agg"}
-    done = subprocess.run([sys.executable, str(script), str(path), str(tmp_path / "fig"), "--n-ellipse", "0"],
-                          env=env, capture_output=True, text=True, timeout=120)
+    done = subprocess.run(
+        [sys.executable, str(script), str(path), str(tmp_path / "fig"), "--n-ellipse", "0"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert done.returncode == 0, done.stderr
     assert sorted(p.name for p in (tmp_path / "fig").iterdir()) == ["kt_ratio.png", "kt_vs_q.png", "stick_zones.png"]
     assert "4/4 points ok" in done.stdout and "Cu-Fe flat" in done.stdout

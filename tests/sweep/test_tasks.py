@@ -79,7 +79,9 @@ def test_tasks_sharing_a_kernel_go_together_when_cheap():
 
 
 def test_shapes_of_one_grid_share_a_group_and_materials_do_not():
-    spec = spec_of('[numerics]\nn = 32\n[axes]\nshape = ["ellipse", "rectangle"]\naspect = [0.1, 0.01]\nnu = [0.1, 0.5]\n')
+    spec = spec_of(
+        '[numerics]\nn = 32\n[axes]\nshape = ["ellipse", "rectangle"]\naspect = [0.1, 0.01]\nnu = [0.1, 0.5]\n'
+    )
     tasks, _ = enumerate_tasks(spec)
     groups = {}
     for t in tasks:

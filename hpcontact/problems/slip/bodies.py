@@ -76,9 +76,14 @@ MATERIALS: Mapping[str, tuple[float, float, str]] = {
     "Al": (70.3e9, 0.345, "aluminium; Dowling, Mechanical Behavior of Materials, 4th ed. 2013, Table 5.2"),
 }
 ALIASES: Mapping[str, str] = {
-    "cu": "Cu", "copper": "Cu",
-    "fe": "Fe", "iron": "Fe", "steel": "Fe",
-    "al": "Al", "aluminium": "Al", "aluminum": "Al",
+    "cu": "Cu",
+    "copper": "Cu",
+    "fe": "Fe",
+    "iron": "Fe",
+    "steel": "Fe",
+    "al": "Al",
+    "aluminium": "Al",
+    "aluminum": "Al",
 }
 RIGID = "rigid"
 MATERIAL_NAMES = tuple(MATERIALS) + ("steel", RIGID)
@@ -119,9 +124,7 @@ def material_by_name(name: Any, field: str = "material") -> Isotropic | None:
     return Isotropic(G=E / (2.0 * (1.0 + nu)), nu=nu)
 
 
-def material_from_moduli(
-    E: Any = None, G: Any = None, nu: Any = None, suffix: str = ""
-) -> Isotropic:
+def material_from_moduli(E: Any = None, G: Any = None, nu: Any = None, suffix: str = "") -> Isotropic:
     """An isotropic material from (E, nu) or (G, nu); fields are named ``E{suffix}`` etc.
 
     nu defaults to 0.3 and G to 1 (the engine's dimensionless default) when neither E nor G is
@@ -379,7 +382,9 @@ def isotropic_pair(p: Mapping[str, Any]) -> Pair:
     r1b = r1 if p.get("radius_b") is None else _radius("radius_b", p["radius_b"])
     r2 = _radius("radius2", p.get("radius2"))
     r2b = r2 if p.get("radius2_b") is None else _radius("radius2_b", p["radius2_b"])
-    angle2 = 0.0 if p.get("body2_angle") is None else _number("body2_angle", p["body2_angle"], "a finite angle in degrees")
+    angle2 = (
+        0.0 if p.get("body2_angle") is None else _number("body2_angle", p["body2_angle"], "a finite angle in degrees")
+    )
     if not math.isfinite(angle2):
         raise InputError("body2_angle", "a finite angle in degrees", p["body2_angle"])
     return Pair(Body(m1, r1, r1b, 0.0), Body(m2, r2, r2b, angle2))

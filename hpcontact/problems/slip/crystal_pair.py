@@ -110,8 +110,9 @@ class PairCompliance:
             H += surface_green(self.body2, phi + np.pi)
         return H
 
-    def blocks(self, nx: int, ny: int, dx: float, dy: float, names: tuple[str, ...],
-               threads: int = 1) -> dict[str, np.ndarray]:
+    def blocks(
+        self, nx: int, ny: int, dx: float, dy: float, names: tuple[str, ...], threads: int = 1
+    ) -> dict[str, np.ndarray]:
         """Centred cell coefficients (2nx − 1, 2ny − 1) of the blocks ``names`` (e.g. "xz")."""
         out = {name: np.zeros((2 * nx - 1, 2 * ny - 1)) for name in names}
         for material, reversed_ in ((self.body1, False), (self.body2, True)):
@@ -129,8 +130,9 @@ class PairCompliance:
         return float(np.sqrt(np.abs(H[:, 0, 2]) ** 2 + np.abs(H[:, 1, 2]) ** 2).max() / H[:, 2, 2].real.max())
 
 
-def _own_blocks(material: Material, nx: int, ny: int, dx: float, dy: float, names: tuple[str, ...],
-                threads: int) -> dict[str, np.ndarray]:
+def _own_blocks(
+    material: Material, nx: int, ny: int, dx: float, dy: float, names: tuple[str, ...], threads: int
+) -> dict[str, np.ndarray]:
     if isinstance(material, Isotropic):
         return {name: isotropic_block(material, nx, ny, dx, dy, name) for name in names}
     pairs = [(COMPONENT_INDEX[n[0]], COMPONENT_INDEX[n[1]]) for n in names]
@@ -197,8 +199,10 @@ def crystal_pair(p: Mapping[str, Any]) -> AnisotropicPair:
     if crystals[1] is not None:
         iso["G2"] = 1.0  # a placeholder elastic body 2 (not rigid), replaced below
     base = isotropic_pair(iso)
-    bodies = [b if c is None else Body(c, b.radius_a, b.radius_b, b.angle_deg)
-              for b, c in zip((base.body1, base.body2), crystals)]
+    bodies = [
+        b if c is None else Body(c, b.radius_a, b.radius_b, b.angle_deg)
+        for b, c in zip((base.body1, base.body2), crystals)
+    ]
     return AnisotropicPair(*bodies)
 
 

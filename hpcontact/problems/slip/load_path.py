@@ -8,10 +8,8 @@ Coupling (dissimilar pairs, β ≠ 0). Goodman's approximation (1962) keeps p = 
 the xx, xy, yy blocks). The coupled solution iterates Panagiotopoulos' process (Kalker 1990,
 §5.2): tangential programme with the current p, then the normal problem with the gap changed
 by A_zt t at the same load, until p and t stop changing. Both are run for a dissimilar pair and
-the record states the difference (measured, P = 100 N, mu = 0.3, grid-converged to the digits
-shown: Cu–Fe, β = 0.032: δ −2.3e-4 at Q = 0.5 mu P and −2.8e-4 at 0.9, k_t within ±2e-3
-(the stick area's staircase); Fe on a rigid flat, β = 0.29: δ −1.9 % and −2.4 %, k_t +2.5 %
-and +3.1 %).
+the record states the difference (a few 1e-4 for Cu–Fe, a few % for Fe on a rigid flat:
+docs/validation.md §"Partial slip").
 
 Incremental stiffness. The record's k_t = dQ/dδ and its 2 × 2 tensor are the *consistent*
 tangent of continued loading, Coulomb's law to first order in rate form: stick cells move
@@ -23,10 +21,10 @@ along the load, 1e-3 across it) and against the *frozen-slip-zone* stiffness —
 stiffness of the current stick area, K_bonded(stick), which is what Mindlin & Deresiewicz (1953)
 and Johnson (1985, §7.2: dQ/dδ = 8G c/(2 − nu)) use, reported as ``stick_area_stiffness``. The
 two agree exactly at nu = 0 along the load; at nu ≠ 0 x-loading drives a small transverse slip
-in the slip annulus that the consistent tangent restrains (measured +0.4 % at nu = 0.29,
-+0.9 % at nu = 0.5 near Q = 0.9 mu P, n = 128). Across the load they differ a lot (a pure
-transverse increment turns the slip tractions without slipping: k_yy/k_xx = 2.1 at
-Q = 0.9 mu P on a circle), which is why the tensor is the tangent of *continued* loading,
+in the slip annulus that the consistent tangent restrains (it is stiffer by ≲ 1 % near
+Q = 0.9 mu P). Across the load they differ a lot (a pure transverse increment turns the slip
+tractions without slipping: k_yy/k_xx ≈ 2 at Q = 0.9 mu P on a circle; docs/validation.md
+§"Partial slip"), which is why the tensor is the tangent of *continued* loading,
 valid for increments that keep every slip cell slipping. The scalar k_t along the load
 direction n is 1/(nᵀ K⁻¹ n) (force control: displacement along n per unit force along n).
 
@@ -100,7 +98,7 @@ class PathSolver:
         self.tol = problem.scene.tol
         self.count = Counters()
         # Panagiotopoulos' process stops when the pressure changes by less than this (relative
-        # L1); it contracts by ~1e-2 per pass (measured, Cu-Fe and Fe on rigid), so 2-4 passes
+        # L1); it contracts by ~1e-2 per pass (docs/validation.md §"Partial slip"), so 2-4 passes
         self.outer_tol = 10.0 * self.tol
         if coupled and problem.scene.normal_friction and self.mu > 0.0:
             self.initial = self._normal_loading_with_friction()
@@ -138,8 +136,9 @@ class PathSolver:
         zero2, none = np.zeros((2,) + shape), np.zeros(shape, dtype=bool)
         return SlipState(np.zeros(2), zero2, np.zeros(shape), zero2.copy(), np.zeros(2), none, none)
 
-    def equilibrium(self, prev: SlipState, delta: np.ndarray, warm: SlipState | None = None,
-                    load: float | None = None) -> SlipState:
+    def equilibrium(
+        self, prev: SlipState, delta: np.ndarray, warm: SlipState | None = None, load: float | None = None
+    ) -> SlipState:
         """The state reached from ``prev`` when the rigid displacement becomes ``delta`` and the
         normal load ``load`` (grid units; default: coupled, the scene's; decoupled, the pressure
         of ``prev`` is kept; with ``load`` given the decoupled pressure is the frictionless one at it).
@@ -233,12 +232,18 @@ class PathSolver:
                 return state
             K = self.tangent(state)
             if not state.stick.any() or abs(np.linalg.det(K)) <= 1e-14 * np.linalg.det(self.K0):
-                raise ConvergenceError("no stick cells left: the contact slides (grid too coarse for this q_ratio?)",
-                                       self.count.newton, float(np.linalg.norm(residual)) / scale)
+                raise ConvergenceError(
+                    "no stick cells left: the contact slides (grid too coarse for this q_ratio?)",
+                    self.count.newton,
+                    float(np.linalg.norm(residual)) / scale,
+                )
             delta = delta + np.linalg.solve(K, residual)
             warm = state
-        raise ConvergenceError("force-controlled Newton iteration did not converge", self.MAX_NEWTON,
-                               float(np.linalg.norm(residual)) / scale)
+        raise ConvergenceError(
+            "force-controlled Newton iteration did not converge",
+            self.MAX_NEWTON,
+            float(np.linalg.norm(residual)) / scale,
+        )
 
 
 # ------------------------------------------------------------------------------------------

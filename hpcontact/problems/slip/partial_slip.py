@@ -54,7 +54,6 @@ References
   with friction, validated by experiment (shared/seeds/001).
 """
 
-
 from __future__ import annotations
 
 import math
@@ -242,8 +241,10 @@ def _pair_lines(problem: SlipProblem, coupling: str) -> list[str]:
     """The pair's coupling and moduli for the plan (crystal pairs: Barnett-Lothe kernels of each body)."""
     pair = problem.pair
     if problem.anisotropic:
-        bodies = ["rigid" if b.material is None else getattr(b.material, "name", "") or type(b.material).__name__
-                  for b in (pair.body1, pair.body2)]
+        bodies = [
+            "rigid" if b.material is None else getattr(b.material, "name", "") or type(b.material).__name__
+            for b in (pair.body1, pair.body2)
+        ]
         return [
             f"similar={pair.similar}",
             f"coupling_size={pair.coupling_size:.6g}",
@@ -272,18 +273,29 @@ def _plan(problem: SlipProblem, modes: list[bool], paths: Mapping[bool, PathResu
     if problem.material is not None and problem.material.nu == 0.0:
         derived.append("yy = xx, xy = 0 (nu_eq = 0)")
     if pair.similar:
-        derived.append("no coupling blocks: elastically similar pair (coupling blocks of body 2 cancel body 1's, "
-                       "coupling_size < 1e-12)" if problem.anisotropic else
-                       "no coupling blocks: elastically similar pair ((1-2nu1)/G1 = (1-2nu2)/G2, beta = 0)")
+        derived.append(
+            "no coupling blocks: elastically similar pair (coupling blocks of body 2 cancel body 1's, "
+            "coupling_size < 1e-12)"
+            if problem.anisotropic
+            else "no coupling blocks: elastically similar pair ((1-2nu1)/G1 = (1-2nu2)/G2, beta = 0)"
+        )
     solves = []
     for coupled in modes:
         c = paths[coupled].counters
         name = "coupled[panagiotopoulos: slip xy + polonsky_keer z]" if coupled else "decoupled[slip xy, p fixed]"
-        solves.append(f"{name}: {len(paths[coupled].points) - 1} steps, {c.newton} newton, {c.qp} slip applications, "
-                      f"{c.cg} stick-tensor CG, {c.pk} polonsky_keer, {c.outer} normal-tangential passes")
-    coupling = ("none: elastically similar" if pair.similar else
-                "coupled (Panagiotopoulos) and decoupled (Goodman)" if len(modes) == 2 else
-                "coupled (Panagiotopoulos)" if modes[0] else "decoupled (Goodman approximation)")
+        solves.append(
+            f"{name}: {len(paths[coupled].points) - 1} steps, {c.newton} newton, {c.qp} slip applications, "
+            f"{c.cg} stick-tensor CG, {c.pk} polonsky_keer, {c.outer} normal-tangential passes"
+        )
+    coupling = (
+        "none: elastically similar"
+        if pair.similar
+        else "coupled (Panagiotopoulos) and decoupled (Goodman)"
+        if len(modes) == 2
+        else "coupled (Panagiotopoulos)"
+        if modes[0]
+        else "decoupled (Goodman approximation)"
+    )
     return {
         "kernels": kernels,
         "solves": ["normal_polonsky_keer[z]"] + solves,
@@ -292,9 +304,13 @@ def _plan(problem: SlipProblem, modes: list[bool], paths: Mapping[bool, PathResu
         "pair": _pair_lines(problem, coupling),
         "method": [
             "normal load: Polonsky-Keer on the slip grid, applied "
-            + (f"in {scene.steps} steps with friction (Spence), coupled path" if scene.normal_friction
-               else f"with the tangential displacement in {scene.steps} proportional steps, friction acting"
-               if scene.path == "proportional" else "without friction"),
+            + (
+                f"in {scene.steps} steps with friction (Spence), coupled path"
+                if scene.normal_friction
+                else f"with the tangential displacement in {scene.steps} proportional steps, friction acting"
+                if scene.path == "proportional"
+                else "without friction"
+            ),
             "slip: semismooth Newton (primal-dual active set, linearized slip directions), PCG inner solves, "
             "MPRGP fallback",
             "tangent: consistent (stick cells stuck, slip cells slide along their traction); "

@@ -44,11 +44,41 @@ from hpcontact.problems.slip.bodies import HertzEllipse, Pair
 from hpcontact.problems.slip.crystal_pair import AnisotropicPair, PairCompliance, PairEngine, pair_from_params
 
 FIELDS = (
-    "quantities", "radius", "radius_b", "radius2", "radius2_b", "body2_angle",
-    "material", "material2", "E", "G", "nu", "E2", "G2", "nu2",
-    "load", "mu", "q_ratio", "angle", "n", "tol", "steps", "control", "displacement", "path",
-    "tensor", "history", "coupling", "threads", "precondition", "normal_friction",
-) + CONSTANT_FIELDS + tuple(f"{name}2" for name in CONSTANT_FIELDS)
+    (
+        "quantities",
+        "radius",
+        "radius_b",
+        "radius2",
+        "radius2_b",
+        "body2_angle",
+        "material",
+        "material2",
+        "E",
+        "G",
+        "nu",
+        "E2",
+        "G2",
+        "nu2",
+        "load",
+        "mu",
+        "q_ratio",
+        "angle",
+        "n",
+        "tol",
+        "steps",
+        "control",
+        "displacement",
+        "path",
+        "tensor",
+        "history",
+        "coupling",
+        "threads",
+        "precondition",
+        "normal_friction",
+    )
+    + CONSTANT_FIELDS
+    + tuple(f"{name}2" for name in CONSTANT_FIELDS)
+)
 #: Fields of the generic ``hpcontact solve`` parser that a slip scene does not use: the contact
 #: shape follows from the bodies. Accepted (so the CLI may pass its defaults) and ignored.
 IGNORED = ("shape",)
@@ -57,6 +87,7 @@ PATHS = ("load", "loop", "proportional")
 COUPLINGS = ("auto", "both", "coupled", "decoupled")
 GRID_MARGIN = 1.1  # the grid spans ±1.1 Hertz semi-axes: contact growth under coupling fits
 MIN_CELLS_ACROSS = 16
+
 
 @dataclass(frozen=True)
 class SlipScene:
@@ -123,8 +154,8 @@ def validate(params: Mapping[str, Any]) -> SlipScene:
     load = finite_number("load", p["load"], "a normal load, finite and > 0")
     if not load > 0.0:
         raise InputError("load", "a normal load, finite and > 0", p["load"])
-    # mu below 1e-6: the tangential load q mu P falls under the solver's resolution (measured:
-    # mu = 1e-8 solves, 1e-10 stops unconverged, 1e-300 gave the bonded state without a word)
+    # mu below 1e-6: the tangential load q mu P falls under the solver's resolution (smaller mu
+    # stopped unconverged or silently gave the bonded state: docs/validation.md §"Partial slip")
     mu = finite_number("mu", p["mu"], "a friction coefficient, 0 or finite and >= 1e-6")
     if mu < 0.0 or 0.0 < mu < 1e-6:
         raise InputError("mu", "a friction coefficient, 0 or finite and >= 1e-6", p["mu"])
@@ -156,20 +187,36 @@ def validate(params: Mapping[str, Any]) -> SlipScene:
     if path == "loop" and control != "force":
         raise InputError("path", "loop needs control = force (it reverses at +-q_ratio mu P)", path)
     if path == "proportional" and control != "displacement":
-        raise InputError("path", "proportional needs control = displacement (normal load and displacement ramp together)", path)
+        raise InputError(
+            "path", "proportional needs control = displacement (normal load and displacement ramp together)", path
+        )
     normal_friction = _flag("normal_friction", p.get("normal_friction", False))
     if path == "proportional" and normal_friction:
-        raise InputError("normal_friction", "false with path = proportional (its normal load already meets friction)", True)
+        raise InputError(
+            "normal_friction", "false with path = proportional (its normal load already meets friction)", True
+        )
     coupling = p.get("coupling", "auto")
     if coupling not in COUPLINGS:
         raise InputError("coupling", f"one of {', '.join(COUPLINGS)}", coupling)
     threads = integer("threads", p.get("threads", 1), 1, "an integer >= 1", 1024)
     return SlipScene(
-        pair=pair, load=load, mu=mu, q_ratio=q_ratio, angle_deg=angle, n=n, tol=tol, steps=steps,
-        control=control, displacement=displacement, path=path,
-        tensor=_flag("tensor", p.get("tensor", False)), history=_flag("history", p.get("history", False)),
+        pair=pair,
+        load=load,
+        mu=mu,
+        q_ratio=q_ratio,
+        angle_deg=angle,
+        n=n,
+        tol=tol,
+        steps=steps,
+        control=control,
+        displacement=displacement,
+        path=path,
+        tensor=_flag("tensor", p.get("tensor", False)),
+        history=_flag("history", p.get("history", False)),
         normal_friction=normal_friction,
-        coupling=coupling, threads=threads, precondition=_flag("precondition", p.get("precondition", True)),
+        coupling=coupling,
+        threads=threads,
+        precondition=_flag("precondition", p.get("precondition", True)),
     )
 
 
@@ -196,8 +243,12 @@ class SlipProblem:
             self.material: Isotropic | None = None
         else:
             self.G_ref = pair.equivalent.G
-            self.compliance = PairCompliance(*(None if b.material is None else Isotropic(b.material.G / self.G_ref, b.material.nu)
-                                               for b in (pair.body1, pair.body2)))
+            self.compliance = PairCompliance(
+                *(
+                    None if b.material is None else Isotropic(b.material.G / self.G_ref, b.material.nu)
+                    for b in (pair.body1, pair.body2)
+                )
+            )
             self.material = Isotropic(G=1.0, nu=pair.equivalent.nu)
         aspect = self.hertz.aspect
         dx = 2.0 / scene.n
@@ -316,7 +367,10 @@ class SlipProblem:
         raises if the contact reaches the grid edge."""
         gap = self.gap if extra_gap is None else self.gap + extra_gap
         solution = polonsky_keer(
-            self.op_z.apply, gap, tol=min(self.scene.tol, 1e-10), load=self.P if load is None else load,
+            self.op_z.apply,
+            gap,
+            tol=min(self.scene.tol, 1e-10),
+            load=self.P if load is None else load,
             cell_area=self.grid.cell_area,
         )
         contact = solution.traction[0] > 0.0
@@ -366,7 +420,7 @@ class SlipProblem:
         unit approach d when coupled, whose row is condensed out with dP = 0:
         K = K_tt − K_tz K_zz⁻¹ K_zt). Coupled, the contact area is held and the change of a slip
         cell's limit mu dp is left out (it would make the system non-symmetric; an O(β mu)
-        term, measured 2e-4 of k_t for Fe on a rigid flat, β = 0.29).
+        term, ~2e-4 of k_t even for β = 0.29: docs/validation.md §"Partial slip").
         """
         if not stick.any() and slip_direction is None:
             return np.zeros((2, 2)), 0
@@ -403,7 +457,11 @@ class SlipProblem:
 
 
 def _pcg(
-    apply: Operator, rhs: np.ndarray, restrict: Operator, precondition: Operator | None, tol: float,
+    apply: Operator,
+    rhs: np.ndarray,
+    restrict: Operator,
+    precondition: Operator | None,
+    tol: float,
     maxiter: int = 5000,
 ) -> tuple[np.ndarray, int]:
     """Solve Π A Π x = Π b for x = Π x by preconditioned CG (Π a symmetric projection)."""

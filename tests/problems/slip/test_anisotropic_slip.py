@@ -146,8 +146,17 @@ def test_no_slip_tensor_of_a_crystal_sphere_is_the_bonded_punch_tensor() -> None
     on the same grid (scaled crystal C/G_ref), so they agree to the CG tolerances (1e-10 and
     1e-12): measured 2.5e-12 relative (the discretization error of either is the same). The
     tensor is not isotropic (Cu ψ = 20°, azimuth 30°: K_xy ≠ 0)."""
-    params = {"radius": 8e-3, "load": 100.0, "mu": 0.3, "q_ratio": 0.5, "n": 16, "tol": 1e-10,
-              "material": "crystal:Cu", "orientation": 20.0, "azimuth": 30.0}
+    params = {
+        "radius": 8e-3,
+        "load": 100.0,
+        "mu": 0.3,
+        "q_ratio": 0.5,
+        "n": 16,
+        "tol": 1e-10,
+        "material": "crystal:Cu",
+        "orientation": 20.0,
+        "azimuth": 30.0,
+    }
     problem = SlipProblem(validate(params))
     crystal = problem.compliance.body1
     for coupled in (False, True):
@@ -193,10 +202,40 @@ def test_command_line_takes_both_bodies_constants(capsys: pytest.CaptureFixture)
     """Body 1 by --orthotropic, body 2 by --cubic2 and --miller2 (GPa); a bad constant exits 2 naming it."""
     from hpcontact.cli import main
 
-    common = ["solve", "--quantities", "slip", "--radius", "0.5", "--load", "1e5", "--mu", "0.1", "--q-ratio", "0.5",
-              "--n", "16", "--steps", "1", "--json"]
-    assert main(common + ["--orthotropic", ORTHO, "--cubic2", "C11=168.4 C12=121.4 C44=75.4", "--miller2", "1 1 1",
-                          "--radius2", "inf"]) == 0
+    common = [
+        "solve",
+        "--quantities",
+        "slip",
+        "--radius",
+        "0.5",
+        "--load",
+        "1e5",
+        "--mu",
+        "0.1",
+        "--q-ratio",
+        "0.5",
+        "--n",
+        "16",
+        "--steps",
+        "1",
+        "--json",
+    ]
+    assert (
+        main(
+            common
+            + [
+                "--orthotropic",
+                ORTHO,
+                "--cubic2",
+                "C11=168.4 C12=121.4 C44=75.4",
+                "--miller2",
+                "1 1 1",
+                "--radius2",
+                "inf",
+            ]
+        )
+        == 0
+    )
     assert '"coupling_size"' in capsys.readouterr().out
     assert main(common + ["--cubic2", "C11=168.4 C12=121.4 C44=-75.4"]) == 2
     assert "cubic2.C44 = -75.4" in capsys.readouterr().err
@@ -213,8 +252,19 @@ def test_normal_loading_with_friction() -> None:
     similar = {**BASE, "material": "Fe", "material2": "Fe", "coupling": "coupled", "n": 16}
     plain, spence = (solve_slip({**similar, "normal_friction": f}) for f in (False, True))
     assert _relative(plain, spence, KEYS) < 5e-12  # measured 1.4e-12
-    pair = {"radius": 8e-3, "radius2": 9e-3, "load": 100.0, "mu": 0.3, "q_ratio": 0.5, "n": 32, "steps": 4,
-            "material": "Cu", "material2": "Fe", "coupling": "coupled", "normal_friction": True}
+    pair = {
+        "radius": 8e-3,
+        "radius2": 9e-3,
+        "load": 100.0,
+        "mu": 0.3,
+        "q_ratio": 0.5,
+        "n": 32,
+        "steps": 4,
+        "material": "Cu",
+        "material2": "Fe",
+        "coupling": "coupled",
+        "normal_friction": True,
+    }
     problem = SlipProblem(validate(pair))
     initial = PathSolver(problem, True).initial
     t, x, y = initial.t, problem.x, problem.y
@@ -237,10 +287,26 @@ def test_no_slip_tensor_is_isotropic_about_3_and_4_fold_axes(psi: float, tol: fl
     k_min/k_max measured 1.5e-10, the CG tolerance) and on [111] (3-fold axis, which the grid
     breaks: 5.6e-5 at n = 16) has an isotropic 2 × 2 tangential tensor, while [110] does not
     (0.763); the symmetry is Neumann's principle, independent of the solver."""
-    r = solve_slip({"radius": 8e-3, "load": 100.0, "mu": 0.3, "q_ratio": 0.0, "n": 16, "steps": 1, "tensor": True,
-                    "material": "crystal:Cu", "orientation": psi, "coupling": "coupled"})
-    K = np.array([[r["tangential_stiffness_xx"], r["tangential_stiffness_xy"]],
-                  [r["tangential_stiffness_yx"], r["tangential_stiffness_yy"]]])
+    r = solve_slip(
+        {
+            "radius": 8e-3,
+            "load": 100.0,
+            "mu": 0.3,
+            "q_ratio": 0.0,
+            "n": 16,
+            "steps": 1,
+            "tensor": True,
+            "material": "crystal:Cu",
+            "orientation": psi,
+            "coupling": "coupled",
+        }
+    )
+    K = np.array(
+        [
+            [r["tangential_stiffness_xx"], r["tangential_stiffness_xy"]],
+            [r["tangential_stiffness_yx"], r["tangential_stiffness_yy"]],
+        ]
+    )
     values = np.linalg.eigvalsh(0.5 * (K + K.T))
     assert 1.0 - values[0] / values[1] < tol
 
@@ -251,8 +317,19 @@ def test_crystal_pair_at_unit_anisotropy_follows_the_isotropic_loop() -> None:
     area and k_t at every step to 1e-6 (measured 3.2e-10, first order in A − 1)."""
     loop = {**BASE, "path": "loop", "history": True, "q_ratio": 0.8}
     iso = solve_slip({**loop, "G": 50e9, "nu": 0.3, "G2": 80e9, "nu2": 0.25})
-    crystal = solve_slip({**loop, "G": 50e9, "nu": 0.3, "G2": 80e9, "nu2": 0.25,
-                          "anisotropy": 1.0 + 1e-9, "anisotropy2": 1.0 + 1e-9, "orientation": 20.0, "miller2": "1 1 2"})
+    crystal = solve_slip(
+        {
+            **loop,
+            "G": 50e9,
+            "nu": 0.3,
+            "G2": 80e9,
+            "nu2": 0.25,
+            "anisotropy": 1.0 + 1e-9,
+            "anisotropy2": 1.0 + 1e-9,
+            "orientation": 20.0,
+            "miller2": "1 1 2",
+        }
+    )
     for key in ("tangential_stiffness", "contact_area", "tangential_force", "tangential_displacement"):
         a, b = np.array(iso["history"][key]), np.array(crystal["history"][key])
         assert np.max(np.abs(b - a)) <= 1e-9 * np.max(np.abs(a)), key
@@ -261,8 +338,20 @@ def test_crystal_pair_at_unit_anisotropy_follows_the_isotropic_loop() -> None:
 #: §6.2 of Rodríguez-Tembleque et al. 2011 on a coarse grid: the job's ellipsoid (contact semi-axes
 #: 50 mm across x1 and 100 mm along), mu = 0.1, the punch displaced by 0.15 mm along +x1
 #: relative to the block (our δ is body 2's displacement relative to body 1: angle 180°).
-PAPER = {"radius": 0.5, "radius_b": 1.1, "load": 0.37e6, "mu": 0.1, "q_ratio": 0.5, "control": "displacement",
-         "displacement": 0.15e-3, "angle": 180.0, "n": 16, "steps": 1, "tol": 1e-10, "orthotropic2": ORTHO}
+PAPER = {
+    "radius": 0.5,
+    "radius_b": 1.1,
+    "load": 0.37e6,
+    "mu": 0.1,
+    "q_ratio": 0.5,
+    "control": "displacement",
+    "displacement": 0.15e-3,
+    "angle": 180.0,
+    "n": 16,
+    "steps": 1,
+    "tol": 1e-10,
+    "orthotropic2": ORTHO,
+}
 
 
 def test_crystal_pair_turns_with_its_scene() -> None:
@@ -299,7 +388,12 @@ def test_proportional_path_shifts_the_stick_zone_of_the_dissimilar_pair() -> Non
     the x1 < 0 region" with the punch moved along +x1: so do we (measured −3.9 cells across, −27 mm,
     at n = 16; the grid study of the README). Mirroring the load (the pair is symmetric about
     x = 0) mirrors the stick zone exactly and keeps Q (measured 7e-13, tol = 1e-10)."""
-    dissimilar = {**PAPER, "orthotropic": ORTHO.replace("E1=25", "E1=50"), "path": "proportional", "coupling": "coupled"}
+    dissimilar = {
+        **PAPER,
+        "orthotropic": ORTHO.replace("E1=25", "E1=50"),
+        "path": "proportional",
+        "coupling": "coupled",
+    }
     minus = solve_slip(dissimilar)
     plus = solve_slip({**dissimilar, "angle": 0.0})
     assert minus["stick_centroid_x"] < -2.0 * minus["dy"]  # the grid's y is the scene's x here (-3.9)

@@ -53,6 +53,7 @@ def test_pair_blocks_are_those_of_the_equivalent_body() -> None:
 
 def test_dundurs_beta_and_similarity() -> None:
     """β against Dundurs' form in E and nu (Johnson 1985, eq. 5.4b with G = E/(2(1+nu)))."""
+
     def beta(E1: float, n1: float, E2: float, n2: float) -> float:
         num = (1 + n1) * (1 - 2 * n1) / E1 - (1 + n2) * (1 - 2 * n2) / E2
         den = (1 + n1) * (1 - n1) / E1 + (1 + n2) * (1 - n2) / E2

@@ -97,17 +97,27 @@ def test_missing_required_fields() -> None:
 # ------------------------------------------------------------------------------------------
 # Cattaneo–Mindlin: sphere on a flat of the same material (and nu = 0.5 on a rigid flat)
 # ------------------------------------------------------------------------------------------
+#: Bounds of test_sphere_on_flat_follows_cattaneo_mindlin: (δ, stick-area k_t, consistent k_t,
+#: stick radius in cells). Fe–Fe: README "Partial slip" (δ within 8.4e-4, k_t within 6.7e-3,
+#: stick radius within 0.22 cells) + half a unit of the quoted digit; measured 8.376e-4, 4.061e-3,
+#: 6.735e-3, 0.2221 (2026-11-23). nu = 0.5 on a rigid flat (not in the README): measured 3.153e-3,
+#: 7.436e-3, 1.0934e-2, 0.1776; bounds the measured values rounded up at their second digit.
+#: The issue's targets were 1 % (1.5 % for the consistent k_t at nu = 0.5) and one cell.
+SPHERE_ON_FLAT_BOUNDS = {"Fe-Fe": (8.45e-4, 4.1e-3, 6.75e-3, 0.225), "nu0.5-rigid": (3.2e-3, 7.5e-3, 1.1e-2, 0.18)}
+
+
 @pytest.mark.parametrize(
-    "bodies, consistent_tol",
-    [({"material": "Fe", "material2": "Fe"}, 0.01), ({"E": 1e9, "nu": 0.5}, 0.015)],
+    "bodies, case",
+    [({"material": "Fe", "material2": "Fe"}, "Fe-Fe"), ({"E": 1e9, "nu": 0.5}, "nu0.5-rigid")],
     ids=["Fe-Fe", "nu0.5-rigid"],
 )
-def test_sphere_on_flat_follows_cattaneo_mindlin(bodies: dict, consistent_tol: float) -> None:
-    """δ(Q) and k_t within 1 % of Cattaneo–Mindlin for Q/(mu P) ≤ 0.9, stick radius within a cell.
+def test_sphere_on_flat_follows_cattaneo_mindlin(bodies: dict, case: str) -> None:
+    """δ(Q) and k_t against Cattaneo–Mindlin for Q/(mu P) ≤ 0.9, stick radius within a cell.
 
-    Issue targets: 1 % and one cell. Measured at n = 64, worst over Q/(mu P) = 0.1 … 0.9:
+    Issue targets: 1 % and one cell; asserted: the measured errors (``SPHERE_ON_FLAT_BOUNDS``).
+    Measured at n = 64, worst over Q/(mu P) = 0.1 … 0.9:
     Fe–Fe: δ 8.4e-4, stick-area k_t 4.1e-3, consistent k_t 6.7e-3, stick radius 0.22 cells;
-    nu = 0.5: δ 3.2e-3, stick-area k_t 7.4e-3, consistent k_t 1.09e-2, 0.19 cells.
+    nu = 0.5: δ 3.2e-3, stick-area k_t 7.4e-3, consistent k_t 1.09e-2, 0.18 cells.
     The stick-area stiffness is Mindlin–Deresiewicz's own definition (slip tractions frozen
     along the load) and meets 1 % in both cases; the consistent tangent also restrains the
     transverse slip that nu ≠ 0 drives in the slip annulus (a physical stiffening, +0.9 % at
@@ -119,58 +129,94 @@ def test_sphere_on_flat_follows_cattaneo_mindlin(bodies: dict, consistent_tol: f
     record = solve_slip(params)
     P, mu, a, G, nu = _reference(params)
     h = record["history"]
+    d_tol, stick_tol, consistent_tol, radius_cells = SPHERE_ON_FLAT_BOUNDS[case]
     assert "similar=True" in record["plan"]["pair"] and not any("(pair)" in k for k in record["plan"]["kernels"])
-    for Q, delta, k, k_stick, area in zip(h["tangential_force"][1:], h["tangential_displacement"][1:],
-                                          h["tangential_stiffness"][1:], h["stick_area_stiffness"][1:],
-                                          h["stick_area"][1:]):
+    for Q, delta, k, k_stick, area in zip(
+        h["tangential_force"][1:],
+        h["tangential_displacement"][1:],
+        h["tangential_stiffness"][1:],
+        h["stick_area_stiffness"][1:],
+        h["stick_area"][1:],
+    ):
         k_ref = an.cattaneo_mindlin_stiffness(Q, P, mu, a, G, nu)
-        assert abs(delta / an.cattaneo_mindlin_displacement(Q, P, mu, a, G, nu) - 1) < 0.01
-        assert abs(k_stick / k_ref - 1) < 0.01
+        assert abs(delta / an.cattaneo_mindlin_displacement(Q, P, mu, a, G, nu) - 1) < d_tol
+        assert abs(k_stick / k_ref - 1) < stick_tol
         assert abs(k / k_ref - 1) < consistent_tol
         assert k >= k_stick * (1 - 1e-9)  # restraining transverse slip only stiffens
         c = an.stick_radius(Q, P, mu, a)
-        assert abs(math.sqrt(area / math.pi) - c) < record["dx"]
+        assert abs(math.sqrt(area / math.pi) - c) < radius_cells * record["dx"]
     assert record["force_ratio"] == pytest.approx(0.9, rel=1e-6)  # force control reached its target
-    assert abs(record["stick_area_stiffness"] / record["mindlin_stiffness"] - 1) < 0.01
+    assert abs(record["stick_area_stiffness"] / record["mindlin_stiffness"] - 1) < stick_tol
 
 
 def test_grid_convergence_at_nu_zero() -> None:
-    """At nu = 0 Cattaneo–Mindlin is exact: the worst errors over Q/(mu P) = 0.3, 0.6, 0.9 fall
-    from n = 32 to n = 128 (a factor 4 in n;
-    neighbouring grids need not be ordered, the stick area's staircase fluctuates). Bounds: a
-    factor 10 and 2, and 1e-4, 3e-3 at n = 128 (measured 3.9e-4 → 6.5e-6, 6.1e-3 → 2.0e-3)."""
-    params = {**SPHERE, "E": 200e9, "nu": 0.0, "E2": 200e9, "nu2": 0.0, "q_ratio": 0.9, "steps": 3, "history": True}
+    """At nu = 0 Cattaneo–Mindlin is exact: the README's k_t errors "1.2e-2, 4.4e-3, 2.0e-3,
+    6.0e-4 at n = 32, 64, 128, 256" and the fall of δ's error.
+
+    Measured, worst over the load steps: 9 steps to Q/(mu P) = 0.9 (the README's protocol):
+    k_t 1.153e-2, 4.435e-3 and δ 2.76e-3, 1.34e-4 at n = 32, 64; 3 steps (0.3, 0.6, 0.9):
+    k_t 6.09e-3, 3.98e-3, 1.96e-3, 5.86e-4 and δ 3.9e-4, 1.34e-4, 6.54e-6, 1.18e-6 at n = 32,
+    64, 128, 256. Asserted: 1.2e-2 and 4.4e-3 (9 steps) and 2.0e-3 (3 steps, n = 128: the 9-step
+    run there costs 3×; the docstring of partial_slip measured 2.0e-3 with 9 steps too) to their
+    digits; δ below 7e-6 at n = 128 and falling ≥ 10× from n = 32 (measured 60×). n = 256 (a
+    minute or more) is not run: its 6.0e-4 (9 steps; 5.9e-4 with 3) is a measurement only.
+    Neighbouring grids need not be ordered (the stick area's staircase fluctuates); these are."""
+    params = {**SPHERE, "E": 200e9, "nu": 0.0, "E2": 200e9, "nu2": 0.0, "q_ratio": 0.9, "history": True}
     P, mu, a, G, nu = _reference(params)
+    nine = []
+    for n in (32, 64):
+        h = solve_slip({**params, "steps": 9, "n": n})["history"]
+        nine.append(
+            max(
+                abs(k / an.cattaneo_mindlin_stiffness(Q, P, mu, a, G, nu) - 1)
+                for Q, k in zip(h["tangential_force"][1:], h["tangential_stiffness"][1:])
+            )
+        )
+    assert 1.15e-2 <= nine[0] < 1.25e-2 and 4.35e-3 <= nine[1] < 4.45e-3
     worst = []
     for n in (32, 128):
-        h = solve_slip({**params, "n": n})["history"]
-        e_d = max(abs(d / an.cattaneo_mindlin_displacement(Q, P, mu, a, G, nu) - 1)
-                  for Q, d in zip(h["tangential_force"][1:], h["tangential_displacement"][1:]))
-        e_k = max(abs(k / an.cattaneo_mindlin_stiffness(Q, P, mu, a, G, nu) - 1)
-                  for Q, k in zip(h["tangential_force"][1:], h["tangential_stiffness"][1:]))
+        h = solve_slip({**params, "steps": 3, "n": n})["history"]
+        e_d = max(
+            abs(d / an.cattaneo_mindlin_displacement(Q, P, mu, a, G, nu) - 1)
+            for Q, d in zip(h["tangential_force"][1:], h["tangential_displacement"][1:])
+        )
+        e_k = max(
+            abs(k / an.cattaneo_mindlin_stiffness(Q, P, mu, a, G, nu) - 1)
+            for Q, k in zip(h["tangential_force"][1:], h["tangential_stiffness"][1:])
+        )
         worst.append((e_d, e_k))
     (d32, k32), (d128, k128) = worst
     assert d128 < d32 / 10 and k128 < k32 / 2
-    assert d128 < 1e-4 and k128 < 3e-3
+    assert d128 < 7e-6 and k128 < 2.05e-3
 
 
 def test_loading_unloading_reloading_loop() -> None:
     """The full Mindlin–Deresiewicz loop (+Q*, −Q*, +Q*) within 2 % of its closed form.
 
     Issue target 2 % (of the loop amplitude δ(Q*) for δ; relative for k_t). Measured at n = 48,
-    4 steps per half branch, Q* = 0.8 mu P: δ ≤ 7.2e-4 of the amplitude, k_t ≤ 6.8e-3, and
-    the loop closes to 2e-5 of the amplitude.
+    4 steps per half branch, Q* = 0.8 mu P: δ ≤ 7.22e-4 of the amplitude, k_t ≤ 6.82e-3, and
+    the loop closes to 2.1e-5 of the amplitude. Bounds: the README's "7.2e-4 (δ) and 6.8e-3
+    (k_t)" + half a unit of their last digit; closure 3e-5 (it was 1e-3).
     """
-    params = {**SPHERE, "material": "Fe", "material2": "Fe", "q_ratio": 0.8, "path": "loop", "steps": 4,
-              "n": 48, "history": True}
+    params = {
+        **SPHERE,
+        "material": "Fe",
+        "material2": "Fe",
+        "q_ratio": 0.8,
+        "path": "loop",
+        "steps": 4,
+        "n": 48,
+        "history": True,
+    }
     record = solve_slip(params)
     P, mu, a, G, nu = _reference(params)
     q_star = 0.8 * mu * P
     amplitude = an.cattaneo_mindlin_displacement(q_star, P, mu, a, G, nu)
     h = record["history"]
     assert h["branch"].count("unloading") == 8 and h["branch"].count("reloading") == 8
-    for branch, Q, delta, k in zip(h["branch"], h["tangential_force"], h["tangential_displacement"],
-                                   h["tangential_stiffness"]):
+    for branch, Q, delta, k in zip(
+        h["branch"], h["tangential_force"], h["tangential_displacement"], h["tangential_stiffness"]
+    ):
         if branch in ("initial", "loading"):
             d_ref = an.cattaneo_mindlin_displacement(Q, P, mu, a, G, nu)
             k_ref = an.cattaneo_mindlin_stiffness(Q, P, mu, a, G, nu)
@@ -182,11 +228,11 @@ def test_loading_unloading_reloading_loop() -> None:
             Q = min(max(Q, -q_star), q_star)
             d_ref = an.mindlin_deresiewicz_reloading_displacement(Q, q_star, P, mu, a, G, nu)
             k_ref = an.mindlin_deresiewicz_unloading_stiffness(-Q, q_star, P, mu, a, G, nu)
-        assert abs(delta - d_ref) < 0.02 * amplitude, (branch, Q)
-        assert abs(k / k_ref - 1) < 0.02, (branch, Q)
+        assert abs(delta - d_ref) < 7.25e-4 * amplitude, (branch, Q)
+        assert abs(k / k_ref - 1) < 6.85e-3, (branch, Q)
     # the loop closes: back at +Q* on the loading curve
     first_peak = h["tangential_displacement"][4]
-    assert abs(record["tangential_displacement"] - first_peak) < 1e-3 * amplitude
+    assert abs(record["tangential_displacement"] - first_peak) < 3e-5 * amplitude
 
 
 # ------------------------------------------------------------------------------------------
@@ -229,8 +275,11 @@ def test_coupled_operator_matches_the_engine_for_a_rigid_partner() -> None:
     """Against a rigid flat the pair's 3-component operator is body 1's own (engine kernels)."""
     problem = SlipProblem(validate({**SPHERE, "material": "Cu", "q_ratio": 0.5, "n": 16}))
     g = problem.grid
-    engine = Engine(Isotropic(G=problem.pair.body1.material.G / problem.G_ref, nu=problem.pair.body1.material.nu),
-                    g, ("xx", "xy", "yx", "yy", "zz", "xz", "yz", "zx", "zy"))
+    engine = Engine(
+        Isotropic(G=problem.pair.body1.material.G / problem.G_ref, nu=problem.pair.body1.material.nu),
+        g,
+        ("xx", "xy", "yx", "yy", "zz", "xz", "yz", "zx", "zy"),
+    )
     rng = np.random.default_rng(1)
     t = rng.standard_normal((3, g.nx, g.ny))
     mine, theirs = problem.full_operator.apply(t), engine.operator("xyz").apply(t)
@@ -264,18 +313,19 @@ def test_ellipse_no_slip_limit_is_mindlins_ellipse() -> None:
 
     Ellipsoid R_a = 8 mm, R_b = 24 mm on an Fe flat: b/a = 0.483, major axis along the 24 mm
     direction (y, contact_angle 90°). Measured errors of K_a, K_b: n = 64: 1.7e-3, 7.4e-4;
-    n = 128: 5.4e-4, 3.2e-4; n = 256: 2.5e-4, 1.3e-4; n = 512: 2.1e-4, 1.5e-4. Issue target 0.1 %.
+    n = 128: 5.4e-4, 3.2e-4; n = 256: 2.5e-4, 1.3e-4; n = 512: 2.1e-4, 1.5e-4. Issue target 0.1 %;
+    asserted: the README's "within 5.4e-4 and 3.2e-4 at n = 128" (measured 5.35e-4, 3.22e-4)
+    + half a unit of their last digit.
     """
-    base = {**SPHERE, "radius_b": 24e-3, "material": "Fe", "material2": "Fe", "q_ratio": 0.0, "n": 128,
-            "tensor": True}
+    base = {**SPHERE, "radius_b": 24e-3, "material": "Fe", "material2": "Fe", "q_ratio": 0.0, "n": 128, "tensor": True}
     pair = pair_from_params(base)
     h = pair.hertz(100.0)
     K_a, K_b = an.mindlin_ellipse_stiffness(h.a, h.b, pair.equivalent.G, pair.equivalent.nu)
     record = solve_slip(base)
     assert record["contact_angle_deg"] == pytest.approx(90.0)
     # scene frame: the major axis a is along y
-    assert abs(record["tangential_stiffness_yy"] / K_a - 1) < 1e-3
-    assert abs(record["tangential_stiffness_xx"] / K_b - 1) < 1e-3
+    assert abs(record["tangential_stiffness_yy"] / K_a - 1) < 5.45e-4
+    assert abs(record["tangential_stiffness_xx"] / K_b - 1) < 3.25e-4
     assert abs(record["tangential_stiffness_xy"]) < 1e-8 * K_a
     # load along x: n·K·n in the contact frame (turned 90°) against (R K Rᵀ)_xx in the scene frame,
     # the same number through two rotations: equal to rounding (measured 2.4e-16 relative)
@@ -285,8 +335,16 @@ def test_ellipse_no_slip_limit_is_mindlins_ellipse() -> None:
 
 def test_ellipse_stiffness_falls_along_both_axes() -> None:
     """k along the major and the minor axis fall with Q/(mu P) from their Mindlin values."""
-    base = {**SPHERE, "radius_b": 24e-3, "material": "Al", "material2": "Al", "q_ratio": 0.8, "steps": 4, "n": 48,
-            "history": True}
+    base = {
+        **SPHERE,
+        "radius_b": 24e-3,
+        "material": "Al",
+        "material2": "Al",
+        "q_ratio": 0.8,
+        "steps": 4,
+        "n": 48,
+        "history": True,
+    }
     ks = {}
     for angle in (90.0, 0.0):  # along the major axis, then the minor one
         h = solve_slip({**base, "angle": angle})["history"]
@@ -311,8 +369,9 @@ def test_displacement_control_reaches_the_force_controlled_state() -> None:
     """Driving δ to the force-controlled δ(0.6 mu P) gives back Q = 0.6 mu P (1e-3)."""
     base = {**SPHERE, "material": "Fe", "material2": "Fe", "n": 48, "steps": 3}
     forced = solve_slip({**base, "q_ratio": 0.6})
-    driven = solve_slip({**base, "q_ratio": 0.0, "control": "displacement",
-                         "displacement": forced["tangential_displacement"]})
+    driven = solve_slip(
+        {**base, "q_ratio": 0.0, "control": "displacement", "displacement": forced["tangential_displacement"]}
+    )
     assert driven["tangential_force"] == pytest.approx(forced["tangential_force"], rel=1e-3)
     assert driven["tangential_stiffness"] == pytest.approx(forced["tangential_stiffness"], rel=1e-2)
 
@@ -329,10 +388,25 @@ def test_frictionless_and_unloaded_limits() -> None:
 def test_record_keys_and_units() -> None:
     """The keys of docs/design.md §4.1 for slip, in SI for library materials, all finite."""
     t0 = time.perf_counter()
-    r = solve_slip({**SPHERE, "radius2": 9e-3, "material": "Fe", "material2": "Fe", "q_ratio": 0.5, "n": 32,
-                    "steps": 2})
-    for key in ("tangential_force", "tangential_displacement", "tangential_stiffness", "stick_area",
-                "contact_area", "load", "iterations", "residual", "wall_time_s", "nx", "ny", "dx", "dy", "plan"):
+    r = solve_slip(
+        {**SPHERE, "radius2": 9e-3, "material": "Fe", "material2": "Fe", "q_ratio": 0.5, "n": 32, "steps": 2}
+    )
+    for key in (
+        "tangential_force",
+        "tangential_displacement",
+        "tangential_stiffness",
+        "stick_area",
+        "contact_area",
+        "load",
+        "iterations",
+        "residual",
+        "wall_time_s",
+        "nx",
+        "ny",
+        "dx",
+        "dy",
+        "plan",
+    ):
         assert key in r
     assert r["load"] == 100.0 and r["tangential_force"] == pytest.approx(0.5 * 0.3 * 100.0, rel=1e-6)
     assert 1e-4 < r["hertz_a"] < 3e-4 and 1e-7 < r["tangential_displacement"] < 1e-5  # metres
@@ -346,8 +420,22 @@ def test_record_without_relative_stick_area_when_the_decoupled_contact_slides() 
     proportional step: measured stick area 3.6e-9 m² coupled, 0 decoupled): the relative change
     of a zero area is undefined, so the record leaves coupling_effect_stick_area out (it raised
     FloatingPointError on an infinite value before)."""
-    r = solve_slip({"radius": 8e-3, "load": 100.0, "mu": 0.1, "q_ratio": 0.5, "n": 16, "steps": 1,
-                    "E": 200e9, "nu": 0.3, "E2": 120e9, "nu2": 0.25, "control": "displacement",
-                    "displacement": 6e-7, "path": "proportional"})
+    r = solve_slip(
+        {
+            "radius": 8e-3,
+            "load": 100.0,
+            "mu": 0.1,
+            "q_ratio": 0.5,
+            "n": 16,
+            "steps": 1,
+            "E": 200e9,
+            "nu": 0.3,
+            "E2": 120e9,
+            "nu2": 0.25,
+            "control": "displacement",
+            "displacement": 6e-7,
+            "path": "proportional",
+        }
+    )
     assert r["stick_area"] > 0.0 and r["decoupled_stick_area"] == 0.0
     assert "coupling_effect_stick_area" not in r

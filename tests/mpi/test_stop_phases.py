@@ -1,0 +1,240 @@
+"""A stop request in every phase of a 2-rank sweep, and a rank that stops for good
+(``mpiexec -n 2 hpcontact run``, ``hpcontact.sweep.signals``):
+
+* SIGINT to the job's process group — what a terminal's Ctrl-C sends to ``mpiexec`` and the
+  ranks — while rank 0 sets up and rank 1 waits for it in a broadcast, while tasks run, and
+  while rank 0 writes the data set and rank 1 waits for it: each ends the job with exit 4 within
+  the grace period plus the stop thread's ``HARD_EXIT_S``, no traceback, journals intact, and
+  ``--resume`` completes a data set equal to an undisturbed run;
+* SIGTERM once the data set is written changes nothing: exit 0, the data set there;
+* a rank stopped for good (SIGSTOP) is noticed by rank 0's heartbeat watch after
+  ``--stall-timeout`` and the job ends with exit 1, naming the rank; ``--resume`` completes.
+
+The slow phases come from ``HPCONTACT_SLOW_PHASE`` (``hpcontact.sweep.faults``); a hanging task
+from ``HPCONTACT_FAULTS``. Launches its own ``mpiexec`` (skips when pytest itself runs under a
+launcher, as ``test_faults`` does).
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from hpcontact.sweep.driver import run_sweep
+from hpcontact.sweep.journal import read_history
+from hpcontact.sweep.schedule import SerialTeam, launched_by_mpi
+from hpcontact.sweep.signals import HARD_EXIT_S, HEARTBEAT_S
+
+MPIEXEC = shutil.which("mpiexec", path=f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}")
+SPEC = """
+[sweep]
+title = "stop phases"
+output = "out.nc"
+[scene]
+quantities = ["tangential"]
+[numerics]
+n = 24
+tol = 1e-10
+[axes]
+shape = ["circle", "ellipse"]
+aspect = [1.0, 0.5, 0.2]
+nu = [0.0, 0.25, 0.5]
+"""
+TASKS = 3 + 3 * 3  # the circle ignores the aspect: 3 nu; the ellipse 3 aspects x 3 nu
+GRACE_S = 2.0
+STALL_S = 8.0  # heartbeats every 2 s (a quarter of it): a stall is 4 beats missed
+#: MPI start-up and teardown on 2 busy cores (test_faults.EXIT_SLACK_S, issue 9).
+SLACK_S = 8.0
+#: Setup and finish have no task in flight: a stop ends them after the grace, and at the
+#: earliest HARD_EXIT_S after the phase began (signals.StopControl._poll).
+PHASE_BOUND_S = GRACE_S + HARD_EXIT_S + SLACK_S
+
+pytestmark = [
+    pytest.mark.skipif(launched_by_mpi(), reason="starts its own mpiexec; run pytest without a launcher"),
+    pytest.mark.skipif(MPIEXEC is None, reason="no mpiexec"),
+]
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory) -> Path:
+    folder = tmp_path_factory.mktemp("reference")
+    (folder / "spec.toml").write_text(SPEC)
+    return run_sweep(folder / "spec.toml", output=folder / "out.nc", team=SerialTeam(), stream=io.StringIO())
+
+
+def start(folder: Path, *options: str, env: dict[str, str] | None = None) -> subprocess.Popen:
+    (folder / "spec.toml").write_text(SPEC)
+    environment = {
+        k: v for k, v in os.environ.items() if k not in ("HPCONTACT_MPI", "HPCONTACT_FAULTS", "HPCONTACT_SLOW_PHASE")
+    }
+    environment.update(OMP_NUM_THREADS="1", HPCONTACT_WISDOM=str(folder / "wisdom"), **(env or {}))
+    return subprocess.Popen(
+        [
+            MPIEXEC,
+            "-n",
+            "2",
+            sys.executable,
+            "-m",
+            "hpcontact.cli",
+            "run",
+            "spec.toml",
+            "--grace",
+            str(GRACE_S),
+            *options,
+        ],
+        cwd=folder,
+        env=environment,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
+
+
+def descendants(pid: int) -> list[int]:
+    """Every process below ``pid`` (Hydra starts each rank in a session of its own, so the
+    launcher's process group does not hold them)."""
+    children: dict[int, list[int]] = {}
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                parent = int((entry / "stat").read_text().rsplit(")", 1)[1].split()[1])
+            except (OSError, IndexError, ValueError):
+                continue
+            children.setdefault(parent, []).append(int(entry.name))
+    found, todo = [], [pid]
+    while todo:
+        for child in children.get(todo.pop(), []):
+            found.append(child)
+            todo.append(child)
+    return found
+
+
+def finish(proc: subprocess.Popen, timeout: float = 120.0) -> tuple[int, str, str]:
+    try:
+        out, err = proc.communicate(timeout=timeout)
+    finally:
+        if proc.poll() is None:
+            for pid in descendants(proc.pid):
+                try:
+                    os.kill(pid, signal.SIGKILL)
+                except ProcessLookupError:
+                    pass
+            os.killpg(proc.pid, signal.SIGKILL)
+    return proc.returncode, out, err
+
+
+def rank_pids(proc: subprocess.Popen) -> list[int]:
+    """The ranks: the job's processes running ``hpcontact.cli`` below the launcher."""
+    found = []
+    for pid in descendants(proc.pid):
+        try:
+            cmdline = Path(f"/proc/{pid}/cmdline").read_bytes()
+        except OSError:
+            continue
+        if b"hpcontact.cli" in cmdline and b"mpiexec" not in cmdline:
+            found.append(pid)
+    return sorted(found)
+
+
+def wait_until(condition, proc: subprocess.Popen, timeout: float = 60.0) -> None:
+    deadline = time.monotonic() + timeout
+    while not condition():
+        assert proc.poll() is None, finish(proc)
+        assert time.monotonic() < deadline, "timed out"
+        time.sleep(0.1)
+
+
+def resume_equals_reference(folder: Path, reference: Path) -> None:
+    code, out, err = finish(start(folder, "--resume"))
+    assert code == 0, out + err
+    with xr.open_dataset(folder / "out.nc") as a, xr.open_dataset(reference) as b:
+        for name in ("K_xx", "K_yy", "K_a_over_K_b"):
+            np.testing.assert_array_equal(a[name].values, b[name].values)  # same solver, same grids: bitwise
+
+
+@pytest.mark.parametrize("phase", ["setup", "write"])
+def test_sigint_while_one_rank_waits_in_a_collective_ends_the_job(tmp_path, reference, phase):
+    """Rank 0 sleeps in ``phase`` (after reading the journals / before writing the data set)
+    while rank 1 waits for it in a broadcast; one SIGINT to the process group ends both."""
+    proc = start(tmp_path, env={"HPCONTACT_SLOW_PHASE": f"{phase}:600"})
+    if phase == "setup":
+        wait_until((tmp_path / "out.nc.journal" / "LOCK").exists, proc)  # rank 0 holds the lock: in its setup
+    else:
+        wait_until(lambda: len(read_history(tmp_path / "out.nc.journal").entries) == TASKS, proc)  # all done
+    time.sleep(1.0)
+    signalled = time.monotonic()
+    os.killpg(proc.pid, signal.SIGINT)
+    code, out, err = finish(proc)
+    elapsed = time.monotonic() - signalled
+    assert code == 4, out + err
+    assert elapsed <= PHASE_BOUND_S, f"{elapsed:.1f} s"
+    assert "Traceback" not in err and "KeyboardInterrupt" not in err, err
+    assert "SIGINT on rank" in err and "run again with --resume" in err
+    assert not (tmp_path / "out.nc").exists()
+    print(f"SIGINT in {phase}: exit 4 after {elapsed:.1f} s (bound {PHASE_BOUND_S:g} s)")
+    resume_equals_reference(tmp_path, reference)
+
+
+def test_sigint_while_a_task_runs_stops_within_the_grace(tmp_path, reference):
+    proc = start(tmp_path, env={"HPCONTACT_FAULTS": "3:hang"})
+    wait_until(lambda: len(list((tmp_path / "out.nc.journal").glob("rank*.jsonl"))) == 2, proc)
+    time.sleep(2.0)
+    signalled = time.monotonic()
+    os.killpg(proc.pid, signal.SIGINT)
+    code, out, err = finish(proc)
+    elapsed = time.monotonic() - signalled
+    assert code == 4, out + err
+    assert elapsed <= GRACE_S + SLACK_S, f"{elapsed:.1f} s"
+    assert "Traceback" not in err and "KeyboardInterrupt" not in err, err
+    assert "stopped (SIGINT on rank" in err
+    resume_equals_reference(tmp_path, reference)
+
+
+def test_sigterm_after_the_data_set_is_written_changes_nothing(tmp_path, reference):
+    """Rank 0 lingers 8 s after writing (rank 1 waits for its word); SIGTERM 1 s into it."""
+    proc = start(tmp_path, env={"HPCONTACT_SLOW_PHASE": "done:8"})
+    wait_until((tmp_path / "out.nc").exists, proc)
+    time.sleep(1.0)
+    os.killpg(proc.pid, signal.SIGTERM)
+    code, out, err = finish(proc)
+    assert code == 0, out + err
+    assert "Traceback" not in err, err
+    with xr.open_dataset(tmp_path / "out.nc") as a, xr.open_dataset(reference) as b:
+        np.testing.assert_array_equal(a["K_xx"].values, b["K_xx"].values)
+
+
+def test_a_rank_stopped_for_good_ends_the_job_resumably(tmp_path, reference):
+    """SIGSTOP to rank 1 while a task hangs on rank 0's share: rank 0's watch sees rank 1's
+    heartbeat stand still for --stall-timeout and stops the job (exit 1, naming rank 1)."""
+    proc = start(tmp_path, "--stall-timeout", str(STALL_S), env={"HPCONTACT_FAULTS": "0:hang,1:hang"})
+    wait_until(lambda: len(rank_pids(proc)) == 2, proc)
+    wait_until(lambda: (tmp_path / "out.nc.journal" / "alive-rank00001").exists(), proc)
+    victim = rank_pids(proc)[-1]
+    os.kill(victim, signal.SIGSTOP)
+    stopped = time.monotonic()
+    try:
+        code, out, err = finish(proc)
+    finally:
+        try:
+            os.kill(victim, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+    elapsed = time.monotonic() - stopped
+    bound = STALL_S + 2 * min(HEARTBEAT_S, STALL_S / 4) + GRACE_S + HARD_EXIT_S + SLACK_S
+    assert code != 0 and code != 4, out + err  # a failure, not a user's stop
+    assert "made no progress" in err and "--stall-timeout" in err, err
+    assert "Traceback" not in err, err
+    assert elapsed <= bound, f"{elapsed:.1f} s"
+    print(f"SIGSTOP of rank 1: job ended with {code} after {elapsed:.1f} s (bound {bound:g} s)")
+    resume_equals_reference(tmp_path, reference)

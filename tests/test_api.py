@@ -1,0 +1,189 @@
+"""The Python face (``hpcontact.solve``, ``hpcontact.run_sweep``; issue 28): explicit keyword
+parameters, the CLI's dispatch shared, no process-wide side effect at import, sweeps from a
+path or a dict, safe to run twice, messages that name keywords rather than command-line flags."""
+
+from __future__ import annotations
+
+import inspect
+import io
+import json
+import os
+import re
+import subprocess
+import sys
+import tomllib
+
+import numpy as np
+import pytest
+from threadpoolctl import threadpool_info, threadpool_limits
+
+import hpcontact
+from hpcontact import api
+from hpcontact.cli import main as cli_main
+from hpcontact.errors import InputError
+from hpcontact.sweep.guard import Refused
+
+SOLVE_PARAMETERS = (
+    "shape aspect sides shape_angle amplitude seed hurst rms mask nu G anisotropy orientation miller azimuth material "
+    "cubic orthotropic voigt n n_across tol quantities radius depth threads precondition accuracy memory"
+).split()
+
+
+def test_solve_has_explicit_keyword_only_typed_documented_parameters():
+    signature = inspect.signature(hpcontact.solve)
+    for name in SOLVE_PARAMETERS:
+        parameter = signature.parameters[name]
+        assert parameter.kind is inspect.Parameter.KEYWORD_ONLY and parameter.default is None, name
+        assert parameter.annotation is not inspect.Parameter.empty, name
+        assert re.search(rf"^    (\w+, )*{name}(, \w+)*$", hpcontact.solve.__doc__, re.MULTILINE), (
+            name
+        )  # numpydoc entry
+    assert hpcontact.solve is api.solve and hpcontact.run_sweep is api.run_sweep
+
+
+def test_solve_to_an_accuracy():
+    """``accuracy=`` goes through solve_to_accuracy (strategy auto) as ``hpcontact solve --accuracy``."""
+    record = hpcontact.solve(shape="ellipse", aspect=0.3, nu=0.3, accuracy=1e-4)
+    assert record["estimated_error"] <= 1e-4 and record["accuracy_met"]
+    assert {"K_xx", "K_yy", "grids", "levels"} <= set(record)
+
+
+def test_solve_and_the_command_line_give_the_same_record(capsys):
+    loose = hpcontact.solve(shape="ellipse", aspect=0.5, accuracy=1e-2)
+    assert cli_main(["solve", "--shape", "ellipse", "--aspect", "0.5", "--accuracy", "1e-2", "--json"]) == 0
+    printed = json.loads(capsys.readouterr().out)
+    assert (
+        printed["grids"] == loose["grids"]
+        and printed["K_xx"] == loose["K_xx"]
+        and printed["boundary"] == loose["boundary"]
+    )
+    one = hpcontact.solve(shape="ellipse", aspect=0.5, n=16)  # a grid given: that grid, not extrapolated
+    assert one["nx"] == 16 and "estimated_error" not in one
+    default = hpcontact.solve(shape="ellipse", aspect=0.5)  # no n, no accuracy: the extrapolated default
+    assert default["estimated_error"] <= 1e-3 and default["grids"][0] == 16
+
+
+def test_solve_refuses_unknown_keywords_and_misplaced_fields():
+    with pytest.raises(TypeError, match="'aspekt'; did you mean 'aspect'"):
+        hpcontact.solve(aspekt=0.3)
+    with pytest.raises(InputError, match="^memory = '2G': only with accuracy$"):
+        hpcontact.solve(n=8, memory="2G")
+    with pytest.raises(InputError, match="^load = 1.0: only with quantities slip$"):
+        hpcontact.solve(n=8, load=1.0)
+    with pytest.raises(InputError, match="^accuracy = 0.001: not with quantities slip"):
+        hpcontact.solve(quantities="slip", radius=1.0, load=1.0, mu=0.3, q_ratio=0.5, accuracy=1e-3)
+    with pytest.raises(InputError, match="nu"):
+        hpcontact.solve(nu=0.7, n=8)
+
+
+def test_blas_is_limited_only_while_solving(monkeypatch):
+    """The limit is a context around the solve (HPCONTACT_BLAS_THREADS, default 1), lifted after."""
+    monkeypatch.delenv("HPCONTACT_BLAS_THREADS", raising=False)
+    seen = []
+
+    def record_threads(scene):
+        seen.extend(i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas")
+        return {"K_xx": 1.0}
+
+    monkeypatch.setattr(api, "default_solve", record_threads)
+    with threadpool_limits(limits=2, user_api="blas"):
+        before = [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+        assert hpcontact.solve(n=8) == {"K_xx": 1.0}
+        assert [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"] == before
+    assert seen and set(seen) == {1}
+    monkeypatch.setenv("HPCONTACT_BLAS_THREADS", "many")
+    with pytest.raises(InputError, match="HPCONTACT_BLAS_THREADS"):
+        hpcontact.solve(n=8)
+
+
+IMPORT_PROBE = """
+import json, os
+import numpy, scipy.linalg  # the BLAS libraries a solve uses, loaded before hpcontact
+from threadpoolctl import threadpool_info, threadpool_limits
+threadpool_limits(limits=2, user_api="blas")
+environ = dict(os.environ)
+before = {i["filepath"]: i["num_threads"] for i in threadpool_info()}
+import hpcontact
+after = {i["filepath"]: i["num_threads"] for i in threadpool_info()}
+print(json.dumps({"environ_same": environ == dict(os.environ), "changed": [p for p, n in before.items() if after.get(p) != n],
+                  "pools": len(before)}))
+"""
+
+
+def test_import_changes_no_environment_variable_and_no_thread_pool():
+    env = {
+        k: v
+        for k, v in os.environ.items()
+        if k not in ("HPCONTACT_BLAS_THREADS", "OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+    }
+    proc = subprocess.run([sys.executable, "-c", IMPORT_PROBE], capture_output=True, text=True, env=env, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    result = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert result["environ_same"] and result["changed"] == [] and result["pools"] >= 1, result
+
+
+SPEC = {
+    "sweep": {"title": "api test"},
+    "scene": {"shape": "circle", "quantities": ["tangential"]},
+    "numerics": {"n": 8},
+    "axes": {"nu": [0.0, 0.3], "angle": {"linspace": [0, 90, 3]}},
+}
+
+
+def test_run_sweep_from_a_dict_twice_and_its_refusals_name_keywords(tmp_path):
+    output = tmp_path / "api.nc"
+    stream = io.StringIO()
+    path = hpcontact.run_sweep(SPEC, output=output, stream=stream)
+    assert path == output and "2 tasks, 2 to run" in stream.getvalue()
+    with hpcontact.open_dataset(path) as ds:
+        assert ds.sizes["nu"] == 2 and ds.sizes["angle"] == 3 and ds.attrs["title"] == "api test"
+    mtime, again = output.stat().st_mtime_ns, io.StringIO()
+    assert hpcontact.run_sweep(SPEC, output=output, stream=again) == output  # safe to run twice
+    assert again.getvalue() == f"hpcontact: {output} is up to date (2 tasks from journals); nothing to do\n"
+    assert output.stat().st_mtime_ns == mtime
+
+    output.unlink()  # journals without their data set: refused, in a Python caller's words
+    with pytest.raises(Refused) as info:
+        hpcontact.run_sweep(SPEC, output=output, stream=io.StringIO())
+    message = str(info.value)
+    assert "resume=True" in message and "restart=True" in message and "--" not in message
+    assert hpcontact.run_sweep(SPEC, output=output, resume=True, stream=io.StringIO()) == output
+    with pytest.raises(InputError, match="resume=True"):
+        hpcontact.run_sweep(SPEC, output=output, resume=True, restart=True)
+
+
+def test_run_sweep_from_a_path_takes_keywords(tmp_path):
+    spec = tmp_path / "spec.toml"
+    spec.write_text(api.toml_text({**SPEC, "sweep": {"output": str(tmp_path / "file.nc")}}), encoding="utf-8")
+    assert hpcontact.run_sweep(spec, stream=io.StringIO()) == tmp_path / "file.nc"
+    assert hpcontact.run_sweep(str(spec), restart=True, stream=io.StringIO()) == tmp_path / "file.nc"
+    with pytest.raises(TypeError):
+        hpcontact.run_sweep(spec, True)  # keywords only
+
+
+def test_a_dict_spec_goes_through_the_spec_parser():
+    with pytest.raises(InputError, match="^output: .*sweep table"):
+        hpcontact.run_sweep(SPEC)
+    with pytest.raises(InputError, match="numerics.toll.*did you mean tol"):
+        hpcontact.run_sweep({**SPEC, "numerics": {"toll": 1e-8}}, output="x.nc")
+    with pytest.raises(InputError, match="scene.shape"):
+        hpcontact.run_sweep({**SPEC, "scene": {"shape": None}}, output="x.nc")
+
+
+def test_toml_text_round_trips():
+    spec = {
+        "sweep": {"title": 'quote " backslash \\ tab \t ünïcode 😀', "output": "r/x.nc", "progress_interval": 1e-3},
+        "scene": {"quantities": ("tangential", "normal"), "precondition": np.bool_(False), "G": np.float64(2.5)},
+        "numerics": {"n": np.int64(64), "tol": 1e-10},
+        "axes": {
+            "shape": ["ellipse", {"label": "hexagon", "shape": "polygon", "sides": 6}],
+            "aspect": {"logspace": [0, -8, 5]},
+            "nu": np.array([0.0, 0.25]),
+            "weird key": [float("inf"), -float("inf")],
+        },
+    }
+    parsed = tomllib.loads(api.toml_text(spec))
+    assert parsed["sweep"] == spec["sweep"] and parsed["numerics"] == {"n": 64, "tol": 1e-10}
+    assert parsed["scene"] == {"quantities": ["tangential", "normal"], "precondition": False, "G": 2.5}
+    assert parsed["axes"]["shape"] == spec["axes"]["shape"] and parsed["axes"]["aspect"] == {"logspace": [0, -8, 5]}
+    assert parsed["axes"]["nu"] == [0.0, 0.25] and parsed["axes"]["weird key"] == [float("inf"), -float("inf")]
