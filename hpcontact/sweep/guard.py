@@ -34,7 +34,7 @@ from pathlib import Path
 from typing import Any
 
 from hpcontact.errors import InputError
-from hpcontact.sweep.journal import JOB_VARIABLES, batch_job, journal_files, read_file
+from hpcontact.sweep.journal import JOB_VARIABLES, batch_job, journal_files, read_file, sync_folder
 
 __all__ = ["JOB_VARIABLES", "LOCK_NAME", "Refused", "RunLock", "batch_job", "usable_folder", "usable_output"]
 
@@ -87,20 +87,6 @@ def usable_output(path: Path) -> None:
         raise Refused(
             f"the output {path} is {what}, not a file: name another output ([sweep].output or --output) or move it away"
         )
-
-
-def _sync_folder(folder: Path) -> None:
-    """Make the names in ``folder`` durable (best effort: some file systems refuse it)."""
-    try:
-        fd = os.open(folder, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        os.fsync(fd)
-    except OSError:
-        pass
-    finally:
-        os.close(fd)
 
 
 def _read(path: Path) -> bytes | None:
@@ -266,7 +252,7 @@ class RunLock:
             return self._create_in_place()
         finally:
             tmp.unlink(missing_ok=True)
-        _sync_folder(self.path.parent)
+        sync_folder(self.path.parent)
         return True
 
     def _create_in_place(self) -> bool:
@@ -279,7 +265,7 @@ class RunLock:
             os.fsync(fd)
         finally:
             os.close(fd)
-        _sync_folder(self.path.parent)
+        sync_folder(self.path.parent)
         return True
 
     def _take_over(self, judged: bytes | None) -> bool:

@@ -139,6 +139,21 @@ def scan_lines(data: bytes) -> tuple[list[dict[str, Any]], int]:
     return events, dropped
 
 
+def sync_folder(folder: Path) -> None:
+    """Make the names in ``folder`` durable: fsync of the folder (best effort: some file systems
+    refuse it). Journals, the run lock and the data set use it after creating or renaming a file."""
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
 class Journal:
     """The append-only journal of one rank in one run: a new file, created with the first event
     (a rank with nothing to do leaves none); see the module docstring. Write errors (a full
@@ -176,17 +191,8 @@ class Journal:
             view = view[written:]
 
     def _sync_folder(self) -> None:
-        """Make the new file's name durable (best effort: some file systems refuse it)."""
-        try:
-            fd = os.open(self.path.parent, os.O_RDONLY)
-        except OSError:
-            return
-        try:
-            os.fsync(fd)
-        except OSError:
-            pass
-        finally:
-            os.close(fd)
+        """Make the new file's name durable."""
+        sync_folder(self.path.parent)
 
     def started(self, key: str) -> None:
         """Record that task ``key`` is about to run (not synced; see the module docstring)."""

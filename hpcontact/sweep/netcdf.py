@@ -44,6 +44,7 @@ import pandas as pd
 import xarray as xr
 
 from hpcontact.sweep import faults
+from hpcontact.sweep.journal import sync_folder
 
 COUNTS = frozenset({"iterations", "nx", "ny", "contact_cells", "sides", "n", "n_across", "steps", "seed", "threads"})
 INT_FILL = -2147483647  # NC_FILL_INT, netCDF's default fill of int32
@@ -85,27 +86,18 @@ def write(ds: xr.Dataset, path: Path) -> Path:
             raise _write_error(str(exc), path, stored.nbytes) from exc
         except OSError as exc:  # named after the output, not the temporary file
             raise _write_error(exc.strerror or str(exc), path, stored.nbytes, exc.errno) from exc
-        _sync(path.parent, folder=True)
+        sync_folder(path.parent)
     finally:
         if tmp.exists():
             tmp.unlink()
     return path
 
 
-def _sync(path: Path, folder: bool = False) -> None:
-    """Push the file ``path`` to the disk; with ``folder``, the names in the folder ``path``
-    (best effort: some file systems refuse it)."""
-    try:
-        fd = os.open(path, os.O_RDONLY)
-    except OSError:
-        if folder:
-            return
-        raise
+def _sync(path: Path) -> None:
+    """Push the file ``path`` to the disk."""
+    fd = os.open(path, os.O_RDONLY)
     try:
         os.fsync(fd)
-    except OSError:
-        if not folder:
-            raise
     finally:
         os.close(fd)
 
