@@ -19,7 +19,7 @@ import pytest
 from hpcontact.numerics.blas import limited_blas
 
 #: Skip reasons of the launcher split (tests/mpi): each test runs in the other invocation.
-LAUNCHER_SPLIT = ("needs 2 ranks", "starts its own mpiexec")
+LAUNCHER_SPLIT = ("needs 2 ranks", "run pytest without a launcher")
 
 
 @pytest.fixture(autouse=True)
