@@ -33,6 +33,11 @@ import platform
 import re
 from pathlib import Path
 
+import freshness
+
+if __name__ == "__main__":
+    freshness.exit_if_fresh(__file__)  # before the imports that take seconds: an up-to-date run ends here
+
 import numpy as np
 import xarray as xr
 from common import arguments, colours, open_dataset, panels, save
@@ -396,19 +401,21 @@ def main() -> None:
             )
         ],
     )
-    ds = open_dataset(args.dataset)
-    cases = gather(ds)
-    notes = add_errors(cases)
-    extrapolated = load_extrapolated(args.extrapolated)
-    figure_error_vs_time(cases, extrapolated, args.outdir)
-    figure_error_vs_n(cases, args.outdir)
-    figure_thin_grids(cases, args.outdir)
-    figure_error_vs_tol(cases, args.outdir)
-    text = table(cases, notes, extrapolated, ds)
-    path = args.outdir / "accuracy_cost_table.md"
-    path.write_text(text, encoding="utf-8")
-    print(f"wrote {path}\n")
-    print(text)
+    with freshness.stamp(__file__, args.outdir, [args.dataset, args.extrapolated]):
+        ds = open_dataset(args.dataset)
+        cases = gather(ds)
+        notes = add_errors(cases)
+        extrapolated = load_extrapolated(args.extrapolated)
+        figure_error_vs_time(cases, extrapolated, args.outdir)
+        figure_error_vs_n(cases, args.outdir)
+        figure_thin_grids(cases, args.outdir)
+        figure_error_vs_tol(cases, args.outdir)
+        text = table(cases, notes, extrapolated, ds)
+        path = args.outdir / "accuracy_cost_table.md"
+        path.write_text(text, encoding="utf-8")
+        freshness.wrote(path)
+        print(f"wrote {path}\n")
+        print(text)
 
 
 if __name__ == "__main__":

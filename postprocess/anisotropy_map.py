@@ -12,6 +12,11 @@ writes those instead of PNGs.
 
 from __future__ import annotations
 
+import freshness
+
+if __name__ == "__main__":
+    freshness.exit_if_fresh(__file__)  # before the imports that take seconds: an up-to-date run ends here
+
 import matplotlib.pyplot as plt
 import numpy as np
 from common import (
@@ -99,17 +104,18 @@ def maps(ds, names, outdir) -> None:
 
 def main() -> None:
     args = arguments(__doc__.splitlines()[0], [("--shapes", {"nargs": "+", "help": "shapes to plot (default: all)"})])
-    ds = open_dataset(args.dataset)
-    if RATIO not in ds or "aspect" not in ds[RATIO].dims:
-        raise SystemExit(f"{args.dataset}: needs {RATIO} with an aspect axis (a tangential sweep over b/a)")
-    names = [s for s in (args.shapes or shapes(ds)) if depends_on_aspect(ds, s)]
-    flat = [s for s in (args.shapes or shapes(ds)) if s not in names]
-    if flat:
-        print(f"independent of b/a, not plotted: {', '.join(flat)}")
-    if not names:
-        raise SystemExit(f"{args.dataset}: no shape's K_a/K_b depends on b/a")
-    curves(ds, names, args.outdir)
-    maps(ds, names, args.outdir)
+    with freshness.stamp(__file__, args.outdir, [args.dataset]):
+        ds = open_dataset(args.dataset)
+        if RATIO not in ds or "aspect" not in ds[RATIO].dims:
+            raise SystemExit(f"{args.dataset}: needs {RATIO} with an aspect axis (a tangential sweep over b/a)")
+        names = [s for s in (args.shapes or shapes(ds)) if depends_on_aspect(ds, s)]
+        flat = [s for s in (args.shapes or shapes(ds)) if s not in names]
+        if flat:
+            print(f"independent of b/a, not plotted: {', '.join(flat)}")
+        if not names:
+            raise SystemExit(f"{args.dataset}: no shape's K_a/K_b depends on b/a")
+        curves(ds, names, args.outdir)
+        maps(ds, names, args.outdir)
 
 
 if __name__ == "__main__":

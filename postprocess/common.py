@@ -2,12 +2,17 @@
 
 The scripts read a sweep data set (docs/design.md §4.2) through ``hpcontact.open_dataset`` (the
 labelled hypercube, K_nn along the angle) and write figures; run them as
-``python postprocess/<script>.py DATASET OUTDIR [--format png|pdf|svg] [options]``.
+``python postprocess/<script>.py DATASET OUTDIR [--format png|pdf|svg] [--force] [options]``.
 
 Every figure uses matplotlib's constrained layout, and ``save`` wraps a title wider than its
 figure (or its axes) onto more lines, so no title is cut. Contour maps of a coarse grid mark
 the grid points they interpolate between (``mark_points``); anisotropy axes carry a tick at
 A = 1, the isotropic body (``anisotropy_ticks``).
+
+``save`` reports every file to ``freshness`` (standard library only), which stamps the output
+folder when a script has drawn everything; a script run again with nothing changed stops at
+``freshness.exit_if_fresh``, before this module's imports, and ``--force`` (``arguments``)
+draws anyway.
 """
 
 from __future__ import annotations
@@ -17,6 +22,7 @@ import textwrap
 from collections.abc import Iterable
 from pathlib import Path
 
+import freshness
 import matplotlib
 
 matplotlib.use("Agg")
@@ -45,11 +51,13 @@ def use_format(name: str) -> None:
 
 
 def arguments(description: str, extra: Iterable[tuple[str, dict]] = ()) -> argparse.Namespace:
-    """``dataset``, ``outdir`` and ``--format`` plus the script's own options."""
+    """``dataset``, ``outdir``, ``--format`` and ``--force`` (``freshness``) plus the script's own
+    options."""
     parser = argparse.ArgumentParser(description=description)
     parser.add_argument("dataset", type=Path, help="sweep data set (netCDF) written by hpcontact run")
     parser.add_argument("outdir", type=Path, help="folder for the figures (created if missing)")
     add_format(parser)
+    freshness.add_force(parser)
     for flag, options in extra:
         parser.add_argument(flag, **options)
     args = parser.parse_args()
@@ -145,11 +153,12 @@ def panels(count: int, polar: bool = False, size: float = 3.6, columns: int = 3)
 def save(fig: plt.Figure, outdir: Path, name: str, dpi: int = DPI) -> Path:
     """Write ``fig`` as ``outdir/name`` in the chosen format (``use_format``: the name's suffix
     becomes .png, .pdf or .svg; PNGs at ``dpi``), its titles fitted (``fit_titles``), and close
-    it."""
+    it; the file is reported to ``freshness.wrote`` for the output folder's stamp."""
     path = outdir / Path(name).with_suffix("." + plt.rcParams["savefig.format"])
     fit_titles(fig)
     fig.savefig(path, dpi=dpi)
     plt.close(fig)
+    freshness.wrote(path)
     print(f"wrote {path}")
     return path
 

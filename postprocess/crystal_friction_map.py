@@ -27,6 +27,11 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+import freshness
+
+if __name__ == "__main__":
+    freshness.exit_if_fresh(__file__)  # before the imports that take seconds: an up-to-date run ends here
+
 ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
@@ -64,51 +69,54 @@ def isotropic_reference(ds, q: np.ndarray) -> np.ndarray:
 
 def main() -> None:
     args = arguments(__doc__.splitlines()[0])
-    ds = open_dataset(args.dataset).transpose("material", "orientation", "q_ratio")
-    ratio = principal_ratio(ds)
-    materials = [str(m) for m in ds["material"].values]
-    psi = ds["orientation"].values
-    q = ds["q_ratio"].values
-    reference = isotropic_reference(ds, q)
-    fig, axes = plt.subplots(1, len(materials), figsize=(4.2 * len(materials), 3.8), sharey=True, layout="constrained")
-    for ax, name, r in zip(np.atleast_1d(axes), materials, ratio):
-        for j, qj in enumerate(q):
-            ax.plot(psi, r[:, j], "o-", ms=3, color=f"C{j}", label=f"Q/(mu P) = {qj:g}")
-            ax.axhline(reference[j], color=f"C{j}", lw=0.8, ls="--")
-        ax.axvline(35.26, color="k", lw=0.5, ls=":")
-        ax.set_title(name.replace("crystal:", "") + " sphere, P = 100 N, mu = 0.3")
-        ax.set_xlabel("ψ [deg]  ([110] → [111] → [001])")
-    np.atleast_1d(axes)[0].set_ylabel("k_min / k_max (consistent tangent)")
-    np.atleast_1d(axes)[0].legend(fontsize=7)
-    save(fig, args.outdir, "kmin_kmax.png", dpi=110)
+    with freshness.stamp(__file__, args.outdir, [args.dataset]):
+        ds = open_dataset(args.dataset).transpose("material", "orientation", "q_ratio")
+        ratio = principal_ratio(ds)
+        materials = [str(m) for m in ds["material"].values]
+        psi = ds["orientation"].values
+        q = ds["q_ratio"].values
+        reference = isotropic_reference(ds, q)
+        fig, axes = plt.subplots(
+            1, len(materials), figsize=(4.2 * len(materials), 3.8), sharey=True, layout="constrained"
+        )
+        for ax, name, r in zip(np.atleast_1d(axes), materials, ratio):
+            for j, qj in enumerate(q):
+                ax.plot(psi, r[:, j], "o-", ms=3, color=f"C{j}", label=f"Q/(mu P) = {qj:g}")
+                ax.axhline(reference[j], color=f"C{j}", lw=0.8, ls="--")
+            ax.axvline(35.26, color="k", lw=0.5, ls=":")
+            ax.set_title(name.replace("crystal:", "") + " sphere, P = 100 N, mu = 0.3")
+            ax.set_xlabel("ψ [deg]  ([110] → [111] → [001])")
+        np.atleast_1d(axes)[0].set_ylabel("k_min / k_max (consistent tangent)")
+        np.atleast_1d(axes)[0].legend(fontsize=7)
+        save(fig, args.outdir, "kmin_kmax.png", dpi=110)
 
-    kt = ds["tangential_stiffness"].values
-    fig, ax = plt.subplots(figsize=(5.5, 4), layout="constrained")
-    for i, name in enumerate(materials):
-        for k in range(len(psi)):
-            ax.plot(
-                q,
-                kt[i, k] / kt[i, k, 0],
-                "-",
-                color=f"C{i}",
-                lw=0.8,
-                alpha=0.7,
-                label=name.replace("crystal:", "") if k == 0 else None,
-            )
-    qs = np.linspace(0.0, q.max(), 50)
-    ax.plot(qs, (1.0 - qs) ** (1.0 / 3.0), "k--", label="Mindlin–Deresiewicz (isotropic)")
-    ax.set_xlabel("Q / (mu P)")
-    ax.set_ylabel("k_t / k_t(0) along the load")
-    ax.legend(fontsize=8)
-    save(fig, args.outdir, "kt_ratio.png", dpi=110)
+        kt = ds["tangential_stiffness"].values
+        fig, ax = plt.subplots(figsize=(5.5, 4), layout="constrained")
+        for i, name in enumerate(materials):
+            for k in range(len(psi)):
+                ax.plot(
+                    q,
+                    kt[i, k] / kt[i, k, 0],
+                    "-",
+                    color=f"C{i}",
+                    lw=0.8,
+                    alpha=0.7,
+                    label=name.replace("crystal:", "") if k == 0 else None,
+                )
+        qs = np.linspace(0.0, q.max(), 50)
+        ax.plot(qs, (1.0 - qs) ** (1.0 / 3.0), "k--", label="Mindlin–Deresiewicz (isotropic)")
+        ax.set_xlabel("Q / (mu P)")
+        ax.set_ylabel("k_t / k_t(0) along the load")
+        ax.legend(fontsize=8)
+        save(fig, args.outdir, "kt_ratio.png", dpi=110)
 
-    print("isotropic reference k_min/k_max: " + "  ".join(f"{r:.4f}" for r in reference))
-    for i, name in enumerate(materials):
-        print(f"{name}: k_min/k_max")
-        for k, p in enumerate(psi):
-            print(f"  psi = {p:6.2f}: " + "  ".join(f"{r:.4f}" for r in ratio[i, k]))
-    off = ds["stick_centroid_x"].values
-    print(f"largest stick-centroid offset along the load: {np.nanmax(np.abs(off)):.3e} m")
+        print("isotropic reference k_min/k_max: " + "  ".join(f"{r:.4f}" for r in reference))
+        for i, name in enumerate(materials):
+            print(f"{name}: k_min/k_max")
+            for k, p in enumerate(psi):
+                print(f"  psi = {p:6.2f}: " + "  ".join(f"{r:.4f}" for r in ratio[i, k]))
+        off = ds["stick_centroid_x"].values
+        print(f"largest stick-centroid offset along the load: {np.nanmax(np.abs(off)):.3e} m")
 
 
 if __name__ == "__main__":

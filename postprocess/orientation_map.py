@@ -28,6 +28,11 @@ from __future__ import annotations
 import functools
 import math
 
+import freshness
+
+if __name__ == "__main__":
+    freshness.exit_if_fresh(__file__)  # before the imports that take seconds: an up-to-date run ends here
+
 import numpy as np
 from common import (
     anisotropy_ticks,
@@ -239,21 +244,24 @@ def main() -> None:
             ("--shape", {"help": "shape label of the tangential map (default: the first)"}),
         ],
     )
-    ds = open_dataset(args.dataset)
-    missing = [a for a in ("anisotropy", "orientation") if a not in ds.dims]
-    if missing:
-        raise SystemExit(f"{args.dataset}: needs the axes anisotropy and orientation (missing: {', '.join(missing)})")
-    done = False
-    if {"load", "ellipse_b_over_a"} <= set(ds.data_vars):
-        sphere_curves(ds, args.outdir, args.fine)
-        done = True
-    if {"K_min", "K_max"} <= set(ds.data_vars):
-        tangential_map(ds, args.outdir, args.nu, args.shape)
-        done = True
-    if not done:
-        raise SystemExit(
-            f"{args.dataset}: neither an indentation sweep (load, ellipse_b_over_a) nor a tangential one (K_min, K_max)"
-        )
+    with freshness.stamp(__file__, args.outdir, [args.dataset]):
+        ds = open_dataset(args.dataset)
+        missing = [a for a in ("anisotropy", "orientation") if a not in ds.dims]
+        if missing:
+            raise SystemExit(
+                f"{args.dataset}: needs the axes anisotropy and orientation (missing: {', '.join(missing)})"
+            )
+        done = False
+        if {"load", "ellipse_b_over_a"} <= set(ds.data_vars):
+            sphere_curves(ds, args.outdir, args.fine)
+            done = True
+        if {"K_min", "K_max"} <= set(ds.data_vars):
+            tangential_map(ds, args.outdir, args.nu, args.shape)
+            done = True
+        if not done:
+            raise SystemExit(
+                f"{args.dataset}: neither an indentation sweep (load, ellipse_b_over_a) nor a tangential one (K_min, K_max)"
+            )
 
 
 if __name__ == "__main__":

@@ -11,6 +11,11 @@ solved K_zz (1 for a circle), else K_nn in units of G·a. Shapes with a b/a axis
 
 from __future__ import annotations
 
+import freshness
+
+if __name__ == "__main__":
+    freshness.exit_if_fresh(__file__)  # before the imports that take seconds: an up-to-date run ends here
+
 import numpy as np
 from common import arguments, by_shape, colours, label, open_dataset, panels, save, scalar_notes, select_rest, shapes
 from matplotlib.ticker import MaxNLocator
@@ -91,11 +96,12 @@ def main() -> None:
             ("--shapes", {"nargs": "+", "help": "shapes to plot (default: all)"}),
         ],
     )
-    ds = open_dataset(args.dataset)
-    da = stiffness(ds)
-    names = args.shapes or shapes(ds)
-    polar(ds, da, names, args.aspect, args.outdir)
-    cartesian(ds, da, names, args.aspect, args.outdir)
+    with freshness.stamp(__file__, args.outdir, [args.dataset]):
+        ds = open_dataset(args.dataset)
+        da = stiffness(ds)
+        names = args.shapes or shapes(ds)
+        polar(ds, da, names, args.aspect, args.outdir)
+        cartesian(ds, da, names, args.aspect, args.outdir)
 
 
 if __name__ == "__main__":

@@ -41,6 +41,11 @@ import math
 import sys
 from pathlib import Path
 
+import freshness
+
+if __name__ == "__main__":
+    freshness.exit_if_fresh(__file__)  # before the imports that take seconds: an up-to-date run ends here
+
 ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
@@ -374,11 +379,12 @@ def stick_shift(ds, outdir: Path, bands: dict[str, tuple[float, float]]) -> None
 
 def main() -> None:
     args = arguments(__doc__.splitlines()[0])
-    ds = open_dataset(args.dataset)
-    line_contact(args.outdir)
-    normal_load(args.outdir)
-    tangential(ds, args.outdir)
-    stick_shift(ds, args.outdir, tractions(ds, args.outdir))
+    with freshness.stamp(__file__, args.outdir, [args.dataset]):
+        ds = open_dataset(args.dataset)
+        line_contact(args.outdir)
+        normal_load(args.outdir)
+        tangential(ds, args.outdir)
+        stick_shift(ds, args.outdir, tractions(ds, args.outdir))
 
 
 if __name__ == "__main__":

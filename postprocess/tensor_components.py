@@ -18,6 +18,11 @@ One figure ``tensor_components_<shape>.png`` per shape; K in units of G·a.
 
 from __future__ import annotations
 
+import freshness
+
+if __name__ == "__main__":
+    freshness.exit_if_fresh(__file__)  # before the imports that take seconds: an up-to-date run ends here
+
 import numpy as np
 from common import arguments, by_shape, label, open_dataset, panels, save, scalar_notes, select_rest, shapes
 
@@ -88,14 +93,15 @@ def main() -> None:
             ("--shapes", {"nargs": "+", "help": "shapes to plot (default: all)"}),
         ],
     )
-    ds = open_dataset(args.dataset)
-    if not set(COMPONENTS) <= set(ds.data_vars) or "angle" not in ds.dims:
-        raise SystemExit(f"{args.dataset}: needs K_xx, K_xy, K_yx, K_yy and an angle axis")
-    choose = {"aspect": args.aspect}
-    if "nu" in ds.dims:
-        choose["nu"] = args.nu if args.nu is not None else float(ds["nu"].max())
-    for shape in args.shapes or shapes(ds):
-        figure(ds, shape, choose, args.outdir)
+    with freshness.stamp(__file__, args.outdir, [args.dataset]):
+        ds = open_dataset(args.dataset)
+        if not set(COMPONENTS) <= set(ds.data_vars) or "angle" not in ds.dims:
+            raise SystemExit(f"{args.dataset}: needs K_xx, K_xy, K_yx, K_yy and an angle axis")
+        choose = {"aspect": args.aspect}
+        if "nu" in ds.dims:
+            choose["nu"] = args.nu if args.nu is not None else float(ds["nu"].max())
+        for shape in args.shapes or shapes(ds):
+            figure(ds, shape, choose, args.outdir)
 
 
 if __name__ == "__main__":

@@ -6,8 +6,12 @@ K_xy = K_yx = 0 for unturned shapes, normalized_xx = 0.5)."""
 
 from __future__ import annotations
 
+import ast
 import io
+import os
 import runpy
+import shutil
+import subprocess
 import sys
 from pathlib import Path
 
@@ -168,8 +172,8 @@ def test_format_writes_pdf_and_svg(saved, dataset, tmp_path, fmt, magic):
     figures = saved("polar.py", str(dataset), "--format", fmt)
     assert set(figures) == {f"polar.{fmt}", f"knn_vs_angle.{fmt}"}
     written = sorted(p.name for p in (tmp_path / "fig").iterdir())
-    assert written == [f"knn_vs_angle.{fmt}", f"polar.{fmt}"]  # no PNG beside them
-    for name in written:
+    assert written == [".polar.stamp.json", f"knn_vs_angle.{fmt}", f"polar.{fmt}"]  # no PNG beside them
+    for name in written[1:]:
         head = (tmp_path / "fig" / name).read_bytes()[:400]
         assert head.startswith(magic) if fmt == "pdf" else magic in head, name
     # the next run without --format writes PNGs again (the format is not left over)
@@ -275,3 +279,158 @@ def test_the_orientation_map_has_a_tick_at_A_1_and_marks_the_points(saved, tmp_p
         (dots,) = [line for line in ax.get_lines() if line.get_marker() == "o"]
         assert len(dots.get_xdata()) == 8 * 3  # every (ψ, A) point of the sweep
         assert set(np.round(dots.get_ydata(), 12)) == {0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0}
+
+
+# The up-to-date check (postprocess/freshness.py): a script run again with nothing changed prints
+# one line and draws nothing; a changed data set, a missing figure, --force or other arguments
+# draw again; a run that fails leaves no stamp.
+
+POLAR = {"polar.png", "knn_vs_angle.png"}
+HEAVY = {"numpy", "matplotlib", "xarray", "scipy", "hpcontact", "common", "postprocess"}
+
+
+@pytest.fixture
+def data(dataset, tmp_path) -> Path:
+    """A copy of the data set (same bytes and mtime) that a test may change."""
+    copy = tmp_path / "data.nc"
+    shutil.copy2(dataset, copy)
+    return copy
+
+
+def rerun(saved, script: str, *args: str) -> dict[str, object] | None:
+    """Run a script as ``saved`` does; None when it stopped as up to date (exit 0, nothing drawn)."""
+    try:
+        return saved(script, *args)
+    except SystemExit as stop:
+        assert stop.code in (0, None), stop.code
+        return None
+
+
+def mtimes(folder: Path) -> dict[str, int]:
+    return {p.name: p.stat().st_mtime_ns for p in folder.iterdir()}
+
+
+def test_a_second_run_is_up_to_date_without_the_heavy_imports(saved, data, tmp_path):
+    assert set(saved("polar.py", str(data))) == POLAR
+    figures = tmp_path / "fig"
+    before = mtimes(figures)
+    script = ROOT / "postprocess" / "polar.py"
+    done = subprocess.run(
+        [sys.executable, "-X", "importtime", str(script), str(data), str(figures)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines() == [f"{script}: figures in {figures} up to date with {data} (--force redraws)"]
+    imported = {
+        line.rsplit("|", 1)[1].strip().split(".")[0]
+        for line in done.stderr.splitlines()
+        if line.startswith("import time:")
+    }
+    assert {"freshness", "json", "hashlib"} <= imported  # the listing is read right
+    assert not imported & HEAVY, imported & HEAVY
+    assert mtimes(figures) == before  # nothing rewritten, the stamp included
+
+
+def touch(data: Path, figures: Path) -> None:
+    """A new mtime, the same bytes."""
+    info = data.stat()
+    os.utime(data, ns=(info.st_atime_ns, info.st_mtime_ns + 1_000_000_000))
+
+
+def replace(data: Path, figures: Path) -> None:
+    """An atomic rewrite with the same bytes, size and mtime (as a sweep writes its data set): a new inode."""
+    shutil.copy2(data, data.with_name("new.nc"))
+    os.replace(data.with_name("new.nc"), data)
+
+
+def delete_a_figure(data: Path, figures: Path) -> None:
+    (figures / "polar.png").unlink()
+
+
+@pytest.mark.parametrize("change", [touch, replace, delete_a_figure])
+def test_a_changed_data_set_or_a_missing_figure_redraws(saved, data, tmp_path, capsys, change):
+    assert set(saved("polar.py", str(data))) == POLAR
+    assert rerun(saved, "polar.py", str(data)) is None
+    assert "up to date" in capsys.readouterr().out
+    change(data, tmp_path / "fig")
+    assert set(rerun(saved, "polar.py", str(data)) or ()) == POLAR
+    assert rerun(saved, "polar.py", str(data)) is None  # stamped again
+
+
+def test_force_redraws_and_is_not_remembered(saved, data, tmp_path):
+    assert set(saved("polar.py", str(data))) == POLAR
+    before = mtimes(tmp_path / "fig")
+    assert set(rerun(saved, "polar.py", str(data), "--force") or ()) == POLAR
+    after = mtimes(tmp_path / "fig")
+    assert all(after[name] > before[name] for name in POLAR)
+    assert rerun(saved, "polar.py", str(data)) is None  # the run without --force finds the forced run's figures
+
+
+def test_another_format_draws_that_format(saved, data, tmp_path):
+    assert set(saved("polar.py", str(data))) == POLAR
+    assert set(rerun(saved, "polar.py", str(data), "--format", "svg") or ()) == {"polar.svg", "knn_vs_angle.svg"}
+    assert rerun(saved, "polar.py", str(data), "--format", "svg") is None
+    assert set(rerun(saved, "polar.py", str(data)) or ()) == POLAR  # one stamp per script: the last arguments
+
+
+def test_a_failed_run_leaves_no_stamp(saved, data, tmp_path):
+    assert set(saved("polar.py", str(data))) == POLAR
+    stamp = tmp_path / "fig" / ".polar.stamp.json"
+    assert stamp.is_file()
+    data.write_bytes(b"not a netCDF file")
+    with pytest.raises(Exception):  # noqa: B017 (whatever the reader raises; run as a script: exit status 1)
+        saved("polar.py", str(data))
+    assert sorted(p.name for p in (tmp_path / "fig").iterdir()) == sorted(POLAR)  # no stamp, no temporary file
+
+
+def test_an_interrupted_run_leaves_no_stamp_and_the_next_run_draws(saved, data, tmp_path, monkeypatch):
+    import common
+
+    keep = common.save
+    written = []
+
+    def interrupted(fig, outdir, name, **options):
+        if written:
+            raise KeyboardInterrupt
+        written.append(keep(fig, outdir, name, **options))
+        return written[-1]
+
+    monkeypatch.setattr(common, "save", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        saved("polar.py", str(data))
+    assert [p.name for p in written] == ["polar.png"]
+    assert sorted(p.name for p in (tmp_path / "fig").iterdir()) == ["polar.png"]  # the first figure, no stamp
+    monkeypatch.setattr(common, "save", keep)
+    assert set(rerun(saved, "polar.py", str(data)) or ()) == POLAR
+
+
+def stamped_scripts() -> list[Path]:
+    return sorted(p for p in (ROOT / "postprocess").glob("*.py") if "freshness.stamp(" in p.read_text(encoding="utf-8"))
+
+
+def test_the_readme_scripts_are_stamped():
+    """The four scripts of the README's first command (a second run of it must take seconds)."""
+    names = {p.name for p in stamped_scripts()}
+    assert {"anisotropy_map.py", "polar.py", "tensor_components.py", "orientation_map.py"} <= names
+
+
+@pytest.mark.parametrize("script", stamped_scripts(), ids=lambda p: p.name)
+def test_every_stamped_script_checks_before_its_heavy_imports(script):
+    """The check is worth something only before the imports that take seconds: it comes first
+    among the module's statements that import numpy, matplotlib, xarray, scipy, hpcontact or common."""
+    body = ast.parse(script.read_text(encoding="utf-8")).body
+    heavy = [
+        i
+        for i, node in enumerate(body)
+        if isinstance(node, ast.Import | ast.ImportFrom)
+        and {(alias.name if isinstance(node, ast.Import) else node.module or "").split(".")[0] for alias in node.names}
+        & HEAVY
+    ]
+    check = [
+        i
+        for i, node in enumerate(body)
+        if isinstance(node, ast.If) and "freshness.exit_if_fresh(__file__)" in ast.unparse(node)
+    ]
+    assert heavy and check and check[0] < heavy[0]
