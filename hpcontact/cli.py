@@ -20,12 +20,11 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy
-import pyfftw
 
 from hpcontact import __version__
 from hpcontact.api import SLIP_FIELDS, solve_fields
 from hpcontact.errors import ConvergenceError, InputError
-from hpcontact.numerics.convolution import load_wisdom, save_wisdom, wisdom_path
+from hpcontact.numerics.convolution import load_wisdom, pyfftw, save_wisdom, wisdom_path
 from hpcontact.problems.kinds import SLIP, quantity_names, scene_kind
 from hpcontact.scene import DEFAULTS, SHAPES
 from hpcontact.sweep.arguments import add_run_arguments

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import fcntl
 import os
+import sys
 import threading
 import time
 import warnings
@@ -28,10 +29,35 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import pyfftw
 import scipy.fft
 
 from hpcontact.errors import InputError
+
+
+def _import_pyfftw_without_dask():
+    """``pyfftw``, imported without its optional dask interface.
+
+    ``pyfftw/interfaces/__init__.py`` (0.15) tries ``from dask.array.fft import fft_wrap`` and
+    builds ``pyfftw.interfaces.dask_fft`` when dask is installed: 1.1 s of every process's
+    start-up (measured: ``python -X importtime``, 2.4 s → 1.3 s for ``import hpcontact.cli`` on
+    the 2-core development VM, 2026-11-26), paid by every rank of every job in an environment
+    with xarray's dask extra. hpcontact uses only ``pyfftw.FFTW`` and the wisdom functions, so
+    dask is hidden (a ``None`` entry in ``sys.modules`` makes its import raise ImportError, which
+    pyfftw catches) while pyfftw imports, unless dask is already imported; ``import dask``
+    afterwards works as usual.
+    """
+    hidden = "dask" not in sys.modules
+    if hidden:
+        sys.modules["dask"] = None  # type: ignore[assignment]
+    try:
+        import pyfftw as module
+    finally:
+        if hidden:
+            del sys.modules["dask"]
+    return module
+
+
+pyfftw = _import_pyfftw_without_dask()
 
 COMPONENT_INDEX = {"x": 0, "y": 1, "z": 2}
 _SPECTRUM_CACHE: OrderedDict[tuple, np.ndarray] = OrderedDict()

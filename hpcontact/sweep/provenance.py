@@ -62,8 +62,9 @@ def git_revision() -> str | None:
 def numerics() -> dict[str, str]:
     """The libraries and machine that produce the numbers besides hpcontact itself."""
     import numpy
-    import pyfftw
     import scipy
+
+    from hpcontact.numerics.convolution import pyfftw  # imported as the engine imports it
 
     return {
         "numpy": numpy.__version__,
