@@ -7,12 +7,17 @@ The only skips allowed there split the MPI tests between the two pytest invocati
 ones that need to be 2 ranks; ``mpiexec -n 2 pytest tests/mpi`` the other way round. Any other
 skip — a checker or an optional package missing — would leave a claim unchecked in CI, so the
 session ends with a failure naming each skipped test.
+
+The suite runs on pytest-xdist workers, a test file each (``-n auto --dist loadfile`` in the
+README's command); the files of tests/mpi go first: their tests start processes and mostly wait
+for them, and the longest (test_faults.py, 2–4 min on 2 cores) would otherwise end the run alone.
 """
 
 from __future__ import annotations
 
 import os
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 
@@ -26,6 +31,12 @@ LAUNCHER_SPLIT = ("needs 2 ranks", "run pytest without a launcher")
 def _solves_with_limited_blas() -> Iterator[None]:
     with limited_blas():
         yield
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """tests/mpi first (stable otherwise): xdist hands out files in this order."""
+    mpi = Path(__file__).parent / "mpi"
+    items.sort(key=lambda item: mpi not in item.path.parents)
 
 
 def _in_ci() -> bool:

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import signal
 import subprocess
 import sys
@@ -29,11 +28,10 @@ from pathlib import Path
 
 import pytest
 import xarray as xr
+from launcher import MPIEXEC, STARTS_ITS_OWN_MPIEXEC
 
 from hpcontact.sweep.journal import OK, journal_files, read_history
-from hpcontact.sweep.schedule import launched_by_mpi
 
-MPIEXEC = shutil.which("mpiexec", path=f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}")
 SPEC = """
 [sweep]
 title = "fault recovery"
@@ -57,10 +55,7 @@ CLEARED = (
     "JOB_ID",
 )
 
-pytestmark = [
-    pytest.mark.skipif(launched_by_mpi(), reason="starts its own mpiexec; run pytest without a launcher"),
-    pytest.mark.skipif(MPIEXEC is None, reason="no mpiexec"),
-]
+pytestmark = STARTS_ITS_OWN_MPIEXEC
 
 
 def run(

@@ -27,7 +27,6 @@ import json
 import os
 import random
 import resource
-import shutil
 import signal
 import subprocess
 import sys
@@ -36,14 +35,14 @@ from pathlib import Path
 
 import pytest
 import xarray as xr
+from launcher import MPIEXEC, STARTS_ITS_OWN_MPIEXEC
 
 from hpcontact.sweep.driver import run_sweep
 from hpcontact.sweep.journal import CRASHED, OK, decode_lines, journal_files, read_history
-from hpcontact.sweep.schedule import SerialTeam, launched_by_mpi
+from hpcontact.sweep.schedule import SerialTeam
 from hpcontact.sweep.spec import parse_spec
 from hpcontact.sweep.tasks import enumerate_tasks
 
-MPIEXEC = shutil.which("mpiexec", path=f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}")
 SPEC = """
 [sweep]
 title = "faults"
@@ -63,10 +62,7 @@ GRACE_S = 2.0
 EXIT_SLACK_S = 8.0  # "within the grace period plus a few seconds" (issue 9): MPI teardown on 2 busy cores
 KILLS = 20
 
-pytestmark = [
-    pytest.mark.skipif(launched_by_mpi(), reason="starts its own mpiexec; run pytest without a launcher"),
-    pytest.mark.skipif(MPIEXEC is None, reason="no mpiexec"),
-]
+pytestmark = STARTS_ITS_OWN_MPIEXEC
 
 
 @pytest.fixture(scope="module")

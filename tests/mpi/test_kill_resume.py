@@ -7,27 +7,24 @@ from __future__ import annotations
 
 import io
 import os
-import shutil
 import signal
 import subprocess
 import sys
 import time
 from pathlib import Path
 
-import pytest
 import xarray as xr
+from launcher import MPIEXEC, ROOT, STARTS_ITS_OWN_MPIEXEC
 
 from hpcontact.problems.contact import solve
 from hpcontact.scene import Scene
 from hpcontact.sweep.driver import run_sweep
 from hpcontact.sweep.journal import read_journals
-from hpcontact.sweep.schedule import SerialTeam, launched_by_mpi
+from hpcontact.sweep.schedule import SerialTeam
 from hpcontact.sweep.spec import load_spec
 from hpcontact.sweep.tasks import enumerate_tasks
 
-ROOT = Path(__file__).resolve().parents[2]
 RUNNER = Path(__file__).with_name("sweep_runner.py")
-MPIEXEC = shutil.which("mpiexec", path=f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}")
 SPEC = """
 [sweep]
 title = "kill and resume"
@@ -44,10 +41,7 @@ nu = [0.1, 0.3, 0.5]
 angle = { linspace = [0, 180, 7] }
 """
 
-pytestmark = [
-    pytest.mark.skipif(launched_by_mpi(), reason="starts its own mpiexec; run pytest without a launcher"),
-    pytest.mark.skipif(MPIEXEC is None, reason="no mpiexec"),
-]
+pytestmark = STARTS_ITS_OWN_MPIEXEC
 
 
 def launch(spec: Path, output: Path, log: Path, *extra: str) -> subprocess.Popen:

@@ -13,12 +13,11 @@ import subprocess
 import sys
 from pathlib import Path
 
-import pytest
 import xarray as xr
-from test_kill_resume import MPIEXEC, ROOT, RUNNER
+from launcher import MPIEXEC, ROOT, STARTS_ITS_OWN_MPIEXEC
+from test_kill_resume import RUNNER
 
 from hpcontact.sweep.dataset import open_dataset
-from hpcontact.sweep.schedule import launched_by_mpi
 
 SPEC = """
 [sweep]
@@ -37,10 +36,7 @@ RANKS = (1, 2, 4, 8, 16)
 TIMINGS = ("wall_time_s",)  # the only variable that depends on the run
 RUN_ATTRIBUTES = ("created", "mpi_size", "history", "sweep_parallel_efficiency")  # besides timings (*_s)
 
-pytestmark = [
-    pytest.mark.skipif(launched_by_mpi(), reason="starts its own mpiexec; run pytest without a launcher"),
-    pytest.mark.skipif(MPIEXEC is None, reason="no mpiexec"),
-]
+pytestmark = STARTS_ITS_OWN_MPIEXEC
 
 
 def sweep(spec: Path, ranks: int, folder: Path) -> tuple[xr.Dataset, int]:

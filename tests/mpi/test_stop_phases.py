@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import io
 import os
-import shutil
 import signal
 import subprocess
 import sys
@@ -29,13 +28,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 import xarray as xr
+from launcher import MPIEXEC, STARTS_ITS_OWN_MPIEXEC
 
 from hpcontact.sweep.driver import run_sweep
 from hpcontact.sweep.journal import read_history
-from hpcontact.sweep.schedule import SerialTeam, launched_by_mpi
+from hpcontact.sweep.schedule import SerialTeam
 from hpcontact.sweep.signals import HARD_EXIT_S, HEARTBEAT_S
 
-MPIEXEC = shutil.which("mpiexec", path=f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}")
 SPEC = """
 [sweep]
 title = "stop phases"
@@ -59,10 +58,7 @@ SLACK_S = 8.0
 #: earliest HARD_EXIT_S after the phase began (signals.StopControl._poll).
 PHASE_BOUND_S = GRACE_S + HARD_EXIT_S + SLACK_S
 
-pytestmark = [
-    pytest.mark.skipif(launched_by_mpi(), reason="starts its own mpiexec; run pytest without a launcher"),
-    pytest.mark.skipif(MPIEXEC is None, reason="no mpiexec"),
-]
+pytestmark = STARTS_ITS_OWN_MPIEXEC
 
 
 @pytest.fixture(scope="module")
