@@ -37,6 +37,23 @@ MIN_RADIUS = 1e-30
 MIN_DEPTH = 1e-15
 RADIUS_RANGE = "sphere radius in [1e-30, 1e30]"
 DEPTH_RANGE = "approach d with d/radius in [1e-15, 1)"
+#: Fields whose valid values form one interval while every other field is held: ``from_params``
+#: checks a range of each (its limits are the ones above and in the checks below, nowhere else),
+#: and nothing else it does with the value fails inside that range, except at the branch values
+#: listed (A = 1: the body is isotropic, where nu = 0.5 is allowed and the crystal's limits do
+#: not apply). Where a crystal stiffness stops being positive definite (nu near -1 or 0.5 with an
+#: extreme A) the interval's ends are those of the eigenvalue test, exact up to its rounding. A
+#: sweep checks a long axis of such a field by validating its extreme and branch values, and
+#: bisecting only when one is refused (``hpcontact.sweep.spec.scene_runs``), not every value.
+INTERVAL_FIELDS: dict[str, tuple[float, ...]] = {
+    "nu": (),
+    "aspect": (),
+    "anisotropy": (1.0,),
+    "orientation": (),
+    "shape_angle": (),
+    "tol": (),
+    "n": (),
+}
 #: Fields that act only for some shapes (``hpcontact.geometry.Shape``).
 SHAPE_FIELDS: dict[str, tuple[str, ...]] = {
     "aspect": ("ellipse", "rectangle"),

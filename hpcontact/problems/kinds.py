@@ -24,6 +24,7 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 from hpcontact.problems.slip.partial_slip import validate as validate_slip
+from hpcontact.scene import INTERVAL_FIELDS
 from hpcontact.scene import validate as validate_contact
 
 CONTACT = "contact"
@@ -50,3 +51,10 @@ def scene_kind(params: Mapping[str, Any]) -> str:
 def validator(kind: str) -> Validator:
     """The check of one scene of ``kind``: raises ``InputError`` naming the bad field."""
     return validate_slip if kind == SLIP else validate_contact
+
+
+def interval_fields(kind: str) -> Mapping[str, tuple[float, ...]]:
+    """Fields whose valid values form one interval for the validator of ``kind``, with their
+    branch values (``hpcontact.scene.INTERVAL_FIELDS``; none for slip scenes, whose sweeps are
+    small and checked scene by scene)."""
+    return {} if kind == SLIP else INTERVAL_FIELDS

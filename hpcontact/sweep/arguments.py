@@ -63,6 +63,12 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--json", action="store_true", help="with --dry-run: print one JSON object")
     parser.add_argument(
+        "--list-all",
+        action="store_true",
+        help="with --dry-run: list every task (of more than 2000, a dry run lists the first and last 20 and "
+        "the number left out)",
+    )
+    parser.add_argument(
         "--mem-per-rank",
         metavar="SIZE",
         help="memory one rank may use (4G, 512M, bytes): a run refuses a spec with a task that needs "

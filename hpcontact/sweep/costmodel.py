@@ -80,6 +80,13 @@ task); at the end rank 0 alone joins the ranks' columns and writes the data set 
 per task) while the others wait. Wall time = makespan; efficiency = Σ task seconds / (R ×
 makespan).
 ``benchmarks/sweep_scale.py`` measures the overheads and replays real task costs with this model.
+
+**At scale.** ``estimate`` reads each task's cost and ``tasks.Sizing`` (kind, padded cells, array
+bytes: made once per distinct value while the tasks are enumerated) and computes seconds and
+bytes for all tasks at once (numpy, the same operations in the same order as ``task_seconds``,
+so the same numbers); the tasks are put in chunk order once (``tasks.chunk_order``) and cut for
+each number of ranks replayed (``tasks.chunk_bounds``): a dry run of 10^6 tasks estimates in
+seconds (``benchmarks/dry_run_points.py``).
 """
 
 from __future__ import annotations
@@ -113,7 +120,18 @@ from hpcontact.problems import footprint
 from hpcontact.problems.footprint import task_kind
 from hpcontact.problems.kinds import scene_kind
 from hpcontact.problems.slip.crystal_pair import GPA, pair_from_params
-from hpcontact.sweep.tasks import Task, estimated_cost, make_chunks, padded_cells, solved_grids
+from hpcontact.sweep.tasks import (
+    ChunkOrder,
+    Sizing,
+    Task,
+    chunk_bounds,
+    chunk_order,
+    estimated_cost,
+    padded_cells,
+    paused_gc,
+    sizing,
+    solved_grids,
+)
 
 KINDS = ("contact", "crystal", "crystal_indentation", "slip")
 FORMAT = 4  # version of the calibration file's layout (2: node_s, Barnett–Lothe; 3: cell_s, kernels; 4: task_s)
@@ -521,10 +539,11 @@ def start_line(tasks: Sequence[Task], ranks: int) -> str:
     calibration, why = cached_calibration()
     if calibration is None:
         return f"hpcontact: no cost estimate ({why}; hpcontact run SPEC --dry-run calibrates once, ~30 s)"
-    seconds = {t.key: calibration.task_seconds(t.params, t.cost) for t in tasks}
-    wall = replay(tasks, seconds, ranks)["makespan_s"] if tasks else 0.0
+    tasks = list(tasks)
+    seconds = task_arrays(tasks, calibration)[0]
+    wall = _replay(chunk_order(tasks), seconds, ranks, Overheads())["makespan_s"] if tasks else 0.0
     return (
-        f"hpcontact: estimated {sum(seconds.values()):.4g} core-seconds, {wall:.3g} s on {ranks} rank(s) "
+        f"hpcontact: estimated {sum(seconds.tolist()):.4g} core-seconds, {wall:.3g} s on {ranks} rank(s) "
         f"(cost model of {calibration.host}; --dry-run for each task)"
     )
 
@@ -555,32 +574,55 @@ def replay(
     the makespan lost to the tail, to claims, and to setup + gather)."""
     if ranks < 1:
         raise InputError("ranks", "an integer >= 1", ranks)
-    chunks = make_chunks(list(tasks), ranks)
+    tasks = list(tasks)
+    times = np.array([seconds[t.key] for t in tasks], dtype=np.float64)
+    return _replay(chunk_order(tasks), times, ranks, overheads)
+
+
+def _replay(chunks: ChunkOrder, seconds: np.ndarray, ranks: int, overheads: Overheads) -> dict[str, float]:
+    """``replay`` of the tasks in ``chunks`` (``tasks.chunk_order``) with ``seconds`` in task
+    order: the chunks ``make_chunks`` makes for ``ranks`` (``tasks.chunk_bounds``), each chunk's
+    work summed in its order as ``make_chunks``' tuples would be, then taken by the ranks."""
+    if ranks < 1:
+        raise InputError("ranks", "an integer >= 1", ranks)
+    starts, stops = chunk_bounds(chunks, ranks)
     per_task = overheads.driver_s + overheads.spread_gather_s
-    chunk_seconds = [sum(seconds[t.key] + per_task for t in chunk) for chunk in chunks]
-    n = len(tasks)
+    work = seconds[chunks.order] + per_task  # each task's seconds and overheads, in chunk order
+    single = stops - starts == 1
+    chunk_seconds = np.empty(len(starts), dtype=np.float64)
+    chunk_seconds[single] = work[starts[single]]
+    for k in np.flatnonzero(~single).tolist():
+        chunk_seconds[k] = sum(work[starts[k] : stops[k]].tolist())
+    n = len(seconds)
     setup = overheads.setup_s * n + overheads.spread_setup_s * n / ranks
-    free = [(setup, r) for r in range(ranks)]  # every rank starts after the setup
-    heapq.heapify(free)
-    server_free = setup
     claim_wait = 0.0
-    finish = [setup] * ranks
-    for work in chunk_seconds:
-        t, rank = heapq.heappop(free)
-        if rank == 0:
-            start = t
-        else:
-            served = max(t, server_free) + overheads.service_s
-            server_free = served
-            start = served + overheads.wake_s
-            claim_wait += start - t
-        finish[rank] = start + work
-        heapq.heappush(free, (finish[rank], rank))
-    last = max(finish)
+    if ranks == 1:  # rank 0 alone: each chunk starts when the last one ends
+        last = setup
+        for chunk in chunk_seconds.tolist():
+            last = last + chunk
+        finish = [last]
+    else:
+        free = [(setup, r) for r in range(ranks)]  # every rank starts after the setup
+        heapq.heapify(free)
+        server_free = setup
+        finish = [setup] * ranks
+        service_s, wake_s, replace_first = overheads.service_s, overheads.wake_s, heapq.heapreplace
+        for chunk in chunk_seconds.tolist():
+            t, rank = free[0]
+            if rank == 0:
+                start = t
+            else:
+                served = (t if t > server_free else server_free) + service_s  # max(t, server_free)
+                server_free = served
+                start = served + wake_s
+                claim_wait += start - t
+            end = finish[rank] = start + chunk
+            replace_first(free, (end, rank))
+        last = max(finish)
     makespan = last + overheads.gather_s * n
-    work_total = float(sum(seconds[t.key] for t in tasks))
+    work_total = float(sum(seconds.tolist()))
     return {
-        "chunks": len(chunks),
+        "chunks": len(starts),
         "makespan_s": makespan,
         "efficiency": work_total / (ranks * makespan) if makespan > 0 else 1.0,
         "tail": (last - statistics.fmean(finish)) / makespan if makespan > 0 else 0.0,
@@ -591,42 +633,100 @@ def replay(
 
 @dataclass
 class Estimate:
-    """A sweep's estimate: per task (in sweep order) seconds and bytes; totals; wall time by
-    ranks; the distinct grids (padded cells → tasks) and kernel sets; tasks over the limit."""
+    """A sweep's estimate: per task (in sweep order) seconds and bytes (float64 arrays: 16 B a
+    task, not the 64 of two lists of floats); totals; wall time by ranks; the distinct grids
+    (padded cells → tasks) and kernel sets; tasks over the limit. ``sizing_of`` gives each
+    task's position in ``sizings`` (distinct ``tasks.Sizing`` values, in first-appearance
+    order)."""
 
     tasks: list[Task]
-    seconds: list[float]
-    bytes: list[float]
+    seconds: np.ndarray
+    bytes: np.ndarray
     wall_s: dict[int, float] = field(default_factory=dict)
     efficiency: dict[int, float] = field(default_factory=dict)
+    sizing_of: np.ndarray | None = None
+    sizings: list[Sizing] = field(default_factory=list)
+    chunks: ChunkOrder | None = None  # the tasks in chunk order (``tasks.chunk_order``), when replayed
 
     @property
     def total_seconds(self) -> float:
-        return float(sum(self.seconds))
+        return float(sum(np.asarray(self.seconds, dtype=np.float64).tolist()))  # in task order, as sum() adds
 
     @property
     def peak_bytes(self) -> float:
-        return max(self.bytes, default=0.0)
+        return float(np.max(self.bytes)) if len(self.bytes) else 0.0
 
     def grids(self) -> dict[str, int]:
-        """Distinct grids: label → number of tasks."""
+        """Distinct grids: label → number of tasks (labels in first-appearance order)."""
+        if self.sizing_of is None:
+            self.sizing_of, self.sizings = _sizings(self.tasks)
         counts: dict[str, int] = {}
-        for task in self.tasks:
-            counts[grid_label(task.params)] = counts.get(grid_label(task.params), 0) + 1
+        for size, count in zip(self.sizings, np.bincount(self.sizing_of, minlength=len(self.sizings)).tolist()):
+            label = sizing_label(size)
+            counts[label] = counts.get(label, 0) + count
         return counts
 
     def kernel_sets(self) -> int:
         """Distinct kernel sets (the tasks' kernel groups)."""
+        if self.chunks is not None:
+            return len(self.chunks.groups) - 1  # where each group starts, and the end
         return len({t.group for t in self.tasks})
 
     def over(self, limit: float) -> list[int]:
         """Indices of the tasks whose memory exceeds ``limit`` bytes."""
-        return [i for i, b in enumerate(self.bytes) if b > limit]
+        return np.flatnonzero(np.asarray(self.bytes, dtype=np.float64) > limit).tolist()
 
 
 def grid_label(params: Mapping[str, Any]) -> str:
     """A grid, as the dry-run names it: the kind's FFT grid in padded cells."""
     return f"{task_kind(params)} {padded_cells(params):.0f} padded cells"
+
+
+def sizing_label(size: Sizing) -> str:
+    """``grid_label`` of a task of this ``tasks.Sizing``."""
+    return f"{size.kind} {size.cells:.0f} padded cells"
+
+
+def _sizings(tasks: Sequence[Task]) -> tuple[np.ndarray, list[Sizing]]:
+    """Each task's position in the list of distinct sizings (first-appearance order), and that
+    list; a task without one (``Task.sizing`` None) gets ``tasks.sizing`` of its parameters.
+    Tasks share a few sizing objects: they are told apart by ``id`` with numpy, then by value."""
+    objects = [t.sizing for t in tasks]
+    ids = np.fromiter(map(id, objects), dtype=np.int64, count=len(objects))
+    for i in np.flatnonzero(ids == id(None)).tolist():
+        objects[i] = sizing(tasks[i].params)
+        ids[i] = id(objects[i])
+    unique, first, inverse = np.unique(ids, return_index=True, return_inverse=True)
+    slot = np.empty(len(unique), dtype=np.intp)
+    position: dict[Sizing, int] = {}
+    for k in np.argsort(first, kind="stable").tolist():  # distinct objects in first-appearance order
+        slot[k] = position.setdefault(objects[first[k]], len(position))  # equal values share a slot
+    return slot[inverse.reshape(-1)], list(position)
+
+
+def task_arrays(
+    tasks: Sequence[Task], calibration: Calibration
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[Sizing]]:
+    """``Calibration.task_seconds`` and ``task_bytes`` of every task at once, from its cost and
+    sizing (the same operations in the same order: the same floats), with ``_sizings``' map."""
+    which, sizes = _sizings(tasks)
+    cost = np.array([t.cost for t in tasks], dtype=np.float64)
+    seconds = np.empty(len(tasks), dtype=np.float64)
+    for k, size in enumerate(sizes):  # a few distinct sizings: each a vector operation
+        rate, at = calibration.rates[size.kind], np.flatnonzero(which == k)
+        c = cost[at]
+        nodes = 0.0
+        if size.kind == "slip":
+            nodes = np.array([omega_nodes(dict(tasks[i].params)) for i in at.tolist()], dtype=np.float64)
+        seconds[at] = (
+            rate.rate_s * c
+            + rate.solve_s * (c / (size.cells * math.log2(size.cells)))
+            + rate.cell_s * size.cells
+            + rate.node_s * nodes
+            + rate.task_s
+        )
+    nbytes = calibration.base_bytes + np.array([s.array_bytes for s in sizes], dtype=np.float64)[which]
+    return seconds, nbytes, which, sizes
 
 
 def estimate(
@@ -635,13 +735,16 @@ def estimate(
     ranks: Sequence[int] = (1, 64, 1024),
     overheads: Overheads = Overheads(),
 ) -> Estimate:
-    """Seconds and bytes of every task, and the replayed wall time on each of ``ranks``."""
-    seconds = [calibration.task_seconds(t.params, t.cost) for t in tasks]
-    result = Estimate(list(tasks), seconds, [calibration.task_bytes(t.params) for t in tasks])
-    by_key = {t.key: s for t, s in zip(tasks, seconds)}
-    for r in ranks:
-        replayed = replay(tasks, by_key, r, overheads) if tasks else {"makespan_s": 0.0, "efficiency": 1.0}
-        result.wall_s[r], result.efficiency[r] = replayed["makespan_s"], replayed["efficiency"]
+    """Seconds and bytes of every task (``task_arrays``), and the replayed wall time on each of
+    ``ranks`` (the tasks put in chunk order once, ``tasks.chunk_order``)."""
+    tasks = tasks if isinstance(tasks, list) else list(tasks)
+    with paused_gc():
+        seconds, nbytes, which, sizes = task_arrays(tasks, calibration)
+        result = Estimate(tasks, seconds, nbytes, sizing_of=which, sizings=sizes)
+        chunks = result.chunks = chunk_order(tasks) if tasks else None
+        for r in ranks:
+            replayed = _replay(chunks, seconds, r, overheads) if tasks else {"makespan_s": 0.0, "efficiency": 1.0}
+            result.wall_s[r], result.efficiency[r] = replayed["makespan_s"], replayed["efficiency"]
     return result
 
 
@@ -650,15 +753,17 @@ def check_memory(tasks: Sequence[Task], limit: float, source: str) -> None:
     ``limit`` bytes; the base memory is this process's (no calibration needed). Importing what
     a run imports to measure it costs rank 0 ~1 s while every rank waits, so that is done only
     for a task within IMPORTS_BYTES of the limit."""
-    worst = max(range(len(tasks)), key=lambda i: task_array_bytes(tasks[i].params), default=None)
-    if worst is None:
+    if not tasks:
         return
-    if resident_bytes() + IMPORTS_BYTES + task_array_bytes(tasks[worst].params) <= limit:
+    which, sizes = _sizings(tasks)
+    arrays = np.array([s.array_bytes for s in sizes], dtype=np.float64)[which]  # task_array_bytes of each
+    worst = int(np.argmax(arrays))
+    if resident_bytes() + IMPORTS_BYTES + float(arrays[worst]) <= limit:
         return
     base = base_memory_bytes()
-    need = base + task_array_bytes(tasks[worst].params)
+    need = base + float(arrays[worst])
     if need > limit:
-        over = sum(1 for t in tasks if base + task_array_bytes(t.params) > limit)
+        over = int(np.count_nonzero(base + arrays > limit))
         raise InputError(
             "--mem-per-rank",
             f"at least the largest task's estimated peak memory {need / MIB:.0f} MiB (task {worst}; {over} task(s) "

@@ -695,6 +695,13 @@ def _assemble(
     return Outcome(path, len(failed))
 
 
+#: A dry run of more tasks lists the first and the last ``LISTED_EDGE`` of them and says how many it
+#: left out (``--list-all``: every task; ``--json`` always lists every task): 10^6 lines are
+#: nothing a reader reads, and printing them takes longer than the estimate.
+LISTED_TASKS = 2000
+LISTED_EDGE = 20
+
+
 def dry_run(
     spec_path: str | Path,
     output: str | Path | None = None,
@@ -703,23 +710,28 @@ def dry_run(
     as_json: bool = False,
     mem_per_rank: int | None = None,
     calibration: Any = None,
+    list_all: bool = False,
 ) -> int:
     """``hpcontact run SPEC --dry-run``: the tasks with their 0-based indices (the order
     ``HPCONTACT_FAULTS`` counts in), relative cost, estimated seconds and peak memory and
-    parameters; the distinct grids and kernel sets; the totals (core-seconds, core-hours, peak
-    memory) and the wall time on 1, 64 and 1024 ranks (``costmodel``); a warning on stderr for
-    tasks over ``mem_per_rank`` bytes (default: ``numerics.memory.default_memory_per_rank``). With
-    ``as_json``, one JSON object instead. Nothing is computed but the cost model's calibration
-    (once per host and version, ``costmodel.load_calibration``)."""
+    parameters (of more than ``LISTED_TASKS`` tasks the first and last ``LISTED_EDGE`` and the
+    number left out, unless ``list_all``); the distinct grids and kernel sets; the totals
+    (core-seconds, core-hours, peak memory) and the wall time on 1, 64 and 1024 ranks
+    (``costmodel``); a warning on stderr for tasks over ``mem_per_rank`` bytes (default:
+    ``numerics.memory.default_memory_per_rank``). With ``as_json``, one JSON object instead,
+    every task in its ``tasks_list`` (written as it goes, not built in memory). Nothing is
+    computed but the cost model's calibration (once per host and version,
+    ``costmodel.load_calibration``)."""
     stream = stream if stream is not None else sys.stdout
     spec = load_spec(spec_path, output=output, check_scenes=False)  # checked once, while enumerating:
-    tasks, _ = join_parts(spec, [enumerate_part(spec, check=True, progress=progress_lines(sys.stderr, points(spec)))])
+    progress = progress_lines(sys.stderr, points(spec))
+    tasks, _ = join_parts(spec, [enumerate_part(spec, check=True, progress=progress, lean=True)])
     limit, source = (mem_per_rank, "--mem-per-rank") if mem_per_rank is not None else default_memory_per_rank()
     if calibration is None:
         calibration = costmodel.load_calibration(stream=sys.stderr)
     est = costmodel.estimate(tasks, calibration)
     over = est.over(limit)
-    peak_task = max(range(len(tasks)), key=lambda i: est.bytes[i], default=None)
+    peak_task = int(np.argmax(est.bytes)) if tasks else None  # the first of the largest
     if over:
         shown = ", ".join(map(str, over[:SHOWN_FAILURES])) + (", ..." if len(over) > SHOWN_FAILURES else "")
         print(
@@ -728,38 +740,43 @@ def dry_run(
             file=sys.stderr,
         )
     if as_json:
-        print(
-            json.dumps(
-                {
-                    "title": spec.title,
-                    "output": str(spec.output),
-                    "tasks": len(tasks),
-                    "estimated_task_seconds": est.total_seconds,
-                    "estimated_core_hours": est.total_seconds / 3600.0,
-                    "estimated_peak_memory_bytes": est.peak_bytes,
-                    "peak_memory_task": peak_task,
-                    "wall_time_s": {str(r): w for r, w in est.wall_s.items()},
-                    "efficiency": {str(r): e for r, e in est.efficiency.items()},
-                    "grids": est.grids(),
-                    "kernel_sets": est.kernel_sets(),
-                    "mem_per_rank_bytes": limit,
-                    "mem_per_rank_source": source,
-                    "tasks_over_memory": over,
-                    "calibration": {"host": calibration.host, "version": calibration.version},
-                    "tasks_list": [
-                        {
-                            "index": i,
-                            "key": t.key,
-                            "cost": t.cost,
-                            "estimated_seconds": s,
-                            "estimated_peak_memory_bytes": b,
-                        }
-                        for i, (t, s, b) in enumerate(zip(tasks, est.seconds, est.bytes))
-                    ],
-                }
-            ),
-            file=stream,
+        head = json.dumps(
+            {
+                "title": spec.title,
+                "output": str(spec.output),
+                "tasks": len(tasks),
+                "estimated_task_seconds": est.total_seconds,
+                "estimated_core_hours": est.total_seconds / 3600.0,
+                "estimated_peak_memory_bytes": est.peak_bytes,
+                "peak_memory_task": peak_task,
+                "wall_time_s": {str(r): w for r, w in est.wall_s.items()},
+                "efficiency": {str(r): e for r, e in est.efficiency.items()},
+                "grids": est.grids(),
+                "kernel_sets": est.kernel_sets(),
+                "mem_per_rank_bytes": limit,
+                "mem_per_rank_source": source,
+                "tasks_over_memory": over,
+                "calibration": {"host": calibration.host, "version": calibration.version},
+            }
         )
+        # the object json.dumps writes with "tasks_list" last, one entry per task, written in blocks
+        stream.write(head[:-1] + ', "tasks_list": [')
+        for begin in range(0, len(tasks), 10_000):
+            stream.write(
+                ", ".join(
+                    f'{{"index": {i}, "key": {_json_text(t.key)}, "cost": {_json_number(t.cost)}, '
+                    f'"estimated_seconds": {_json_number(s)}, "estimated_peak_memory_bytes": {_json_number(b)}}}'
+                    for i, t, s, b in zip(
+                        range(begin, begin + 10_000),
+                        tasks[begin : begin + 10_000],
+                        est.seconds[begin : begin + 10_000].tolist(),
+                        est.bytes[begin : begin + 10_000].tolist(),
+                    )
+                )
+                + (", " if begin + 10_000 < len(tasks) else "")
+            )
+        stream.write("]}\n")
+        stream.flush()
         return EXIT_OK
     print(
         f"# {spec.title}: {len(tasks)} tasks -> {spec.output} (index, key, relative cost, estimated seconds, "
@@ -767,11 +784,19 @@ def dry_run(
         file=stream,
     )
     shown = json.JSONEncoder(sort_keys=True).encode  # json.dumps(..., sort_keys=True) without an encoder per line
-    for i, task in enumerate(tasks):
-        print(
-            f"{i:6d}  {task.key[:12]}  {task.cost:10.3g}  {est.seconds[i]:9.3g}  {est.bytes[i] / 2**20:7.0f}  "
-            f"{shown(dict(task.params))}",
-            file=stream,
+    listed = range(len(tasks))
+    if len(tasks) > LISTED_TASKS and not list_all:
+        listed = [*range(LISTED_EDGE), None, *range(len(tasks) - LISTED_EDGE, len(tasks))]
+    for begin in range(0, len(listed), 10_000):
+        stream.write(
+            "".join(
+                f"# {len(tasks) - 2 * LISTED_EDGE} tasks not listed ({LISTED_EDGE} ... {len(tasks) - LISTED_EDGE - 1}; "
+                f"--list-all lists every task)\n"
+                if i is None
+                else f"{i:6d}  {tasks[i].key[:12]}  {tasks[i].cost:10.3g}  {float(est.seconds[i]):9.3g}  "
+                f"{float(est.bytes[i]) / 2**20:7.0f}  {shown(dict(tasks[i].params))}\n"
+                for i in listed[begin : begin + 10_000]
+            )
         )
     counts = est.grids()  # once: a label per task
     grids = "; ".join(f"{label}: {count} tasks" for label, count in counts.items())
@@ -787,6 +812,16 @@ def dry_run(
         file=stream,
     )
     return EXIT_OK
+
+
+def _json_text(text: str) -> str:
+    """``text`` as ``json.dumps`` writes it (a task key, hex, as it is)."""
+    return f'"{text}"' if text.isalnum() and text.isascii() else json.dumps(text)
+
+
+def _json_number(value: float) -> str:
+    """``value`` as ``json.dumps`` writes it: ``repr`` of a finite number, else NaN / Infinity."""
+    return repr(value) if math.isfinite(value) else json.dumps(value)
 
 
 def _duration(seconds: float) -> str:
@@ -854,9 +889,17 @@ def run_from_arguments(
     """Run what ``add_run_arguments`` parsed (``task_function``, ``prog``: see ``run_command``)."""
     memory = (parse_memory(args.mem_per_rank), "--mem-per-rank") if args.mem_per_rank is not None else None
     if args.dry_run:
-        return dry_run(args.spec, args.output, as_json=args.json, mem_per_rank=None if memory is None else memory[0])
+        return dry_run(
+            args.spec,
+            args.output,
+            as_json=args.json,
+            mem_per_rank=None if memory is None else memory[0],
+            list_all=args.list_all,
+        )
     if args.json:
         raise InputError("--json", "only with --dry-run", True)
+    if args.list_all:
+        raise InputError("--list-all", "only with --dry-run", True)
     if args.grace is not None and not args.grace >= 0.0:
         raise InputError("--grace", "seconds >= 0", args.grace)
     if args.stall_timeout is not None and not args.stall_timeout >= 0.0:

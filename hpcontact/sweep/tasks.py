@@ -20,17 +20,26 @@ study, build their kernels once. No chunk costs more than 1/(4·ranks) of the wh
 grouping never costs more balance than it saves. A slip scene's kernels depend on the pair's
 equivalent body and the grid (n and the contact ellipse's b/a), not on the loads, the friction
 coefficient or the loading path: its tasks group by pair, radii and grid.
+
+Enumeration goes by the spec's runs (``spec.scene_runs``): the points of a long last axis of a
+number differ in that field alone, so a run's canonical JSON, kernel group and cost key are
+written around the value once, and its cost is computed once when the field does not change
+it (``COST_NEUTRAL_FIELDS``, ``COST_BRANCH_FIELDS``) or once per distinct grid when it changes
+the grid alone (``GRID_ONLY_FIELDS``); each task carries the sizes the cost model reads
+(``Sizing``), so the dry run estimates 10^6 tasks without looking at their parameters again.
 """
 
 from __future__ import annotations
 
+import contextlib
 import functools
+import gc
 import hashlib
 import json
 import math
 import time
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, replace
 from typing import Any, NamedTuple, TextIO
 
 import numpy as np
@@ -38,11 +47,20 @@ import numpy as np
 from hpcontact.accuracy import DEFAULT_ACCURACY, default_grids
 from hpcontact.geometry import file_sha256
 from hpcontact.problems import footprint
-from hpcontact.problems.footprint import iteration_factor
-from hpcontact.problems.kinds import SLIP, quantity_names, scene_kind
+from hpcontact.problems.footprint import iteration_factor, task_kind
+from hpcontact.problems.kinds import CONTACT, SLIP, quantity_names, scene_kind
 from hpcontact.problems.slip.crystal_pair import pair_from_params
 from hpcontact.scene import Scene
-from hpcontact.sweep.spec import PATH_FIELDS, Spec, Validator, canonical_json, scene_texts
+from hpcontact.sweep.spec import (
+    PATH_FIELDS,
+    Run,
+    Spec,
+    Validator,
+    canonical_json,
+    run_field,
+    scene_runs,
+    text_template,
+)
 
 # Fields that change a scene's outline or its solves but not its material or grid spacing:
 # tasks differing only in these may share kernels (when their bounding boxes match).
@@ -63,10 +81,18 @@ KERNEL_NEUTRAL_FIELDS = (
 # Fields that do not change the grids ``accuracy.default_grids`` picks (it reads the shape, the
 # quantities and whether the body is isotropic, not its constants or the solver's settings):
 # left out of ``solved_grids``' cache key, so an axis over nu builds one Scene for its grids.
-GRID_NEUTRAL_FIELDS = frozenset({"nu", "G", "tol", "threads", "precondition"})
+GRID_NEUTRAL_FIELDS = frozenset({"nu", "G", "tol", "threads", "precondition", "orientation", "miller", "azimuth"})
 # Fields that do not change a contact scene's estimated cost (it reads the grid, the solves, the
-# tolerance and whether the body is a crystal: not an isotropic body's constants).
-COST_NEUTRAL_FIELDS = frozenset({"nu", "G", "threads", "precondition"})
+# tolerance and whether the body is a crystal: not an isotropic body's constants, nor how a
+# crystal is oriented).
+COST_NEUTRAL_FIELDS = frozenset({"nu", "G", "threads", "precondition", "orientation", "miller", "azimuth"})
+# Fields that change a contact scene's cost, grid and memory only where they cross these values
+# (A = 1: an isotropic body, else a crystal): a run away from them has one cost.
+COST_BRANCH_FIELDS: Mapping[str, tuple[float, ...]] = {"anisotropy": (1.0,)}
+# Fields that change a contact scene with ``n`` (one grid) only through its contact grid
+# (``footprint.contact_grid``: the cost reads the padded cells and the grid's iteration factor):
+# a run over one of them is costed once per distinct grid.
+GRID_ONLY_FIELDS = frozenset(footprint.GRID_FIELDS) - {"quantities"}
 # Fields of a slip scene that set its loading, not its kernels (hpcontact.problems.slip.partial_slip: lengths are
 # scaled by the Hertz radius, so the grid depends on n and b/a only, the kernel on nu_eq).
 SLIP_KERNEL_NEUTRAL_FIELDS = (
@@ -117,15 +143,31 @@ SLIP_DEFAULT_STEPS = 10
 EXTRAPOLATION_WORK = 1.4
 
 
+class Sizing(NamedTuple):
+    """What the cost model reads of a task besides its cost (``sizing``): the calibration
+    ``kind`` (``footprint.task_kind``), the padded ``cells`` of the finest grid it solves
+    (``padded_cells``) and that grid's ``array_bytes`` (``footprint.array_bytes``). Few distinct
+    values in a sweep: tasks share one object per value."""
+
+    kind: str
+    cells: float
+    array_bytes: float
+
+
 class Task(NamedTuple):
     """One scene to solve: ``key`` (SHA-1 of its canonical JSON), ``params``, estimated ``cost``
-    (arbitrary units, for ordering only) and kernel ``group``. A named tuple: every rank makes
-    10^5 of them at start: a tuple is cheaper to make and to pickle than a frozen dataclass."""
+    (arbitrary units, for ordering only), kernel ``group`` and ``sizing`` (``Sizing``; None:
+    the cost model computes it from ``params``). A named tuple: every rank makes 10^5 of them at
+    start: a tuple is cheaper to make and to pickle than a frozen dataclass."""
 
     key: str
     params: Mapping[str, Any]
     cost: float
     group: str
+    sizing: Sizing | None = None
+
+
+_task = functools.partial(tuple.__new__, Task)  # Task from a 5-tuple, without NamedTuple's Python __new__
 
 
 def task_key(params: Mapping[str, Any], text: str | None = None) -> str:
@@ -135,9 +177,11 @@ def task_key(params: Mapping[str, Any], text: str | None = None) -> str:
     modification): a file replaced under the same path gives its tasks new keys, so
     ``--resume`` computes them again instead of reusing results of the old content."""
     text = canonical_json(params) if text is None else text
-    files = {name: params[name] for name in PATH_FIELDS if params.get(name) is not None}
-    if files:
-        text += "\n" + canonical_json({name: file_sha256(path, name) for name, path in files.items()})
+    for name in PATH_FIELDS:  # one field: a loop costs less than building an empty dict per task
+        if params.get(name) is not None:
+            files = {name: params[name] for name in PATH_FIELDS if params.get(name) is not None}
+            text += "\n" + canonical_json({name: file_sha256(path, name) for name, path in files.items()})
+            break
     return hashlib.sha1(text.encode("utf-8")).hexdigest()
 
 
@@ -162,11 +206,12 @@ def changed_inputs(tasks: Sequence[Task], entries: Mapping[str, Any]) -> str:
 
 @dataclass(frozen=True)
 class Part:
-    """The tasks of a range of points (``enumerate_part``): ``rows`` (key, params, cost, group)
-    of the tasks in first-appearance order within the range, and ``task_of``, each point's row.
-    Plain tuples and one string object per distinct group: cheap to send between ranks."""
+    """The tasks of a range of points (``enumerate_part``): ``rows``, the ``Task`` of each
+    distinct scene in first-appearance order within the range, and ``task_of``, each point's
+    row. Tuples, one string object per distinct group and one ``Sizing`` per distinct value:
+    cheap to send between ranks."""
 
-    rows: list[tuple[str, dict[str, Any], float, str]]
+    rows: list[Task]
     task_of: np.ndarray
 
 
@@ -199,48 +244,320 @@ def enumerate_part(
     validate: Validator | None = None,
     check: bool = False,
     progress: Callable[[int], None] | None = None,
+    lean: bool = False,
 ) -> Part:
-    """The tasks of the points ``start`` … ``stop - 1`` (``spec.scene_texts``; with ``check``
-    every distinct scene of the range validated first; ``progress`` sees the points done every
-    ``spec.PROGRESS_POINTS``): each distinct scene once, its key, estimated cost and kernel
-    group, each made once per distinct scene (points are told apart by their canonical JSON).
-    Ranges are independent: the driver gives each rank one and joins them with ``join_parts``."""
-    ignored = SLIP_KERNEL_NEUTRAL_FIELDS if spec.kind == SLIP else KERNEL_NEUTRAL_FIELDS
-    rows: list[tuple[str, dict[str, Any], float, str]] = []
-    row_of: dict[str, int] = {}
-    groups: dict[str, str] = {}
+    """The tasks of the points ``start`` … ``stop - 1`` (``spec.scene_runs``; with ``check``
+    every distinct scene of the range validated first, a long run of an interval field at its
+    extreme values; ``progress`` sees the points done every ``spec.PROGRESS_POINTS``): each
+    distinct scene once, its key, estimated cost, kernel group and sizing, each made once per
+    distinct scene (points are told apart by their canonical JSON; along a run by the value of
+    its field). Ranges are independent: the driver gives each rank one and joins them with
+    ``join_parts``. ``lean``: the parameters of a run's tasks are ``RunScene`` mappings, not
+    dicts (a dry run's 10^6 tasks in ~0.35 GB less; nothing it does needs a dict of each)."""
     stop = points(spec) if stop is None else stop
     task_of = np.empty(max(stop - start, 0), dtype=np.intp)
-    for i, (_, params, text) in enumerate(scene_texts(spec, validate, start, stop, check, progress)):
-        at = row_of.get(text)
-        if at is None:
-            neutral = [k for k in params if k in ignored]
-            group = canonical_json({k: v for k, v in params.items() if k not in ignored}) if neutral else text
-            at = row_of[text] = len(rows)
-            rows.append((task_key(params, text), params, estimated_cost(params), groups.setdefault(group, group)))
-        task_of[i] = at
-    return Part(rows, task_of)
+    table = _Table(spec, lean)
+    with paused_gc():
+        for run in scene_runs(spec, validate, start, stop, check, progress):
+            task_of[run.start - start : run.stop - start] = table.rows_of(run)
+    return Part(table.rows, task_of)
+
+
+@contextlib.contextmanager
+def paused_gc() -> Iterator[None]:
+    """The cyclic garbage collector off while a sweep's tasks are made or estimated: they are
+    dicts, tuples and strings without cycles, and 10^6 tasks are ~3·10^6 tracked objects that
+    every full collection would traverse again as they pile up (a third of the time of a 10^6
+    task dry run). Anything cyclic made meanwhile is collected once it is back on."""
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if enabled:
+            gc.enable()
+
+
+class _Family:
+    """Rows of scenes that differ in the run field alone (one text around its value):
+    ``segments`` of consecutive new rows (their values and the row of the first), looked up
+    by the values' float64 bits (equal bits, equal repr) with numpy while every value is a
+    float, else by a dict of the values' reprs (``rows``, made once needed)."""
+
+    __slots__ = ("segments", "rows")
+
+    def __init__(self) -> None:
+        self.segments: list[list[Any]] = []  # [values, first row, sorted bits or None, their order]
+        self.rows: dict[str, int] | None = None
+
+    def add(self, values: Sequence[Any], first: int) -> None:
+        """Rows ``first``, ``first + 1``, … hold the scenes of ``values``."""
+        if self.rows is None:
+            self.segments.append([values, first, None, None])
+        else:
+            for j, value in enumerate(values):
+                self.rows.setdefault(repr(value), first + j)
+
+    def find(self, values: Sequence[Any]) -> np.ndarray:
+        """The row of each of ``values`` (-1: no row yet)."""
+        found = np.full(len(values), -1, dtype=np.intp)
+        bits = _float_bits(values)
+        if self.rows is None and bits is not None:
+            for segment in self.segments:
+                if segment[2] is None:
+                    held = _float_bits(segment[0])
+                    if held is None:
+                        break
+                    segment[3] = np.argsort(held, kind="stable")
+                    segment[2] = held[segment[3]]
+                held, order = segment[2], segment[3]
+                at = np.minimum(np.searchsorted(held, bits), len(held) - 1)
+                hit = (held[at] == bits) & (found < 0)
+                found[hit] = segment[1] + order[at[hit]]
+            else:
+                return found
+        if self.rows is None:
+            self.rows = {}
+            for values_held, first, _, _ in self.segments:
+                for j, value in enumerate(values_held):
+                    self.rows.setdefault(repr(value), first + j)
+            self.segments = []
+        get = self.rows.get
+        for j, value in enumerate(values):
+            found[j] = get(repr(value), -1)
+        return found
+
+
+def _float_bits(values: Sequence[Any]) -> np.ndarray | None:
+    """The float64 bit patterns of ``values`` when every one is a float, else None."""
+    if not values or set(map(type, values)) != {float}:
+        return None
+    return np.array(values, dtype=np.float64).view(np.int64)
+
+
+class RunScene(Mapping):
+    """The parameters of one point of a run (``spec.Run``): the run's parameters with its field
+    set to ``value``, read through (~60 B, where a dict of them takes ~270 B); ``dict(...)``
+    gives the dict, in the same key order (``enumerate_part(lean=True)``)."""
+
+    __slots__ = ("base", "name", "value")
+
+    def __init__(self, base: dict[str, Any], name: str, value: Any) -> None:
+        self.base, self.name, self.value = base, name, value
+
+    def __getitem__(self, key: str) -> Any:
+        return self.value if key == self.name else self.base[key]
+
+    def get(self, key: str, default: Any = None) -> Any:
+        return self.value if key == self.name else self.base.get(key, default)
+
+    def __contains__(self, key: object) -> bool:
+        return key in self.base
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.base)
+
+    def __len__(self) -> int:
+        return len(self.base)
+
+    def __repr__(self) -> str:
+        return repr(self.as_dict())
+
+    def as_dict(self) -> dict[str, Any]:
+        """The parameters as a dict (``dict(self)`` without a call per key)."""
+        params = self.base.copy()
+        params[self.name] = self.value
+        return params
+
+
+class _Table:
+    """The distinct scenes of a range and their tasks (``enumerate_part``): scenes without the
+    spec's run field by canonical JSON (``texts``), scenes with it by the text around its value
+    and the value (``families``), so a run of new scenes needs no lookup per point."""
+
+    def __init__(self, spec: Spec, lean: bool = False) -> None:
+        self.lean = lean
+        self.field = run_field(spec)
+        self.ignored = SLIP_KERNEL_NEUTRAL_FIELDS if spec.kind == SLIP else KERNEL_NEUTRAL_FIELDS
+        self.rows: list[Task] = []
+        self.texts: dict[str, int] = {}
+        self.families: dict[tuple[str, str], _Family] = {}
+        self.groups: dict[str, str] = {}
+
+    def rows_of(self, run: Run) -> int | np.ndarray:
+        """The row of every point of ``run`` (one row for a run without a field): new scenes
+        made by ``_new_rows``, those seen before (an earlier run of the same family: the same
+        fields but this one) found by ``_Family.find``."""
+        if run.name is None:
+            return self.scene(run.params, run.text)
+        family = self.families.get((run.text, run.suffix))
+        if family is None:
+            family = self.families[(run.text, run.suffix)] = _Family()
+            found = None
+        else:
+            found = family.find(run.values)
+            if (found >= 0).all():
+                return found
+        values = run.values if found is None else [run.values[j] for j in np.flatnonzero(found < 0).tolist()]
+        reprs = list(map(repr, values))
+        # coordinates of an axis are distinct; angles subtracted from a turned shape's may not be
+        if run.name == "shape_angle" and len(set(reprs)) != len(reprs):
+            rows = np.empty(len(reprs), dtype=np.intp)
+            first, made, kept = len(self.rows), {}, []
+            for j, (value, r) in enumerate(zip(values, reprs)):
+                held = made.get(r)
+                if held is None:
+                    held = made[r] = self._row({**run.params, run.name: value}, run.text + r + run.suffix)
+                    kept.append(value)
+                rows[j] = held
+            family.add(kept, first)
+        else:
+            first = len(self.rows)
+            self._new_rows(replace(run, values=values), reprs)
+            family.add(values, first)
+            rows = np.arange(first, len(self.rows), dtype=np.intp)
+        if found is None:
+            return rows
+        found[found < 0] = rows
+        return found
+
+    def scene(self, params: dict[str, Any], text: str) -> int:
+        """The row of the scene ``params`` (canonical JSON ``text``), made if new."""
+        value = params.get(self.field) if self.field is not None else None
+        template = None
+        if type(value) in (float, int) and math.isfinite(value):
+            template = text_template(params, self.field)
+        if template is None:
+            at = self.texts.get(text)
+            if at is None:
+                at = self.texts[text] = self._row(params, text)
+            return at
+        family = self.families.get(template)
+        if family is None:
+            family = self.families[template] = _Family()
+        at = int(family.find([value])[0])
+        if at < 0:
+            at = self._row(params, text)
+            family.add([value], at)
+        return at
+
+    def _row(self, params: dict[str, Any], text: str) -> int:
+        """A new row for the scene ``params`` (canonical JSON ``text``): its position."""
+        ignored = self.ignored
+        neutral = any(k in ignored for k in params)
+        group = canonical_json({k: v for k, v in params.items() if k not in ignored}) if neutral else text
+        cost, size = costed(params)
+        self.rows.append(_task((task_key(params, text), params, cost, self.groups.setdefault(group, group), size)))
+        return len(self.rows) - 1
+
+    def _new_rows(self, run: Run, reprs: list[str]) -> None:
+        """Rows for every point of ``run`` (all new scenes; ``reprs``: its values' reprs): the
+        text and the group written around each value, the cost and sizing made once per run or
+        per grid where the field allows it (``_coster``); one loop, no call per row but the
+        key's and those the run needs."""
+        name, base, prefix, suffix = run.name, run.params, run.text, run.suffix
+        cost_of, cost_once = self._coster(run), None
+        group_once, group_around, group_of = self._grouper(run)
+        groups, append, key_of, new, lean = self.groups, self.rows.append, task_key, _task, self.lean
+        for value, r in zip(run.values, reprs):
+            text = prefix + r + suffix
+            if lean:
+                params = RunScene(base, name, value)
+            else:
+                params = base.copy()  # the field keeps its place among the keys
+                params[name] = value
+            if cost_of is not None:
+                cost_once = cost_of(params)
+            elif cost_once is None:
+                cost_once = costed(params.as_dict() if lean else params)
+            if group_once is not None:
+                group = group_once
+            elif group_around is not None:  # one per value: nothing to share (an index of them: 50 MB per 10^6)
+                group = group_around[0] + r + group_around[1]
+            elif group_of is not None:
+                group = group_of(params)
+                group = groups.setdefault(group, group)
+            else:
+                group = text
+            append(new((key_of(params, text), params, cost_once[0], group, cost_once[1])))
+
+    def _coster(self, run: Run) -> Callable[[dict[str, Any]], tuple[float, Sizing]] | None:
+        """How ``_new_rows`` costs the scenes of ``run`` (``costed``): None, once from its first
+        scene, when its field does not change the cost (``COST_NEUTRAL_FIELDS``, or a
+        ``COST_BRANCH_FIELDS`` run away from its branch values); else a function of the scene:
+        once per distinct contact grid when the field changes the grid alone
+        (``GRID_ONLY_FIELDS`` with ``n`` given), else ``costed`` (cached by the cost key)."""
+        name, base = run.name, run.params
+        each = (lambda params: costed(params.as_dict())) if self.lean else costed  # a dict for every cost function
+        if scene_kind(base) != CONTACT or any(base.get(n) is not None for n in PATH_FIELDS):
+            return each
+        branches = COST_BRANCH_FIELDS.get(name)
+        if name in COST_NEUTRAL_FIELDS or (branches is not None and not any(v in branches for v in run.values)):
+            return None
+        if name in GRID_ONLY_FIELDS and base.get("n") is not None:
+            by_grid: dict[tuple[int, int], tuple[float, Sizing]] = {}
+
+            def per_grid(params: dict[str, Any] | RunScene) -> tuple[float, Sizing]:
+                if type(params) is RunScene:
+                    params = params.as_dict()
+                grid = footprint.contact_grid(params)
+                got = by_grid.get(grid)
+                if got is None:
+                    got = by_grid[grid] = costed(params)
+                return got
+
+            return per_grid
+        return each
+
+    def _grouper(self, run: Run) -> tuple[str | None, tuple[str, str] | None, Callable[[dict[str, Any]], str] | None]:
+        """How ``_new_rows`` writes the kernel group of a scene of ``run`` (the canonical JSON of
+        its fields that are not kernel-neutral; its text when all are): (group, None, None) one
+        group for the run (its field is neutral); (None, (prefix, suffix), None) written around
+        the value; (None, None, f) f of the scene's parameters; (None, None, None) the text."""
+        ignored, name = self.ignored, run.name
+        if not any(k in ignored for k in run.params):
+            return None, None, None
+        kept = {k: v for k, v in run.params.items() if k not in ignored}
+        if name in ignored:
+            group = canonical_json(kept)
+            return self.groups.setdefault(group, group), None, None
+        template = text_template(kept, name)
+        if template is None:
+            return None, None, lambda params: canonical_json({k: v for k, v in params.items() if k not in ignored})
+        return None, template, None
 
 
 def join_parts(spec: Spec, parts: Sequence[Part]) -> tuple[list[Task], np.ndarray]:
     """The tasks of consecutive ``parts`` covering every point, in first-appearance order (C
     order over the task axes), and the task (0-based position) of every point, an integer
-    array shaped like the task axes."""
+    array shaped like the task axes. One part's rows are its tasks as they are (distinct
+    scenes); more parts are joined by key."""
+    shape = tuple(len(a) for a in spec.task_axes)
+    if len(parts) == 1:
+        return list(parts[0].rows), parts[0].task_of.reshape(shape)
+    with paused_gc():
+        tasks, joined = _joined_rows(parts)
+    task_of = np.concatenate(joined) if joined else np.empty(0, dtype=np.intp)
+    return tasks, task_of.reshape(shape)
+
+
+def _joined_rows(parts: Sequence[Part]) -> tuple[list[Task], list[np.ndarray]]:
+    """``join_parts`` of several parts: the tasks by key, and each part's points' tasks."""
     position: dict[str, int] = {}
     groups: dict[str, str] = {}
     tasks: list[Task] = []
     joined = []
     for part in parts:
         local = np.empty(len(part.rows), dtype=np.intp)
-        for j, (key, params, cost, group) in enumerate(part.rows):
-            at = position.get(key)
+        for j, row in enumerate(part.rows):
+            at = position.get(row[0])
             if at is None:
-                at = position[key] = len(tasks)
-                tasks.append(Task(key, params, cost, groups.setdefault(group, group)))
+                at = position[row[0]] = len(tasks)
+                key, params, cost, group, *size = row
+                tasks.append(Task(key, params, cost, groups.setdefault(group, group), *size))
             local[j] = at
         joined.append(local[part.task_of])
-    task_of = np.concatenate(joined) if joined else np.empty(0, dtype=np.intp)
-    return tasks, task_of.reshape(tuple(len(a) for a in spec.task_axes))
+    return tasks, joined
 
 
 def enumerate_tasks(
@@ -287,17 +604,35 @@ def estimated_cost(params: Mapping[str, Any]) -> float:
     over the grids it solves (``solved_grids``). Cached per scene, the fields that do not
     change the cost (``COST_NEUTRAL_FIELDS``) aside, except for scenes reading a file (a mask:
     its grid is the file's)."""
+    return costed(params)[0]
+
+
+def costed(params: Mapping[str, Any]) -> tuple[float, Sizing]:
+    """``estimated_cost`` and ``sizing`` of the scene ``params``, cached as ``estimated_cost``
+    (the sizes depend on the grid, the kind and the solves, which the cost key holds)."""
     if scene_kind(params) == SLIP:
-        return slip_cost(params)
+        return slip_cost(params), sizing(params)
     if any(params.get(name) is not None for name in PATH_FIELDS):
-        return _contact_cost(params)
+        return _contact_cost(params), sizing(params)
     return _cached_contact_cost(canonical_json({k: v for k, v in params.items() if k not in COST_NEUTRAL_FIELDS}))
 
 
 @functools.lru_cache(maxsize=4096)
-def _cached_contact_cost(text: str) -> float:
-    """``_contact_cost`` of the scene ``text`` (canonical JSON)."""
-    return _contact_cost(json.loads(text))
+def _cached_contact_cost(text: str) -> tuple[float, Sizing]:
+    """``_contact_cost`` and ``sizing`` of the scene ``text`` (canonical JSON)."""
+    params = json.loads(text)
+    return _contact_cost(params), sizing(params)
+
+
+_SIZINGS: dict[Sizing, Sizing] = {}  # one object per distinct value
+
+
+def sizing(params: Mapping[str, Any]) -> Sizing:
+    """The ``Sizing`` of the scene ``params``: its kind, and the padded cells and array bytes of
+    the finest grid it solves (``solved_grids``)."""
+    finest = solved_grids(params)[-1]
+    size = Sizing(task_kind(params), footprint.padded_cells(finest), footprint.array_bytes(finest))
+    return _SIZINGS.setdefault(size, size)
 
 
 def _contact_cost(params: Mapping[str, Any]) -> float:
@@ -355,30 +690,95 @@ def slip_cost(params: Mapping[str, Any]) -> float:
     return size * math.log2(size) * (1.0 + tangential * passes) * digits
 
 
+class ChunkOrder(NamedTuple):
+    """Tasks in the order ``make_chunks`` cuts them into chunks (``chunk_order``): ``order``, task
+    positions by kernel group (groups in first-appearance order), largest cost first within a
+    group (ties: first appearance); ``costs``, their costs in that order; ``groups``, where each
+    group starts in ``order`` (and its length last); ``total``, the sum of the costs in task
+    order. The same for any number of ranks: only the cap of a chunk depends on it."""
+
+    order: np.ndarray
+    costs: np.ndarray
+    groups: np.ndarray
+    total: float
+
+
+def chunk_order(tasks: Sequence[Task]) -> ChunkOrder:
+    """The ``ChunkOrder`` of ``tasks``."""
+    group = group_ids(tasks)
+    costs = [t.cost for t in tasks]
+    order = np.lexsort((-np.array(costs, dtype=np.float64), group))  # stable
+    ordered = group[order]
+    starts = np.flatnonzero(np.concatenate(([True], ordered[1:] != ordered[:-1]))) if len(tasks) else order
+    return ChunkOrder(order, np.array(costs, dtype=np.float64)[order], np.append(starts, len(tasks)), sum(costs))
+
+
+def group_ids(tasks: Sequence[Task]) -> np.ndarray:
+    """Each task's kernel group as 0, 1, … in first-appearance order. Groups are told apart by
+    their strings' hashes with numpy (no dict of 10^6 strings: ~80 MB), then checked string by
+    string; a hash shared by two different groups (never seen) falls back to a dict."""
+    groups = [t.group for t in tasks]
+    hashes = np.fromiter(map(hash, groups), dtype=np.int64, count=len(groups))
+    _, first, inverse = np.unique(hashes, return_index=True, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    later = np.flatnonzero(first[inverse] != np.arange(len(groups)))  # not its group's first task
+    if not all(groups[i] == groups[j] for i, j in zip(later.tolist(), first[inverse[later]].tolist())):
+        ids: dict[str, int] = {}
+        return np.array([ids.setdefault(g, len(ids)) for g in groups], dtype=np.intp)
+    rank = np.empty(len(first), dtype=np.intp)
+    rank[np.argsort(first, kind="stable")] = np.arange(len(first), dtype=np.intp)
+    return rank[inverse]
+
+
+def chunk_bounds(chunks: ChunkOrder, ranks: int) -> tuple[np.ndarray, np.ndarray]:
+    """Where the chunks for ``ranks`` ranks start and stop in ``chunks.order``, in the order the
+    ranks take them (``make_chunks``). A group of one task is one chunk (numpy, no loop per
+    task: a sweep whose every task has its own kernels, over nu or A, is all such groups);
+    larger groups are walked task by task, the chunk closing before the task that would take
+    it over the cap. Sums are sequential (0.0 + c1 + c2 ...), the floats ``make_chunks`` adds."""
+    starts, costs = chunks.groups[:-1], chunks.costs
+    if not len(starts):
+        return starts, starts
+    cap = chunks.total / (CHUNKS_PER_RANK * ranks)
+    sizes = np.diff(chunks.groups)
+    cut: dict[int, list[tuple[int, int, float]]] = {}
+    for g in np.flatnonzero(sizes > 1).tolist():
+        first, stop = int(chunks.groups[g]), int(chunks.groups[g + 1])
+        pieces, begin, total = [], first, 0.0
+        for i, cost in enumerate(costs[first:stop].tolist(), first):
+            if i > begin and total + cost > cap:
+                pieces.append((begin, i, total))
+                begin, total = i, 0.0
+            total += cost
+        pieces.append((begin, stop, total))
+        cut[g] = pieces
+    counts = np.ones(len(starts), dtype=np.intp)
+    for g, pieces in cut.items():
+        counts[g] = len(pieces)
+    at = np.concatenate(([0], np.cumsum(counts)[:-1]))
+    chunk_start = np.empty(int(counts.sum()), dtype=np.intp)
+    chunk_stop = np.empty_like(chunk_start)
+    chunk_cost = np.empty(len(chunk_start), dtype=np.float64)
+    single = sizes == 1
+    chunk_start[at[single]] = starts[single]
+    chunk_stop[at[single]] = starts[single] + 1
+    chunk_cost[at[single]] = costs[starts[single]]  # 0.0 + cost
+    for g, pieces in cut.items():
+        for k, (begin, stop, total) in enumerate(pieces):
+            chunk_start[at[g] + k], chunk_stop[at[g] + k], chunk_cost[at[g] + k] = begin, stop, total
+    taken = np.argsort(-chunk_cost, kind="stable")
+    return chunk_start[taken], chunk_stop[taken]
+
+
 def make_chunks(tasks: list[Task], ranks: int) -> list[tuple[Task, ...]]:
     """Tasks grouped by kernel and split at 1/(CHUNKS_PER_RANK·ranks) of the total cost; chunks
     in decreasing cost (ties: first appearance), the order the ranks take them in. Within a
     group (groups in first-appearance order) tasks go largest first (ties: first appearance)
-    and a chunk closes before the task that would take it over the cap."""
+    and a chunk closes before the task that would take it over the cap (``chunk_order``,
+    ``chunk_bounds``)."""
     if not tasks:
         return []
-    cap = sum(t.cost for t in tasks) / (CHUNKS_PER_RANK * ranks)
-    ids: dict[str, int] = {}
-    group = [ids.setdefault(t.group, len(ids)) for t in tasks]
-    order = np.lexsort((-np.array([t.cost for t in tasks], dtype=np.float64), np.array(group)))  # stable
-    chunks: list[tuple[Task, ...]] = []
-    costs: list[float] = []
-    current: list[Task] = []
-    total, last = 0.0, -1
-    for i in order.tolist():
-        task = tasks[i]
-        if current and (group[i] != last or total + task.cost > cap):
-            chunks.append(tuple(current))
-            costs.append(total)
-            current, total = [], 0.0
-        current.append(task)
-        total += task.cost
-        last = group[i]
-    chunks.append(tuple(current))
-    costs.append(total)
-    return [chunks[i] for i in np.argsort(-np.array(costs), kind="stable").tolist()]
+    chunks = chunk_order(tasks)
+    order = chunks.order.tolist()
+    starts, stops = chunk_bounds(chunks, ranks)
+    return [tuple(tasks[i] for i in order[a:b]) for a, b in zip(starts.tolist(), stops.tolist())]

@@ -252,3 +252,120 @@ def test_the_kernel_term_is_per_padded_cell_whatever_the_tolerance():
         == calibration.task_seconds({**circle, "tol": 1e-2})
         == pytest.approx(1e-7 * 16384, rel=1e-15)
     )
+
+
+# ------------------------------------------------------------------------------------------
+# at scale: chunks cut once per rank count, estimates for all tasks at once, the same numbers
+# ------------------------------------------------------------------------------------------
+def chunks_task_by_task(tasks, ranks):
+    """``make_chunks`` as a loop over the tasks (the model ``chunk_bounds`` must equal)."""
+    import numpy as np
+
+    cap = sum(t.cost for t in tasks) / (4 * ranks)
+    ids = {}
+    group = [ids.setdefault(t.group, len(ids)) for t in tasks]
+    order = np.lexsort((-np.array([t.cost for t in tasks]), np.array(group)))
+    chunks, costs, current, total, last = [], [], [], 0.0, -1
+    for i in order.tolist():
+        if current and (group[i] != last or total + tasks[i].cost > cap):
+            chunks.append(tuple(current))
+            costs.append(total)
+            current, total = [], 0.0
+        current.append(tasks[i])
+        total += tasks[i].cost
+        last = group[i]
+    chunks.append(tuple(current))
+    costs.append(total)
+    return [chunks[i] for i in np.argsort(-np.array(costs), kind="stable").tolist()]
+
+
+def replay_task_by_task(tasks, seconds, ranks, overheads):
+    """``replay`` as an event loop over the chunks of ``chunks_task_by_task``."""
+    import heapq
+    import statistics
+
+    chunks = chunks_task_by_task(list(tasks), ranks)
+    per_task = overheads.driver_s + overheads.spread_gather_s
+    work = [sum(seconds[t.key] + per_task for t in chunk) for chunk in chunks]
+    n = len(tasks)
+    setup = overheads.setup_s * n + overheads.spread_setup_s * n / ranks
+    free = [(setup, r) for r in range(ranks)]
+    heapq.heapify(free)
+    server, wait, finish = setup, 0.0, [setup] * ranks
+    for w in work:
+        t, rank = heapq.heappop(free)
+        if rank == 0:
+            start = t
+        else:
+            server = max(t, server) + overheads.service_s
+            start = server + overheads.wake_s
+            wait += start - t
+        finish[rank] = start + w
+        heapq.heappush(free, (finish[rank], rank))
+    last = max(finish)
+    makespan = last + overheads.gather_s * n
+    total = float(sum(seconds[t.key] for t in tasks))
+    return {
+        "chunks": len(chunks),
+        "makespan_s": makespan,
+        "efficiency": total / (ranks * makespan),
+        "tail": (last - statistics.fmean(finish)) / makespan,
+        "claims": wait / (ranks * makespan),
+        "setup_gather": (setup + overheads.gather_s * n) / makespan,
+    }
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_chunks_and_replay_equal_the_task_by_task_model_to_the_last_bit(seed):
+    import numpy as np
+
+    from hpcontact.sweep.tasks import make_chunks
+
+    rng = np.random.default_rng(seed)
+    sizes = rng.choice([1, 1, 1, 2, 3, 7, 40], size=300)  # groups of one task and larger ones
+    tasks = [
+        Task(key=f"t{g}-{j}", params={}, cost=float(rng.lognormal(0.0, 1.5)), group=f"g{g}")
+        for g, size in enumerate(sizes)
+        for j in range(size)
+    ]
+    order = rng.permutation(len(tasks))
+    tasks = [tasks[i] for i in order]  # groups interleaved
+    seconds = {t.key: float(rng.uniform(0.1, 10.0)) for t in tasks}
+    overheads = Overheads()
+    for ranks in (1, 2, 3, 64, 1024):
+        assert [[t.key for t in c] for c in make_chunks(tasks, ranks)] == [
+            [t.key for t in c] for c in chunks_task_by_task(tasks, ranks)
+        ]
+        assert replay(tasks, seconds, ranks, overheads) == replay_task_by_task(tasks, seconds, ranks, overheads)
+
+
+def test_estimate_equals_each_task_s_seconds_bytes_and_grid(write_spec):
+    """``estimate`` (all tasks at once from their sizings) against ``task_seconds``,
+    ``task_bytes`` and ``grid_label`` task by task: the same floats, labels and counts; tasks
+    without a sizing (made elsewhere) get theirs from their parameters."""
+    from hpcontact.sweep.spec import parse_spec
+    from hpcontact.sweep.tasks import enumerate_tasks
+
+    spec = parse_spec(
+        '[scene]\nquantities = ["tangential", "normal"]\n[axes]\nshape = ["circle", "ellipse", "rectangle"]\n'
+        "aspect = { logspace = [0, -3, 40] }\nanisotropy = [1.0, 2.0]\nn = [16, 32]\n",
+        validate=lambda p: None,
+    )
+    tasks, _ = enumerate_tasks(spec)
+    tasks += [t._replace(key=t.key + "-bare", sizing=None) for t in tasks[::7]]  # hand-made: no sizing
+    extrapolated = parse_spec('[scene]\nshape = "ellipse"\n[axes]\naspect = [1.0, 0.1]\n', validate=lambda p: None)
+    tasks += enumerate_tasks(extrapolated)[0]  # no n: costed over the default grids
+    rates = {
+        k: Rate(rate_s=1e-6 * (i + 1), solve_s=3e-3, node_s=0.0, cell_s=1e-8, task_s=2e-3)
+        for i, k in enumerate(costmodel.KINDS)
+    }
+    calibration = Calibration("here", __version__, rates, 50.0 * 2**20)
+    est = costmodel.estimate(tasks, calibration)
+    assert est.seconds.tolist() == [calibration.task_seconds(t.params, t.cost) for t in tasks]
+    assert est.bytes.tolist() == [calibration.task_bytes(t.params) for t in tasks]
+    labels = {}
+    for t in tasks:
+        labels[costmodel.grid_label(t.params)] = labels.get(costmodel.grid_label(t.params), 0) + 1
+    assert list(est.grids().items()) == list(labels.items())
+    assert est.kernel_sets() == len({t.group for t in tasks})
+    assert est.total_seconds == sum(calibration.task_seconds(t.params, t.cost) for t in tasks)

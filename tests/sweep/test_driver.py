@@ -449,3 +449,54 @@ def test_the_command_line_run_twice_exits_0_the_second_time(write_spec, tmp_path
     assert (tmp_path / "out.nc").stat().st_mtime_ns == mtime and seconds < 20.0
     assert main([str(spec)], task_function=lambda params: {"K_xx": 1.0}) == 2
     assert "--resume" in capsys.readouterr().err
+
+
+LONG_SPEC = """
+[sweep]
+title = "a long axis"
+[scene]
+shape = "ellipse"
+aspect = 0.5
+[numerics]
+n = 16
+[axes]
+nu = {{ linspace = [0, 0.5, {points}] }}
+"""
+
+
+def test_a_long_dry_run_lists_a_sample_and_the_number_left_out_and_list_all_lists_every_task(
+    write_spec, capsys, monkeypatch
+):
+    """A dry run of 10^5 tasks lists the first and last ``LISTED_EDGE`` and says how many it left
+    out; ``--list-all`` lists all; the summary lines are the same either way."""
+    from hpcontact.sweep.driver import LISTED_EDGE
+
+    monkeypatch.setenv("HPCONTACT_MPI", "0")
+    spec = write_spec(LONG_SPEC.format(points=100_000))
+    assert main([str(spec), "--dry-run"]) == 0
+    sample = capsys.readouterr().out.splitlines()
+    assert main([str(spec), "--dry-run", "--list-all"]) == 0
+    every = capsys.readouterr().out.splitlines()
+    listed = [line for line in sample if not line.startswith("#")]
+    indices = list(range(LISTED_EDGE)) + list(range(100_000 - LISTED_EDGE, 100_000))
+    assert [int(line.split()[0]) for line in listed] == indices
+    left_out = [line for line in sample if "not listed" in line]
+    assert left_out == [f"# {100_000 - 2 * LISTED_EDGE} tasks not listed ({LISTED_EDGE} ... {99_999 - LISTED_EDGE}; "
+                        "--list-all lists every task)"]  # fmt: skip
+    tasks = [line for line in every if not line.startswith("#")]
+    assert [int(line.split()[0]) for line in tasks] == list(range(100_000))
+    assert set(listed) <= set(tasks) and json.loads(tasks[-1].split(None, 5)[5])["nu"] == 0.5
+    assert [line for line in sample if line.startswith("#") and line not in left_out] == [
+        line for line in every if line.startswith("#")
+    ]
+
+
+def test_a_dry_run_as_json_lists_every_task_and_list_all_needs_a_dry_run(write_spec, capsys, monkeypatch):
+    monkeypatch.setenv("HPCONTACT_MPI", "0")
+    spec = write_spec(LONG_SPEC.format(points=3000))  # more tasks than a text dry run lists
+    assert main([str(spec), "--dry-run", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["tasks"] == 3000 and [t["index"] for t in out["tasks_list"]] == list(range(3000))
+    assert len({t["key"] for t in out["tasks_list"]}) == 3000
+    assert main([str(spec), "--list-all"]) == 2
+    assert "--list-all" in capsys.readouterr().err

@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from hpcontact.errors import InputError
-from hpcontact.sweep.spec import load_spec, parse_spec
+from hpcontact.sweep import spec as spec_module
+from hpcontact.sweep.spec import canonical_json, load_spec, parse_spec
 
 
 def accept(params):
@@ -185,3 +187,165 @@ def test_an_anisotropic_body_keeps_its_orientation_axis(constants):
 def test_an_isotropic_body_drops_its_orientation():
     spec = parse("[scene]\nnu = 0.3\n[axes]\norientation = [0.0, 90.0]\n", validate=None)
     assert [spec.scene_params(index) for index in spec.points()] == [{"nu": 0.3}, {"nu": 0.3}]
+
+
+# ------------------------------------------------------------------------------------------
+# a long axis checked at its extreme values (scene_runs): the error of a scene-by-scene check
+# ------------------------------------------------------------------------------------------
+def _values(values) -> str:
+    return "[" + ", ".join(repr(v) for v in values) + "]"
+
+
+LONG = spec_module.SCENE_CHECK_POINTS // 4  # the tests below check ranges of more than LONG // 2 as intervals
+NU_WITH_MINUS_ONE = [0.1 + 0.3 * i / LONG for i in range(LONG)]
+NU_WITH_MINUS_ONE[1234] = -1.0
+LONG_AXES = [
+    # ([scene] or [numerics] fields, the long axis): bad values first, in the middle, last, at both ends
+    ('[scene]\nshape = "ellipse"\naspect = 0.5', f"nu = {{ linspace = [-0.2, 0.7, {LONG}] }}"),
+    ('[scene]\nshape = "ellipse"\naspect = 0.5', f"nu = {{ linspace = [0.7, -0.2, {LONG}] }}"),
+    ('[scene]\nshape = "ellipse"\naspect = 0.5', f"nu = {_values(NU_WITH_MINUS_ONE)}"),
+    ('[scene]\nshape = "ellipse"', f"aspect = {{ logspace = [2, -14, {LONG}] }}"),
+    ('[scene]\nshape = "circle"', f"aspect = {{ logspace = [0, -3, {LONG}] }}"),  # ignored: one scene
+    ("[scene]\nnu = 0.3", f"aspect = {{ logspace = [0, -3, {LONG}] }}"),  # no shape: a circle, b/a != 1 refused
+    ("[scene]\nanisotropy = 2.0", f"nu = {{ linspace = [0.3, 0.5, {LONG}] }}"),  # a cubic crystal: nu < 0.5
+    ("[scene]\nanisotropy = 2.0", f"orientation = {{ linspace = [-10, 100, {LONG}] }}"),
+    ("[scene]\nnu = 0.5", f"anisotropy = {{ linspace = [1.0, 3.0, {LONG}] }}"),  # A = 1 isotropic: valid
+    ("[scene]\nnu = 0.5", f"anisotropy = {{ linspace = [0.5, 1.5, {LONG + 1}] }}"),  # A = 1 in the middle
+    ("[scene]\nnu = 0.3", f"anisotropy = {{ logspace = [-3, 3, {LONG}] }}"),
+    ('[scene]\nshape = "ellipse"\naspect = 0.5', f"tol = {{ logspace = [-16, 0, {LONG}] }}"),
+    ('[scene]\nshape = "ellipse"\naspect = 0.5', f"tol = {{ logspace = [-13, -3, {LONG}] }}"),  # all valid
+    ("[numerics]\nn_across = 40000", f"n = {_values(range(2, LONG + 2))}"),  # n x n_across > 2**26 from 1678
+    ("[numerics]\ntol = 1e-8", f"n = {_values(range(1, LONG + 1))}"),
+]
+
+
+@pytest.fixture
+def interval_checks(monkeypatch):
+    """Ranges of more than LONG // 2 points checked run by run at their extreme values."""
+    monkeypatch.setattr(spec_module, "SCENE_CHECK_POINTS", LONG // 2)
+
+
+EXPECTED = [
+    "axes.nu", "axes.nu", "axes.nu", "axes.aspect", "ok", "axes.aspect", "axes.nu", "axes.orientation",
+    "scene.nu", "scene.nu", "axes.anisotropy", "axes.tol", "ok", "axes.n", "axes.n",
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(("fixed", "axis", "expected"), [(*case, e) for case, e in zip(LONG_AXES, EXPECTED)])
+def test_a_long_axis_checked_at_its_ends_refuses_the_first_bad_point_as_a_scene_by_scene_check(
+    fixed, axis, expected, monkeypatch, interval_checks
+):
+    """The kind's validator sees a long run at its extreme values (a bisection when one is
+    refused); another validator (the same checks in a lambda) sees every scene: the same
+    outcome, the same error naming the same key and value, at far fewer validations."""
+    from hpcontact.scene import Scene
+    from hpcontact.scene import validate as contact_validate
+
+    text = f"{fixed}\n[axes]\n{axis}\n"
+    calls = []
+    build = Scene.from_params.__func__
+    monkeypatch.setattr(Scene, "from_params", classmethod(lambda cls, p: calls.append(1) or build(cls, p)))
+    fast = _outcome(lambda: parse_spec(text, path="job.toml"))
+    checked = len(calls)
+    one_by_one = _outcome(lambda: parse_spec(text, path="job.toml", validate=lambda p: contact_validate(p)))
+    assert fast == one_by_one and fast[0] == expected
+    assert checked < 40  # the scenes validated (from_params calls): a few, not one per point of the run
+
+
+def _outcome(parse) -> tuple:
+    """(field, allowed, value) of the InputError ``parse`` raises, or the points it checked."""
+    try:
+        spec = parse()
+    except InputError as exc:
+        return exc.field, exc.allowed, exc.value
+    return ("ok", math.prod(len(a) for a in spec.task_axes))
+
+
+def test_a_rotated_rough_shape_refuses_its_first_turned_point(interval_checks):
+    from hpcontact.scene import validate as contact_validate
+
+    text = f'[sweep]\nangle_mode = "rotated"\n[scene]\nshape = "rough"\n[axes]\nangle = {{ linspace = [0, 180, {LONG}] }}\n'
+    fast, one_by_one = (
+        _outcome(lambda v=v: parse_spec(text, path="job.toml", validate=v)) for v in (None, contact_validate)
+    )
+    assert fast == one_by_one and fast[0] == "axes.angle"  # angle 0 leaves the shape as it is: the next is bad
+
+
+def test_a_label_table_that_sets_the_axis_field_is_one_scene_checked_once(interval_checks):
+    text = (
+        "[axes]\n"
+        'shape = ["ellipse", { label = "bad", shape = "rectangle", aspect = 1e-13 }]\n'
+        f"aspect = {{ logspace = [0, -3, {LONG}] }}\n"
+    )
+    assert refused(text, validate=None).field == "axes.shape[1].aspect"
+
+
+def test_runs_give_the_scenes_of_the_points_one_by_one():
+    """``scene_texts`` (runs expanded) against ``Spec.scene_params`` point by point, on specs with
+    label tables, a table overriding the axis' field, A = 1 in a run, the rotated angle, ranges."""
+    texts = [
+        '[scene]\nnu = 0.3\n[axes]\nshape = ["circle", "ellipse", { label = "thin", shape = "rectangle", aspect = 0.01 }]\n'
+        "aspect = { logspace = [0, -2, 41] }\n",
+        '[axes]\nshape = ["ellipse", { label = "tri", shape = "polygon", sides = 3 }]\nnu = [0.0, 0.45]\n'
+        "angle = { linspace = [0, 180, 7] }\norientation = [0.0, 20.0, 90.0]\nanisotropy = [0.5, 1.0, 2.0]\n",
+        '[scene]\nmaterial = "Cu"\n[axes]\nnu = [0.1, 0.3]\norientation = { linspace = [0, 90, 30] }\n',
+        '[sweep]\nangle_mode = "rotated"\n[axes]\nshape = [{ label = "a", shape = "ellipse", aspect = 0.5, shape_angle = 10 },'
+        ' { label = "b", shape = "ellipse", aspect = 0.5, shape_angle = 20 }]\nangle = [-0.0, 10, 20, 1e-300]\n',
+        "[axes]\nnu = [0.1, 0.2]\n",
+        '[scene]\nshape = "ellipse"\n',
+    ]
+    for text in texts:
+        spec = parse(text, validate=None)
+        want = [(i, spec.scene_params(i)) for i in spec.points()]
+        n = len(want)
+        for start, stop in ((0, n), (1, n - 1), (n // 3, n // 3 + 5), (n - 1, n)):
+            got = list(spec_module.scene_texts(spec, start=start, stop=stop))
+            assert [(i, p, list(p)) for i, p, _ in got] == [(i, p, list(p)) for i, p in want[start:stop]]
+            assert [t for _, _, t in got] == [canonical_json(p) for _, p in want[start:stop]]
+
+
+@pytest.mark.parametrize("where", [[0], [1], [999], [1500], [LONG - 1], [700, 30], [5, LONG - 2]])
+def test_bad_values_anywhere_on_a_long_axis_are_found_first_in_point_order(where, interval_checks):
+    from hpcontact.scene import validate as contact_validate
+
+    nu = [0.05 + 0.4 * i / LONG for i in range(LONG)]
+    aspect = [10.0 ** (-3.0 * i / LONG) for i in range(LONG)]
+    for k, at in enumerate(where):
+        nu[at], aspect[at] = (0.6, 2.0) if k % 2 == 0 else (-1.5, 1e-13)
+    for axis in (f"nu = {_values(nu)}", f"aspect = {_values(aspect)}"):
+        text = f'[scene]\nshape = "rectangle"\n[numerics]\nn = 16\n[axes]\n{axis}\n'
+        fast = _outcome(lambda: parse_spec(text, path="job.toml"))
+        assert fast == _outcome(lambda: parse_spec(text, path="job.toml", validate=lambda p: contact_validate(p)))
+        assert fast[2] == float(axis.split("[", 1)[1].split(", ")[min(where)].rstrip("]"))
+
+
+@pytest.mark.parametrize(("isotropic", "top"), [(0, 0.5), (17, 0.5), (0, 0.49), (59, 0.5)])
+def test_short_runs_of_many_contexts_are_checked_at_their_ends_too(isotropic, top, monkeypatch, interval_checks):
+    """Two axes (60 A × 50 nu up to ``top``): every run of the last axis checked at its ends.
+    nu = 0.5 is refused for a crystal (A != 1) only: with A = 1 first, the first bad point is
+    in the second run, found as a check of every scene finds it."""
+    from hpcontact.scene import Scene
+    from hpcontact.scene import validate as contact_validate
+
+    anisotropy = [1.5 + 0.01 * k for k in range(60)]
+    anisotropy[isotropic] = 1.0
+    text = f"[axes]\nanisotropy = {_values(anisotropy)}\nnu = {{ linspace = [0.3, {top}, 50] }}\n"
+    monkeypatch.setattr(spec_module, "SCENE_CHECK_POINTS", 100)
+    calls = []
+    build = Scene.from_params.__func__
+    monkeypatch.setattr(Scene, "from_params", classmethod(lambda cls, p: calls.append(1) or build(cls, p)))
+    fast = _outcome(lambda: parse_spec(text, path="job.toml"))
+    checked = len(calls)
+    assert fast == _outcome(lambda: parse_spec(text, path="job.toml", validate=lambda p: contact_validate(p)))
+    assert (fast[0] == "ok") == (top < 0.5) and checked <= 60 * 12  # a few per run of 50, not 50
+
+
+def test_a_small_spec_is_checked_scene_by_scene(monkeypatch):
+    from hpcontact.scene import Scene
+
+    calls = []
+    build = Scene.from_params.__func__
+    monkeypatch.setattr(Scene, "from_params", classmethod(lambda cls, p: calls.append(1) or build(cls, p)))
+    text = '[scene]\nshape = "circle"\n[axes]\nnu = { linspace = [0, 0.5, 300] }\naspect = [1.0, 0.5]\n'
+    parse_spec(text, path="job.toml")
+    assert len(calls) == 300  # every distinct scene: the circle ignores b/a

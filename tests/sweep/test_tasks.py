@@ -87,3 +87,93 @@ def test_shapes_of_one_grid_share_a_group_and_materials_do_not():
     for t in tasks:
         groups.setdefault(t.group, set()).add(t.params["shape"])
     assert len(groups) == 4 and all(shapes == {"ellipse", "rectangle"} for shapes in groups.values())
+
+
+# ------------------------------------------------------------------------------------------
+# runs: the tasks of a point-by-point enumeration, key for key
+# ------------------------------------------------------------------------------------------
+MIXED = [
+    # shapes that keep, ignore and override b/a on a long b/a axis, nu; the angle free (tensor mode)
+    '[numerics]\nn = 32\n[axes]\nshape = ["circle", "ellipse", "rectangle", { label = "tri", shape = "polygon", sides = 3 },'
+    ' { label = "thin", shape = "rectangle", aspect = 0.01 }]\nnu = [0.0, 0.3]\naspect = { logspace = [0, -4, 1501] }\n'
+    "angle = { linspace = [0, 180, 5] }\n",
+    # A = 1 in a run (orientation dropped), a crystal's orientation (cost-neutral), no n (default grids)
+    '[scene]\nshape = "ellipse"\naspect = 0.5\n[axes]\norientation = [0.0, 45.0]\nanisotropy = { linspace = [0.5, 1.5, 1201] }\n',
+    "[numerics]\nn = 16\n[axes]\nanisotropy = [1.0, 2.0]\norientation = { linspace = [0, 90, 1300] }\n",
+    # the rotated angle: a turned shape (and grid) per value; equal turned angles of two tables
+    '[sweep]\nangle_mode = "rotated"\n[numerics]\nn = 16\n[axes]\nshape = [{ label = "a", shape = "rectangle", aspect = 0.3,'
+    ' shape_angle = 10 }, { label = "b", shape = "rectangle", aspect = 0.3, shape_angle = 20 }]\n'
+    "angle = { linspace = [0, 90, 901] }\n",
+    # a field of the grid (n), a tolerance axis (kernel-neutral: one group), the shape last (point by point)
+    '[scene]\nshape = "ellipse"\naspect = 0.2\n[axes]\nn = [16, 24, 32]\ntol = { logspace = [-6, -12, 700] }\n',
+    '[numerics]\nn = 16\n[axes]\nnu = { linspace = [0, 0.5, 300] }\nshape = ["circle", "ellipse"]\n',
+]
+
+
+def point_by_point(spec):
+    """The tasks and each point's task as the enumeration of every point computes them: the
+    scene of each point (``Spec.scene_params``), distinct by canonical JSON, keyed, costed and
+    grouped one by one."""
+    from hpcontact.sweep.spec import canonical_json
+    from hpcontact.sweep.tasks import KERNEL_NEUTRAL_FIELDS
+
+    rows, row_of, task_of = [], {}, []
+    for index in spec.points():
+        params = spec.scene_params(index)
+        text = canonical_json(params)
+        if text not in row_of:
+            neutral = [k for k in params if k in KERNEL_NEUTRAL_FIELDS]
+            group = (
+                canonical_json({k: v for k, v in params.items() if k not in KERNEL_NEUTRAL_FIELDS}) if neutral else text
+            )
+            row_of[text] = len(rows)
+            rows.append((task_key(params, text), params, estimated_cost(params), group))
+        task_of.append(row_of[text])
+    return rows, task_of
+
+
+@pytest.mark.parametrize("text", MIXED)
+def test_tasks_of_runs_are_those_of_the_points_one_by_one(text, monkeypatch):
+    """Keys, parameters (key order too), costs, groups and each point's task: the same in the same
+    order, whole, cut into runs at every 257th point (later runs find the scenes of earlier ones
+    by value) and in three ranges joined; ``lean`` tasks read the same parameters."""
+    from hpcontact.sweep import spec as spec_module
+    from hpcontact.sweep.tasks import RunScene, enumerate_part, join_parts, points
+
+    spec = spec_of(text)
+    rows, task_of = point_by_point(spec)
+    n = points(spec)
+    monkeypatch.setattr(spec_module, "PROGRESS_POINTS", 257)
+    calls = []
+    for parts in (
+        [enumerate_part(spec)],
+        [enumerate_part(spec, progress=calls.append)],
+        [enumerate_part(spec, n * r // 3, n * (r + 1) // 3, progress=lambda done: None) for r in range(3)],
+        [enumerate_part(spec, progress=lambda done: None, lean=True)],
+    ):
+        tasks, where = join_parts(spec, parts)
+        assert [(t.key, dict(t.params), t.cost, t.group) for t in tasks] == rows
+        assert [list(t.params) for t in tasks] == [list(p) for _, p, _, _ in rows]
+        assert where.reshape(-1).tolist() == task_of
+        assert all(type(t.params) in (dict, RunScene) for t in tasks)
+    assert calls == list(range(257, n, 257))  # every PROGRESS_POINTS points, while points are left
+
+
+def test_a_run_of_new_scenes_keys_each_once_and_costs_its_grids_once(monkeypatch):
+    from hpcontact.problems import footprint
+    from hpcontact.sweep import tasks as tasks_module
+
+    keys, costs = [], []
+    key, cost = tasks_module.task_key, tasks_module.costed
+    monkeypatch.setattr(tasks_module, "task_key", lambda p, text=None: keys.append(1) or key(p, text))
+    monkeypatch.setattr(tasks_module, "costed", lambda p: costs.append(1) or cost(p))
+    spec = spec_of('[scene]\nshape = "ellipse"\n[numerics]\nn = 32\n[axes]\naspect = { logspace = [0, -3, 5000] }\n')
+    tasks, _ = enumerate_tasks(spec)
+    grids = {footprint.contact_grid(t.params) for t in tasks}
+    assert len(tasks) == len(keys) == 5000 and len(costs) == len(grids) < 40  # a cost per grid, not per scene
+    spec = spec_of(
+        '[scene]\nshape = "ellipse"\naspect = 0.5\n[numerics]\nn = 32\n[axes]\nnu = { linspace = [0, 0.5, 5000] }\n'
+    )
+    costs.clear()
+    tasks, _ = enumerate_tasks(spec)
+    assert len(costs) == 1 and len({t.sizing for t in tasks}) == 1  # nu changes neither grid nor cost
