@@ -79,11 +79,25 @@ def test_a_worker_gets_work_while_rank_0_computes(team: Team) -> None:
         assert claimed[0] == [0], f"rank 0 had to take chunks {claimed[0][1:]} itself: the workers starved"
 
 
+def _wait_for_the_first_claim(counter, timeout: float = 60.0) -> None:
+    """Until some rank has claimed a chunk (the counter's next chunk is past 0)."""
+    deadline = time.monotonic() + timeout
+    while counter.fetch_add(NEXT_CHUNK, 0) == 0:
+        assert time.monotonic() < deadline, f"no rank claimed a chunk in {timeout:g} s"
+        time.sleep(0.001)
+
+
 def test_a_rank_that_leaves_early_does_not_block_the_others(team: Team) -> None:
+    """The last rank claims one chunk and leaves; the others take the rest and close. They start
+    claiming only after its claim: under load (a 2-rank job beside the test, 2 cores) rank 0
+    once claimed all 40 chunks before the last rank's first request arrived, and the scenario
+    did not happen (the leaving rank held none)."""
     team = _team(team, True)
     interval = sys.getswitchinterval()
     counter = team.counter(SLOTS)
     mine = []
+    if team.rank != team.size - 1:
+        _wait_for_the_first_claim(counter)
     for chunk in claimed_chunks(CHUNKS, counter):
         mine.append(chunk[0])
         if team.rank == team.size - 1 and team.size > 1:
