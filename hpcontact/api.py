@@ -370,6 +370,7 @@ _FLAGS = {
     "--retry-crashed": "retry_crashed=True",
     "--break-lock": "break_lock=True",
     "--mem-per-rank": "mem_per_rank",
+    "--accuracy": "accuracy",
     "--output": "output=",
 }
 _FLAG = re.compile(
@@ -393,6 +394,7 @@ def run_sweep(
     retry_crashed: bool = False,
     break_lock: bool = False,
     mem_per_rank: str | int | None = None,
+    accuracy: float | None = None,
     task_function: Callable[[Mapping[str, Any]], Mapping[str, Any]] | None = None,
     stream: TextIO | None = None,
 ) -> Path:
@@ -419,6 +421,9 @@ def run_sweep(
     mem_per_rank
         Refuse a spec with a task whose estimated memory exceeds this (``"4G"`` or bytes);
         default: not checked.
+    accuracy
+        Solve every scene to this estimated relative error (``hpcontact run --accuracy``),
+        replacing the spec's ``[numerics]`` accuracy, n and n_across.
     task_function
         Replaces the solver of one scene (fields → record); default: the spec's scene kind's.
     stream
@@ -461,7 +466,7 @@ def run_sweep(
     )
     target = None if output is None else os.fspath(output)
     try:
-        source = _dict_spec(spec, target) if isinstance(spec, Mapping) else spec
+        source = _dict_spec(spec, target, accuracy) if isinstance(spec, Mapping) else spec
         return execute(
             source,
             None if isinstance(spec, Mapping) else target,
@@ -469,6 +474,7 @@ def run_sweep(
             team=SerialTeam(),
             stream=stream,
             options=options,
+            accuracy=None if isinstance(spec, Mapping) else accuracy,
         ).path
     except Refused as exc:
         raise Refused(python_message(str(exc))).with_traceback(exc.__traceback__) from None
@@ -486,7 +492,7 @@ def run_sweep(
 DICT_SPEC_PATH = "<dict>"
 
 
-def _dict_spec(spec: Mapping[str, Any], output: str | None) -> Any:
+def _dict_spec(spec: Mapping[str, Any], output: str | None, accuracy: float | None = None) -> Any:
     """The ``Spec`` of a spec given as a dict: its TOML text through ``parse_spec``."""
     from hpcontact.sweep.spec import parse_spec
 
@@ -496,7 +502,7 @@ def _dict_spec(spec: Mapping[str, Any], output: str | None) -> Any:
             "output",
             "a data set path ending in .nc: a spec given as a dict names it in its sweep table (output) or by output=",
         )
-    return parse_spec(toml_text(spec), path=DICT_SPEC_PATH, output=output, check_scenes=False)
+    return parse_spec(toml_text(spec), path=DICT_SPEC_PATH, output=output, check_scenes=False, accuracy=accuracy)
 
 
 def toml_text(spec: Mapping[str, Any]) -> str:

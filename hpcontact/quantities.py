@@ -13,6 +13,10 @@ from typing import Any
 
 import numpy as np
 
+#: The suffix of a quantity's estimated relative error in a sweep's records and data set
+#: (``K_xx_error``: ``hpcontact.accuracy.error_columns``, docs/reference/dataset.md).
+ERROR_SUFFIX = "_error"
+
 
 def resultant(traction: np.ndarray, cell_area: float) -> np.ndarray:
     """Total force per component: Σ t · cell_area over the grid (traction (c, nx, ny))."""
@@ -28,6 +32,17 @@ def directional_stiffness(K: np.ndarray, theta_deg: np.ndarray | float) -> np.nd
     t = np.radians(theta_deg)
     c, s = np.cos(t), np.sin(t)
     return c * c * K[..., 0, 0] + c * s * (K[..., 0, 1] + K[..., 1, 0]) + s * s * K[..., 1, 1]
+
+
+def directional_error(bounds: np.ndarray, theta_deg: np.ndarray | float) -> np.ndarray:
+    """Bound on the error of K_nn(θ) (:func:`directional_stiffness`) from bounds B_ij ≥ |δK_ij|
+    on the tensor's entries: |nᵀ δK n| ≤ c² B_xx + |c s| (B_xy + B_yx) + s² B_yy, with
+    n = (c, s) = (cos θ, sin θ) (triangle inequality on the three terms of nᵀ δK n). ``bounds``
+    has shape (..., 2, 2), in the units of K; θ in degrees broadcasts against the leading axes."""
+    B = np.abs(np.asarray(bounds, dtype=np.float64))
+    t = np.radians(theta_deg)
+    c, s = np.cos(t), np.sin(t)
+    return c * c * B[..., 0, 0] + np.abs(c * s) * (B[..., 0, 1] + B[..., 1, 0]) + s * s * B[..., 1, 1]
 
 
 def rotated_tensor(K: np.ndarray, theta_deg: float) -> np.ndarray:

@@ -25,6 +25,12 @@ from hpcontact.materials.isotropic import Isotropic
 Material = Isotropic | Crystal
 
 QUANTITIES = ("tangential", "normal", "compliance", "coupled", "indentation")
+#: Quantities whose discretization follows the contact's edge, so that grids can be refined and
+#: extrapolated (``hpcontact.discretizations.boundary_cells``, ``hpcontact.accuracy``).
+REFINABLE_QUANTITIES = ("tangential", "normal", "coupled")
+#: A requested accuracy (``accuracy``: the estimated relative error every reported stiffness
+#: must reach, ``hpcontact.accuracy.solve_to_accuracy``).
+ACCURACY_RANGE = "a relative error in [1e-9, 1)"
 
 #: b/a below 1e-12 is refused: the cell integrals are verified for cell aspect 1e-10 … 1e10
 #: (tests/kernels) and K_a/K_b for b/a down to 1e-12 (tests/test_hard_cases.py); by 1e-160 the
@@ -53,6 +59,7 @@ INTERVAL_FIELDS: dict[str, tuple[float, ...]] = {
     "shape_angle": (),
     "tol": (),
     "n": (),
+    "accuracy": (),
 }
 #: Fields that act only for some shapes (``hpcontact.geometry.Shape``).
 SHAPE_FIELDS: dict[str, tuple[str, ...]] = {
@@ -88,6 +95,7 @@ DEFAULTS: dict[str, Any] = {
     "n": 128,
     "n_across": None,
     "tol": 1e-8,
+    "accuracy": None,
     "quantities": ("tangential",),
     "radius": None,
     "depth": None,
@@ -118,6 +126,7 @@ class Scene:
     n: int
     n_across: int | None
     tol: float
+    accuracy: float | None = None
     threads: int = 1
     precondition: bool = True
     radius: float | None = None
@@ -158,6 +167,7 @@ class Scene:
             raise InputError("tol", "CG tolerance in [1e-14, 1e-2]", p["tol"])
         quantities = _quantities(p["quantities"])
         _refuse_unused(params, quantities, p["shape"])
+        accuracy = None if p["accuracy"] is None else _accuracy(p["accuracy"], quantities, p["shape"])
         radius = None if p["radius"] is None else finite_number("radius", p["radius"], RADIUS_RANGE)
         depth = None if p["depth"] is None else finite_number("depth", p["depth"], DEPTH_RANGE)
         if "indentation" in quantities and radius is None:
@@ -187,6 +197,7 @@ class Scene:
             n=n,
             n_across=n_across,
             tol=tol,
+            accuracy=accuracy,
             threads=threads,
             precondition=_boolean("precondition", p["precondition"]),
             radius=radius,
@@ -214,6 +225,22 @@ class Scene:
             {"n": n, "n_across": n_across} if tol is None else {"n": n, "n_across": n_across, "tol": tol}
         )
         return dataclasses.replace(self, **changes, params=self.fields(**changes))
+
+
+def _accuracy(value: Any, quantities: tuple[str, ...], shape: str) -> float:
+    """A requested accuracy, for a scene whose grids can be refined: an outline (not a rough
+    patch) and quantities in ``REFINABLE_QUANTITIES``."""
+    accuracy = finite_number("accuracy", value, ACCURACY_RANGE)
+    if not 1e-9 <= accuracy < 1.0:
+        raise InputError("accuracy", ACCURACY_RANGE, value)
+    if shape == "rough":
+        raise InputError("accuracy", "not for shape rough (its patch comes from one grid and cannot be refined)", value)
+    other = [x for x in quantities if x not in REFINABLE_QUANTITIES]
+    if other:
+        raise InputError(
+            "accuracy", f"only for quantities {', '.join(REFINABLE_QUANTITIES)} (not {', '.join(other)})", value
+        )
+    return accuracy
 
 
 def _boolean(field_name: str, value: Any) -> bool:

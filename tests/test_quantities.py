@@ -170,3 +170,20 @@ def test_principal_angle_of_an_isotropic_tensor_is_missing_not_noise():
     out = q.derived_quantities(aniso, None, noise=1e-8)
     assert out["principal_angle_deg"] == pytest.approx(90.0, abs=1e-6) and "principal_angle_note" not in out
     assert q.derived_quantities(aniso, None, noise=1e-5)["principal_angle_deg"] is None
+
+
+def test_the_directional_error_bound_holds_and_is_attained():
+    """|nᵀ δK n| ≤ c² B_xx + |cs| (B_xy + B_yx) + s² B_yy for every |δK_ij| ≤ B_ij, with equality
+    for the perturbation whose signs follow c², cs and s² (so the bound is the least one)."""
+    rng = np.random.default_rng(7)
+    bounds = np.array([[3e-4, 1e-5], [4e-5, 2e-4]])
+    theta = np.linspace(-180.0, 180.0, 73)
+    bound = q.directional_error(bounds, theta)
+    for _ in range(200):
+        dK = bounds * rng.uniform(-1.0, 1.0, size=(2, 2))
+        assert np.all(np.abs(q.directional_stiffness(dK, theta)) <= bound * (1 + 1e-12))
+    t = np.radians(theta)
+    worst = np.stack(
+        [bounds * np.array([[1.0, np.sign(c * s)], [np.sign(c * s), 1.0]]) for c, s in zip(np.cos(t), np.sin(t))]
+    )
+    np.testing.assert_allclose(q.directional_stiffness(worst, theta), bound, rtol=1e-13)

@@ -109,6 +109,11 @@ def test_indentation_fields():
         ({"shape": "mask"}, "mask"),
         ({"seed": -1}, "seed"),
         ({"threads": 0}, "threads"),
+        ({"accuracy": 0.0}, "accuracy"),
+        ({"accuracy": 1.0}, "accuracy"),
+        ({"accuracy": 1e-10}, "accuracy"),
+        ({"accuracy": 1e-4, "shape": "rough"}, "accuracy"),
+        ({"accuracy": 1e-4, "quantities": "compliance"}, "accuracy"),
     ],
 )
 def test_refuses_out_of_range(params, field):

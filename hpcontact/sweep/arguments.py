@@ -26,6 +26,13 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
     """The arguments of ``hpcontact run`` (shared by ``hpcontact.cli`` and ``main``)."""
     parser.add_argument("spec", help="sweep spec (TOML), e.g. jobs/demo.toml")
     parser.add_argument("--output", help="data set path (.nc), instead of the spec's [sweep].output")
+    parser.add_argument(
+        "--accuracy",
+        type=float,
+        metavar="REL",
+        help="solve every scene to this estimated relative error (grid sequence and extrapolation, as "
+        "hpcontact solve --accuracy), instead of the spec's [numerics] accuracy, n and n_across",
+    )
     journals = parser.add_mutually_exclusive_group()
     journals.add_argument(
         "--resume", action="store_true", help="continue from the journals: reuse finished tasks, run failed ones again"

@@ -49,6 +49,7 @@ set it replaces.
 
 from __future__ import annotations
 
+import functools
 import inspect
 import json
 import numbers
@@ -66,7 +67,7 @@ import xarray as xr
 from hpcontact import __version__
 from hpcontact.materials.elastic_constants import FAMILIES
 from hpcontact.problems.kinds import CONTACT, SLIP
-from hpcontact.quantities import directional_stiffness
+from hpcontact.quantities import ERROR_SUFFIX, directional_error, directional_stiffness
 from hpcontact.sweep import netcdf
 from hpcontact.sweep.columns import NOT_COMPUTED, Joined, join, task_positions, to_columns
 from hpcontact.sweep.columns import is_number as _is_number
@@ -83,6 +84,17 @@ STATUS_MEANINGS = {
     CRASHED: "crashed",
     NOT_COMPUTED: "not_computed",
 }
+
+#: ``error_status``: 0 estimated and within the accuracy asked (``accuracy_met``), 1 estimated
+#: but above it (the estimate stands: the grids ran out first, ``stopped_by``), 2 no estimate
+#: (one grid, or a failed task): its ``<name>_error`` is NaN.
+ERROR_MET, ERROR_NOT_MET, NO_ESTIMATE = 0, 1, 2
+ERROR_STATUS_MEANINGS = {ERROR_MET: "met", ERROR_NOT_MET: "not_met", NO_ESTIMATE: "no_estimate"}
+#: Stored stiffnesses that carry an estimated relative error (``<name>_error``, linked from them
+#: by CF ``ancillary_variables``): K_<ij>, K_max, K_min, K_min_over_K_max, K_a_over_K_b, Li's
+#: normalized_<ij>, and their coupled and bonded variants. Principal angles and the compliance
+#: proxy have none.
+ESTIMATED = re.compile(r"^(K_(?!nn$)\w+|normalized_(?!nn$)\w+)$")
 
 TENSOR = ("K_xx", "K_xy", "K_yx", "K_yy")
 DIRECTIONAL = ("K_nn", "normalized_nn")  # derived from the tensor (stored in the file)
@@ -102,6 +114,7 @@ AXIS_ATTRS: Mapping[str, Mapping[str, str]] = {
     "n": {"long_name": "grid cells along the long side", "units": "1"},
     "n_across": {"long_name": "grid cells across the short side", "units": "1"},
     "tol": {"long_name": "conjugate-gradient relative residual tolerance", "units": "1"},
+    "accuracy": {"long_name": "requested relative accuracy of every stiffness (grid extrapolation)", "units": "1"},
     "G": {"long_name": "shear modulus G: the stress unit of the scene", "units": "1"},
     "amplitude": {"long_name": "relative lobe amplitude of the star", "units": "1"},
     "sides": {"long_name": "polygon sides or star lobes", "units": "1"},
@@ -147,6 +160,11 @@ VARIABLE_ATTRS: dict[str, Mapping[str, str]] = {
     "iterations": {"long_name": "conjugate-gradient iterations, all solves", "units": "1"},
     "residual": {"long_name": "largest relative residual of the solves", "units": "1"},
     "estimated_error": {"long_name": "estimated relative error (grid extrapolation)", "units": "1"},
+    "error_status": {
+        "long_name": "error estimate of the point's stiffnesses (their <name>_error variables)",
+        "flag_values": np.array(sorted(ERROR_STATUS_MEANINGS), dtype=np.int32),
+        "flag_meanings": " ".join(ERROR_STATUS_MEANINGS[k] for k in sorted(ERROR_STATUS_MEANINGS)),
+    },
     "nx": {"long_name": "grid cells along x", "units": "1"},
     "ny": {"long_name": "grid cells along y", "units": "1"},
     "dx": {"long_name": "cell size along x", "units": "a"},
@@ -308,9 +326,47 @@ def dataset_of(
         if name in renamed and "long_name" in variable_attrs:
             variable_attrs["long_name"] = f"{variable_attrs['long_name']} (task record; differs from the coordinate)"
         ds[name].attrs.update(variable_attrs)
+    if spec.kind == CONTACT:
+        ds = link_errors(ds)
     scales = {s for name in ds.variables for s in scale_symbols(str(ds[name].attrs.get("scale", "")))}
     ds.attrs.update(_global_attrs(spec, attrs, scales))
     return derive_directional(ds) if derive else ds
+
+
+def error_attributes(name: str) -> dict[str, str]:
+    """CF attributes of ``<name>_error``, the estimated relative error of the stiffness ``name``."""
+    relative_to = (
+        "the largest diagonal entry |K_ii|" if re.fullmatch(r"K_(xy|yx|xz|zx|yz|zy)(_coupled)?", name) else f"|{name}|"
+    )
+    return {
+        "long_name": f"estimated relative error of {name} (grid extrapolation), relative to {relative_to}; "
+        "NaN: no estimate (error_status)",
+        "units": "1",
+    }
+
+
+def link_errors(ds: xr.Dataset) -> xr.Dataset:
+    """``ds`` with an estimated relative error ``<name>_error`` beside every stiffness it stores
+    (``ESTIMATED``; NaN where a task has none: one grid, or failed), linked from it by CF
+    ``ancillary_variables`` = "<name>_error error_status", and the flag variable
+    ``error_status`` (``ERROR_STATUS_MEANINGS``) over the task axes."""
+    names = [v for v in ds.data_vars if ESTIMATED.match(str(v)) and not str(v).endswith(ERROR_SUFFIX)]
+    if not names:
+        return ds
+    estimated = (
+        np.isfinite(ds["estimated_error"].values) if "estimated_error" in ds else np.zeros(ds["status"].shape, bool)
+    )
+    met = ds["accuracy_met"].values == "true" if "accuracy_met" in ds else np.zeros_like(estimated)
+    status = np.where(estimated, np.where(met, ERROR_MET, ERROR_NOT_MET), NO_ESTIMATE).astype(np.int32)
+    out = ds.assign(error_status=(ds["status"].dims, status))
+    out["error_status"].attrs.update(VARIABLE_ATTRS["error_status"])
+    for name in names:
+        error = f"{name}{ERROR_SUFFIX}"
+        if error not in out:
+            out[error] = xr.full_like(out[name], np.nan, dtype=np.float64)
+        out[error].attrs = error_attributes(name)
+        out[name].attrs["ancillary_variables"] = f"{error} error_status"
+    return out
 
 
 def _label_coordinates(spec: Spec) -> dict[str, tuple[tuple[str, ...], np.ndarray]]:
@@ -478,7 +534,52 @@ def derive_directional(ds: xr.Dataset) -> xr.Dataset:
         normalized = out["K_nn"] * (ds["normalized_xx"] / kxx)
         normalized.attrs = dict(VARIABLE_ATTRS["normalized_nn"])
         out["normalized_nn"] = normalized.transpose(*[d for d in order if d in normalized.dims])
+    return _directional_errors(out, order)
+
+
+def _directional_errors(ds: xr.Dataset, order: list[str]) -> xr.Dataset:
+    """``ds`` with ``K_nn_error`` and ``normalized_nn_error`` where the tensor carries errors
+    (``link_errors``), derived where they are not stored yet: the bound |nᵀ δK n| of
+    ``quantities.directional_error`` on the entries' absolute errors (K_xy's and K_yx's relative
+    to the largest diagonal entry) over |K_nn| in tensor mode, K_xx's in rotated mode;
+    normalized_nn = K_nn E*/(K_zz G*) adds K_zz's relative error. K_nn and normalized_nn link
+    them (``ancillary_variables``)."""
+    errors = [f"{name}{ERROR_SUFFIX}" for name in TENSOR]
+    if not set(errors) <= set(ds.data_vars):
+        return ds
+    out = ds
+    if f"K_nn{ERROR_SUFFIX}" not in out:
+        if "angle" in ds["K_xx"].dims:  # rotated mode: K_nn is K_xx of the turned shape
+            knn_error = ds[errors[0]].copy()
+        else:
+            scale = functools.reduce(np.fmax, [abs(ds[k]) for k in ("K_xx", "K_yy", "K_zz") if k in ds])
+            bounds = [
+                ds[errors[0]] * abs(ds["K_xx"]),
+                ds[errors[1]] * scale,
+                ds[errors[2]] * scale,
+                ds[errors[3]] * abs(ds["K_yy"]),
+            ]
+            turned = xr.apply_ufunc(
+                _turned_error, *bounds, ds["angle"], dask="parallelized", output_dtypes=[np.float64]
+            )
+            knn_error = turned / abs(ds["K_nn"])
+        knn_error.attrs = error_attributes("K_nn")
+        out = out.assign({f"K_nn{ERROR_SUFFIX}": knn_error.transpose(*[d for d in order if d in knn_error.dims])})
+    normalized = f"normalized_nn{ERROR_SUFFIX}"
+    if "normalized_nn" in out and normalized not in out and f"K_zz{ERROR_SUFFIX}" in out:
+        bound = out[f"K_nn{ERROR_SUFFIX}"] + out[f"K_zz{ERROR_SUFFIX}"]
+        bound.attrs = error_attributes("normalized_nn")
+        out[normalized] = bound.transpose(*[d for d in order if d in bound.dims])
+    for name in DIRECTIONAL:
+        if name in out and f"{name}{ERROR_SUFFIX}" in out:
+            out[name].attrs["ancillary_variables"] = f"{name}{ERROR_SUFFIX} error_status"
     return out
+
+
+def _turned_error(bxx: np.ndarray, bxy: np.ndarray, byx: np.ndarray, byy: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """``directional_error`` on the four broadcast absolute error bounds."""
+    bounds = np.stack([np.stack([bxx, bxy], axis=-1), np.stack([byx, byy], axis=-1)], axis=-2)
+    return directional_error(bounds, angle)
 
 
 def _directional(ds: xr.Dataset) -> bool:
@@ -584,6 +685,8 @@ def _global_attrs(spec: Spec, attrs: Mapping[str, Any], scales: set[str] = froze
                 "L: unit of the sphere's radius and depth",
             }
         )
+    if spec.fixed.get("accuracy") is not None:
+        out["requested_accuracy"] = float(spec.fixed["accuracy"])  # every point's error_status says whether it is met
     for name, value in spec.fixed.items():
         if not (_is_number(value) or isinstance(value, str)):
             out[f"scene_{name}"] = json.dumps(value)

@@ -378,6 +378,7 @@ def run_sweep(
     stream: TextIO | None = None,
     options: Options | None = None,
     stop: StopControl | None = None,
+    accuracy: float | None = None,
 ) -> Path:
     """Run the sweep of ``spec_path`` on ``team`` (default: MPI world, or one process) and return
     the path of the data set written (see ``execute``)."""
@@ -390,6 +391,7 @@ def run_sweep(
         stream=stream,
         options=options if options is not None else Options(resume=resume),
         stop=stop,
+        accuracy=accuracy,
     ).path
 
 
@@ -403,11 +405,13 @@ def execute(
     stream: TextIO | None = None,
     options: Options = Options(),
     stop: StopControl | None = None,
+    accuracy: float | None = None,
 ) -> Outcome:
     """Run the sweep of ``spec_path`` on ``team`` (default: MPI world, or one process).
 
     ``options`` say what to do with existing journals and locks (module docstring); ``output``
-    overrides the spec's output path; ``task_function`` solves one scene and ``validate`` checks
+    overrides the spec's output path and ``accuracy`` its [numerics] accuracy, n and n_across
+    (``hpcontact run --accuracy``); ``task_function`` solves one scene and ``validate`` checks
     one scene's parameters (defaults: those of the spec's scene kind, ``accuracy.task_function``); rank 0 prints
     progress and the summary to ``stream`` (default stdout); ``stop`` is this rank's stop
     control (default: one without signal handlers, which still stops with the other ranks).
@@ -427,8 +431,8 @@ def execute(
         team,
         lambda: (
             spec_path
-            if isinstance(spec_path, Spec) and output is None
-            else load_spec(spec_path, output=output, validate=validate, check_scenes=False)
+            if isinstance(spec_path, Spec) and output is None and accuracy is None
+            else load_spec(spec_path, output=output, validate=validate, check_scenes=False, accuracy=accuracy)
         ),
     )
     mine = pickle.dumps(_share(spec, team.rank, team.size, validate, options), protocol=pickle.HIGHEST_PROTOCOL)
@@ -711,6 +715,7 @@ def dry_run(
     mem_per_rank: int | None = None,
     calibration: Any = None,
     list_all: bool = False,
+    accuracy: float | None = None,
 ) -> int:
     """``hpcontact run SPEC --dry-run``: the tasks with their 0-based indices (the order
     ``HPCONTACT_FAULTS`` counts in), relative cost, estimated seconds and peak memory and
@@ -723,7 +728,9 @@ def dry_run(
     computed but the cost model's calibration (once per host and version,
     ``costmodel.load_calibration``)."""
     stream = stream if stream is not None else sys.stdout
-    spec = load_spec(spec_path, output=output, check_scenes=False)  # checked once, while enumerating:
+    spec = load_spec(
+        spec_path, output=output, check_scenes=False, accuracy=accuracy
+    )  # checked once, while enumerating:
     progress = progress_lines(sys.stderr, points(spec))
     tasks, _ = join_parts(spec, [enumerate_part(spec, check=True, progress=progress, lean=True)])
     limit, source = (mem_per_rank, "--mem-per-rank") if mem_per_rank is not None else default_memory_per_rank()
@@ -839,6 +846,7 @@ def run_command(
     task_function: TaskFunction | None = None,
     prog: str = "hpcontact run",
     stall_s: float | None = None,
+    accuracy: float | None = None,
 ) -> int:
     """``hpcontact run`` on every rank: the exit status (``EXIT_STATUS``). Refusals and bad
     input print one line on stderr from rank 0, prefixed ``prog``; any other error prints its
@@ -854,7 +862,7 @@ def run_command(
     ).install(team.rank)
     try:
         load_wisdom()  # FFTW plans of earlier runs: measured plans in milliseconds
-        outcome = execute(spec, output, task_function, team=team, options=options, stop=stop)
+        outcome = execute(spec, output, task_function, team=team, options=options, stop=stop, accuracy=accuracy)
         if not outcome.up_to_date:  # an up-to-date sweep planned nothing new
             _keep_wisdom()  # every rank: save_wisdom merges the ranks' plans into one file
         return EXIT_FAILED_TASKS if outcome.failures else EXIT_OK
@@ -895,6 +903,7 @@ def run_from_arguments(
             as_json=args.json,
             mem_per_rank=None if memory is None else memory[0],
             list_all=args.list_all,
+            accuracy=args.accuracy,
         )
     if args.json:
         raise InputError("--json", "only with --dry-run", True)
@@ -915,7 +924,9 @@ def run_from_arguments(
         mem_per_rank=memory if memory is not None else default_memory_per_rank(),
         up_to_date=task_function is None,
     )
-    return run_command(args.spec, options, args.output, args.grace, task_function, prog, args.stall_timeout)
+    return run_command(
+        args.spec, options, args.output, args.grace, task_function, prog, args.stall_timeout, args.accuracy
+    )
 
 
 def main(

@@ -14,8 +14,8 @@ A spec has four tables (docs/design.md §1, §4.2; every key is optional except 
     quantities = ["tangential", "normal"]
 
     [numerics]                       # accuracy settings of every scene
-    n = 128
-    n_across = 16
+    n = 128                          # one grid ... (or accuracy = 1e-4 instead of n, n_across:
+    n_across = 16                    # a grid sequence to that estimated relative error)
     tol = 1e-10
 
     [axes]                           # the parameter space: a Cartesian product
@@ -25,8 +25,8 @@ A spec has four tables (docs/design.md §1, §4.2; every key is optional except 
     angle = { linspace = [0, 180, 37] }     # numpy.linspace(start, stop, num)
 
 Axis names are those of docs/design.md §1 (``shape angle nu aspect anisotropy orientation``), ``material``
-(library crystal names, a string coordinate: ``material = ["Cu", "Al", "W"]``), plus ``n`` and
-``tol`` for accuracy studies. Crystal scenes::
+(library crystal names, a string coordinate: ``material = ["Cu", "Al", "W"]``), plus ``n``,
+``tol`` and ``accuracy`` for accuracy studies. Crystal scenes::
 
     [scene]                          # Rodríguez-Tembleque et al. 2011: sphere on a cubic crystal
     quantities = ["indentation"]
@@ -98,10 +98,11 @@ import numpy as np
 from hpcontact.errors import InputError
 from hpcontact.materials.elastic_constants import FAMILIES as CONSTANT_FAMILIES
 from hpcontact.problems.kinds import CONTACT, SLIP, interval_fields, scene_kind, validator
+from hpcontact.scene import ACCURACY_RANGE
 
 TABLES = ("sweep", "scene", "numerics", "axes")
 SWEEP_KEYS = ("title", "output", "journal", "angle_mode", "progress_interval")
-NUMERIC_KEYS = ("n", "n_across", "tol")
+NUMERIC_KEYS = ("n", "n_across", "tol", "accuracy")
 AXIS_NAMES = (
     "shape",
     "angle",
@@ -112,6 +113,7 @@ AXIS_NAMES = (
     "material",
     "n",
     "tol",
+    "accuracy",
     "pair",
     "load",
     "mu",
@@ -132,6 +134,7 @@ FLOAT_FIELDS = frozenset(
         "anisotropy",
         "orientation",
         "tol",
+        "accuracy",
         "G",
         "shape_angle",
         "amplitude",
@@ -354,9 +357,14 @@ def canonical_json(params: Mapping[str, Any]) -> str:
 
 
 def load_spec(
-    path: str | Path, output: str | Path | None = None, validate: Validator | None = None, check_scenes: bool = True
+    path: str | Path,
+    output: str | Path | None = None,
+    validate: Validator | None = None,
+    check_scenes: bool = True,
+    accuracy: float | None = None,
 ) -> Spec:
-    """Read and check the spec at ``path``; ``output`` overrides [sweep].output.
+    """Read and check the spec at ``path``; ``output`` overrides [sweep].output, ``accuracy``
+    (``hpcontact run --accuracy``) the spec's [numerics] accuracy, n and n_across.
 
     ``validate`` checks one scene's parameters (default: the validator of the spec's scene kind,
     ``kinds.validator``); it runs on every distinct scene of the sweep, so impossible values are
@@ -372,7 +380,7 @@ def load_spec(
         raise InputError("spec", f"a TOML file in UTF-8 (byte {exc.start} is not UTF-8)", str(path)) from None
     if not any(line.strip() and not line.lstrip().startswith("#") for line in text.splitlines()):
         raise InputError("spec", "a TOML spec with content (this file is empty or holds only comments)", str(path))
-    return parse_spec(text, path=path, output=output, validate=validate, check_scenes=check_scenes)
+    return parse_spec(text, path=path, output=output, validate=validate, check_scenes=check_scenes, accuracy=accuracy)
 
 
 def parse_spec(
@@ -381,6 +389,7 @@ def parse_spec(
     output: str | Path | None = None,
     validate: Validator | None = None,
     check_scenes: bool = True,
+    accuracy: float | None = None,
 ) -> Spec:
     """Check the TOML ``text`` of a spec and build the ``Spec`` (see the module docstring and
     ``load_spec``)."""
@@ -405,6 +414,12 @@ def parse_spec(
 
     fixed = {key: _normalize(f"scene.{key}", key, value) for key, value in scene.items()}
     fixed.update({key: _normalize(f"numerics.{key}", key, value) for key, value in numerics.items()})
+    if accuracy is not None:  # the command line's request replaces the spec's grid and accuracy
+        for key in ("n", "n_across"):
+            fixed.pop(key, None)
+        fixed["accuracy"] = _normalize("--accuracy", "accuracy", accuracy)
+        if not 1e-9 <= fixed["accuracy"] < 1.0:
+            raise InputError("--accuracy", ACCURACY_RANGE, accuracy)
     axes = tuple(_axis(name, value) for name, value in axes_table.items())
     base = Path(path).parent.absolute()
     fixed = _with_paths(fixed, base)
@@ -426,7 +441,14 @@ def parse_spec(
         if axis.name in fixed:
             raise InputError(f"axes.{axis.name}", f"an axis or a fixed [{section}] field, not both")
 
+    _refuse_grid_with_accuracy(fixed, axes, "--accuracy" if accuracy is not None else "numerics.accuracy")
     kind = scene_kind(fixed)
+    if kind == SLIP and ("accuracy" in fixed or any(a.name == "accuracy" for a in axes)):
+        raise InputError(
+            "--accuracy" if accuracy is not None else "numerics.accuracy",
+            "not with slip scenes (a slip scene is solved on its grid, n cells across the contact)",
+            fixed.get("accuracy"),
+        )
     if kind == SLIP:
         if "angle_mode" in sweep:
             raise InputError(
@@ -474,6 +496,19 @@ def parse_spec(
         for _ in scene_runs(spec, validate):
             pass
     return spec
+
+
+def _refuse_grid_with_accuracy(fixed: Mapping[str, Any], axes: tuple[Axis, ...], key: str) -> None:
+    """A requested accuracy picks its own grids (``hpcontact.accuracy.solve_to_accuracy``): a
+    fixed grid beside it (``n``, ``n_across``, fixed or an axis) would be ignored, so it is
+    refused."""
+    names = set(fixed) | {a.name for a in axes}
+    if "accuracy" not in names:
+        return
+    for grid in ("n", "n_across"):
+        if grid in names:
+            where = f"axes.{grid}" if grid not in fixed else f"numerics.{grid}"
+            raise InputError(key, f"an accuracy or a grid ({where}), not both: an accuracy picks its own grids")
 
 
 def _known_keys(prefix: str, table: Mapping[str, Any], allowed: tuple[str, ...]) -> None:

@@ -23,6 +23,7 @@ import pytest
 import xarray as xr
 
 import hpcontact
+from hpcontact.accuracy import error_columns
 from hpcontact.quantities import rotated_tensor
 from hpcontact.scene import Scene
 from hpcontact.sweep import tasks as tasks_module
@@ -634,3 +635,50 @@ def test_compliance_checker_cf_suite_has_no_failure(compliance_checker, checked,
     )
     assert done.returncode != 0 and '"bananas" are not recognized by UDUNITS' in done.stdout, done.stdout + done.stderr
     assert "standard_name no_such_standard_name is not defined" in done.stdout
+
+
+def test_error_bars_are_linked_from_every_stiffness_and_propagated_to_K_nn(fake_solve, tmp_path):
+    """docs/reference/dataset.md §"Error estimates": ``<name>_error`` beside every stored
+    stiffness (NaN where a task has no estimate), linked by CF ``ancillary_variables``,
+    ``error_status`` per point, K_nn's and normalized_nn's bounds derived from the tensor's."""
+    errors = {"K_xx": 1e-4, "K_xy": 2e-6, "K_yx": 3e-6, "K_yy": 2e-4, "K_zz": 5e-5, "K_a_over_K_b": 1.5e-4}
+
+    def solve(params):  # the ellipse extrapolated (met at nu = 0, not at 0.5), the circle on one grid
+        record = {**fake_solve(params), "K_xy": 0.01, "K_yx": 0.02}
+        if params["shape"] == "ellipse":
+            worst = max(errors.values())
+            met = float(params["nu"]) == 0.0
+            record.update(estimated_error=worst, accuracy_met=met, estimated_errors=errors)
+        return error_columns(record)
+
+    _, ds = build(solve)
+    for name in ("K_xx", "K_xy", "K_yy", "K_zz", "K_a_over_K_b", "normalized_xx", "K_nn", "normalized_nn"):
+        assert ds[name].attrs["ancillary_variables"] == f"{name}_error error_status", name
+        assert ds[f"{name}_error"].attrs["units"] == "1", name
+        assert np.isnan(ds[f"{name}_error"].sel(shape="circle")).all(), name  # one grid: no estimate
+    assert "largest diagonal" in ds["K_xy_error"].attrs["long_name"]
+    assert np.isnan(ds["normalized_xx_error"].sel(shape="ellipse")).all()  # the record had none
+    status = ds["error_status"]
+    assert status.dtype == np.int32 and status.attrs["flag_meanings"] == "met not_met no_estimate"
+    assert (status.sel(shape="circle") == 2).all()
+    assert (status.sel(shape="ellipse", nu=0.0) == 0).all() and (status.sel(shape="ellipse", nu=0.5) == 1).all()
+
+    point = ds.sel(shape="ellipse", aspect=0.1, nu=0.5)
+    scale = max(abs(float(point.K_xx)), abs(float(point.K_yy)), abs(float(point.K_zz)))
+    bounds = np.array(
+        [
+            [errors["K_xx"] * float(point.K_xx), errors["K_xy"] * scale],
+            [errors["K_yx"] * scale, errors["K_yy"] * float(point.K_yy)],
+        ]
+    )
+    t = np.radians(ds.angle.values)
+    c, s = np.cos(t), np.sin(t)
+    by_hand = c * c * bounds[0, 0] + np.abs(c * s) * (bounds[0, 1] + bounds[1, 0]) + s * s * bounds[1, 1]
+    np.testing.assert_allclose(point.K_nn_error.values, by_hand / np.abs(point.K_nn.values), rtol=1e-14)
+    np.testing.assert_allclose(point.normalized_nn_error.values, point.K_nn_error.values + errors["K_zz"], rtol=1e-14)
+
+    path = write_netcdf(ds, tmp_path / "errors.nc")
+    with open_dataset(path) as back:
+        assert back["error_status"].dtype == np.int32
+        assert back["K_nn"].attrs["ancillary_variables"] == "K_nn_error error_status"
+        np.testing.assert_array_equal(back["K_nn_error"].values, ds["K_nn_error"].values)

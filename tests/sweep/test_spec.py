@@ -126,6 +126,11 @@ def test_output_override_and_journal():
         ('[axes]\nshape = ["circle", 3]\n', "axes.shape[1]"),
         ('[axes]\nshape = ["circle", "circle"]\n', "axes.shape"),
         ("x = = 1\n", "spec"),
+        ("[numerics]\naccuracy = 1e-4\nn = 64\n", "numerics.accuracy"),
+        ("[numerics]\naccuracy = 1e-4\n[axes]\nn = [32, 64]\n", "numerics.accuracy"),
+        ("[numerics]\naccuracy = 1e-4\nn_across = 8\n", "numerics.accuracy"),
+        ('[numerics]\naccuracy = "fine"\n', "numerics.accuracy"),
+        ('[scene]\nquantities = "slip"\n[numerics]\naccuracy = 1e-4\n', "numerics.accuracy"),
     ],
 )
 def test_bad_specs_are_refused_naming_the_key(text, key):
@@ -349,3 +354,24 @@ def test_a_small_spec_is_checked_scene_by_scene(monkeypatch):
     text = '[scene]\nshape = "circle"\n[axes]\nnu = { linspace = [0, 0.5, 300] }\naspect = [1.0, 0.5]\n'
     parse_spec(text, path="job.toml")
     assert len(calls) == 300  # every distinct scene: the circle ignores b/a
+
+
+def test_an_accuracy_is_a_numerical_setting_of_every_scene():
+    spec = parse("[numerics]\naccuracy = 1e-4\n[axes]\nnu = [0.1, 0.3]\n", validate=None)
+    assert [spec.scene_params((i,))["accuracy"] for i in range(2)] == [1e-4, 1e-4]
+    assert refused("[numerics]\naccuracy = 2.0\n[axes]\nnu = [0.1]\n", validate=None).field == "numerics.accuracy"
+    swept = parse("[axes]\naccuracy = [1e-3, 1e-4]\n", validate=None)  # what each accuracy costs
+    assert [swept.scene_params((i,))["accuracy"] for i in range(2)] == [1e-3, 1e-4]
+
+
+def test_the_command_line_accuracy_replaces_the_spec_grid_and_accuracy():
+    text = "[numerics]\nn = 64\nn_across = 8\ntol = 1e-10\n[axes]\nnu = [0.1]\n"
+    spec = parse_spec(text, accuracy=1e-3)
+    assert spec.fixed == {"tol": 1e-10, "accuracy": 1e-3}
+    for bad in (0.0, 1.5, float("nan")):
+        with pytest.raises(InputError) as info:
+            parse_spec(text, accuracy=bad)
+        assert info.value.field == "--accuracy"
+    with pytest.raises(InputError) as info:
+        parse_spec("[axes]\nn = [32, 64]\n", accuracy=1e-3)
+    assert info.value.field == "--accuracy" and "axes.n" in str(info.value)
