@@ -8,6 +8,11 @@ per nu, Mindlin's bonded ellipse as lines, Li 2017 Fig. 7) and ``anisotropy_map_
 stiffness ignores b/a are left out. Other axes (anisotropy, orientation, n, tol) are taken at
 their first value (A = 1 where swept) and named in the title. ``--format pdf`` or ``svg``
 writes those instead of PNGs.
+
+Where the data set estimates the error of K_a/K_b (``K_a_over_K_b_error``), the curves carry
+bars ± the estimated error, the maps are hatched where it is more than 10 % of the map's range
+(``common.ERROR_FRACTION``; points without an estimate hatched the other way) and each title
+states the worst estimated relative error; a data set without estimates says so there.
 """
 
 from __future__ import annotations
@@ -23,6 +28,10 @@ from common import (
     arguments,
     by_shape,
     colours,
+    error_bars,
+    error_caption,
+    error_marks,
+    hatch_errors,
     label,
     mark_points,
     open_dataset,
@@ -52,11 +61,14 @@ def curves(ds, names, outdir) -> None:
     nus = ds["nu"].values if "nu" in ds[RATIO].dims else np.atleast_1d(ds["nu"].values)
     fine = np.logspace(np.log10(ds["aspect"].values.min()), 0.0, 200)
     note = ""
+    errors = []
     for ax, shape in zip(axes, names):
         da = by_shape(ds[RATIO], shape)
         for colour, nu in zip(colours(len(nus)), nus):
             at_nu = da.sel(nu=nu) if "nu" in da.dims else da
             at_nu, note = select_rest(at_nu, ["aspect"])
+            errors.append(error_marks(ds, at_nu))
+            error_bars(ax, at_nu["aspect"], at_nu, errors[-1].absolute, colour)
             ax.plot(at_nu["aspect"], at_nu, "o", ms=3.5, color=colour, label=f"ν = {nu:.2g}")
             ax.plot(fine, mindlin_ellipse_stiffness_ratio(fine, nu), "-", lw=1.0, color=colour)
         ax.set_xscale("log")
@@ -75,7 +87,9 @@ def curves(ds, names, outdir) -> None:
     )
     notes = ", ".join(filter(None, [note, scalar_notes(ds)]))
     fig.suptitle(
-        f"Tangential stiffness anisotropy K_a/K_b (a: major axis along x){f' — {notes}' if notes else ''}", fontsize=10
+        f"Tangential stiffness anisotropy K_a/K_b (a: major axis along x){f' — {notes}' if notes else ''}\n"
+        + error_caption(errors, "bars"),
+        fontsize=10,
     )
     save(fig, outdir, "anisotropy_curves.png")
 
@@ -93,12 +107,14 @@ def maps(ds, names, outdir) -> None:
         filled = ax.contourf(np.log10(da["aspect"]), da["nu"], da.values, levels=levels, cmap="viridis")
         lines = ax.contour(np.log10(da["aspect"]), da["nu"], da.values, levels=levels[::4], colors="w", linewidths=0.6)
         ax.clabel(lines, fmt="%.2f", fontsize=7)
+        errors = error_marks(ds, da)
+        hatch_errors(ax, np.log10(da["aspect"]), da["nu"], errors)
         mark_points(ax, np.log10(da["aspect"]), da["nu"], da.values)
         fig.colorbar(filled, ax=ax, label="K_a / K_b  (K_xx / K_yy)")
         ax.set_xlabel("log10(b/a)")
         ax.set_ylabel(label(ds["nu"]))
         notes = ", ".join(filter(None, [note, scalar_notes(ds)]))
-        ax.set_title(f"{shape}: K_a/K_b{f' ({notes})' if notes else ''}", fontsize=10)
+        ax.set_title(f"{shape}: K_a/K_b{f' ({notes})' if notes else ''}\n{error_caption(errors)}", fontsize=10)
         save(fig, outdir, f"anisotropy_map_{shape or 'all'}.png")
 
 

@@ -9,6 +9,13 @@ figure (or its axes) onto more lines, so no title is cut. Contour maps of a coar
 the grid points they interpolate between (``mark_points``); anisotropy axes carry a tick at
 A = 1, the isotropic body (``anisotropy_ticks``).
 
+Error estimates: a data set may store, beside a quantity V, ``V_error`` (its estimated relative
+error) and ``error_status`` (0 met, 1 not met, 2 no estimate; docs/reference/dataset.md).
+``error_marks`` gives, for what a panel shows, the absolute error |V|·V_error and the points
+where it is more than ``ERROR_FRACTION`` (10 %) of the panel's range; maps hatch them
+(``hatch_errors``), curves draw ``error_bars`` or an ``error_band``, and ``error_caption`` is
+the figure's one-line statement of it (``NO_ESTIMATES`` for a data set without estimates).
+
 ``save`` reports every file to ``freshness`` (standard library only), which stamps the output
 folder when a script has drawn everything; a script run again with nothing changed stops at
 ``freshness.exit_if_fresh``, before this module's imports, and ``--force`` (``arguments``)
@@ -18,8 +25,10 @@ draws anyway.
 from __future__ import annotations
 
 import argparse
+import re
 import textwrap
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import freshness
@@ -213,3 +222,219 @@ def anisotropy_ticks(ax, values: Iterable[float], axis: str = "y") -> None:
     target = ax.yaxis if axis == "y" else ax.xaxis
     target.set_ticks(ticks, [f"{a:.3g}" for a in ticks])
     target.set_minor_locator(plt.NullLocator())
+
+
+# Error estimates of the data set (docs/reference/dataset.md): ``V_error`` beside a quantity V,
+# float64 over V's dimensions, its estimated relative error |δV|/|V| (of an off-diagonal entry
+# relative to the largest diagonal one, ``OFF_DIAGONAL``), NaN where there is none; ``error_status`` over the
+# task dimensions, 0 (met the requested accuracy), 1 (not met; still an estimate) or 2 (no
+# estimate: a fixed grid, a slip scene, a failed task); the global ``requested_accuracy``.
+
+ERROR_FRACTION = 0.1  # hatched where the estimated error is more than 10 % of the map's range
+EXCEEDS_HATCH = "///"  # points whose estimated error is more than ERROR_FRACTION of the range
+MISSING_HATCH = "\\\\\\"  # points with a value but no estimate (error_status 2)
+NO_ESTIMATE = 2  # error_status: no estimate
+NO_ESTIMATES = "no error estimates in this data set (fixed grid)"
+OFF_DIAGONAL = re.compile(r"K_(xy|yx|xz|zx|yz|zy)(?P<variant>_coupled)?")  # errors relative to max |K_ii|
+
+
+def at_points(source: xr.DataArray, da: xr.DataArray) -> xr.DataArray:
+    """``source`` (a variable of the data set ``da`` was selected from) at ``da``'s points: each
+    dimension of ``source`` at the values ``da`` has along it (a dimension of ``da``, or a scalar
+    coordinate left by a selection), broadcast over ``da``'s other dimensions, laid out as ``da``.
+    A dimension ``da`` has lost to a reduction gives the largest value along it (for an error:
+    a bound)."""
+    index = {
+        dim: da[dim].values
+        for dim in source.dims
+        if dim in source.indexes and (dim in da.dims or (dim in da.coords and da[dim].ndim == 0))
+    }
+    picked = source.sel(index)
+    lost = [d for d in picked.dims if d not in da.dims]
+    if lost:
+        picked = picked.max(lost)
+    order = [d for d in da.dims if d in picked.dims]
+    shape = [da.sizes[d] if d in picked.dims else 1 for d in da.dims]
+    values = np.broadcast_to(picked.transpose(*order).values.reshape(shape), da.shape)
+    return xr.DataArray(values.copy(), coords=da.coords, dims=da.dims, name=source.name, attrs=source.attrs)
+
+
+def has_estimates(ds: xr.Dataset, names: Iterable[str]) -> bool:
+    """Whether the data set stores an error estimate for each of ``names`` with at least one
+    finite value (a fixed-grid sweep stores none, or NaN everywhere)."""
+    return all(f"{n}_error" in ds and bool(np.isfinite(ds[f"{n}_error"].values).any()) for n in names)
+
+
+def relative_error(ds: xr.Dataset, da: xr.DataArray, names: Sequence[str] | None = None) -> xr.DataArray | None:
+    """The estimated relative error of ``da`` (what a panel shows, selected from ``ds``) at its
+    points: ``V_error`` of the stored variable ``da.name``, or, for a product or quotient of the
+    stored variables ``names`` (K_min/K_max, say), the sum of their relative errors, the
+    first-order bound |δ(a·b)|/|a·b|, |δ(a/b)|/|a/b| ≤ |δa|/|a| + |δb|/|b|. NaN where a point has
+    no estimate; None when the data set holds no ``V_error`` for one of them."""
+    names = [str(da.name)] if names is None else list(names)
+    if not all(f"{n}_error" in ds for n in names):
+        return None
+    total = sum(at_points(ds[f"{n}_error"], da).astype(float) for n in names)
+    total.name, total.attrs = f"{da.name}_error", {"long_name": f"estimated relative error of {da.name}", "units": "1"}
+    return total
+
+
+def error_scale(ds: xr.Dataset, da: xr.DataArray, name: str | None = None) -> xr.DataArray:
+    """What the relative error of ``da`` (the stored ``name``, default ``da.name``) is relative
+    to: |V|, or for an off-diagonal entry (K_xy, K_yx, …; ``OFF_DIAGONAL``) the largest diagonal
+    entry max(|K_xx|, |K_yy|, |K_zz|) of the same variant at the same points (the entries the
+    data set has)."""
+    name = str(da.name) if name is None else name
+    off = OFF_DIAGONAL.fullmatch(name)
+    diagonal = [n for n in (f"K_{i}{off['variant'] or ''}" for i in ("xx", "yy", "zz")) if n in ds] if off else []
+    if not diagonal:
+        return abs(da)
+    return xr.concat([abs(at_points(ds[n], da)) for n in diagonal], "entry").max("entry")
+
+
+@dataclass
+class ErrorMarks:
+    """What a panel shows (``value``) and its estimated errors (``error_marks``).
+
+    ``relative``: the estimated relative error at each point (NaN: no estimate), None when the
+    data set has none (``reason`` says why); ``absolute``: the error |V|·relative (for K_xy and
+    K_yx × the largest diagonal entry, ``error_scale``), zeros without an estimate; ``exceeds``: points
+    whose absolute error is more than ``fraction`` × ``span``, the range nanmax − nanmin of
+    ``value`` on the panel (where it is 0, × |V|: the relative error above ``fraction``);
+    ``missing``: points with a value but no estimate (``error_status`` 2 or NaN);
+    ``requested``: the data set's ``requested_accuracy`` (None when it asked for none)."""
+
+    value: xr.DataArray
+    relative: xr.DataArray | None
+    absolute: xr.DataArray
+    exceeds: xr.DataArray
+    missing: xr.DataArray
+    span: float
+    fraction: float = ERROR_FRACTION
+    requested: float | None = None
+    reason: str = ""
+
+    @property
+    def worst(self) -> float:
+        """The largest estimated relative error on the panel (NaN when no point has one)."""
+        if self.relative is None:
+            return float("nan")
+        values = self.relative.values[np.isfinite(self.value.values) & np.isfinite(self.relative.values)]
+        return float(values.max()) if values.size else float("nan")
+
+
+def error_marks(
+    ds: xr.Dataset,
+    da: xr.DataArray,
+    names: Sequence[str] | None = None,
+    relative: xr.DataArray | None = None,
+    fraction: float = ERROR_FRACTION,
+) -> ErrorMarks:
+    """The estimated errors of the panel ``da`` (a quantity of ``ds`` after the script's
+    selection; or a product or quotient of the stored ``names``, ``relative_error``; or with
+    its relative error given as ``relative``, laid out as ``da``) and the points where the
+    absolute error is more than ``fraction`` of the variation the panel shows (``ErrorMarks``).
+    A data set without estimates (an old file, a fixed-grid sweep) gives no marks and the
+    reason ``NO_ESTIMATES``."""
+    value = da.astype(float)
+    shown = np.isfinite(value.values)
+    quiet = xr.zeros_like(value, dtype=bool)
+    requested = ds.attrs.get("requested_accuracy")
+    requested = float(requested) if requested is not None else None
+    stored = [str(da.name)] if names is None else list(names)
+    if relative is None:
+        absent = [n for n in stored if f"{n}_error" not in ds]
+        reason = NO_ESTIMATES  # an old file, or a sweep that estimated nothing (fixed grids)
+        if absent and len(absent) < len(stored):
+            reason = f"no error estimate stored for {', '.join(absent)}"
+        if absent or not has_estimates(ds, stored):
+            return ErrorMarks(
+                value, None, xr.zeros_like(value), quiet, quiet, _span(value), fraction, requested, reason
+            )
+        relative = relative_error(ds, da, stored)
+    relative = relative.astype(float)
+    scale = error_scale(ds, value, stored[0]) if len(stored) == 1 else abs(value)
+    absolute = (scale * relative).fillna(0.0)
+    span = _span(value)
+    limit = fraction * (span if span > 0.0 else abs(value))
+    exceeds = (absolute > limit) & shown
+    missing = np.isfinite(value) & ~np.isfinite(relative)
+    if "error_status" in ds:
+        missing = missing | (np.isfinite(value) & (at_points(ds["error_status"], da) == NO_ESTIMATE))
+    return ErrorMarks(value, relative, absolute, exceeds, missing, span, fraction, requested)
+
+
+def _span(value: xr.DataArray) -> float:
+    """nanmax − nanmin of ``value`` (0 without finite values)."""
+    finite = value.values[np.isfinite(value.values)]
+    return float(finite.max() - finite.min()) if finite.size else 0.0
+
+
+def error_caption(marks: ErrorMarks | Iterable[ErrorMarks], shown: str = "hatched") -> str:
+    """One line for the caption of a figure of one or more panels (``marks``): the worst
+    estimated relative error and what the marks mean — ``shown`` "hatched" (maps,
+    ``hatch_errors``), "bars" (``error_bars``) or "band" (``error_band``) — and how many points
+    have no estimate; ``NO_ESTIMATES`` (or the reason) when the data set has none."""
+    marks = [marks] if isinstance(marks, ErrorMarks) else list(marks)
+    without = list(dict.fromkeys(m.reason for m in marks if m.relative is None))  # in order, once each
+    marks = [m for m in marks if m.relative is not None]
+    if not marks:
+        return "; ".join(without) or NO_ESTIMATES
+    missing = sum(int(m.missing.values.sum()) for m in marks)
+    worst = [m.worst for m in marks if np.isfinite(m.worst)]
+    if not worst:
+        return "; ".join([f"no error estimate at the {missing} points shown", *without])
+    requested = marks[0].requested
+    parts = [
+        f"worst estimated relative error {max(worst):.1e}" + (f" (requested {requested:.1e})" if requested else "")
+    ]
+    if shown == "hatched":
+        count = sum(int(m.exceeds.values.sum()) for m in marks)
+        parts.append(
+            f"hatched {EXCEEDS_HATCH}: error > {marks[0].fraction * 100:g} % of the map's range "
+            f"({count or 'no'} point{'' if count == 1 else 's'})"
+        )
+        if missing:
+            parts.append(f"hatched {MISSING_HATCH}: no estimate ({missing} point{'' if missing == 1 else 's'})")
+    else:
+        parts.append(f"{'bars' if shown == 'bars' else 'band'}: ± estimated error")
+        if missing:
+            parts.append(f"no estimate at {missing} point{'' if missing == 1 else 's'}")
+    return "; ".join(parts + without)
+
+
+def hatch_errors(ax, x: np.ndarray, y: np.ndarray, marks: ErrorMarks) -> list:
+    """Hatch a map (``values`` of shape ``(len(y), len(x))``, as ``mark_points``) over its points
+    whose estimated error exceeds ``ERROR_FRACTION`` of the range (``EXCEEDS_HATCH``) and over
+    those without an estimate (``MISSING_HATCH``): unfilled filled-contours of the masks (the
+    region nearer a marked point than an unmarked one; vector hatches in PDF and SVG too).
+    Returns the contour sets drawn (none when no point is marked)."""
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    drawn = []
+    for mask, hatch in ((marks.exceeds, EXCEEDS_HATCH), (marks.missing, MISSING_HATCH)):
+        values = np.asarray(mask, dtype=float)
+        if values.shape != (len(y), len(x)):
+            raise ValueError(f"marks of shape {values.shape} on a map of {len(y)} × {len(x)} points")
+        if values.any():
+            drawn.append(ax.contourf(x, y, values, levels=[0.5, 1.5], colors="none", hatches=[hatch], zorder=3))
+    return drawn
+
+
+def error_bars(ax, x, y, error, colour) -> object | None:
+    """Vertical bars ± ``error`` (absolute) at the points (x, y) that have an estimate; no
+    marker or cap lines (the points are plotted by the script). None when no point has one."""
+    x, y, error = (np.asarray(v, dtype=float) for v in (x, y, error))
+    ok = np.isfinite(y) & np.isfinite(error) & (error > 0.0)
+    if not ok.any():
+        return None
+    return ax.errorbar(x[ok], y[ok], yerr=error[ok], fmt="none", ecolor=colour, elinewidth=0.9, capsize=0, zorder=3)
+
+
+def error_band(ax, x, y, error, colour) -> object | None:
+    """A shaded band y ± ``error`` (absolute) along a curve, where it has an estimate; None when
+    no point has one."""
+    x, y, error = (np.asarray(v, dtype=float) for v in (x, y, error))
+    ok = np.isfinite(y) & np.isfinite(error) & (error > 0.0)
+    if not ok.any():
+        return None
+    return ax.fill_between(x, y - error, y + error, where=ok, color=colour, alpha=0.25, lw=0.0)

@@ -21,6 +21,15 @@ along [110] (0°) -> [111] (35.26°) -> [001] (90°), docs/design.md §2.5):
   ``orientation_tangential_curves.png``: the same ratio versus ψ, one colour per A. With a nu axis
   the map is drawn at ``--nu`` (default: the value nearest 0.3, crystal_tangential's); with a
   shape axis (jobs/demo.toml) for ``--shape`` (default: the first).
+
+Error estimates (``V_error`` in the data set): the map is hatched where the estimated error of
+K_min/K_max is more than 10 % of the panel's range (``common.ERROR_FRACTION``; points without an
+estimate hatched the other way), the curves carry bars ± the estimated error; the ratio's error
+is the stored ``K_min_over_K_max_error`` when there is one, else the sum of the relative errors
+of K_min and K_max (a first-order bound). The sphere's points carry bars where the data set
+estimates ``ellipse_b_over_a`` and ``load`` (P/P([001]): the sum of the two loads' relative
+errors). Each figure's title states the worst estimated relative error, or that the data set
+has no estimates.
 """
 
 from __future__ import annotations
@@ -38,10 +47,15 @@ from common import (
     anisotropy_ticks,
     arguments,
     colours,
+    error_bars,
+    error_caption,
+    error_marks,
+    hatch_errors,
     label,
     mark_points,
     open_dataset,
     panels,
+    relative_error,
     save,
     scalar_notes,
     select_rest,
@@ -97,6 +111,9 @@ def sphere_curves(ds, outdir, fine: int) -> None:
     psi_001 = float(load["orientation"].sel(orientation=90.0, method="nearest"))
     load_001 = load.sel(orientation=psi_001)
     normalized = load / load_001
+    load_error = relative_error(ds, load)  # P/P([001]): the sum of the two loads' relative errors
+    normalized_error = None if load_error is None else load_error + relative_error(ds, load_001)
+    errors = []
     nus = ratio["nu"].values if "nu" in ratio.dims else np.atleast_1d(scalar(ds, "nu", 0.3))
     anis = ratio["anisotropy"].values
     psi_fine = np.union1d(np.linspace(0.0, 90.0, fine), [PSI_111, psi_001])
@@ -108,6 +125,13 @@ def sphere_curves(ds, outdir, fine: int) -> None:
         for colour, A in zip(colours(len(anis)), anis):
             r = ratio.sel(anisotropy=A, **at)
             p = normalized.sel(anisotropy=A, **at)
+            errors.append(error_marks(ds, r))
+            error_bars(rows[0][col], r["orientation"], r, errors[-1].absolute, colour)
+            if normalized_error is None:
+                errors.append(error_marks(ds, p, names=["load"]))  # no estimate: says so
+            else:
+                errors.append(error_marks(ds, p, relative=normalized_error.sel(anisotropy=A, **at)))
+                error_bars(rows[1][col], p["orientation"], p, errors[-1].absolute, colour)
             refs = [willis(float(nu), float(A), float(psi), R, d, G) for psi in psi_fine]
             ref_001 = willis(float(nu), float(A), psi_001, R, d, G)["load"]
             rows[0][col].plot(psi_fine, [w["b_over_a"] for w in refs], "-", lw=1.0, color=colour)
@@ -139,7 +163,11 @@ def sphere_curves(ds, outdir, fine: int) -> None:
         title_fontsize=8,
     )
     notes = ", ".join(filter(None, [note, f"d/R = {d / R:.3g}", scalar_notes(ds, ("n", "tol"))]))
-    fig.suptitle(f"Rigid sphere on a cubic crystal (Rodríguez-Tembleque et al. 2011, Figs. 9-10)\n{notes}", fontsize=10)
+    fig.suptitle(
+        f"Rigid sphere on a cubic crystal (Rodríguez-Tembleque et al. 2011, Figs. 9-10)\n{notes}\n"
+        + error_caption(errors, "bars"),
+        fontsize=10,
+    )
     save(fig, outdir, "orientation_sphere.png")
     for name, (diff, where) in worst.items():
         if where is not None:
@@ -163,6 +191,12 @@ def willis_loads(load, R: float, d: float, G: float):
 
 
 DEFAULT_NU = 0.3  # the tangential map's Poisson ratio when the data set has a nu axis
+
+
+def ratio_parts(ds) -> list[str]:
+    """The stored variables whose relative errors bound K_min/K_max's: the stored ratio's own
+    estimate when the data set has one, else K_min's and K_max's (their sum, a first-order bound)."""
+    return ["K_min_over_K_max"] if "K_min_over_K_max_error" in ds else ["K_min", "K_max"]
 
 
 def tangential_ratio(ds, nu: float | None, shape: str | None):
@@ -192,8 +226,11 @@ def tangential_map(ds, outdir, nu: float | None, shape: str | None) -> None:
     lowest = float(ratio.min())
     levels = MaxNLocator(24).tick_values(lowest, 1.0)
     fig, axes = panels(len(aspects), size=4.2)
+    errors = []
     for ax, aspect in zip(axes, aspects):
         da = (ratio.sel(aspect=aspect) if aspect is not None else ratio).transpose("anisotropy", "orientation")
+        errors.append(error_marks(ds, da, names=ratio_parts(ds)))
+        hatch_errors(ax, da["orientation"], da["anisotropy"], errors[-1])
         filled = ax.contourf(da["orientation"], da["anisotropy"], da.values, levels=levels, cmap="viridis")
         lines = ax.contour(
             da["orientation"], da["anisotropy"], da.values, levels=levels[::3], colors="w", linewidths=0.5
@@ -208,14 +245,20 @@ def tangential_map(ds, outdir, nu: float | None, shape: str | None) -> None:
         ax.set_ylabel(label(ds["anisotropy"], "cubic anisotropy A = 2 C44/(C11 - C12)"), fontsize=8)
         ax.set_title(aspect_title(ratio, aspect), fontsize=9)
     fig.colorbar(filled, ax=axes, label="K_min / K_max (principal tangential stiffnesses)")
-    fig.suptitle(f"Tangential stiffness anisotropy of a bonded punch on a cubic crystal\n{notes}", fontsize=10)
+    fig.suptitle(
+        f"Tangential stiffness anisotropy of a bonded punch on a cubic crystal\n{notes}\n{error_caption(errors)}",
+        fontsize=10,
+    )
     save(fig, outdir, "orientation_tangential_map.png")
 
     fig, axes = panels(len(aspects), size=4.0)
     anis = ratio["anisotropy"].values
+    errors = []
     for ax, aspect in zip(axes, aspects):
         da = ratio.sel(aspect=aspect) if aspect is not None else ratio
+        errors.append(error_marks(ds, da, names=ratio_parts(ds)))
         for colour, A in zip(colours(len(anis)), anis):
+            error_bars(ax, da["orientation"], da.sel(anisotropy=A), errors[-1].absolute.sel(anisotropy=A), colour)
             (line,) = ax.plot(
                 da["orientation"], da.sel(anisotropy=A), "o-", ms=3, lw=0.8, color=colour, label=f"A = {A:.3g}"
             )
@@ -231,7 +274,9 @@ def tangential_map(ds, outdir, nu: float | None, shape: str | None) -> None:
         ax.grid(True, alpha=0.3)
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside right center", fontsize=8)
-    fig.suptitle(f"K_min/K_max of the bonded punch versus orientation\n{notes}", fontsize=10)
+    fig.suptitle(
+        f"K_min/K_max of the bonded punch versus orientation\n{notes}\n{error_caption(errors, 'bars')}", fontsize=10
+    )
     save(fig, outdir, "orientation_tangential_curves.png")
 
 

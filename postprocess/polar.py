@@ -7,6 +7,11 @@ K_nn(θ + 180°) = K_nn(θ)) and ``knn_vs_angle.png`` (the same on Cartesian axe
 180°, as Li plots it). Shown is Li's normalized stiffness K_nn E*/(K_zz G*) when the sweep
 solved K_zz (1 for a circle), else K_nn in units of G·a. Shapes with a b/a axis are taken at
 ``--aspect`` (nearest value, default 0.2 as Li's Fig. 6); other axes at their first value.
+
+Where the data set estimates the error of the quantity shown (``normalized_nn_error`` or
+``K_nn_error``), each curve carries a shaded band ± the estimated error (polar) or bars (the
+Cartesian points), and the title states the worst estimated relative error; a data set without
+estimates says so there.
 """
 
 from __future__ import annotations
@@ -17,7 +22,22 @@ if __name__ == "__main__":
     freshness.exit_if_fresh(__file__)  # before the imports that take seconds: an up-to-date run ends here
 
 import numpy as np
-from common import arguments, by_shape, colours, label, open_dataset, panels, save, scalar_notes, select_rest, shapes
+from common import (
+    arguments,
+    by_shape,
+    colours,
+    error_band,
+    error_bars,
+    error_caption,
+    error_marks,
+    label,
+    open_dataset,
+    panels,
+    save,
+    scalar_notes,
+    select_rest,
+    shapes,
+)
 from matplotlib.ticker import MaxNLocator
 
 
@@ -42,14 +62,18 @@ def curves_per_nu(da, shape, aspect):
 def polar(ds, da, names, aspect, outdir) -> None:
     fig, axes = panels(len(names), polar=True)
     note = ""
+    errors = []
     for ax, shape in zip(axes, names):
         pairs, note = curves_per_nu(da, shape, aspect)
         low, high = np.inf, -np.inf
         for colour, (nu, curve) in zip(colours(len(pairs)), pairs):
             theta = np.radians(np.concatenate([curve["angle"].values, curve["angle"].values + 180.0]))
             values = np.concatenate([curve.values, curve.values])
+            errors.append(error_marks(ds, curve))
+            band = np.concatenate([errors[-1].absolute.values, errors[-1].absolute.values])
+            error_band(ax, theta, values, band, colour)
             ax.plot(theta, values, "-", lw=1.2, color=colour, label=None if nu is None else f"ν = {nu:.2g}")
-            low, high = min(low, np.nanmin(values)), max(high, np.nanmax(values))
+            low, high = min(low, np.nanmin(values - band)), max(high, np.nanmax(values + band))
         pad = max(0.25 * (high - low), 1e-3 * abs(high))
         ax.set_rlim(low - pad, high + pad)
         ax.yaxis.set_major_locator(MaxNLocator(4))
@@ -61,7 +85,9 @@ def polar(ds, da, names, aspect, outdir) -> None:
         fig.legend(handles, labels, loc="outside right center", fontsize=8)
     notes = ", ".join(filter(None, [note, scalar_notes(ds)]))
     fig.suptitle(
-        f"{label(da)} versus load direction θ (radial axis offset){f' — {notes}' if notes else ''}", fontsize=10
+        f"{label(da)} versus load direction θ (radial axis offset){f' — {notes}' if notes else ''}\n"
+        + error_caption(errors, "band"),
+        fontsize=10,
     )
     save(fig, outdir, "polar.png")
 
@@ -69,9 +95,12 @@ def polar(ds, da, names, aspect, outdir) -> None:
 def cartesian(ds, da, names, aspect, outdir) -> None:
     fig, axes = panels(len(names))
     note = ""
+    errors = []
     for ax, shape in zip(axes, names):
         pairs, note = curves_per_nu(da, shape, aspect)
         for colour, (nu, curve) in zip(colours(len(pairs)), pairs):
+            errors.append(error_marks(ds, curve))
+            error_bars(ax, curve["angle"], curve, errors[-1].absolute, colour)
             ax.plot(
                 curve["angle"], curve, "o-", ms=2.5, lw=1.0, color=colour, label=None if nu is None else f"ν = {nu:.2g}"
             )
@@ -84,7 +113,10 @@ def cartesian(ds, da, names, aspect, outdir) -> None:
     if handles:
         fig.legend(handles, labels, loc="outside right center", fontsize=8)
     notes = ", ".join(filter(None, [note, scalar_notes(ds)]))
-    fig.suptitle(f"{label(da)} versus load direction{f' — {notes}' if notes else ''}", fontsize=10)
+    fig.suptitle(
+        f"{label(da)} versus load direction{f' — {notes}' if notes else ''}\n{error_caption(errors, 'bars')}",
+        fontsize=10,
+    )
     save(fig, outdir, "knn_vs_angle.png")
 
 

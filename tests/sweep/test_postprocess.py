@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import xarray as xr
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 
 import hpcontact
@@ -434,3 +435,199 @@ def test_every_stamped_script_checks_before_its_heavy_imports(script):
         if isinstance(node, ast.If) and "freshness.exit_if_fresh(__file__)" in ast.unparse(node)
     ]
     assert heavy and check and check[0] < heavy[0]
+
+
+# Error estimates (common.error_marks): a data set with ``V_error`` and ``error_status`` gets
+# hatches where a map's estimated error is more than 10 % of its range, bars or bands on curves
+# and the worst error in the title; an old data set (none of them) is drawn as before, its
+# titles saying it has no estimates. The data sets are built by hand: every axis the four
+# scripts need, K_xy = K_yx = 0, K_a/K_b = (b/a)^0.05, K_max = 2.
+
+ERROR_AXES = {
+    "aspect": [1.0, 0.1],
+    "nu": [0.1, 0.3, 0.5],
+    "anisotropy": [0.5, 1.0, 2.0],
+    "orientation": [0.0, 45.0, 90.0],
+}
+ANGLES = [0.0, 45.0, 90.0, 135.0, 180.0]
+ESTIMATED = ("K_xx", "K_xy", "K_yx", "K_yy", "K_a_over_K_b", "K_min", "K_max", "K_nn")
+MAP_PANEL = {"anisotropy": 1.0, "orientation": 0.0}  # anisotropy_map.py's selection (A = 1, first ψ)
+HATCHED = {"nu": 0.3, "aspect": 0.1}  # error 0.05 · 0.891 > 10 % of the range 1 − 0.1^0.05 = 0.109
+BELOW = {"nu": 0.1, "aspect": 0.1}  # error 0.01 · 0.891 < 0.0109: not hatched
+WITHOUT = {"nu": 0.5, "aspect": 1.0}  # error_status 2: no estimate
+
+
+def error_dataset(kind: str) -> xr.Dataset:
+    """``kind`` "none": no error variables (an old file); "small": every estimate 1e-4;
+    "large": as small, with K_a/K_b's error 0.05 at ``HATCHED`` and 0.01 at ``BELOW`` and no
+    estimate at ``WITHOUT`` (the map panel), requested accuracy 1e-3."""
+    dims = tuple(ERROR_AXES)
+    aspect, nu, A, psi = np.meshgrid(*(np.array(v) for v in ERROR_AXES.values()), indexing="ij")
+    k_a = (1.0 + nu) * (1.0 + 0.1 * np.log(A) * np.cos(np.radians(psi)))
+    k_b = k_a / aspect**0.05
+    theta = np.radians(ANGLES)
+    values = {
+        "K_xx": k_a,
+        "K_xy": 0.0 * k_a,
+        "K_yx": 0.0 * k_a,
+        "K_yy": k_b,
+        "K_a_over_K_b": k_a / k_b,
+        "K_min": 2.0 * (1.0 - 0.1 * np.abs(np.log(A)) * (1.0 + np.cos(np.radians(psi))) * (1.5 - aspect) - 0.01),
+        "K_max": 2.0 + 0.0 * k_a,
+    }
+    ds = xr.Dataset(
+        {name: (dims, v, {"long_name": name, "units": "1"}) for name, v in values.items()},
+        coords={**ERROR_AXES, "angle": ANGLES},
+    )
+    knn = k_a[..., None] * np.cos(theta) ** 2 + k_b[..., None] * np.sin(theta) ** 2
+    ds["K_nn"] = ((*dims, "angle"), knn, {"long_name": "K_nn", "units": "1"})
+    if kind == "none":
+        return ds
+    status = np.zeros(aspect.shape, dtype=np.int8)
+    for name in ESTIMATED:
+        ds[f"{name}_error"] = (ds[name].dims, np.full(ds[name].shape, 1e-4), {"units": "1"})
+        ds[name].attrs["ancillary_variables"] = f"{name}_error error_status"
+    if kind == "large":
+        ds["K_a_over_K_b_error"].loc[{**HATCHED, **MAP_PANEL}] = 0.05
+        ds["K_a_over_K_b_error"].loc[{**BELOW, **MAP_PANEL}] = 0.01
+        for name in ESTIMATED:
+            ds[f"{name}_error"].loc[{**WITHOUT, **MAP_PANEL}] = np.nan
+        status = xr.DataArray(status, coords={d: ERROR_AXES[d] for d in dims}, dims=dims)
+        status.loc[{**HATCHED, **MAP_PANEL}] = 1
+        status.loc[{**BELOW, **MAP_PANEL}] = 1
+        status.loc[{**WITHOUT, **MAP_PANEL}] = 2
+        status = status.values
+        ds.attrs["requested_accuracy"] = 1e-3
+    flags = {"flag_values": np.array([0, 1, 2], dtype=np.int8), "flag_meanings": "met not_met no_estimate"}
+    ds["error_status"] = (dims, status, {"long_name": "error estimate status", **flags})
+    return ds
+
+
+@pytest.fixture(scope="module")
+def error_files(tmp_path_factory) -> dict[str, Path]:
+    folder = tmp_path_factory.mktemp("errors")
+    files = {}
+    for kind in ("none", "small", "large"):
+        files[kind] = folder / f"{kind}.nc"
+        error_dataset(kind).to_netcdf(files[kind], engine="netcdf4")
+    return files
+
+
+@pytest.fixture
+def common_module(monkeypatch):
+    monkeypatch.syspath_prepend(str(ROOT / "postprocess"))
+    import common
+
+    return common
+
+
+def marked(mask: xr.DataArray) -> set[tuple[float, float]]:
+    """The (nu, b/a) points where a mask over (nu, aspect) is set."""
+    nus, aspects = np.nonzero(mask.transpose("nu", "aspect").values)
+    return {(float(mask["nu"][i]), float(mask["aspect"][j])) for i, j in zip(nus, aspects)}
+
+
+def test_error_marks_are_the_points_whose_error_exceeds_a_tenth_of_the_range(common_module):
+    common = common_module
+    ds = error_dataset("large")
+    da, _ = common.select_rest(ds["K_a_over_K_b"], ["nu", "aspect"])  # as anisotropy_map.py draws it
+    da = da.transpose("nu", "aspect")
+    marks = common.error_marks(ds, da)
+    relative = ds["K_a_over_K_b_error"].sel(MAP_PANEL).transpose("nu", "aspect")
+    np.testing.assert_array_equal(marks.relative.values, relative.values)
+    np.testing.assert_allclose(marks.absolute.values, np.nan_to_num(np.abs(da.values) * relative.values), rtol=EXACT)
+    assert marks.span == pytest.approx(1.0 - 0.1**0.05, rel=EXACT) and common.ERROR_FRACTION == 0.1
+    assert marked(marks.exceeds) == {(0.3, 0.1)}  # BELOW is not, nor any 1e-4 point
+    assert marked(marks.missing) == {(0.5, 1.0)}
+    assert marks.worst == 0.05
+    caption = common.error_caption(marks)
+    assert caption == (
+        "worst estimated relative error 5.0e-02 (requested 1.0e-03); "
+        "hatched ///: error > 10 % of the map's range (1 point); hatched \\\\\\: no estimate (1 point)"
+    )
+    # K_xy's error is relative to the largest diagonal entry (K_xy = 0 here)
+    kxy, _ = common.select_rest(ds["K_xy"], ["nu"])
+    kxx, _ = common.select_rest(ds["K_xx"], ["nu"])
+    kyy, _ = common.select_rest(ds["K_yy"], ["nu"])
+    expected = 1e-4 * np.maximum(abs(kxx.values), abs(kyy.values))
+    expected[np.isnan(common.relative_error(ds, kxy).values)] = 0.0
+    np.testing.assert_allclose(common.error_marks(ds, kxy).absolute.values, expected, rtol=EXACT)
+    # a ratio computed in a script: the sum of its parts' relative errors
+    ratio, _ = common.select_rest(ds["K_min"] / ds["K_max"], ["anisotropy", "orientation"], {"nu": 0.3})
+    both = common.error_marks(ds, ratio, names=["K_min", "K_max"])
+    np.testing.assert_allclose(both.relative.values, 2e-4, rtol=EXACT)
+    np.testing.assert_allclose(both.absolute.values, 2e-4 * ratio.values, rtol=EXACT)
+    # a panel with no variation (K_max = 2): hatched where the error is above 10 % of |V|
+    flat = ds.copy(deep=True)
+    flat["K_max_error"].loc[{"nu": 0.1, **MAP_PANEL, "aspect": 0.1}] = 0.15  # 0.3 > 0.2
+    flat["K_max_error"].loc[{"nu": 0.3, **MAP_PANEL, "aspect": 0.1}] = 0.05  # 0.1 < 0.2
+    kmax, _ = common.select_rest(flat["K_max"], ["nu", "aspect"])
+    assert marked(common.error_marks(flat, kmax).exceeds) == {(0.1, 0.1)}
+    # an old data set: no marks, and the caption says so
+    old = common.error_marks(error_dataset("none"), da)
+    assert old.relative is None and not old.exceeds.any() and not old.missing.any()
+    assert common.error_caption(old) == common.NO_ESTIMATES == "no error estimates in this data set (fixed grid)"
+
+
+def hatches(fig) -> list[str]:
+    """The hatch patterns drawn on the axes of ``fig`` (contour sets keep theirs in ``hatches``)."""
+    found = []
+    for ax in fig.axes:
+        for artist in ax.collections:
+            found += [h for h in (getattr(artist, "hatches", None) or [artist.get_hatch()]) if h]
+    return found
+
+
+def test_hatches_are_drawn_only_where_a_point_exceeds(common_module):
+    common = common_module
+    for kind, expected in (("large", [common.EXCEEDS_HATCH, common.MISSING_HATCH]), ("small", []), ("none", [])):
+        ds = error_dataset(kind)
+        da, _ = common.select_rest(ds["K_a_over_K_b"], ["nu", "aspect"])
+        da = da.transpose("nu", "aspect")
+        fig, ax = common.plt.subplots()
+        ax.contourf(da["aspect"], da["nu"], da.values)
+        drawn = common.hatch_errors(ax, da["aspect"], da["nu"], common.error_marks(ds, da))
+        assert [d.hatches[0] for d in drawn] == expected, kind
+        assert hatches(fig) == expected, kind
+        common.plt.close(fig)
+
+
+def titles(fig) -> str:
+    """The suptitle and axes titles of ``fig``, one space between words (titles are wrapped)."""
+    texts = [fig._suptitle, *(ax.title for ax in fig.axes)]
+    return " ".join(" ".join(t.get_text().split()) for t in texts if t is not None)
+
+
+ERROR_FIGURES = {
+    "anisotropy_map.py": {"anisotropy_curves.png", "anisotropy_map_all.png"},
+    "orientation_map.py": {"orientation_tangential_map.png", "orientation_tangential_curves.png"},
+    "polar.py": {"polar.png", "knn_vs_angle.png"},
+    "tensor_components.py": {"tensor_components_all.png"},
+}
+
+
+@pytest.mark.parametrize("kind", ["none", "large"])
+def test_scripts_mark_the_estimated_errors_or_say_there_are_none(saved, error_files, kind):
+    drawn = {}
+    for script, names in ERROR_FIGURES.items():
+        figures = saved(script, str(error_files[kind]), "--force")
+        assert set(figures) == names, script
+        drawn.update(figures)
+    for name, fig in drawn.items():
+        text = titles(fig)
+        if kind == "none":
+            assert "no error estimates in this data set (fixed grid)" in text, name
+            assert "worst estimated" not in text, name
+        else:
+            assert "worst estimated relative error" in text and "(requested 1.0e-03)" in text, name
+    # the map: hatched at the points that exceed and those without an estimate (old file: none)
+    expected = ["///", "\\\\\\"] if kind == "large" else []
+    assert hatches(drawn["anisotropy_map_all.png"]) == expected
+    assert hatches(drawn["orientation_tangential_map.png"]) == []  # no point's error above 10 % of the range
+    if kind == "large":
+        assert "worst estimated relative error 5.0e-02" in titles(drawn["anisotropy_map_all.png"])
+        assert "(1 point)" in titles(drawn["anisotropy_map_all.png"])
+    # curves: bars (anisotropy, tensor components, K_nn) and bands (polar) only with estimates
+    for name in ("anisotropy_curves.png", "polar.png", "knn_vs_angle.png", "tensor_components_all.png"):
+        collections = [c for ax in drawn[name].axes for c in ax.collections]
+        assert bool(collections) == (kind == "large"), name
