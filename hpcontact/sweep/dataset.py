@@ -95,6 +95,9 @@ ERROR_STATUS_MEANINGS = {ERROR_MET: "met", ERROR_NOT_MET: "not_met", NO_ESTIMATE
 #: normalized_<ij>, and their coupled and bonded variants. Principal angles and the compliance
 #: proxy have none.
 ESTIMATED = re.compile(r"^(K_(?!nn$)\w+|normalized_(?!nn$)\w+)$")
+#: A slip sweep's computed stiffnesses (``SLIP_ATTRS``): one grid each, so their ``<name>_error``
+#: is NaN and ``error_status`` 2 everywhere (the Hertz and Mindlin references are closed forms).
+SLIP_ESTIMATED = re.compile(r"^((decoupled_)?(tangential|stick_area)_stiffness(_\w\w)?|no_slip_stiffness)$")
 
 TENSOR = ("K_xx", "K_xy", "K_yx", "K_yy")
 DIRECTIONAL = ("K_nn", "normalized_nn")  # derived from the tensor (stored in the file)
@@ -326,8 +329,7 @@ def dataset_of(
         if name in renamed and "long_name" in variable_attrs:
             variable_attrs["long_name"] = f"{variable_attrs['long_name']} (task record; differs from the coordinate)"
         ds[name].attrs.update(variable_attrs)
-    if spec.kind == CONTACT:
-        ds = link_errors(ds)
+    ds = link_errors(ds, ESTIMATED if spec.kind == CONTACT else SLIP_ESTIMATED)
     scales = {s for name in ds.variables for s in scale_symbols(str(ds[name].attrs.get("scale", "")))}
     ds.attrs.update(_global_attrs(spec, attrs, scales))
     return derive_directional(ds) if derive else ds
@@ -345,12 +347,13 @@ def error_attributes(name: str) -> dict[str, str]:
     }
 
 
-def link_errors(ds: xr.Dataset) -> xr.Dataset:
+def link_errors(ds: xr.Dataset, stiffnesses: re.Pattern[str] = ESTIMATED) -> xr.Dataset:
     """``ds`` with an estimated relative error ``<name>_error`` beside every stiffness it stores
-    (``ESTIMATED``; NaN where a task has none: one grid, or failed), linked from it by CF
-    ``ancillary_variables`` = "<name>_error error_status", and the flag variable
+    (the names ``stiffnesses`` matches: ``ESTIMATED`` for contact sweeps, ``SLIP_ESTIMATED``
+    for slip sweeps; NaN where a task has none: one grid, a slip scene, a failed task), linked
+    from it by CF ``ancillary_variables`` = "<name>_error error_status", and the flag variable
     ``error_status`` (``ERROR_STATUS_MEANINGS``) over the task axes."""
-    names = [v for v in ds.data_vars if ESTIMATED.match(str(v)) and not str(v).endswith(ERROR_SUFFIX)]
+    names = [v for v in ds.data_vars if stiffnesses.match(str(v)) and not str(v).endswith(ERROR_SUFFIX)]
     if not names:
         return ds
     estimated = (

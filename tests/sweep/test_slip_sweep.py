@@ -258,6 +258,14 @@ def test_a_tiny_slip_sweep_writes_the_data_set(tiny_sweep):
         # similar pair: no decoupled answer
         assert np.isnan(point.decoupled_tangential_stiffness.sel(pair="Fe-Fe")).all()
         assert ds.attrs["scene_kind"] == "slip" and ds.attrs["mpi_size"] == 1
+        # one grid per scene: no error estimate, said by NaN and the flag (docs/reference/dataset.md)
+        assert (ds["error_status"] == 2).all() and ds["error_status"].attrs[
+            "flag_meanings"
+        ] == "met not_met no_estimate"
+        for name in ("tangential_stiffness", "no_slip_stiffness", "stick_area_stiffness"):
+            assert np.isnan(ds[f"{name}_error"]).all(), name
+            assert ds[name].attrs["ancillary_variables"] == f"{name}_error error_status", name
+        assert "mindlin_stiffness_error" not in ds and "normal_stiffness_error" not in ds  # closed forms
 
 
 def test_the_postprocess_script_reads_the_sweep_data_set(tiny_sweep, tmp_path):
