@@ -1,6 +1,6 @@
 """Do the dry-run's estimates hold? Estimated against measured task time and peak memory per job.
 
-    python benchmarks/cost_estimates.py [JOB.toml ...] [--budget SECONDS]
+    python benchmarks/cost_estimates.py [JOB.toml ...] [--budget SECONDS] [--accuracy REL]
 
 For each job (default: every jobs/*.toml), two fresh child processes:
 
@@ -16,6 +16,11 @@ For each job (default: every jobs/*.toml), two fresh child processes:
   process's peak resident set after these tasks is printed too (a rank that ran many tasks).
 * **memory**: the task of largest estimated memory alone, after a run's imports; its process's
   peak resident set (``resource.getrusage``) against the estimate (base + that task's arrays).
+
+``--accuracy REL`` runs the jobs as ``hpcontact run JOB --accuracy REL`` does (their grids
+replaced by the request: every contact task solves ``accuracy.solve_to_accuracy``, costed over
+the grids it is predicted to solve, ``tasks.accuracy_plan``), e.g. ``jobs/demo.toml --accuracy
+1e-3 --budget 60``; ``benchmarks/accuracy_cost_estimates.py`` gives the same per task.
 """
 
 from __future__ import annotations
@@ -29,15 +34,16 @@ from pathlib import Path
 import harness
 
 
-def measure_time(job: str, budget_s: float) -> dict:
-    """In this process: run (a cut of) ``job``, then calibrate; estimated and measured seconds."""
+def measure_time(job: str, budget_s: float, accuracy: float | None = None) -> dict:
+    """In this process: run (a cut of) ``job`` (at ``accuracy``, as ``hpcontact run --accuracy``),
+    then calibrate; estimated and measured seconds."""
     from hpcontact.accuracy import task_function
     from hpcontact.numerics.memory import resident_bytes
     from hpcontact.sweep import costmodel
     from hpcontact.sweep.spec import load_spec
     from hpcontact.sweep.tasks import enumerate_tasks
 
-    spec = load_spec(job)
+    spec = load_spec(job, accuracy=accuracy)
     tasks, _ = enumerate_tasks(spec)
     before = costmodel.calibrate()
     step = max(1, math.ceil(sum(before.task_seconds(t.params, t.cost) for t in tasks) / budget_s))
@@ -73,15 +79,16 @@ def run_task(function, index: int, params) -> None:
         print(f"task {index}: {type(exc).__name__}: {exc}", file=sys.stderr)
 
 
-def measure_memory(job: str) -> dict:
-    """In this process: the largest task alone; estimated and measured peak resident bytes."""
+def measure_memory(job: str, accuracy: float | None = None) -> dict:
+    """In this process: the largest task alone (at ``accuracy``); estimated and measured peak
+    resident bytes."""
     from hpcontact.accuracy import task_function
     from hpcontact.numerics.memory import resident_bytes
     from hpcontact.sweep import costmodel
     from hpcontact.sweep.spec import load_spec
     from hpcontact.sweep.tasks import enumerate_tasks
 
-    spec = load_spec(job)
+    spec = load_spec(job, accuracy=accuracy)
     tasks, _ = enumerate_tasks(spec)
     base = costmodel.base_memory_bytes()
     largest = max(tasks, key=lambda t: costmodel.task_array_bytes(t.params))
@@ -96,6 +103,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("jobs", nargs="*", default=sorted(str(p) for p in (harness.ROOT / "jobs").glob("*.toml")))
     parser.add_argument("--budget", type=float, default=60.0, help="estimated seconds of tasks per job (default 60)")
+    parser.add_argument("--accuracy", type=float, help="run every job at this accuracy (as hpcontact run --accuracy)")
     args = parser.parse_args()
     print(f"cost_estimates: {harness.machine_line(1)}")
     print(
@@ -106,8 +114,8 @@ def main() -> None:
     for job in args.jobs:
         try:  # each in a fresh process, one thread
             r = {
-                **harness.call_in_child(__file__, "measure_time", job, args.budget, check=True).result,
-                **harness.call_in_child(__file__, "measure_memory", job, check=True).result,
+                **harness.call_in_child(__file__, "measure_time", job, args.budget, args.accuracy, check=True).result,
+                **harness.call_in_child(__file__, "measure_memory", job, args.accuracy, check=True).result,
             }
         except RuntimeError as exc:
             print(f"{Path(job).stem:24s} failed: {exc}", flush=True)

@@ -41,13 +41,35 @@ measured task times by 1.6-4x (docs/performance.md §"Sweep cost model": the fit
 rejected, and the estimates against measurement, ``benchmarks/cost_estimates.py``). Times are
 CPU seconds of the process (``time.process_time``; the solvers run one thread unless a scene
 asks for more): the time on a core of its own, as a batch system gives one per rank, and unlike
-wall time not inflated by whatever else shares the machine while it calibrates. The
+wall time not inflated by whatever else shares the machine while it calibrates. ``strip_s``
+(contact kind only): one grid of strip cells (``STRIP_CALIBRATION_SCENE``, timed as the others
+but under the sweep's BLAS limit, ``numerics.blas.limited_blas``: its Cholesky factors are the
+only BLAS calls that a thread pool slows) less ``task_s``, over its ``tasks.strip_units``. The
 calibration takes tens of seconds and is cached like FFTW wisdom, in ``costmodel-HOST.json`` beside the wisdom file
 ($HPCONTACT_COSTMODEL overrides), keyed by host and package version: a file of another host or
 version, or one that cannot be read as a calibration, is ignored with a warning and replaced.
 ``hpcontact run`` prints the estimate of the tasks it will compute before it starts
 (``start_line``), from the cached calibration only: without one it says so rather than make
 every rank wait for a calibration.
+
+**Accuracy tasks.** A task that asks for an accuracy (``[numerics] accuracy``, ``hpcontact run
+--accuracy``) solves a sequence of grids (``accuracy.solve_to_accuracy``, strategy auto): it is
+costed over the grids it is predicted to solve (``tasks.accuracy_plan``: ``accuracy.first_grid``'s
+boundary cells, ``accuracy.plan_grids``' grids, four at 1e-3 for coverage-weighted cells and one
+more per decade below, ``tasks.predicted_grid_count``), each grid's work summed into a
+``tasks.Work`` whose terms take the contact kind's coefficients:
+
+    seconds = rate_s × fft + solve_s × solves + cell_s × cells + task_s × grids + strip_s × strips
+
+(``work_seconds``): a grid of coverage-weighted or singular cells is its one-grid FFT model
+(cost, cost / (S log2 S), S and one task term) times its cells' measured factor, a crystal's
+included (the crystal kind's own fit, on n = 32 and 64, has no FFT term to carry to n = 1024);
+strip cells (dense Galerkin integrals, ``hpcontact.discretizations.strip_cells``) their
+``tasks.strip_units`` at ``strip_s``, the seconds of a strip unit on this host; below 1e-3 a
+coverage-weighted task also counts a share of the grid after its last and less a share of its
+last (``tasks.accuracy_work``: the count varies by one about the predicted one). Their memory
+is ``accuracy.grid_bytes`` of the finest predicted grid with its boundary cells (the arrays that
+``accuracy.plan_grids`` budgets). The measurements: docs/performance.md §"Accuracy tasks".
 
 **Memory.** The peak resident memory of a rank running a task is
 
@@ -103,7 +125,7 @@ import statistics
 import time
 import warnings
 from collections.abc import Mapping, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -111,19 +133,24 @@ import numpy as np
 
 from hpcontact import __version__
 from hpcontact.accuracy import task_function
+from hpcontact.discretizations.boundary_cells import covered_solve
 from hpcontact.errors import InputError
 from hpcontact.kernels.anisotropic import as_voigt, surface_green_nodes
 from hpcontact.materials.elastic_constants import anisotropic_material
+from hpcontact.numerics.blas import limited_blas
 from hpcontact.numerics.convolution import clear_cache, wisdom_path
 from hpcontact.numerics.memory import MIB, resident_bytes
 from hpcontact.problems import footprint
 from hpcontact.problems.footprint import task_kind
 from hpcontact.problems.kinds import scene_kind
 from hpcontact.problems.slip.crystal_pair import GPA, pair_from_params
+from hpcontact.scene import Scene
 from hpcontact.sweep.tasks import (
     ChunkOrder,
     Sizing,
     Task,
+    Work,
+    asks_accuracy,
     chunk_bounds,
     chunk_order,
     estimated_cost,
@@ -131,10 +158,12 @@ from hpcontact.sweep.tasks import (
     paused_gc,
     sizing,
     solved_grids,
+    strip_units,
 )
 
 KINDS = ("contact", "crystal", "crystal_indentation", "slip")
-FORMAT = 4  # version of the calibration file's layout (2: node_s, Barnett–Lothe; 3: cell_s, kernels; 4: task_s)
+# version of the calibration file's layout (2: node_s, Barnett–Lothe; 3: cell_s, kernels; 4: task_s; 5: strip_s)
+FORMAT = 5
 _TANGENTIAL_NORMAL = ["tangential", "normal"]
 # Calibration scenes: (small, larger) per kind, with the fields a sweep of that kind sets.
 CALIBRATION_SCENES: dict[str, tuple[dict[str, Any], dict[str, Any]]] = {
@@ -225,17 +254,46 @@ ANISOTROPIC_SLIP_SCENE: dict[str, Any] = {
 }
 
 
+# One grid of strip cells (``hpcontact.discretizations.strip_cells``, an ellipse b/a = 1e-3 on 64
+# strips, tangential and normal: ~0.6 s, its far pairs, near pairs and strips all in it): its
+# seconds over its ``tasks.strip_units`` are the contact kind's ``strip_s`` (the dense integrals
+# of an accuracy task's strips: docs/performance.md §"Accuracy tasks").
+STRIP_CALIBRATION_SCENE: dict[str, Any] = {
+    "shape": "ellipse",
+    "aspect": 1e-3,
+    "nu": 0.3,
+    "n": 64,
+    "n_across": 1,
+    "quantities": _TANGENTIAL_NORMAL,
+    "tol": 1e-10,
+}
+
+
 @dataclass(frozen=True)
 class Rate:
     """Seconds of a task of one kind: ``rate_s × cost + solve_s × solve_units + cell_s ×
-    padded cells + node_s × omega_nodes + task_s`` (module docstring; ``cell_s`` and
-    ``task_s`` are measured for the isotropic contact kind, ``node_s`` for slip scenes)."""
+    padded cells + node_s × omega_nodes + task_s`` (module docstring; ``cell_s``,
+    ``task_s`` and ``strip_s``, seconds per strip unit of an accuracy task's strip cells, are
+    measured for the isotropic contact kind, ``node_s`` for slip scenes)."""
 
     rate_s: float
     solve_s: float
     node_s: float = 0.0
     cell_s: float = 0.0
     task_s: float = 0.0
+    strip_s: float = 0.0
+
+
+def work_seconds(rate: Rate, work: Work) -> float:
+    """Seconds of an accuracy task's ``tasks.Work`` at the contact kind's ``rate`` (module
+    docstring, "Accuracy tasks")."""
+    return (
+        rate.rate_s * work.fft
+        + rate.solve_s * work.solves
+        + rate.cell_s * work.cells
+        + rate.task_s * work.grids
+        + rate.strip_s * work.strips
+    )
 
 
 def solve_units(params: Mapping[str, Any], cost: float) -> float:
@@ -256,7 +314,10 @@ class Calibration:
     seconds: float = 0.0
 
     def task_seconds(self, params: Mapping[str, Any], cost: float | None = None) -> float:
-        """Estimated seconds of the scene ``params`` on one core."""
+        """Estimated seconds of the scene ``params`` on one core (a scene that asks for an
+        accuracy: its ``tasks.Work`` at the contact kind's rates, whatever ``cost``)."""
+        if asks_accuracy(params):
+            return work_seconds(self.rates["contact"], sizing(params).work)
         kind = task_kind(params)
         rate = self.rates[kind]
         cost = estimated_cost(params) if cost is None else cost
@@ -305,7 +366,10 @@ IMPORTS_BYTES = 3 * 80 * MIB
 
 def task_array_bytes(params: Mapping[str, Any]) -> float:
     """The arrays of one task of ``params`` (``footprint.array_bytes`` of the finest grid it
-    solves, ``tasks.solved_grids``)."""
+    solves, ``tasks.solved_grids``; a task that asks for an accuracy: ``accuracy.grid_bytes`` of
+    its finest predicted grid with its boundary cells, ``tasks.sizing``)."""
+    if asks_accuracy(params):
+        return sizing(params).array_bytes
     return footprint.array_bytes(solved_grids(params)[-1])
 
 
@@ -375,13 +439,30 @@ def _fit_with_kernels(pair: Sequence[Mapping[str, Any]]) -> Rate:
     return Rate(fitted.rate_s, fitted.solve_s, 0.0, cell_s, task_s)
 
 
+def _timed_strips(params: Mapping[str, Any], repeats: int = 2) -> float:
+    """CPU seconds of one grid of strip cells of ``params`` (``boundary_cells.covered_solve``,
+    strategy strip), as ``_timed_solve`` times a task: an untimed solve first, the least of
+    ``repeats`` timings; BLAS limited as in a sweep's tasks."""
+    scene = Scene.from_params(dict(params))
+    best = math.inf
+    with limited_blas():  # as a sweep's tasks run: threaded BLAS made these Cholesky factors 3x slower
+        covered_solve(scene, "strip")
+        for _ in range(repeats):
+            started = time.process_time()
+            covered_solve(scene, "strip")
+            best = min(best, time.process_time() - started)
+    return best
+
+
 def calibrate(scenes: Mapping[str, Sequence[Mapping[str, Any]]] = CALIBRATION_SCENES) -> Calibration:
     """Measure ``Rate`` per kind on this machine (module docstring) and the base memory."""
 
     started = time.perf_counter()
     base = base_memory_bytes()
     rates = {kind: fit_rate(pair, [_timed(p) for p in pair]) for kind, pair in scenes.items() if kind != "contact"}
-    rates["contact"] = _fit_with_kernels(scenes["contact"])
+    contact = _fit_with_kernels(scenes["contact"])
+    strips = max(0.0, _timed_strips(STRIP_CALIBRATION_SCENE) - contact.task_s)
+    rates["contact"] = replace(contact, strip_s=strips / strip_units(STRIP_CALIBRATION_SCENE))
     slip, scene = rates["slip"], ANISOTROPIC_SLIP_SCENE
     cost = estimated_cost(scene)
     rest = _timed(scene) - slip.rate_s * cost - slip.solve_s * solve_units(scene, cost)
@@ -473,7 +554,10 @@ def read_calibration(path: Path) -> Calibration:
         if not isinstance(entry, dict):
             raise ValueError(f"rates.{kind} missing")
         rates[kind] = Rate(
-            *(_number(entry, name, f"rates.{kind}.") for name in ("rate_s", "solve_s", "node_s", "cell_s", "task_s"))
+            *(
+                _number(entry, name, f"rates.{kind}.")
+                for name in ("rate_s", "solve_s", "node_s", "cell_s", "task_s", "strip_s")
+            )
         )
         if not all(math.isfinite(v) and v >= 0.0 for v in asdict(rates[kind]).values()):
             raise ValueError(f"{kind}: rates must be finite and >= 0")
@@ -678,12 +762,17 @@ class Estimate:
 
 
 def grid_label(params: Mapping[str, Any]) -> str:
-    """A grid, as the dry-run names it: the kind's FFT grid in padded cells."""
+    """A grid, as the dry-run names it: the kind's FFT grid in padded cells (a task that asks for
+    an accuracy: its boundary cells and finest predicted grid, ``tasks.sizing``)."""
+    if asks_accuracy(params):
+        return sizing_label(sizing(params))
     return f"{task_kind(params)} {padded_cells(params):.0f} padded cells"
 
 
 def sizing_label(size: Sizing) -> str:
     """``grid_label`` of a task of this ``tasks.Sizing``."""
+    if size.label is not None:
+        return size.label
     return f"{size.kind} {size.cells:.0f} padded cells"
 
 
@@ -713,6 +802,9 @@ def task_arrays(
     cost = np.array([t.cost for t in tasks], dtype=np.float64)
     seconds = np.empty(len(tasks), dtype=np.float64)
     for k, size in enumerate(sizes):  # a few distinct sizings: each a vector operation
+        if size.work is not None:  # an accuracy task: its work, whatever its cost
+            seconds[which == k] = work_seconds(calibration.rates["contact"], size.work)
+            continue
         rate, at = calibration.rates[size.kind], np.flatnonzero(which == k)
         c = cost[at]
         nodes = 0.0

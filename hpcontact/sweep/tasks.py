@@ -3,7 +3,9 @@
 A task is one call of the task function (``accuracy.task_function``: ``hpcontact.problems.contact.solve`` on
 one grid for a contact scene with ``n``; without ``n``, ``hpcontact solve``'s extrapolated
 default over grids 16 … 256, ``accuracy.default_solve``, costed over every grid it solves:
-``solved_grids``) on one scene. Points of the
+``solved_grids``; with an ``accuracy``, ``solve_to_accuracy`` with strategy auto, costed over
+the grids it is predicted to solve with their boundary cells: ``accuracy_plan``, ``Work``) on
+one scene. Points of the
 parameter space whose scenes are equal (a circle on an aspect axis, the load angle in tensor
 mode) share a task. A task's key is the SHA-1 of its canonical parameter JSON: it names the
 scene itself, not its place in the spec, so ``--resume`` after an edit of the spec reuses exactly
@@ -44,7 +46,16 @@ from typing import Any, NamedTuple, TextIO
 
 import numpy as np
 
-from hpcontact.accuracy import DEFAULT_ACCURACY, default_grids
+from hpcontact.accuracy import (
+    DEFAULT_ACCURACY,
+    MAX_CELLS,
+    MIN_GRIDS,
+    default_grids,
+    first_grid,
+    grid_bytes,
+    plan_grids,
+)
+from hpcontact.discretizations import strip_cells
 from hpcontact.geometry import file_sha256
 from hpcontact.problems import footprint
 from hpcontact.problems.footprint import iteration_factor, task_kind
@@ -141,17 +152,90 @@ SLIP_DEFAULT_STEPS = 10
 # and every grid from the fourth on is extrapolated; default_solve took 1.27-1.60x the sum of
 # solve() on its five grids (docs/performance.md §"Task cost constants").
 EXTRAPOLATION_WORK = 1.4
+# A task that asks for an accuracy (``accuracy.default_solve`` of a scene with ``accuracy``:
+# ``solve_to_accuracy(scene, accuracy, strategy="auto")``) is costed over the grids it is
+# predicted to solve (``accuracy_levels``), each a one-grid scene tagged with its boundary cells
+# under ``BOUNDARY_TAG`` ("coverage", "singular" or "strip": never a scene field, ``level_fields``
+# drops it). The evidence behind every constant below: docs/performance.md §"Accuracy tasks".
+BOUNDARY_TAG = "boundary"
+# Where the sequence stops (``predicted_grid_count``): coverage-weighted cells met every request
+# of 1e-3 on ``MIN_GRIDS`` grids (20 scene types of the demo, isotropic and cubic) and took one
+# more grid per full decade below it (the most frequent count at 1e-4 and 1e-5); singular cells
+# met every request down to ``SINGULAR_FOUR_GRIDS_TO`` on four grids and levelled off below
+# (their estimate ~1e-6: every planned grid); strips met every request down to
+# ``STRIP_FOUR_GRIDS_TO`` on four grids (or stop there on their own bound, ``strip_cells.model_error``).
+COVERAGE_FOUR_GRIDS_TO = 1e-3
+SINGULAR_FOUR_GRIDS_TO = 3e-6
+STRIP_FOUR_GRIDS_TO = 1e-7
+# Below 1e-3 the count of coverage-weighted cells is the most frequent one, not the only one: 2 of
+# 12 requests of 1e-4 took a grid more, 2 one fewer; 3 of 8 of 1e-5 one fewer. A grid costs 4-5
+# times the one before, so the time counts ``ONE_MORE_SHARE`` of the next planned grid and takes
+# off ``ONE_FEWER_SHARE`` of the last predicted one (beyond ``MIN_GRIDS``): the expected time of
+# many such tasks, not the time of the most frequent count (``accuracy_work``).
+ONE_MORE_SHARE = 0.2
+ONE_FEWER_SHARE = 0.25
+# A grid of coverage-weighted or singular cells costs the one-grid FFT model of that grid (every
+# term of ``costmodel``, the contact kind's rates: ``level_work``) times a factor: isotropic
+# coverage-weighted cells ``COVERAGE_WORK`` × (1 + ``COVERAGE_ASPECT_WORK`` log2 ρ), ρ the grid's
+# aspect in cells (coverage, damping and preconditioner weights; their CG iterations grow faster
+# with ρ than the one-grid model's); a crystal's ``CRYSTAL_COVERAGE_WORK``; singular cells
+# ``SINGULAR_WORK`` (near-field corrections) and ``SINGULAR_EDGE_WORK`` cost units per cell along
+# both sides (n + n_across; the near field's set-up grows with the boundary). An outline that is
+# not an ellipse, circle or rectangle (polygons, stars, masks) builds its coverage by clipping:
+# ``OUTLINE_COVERAGE_WORK`` cost units per cell along both sides and grid.
+COVERAGE_WORK = 1.05
+COVERAGE_ASPECT_WORK = 0.37
+CRYSTAL_COVERAGE_WORK = 0.9
+SINGULAR_WORK = 1.7
+OUTLINE_COVERAGE_WORK = 2.1e5
+SINGULAR_EDGE_WORK = 2.6e5
+ANALYTIC_OUTLINES = ("circle", "ellipse", "rectangle")
+# Strip cells (``strip_cells``: dense Galerkin integrals, then Cholesky) cost, per grid of n strips
+# (``strip_units``), ``STRIP_SECONDS_PER_FAR_PAIR`` per far pair (Gauss product rule on the moment
+# series), ``STRIP_SECONDS_PER_STRIP`` per strip and, on an ellipse, its width corrections:
+# ``STRIP_ELLIPSE_SECONDS_PER_NEAR_PAIR`` per near pair and min(``STRIP_ELLIPSE_SLOPE`` √(b/a),
+# ``STRIP_ELLIPSE_CAP``) more per strip (the self and touching pairs' graded rules, whose points
+# take the exact two-width averages more often the wider the ellipse): CPU seconds on the
+# development machine (fitted to two runs, 77 and 80 grids: rectangles b/a 1e-6 … 1e-12 and
+# ellipses 1e-8 … 1 on 16 … 1024 strips), counted in units of ``STRIP_UNIT_SECONDS`` (its contact
+# rate_s, so that a strip unit weighs as an FFT grid's cost unit in a task's cost);
+# ``costmodel`` calibrates the seconds of a strip unit on each host (``Rate.strip_s``).
+STRIP_UNIT_SECONDS = 2.4e-9
+STRIP_SECONDS_PER_FAR_PAIR = 2.6e-6
+STRIP_ELLIPSE_SECONDS_PER_NEAR_PAIR = 2.0e-4
+STRIP_SECONDS_PER_STRIP = 1.9e-4
+STRIP_ELLIPSE_SLOPE = 0.24
+STRIP_ELLIPSE_CAP = 0.058
+
+
+class Work(NamedTuple):
+    """The work of an accuracy task summed over its predicted grids (``accuracy_work``), one
+    number per term of the cost model's seconds (``costmodel.Rate``): ``fft`` cost units
+    (× rate_s), ``solves`` solve units (× solve_s), ``cells`` padded cells whose kernels are built
+    (× cell_s), ``grids`` (× task_s) and ``strips`` strip units (× strip_s); the FFT terms of a
+    grid carry its boundary cells' factor."""
+
+    fft: float
+    solves: float
+    cells: float
+    grids: float
+    strips: float
 
 
 class Sizing(NamedTuple):
     """What the cost model reads of a task besides its cost (``sizing``): the calibration
     ``kind`` (``footprint.task_kind``), the padded ``cells`` of the finest grid it solves
     (``padded_cells``) and that grid's ``array_bytes`` (``footprint.array_bytes``). Few distinct
-    values in a sweep: tasks share one object per value."""
+    values in a sweep: tasks share one object per value. A task that asks for an accuracy also
+    has its ``work`` (``Work``: its seconds are those terms, not the cost's) and the ``label``
+    the dry run lists its grids under; its ``array_bytes`` are ``accuracy.grid_bytes`` of its
+    finest predicted grid with its boundary cells."""
 
     kind: str
     cells: float
     array_bytes: float
+    work: Work | None = None
+    label: str | None = None
 
 
 class Task(NamedTuple):
@@ -494,7 +578,7 @@ class _Table:
         branches = COST_BRANCH_FIELDS.get(name)
         if name in COST_NEUTRAL_FIELDS or (branches is not None and not any(v in branches for v in run.values)):
             return None
-        if name in GRID_ONLY_FIELDS and base.get("n") is not None:
+        if name in GRID_ONLY_FIELDS and base.get("n") is not None and base.get("accuracy") is None:
             by_grid: dict[tuple[int, int], tuple[float, Sizing]] = {}
 
             def per_grid(params: dict[str, Any] | RunScene) -> tuple[float, Sizing]:
@@ -573,12 +657,18 @@ def enumerate_tasks(
 def solved_grids(params: Mapping[str, Any]) -> list[Mapping[str, Any]]:
     """The one-grid scenes a task of ``params`` solves: ``[params]`` for a scene with ``n`` (or
     one that ``accuracy.extrapolates_by_default`` refuses, or a slip scene); for a contact scene
+    that asks for an accuracy, the grids it is predicted to solve (``accuracy_levels``, each
+    tagged with its boundary cells); for a contact scene
     without ``n`` that extrapolates by default (``accuracy.default_solve``, which the sweep's
     task function runs), one scene per grid of ``accuracy.default_grids`` (16 … 256 along the
     long side, five grids) with that grid's ``n``, ``n_across`` and the CG tolerance
     ``solve_to_accuracy`` uses (at most the default accuracy / 100). Cached per scene, the
     fields that do not change its grids (``GRID_NEUTRAL_FIELDS``) aside."""
-    if scene_kind(params) == SLIP or params.get("n") is not None:
+    if scene_kind(params) == SLIP:
+        return [params]
+    if params.get("accuracy") is not None:  # before n: solve_to_accuracy ignores the scene's grid
+        return accuracy_levels(params)
+    if params.get("n") is not None:
         return [params]
     grids = _default_grids(canonical_json({k: v for k, v in params.items() if k not in GRID_NEUTRAL_FIELDS}))
     if not grids:
@@ -592,6 +682,170 @@ def _default_grids(text: str) -> tuple[tuple[int, int], ...]:
     """(n, n_across) of every grid ``accuracy.default_solve`` solves the scene ``text``
     (canonical JSON, ``GRID_NEUTRAL_FIELDS`` left out) on; () when it solves one grid."""
     return tuple(default_grids(Scene.from_params(json.loads(text))))
+
+
+def asks_accuracy(params: Mapping[str, Any]) -> bool:
+    """Whether ``params`` is a contact scene that asks for an accuracy (a sweep's ``[numerics]
+    accuracy``, ``hpcontact run --accuracy``): ``accuracy.default_solve`` solves it as
+    ``hpcontact solve --accuracy`` does."""
+    return params.get("accuracy") is not None and scene_kind(params) != SLIP
+
+
+class AccuracyPlan(NamedTuple):
+    """What ``solve_to_accuracy(scene, accuracy, strategy="auto")`` is predicted to do
+    (``accuracy_plan``): its boundary cells (``strategy``), the grids (n, n_across) it solves,
+    how many grids it could have planned (``planned``), the planned grid after the last one
+    predicted (``next_grid``, None at the end of the plan) and the peak bytes of its finest
+    grid's arrays (``accuracy.grid_bytes``)."""
+
+    strategy: str
+    grids: tuple[tuple[int, int], ...]
+    planned: int
+    next_grid: tuple[int, int] | None
+    finest_bytes: float
+
+
+def predicted_grid_count(strategy: str, accuracy: float, planned: int, model_error: float = 0.0) -> int:
+    """How many of its ``planned`` grids ``solve_to_accuracy`` is predicted to solve at
+    ``accuracy`` with ``strategy``'s cells (docs/performance.md §"Accuracy tasks"): coverage-weighted
+    cells ``MIN_GRIDS`` at requests ≥ ``COVERAGE_FOUR_GRIDS_TO`` (1e-3) and one more per full
+    decade below (1e-4: 5, 1e-5: 6); singular cells ``MIN_GRIDS`` down to
+    ``SINGULAR_FOUR_GRIDS_TO``, every planned grid below; strips ``MIN_GRIDS`` down to
+    ``STRIP_FOUR_GRIDS_TO`` or where their own bound ``model_error`` is not below the request
+    (``solve_to_accuracy`` stops there), every planned grid below. Never more than planned."""
+    if strategy == "strip":
+        count = MIN_GRIDS if accuracy >= STRIP_FOUR_GRIDS_TO or model_error >= accuracy else planned
+    elif strategy == "singular":
+        count = MIN_GRIDS if accuracy >= SINGULAR_FOUR_GRIDS_TO else planned
+    else:  # the 1e-9 keeps 1e-4 at one decade whatever the rounding of the quotient
+        count = MIN_GRIDS + max(0, math.floor(math.log10(COVERAGE_FOUR_GRIDS_TO / accuracy) + 1e-9))
+    return max(1, min(count, planned))
+
+
+def accuracy_plan(params: Mapping[str, Any]) -> AccuracyPlan:
+    """The ``AccuracyPlan`` of the contact scene ``params`` with ``accuracy``: the boundary cells
+    and first grid of ``accuracy.first_grid``, the grids of ``accuracy.plan_grids`` (at most
+    ``accuracy.MAX_CELLS`` cells, within the estimator's calibrated range; no memory budget, so
+    that the estimate never depends on this process's resident set: a finest grid over a rank's
+    memory shows in the task's memory, which ``--mem-per-rank`` checks), the first
+    ``predicted_grid_count`` of them (a plan of no grid: its first one). Cached per scene, the
+    fields that do not change its grids (``GRID_NEUTRAL_FIELDS``) aside."""
+    return _accuracy_plan(canonical_json({k: v for k, v in params.items() if k not in GRID_NEUTRAL_FIELDS}))
+
+
+@functools.lru_cache(maxsize=4096)
+def _accuracy_plan(text: str) -> AccuracyPlan:
+    """``accuracy_plan`` of the scene ``text`` (canonical JSON, ``GRID_NEUTRAL_FIELDS`` left out)."""
+    scene = Scene.from_params(json.loads(text))
+    accuracy = float(scene.accuracy)
+    strategy, n0, n_across0 = first_grid(scene, accuracy, "auto")
+    plan = plan_grids(scene, n0, n_across0, MAX_CELLS, math.inf, strategy)
+    model = strip_cells.model_error(scene.shape) if strategy == "strip" else 0.0
+    count = predicted_grid_count(strategy, accuracy, len(plan.grids), model)
+    grids = tuple(plan.grids[:count]) or (plan.next_grid,)
+    following = tuple(plan.grids[count]) if count < len(plan.grids) else None
+    return AccuracyPlan(strategy, grids, len(plan.grids), following, grid_bytes(scene, *grids[-1], strategy))
+
+
+def accuracy_levels(params: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """The one-grid scenes of the accuracy task ``params`` (``accuracy_plan``): ``params``
+    without ``accuracy``, with each grid's ``n``, ``n_across``, the CG tolerance
+    ``solve_to_accuracy`` uses (at most accuracy / 100) and ``BOUNDARY_TAG`` the grid's
+    boundary cells (``level_fields`` gives the scene's fields without it)."""
+    plan = accuracy_plan(params)
+    tol = max(min(float(params.get("tol", DEFAULT_TOL)), float(params["accuracy"]) * 1e-2), 1e-14)
+    fields = {k: v for k, v in params.items() if k not in ("accuracy", BOUNDARY_TAG)}
+    return [{**fields, "n": n, "n_across": na, "tol": tol, BOUNDARY_TAG: plan.strategy} for n, na in plan.grids]
+
+
+def level_fields(level: Mapping[str, Any]) -> dict[str, Any]:
+    """The scene fields of a level of ``accuracy_levels`` (its ``BOUNDARY_TAG`` dropped): what
+    ``Scene.from_params`` accepts."""
+    return {k: v for k, v in level.items() if k != BOUNDARY_TAG}
+
+
+def strip_pairs(shape: str, aspect: float, n: int) -> tuple[int, int]:
+    """(near, far) pairs i ≤ j of n strips of an unturned ``shape`` (rectangle, ellipse) of
+    ``aspect``: the split of ``strip_cells.galerkin_integrals`` (near: closer than
+    ``NEAR_GAP`` strip lengths or ``SERIES_REACH`` half-widths). Cached."""
+    return _strip_pairs(str(shape), float(aspect), int(n))
+
+
+@functools.lru_cache(maxsize=1024)
+def _strip_pairs(shape: str, aspect: float, n: int) -> tuple[int, int]:
+    outline = strip_cells.Outline(shape, aspect)
+    edges = strip_cells.graded_edges(n)
+    lo, hi = edges[:-1], edges[1:]
+    size = hi - lo
+    i, j = np.triu_indices(n)
+    gap = np.maximum(np.maximum(lo[j] - hi[i], lo[i] - hi[j]), 0.0)
+    widest = np.maximum(outline.widest(lo[i], hi[i]), outline.widest(lo[j], hi[j]))
+    near = int(
+        np.count_nonzero(
+            (gap < strip_cells.NEAR_GAP * np.maximum(size[i], size[j])) | (gap < strip_cells.SERIES_REACH * widest)
+        )
+    )
+    return near, int(i.size) - near
+
+
+def strip_units(level: Mapping[str, Any]) -> float:
+    """Strip units (``STRIP_UNIT_SECONDS`` each on the development machine) of one grid of strip
+    cells, the level ``level`` (n strips): its far pairs (``strip_pairs``) and strips at their
+    seconds; on an ellipse its near pairs too, and min(``STRIP_ELLIPSE_SLOPE`` √(b/a),
+    ``STRIP_ELLIPSE_CAP``) more per strip (its width corrections)."""
+    shape, aspect, n = str(level.get("shape")), float(level.get("aspect", 1.0)), int(level["n"])
+    near, far = strip_pairs(shape, aspect, n)
+    per_strip = STRIP_SECONDS_PER_STRIP
+    if shape == "ellipse":
+        per_strip += min(STRIP_ELLIPSE_SLOPE * math.sqrt(aspect), STRIP_ELLIPSE_CAP)
+    seconds = STRIP_SECONDS_PER_FAR_PAIR * far + per_strip * n
+    if shape == "ellipse":
+        seconds += STRIP_ELLIPSE_SECONDS_PER_NEAR_PAIR * near
+    return seconds / STRIP_UNIT_SECONDS
+
+
+def level_work(level: Mapping[str, Any]) -> Work:
+    """``Work`` of one level of ``accuracy_levels``: a strip grid its ``strip_units``; a grid of
+    coverage-weighted or singular cells its one-grid FFT model (``_contact_cost``: cost units,
+    solve units cost / (S log2 S), S padded cells, one task term) times its cells' factor
+    (``COVERAGE_WORK`` × (1 + ``COVERAGE_ASPECT_WORK`` log2 ρ), ``CRYSTAL_COVERAGE_WORK`` for a
+    crystal, ``SINGULAR_WORK``), plus, per cell along both sides (n + n_across), singular cells'
+    near-field set-up (``SINGULAR_EDGE_WORK``) or an outline's clipping (``OUTLINE_COVERAGE_WORK``)."""
+    boundary = level.get(BOUNDARY_TAG, "coverage")
+    if boundary == "strip":
+        return Work(0.0, 0.0, 0.0, 1.0, strip_units(level))
+    cost = _contact_cost(level)
+    cells = footprint.padded_cells(level)
+    if boundary == "singular":
+        factor = SINGULAR_WORK
+    elif task_kind(level) != "contact":
+        factor = CRYSTAL_COVERAGE_WORK
+    else:
+        nx, ny = footprint.contact_grid(level)
+        factor = COVERAGE_WORK * (1.0 + COVERAGE_ASPECT_WORK * math.log2(max(nx, ny) / min(nx, ny)))
+    fft = factor * cost
+    if boundary == "singular":
+        fft += SINGULAR_EDGE_WORK * (int(level["n"]) + int(level["n_across"]))
+    elif level.get("shape", "circle") not in ANALYTIC_OUTLINES:
+        fft += OUTLINE_COVERAGE_WORK * (int(level["n"]) + int(level["n_across"]))
+    return Work(fft, factor * cost / (cells * math.log2(cells)), factor * cells, factor, 0.0)
+
+
+def accuracy_work(params: Mapping[str, Any]) -> Work:
+    """``Work`` of the accuracy task ``params``: the sum of its levels' (``level_work``); for
+    coverage-weighted cells below ``COVERAGE_FOUR_GRIDS_TO``, plus ``ONE_MORE_SHARE`` of the next
+    planned grid's and less ``ONE_FEWER_SHARE`` of the last predicted grid's beyond
+    ``MIN_GRIDS`` (the expected time of a count that varies by one: docs/performance.md
+    §"Accuracy tasks")."""
+    plan, levels = accuracy_plan(params), accuracy_levels(params)
+    parts = [(1.0, level_work(level)) for level in levels]
+    if plan.strategy == "coverage" and float(params["accuracy"]) < COVERAGE_FOUR_GRIDS_TO:
+        if plan.next_grid is not None:
+            n, na = plan.next_grid
+            parts.append((ONE_MORE_SHARE, level_work({**levels[-1], "n": n, "n_across": na})))
+        if len(levels) > MIN_GRIDS:
+            parts.append((-ONE_FEWER_SHARE, parts[len(levels) - 1][1]))
+    return Work(*(math.fsum(w * part[k] for w, part in parts) for k in range(len(Work._fields))))
 
 
 def estimated_cost(params: Mapping[str, Any]) -> float:
@@ -629,15 +883,30 @@ _SIZINGS: dict[Sizing, Sizing] = {}  # one object per distinct value
 
 def sizing(params: Mapping[str, Any]) -> Sizing:
     """The ``Sizing`` of the scene ``params``: its kind, and the padded cells and array bytes of
-    the finest grid it solves (``solved_grids``)."""
-    finest = solved_grids(params)[-1]
-    size = Sizing(task_kind(params), footprint.padded_cells(finest), footprint.array_bytes(finest))
+    the finest grid it solves (``solved_grids``); for a scene that asks for an accuracy, the
+    bytes of ``accuracy.grid_bytes`` on that grid with its boundary cells, the ``Work`` of its
+    grids and the label of its grids."""
+    levels = solved_grids(params)
+    finest = levels[-1]
+    if asks_accuracy(params):
+        plan = accuracy_plan(params)
+        n, na = plan.grids[-1]
+        kind = task_kind(params)
+        where = f"{n} strips" if plan.strategy == "strip" else f"{n} x {na}"
+        label = f"{kind} accuracy: {plan.strategy} cells to {where}"
+        size = Sizing(kind, footprint.padded_cells(finest), plan.finest_bytes, accuracy_work(params), label)
+    else:
+        size = Sizing(task_kind(params), footprint.padded_cells(finest), footprint.array_bytes(finest))
     return _SIZINGS.setdefault(size, size)
 
 
 def _contact_cost(params: Mapping[str, Any]) -> float:
-    """``estimated_cost`` of the contact scene ``params``."""
+    """``estimated_cost`` of the contact scene ``params``; of one that asks for an accuracy, its
+    FFT cost units and strip units (``accuracy_work``: comparable on the development machine)."""
     levels = solved_grids(params)
+    if asks_accuracy(params):
+        work = accuracy_work(params)
+        return work.fft + work.strips
     if len(levels) > 1:
         return EXTRAPOLATION_WORK * sum(_contact_cost(level) for level in levels)
     quantities = quantity_names(params.get("quantities", DEFAULT_QUANTITIES))

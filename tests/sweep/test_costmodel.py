@@ -369,3 +369,118 @@ def test_estimate_equals_each_task_s_seconds_bytes_and_grid(write_spec):
     assert list(est.grids().items()) == list(labels.items())
     assert est.kernel_sets() == len({t.group for t in tasks})
     assert est.total_seconds == sum(calibration.task_seconds(t.params, t.cost) for t in tasks)
+
+
+# ------------------------------------------------------------------------------------------
+# tasks that ask for an accuracy (docs/performance.md §"Accuracy tasks")
+# ------------------------------------------------------------------------------------------
+ACCURACY_ISO = {"nu": 0.3, "quantities": ["tangential", "normal"], "tol": 1e-10}
+
+
+def test_an_accuracy_task_takes_the_seconds_of_its_work_at_the_contact_rates():
+    from hpcontact.sweep.tasks import Work, sizing
+
+    rates = {k: Rate(rate_s=1e-6 * (i + 1), solve_s=0.0) for i, k in enumerate(costmodel.KINDS)}
+    rates["contact"] = Rate(rate_s=2e-9, solve_s=3e-4, cell_s=1e-7, task_s=5e-3, strip_s=4e-9)
+    calibration = Calibration("h", "v", rates, base_bytes=0.0)
+    for scene in (
+        {"shape": "ellipse", "aspect": 0.3, "accuracy": 1e-4},  # coverage-weighted cells
+        {"shape": "ellipse", "aspect": 0.3, "anisotropy": 3.0, "accuracy": 1e-4},  # a crystal: the contact rates too
+        {"shape": "ellipse", "aspect": 0.01, "accuracy": 1e-3},  # strips
+        {"shape": "circle", "accuracy": 1e-5},  # singular cells
+    ):
+        params = {**ACCURACY_ISO, **scene}
+        work = sizing(params).work
+        assert isinstance(work, Work) and work.grids >= 4
+        seconds = 2e-9 * work.fft + 3e-4 * work.solves + 1e-7 * work.cells + 5e-3 * work.grids + 4e-9 * work.strips
+        assert calibration.task_seconds(params) == pytest.approx(seconds, rel=1e-14)
+        assert calibration.task_seconds(params, cost=1.0) == calibration.task_seconds(params)  # work, not cost
+    strips = sizing({**ACCURACY_ISO, "shape": "ellipse", "aspect": 0.01, "accuracy": 1e-3}).work
+    assert strips.fft == strips.solves == strips.cells == 0.0 and strips.strips > 0.0
+
+
+def test_an_accuracy_tasks_memory_is_its_finest_grids_with_its_boundary_cells():
+    from hpcontact.accuracy import grid_bytes
+    from hpcontact.scene import Scene
+
+    calibration = Calibration("h", "v", {k: Rate(1e-6, 0.0) for k in costmodel.KINDS}, base_bytes=1000.0)
+    for scene, strategy, finest in (
+        ({"shape": "ellipse", "aspect": 0.01, "accuracy": 1e-3}, "strip", (128, 1)),
+        ({"shape": "ellipse", "aspect": 0.01, "anisotropy": 2.0, "accuracy": 1e-3}, "coverage", (256, 64)),
+        ({"shape": "ellipse", "aspect": 0.3, "accuracy": 1e-4}, "coverage", (512, 160)),
+        ({"shape": "circle", "accuracy": 1e-6}, "singular", (1024, 1024)),
+    ):
+        params = {**ACCURACY_ISO, **scene}
+        arrays = grid_bytes(Scene.from_params(params), *finest, strategy)
+        assert costmodel.task_array_bytes(params) == arrays
+        assert calibration.task_bytes(params) == 1000.0 + arrays
+    # the strips' dense matrices on 128 strips against the crystal's FFT arrays on 256 x 64 cells
+    thin = {**ACCURACY_ISO, "shape": "ellipse", "aspect": 0.01, "accuracy": 1e-3}
+    strips, crystal = costmodel.task_array_bytes(thin), costmodel.task_array_bytes({**thin, "anisotropy": 2.0})
+    assert strips == 160.0 * 128**2 + 128.0 * 2**20 and crystal < strips
+    # 1024 strips of a thin ellipse at 1e-8: the dense matrices grow as n^2
+    assert costmodel.task_array_bytes({**thin, "aspect": 1e-4, "accuracy": 1e-8}) == 160.0 * 1024**2 + 128.0 * 2**20
+
+
+def test_the_dry_run_estimates_accuracy_tasks_as_task_by_task_and_labels_their_grids(write_spec, capsys, monkeypatch):
+    from hpcontact.sweep.spec import parse_spec
+    from hpcontact.sweep.tasks import enumerate_tasks
+
+    spec = parse_spec(
+        '[scene]\nquantities = ["tangential", "normal"]\n[numerics]\naccuracy = 1e-4\n'
+        '[axes]\nshape = ["circle", "ellipse", "rectangle"]\naspect = [1.0, 0.3, 1e-2, 1e-8]\nanisotropy = [1.0, 2.0]\n',
+        validate=lambda p: None,
+    )
+    tasks, _ = enumerate_tasks(spec)
+    rates = {
+        k: Rate(rate_s=1e-6 * (i + 1), solve_s=3e-3, cell_s=1e-8, task_s=2e-3, strip_s=5e-9)
+        for i, k in enumerate(costmodel.KINDS)
+    }
+    calibration = Calibration("here", __version__, rates, 50.0 * 2**20)
+    est = costmodel.estimate(tasks, calibration)
+    assert est.seconds.tolist() == [calibration.task_seconds(t.params, t.cost) for t in tasks]
+    assert est.bytes.tolist() == [calibration.task_bytes(t.params) for t in tasks]
+    grids = est.grids()
+    assert grids["contact accuracy: strip cells to 256 strips"] == 1  # the rectangle b/a = 1e-8
+    assert grids["crystal accuracy: coverage cells to 512 x 160"] == 2  # the crystal ellipse and rectangle b/a = 0.3
+    assert sum(grids.values()) == len(tasks)
+    labels = {}
+    for t in tasks:
+        labels[costmodel.grid_label(t.params)] = labels.get(costmodel.grid_label(t.params), 0) + 1
+    assert labels == grids
+    # the command line's request replaces the spec's grid: the same tasks, costed over their grids
+    monkeypatch.setenv("HPCONTACT_MPI", "0")
+    path = write_spec(
+        '[scene]\nshape = "ellipse"\nquantities = ["tangential", "normal"]\n[numerics]\nn = 64\n[axes]\naspect = [0.3, 0.01]\n'
+    )
+    assert main([str(path), "--dry-run", "--json", "--accuracy", "1e-4"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert sorted(out["grids"]) == [
+        "contact accuracy: coverage cells to 512 x 160",
+        "contact accuracy: strip cells to 128 strips",
+    ]
+
+
+def test_the_calibration_measures_strips_and_its_file_keeps_them(tmp_path, monkeypatch):
+    from hpcontact.sweep.tasks import strip_units
+
+    rates = {kind: Rate(rate_s=1e-7, solve_s=0.1) for kind in costmodel.KINDS}
+    rates["contact"] = Rate(rate_s=1e-7, solve_s=0.1, cell_s=1e-7, task_s=0.01, strip_s=3e-9)
+    saved = Calibration(socket.gethostname(), __version__, rates, base_bytes=1.0)
+    assert costmodel.read_calibration(costmodel.save_calibration(saved, tmp_path / "cm.json")) == saved
+    # a file of the layout before strips (format 4) is not this layout: ignored, recalibrated
+    old = json.loads((tmp_path / "cm.json").read_text())
+    old["format"] = 4
+    for entry in old["rates"].values():
+        del entry["strip_s"]
+    (tmp_path / "cm.json").write_text(json.dumps(old))
+    assert costmodel.cached_calibration(tmp_path / "cm.json")[0] is None
+    # strip_s: the strip scene's seconds, less the task term, over its strip units
+    monkeypatch.setattr(costmodel, "_timed", lambda params, repeats=2: 0.01)
+    monkeypatch.setattr(costmodel, "_timed_solve", lambda params, repeats=2: (0.02, 10))
+    monkeypatch.setattr(costmodel, "_timed_strips", lambda params, repeats=2: 0.51)
+    monkeypatch.setattr(costmodel, "omega_nodes", lambda params: 64)
+    calibration = costmodel.calibrate()
+    contact = calibration.rates["contact"]
+    assert contact.strip_s == pytest.approx((0.51 - contact.task_s) / strip_units(costmodel.STRIP_CALIBRATION_SCENE))
+    assert all(calibration.rates[k].strip_s == 0.0 for k in costmodel.KINDS if k != "contact")

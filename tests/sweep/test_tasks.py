@@ -107,6 +107,9 @@ MIXED = [
     # a field of the grid (n), a tolerance axis (kernel-neutral: one group), the shape last (point by point)
     '[scene]\nshape = "ellipse"\naspect = 0.2\n[axes]\nn = [16, 24, 32]\ntol = { logspace = [-6, -12, 700] }\n',
     '[numerics]\nn = 16\n[axes]\nnu = { linspace = [0, 0.5, 300] }\nshape = ["circle", "ellipse"]\n',
+    # an accuracy: strips, coverage-weighted cells and crystals along b/a (the grids each is predicted to solve)
+    '[scene]\nshape = "ellipse"\n[numerics]\naccuracy = 1e-3\n[axes]\nanisotropy = [1.0, 2.0]\n'
+    "aspect = { logspace = [0, -4, 30] }\nnu = [0.1, 0.3]\n",
 ]
 
 
@@ -177,3 +180,117 @@ def test_a_run_of_new_scenes_keys_each_once_and_costs_its_grids_once(monkeypatch
     costs.clear()
     tasks, _ = enumerate_tasks(spec)
     assert len(costs) == 1 and len({t.sizing for t in tasks}) == 1  # nu changes neither grid nor cost
+
+
+# ------------------------------------------------------------------------------------------
+# tasks that ask for an accuracy: the grids solve_to_accuracy is predicted to solve
+# ------------------------------------------------------------------------------------------
+ISO = {"nu": 0.3, "quantities": ["tangential", "normal"], "tol": 1e-10}
+
+
+def grids_of(params):
+    from hpcontact.sweep.tasks import BOUNDARY_TAG, solved_grids
+
+    levels = solved_grids(params)
+    return {level[BOUNDARY_TAG] for level in levels}, [(level["n"], level["n_across"]) for level in levels]
+
+
+@pytest.mark.parametrize(
+    ("scene", "accuracy", "boundary", "grids"),
+    [
+        # coverage-weighted cells: four grids at 1e-3, one more per full decade below (docs/performance.md)
+        ({"shape": "ellipse", "aspect": 0.3}, 1e-3, "coverage", [(32, 10), (64, 20), (128, 40), (256, 80)]),
+        ({"shape": "ellipse", "aspect": 0.3}, 1e-4, "coverage", [(32 * 2**k, 10 * 2**k) for k in range(5)]),
+        ({"shape": "polygon", "sides": 3}, 3e-4, "coverage", [(32 * 2**k, 28 * 2**k) for k in range(4)]),
+        ({"shape": "polygon", "sides": 3}, 1e-5, "coverage", [(32 * 2**k, 28 * 2**k) for k in range(6)]),
+        # ... never beyond the estimator's calibration (n = 1024 along x)
+        ({"shape": "rectangle", "aspect": 0.01}, 1e-7, "coverage", [(32 * 2**k, 8 * 2**k) for k in range(6)]),
+        # a crystal: coverage-weighted cells whatever its outline
+        (
+            {"shape": "ellipse", "aspect": 0.01, "anisotropy": 3.0},
+            1e-4,
+            "coverage",
+            [(32 * 2**k, 8 * 2**k) for k in range(5)],
+        ),
+        # strips: four grids (thin ellipses from 16 strips, rectangles from 32), one across
+        ({"shape": "ellipse", "aspect": 0.01}, 1e-3, "strip", [(16, 1), (32, 1), (64, 1), (128, 1)]),
+        ({"shape": "ellipse", "aspect": 0.3}, 1e-5, "strip", [(16, 1), (32, 1), (64, 1), (128, 1)]),
+        ({"shape": "rectangle", "aspect": 1e-8}, 1e-6, "strip", [(32, 1), (64, 1), (128, 1), (256, 1)]),
+        # ... below 1e-7, every planned grid (up to 1024 strips), unless the strips' own bound stops them at four
+        ({"shape": "ellipse", "aspect": 1e-4}, 1e-8, "strip", [(16 * 2**k, 1) for k in range(7)]),
+        ({"shape": "ellipse", "aspect": 0.3}, 1e-8, "strip", [(16, 1), (32, 1), (64, 1), (128, 1)]),
+        # singular cells (a circle below 1e-4): four grids down to 3e-6, every planned grid below (2^20 cells)
+        ({"shape": "circle"}, 1e-5, "singular", [(32, 32), (64, 64), (128, 128), (256, 256)]),
+        ({"shape": "circle"}, 1e-6, "singular", [(32 * 2**k, 32 * 2**k) for k in range(6)]),
+    ],
+)
+def test_an_accuracy_task_is_costed_over_the_grids_it_is_predicted_to_solve(scene, accuracy, boundary, grids):
+    params = {**ISO, **scene, "accuracy": accuracy}
+    assert grids_of(params) == ({boundary}, grids)
+
+
+def test_an_accuracy_tasks_levels_are_one_grid_scenes_whose_tag_never_reaches_validation():
+    from hpcontact.errors import InputError
+    from hpcontact.scene import Scene
+    from hpcontact.sweep.tasks import BOUNDARY_TAG, level_fields, solved_grids
+
+    params = {**ISO, "shape": "ellipse", "aspect": 0.01, "tol": 1e-4, "accuracy": 1e-4, "n": 64}  # n: ignored
+    levels = solved_grids(params)
+    assert [level["n"] for level in levels] == [16, 32, 64, 128]
+    for level in levels:
+        assert "accuracy" not in level and level["tol"] == 1e-4 * 1e-2  # solve_to_accuracy's: accuracy / 100
+        assert solved_grids(level) == [level]  # a level is one grid
+        with pytest.raises(InputError, match=BOUNDARY_TAG):
+            Scene.from_params(level)  # a scene refuses the tag ...
+        fields = level_fields(level)
+        assert BOUNDARY_TAG not in fields and Scene.from_params(fields).n == level["n"]  # ... which level_fields drops
+    assert BOUNDARY_TAG not in params
+
+
+def test_the_grids_predicted_do_not_depend_on_this_processs_memory(monkeypatch):
+    from hpcontact import accuracy
+    from hpcontact.sweep import tasks as tasks_module
+
+    params = {**ISO, "shape": "polygon", "sides": 3, "accuracy": 1e-5}
+    planned = grids_of(params)
+    tasks_module._accuracy_plan.cache_clear()
+    monkeypatch.setattr(accuracy, "resident_bytes", lambda: 1e18)  # plan_grids adds it to every grid's bytes
+    assert grids_of(params) == planned and len(planned[1]) == 6
+    tasks_module._accuracy_plan.cache_clear()
+
+
+def test_a_tighter_accuracy_costs_more():
+    from hpcontact.sweep.tasks import sizing
+
+    for scene in ({"shape": "ellipse", "aspect": 0.3, "anisotropy": 3.0}, {"shape": "star", "sides": 5}):
+        costs = [estimated_cost({**ISO, **scene, "accuracy": a}) for a in (1e-2, 1e-3, 1e-4, 1e-5)]
+        assert costs[0] == costs[1] < costs[2] < costs[3]  # 4, 4, 5, 6 grids
+        works = [sizing({**ISO, **scene, "accuracy": a}).work for a in (1e-3, 1e-4, 1e-5)]
+        assert all(all(a < b for a, b in zip(w, v) if b) for w, v in zip(works, works[1:]))
+    # strips: four grids down to 1e-7, then every planned grid
+    thin = {**ISO, "shape": "ellipse", "aspect": 1e-3}
+    assert estimated_cost({**thin, "accuracy": 1e-3}) == estimated_cost({**thin, "accuracy": 1e-6})
+    assert estimated_cost({**thin, "accuracy": 1e-8}) > estimated_cost({**thin, "accuracy": 1e-6})
+    # an accuracy is costed over its grids, not as the default extrapolation (16 ... 256)
+    assert estimated_cost({**ISO, "shape": "circle", "accuracy": 1e-6}) > 10 * estimated_cost(
+        {**ISO, "shape": "circle"}
+    )
+
+
+def test_strip_grids_are_costed_by_their_pairs_and_strips():
+    from hpcontact.sweep.tasks import strip_pairs, strip_units
+
+    for shape, aspect in (("rectangle", 1e-8), ("ellipse", 1e-3), ("ellipse", 0.3)):
+        near, far = strip_pairs(shape, aspect, 256)
+        assert near + far == 256 * 257 // 2
+        units = [strip_units({"shape": shape, "aspect": aspect, "n": n}) for n in (32, 64, 128, 256)]
+        assert units == sorted(units) and units[0] > 0
+    # every pair of a wide ellipse is near; a thin one's near pairs are a band along the diagonal
+    assert strip_pairs("ellipse", 0.3, 128)[1] < 100 < strip_pairs("ellipse", 1e-6, 128)[1]
+    # a wider ellipse's strips cost more (exact two-width averages)
+    n64 = {"n": 64, "shape": "ellipse"}
+    assert (
+        strip_units({**n64, "aspect": 1e-6})
+        < strip_units({**n64, "aspect": 1e-3})
+        < strip_units({**n64, "aspect": 0.1})
+    )
