@@ -123,8 +123,12 @@ def solve_fields(
             return dict(task_function(kind)(fields))
         scene = Scene.from_params(fields)
         if accuracy is not None:
-            return solve_to_accuracy(scene, accuracy, memory_budget=budget, strategy="auto")
-        return default_solve(scene)  # without n: the extrapolated default where it applies
+            record = solve_to_accuracy(scene, accuracy, memory_budget=budget, strategy="auto")
+        else:
+            record = default_solve(scene)  # without n: the extrapolated default where it applies
+    if scene.normal_held == "load" and "tangential" in scene.quantities:
+        record["normal_held"] = "load"  # also where no Schur complement was formed (isotropic: the same K)
+    return record
 
 
 def solve(
@@ -156,6 +160,7 @@ def solve(
     depth: float | None = None,
     threads: int | None = None,
     precondition: bool | None = None,
+    normal_held: str | None = None,
     accuracy: float | None = None,
     memory: str | int | None = None,
     **slip: Any,
@@ -226,6 +231,11 @@ def solve(
         FFTW threads [1]. BLAS threads: ``$HPCONTACT_BLAS_THREADS`` [1], only while solving.
     precondition
         Fourier-preconditioned CG [True]; False for plain CG.
+    normal_held
+        What ``tangential`` holds in the normal direction: ``"approach"`` (u_z = 0) [default]
+        or ``"load"`` (F_z = 0, Cattaneo–Mindlin: the Schur complement K_tt − K_tz K_zz⁻¹ K_zt
+        of the 3 × 3 Re-H stiffness, one more solve for a crystal; the same as ``"approach"``
+        for an isotropic body). The record then has ``normal_held`` = "load".
     accuracy
         Extrapolate over refined grids until the estimated relative error of every reported
         stiffness is ≤ this (in [1e-9, 1)), exactly as ``hpcontact solve --accuracy``
@@ -291,6 +301,7 @@ def solve(
         "depth": depth,
         "threads": threads,
         "precondition": precondition,
+        "normal_held": normal_held,
     }
     return solve_fields(params, slip, accuracy=accuracy, memory=memory)
 
@@ -323,6 +334,7 @@ _SOLVE_KEYWORDS = (
     "depth",
     "threads",
     "precondition",
+    "normal_held",
     "accuracy",
     "memory",
 )

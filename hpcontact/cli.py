@@ -139,6 +139,11 @@ def _solve_parser(sub: argparse._SubParsersAction) -> None:
         help="rigid sphere radius (indentation; unit L of your choice), or radius of body 1 (slip)",
     )
     scene.add_argument("--depth", type=float, help="rigid sphere approach (indentation), in [1e-15, 1) x radius")
+    scene.add_argument(
+        "--normal-held",
+        help="what tangential holds normally: approach (u_z = 0) or load (F_z = 0; differs for crystals only)"
+        + _default("normal_held"),
+    )
 
     material = p.add_argument_group("material (isotropic unless a crystal is named or A != 1)")
     material.add_argument("--nu", type=float, help=f"Poisson ratio, in (-1, 0.5]{_default('nu')}")
@@ -211,7 +216,7 @@ def _solve_parser(sub: argparse._SubParsersAction) -> None:
 #: The scene fields of ``hpcontact solve`` (with ``--no-precondition`` for ``precondition``).
 FIELDS = (
     "shape aspect sides shape_angle amplitude seed hurst rms mask nu G anisotropy orientation miller azimuth "
-    "material cubic orthotropic voigt n n_across tol quantities radius depth threads"
+    "material cubic orthotropic voigt n n_across tol quantities radius depth threads normal_held"
 ).split()
 
 

@@ -13,7 +13,7 @@ docs/reference/quantities.md):
      - keys
    * - ``tangential``
      - two identical bodies, same material and orientation, bonded; stiffness per body (the pair's is half)
-     - rigid tangential displacement, normal approach held
+     - rigid tangential displacement, normal approach held (``normal_held = "load"``: normal load held)
      - all the pair has: the interface compliance is 2 Re H(m), so only Re H acts (below)
      - K_xx K_xy K_yx K_yy
    * - ``coupled``
@@ -49,6 +49,13 @@ half-space with Green's function Re H. For an isotropic body the coupling of Re 
 with two-component (x, y) solves; for a tilted crystal Re H_xz ≠ 0 (up to 14 % of |H| at
 A = 3, psi = 20°), so the x and y solves carry z with the normal approach held (u_z = 0).
 Through A = 1 both meanings join continuously: Re H_xz = O(A − 1).
+
+``normal_held = "load"`` (scene field; default ``"approach"``) holds the normal load instead of
+the approach, as Cattaneo's and Mindlin's (1949) experiment does (Johnson 1985, ch. 7): for a
+crystal a third solve ``tangential_z`` (unit approach, x and y held) gives the last column of
+the 3 × 3 Re-H stiffness K, and ``tangential`` is its Schur complement
+K_tt − K_tz K_zz⁻¹ K_zt = (J_tt)⁻¹, J = K⁻¹ (``hpcontact.quantities.load_held_stiffness``). For
+an isotropic body K_tz = 0 exactly, so the two are the same and no solve is added.
 
 Shortcuts (each one tested against the general path at and next to its point,
 ``tests/test_conventions.py``):
@@ -173,6 +180,10 @@ def plan_for(scene: Scene, mirror: bool) -> Plan:
         need("zz", "Re xz", "Re yz")
         solves.append(Solve("tangential_x", "xyz", "x", "Re H"))
         solves.append(Solve("tangential_y", "xyz", "y", "Re H"))
+        if scene.normal_held == "load":  # the third column of the 3 x 3 Re-H stiffness: its Schur complement
+            solves.append(Solve("tangential_z", "xyz", "z", "Re H"))
+    if "tangential" in wanted and isotropic and scene.normal_held == "load":
+        derived.append("normal_held load = approach (isotropic: Re H = H has no real x-z, y-z coupling, K_tz = 0)")
     if "compliance" in wanted:
         applications.extend(["uniform_traction_x", "uniform_traction_y"])
 

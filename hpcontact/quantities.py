@@ -2,7 +2,8 @@
 
 The tangential stiffness tensor K relates the tangential force to the rigid tangential
 displacement of a bonded punch, F = K · δ (force per length, e.g. G·a units). Solving for unit
-displacement along x and along y gives its two columns (Li 2017 §3.1).
+displacement along x and along y gives its two columns (Li 2017 §3.1), with the normal approach
+held; ``normal_held = "load"`` holds the normal force instead (:func:`load_held_stiffness`).
 """
 
 from __future__ import annotations
@@ -88,11 +89,43 @@ def compliance_proxy(mean_displacement: np.ndarray, force: np.ndarray) -> np.nda
 ROUNDING = 64.0 * np.finfo(float).eps
 
 
+def load_held_stiffness(K3: np.ndarray) -> np.ndarray:
+    """The tangential stiffness with the normal load held (F_z = 0), from the 3 × 3 stiffness
+    ``K3`` (K3[i, j]: force i per unit rigid displacement j, i, j in x y z; units of K, G·a):
+
+        K_load = K_tt − K_tz K_zz⁻¹ K_zt = (J_tt)⁻¹,   J = K3⁻¹,
+
+    the Schur complement of K_zz (t = x, y). Holding the approach instead (u_z = 0) gives K_tt
+    itself. This is the stiffness of Cattaneo's experiment as Mindlin (1949) analysed it — a
+    constant normal force, then a tangential one (Johnson 1985, Contact Mechanics, ch. 7) — for
+    a body whose normal and tangential responses couple (a crystal's Re H, ``hpcontact.plan``).
+    Returns the 2 × 2 array [[K_xx, K_xy], [K_yx, K_yy]].
+
+    Raises ``FloatingPointError`` unless ``K3`` is finite and positive definite within
+    round-off: the eigenvalues of its symmetric part all above ``ROUNDING`` times the largest
+    (a bonded punch's stiffness is; anything else is a failed solve, and its Schur complement
+    would mean nothing). Its asymmetry, CG noise of the order of the tolerance, is not refused
+    here: the record's ``asymmetry`` (of the 2 × 2 result) shows it.
+    """
+    K3 = np.asarray(K3, dtype=np.float64)
+    if K3.shape != (3, 3) or not np.isfinite(K3).all():
+        raise FloatingPointError(f"3 x 3 stiffness for normal_held load: finite 3 x 3 entries needed, got {K3!r}")
+    values = np.linalg.eigvalsh(0.5 * (K3 + K3.T))
+    if not values[0] > ROUNDING * abs(values[-1]):
+        raise FloatingPointError(
+            "3 x 3 stiffness for normal_held load is not positive definite within round-off "
+            f"(eigenvalues of its symmetric part {values.tolist()})"
+        )
+    return K3[:2, :2] - np.outer(K3[:2, 2], K3[2, :2]) / K3[2, 2]
+
+
 def tensor_from_forces(forces: Mapping[str, np.ndarray], quantities: Sequence[str]) -> dict[str, float]:
     """Stiffness entries K_ij (force i per unit displacement j) from the plan's solves.
 
     ``forces[name]`` is the resultant force (x, y, z) of solve ``name`` (unit displacement along
-    its load). ``tangential_x/y`` give K_xx … K_yy; ``coupled_x/y/z`` the 3 × 3 tensor (its
+    its load). ``tangential_x/y`` give K_xx … K_yy (normal approach held); with ``tangential_z``
+    (``normal_held = "load"``, a crystal) the three columns form the 3 × 3 Re-H stiffness and
+    K_xx … K_yy are its Schur complement (:func:`load_held_stiffness`); ``coupled_x/y/z`` the 3 × 3 tensor (its
     2 × 2 block as K_ij_coupled when ``tangential`` is asked too, its K_zz as K_zz_bonded when
     ``normal`` is); ``normal_z`` K_zz. Solves the plan skipped follow from its shortcuts: a
     missing y solve is the x ↔ y mirror image of the x solve; coupled asked without coupled
@@ -107,6 +140,8 @@ def tensor_from_forces(forces: Mapping[str, np.ndarray], quantities: Sequence[st
     if "tangential_x" in forces:
         fx = forces["tangential_x"]
         fy = forces.get("tangential_y", mirrored(fx))
+        if "tangential_z" in forces:  # normal load held: the Schur complement of the 3 x 3
+            fx, fy = load_held_stiffness(np.column_stack([fx, fy, forces["tangential_z"]])).T
         out.update({"K_xx": fx[0], "K_yx": fx[1], "K_xy": fy[0], "K_yy": fy[1]})
     if "coupled_x" in forces:
         fx, fz = forces["coupled_x"], forces["coupled_z"]
@@ -171,6 +206,11 @@ def stiffness_record(
 ) -> dict[str, float | str | None]:
     """Tensor entries and every quantity derived from them, from the solves' resultant forces
     (:func:`tensor_from_forces`, then :func:`derived_quantities`): used by ``solve`` and by the
-    coverage-weighted solves of ``accuracy`` alike."""
+    coverage-weighted solves of ``accuracy`` alike. With a ``tangential_z`` solve (a crystal's
+    ``normal_held = "load"``) K_xx … K_yy hold the normal load (:func:`load_held_stiffness`) and
+    the record says so: ``normal_held`` = "load"."""
     entries = tensor_from_forces(forces, quantities)
-    return {**entries, **derived_quantities(entries, material, noise)}
+    record: dict[str, float | str | None] = {**entries, **derived_quantities(entries, material, noise)}
+    if "tangential_z" in forces:
+        record["normal_held"] = "load"
+    return record

@@ -31,6 +31,12 @@ REFINABLE_QUANTITIES = ("tangential", "normal", "coupled")
 #: A requested accuracy (``accuracy``: the estimated relative error every reported stiffness
 #: must reach, ``hpcontact.accuracy.solve_to_accuracy``).
 ACCURACY_RANGE = "a relative error in [1e-9, 1)"
+#: What the ``tangential`` stiffness holds fixed in the normal direction (``normal_held``,
+#: ``hpcontact.plan``, ``hpcontact.quantities.load_held_stiffness``): the normal approach
+#: (u_z = 0, the default: Li 2017 and the existing data sets) or the normal load (F_z = 0,
+#: Mindlin 1949 / Cattaneo's experiment). The two coincide for isotropic bodies; any scene
+#: accepts the field, and only ``tangential`` reads it.
+NORMAL_HELD = ("approach", "load")
 
 #: b/a below 1e-12 is refused: the cell integrals are verified for cell aspect 1e-10 … 1e10
 #: (tests/kernels) and K_a/K_b for b/a down to 1e-12 (tests/test_hard_cases.py); by 1e-160 the
@@ -101,6 +107,7 @@ DEFAULTS: dict[str, Any] = {
     "depth": None,
     "threads": 1,
     "precondition": True,
+    "normal_held": "approach",
 }
 
 
@@ -129,6 +136,7 @@ class Scene:
     accuracy: float | None = None
     threads: int = 1
     precondition: bool = True
+    normal_held: str = "approach"
     radius: float | None = None
     depth: float | None = None
     params: dict = field(default_factory=dict, compare=False)
@@ -200,6 +208,7 @@ class Scene:
             accuracy=accuracy,
             threads=threads,
             precondition=_boolean("precondition", p["precondition"]),
+            normal_held=_normal_held(p["normal_held"]),
             radius=radius,
             depth=depth,
             params=dict(params),
@@ -241,6 +250,13 @@ def _accuracy(value: Any, quantities: tuple[str, ...], shape: str) -> float:
             "accuracy", f"only for quantities {', '.join(REFINABLE_QUANTITIES)} (not {', '.join(other)})", value
         )
     return accuracy
+
+
+def _normal_held(value: Any) -> str:
+    """One of ``NORMAL_HELD``, exactly (a spec's "Load" is refused, not guessed)."""
+    if isinstance(value, str) and value in NORMAL_HELD:
+        return value
+    raise InputError("normal_held", f"one of {', '.join(NORMAL_HELD)}", value)
 
 
 def _boolean(field_name: str, value: Any) -> bool:

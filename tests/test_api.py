@@ -25,7 +25,7 @@ from hpcontact.sweep.guard import Refused
 
 SOLVE_PARAMETERS = (
     "shape aspect sides shape_angle amplitude seed hurst rms mask nu G anisotropy orientation miller azimuth material "
-    "cubic orthotropic voigt n n_across tol quantities radius depth threads precondition accuracy memory"
+    "cubic orthotropic voigt n n_across tol quantities radius depth threads precondition normal_held accuracy memory"
 ).split()
 
 

@@ -389,3 +389,19 @@ def test_memory_and_slip_options_are_refused_where_unused(capsys):
 def test_python_dash_m_hpcontact():
     proc = subprocess.run([sys.executable, "-m", "hpcontact", "--version"], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0 and proc.stdout.startswith("hpcontact ")
+
+
+def test_normal_held_option(capsys):
+    """--normal-held: a bad value exits 2 with one line naming the field and both values; "load"
+    on an isotropic body gives the approach-held numbers, bit for bit (no solve is added, the
+    plan says why) and the record says what was held."""
+    code, out, err = _exit_code(capsys, *SMALL, "--normal-held", "force", "--json")
+    assert code == 2 and out == ""
+    assert err.strip().splitlines() == ["hpcontact: error: normal_held = 'force': one of approach, load"]
+    approach = _json(capsys, *SMALL, "--shape", "ellipse", "--aspect", "0.5")
+    load = _json(capsys, *SMALL, "--shape", "ellipse", "--aspect", "0.5", "--normal-held", "load")
+    assert "normal_held" not in approach and load["normal_held"] == "load"
+    assert load["plan"]["solves"] == approach["plan"]["solves"]
+    assert any("normal_held load = approach" in line for line in load["plan"]["derived"])
+    for key in TANGENTIAL_KEYS:
+        assert load[key] == approach[key], key

@@ -349,3 +349,49 @@ def test_tangential_and_coupled_keep_their_own_meanings():
     for key in ("K_xx", "K_xy", "K_yx", "K_yy"):
         assert both[key] == tangential[key] and both[f"{key}_coupled"] == coupled[key], key
     assert abs(coupled["K_xx"] / tangential["K_xx"] - 1.0) > 3e-3
+
+
+# ------------------------------------------------------------------------------------------
+# normal_held (issue 26 item 4): the third Re-H solve only for a crystal with the load held
+# ------------------------------------------------------------------------------------------
+CRYSTAL = {"anisotropy": 3.0, "orientation": 60.0}
+
+
+@pytest.mark.parametrize("crystal", [False, True])
+@pytest.mark.parametrize("held", ["approach", "load"])
+@pytest.mark.parametrize("quantities", ["tangential", "tangential,normal", "normal", "coupled"])
+def test_the_load_held_solve_is_planned_only_for_a_crystal_tangential(crystal, held, quantities):
+    params = {"shape": "ellipse", "aspect": 0.5, "nu": 0.3, "quantities": quantities, "normal_held": held}
+    plan = _plan(**params, **(CRYSTAL if crystal else {}))
+    default = _plan(**{k: v for k, v in params.items() if k != "normal_held"}, **(CRYSTAL if crystal else {}))
+    extra = crystal and held == "load" and "tangential" in quantities
+    assert plan.kernels == default.kernels  # the third column needs no other kernel block
+    if extra:
+        assert plan.solves == (*default.solves[:2], Solve("tangential_z", "xyz", "z", "Re H"), *default.solves[2:])
+    else:
+        assert plan.solves == default.solves
+    isotropic_load = not crystal and held == "load" and "tangential" in quantities
+    assert plan.derived == default.derived + (
+        ("normal_held load = approach (isotropic: Re H = H has no real x-z, y-z coupling, K_tz = 0)",)
+        if isotropic_load
+        else ()
+    )
+
+
+def test_the_load_held_solve_really_runs_only_for_a_crystal(spy):
+    """End to end: a crystal with the load held runs one more three-component CG solve on the
+    same kernel spectra; an isotropic body runs the same solves either way."""
+    runs, seen = {}, 0
+    for crystal in (False, True):
+        for held in ("approach", "load"):
+            params = {"shape": "ellipse", "aspect": 0.5, "nu": 0.3, "n": N, "normal_held": held}
+            op_mod.clear_cache()
+            solve(Scene.from_params({**params, **(CRYSTAL if crystal else {})}))
+            built, calls = spy()
+            runs[crystal, held] = built, calls[seen:]  # this scene's calls
+            seen = len(calls)
+    assert runs[False, "load"] == runs[False, "approach"] and runs[False, "approach"][1]
+    built, calls = runs[True, "approach"]
+    built_load, calls_load = runs[True, "load"]
+    assert built_load == built
+    assert calls == [("cg", 3), ("cg", 3)] and calls_load == [("cg", 3), ("cg", 3), ("cg", 3)]

@@ -187,3 +187,56 @@ def test_the_directional_error_bound_holds_and_is_attained():
         [bounds * np.array([[1.0, np.sign(c * s)], [np.sign(c * s), 1.0]]) for c, s in zip(np.cos(t), np.sin(t))]
     )
     np.testing.assert_allclose(q.directional_stiffness(worst, theta), bound, rtol=1e-13)
+
+
+# A hand-built 3 x 3 stiffness with normal-tangential coupling (a crystal's Re H): symmetric
+# positive definite, K_xy ≠ 0 and both K_xz and K_yz nonzero, as R diag(4, 2.5, 1) Rᵀ.
+_R3 = np.linalg.qr(np.array([[1.0, 0.3, -0.2], [0.1, 1.0, 0.4], [0.5, -0.2, 1.0]]))[0]
+K3 = _R3 @ np.diag([4.0, 2.5, 1.0]) @ _R3.T
+
+
+def test_load_held_stiffness_is_the_schur_complement_and_the_inverse_compliance():
+    """K_load = K_tt − K_tz K_zz⁻¹ K_zt = (J_tt)⁻¹, J = K⁻¹ (Mindlin 1949 with the normal force
+    held): written out entry by entry, and against the compliance inverted by numpy."""
+    found = q.load_held_stiffness(K3)
+    by_hand = np.array([[K3[i, j] - K3[i, 2] * K3[2, j] / K3[2, 2] for j in range(2)] for i in range(2)])
+    np.testing.assert_allclose(found, by_hand, rtol=0, atol=4 * ULP)
+    np.testing.assert_allclose(found, np.linalg.inv(np.linalg.inv(K3)[:2, :2]), rtol=0, atol=4 * ULP)
+    assert abs(found[0, 0] / K3[0, 0] - 1.0) > 1e-2  # the coupling matters here
+    # no coupling: the load held is the approach held, exactly
+    decoupled = K3.copy()
+    decoupled[:2, 2] = decoupled[2, :2] = 0.0
+    assert np.array_equal(q.load_held_stiffness(decoupled), decoupled[:2, :2])
+
+
+def test_the_record_forms_the_schur_complement_from_three_solves_and_says_so():
+    """tangential_x/y/z (unit displacement x, y, z) are the columns of the 3 × 3; K_xx … K_yy
+    and every derived quantity follow from its Schur complement; ``normal_held`` = "load"."""
+    forces = {"tangential_x": K3[:, 0], "tangential_y": K3[:, 1], "tangential_z": K3[:, 2]}
+    record = q.stiffness_record(forces, ("tangential",), None)
+    schur = q.load_held_stiffness(K3)
+    assert record["normal_held"] == "load"
+    assert [record[k] for k in ("K_xx", "K_xy", "K_yx", "K_yy")] == [schur[0, 0], schur[0, 1], schur[1, 0], schur[1, 1]]
+    k_max, k_min, _ = q.principal_stiffness(schur)
+    assert (record["K_max"], record["K_min"]) == (k_max, k_min)
+    assert record["K_a_over_K_b"] == schur[0, 0] / schur[1, 1]
+    approach = q.stiffness_record({k: v for k, v in forces.items() if k != "tangential_z"}, ("tangential",), None)
+    assert "normal_held" not in approach and approach["K_xx"] == K3[0, 0] and approach["K_yx"] == K3[1, 0]
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [
+        np.diag([1.0, 1.0, -1.0]),  # indefinite
+        np.diag([1.0, 1.0, 0.0]),  # singular: K_zz = 0
+        np.array([[1.0, 0.0, 2.0], [0.0, 1.0, 0.0], [2.0, 0.0, 1.0]]),  # K_zz > 0, yet indefinite
+        np.diag([1.0, 1.0, 1e-17]),  # positive, but not above round-off
+        np.diag([1.0, np.nan, 1.0]),
+    ],
+)
+def test_a_stiffness_that_is_not_positive_definite_is_refused(bad):
+    with pytest.raises(FloatingPointError, match="normal_held load"):
+        q.load_held_stiffness(bad)
+    forces = {"tangential_x": bad[:, 0], "tangential_y": bad[:, 1], "tangential_z": bad[:, 2]}
+    with pytest.raises(FloatingPointError, match="normal_held load"):
+        q.stiffness_record(forces, ("tangential",), None)

@@ -189,3 +189,15 @@ def test_a_crystal_is_built_once_per_distinct_material():
     with pytest.raises(InputError) as info:  # True == 1 must not hit the cached A = 1 body
         Scene.from_params({"nu": 0.3, "anisotropy": True})
     assert info.value.field == "anisotropy"
+
+
+@pytest.mark.parametrize("value", ["force", "Load", " load", "", "approach,load", 1, True, ["load"]])
+def test_normal_held_is_approach_or_load(value):
+    """Issue 26 item 4: what ``tangential`` holds in the normal direction, exactly one of the
+    two names (a typo or another case is refused, never guessed); default approach; accepted
+    with any quantities (only ``tangential`` reads it)."""
+    err = _refused({"normal_held": value})
+    assert err.field == "normal_held" and err.allowed == "one of approach, load"
+    assert Scene.from_params({}).normal_held == "approach" == DEFAULTS["normal_held"]
+    assert Scene.from_params({"normal_held": None}).normal_held == "approach"
+    assert Scene.from_params({"normal_held": "load", "quantities": "normal"}).normal_held == "load"

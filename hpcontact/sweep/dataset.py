@@ -8,7 +8,7 @@ as JSON text), plus ``status`` (0 ok; ``flag_values``/``flag_meanings``), ``mess
 serves (points that share a scene share its record). A record key
 that names a coordinate (a slip record's ``load`` on a ``load`` axis, say) is left out where it
 equals the coordinate at every point, and kept as ``record_<key>`` where it does not (a label
-table overrode the field). ``material`` and ``pair`` axes are string coordinates. A field that
+table overrode the field). ``material``, ``normal_held`` and ``pair`` axes are string coordinates. A field that
 label tables set (``radius2`` of a ``pair`` table, ``sides`` of a ``shape`` table) is a
 coordinate along the label axes that set it (the table's value, else the fixed one, else NaN or
 ""), not a scalar: a fixed value a table overrides is never reported for every point. Attributes
@@ -110,6 +110,9 @@ AXIS_ATTRS: Mapping[str, Mapping[str, str]] = {
     "anisotropy": {"long_name": "cubic anisotropy factor A = 2 C44 / (C11 - C12)", "units": "1"},
     "orientation": {"long_name": "surface normal along [110] -> [111] -> [001]", "units": "degree"},
     "material": {"long_name": "library crystal (elastic constants in GPa)"},
+    "normal_held": {
+        "long_name": "what the tangential stiffness holds in the normal direction: approach (u_z = 0) or load (F_z = 0)"
+    },
     "miller": {"long_name": "surface normal (h k l) of the crystal"},
     "azimuth": {"long_name": "in-plane turn of the crystal about the surface normal", "units": "degree"},
     "radius": {"long_name": "radius R of the rigid sphere", "units": "L"},
@@ -504,7 +507,7 @@ def _with_stress_unit(attrs: Mapping[str, Any], gpa: bool) -> dict[str, Any]:
 
 
 def _coordinate(name: str, values: tuple) -> np.ndarray:
-    if name in LABEL_AXES or name == "material":
+    if name in LABEL_AXES or name in ("material", "normal_held"):
         return np.array(values, dtype=object)
     if name == "n":
         return np.array(values, dtype=np.int32)
@@ -575,7 +578,10 @@ def _directional_errors(ds: xr.Dataset, order: list[str]) -> xr.Dataset:
         out[normalized] = bound.transpose(*[d for d in order if d in bound.dims])
     for name in DIRECTIONAL:
         if name in out and f"{name}{ERROR_SUFFIX}" in out:
-            out[name].attrs["ancillary_variables"] = f"{name}{ERROR_SUFFIX} error_status"
+            linked = str(out[name].attrs.get("ancillary_variables", "")).split()  # kept: an adaptive map's
+            out[name].attrs["ancillary_variables"] = " ".join(
+                dict.fromkeys([f"{name}{ERROR_SUFFIX}", "error_status", *linked])
+            )
     return out
 
 

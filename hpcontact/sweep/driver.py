@@ -304,6 +304,9 @@ def prepare(
             )
         now = provenance.current()
         isolated, shared, reused, crashed = _decide(spec, tasks, history, options, now)
+        if keep.get("select") is not None:  # an adaptive round: its tasks alone
+            isolated = [i for i in isolated if i in keep["select"]]
+            shared = [i for i in shared if i in keep["select"]]
     except BaseException:
         lock.release()
         raise
@@ -426,7 +429,6 @@ def execute(
     started = time.perf_counter()  # after the imports and MPI start-up
     stream = stream if stream is not None else sys.stdout
     stop = stop if stop is not None else StopControl()
-    keep: dict[str, Any] = {}  # rank 0 only
     spec = _shared(
         team,
         lambda: (
@@ -437,6 +439,35 @@ def execute(
     )
     mine = pickle.dumps(_share(spec, team.rank, team.size, validate, options), protocol=pickle.HIGHEST_PROTOCOL)
     tasks, task_of, over = _joined(spec, [pickle.loads(b) for b in team.bcast(team.gather(mine))])
+
+    def run_round(options: Options, select: frozenset[int] | None = None, finish: Callable | None = None) -> Outcome:
+        return _round(team, spec, tasks, task_of, over, options, task_function, stream, stop, started, select, finish)
+
+    if spec.adaptive is not None:  # rounds of runs over subsets of the tasks (hpcontact.sweep.adaptive)
+        from hpcontact.sweep.adaptive import run_rounds
+
+        return run_rounds(team, spec, task_of, options, stream, run_round)
+    return run_round(options)
+
+
+def _round(
+    team: Team,
+    spec: Spec,
+    tasks: list[Task],
+    task_of: Any,
+    over: bool,
+    options: Options,
+    task_function: TaskFunction | None,
+    stream: TextIO,
+    stop: StopControl,
+    started: float,
+    select: frozenset[int] | None = None,
+    finish: Callable | None = None,
+) -> Outcome:
+    """Every rank: rank 0 prepares, the ranks run the plan (see ``execute``). An adaptive round
+    (``adaptive.run_rounds``) runs the tasks of ``select`` (positions) alone, and rank 0 gives
+    the data set to ``finish(dataset, joined)`` and writes what it returns (None: nothing)."""
+    keep: dict[str, Any] = {"select": select, "finish": finish}  # rank 0 only
     d: Decision = _shared(team, lambda: prepare(spec, tasks, task_of, over, options, team.size, keep))
     plan = Plan.of(spec, tasks, d)
     try:
@@ -665,6 +696,10 @@ def _assemble(
         },
         derive=False,  # write_netcdf stores K_nn and normalized_nn (it derives them once, there)
     )
+    if keep.get("finish") is not None:  # an adaptive round (adaptive.run_rounds)
+        dataset = keep["finish"](dataset, joined)
+        if dataset is None:  # not the last round: nothing to write
+            return Outcome(Path(spec.output), len(failed))
     now = time.perf_counter()
     summary = Summary(
         tasks=len(plan.tasks),
@@ -732,7 +767,7 @@ def dry_run(
         spec_path, output=output, check_scenes=False, accuracy=accuracy
     )  # checked once, while enumerating:
     progress = progress_lines(sys.stderr, points(spec))
-    tasks, _ = join_parts(spec, [enumerate_part(spec, check=True, progress=progress, lean=True)])
+    tasks, task_of = join_parts(spec, [enumerate_part(spec, check=True, progress=progress, lean=True)])
     limit, source = (mem_per_rank, "--mem-per-rank") if mem_per_rank is not None else default_memory_per_rank()
     if calibration is None:
         calibration = costmodel.load_calibration(stream=sys.stderr)
@@ -818,6 +853,10 @@ def dry_run(
         f"# wall time: {walls}; cost model calibrated on {calibration.host} by hpcontact {calibration.version}",
         file=stream,
     )
+    if spec.adaptive is not None:  # the tasks above are the bound; the first round solves fewer
+        from hpcontact.sweep.adaptive import dry_run_text
+
+        print(dry_run_text(spec, task_of), file=stream)
     return EXIT_OK
 
 

@@ -25,7 +25,8 @@ A spec has four tables (docs/design.md §1, §4.2; every key is optional except 
     angle = { linspace = [0, 180, 37] }     # numpy.linspace(start, stop, num)
 
 Axis names are those of docs/design.md §1 (``shape angle nu aspect anisotropy orientation``), ``material``
-(library crystal names, a string coordinate: ``material = ["Cu", "Al", "W"]``), plus ``n``,
+(library crystal names, a string coordinate: ``material = ["Cu", "Al", "W"]``), ``normal_held``
+(``["approach", "load"]``, a string coordinate: what ``tangential`` holds normally), plus ``n``,
 ``tol`` and ``accuracy`` for accuracy studies. Crystal scenes::
 
     [scene]                          # Rodríguez-Tembleque et al. 2011: sphere on a cubic crystal
@@ -100,7 +101,7 @@ from hpcontact.materials.elastic_constants import FAMILIES as CONSTANT_FAMILIES
 from hpcontact.problems.kinds import CONTACT, SLIP, interval_fields, scene_kind, validator
 from hpcontact.scene import ACCURACY_RANGE
 
-TABLES = ("sweep", "scene", "numerics", "axes")
+TABLES = ("sweep", "scene", "numerics", "axes", "adaptive")  # [adaptive]: hpcontact.sweep.adaptive
 SWEEP_KEYS = ("title", "output", "journal", "angle_mode", "progress_interval")
 NUMERIC_KEYS = ("n", "n_across", "tol", "accuracy")
 AXIS_NAMES = (
@@ -120,6 +121,7 @@ AXIS_NAMES = (
     "q_ratio",
     "orientation2",
     "anisotropy2",
+    "normal_held",
 )
 # Axes whose values may be tables with a ``label`` (the coordinate) and scene fields, and the
 # field a plain string value sets (None: tables only).
@@ -169,6 +171,7 @@ STRING_FIELDS: Mapping[str, str] = {
     "path": "load or loop",
     "coupling": "auto, both, coupled or decoupled",
     "mask": "a .npy or .png mask file; a relative path is relative to the spec's folder",
+    "normal_held": "approach or load: what the tangential stiffness holds in the normal direction",
 }
 # Fields naming an input file: a relative path is taken relative to the spec file's folder (not
 # the working directory) and stored absolute, so a spec means the same files wherever it is run
@@ -273,6 +276,7 @@ class Spec:
     fixed: Mapping[str, Any]
     axes: tuple[Axis, ...]
     kind: str = CONTACT
+    adaptive: Any = None  # [adaptive]: adaptive.Settings (None: every point is solved)
 
     @property
     def task_axes(self) -> tuple[Axis, ...]:
@@ -404,7 +408,7 @@ def parse_spec(
         if not isinstance(table, dict):
             raise InputError(name, "a TOML table", table)
         tables[name] = table
-    sweep, scene, numerics, axes_table = (tables[name] for name in TABLES)
+    sweep, scene, numerics, axes_table, adaptive = (tables[name] for name in TABLES)
     _known_keys("sweep.", sweep, SWEEP_KEYS)
     _known_keys("numerics.", numerics, NUMERIC_KEYS)
     _known_keys("axes.", axes_table, AXIS_NAMES)
@@ -492,6 +496,10 @@ def parse_spec(
         axes=axes,
         kind=kind,
     )
+    if "adaptive" in data:  # the solved subset of the grid (hpcontact.sweep.adaptive)
+        from hpcontact.sweep.adaptive import parse_settings
+
+        spec = replace(spec, adaptive=parse_settings(adaptive, axes, axes_table, spec.task_axes))
     if check_scenes:
         for _ in scene_runs(spec, validate):
             pass

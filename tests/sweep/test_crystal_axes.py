@@ -291,3 +291,40 @@ def test_sweep_through_isotropy_has_no_step(write_spec, tmp_path):
         middle = v.sel(anisotropy=1.0)
         mean = 0.5 * (v.sel(anisotropy=0.999) + v.sel(anisotropy=1.001))
         assert float(abs(mean - middle).max()) <= 4e-7 * ref, name
+
+
+NORMAL_HELD = """
+[scene]
+shape = "ellipse"
+aspect = 0.3
+nu = 0.3
+orientation = 60.0
+[numerics]
+n = 16
+[axes]
+anisotropy = [1.0, 3.0]
+normal_held = ["approach", "load"]
+"""
+
+
+def test_normal_held_is_a_string_axis_and_a_scene_key(write_spec, tmp_path):
+    """Issue 26 item 4: ``normal_held`` as an axis is a text coordinate (the records' own
+    ``normal_held`` equals it and is not stored twice); holding the load lowers a crystal's K_yy
+    and leaves an isotropic body's numbers as they are. Fixed in [scene], a scalar coordinate. A
+    bad value names its key."""
+    with xr.open_dataset(sweep(write_spec, NORMAL_HELD)) as ds:
+        ds = ds.load()
+    assert (ds["status"] == OK).all()
+    assert list(ds["normal_held"].values) == ["approach", "load"] and "record_normal_held" not in ds
+    assert "approach (u_z = 0) or load (F_z = 0)" in ds["normal_held"].attrs["long_name"]
+    isotropic, crystal = ds["K_yy"].sel(anisotropy=1.0), ds["K_yy"].sel(anisotropy=3.0)
+    assert float(isotropic.sel(normal_held="load")) == float(isotropic.sel(normal_held="approach"))
+    assert float(crystal.sel(normal_held="load")) < (1.0 - 5e-3) * float(crystal.sel(normal_held="approach"))
+    fixed = f'[sweep]\noutput = "{tmp_path / "fixed.nc"}"\n' + NORMAL_HELD.replace(
+        'normal_held = ["approach", "load"]\n', ""
+    ).replace("[numerics]", 'normal_held = "load"\n[numerics]')
+    with xr.open_dataset(sweep(write_spec, fixed)) as ds:
+        assert ds["normal_held"].dims == () and str(ds["normal_held"].values) == "load"
+    with pytest.raises(InputError) as info:
+        parse_spec(NORMAL_HELD.replace('"load"]', '"force"]'))
+    assert "normal_held" in info.value.field and "one of approach, load" in str(info.value)

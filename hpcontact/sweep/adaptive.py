@@ -1,0 +1,609 @@
+"""Adaptive maps: solve the grid points a map needs, interpolate the rest (``[adaptive]``).
+
+A spec with an ``[adaptive]`` table keeps its ``[axes]`` as the output grid, but the sweep
+solves a subset of it, chosen in rounds::
+
+    [adaptive]
+    tolerance = 1e-3          # relative map error allowed (or a table: {K_a_over_K_b = 1e-3, ...})
+    max_solves = 200          # optional: solves at most (distinct scenes)
+    quantities = ["K_a_over_K_b"]   # optional: the stiffnesses refined on (default: every one stored)
+    initial = 5               # optional: nodes per numeric axis in the first round (>= 2)
+    log = ["load"]            # optional: list axes interpolated in log10 (logspace axes always are)
+
+Axes. The *numeric* task axes (``INTERPOLATED_AXES``: nu, aspect, anisotropy, orientation, …)
+are interpolated, in log10 of the value for a ``{ logspace = … }`` axis (and those named in
+``log``), in the value otherwise; no axis is treated as periodic (both ends of every axis are
+always solved). Every other task axis (shape, material, pair, n, tol, accuracy) is
+*categorical*: each combination of their values is its own sub-problem with its own nodes,
+never interpolated across. A derived axis (``angle`` in tensor mode) stays derived.
+
+Nodes. In each sub-problem the solved points are the tensor product of one increasing index
+list per numeric axis (``interpolation.TensorInterpolant``: local cubic Lagrange along each
+axis, an error estimate per axis). The first round takes the first nested-bisection level with
+``initial`` nodes along each axis (every 2^k-th index, ends included:
+``interpolation.bisection_nodes``). After each round, rank 0 estimates the relative error at
+every grid point from the solved points: ``map error = Σ_d e_d + s``, ``e_d`` the estimate of
+axis ``d`` relative to the quantity's own size (``|q|``; the off-diagonal K_xy, K_yx, … relative
+to the largest diagonal entry, as their ``<name>_error``), ``s`` the solve's own estimated
+relative error ``<name>_error`` interpolated from the nodes (0 where a solve has none). Where the
+map error of a quantity exceeds its tolerance ``t``, each axis ``d`` whose share
+``e_d > max(t − s, t/4) / D`` (``D`` numeric axes) has the node interval around the point split
+at its midpoint. The new nodes' points are the next round, broadcast to every rank; the
+sweep ends when no interval is split, or at ``max_solves`` (the splits with the largest
+estimates first, as many as fit), or when every point is solved.
+
+Rounds. Each round is an ordinary run of the driver (``driver._round``) over the tasks of the
+round's new points: every rank takes chunks of them, each journaled as usual; rank 0 builds
+the data set of all journaled tasks and decides the next round from the values at the nodes
+alone (not from other journaled points), so a sweep interrupted in any round and run again
+with ``--resume`` takes the same rounds, reuses every journaled task and solves none twice.
+Only the last round writes the data set (``fill``): the full grid, every variable of a full
+sweep, stiffnesses and their ``<name>_error`` interpolated at unsolved points, plus
+``solved``, ``<name>_map_error`` and the global attribute ``sweep_solves``
+(docs/reference/dataset.md).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, replace
+from typing import Any, TextIO
+
+import numpy as np
+
+from hpcontact.errors import InputError
+from hpcontact.sweep.interpolation import Scale, TensorInterpolant, bisection_nodes, coordinate, refined
+
+#: Task axes an adaptive sweep interpolates (the rest are categorical: one sub-problem per value).
+INTERPOLATED_AXES = frozenset(
+    {"nu", "aspect", "anisotropy", "orientation", "angle", "load", "mu", "q_ratio", "anisotropy2", "orientation2"}
+)
+KEYS = ("tolerance", "max_solves", "quantities", "initial", "log")
+TOLERANCE_RANGE = "a relative error in [1e-8, 0.5]"
+DEFAULT_INITIAL = 5
+#: Stiffnesses the estimate of an off-diagonal entry is relative to (as ``dataset.error_attributes``).
+OFF_DIAGONAL = re.compile(r"^K_(xy|yx|xz|zx|yz|zy)(_coupled)?$")
+MAP_ERROR_SUFFIX = "_map_error"
+INTERPOLATED_MESSAGE = "interpolated (adaptive map)"
+#: Factor on the interpolation estimate (the next Newton term): measured on Mindlin's map
+#: (tests/sweep/test_adaptive.py), 1 under-estimates at ~7 % of the points, 1.5 at none.
+SAFETY = 1.5
+
+
+State = tuple[tuple[tuple[int, ...], tuple[tuple[int, ...], ...]], ...]  # (categorical index, nodes per axis)
+
+
+@dataclass(frozen=True)
+class Settings:
+    """The checked ``[adaptive]`` table: ``tolerance`` per quantity (``quantities`` None: every
+    stored stiffness at ``default``), ``max_solves`` (None: the full grid bounds it), nodes per
+    axis of the first round and the list axes interpolated in log10."""
+
+    default: float
+    tolerances: tuple[tuple[str, float], ...] = ()
+    quantities: tuple[str, ...] | None = None
+    max_solves: int | None = None
+    initial: int = DEFAULT_INITIAL
+    log: tuple[str, ...] = ()
+
+    def tolerance(self, name: str) -> float:
+        """The tolerance of the quantity ``name``."""
+        return dict(self.tolerances).get(name, self.default)
+
+
+def _tolerance(key: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not 1e-8 <= value <= 0.5:
+        raise InputError(key, TOLERANCE_RANGE, value)
+    return float(value)
+
+
+def parse_settings(table: Any, axes: Sequence[Any], raw_axes: Mapping[str, Any], task_axes: Sequence[Any]) -> Settings:
+    """The ``Settings`` of the spec's ``[adaptive]`` ``table`` (``spec.parse_spec``); ``axes``
+    are the spec's checked axes, ``raw_axes`` its ``[axes]`` table as written, ``task_axes``
+    the axes solved per value. Refuses, naming the key, anything else."""
+    from hpcontact.sweep.dataset import ESTIMATED, SLIP_ESTIMATED
+
+    if not isinstance(table, dict):
+        raise InputError("adaptive", "a TOML table", table)
+    for key in table:
+        if key not in KEYS:
+            raise InputError(f"adaptive.{key}", f"unknown key; allowed: {', '.join(KEYS)}")
+    if "tolerance" not in table:
+        raise InputError("adaptive.tolerance", f"required: {TOLERANCE_RANGE} (or a table of them by quantity)")
+    stiffness = (ESTIMATED, SLIP_ESTIMATED)
+
+    def quantity(key: str, name: Any) -> str:
+        if not isinstance(name, str) or not any(p.match(name) for p in stiffness) or name.endswith("_error"):
+            raise InputError(
+                key, "a stored stiffness (K_xx, K_a_over_K_b, normalized_yy, tangential_stiffness, ...)", name
+            )
+        return name
+
+    raw = table["tolerance"]
+    tolerances: tuple[tuple[str, float], ...] = ()
+    if isinstance(raw, dict):
+        if not raw:
+            raise InputError("adaptive.tolerance", "a table of at least one quantity", raw)
+        tolerances = tuple(
+            (quantity(f"adaptive.tolerance.{k}", k), _tolerance(f"adaptive.tolerance.{k}", v)) for k, v in raw.items()
+        )
+        default = min(t for _, t in tolerances)
+    else:
+        default = _tolerance("adaptive.tolerance", raw)
+    quantities = None
+    if "quantities" in table:
+        names = table["quantities"]
+        if isinstance(names, str):
+            names = [names]
+        if not isinstance(names, list) or not names:
+            raise InputError("adaptive.quantities", "a list of stored stiffnesses", names)
+        quantities = tuple(dict.fromkeys(quantity("adaptive.quantities", n) for n in names))
+        if tolerances and set(quantities) != {k for k, _ in tolerances}:
+            raise InputError("adaptive.quantities", "the quantities of adaptive.tolerance, or left out", names)
+    elif tolerances:
+        quantities = tuple(k for k, _ in tolerances)
+    initial = table.get("initial", DEFAULT_INITIAL)
+    if isinstance(initial, bool) or not isinstance(initial, int) or not 2 <= initial <= 1000:
+        raise InputError(
+            "adaptive.initial", "an integer in [2, 1000] (nodes per numeric axis in the first round)", initial
+        )
+    log = table.get("log", [])
+    if isinstance(log, str):
+        log = [log]
+    if not isinstance(log, list):
+        raise InputError("adaptive.log", "a list of numeric axes", log)
+    by_name = {a.name: a for a in axes}
+    for name in log:
+        axis = by_name.get(name)
+        if axis is None or name not in INTERPOLATED_AXES:
+            raise InputError(
+                "adaptive.log", f"numeric axes of this spec ({', '.join(_numeric_names(task_axes))})", name
+            )
+        if not all(isinstance(v, (int, float)) and v > 0 for v in axis.values):
+            raise InputError("adaptive.log", f"an axis of positive values (axes.{name} has one <= 0)", name)
+    numeric = _numeric_names(task_axes)
+    if not any(len(a) >= 3 for a in task_axes if a.name in numeric):
+        raise InputError(
+            "adaptive",
+            "a spec with a numeric task axis of 3 or more values to interpolate "
+            f"({', '.join(sorted(INTERPOLATED_AXES))}); this one has none: leave [adaptive] out",
+        )
+    log = tuple(dict.fromkeys(log))
+    log += tuple(
+        name
+        for name, raw_axis in raw_axes.items()
+        if name in numeric and isinstance(raw_axis, dict) and "logspace" in raw_axis and name not in log
+    )
+    settings = Settings(default, tolerances, quantities, None, initial, log)
+    if "max_solves" in table:
+        value = table["max_solves"]
+        first = math.prod(len(bisection_nodes(len(a), initial)) if a.name in numeric else len(a) for a in task_axes)
+        if isinstance(value, bool) or not isinstance(value, int) or value < first:
+            raise InputError(
+                "adaptive.max_solves",
+                f"an integer >= {first} (the points of the first round, at most that many solves)",
+                value,
+            )
+        settings = replace(settings, max_solves=value)
+    return settings
+
+
+def _numeric_names(task_axes: Sequence[Any]) -> list[str]:
+    return [a.name for a in task_axes if a.name in INTERPOLATED_AXES]
+
+
+@dataclass(frozen=True)
+class Layout:
+    """The task axes of a spec as an adaptive sweep sees them: ``shape`` (their lengths), the
+    positions of the numeric and categorical ones, and the numeric ones' coordinates in their
+    interpolation scale."""
+
+    shape: tuple[int, ...]
+    numeric: tuple[int, ...]
+    categorical: tuple[int, ...]
+    xs: tuple[np.ndarray, ...]
+    scales: tuple[Scale, ...]
+
+    @classmethod
+    def of(cls, spec: Any) -> Layout:
+        axes = spec.task_axes
+        settings: Settings = spec.adaptive
+        numeric = tuple(i for i, a in enumerate(axes) if a.name in INTERPOLATED_AXES)
+        scales = tuple(Scale.LOG if axes[i].name in settings.log else Scale.LINEAR for i in numeric)
+        xs = tuple(coordinate(axes[i].values, s) for i, s in zip(numeric, scales))
+        categorical = tuple(i for i in range(len(axes)) if i not in numeric)
+        return cls(tuple(len(a) for a in axes), numeric, categorical, xs, scales)
+
+    def block(self, cat: Sequence[int], nodes: Sequence[Sequence[int]] | None = None) -> tuple:
+        """``np.ix_`` index of the sub-problem ``cat`` at ``nodes`` (None: every point of it)."""
+        index: list[Any] = [None] * len(self.shape)
+        for p, c in zip(self.categorical, cat):
+            index[p] = [c]
+        for j, p in enumerate(self.numeric):
+            index[p] = list(range(self.shape[p])) if nodes is None else list(nodes[j])
+        return np.ix_(*index)
+
+    def take(self, array: np.ndarray, cat: Sequence[int], nodes: Sequence[Sequence[int]] | None = None) -> np.ndarray:
+        """The values of ``array`` (over the task axes, any trailing dimensions) of the
+        sub-problem ``cat`` at ``nodes``, numeric axes first in order."""
+        return np.squeeze(array[self.block(cat, nodes)], axis=self.categorical)
+
+    def put(self, array: np.ndarray, cat: Sequence[int], values: np.ndarray) -> None:
+        """Set every point of the sub-problem ``cat`` of ``array`` to ``values`` (``take``'s layout)."""
+        array[self.block(cat)] = np.expand_dims(values, self.categorical)
+
+
+def initial_state(layout: Layout, settings: Settings) -> State:
+    """The first round's nodes: in every sub-problem, the first bisection level with
+    ``settings.initial`` nodes along each numeric axis."""
+    nodes = tuple(tuple(bisection_nodes(layout.shape[p], settings.initial)) for p in layout.numeric)
+    cats = np.ndindex(*(layout.shape[p] for p in layout.categorical))
+    return tuple((tuple(int(c) for c in cat), nodes) for cat in cats)
+
+
+def state_points(layout: Layout, state: State) -> np.ndarray:
+    """The flat (C order over the task axes) indices of every node point of ``state``, sorted."""
+    flat = np.arange(math.prod(layout.shape)).reshape(layout.shape)
+    parts = [layout.take(flat, cat, nodes).ravel() for cat, nodes in state]
+    return np.unique(np.concatenate(parts)) if parts else np.empty(0, dtype=np.intp)
+
+
+def state_tasks(layout: Layout, state: State, task_of: np.ndarray) -> np.ndarray:
+    """The distinct tasks (positions) of the node points of ``state``."""
+    return np.unique(np.asarray(task_of).ravel()[state_points(layout, state)])
+
+
+@dataclass
+class Estimate:
+    """A sub-problem's interpolated quantities on its full grid (numeric axes first, then the
+    quantities), the relative error estimate of each axis and the interpolated solve error."""
+
+    values: np.ndarray
+    axes: list[np.ndarray]
+    solve: np.ndarray
+
+    @property
+    def map_error(self) -> np.ndarray:
+        """Σ_d e_d + s at every point (NaN where a node value is)."""
+        return sum(self.axes, np.zeros_like(self.solve)) + self.solve
+
+
+def _relative_scale(names: Sequence[str], values: np.ndarray) -> np.ndarray:
+    """The size each quantity's error is relative to: |q|, the largest diagonal entry for an
+    off-diagonal one; where that is 0, the largest |q| of the sub-problem (1 if all are 0)."""
+    scale = np.abs(values)
+    for q, name in enumerate(names):
+        match = OFF_DIAGONAL.match(name)
+        if match:
+            suffix = match.group(2) or ""
+            diagonal = [names.index(f"K_{a}{a}{suffix}") for a in "xyz" if f"K_{a}{a}{suffix}" in names]
+            if diagonal:
+                scale[..., q] = np.max(np.abs(values[..., diagonal]), axis=-1)
+    for q in range(len(names)):
+        column = scale[..., q]
+        fallback = np.nanmax(column) if np.any(np.isfinite(column)) else 1.0
+        column[~(column > 0.0)] = fallback if fallback > 0.0 else 1.0
+    return scale
+
+
+def estimate(
+    layout: Layout,
+    cat: Sequence[int],
+    nodes: Sequence[Sequence[int]],
+    names: Sequence[str],
+    fields: Mapping[str, np.ndarray],
+) -> Estimate:
+    """The ``Estimate`` of the sub-problem ``cat`` from the values at ``nodes`` of the
+    quantities ``names`` (``fields``: name → array over the task axes; ``<name>_error``, when
+    there, the solve's relative error)."""
+    interpolant = TensorInterpolant([layout.xs[j] for j in range(len(layout.numeric))], nodes)
+    data = np.stack([layout.take(fields[n], cat, nodes) for n in names], axis=-1)
+    full = interpolant.values(data)
+    scale = _relative_scale(names, full)
+    axes = [SAFETY * e / scale for e in interpolant.estimates(data, full)]
+    errors = np.stack(
+        [
+            np.abs(np.nan_to_num(layout.take(fields[f"{n}_error"], cat, nodes), nan=0.0))
+            if f"{n}_error" in fields
+            else np.zeros(data.shape[:-1])
+            for n in names
+        ],
+        axis=-1,
+    )
+    return Estimate(full, axes, np.abs(interpolant.values(errors)))
+
+
+def refine(
+    layout: Layout,
+    settings: Settings,
+    state: State,
+    fields: Mapping[str, np.ndarray],
+    names: Sequence[str],
+    task_of: np.ndarray,
+) -> State | None:
+    """The next round's state from the values at ``state``'s nodes (module docstring), or None
+    when no interval needs a split (or none fits ``max_solves``). Deterministic: every rank
+    given the same values decides the same."""
+    if not names:
+        return None
+    tol = np.array([settings.tolerance(n) for n in names])
+    dims = max(sum(1 for x in layout.xs if len(x) > 1), 1)
+    candidates = []  # (score, sub-problem position, axis, interval)
+    for s, (cat, nodes) in enumerate(state):
+        est = estimate(layout, cat, nodes, names, fields)
+        with np.errstate(invalid="ignore"):
+            over = est.map_error > tol
+            share = np.maximum(tol - est.solve, tol / 4.0) / dims
+            for d, e in enumerate(est.axes):
+                ratio = np.where(over, e / share, 0.0)
+                ratio = np.nan_to_num(ratio, nan=0.0).max(axis=-1)  # the worst quantity
+                for m, (i, j) in enumerate(zip(nodes[d][:-1], nodes[d][1:])):
+                    if j - i < 2:
+                        continue
+                    inside = np.take(ratio, range(i + 1, j), axis=d)
+                    worst = float(inside.max())
+                    if worst > 1.0:
+                        candidates.append((worst, s, d, m))
+    if not candidates:
+        return None
+
+    def split(chosen: Sequence[tuple[float, int, int, int]]) -> State:
+        marks: dict[tuple[int, int], set[int]] = {}
+        for _, s, d, m in chosen:
+            marks.setdefault((s, d), set()).add(m)
+        out = []
+        for s, (cat, nodes) in enumerate(state):
+            new = tuple(
+                tuple(refined(n, [m in marks.get((s, d), ()) for m in range(len(n) - 1)])) if (s, d) in marks else n
+                for d, n in enumerate(nodes)
+            )
+            out.append((cat, new))
+        return tuple(out)
+
+    proposed = split(candidates)
+    if settings.max_solves is None or len(state_tasks(layout, proposed, task_of)) <= settings.max_solves:
+        return proposed
+    chosen: list[tuple[float, int, int, int]] = []
+    for candidate in sorted(candidates, key=lambda c: (-c[0], c[1], c[2], c[3])):
+        trial = split([*chosen, candidate])
+        if len(state_tasks(layout, trial, task_of)) <= settings.max_solves:
+            chosen.append(candidate)
+    return split(chosen) if chosen else None
+
+
+def stiffness_names(ds: Any, kind: str) -> list[str]:
+    """The stored stiffnesses of the data set ``ds`` (those that carry ``<name>_error``)."""
+    from hpcontact.problems.kinds import CONTACT
+    from hpcontact.sweep.dataset import ESTIMATED, SLIP_ESTIMATED
+
+    pattern = ESTIMATED if kind == CONTACT else SLIP_ESTIMATED
+    return [str(v) for v in ds.data_vars if pattern.match(str(v)) and not str(v).endswith("_error")]
+
+
+def refined_names(ds: Any, spec: Any) -> list[str]:
+    """The quantities refined on: ``[adaptive] quantities`` that the data set holds, else
+    every stored stiffness."""
+    stored = stiffness_names(ds, spec.kind)
+    chosen = spec.adaptive.quantities
+    if chosen is None:
+        return stored
+    for name in chosen:
+        if name not in stored:
+            raise InputError("adaptive.quantities", f"stiffnesses the scenes store ({', '.join(stored)})", name)
+    return list(chosen)
+
+
+def _fields(ds: Any, names: Sequence[str]) -> dict[str, np.ndarray]:
+    out = {}
+    for name in names:
+        for full in (name, f"{name}_error"):
+            if full in ds:
+                out[full] = np.asarray(ds[full].values, dtype=np.float64)
+    return out
+
+
+def fill(ds: Any, spec: Any, layout: Layout, state: State, task_of: np.ndarray, rounds: int) -> Any:
+    """The final data set of an adaptive sweep from ``ds`` (``dataset.dataset_of`` of every
+    journaled task, derive off): every unsolved point of a sub-problem filled by interpolation
+    from its nodes (stiffnesses and their ``<name>_error``; other record variables NaN or "",
+    ``status`` ok where the stiffnesses are finite, ``message`` ``INTERPOLATED_MESSAGE``,
+    ``error_status`` the worst of the sub-problem's nodes), plus ``solved``,
+    ``<name>_map_error`` for every stored stiffness (linked by ``ancillary_variables``) and the
+    global attributes ``sweep_solves``, ``adaptive_*``."""
+    import xarray as xr
+
+    from hpcontact.sweep.columns import NOT_COMPUTED
+    from hpcontact.sweep.dataset import derive_directional
+    from hpcontact.sweep.journal import OK
+
+    task_of = np.asarray(task_of)
+    solved_tasks = state_tasks(layout, state, task_of)
+    solved = np.isin(task_of, solved_tasks)
+    names = stiffness_names(ds, spec.kind)
+    dims = ds["status"].dims
+    fields = _fields(ds, names)
+    values = {n: a.copy() for n, a in fields.items()}
+    maps = {n: np.full(layout.shape, np.nan) for n in names}
+    worst_status = ds["error_status"].values.copy() if "error_status" in ds else None
+    for cat, nodes in state:
+        est = estimate(layout, cat, nodes, names, fields)
+        mask = layout.take(solved, cat)
+        for q, name in enumerate(names):
+            current = layout.take(values[name], cat)
+            layout.put(values[name], cat, np.where(mask, current, est.values[..., q]))
+            solve = (
+                np.abs(np.nan_to_num(layout.take(fields[f"{name}_error"], cat), nan=0.0))
+                if f"{name}_error" in fields
+                else 0.0
+            )
+            interp = sum(e[..., q] for e in est.axes) + est.solve[..., q]
+            layout.put(maps[name], cat, np.where(mask, solve, interp))
+            if f"{name}_error" in values:
+                current = layout.take(values[f"{name}_error"], cat)
+                layout.put(values[f"{name}_error"], cat, np.where(mask, current, est.solve[..., q]))
+        if worst_status is not None:
+            node_status = layout.take(ds["error_status"].values, cat, nodes)
+            current = layout.take(worst_status, cat)
+            layout.put(worst_status, cat, np.where(mask, current, node_status.max()))
+    out = ds.copy()
+    unsolved = ~solved
+    for name in out.data_vars:
+        if name in values:
+            out[name] = (out[name].dims, values[name], out[name].attrs)
+        elif out[name].dims == dims and name not in ("status", "message", "error_status"):
+            array = out[name].values.copy()
+            if array.dtype.kind == "f":
+                array[unsolved] = np.nan
+            elif array.dtype.kind in "OUS":
+                array = array.astype(object)
+                array[unsolved] = ""
+            else:
+                continue
+            out[name] = (dims, array, out[name].attrs)
+    finite = np.all([np.isfinite(values[n]) for n in names], axis=0) if names else np.ones(layout.shape, bool)
+    status = out["status"].values.copy()
+    status[unsolved] = np.where(finite[unsolved], OK, NOT_COMPUTED)
+    out["status"] = (dims, status, out["status"].attrs)
+    message = out["message"].values.astype(object).copy()
+    message[unsolved] = INTERPOLATED_MESSAGE
+    out["message"] = (dims, message, out["message"].attrs)
+    if worst_status is not None:
+        out["error_status"] = (dims, worst_status, out["error_status"].attrs)
+    out["solved"] = (
+        dims,
+        solved.astype(np.int32),  # the file's integer type (netcdf: every integer is int32)
+        {
+            "long_name": "whether the point was solved (1) or interpolated from solved points (0) by the adaptive map",
+            "flag_values": np.array([0, 1], dtype=np.int32),
+            "flag_meanings": "interpolated solved",
+        },
+    )
+    for name in names:
+        error = f"{name}{MAP_ERROR_SUFFIX}"
+        relative_to = "the largest diagonal entry" if OFF_DIAGONAL.match(name) else f"|{name}|"
+        out[error] = (
+            dims,
+            maps[name],
+            {
+                "long_name": f"estimated relative error of {name} in the adaptive map, relative to {relative_to}: "
+                f"the interpolation estimate (0 at solved points) plus the solve's own {name}_error where it has one",
+                "units": "1",
+            },
+        )
+        linked = str(out[name].attrs.get("ancillary_variables", "")).split()
+        out[name].attrs["ancillary_variables"] = " ".join([*linked, error, "solved"])
+    out = _directional_map_error(derive_directional(out))
+    refined = refined_names(ds, spec)
+    worst = max((float(np.nanmax(maps[n])) for n in refined if np.any(np.isfinite(maps[n]))), default=float("nan"))
+    out.attrs.update(
+        sweep_solves=int(len(solved_tasks)),
+        sweep_points_solved=int(solved.sum()),
+        adaptive_rounds=int(rounds),
+        adaptive_tolerance=float(spec.adaptive.default),
+        adaptive_quantities=" ".join(refined),
+        adaptive_max_map_error=worst,
+    )
+    if spec.adaptive.max_solves is not None:
+        out.attrs["adaptive_max_solves"] = int(spec.adaptive.max_solves)
+    return xr.Dataset(out.data_vars, coords=out.coords, attrs=out.attrs)
+
+
+def _directional_map_error(ds: Any) -> Any:
+    """``ds`` with ``K_nn_map_error`` (and ``normalized_nn_map_error``) where it has K_nn: the
+    bound ``dataset`` derives ``K_nn_error`` by, on the tensor's map errors."""
+    from hpcontact.sweep.dataset import DIRECTIONAL, TENSOR, _directional_errors
+
+    if "K_nn" not in ds or not all(f"{n}{MAP_ERROR_SUFFIX}" in ds for n in TENSOR):
+        return ds
+    names = [*TENSOR, "K_zz", "K_nn", "normalized_nn"]
+    tmp = ds[[n for n in names if n in ds]]
+    tmp = tmp.assign({f"{n}_error": ds[f"{n}{MAP_ERROR_SUFFIX}"] for n in [*TENSOR, "K_zz"] if n in ds})
+    order = ds.attrs.get("sweep_axes", " ".join(map(str, ds.dims))).split()
+    derived = _directional_errors(tmp, order)
+    out = ds
+    for name in DIRECTIONAL:
+        if f"{name}_error" in derived and name in ds:
+            error = f"{name}{MAP_ERROR_SUFFIX}"
+            array = derived[f"{name}_error"]
+            out = out.assign({error: array})
+            out[error].attrs = {
+                "long_name": f"estimated relative error of {name} in the adaptive map (from the tensor's map errors)",
+                "units": "1",
+            }
+            linked = str(out[name].attrs.get("ancillary_variables", "")).split()
+            out[name].attrs["ancillary_variables"] = " ".join([*linked, error, "solved"])
+    return out
+
+
+RoundFunction = Callable[[Any, "frozenset[int] | None", "Callable[[Any, Any], Any] | None"], Any]
+
+
+def run_rounds(
+    team: Any, spec: Any, task_of: np.ndarray, options: Any, stream: TextIO, run_round: RoundFunction
+) -> Any:
+    """Every rank: the rounds of an adaptive sweep (module docstring). ``run_round(options,
+    select, finish)`` is one ordinary driver run over the tasks ``select`` (positions), whose
+    rank 0 calls ``finish(dataset, joined)`` on the data set of every journaled task and
+    writes what it returns (None: nothing, not the last round)."""
+    layout = Layout.of(spec)
+    task_of = np.asarray(task_of)
+    state = initial_state(layout, spec.adaptive)
+    done: np.ndarray = np.empty(0, dtype=np.intp)
+    decided: dict[str, Any] = {}
+    rounds = 0
+    while True:
+        rounds += 1
+        tasks = state_tasks(layout, state, task_of)
+        new = np.setdiff1d(tasks, done)
+        if team.rank == 0:
+            print(
+                f"hpcontact: adaptive round {rounds}: {len(new)} new scene(s) to solve, {len(tasks)} of "
+                f"{len(np.unique(task_of))} in all",
+                file=stream,
+                flush=True,
+            )
+        this_round = rounds
+
+        def finish(ds: Any, joined: Any, state: State = state, this_round: int = this_round) -> Any:
+            names = refined_names(ds, spec)
+            following = refine(layout, spec.adaptive, state, _fields(ds, names), names, task_of)
+            decided["next"] = following
+            if following is not None:
+                return None
+            return fill(ds, spec, layout, state, task_of, this_round)
+
+        outcome = run_round(
+            options
+            if rounds == 1
+            else replace(options, resume=True, restart=False, break_lock=False, up_to_date=False),
+            frozenset(int(i) for i in new),
+            finish,
+        )
+        following = team.bcast(decided.get("next") if team.rank == 0 else None)
+        done = tasks
+        if following is None:
+            return outcome
+        state = following
+
+
+def dry_run_text(spec: Any, task_of: np.ndarray) -> str:
+    """The dry run's lines on an adaptive spec: the first round and the bound."""
+    layout = Layout.of(spec)
+    task_of = np.asarray(task_of)
+    first = state_tasks(layout, initial_state(layout, spec.adaptive), task_of)
+    total = len(np.unique(task_of))
+    settings: Settings = spec.adaptive
+    bound = (
+        f"at most {min(settings.max_solves, total)} (max_solves)"
+        if settings.max_solves is not None
+        else f"at most {total} (the full grid)"
+    )
+    scales = ", ".join(f"{spec.task_axes[p].name} ({s.value})" for p, s in zip(layout.numeric, layout.scales))
+    quantities = "every stored stiffness" if settings.quantities is None else ", ".join(settings.quantities)
+    return (
+        f"# adaptive: first round {len(first)} of the {total} tasks above (nodes "
+        f"{' x '.join(str(len(bisection_nodes(layout.shape[p], settings.initial))) for p in layout.numeric)} per "
+        f"sub-problem); solves {bound}; tolerance {settings.default:g} on {quantities}; interpolated axes: {scales}"
+    )

@@ -1,0 +1,115 @@
+"""Tensor-product interpolation and its error estimate (hpcontact.sweep.interpolation)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hpcontact.sweep.interpolation import (
+    Scale,
+    TensorInterpolant,
+    bisection_nodes,
+    coordinate,
+    estimate_weights,
+    refined,
+    weights,
+)
+
+
+def test_bisection_nodes_take_every_2k_th_index_with_the_ends():
+    assert bisection_nodes(41, 5) == [0, 10, 20, 30, 40]
+    assert bisection_nodes(21, 5) == [0, 5, 10, 15, 20]
+    assert bisection_nodes(17, 3) == [0, 8, 16]
+    assert bisection_nodes(3, 5) == [0, 1, 2]  # all of a short axis
+    assert bisection_nodes(2, 5) == [0, 1]
+    assert bisection_nodes(1, 5) == [0]
+    assert refined([0, 10, 20], [False, True]) == [0, 10, 15, 20]
+    assert refined([0, 1, 2], [True, True]) == [0, 1, 2]  # nothing inside to add
+
+
+@pytest.mark.parametrize("count", [2, 3, 4, 5, 9])
+def test_exact_at_the_nodes(count):
+    x = np.linspace(0.0, 1.0, 33)
+    nodes = bisection_nodes(33, count)
+    rng = np.random.default_rng(1)
+    data = rng.normal(size=len(nodes))
+    for matrix in (weights(x, nodes), estimate_weights(x, nodes, side=0), estimate_weights(x, nodes, side=1)):
+        np.testing.assert_allclose(matrix[nodes] @ data, data, rtol=0, atol=1e-14)
+        np.testing.assert_allclose(matrix.sum(axis=1), 1.0, atol=1e-12)  # reproduces constants
+
+
+def test_cubics_are_reproduced_and_estimated_exact():
+    x = np.linspace(-1.0, 2.0, 31)
+    nodes = [0, 4, 10, 13, 20, 26, 30]  # uneven spacing
+    f = 0.3 * x**3 - x**2 + 2.0 * x - 1.0
+    interpolant = TensorInterpolant([x], [nodes])
+    np.testing.assert_allclose(interpolant.values(f[nodes]), f, atol=1e-12)
+    assert np.max(interpolant.estimates(f[nodes])[0]) < 1e-12
+
+
+def test_the_estimate_of_a_known_second_derivative():
+    """With three nodes the interpolant is the quadratic and the estimate is its difference from
+    the linear interpolant across the point's interval: exactly |f''| / 2 |(x - x_k)(x - x_k+1)|
+    on f = c x^2."""
+    x = np.linspace(0.0, 1.0, 21)
+    nodes = [0, 10, 20]
+    c = 3.0
+    f = c * x**2
+    interpolant = TensorInterpolant([x], [nodes])
+    np.testing.assert_allclose(interpolant.values(f[nodes]), f, atol=1e-12)
+    ends = np.where(x <= 0.5, 0.0, 0.5), np.where(x <= 0.5, 0.5, 1.0)
+    expected = c * np.abs((x - ends[0]) * (x - ends[1]))  # |f''|/2 = c
+    np.testing.assert_allclose(interpolant.estimates(f[nodes])[0], expected, atol=1e-12)
+
+
+def test_the_estimate_bounds_and_tracks_the_error_of_a_smooth_function():
+    """exp(x) on nodes every h: the estimate (the next Newton term) is within a factor ~2 of the
+    cubic's true error between the nodes, and both fall as h^4."""
+    x = np.linspace(0.0, 2.0, 129)
+    worst = []
+    for stride in (16, 8):
+        nodes = list(range(0, 129, stride))
+        f = np.exp(x)
+        interpolant = TensorInterpolant([x], [nodes])
+        true = np.abs(interpolant.values(f[nodes]) - f)
+        est = interpolant.estimates(f[nodes])[0]
+        inside = np.setdiff1d(np.arange(129), nodes)
+        ratio = est[inside] / true[inside]
+        assert np.median(ratio) > 0.9 and np.median(ratio) < 3.0
+        worst.append(true.max())
+    assert 10.0 < worst[0] / worst[1] < 24.0  # ~16: fourth order
+
+
+def test_log_scale_interpolates_in_log10():
+    """A function linear in log10(b/a) is exact on a logspace axis interpolated in log scale,
+    and not in the linear scale."""
+    values = np.logspace(0, -4, 41)
+    f = 2.0 - 0.5 * np.log10(values) + 0.1 * np.log10(values) ** 2
+    nodes = bisection_nodes(41, 5)
+    log = TensorInterpolant([coordinate(values, Scale.LOG)], [nodes])
+    linear = TensorInterpolant([coordinate(values, Scale.LINEAR)], [nodes])
+    np.testing.assert_allclose(log.values(f[nodes]), f, atol=1e-12)
+    assert np.max(np.abs(linear.values(f[nodes]) - f)) > 0.1
+    with pytest.raises(ValueError):
+        coordinate([1.0, 0.0], Scale.LOG)
+
+
+def test_tensor_product_in_two_dimensions_with_trailing_quantities():
+    x = np.linspace(0.0, 1.0, 17)
+    y = np.linspace(0.0, 2.0, 9)
+    nodes = [[0, 4, 8, 12, 16], [0, 2, 4, 6, 8]]
+    X, Y = np.meshgrid(x, y, indexing="ij")
+    f = np.stack([X**3 * Y**2, np.sin(X) * np.cos(Y)], axis=-1)
+    interpolant = TensorInterpolant([x, y], nodes)
+    at_nodes = f[np.ix_(*nodes)]
+    full = interpolant.values(at_nodes)
+    assert full.shape == f.shape
+    np.testing.assert_allclose(full[..., 0], f[..., 0], atol=1e-12)  # cubic x quadratic: exact
+    np.testing.assert_allclose(full[np.ix_(*nodes)], at_nodes, atol=1e-14)
+    ex, ey = interpolant.estimates(at_nodes, full)
+    assert np.max(ex[..., 0]) < 1e-12 and np.max(ey[..., 0]) < 1e-12
+    true = np.abs(full[..., 1] - f[..., 1])
+    estimate = ex[..., 1] + ey[..., 1]
+    assert np.mean(1.5 * estimate >= true) >= 0.95  # with adaptive.SAFETY: an estimate, not a bound
+    assert 0.5 < estimate.max() / true.max() < 4.0
+    assert np.all(ex[nodes[0], :, :] == 0.0) and np.all(ey[:, nodes[1], :] == 0.0)  # zero on its own nodes
