@@ -308,7 +308,7 @@ def solve_reference(p: Mapping[str, Any], run: Mapping[str, Any]) -> dict[str, A
     scene = Scene.from_params({k: v for k, v in p["fields"].items() if k != "accuracy"})
     # strips at 1e-3 (isotropic rectangles b/a <= 1e-6): "auto" would run the same strips again,
     # whose first grids are the 1e-3 run's own; coverage-weighted cells are independent of them
-    strategy = "coverage" if acc.first_grid(scene, ACCURACY, "auto")[0] == "strip" else "auto"
+    strategy = "coverage" if acc.first_grid(scene, "auto")[0] == "strip" else "auto"
     restore = memoized_levels()
     tried = []
     try:

@@ -109,7 +109,7 @@ from typing import Any
 import numpy as np
 
 from hpcontact import quantities as q
-from hpcontact.discretizations import singular_cells, strip_cells
+from hpcontact.discretizations import galin_ellipse, singular_cells, strip_cells
 from hpcontact.discretizations.boundary_cells import (
     SINGULAR_SUPPORTED,
     SUPPORTED,
@@ -699,30 +699,26 @@ def model_error(scene: Scene, strategy: str) -> float:
 
 
 def first_grid(
-    scene: Scene, accuracy: float, strategy: str = "auto", n0: int | None = None, n_across0: int | None = None
+    scene: Scene, strategy: str = "auto", n0: int | None = None, n_across0: int | None = None
 ) -> tuple[str, int, int | None]:
-    """The boundary cells :func:`solve_to_accuracy` uses for ``scene`` at ``accuracy`` and the
-    first grid of its sequence: (strategy, n₀, n_across₀), with ``strategy`` ``auto`` resolved
-    (strips for slender rectangles and ellipses, :func:`strip_applies`, from :func:`strip_n0`
-    strips, one across; singular cells from :func:`singular_start` for requests below
-    ``SINGULAR_BELOW`` where they apply; coverage-weighted cells from ``n0`` (default ``N0``)
-    otherwise). The sweep's cost model plans the same grids (``hpcontact.sweep.tasks``)."""
-    if (
-        strategy == "auto"
-        and strip_applies(scene)
-        and (accuracy < SINGULAR_BELOW or scene.shape.aspect <= STRIP_WIDE_ASPECT)
-    ):
-        return "strip", n0 or strip_n0(scene.shape), 1  # a slender rectangle, or an ellipse
-    if strategy == "auto":  # singular cells on near-square cells where they apply and pay, else coverage
-        start = singular_start(scene, n0 or N0, n_across0) if accuracy < SINGULAR_BELOW else None
-        if start is not None:
-            return "singular", *start
-        return "coverage", n0 or N0, n_across0
+    """The boundary cells :func:`solve_to_accuracy` uses for ``scene`` and the
+    first grid of its sequence: (strategy, n₀, n_across₀), with ``strategy`` ``auto`` resolved:
+    the one exact cell of an elliptical contact (``hpcontact.discretizations.galin_ellipse``:
+    circles and ellipses, turned or not, any material, tangential and normal; ("galin", 1, 1),
+    no grid sequence); strips for slender rectangles (:func:`strip_applies`) from
+    :func:`strip_n0` strips, one across; coverage-weighted cells from ``n0`` (default ``N0``)
+    otherwise. Singular cells are taken only when asked for (``strategy="singular"``): every
+    contact they apply to is an ellipse. The request does not change the choice. The sweep's
+    cost model plans the same grids (``hpcontact.sweep.tasks``)."""
+    if strategy in ("auto", "galin") and galin_ellipse.applies(scene):
+        return "galin", 1, 1
+    if strategy == "galin":
+        raise InputError("strategy", "galin only for circles and ellipses, quantities tangential/normal", strategy)
+    if strategy in ("auto", "strip") and strip_applies(scene):
+        return "strip", n0 or strip_n0(scene.shape), 1
     if strategy == "strip":
-        if not strip_applies(scene):
-            raise InputError("strategy", strip_cells.SUPPORTED_TEXT, strategy)
-        return strategy, n0 or strip_n0(scene.shape), 1
-    return strategy, n0 or N0, n_across0
+        raise InputError("strategy", strip_cells.SUPPORTED_TEXT, strategy)
+    return "coverage" if strategy == "auto" else strategy, n0 or N0, n_across0
 
 
 def solve_to_accuracy(
@@ -767,13 +763,12 @@ def solve_to_accuracy(
 
     The scene's ``n`` and ``n_across`` are ignored (the sequence
     starts at ``n0`` (default 32) and ``n_across0``). ``strategy`` is the boundary treatment of
-    ``covered_solve`` (coverage, singular, strip, auto); ``auto`` (what ``hpcontact solve
-    --accuracy`` uses) takes strips (``STRIP_N0`` = 32 strips first, one across) for slender
-    rectangles and ellipses (:func:`strip_applies`; where their model bound is not below the
-    request, four grids and ``stopped_by`` "model"), else singular cells from the first grid of
-    :func:`singular_start` for requests below ``SINGULAR_BELOW`` (1e-4) where they apply
-    (unturned circles and ellipses b/a ≥ 1/32, isotropic, tangential/normal) and
-    coverage-weighted cells elsewhere; the record's ``boundary`` says which ran, and with strips
+    ``covered_solve`` (coverage, singular, strip) or galin or auto; ``auto`` (what ``hpcontact solve
+    --accuracy`` uses) takes the one exact cell of circles and ellipses (galin, :func:`exact_solve`:
+    no grids, errors at round-off), strips (``STRIP_N0`` = 32 strips first, one across) for slender
+    rectangles (:func:`strip_applies`; where their model bound is not below the
+    request, four grids and ``stopped_by`` "model"), and coverage-weighted cells elsewhere
+    (:func:`first_grid`); the record's ``boundary`` says which ran, and with strips
     ``model_error`` the bound included in every estimate. The memory plan counts the arrays of
     the cells used (:func:`grid_bytes`, with singular cells' near field, strips' dense matrices). The CG tolerance is tightened to at most
     accuracy/100 so that it never limits the answer. A mask is refined by splitting its pixels
@@ -786,7 +781,9 @@ def solve_to_accuracy(
     if memory_budget is not None and not (math.isfinite(memory_budget) and memory_budget > 0):
         raise InputError("memory", "a memory budget > 0 bytes", memory_budget)
     tol = max(min(scene.tol, accuracy * 1e-2), 1e-14)
-    strategy, n0, n_across0 = first_grid(scene, accuracy, strategy, n0, n_across0)
+    strategy, n0, n_across0 = first_grid(scene, strategy, n0, n_across0)
+    if strategy == "galin":
+        return exact_solve(scene, accuracy, strict, started)
     plan = plan_grids(scene, n0, n_across0, max_cells, memory_budget, strategy)
     sequence = plan.grids[:max_grids] if max_grids is not None else plan.grids
     if len(sequence) < MIN_GRIDS:
@@ -828,7 +825,9 @@ def solve_to_accuracy(
         else plan.limit
     )
     finest = levels[-1]
-    record: dict[str, Any] = {k: finest[k] for k in ("nx", "ny", "dx", "dy", "contact_cells", "contact_area")}
+    record: dict[str, Any] = {
+        k: finest[k] for k in ("nx", "ny", "dx", "dy", "contact_cells", "contact_area", "normal_held") if k in finest
+    }
     record.update(values)
     worst = max(relative.values())
     record.update(q.derived_quantities(values, scene.material, noise=worst))
@@ -860,6 +859,56 @@ def solve_to_accuracy(
     if strict and not record["accuracy_met"]:
         raise AccuracyNotMet(record, plan)
     return record
+
+
+def exact_solve(scene: Scene, accuracy: float, strict: bool, started: float) -> dict[str, Any]:
+    """:func:`solve_to_accuracy` of an elliptical contact on its one exact cell
+    (``galin_ellipse.solve``): the same record keys, with ``grids`` [1], no ``levels``,
+    ``stopped_by`` "met" or, where the integral's own bound is not below the request, "model"
+    (``model_error`` is that bound); the estimates per quantity come from :func:`exact_errors`."""
+    record = galin_ellipse.solve(scene)
+    relative = exact_errors(record, record.pop("absolute_errors"))
+    worst = max(relative.values())
+    record.update(
+        {
+            "estimated_error": worst,
+            "estimated_errors": relative,
+            "convergence_order": {},
+            "expansion": {},
+            "accuracy": float(accuracy),
+            "accuracy_met": bool(worst <= accuracy),
+            "stopped_by": "met" if worst <= accuracy else "model",
+            "grids": [1],
+            "grids_across": [1],
+            "levels": [],
+            "model_error": worst,
+            "estimated_peak_bytes": resident_bytes(),
+            "wall_time_s": time.perf_counter() - started,
+        }
+    )
+    if strict and not record["accuracy_met"]:
+        raise AccuracyNotMet(record, GridPlan([(1, 1)], "model", (1, 1), 0.0, 0.0, math.inf, "none", 1))
+    return record
+
+
+def exact_errors(values: Mapping[str, float], absolute: Mapping[str, float]) -> dict[str, float]:
+    """Relative error bounds per reported quantity of an exact discretization from absolute
+    bounds on its tensor entries (K_xx … K_zz): diagonal entries relative to themselves,
+    off-diagonal ones to the largest diagonal entry (as :func:`extrapolate`), a ratio the sum of
+    its parts' (K_a/K_b, K_min/K_max, normalized_xx and _yy), K_max and K_min Weyl's bound
+    (:func:`principal_error`) relative to themselves."""
+    scale = max(abs(values[k]) for k in ("K_xx", "K_yy", "K_zz") if k in values)
+    rel = {k: e / max(abs(values[k]) if k in ("K_xx", "K_yy", "K_zz") else scale, 1e-300) for k, e in absolute.items()}
+    if "K_xx" in rel:
+        bound = principal_error(*(absolute[k] for k in ("K_xx", "K_xy", "K_yx", "K_yy")))
+        rel["K_a_over_K_b"] = rel["K_xx"] + rel["K_yy"]
+        rel["K_max"] = bound / abs(values["K_max"])
+        rel["K_min"] = bound / abs(values["K_min"])
+        rel["K_min_over_K_max"] = rel["K_max"] + rel["K_min"]
+        if "K_zz" in rel:
+            rel["normalized_xx"] = rel["K_xx"] + rel["K_zz"]
+            rel["normalized_yy"] = rel["K_yy"] + rel["K_zz"]
+    return rel
 
 
 #: Without ``n`` (``hpcontact solve`` with no grid, a sweep whose spec gives none): grids

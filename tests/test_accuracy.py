@@ -253,7 +253,7 @@ def test_command_line_accuracy_and_memory(capsys) -> None:
 
     assert main(["solve", "--memory", "1G"]) == 2
     assert "--memory" in capsys.readouterr().err
-    assert main(["solve", "--accuracy", "1e-3", "--memory", "1M"]) == 2
+    assert main(["solve", "--shape", "rectangle", "--aspect", "1", "--accuracy", "1e-3", "--memory", "1M"]) == 2
     assert "memory" in capsys.readouterr().err
 
 
@@ -333,8 +333,7 @@ def test_strip_cells_are_refused_outside_their_range() -> None:
     """``strategy="strip"`` names the field and what it needs where strips do not apply: a
     turned ellipse, a circle, a rectangle of b/a above ``strip_cells.MAX_ASPECT``, a turned one,
     a crystal, or quantities other than tangential and normal; ``auto`` then takes
-    coverage-weighted cells. ``auto`` leaves wide ellipses (b/a > ``STRIP_WIDE_ASPECT``) to
-    coverage-weighted cells at requests from ``SINGULAR_BELOW`` up, where those are cheaper."""
+    coverage-weighted cells, and for every ellipse its one exact cell (galin)."""
     for params in (
         {"shape": "ellipse", "aspect": 0.5, "shape_angle": 30.0},
         {"shape": "rectangle", "aspect": 1e-3},
@@ -354,7 +353,7 @@ def test_strip_cells_are_refused_outside_their_range() -> None:
     r = acc.solve_to_accuracy(
         Scene.from_params({"shape": "ellipse", "aspect": 0.3}), 1e-3, strict=False, max_grids=4, strategy="auto"
     )
-    assert r["boundary"] == "coverage"
+    assert r["boundary"] == "galin"
 
 
 def test_strip_memory_plan_bounds_a_solve() -> None:
@@ -373,7 +372,7 @@ def test_strip_memory_plan_bounds_a_solve() -> None:
 
 @pytest.mark.parametrize("aspect, nu", [(1e-6, 0.3), (1e-6, 0.5), (1e-3, 0.3), (1e-3, 0.5), (0.05, 0.3), (0.7, 0.5)])
 def test_ellipses_meet_1e_6_on_strip_cells(aspect: float, nu: float) -> None:
-    """``--accuracy 1e-6`` (auto) on unturned ellipses takes strips from ``STRIP_ELLIPSE_N0`` and
+    """``--accuracy 1e-6`` on strips (``auto`` takes the exact cell now) on unturned ellipses starts from ``STRIP_ELLIPSE_N0`` and
     meets it (issue 12's cases b/a = 0.7, 0.05, 1e-3, 1e-6); every reported estimate, which
     includes ``strip_cells.model_error``, is at least the true error of K_xx, K_yy, K_zz and
     K_a/K_b against Mindlin and Galin."""
@@ -384,7 +383,7 @@ def test_ellipses_meet_1e_6_on_strip_cells(aspect: float, nu: float) -> None:
     r = acc.solve_to_accuracy(
         Scene.from_params({"shape": "ellipse", "aspect": aspect, "nu": nu, "quantities": "tangential,normal"}),
         1e-6,
-        strategy="auto",
+        strategy="strip",
     )
     assert r["boundary"] == "strip" and r["accuracy_met"] and r["stopped_by"] == "met"
     assert r["grids"][0] == acc.STRIP_ELLIPSE_N0 and r["estimated_error"] >= r["model_error"] > 0.0
@@ -404,7 +403,7 @@ def test_ellipse_request_below_the_strips_bound_stops_by_model() -> None:
     with pytest.raises(
         acc.AccuracyNotMet, match=f"stopped by model: the strip cells' own error bound, {bound:.2g}"
     ) as caught:
-        acc.solve_to_accuracy(Scene.from_params(params), bound / 2.0, strategy="auto")
+        acc.solve_to_accuracy(Scene.from_params(params), bound / 2.0, strategy="strip")
     r = caught.value.record
     assert r["stopped_by"] == "model" and r["grids"] == [16, 32, 64, 128] and not r["accuracy_met"]
     K_xx, K_yy = analytic.mindlin_ellipse_stiffness(1.0, 0.02, 1.0, 0.3)

@@ -67,19 +67,19 @@ def test_accuracy_not_met_exits_1_naming_the_grid(capsys, monkeypatch):
     monkeypatch.setattr(
         acc.solve_to_accuracy, "__kwdefaults__", {**acc.solve_to_accuracy.__kwdefaults__, "max_cells": 64 * 64, "n0": 8}
     )
-    code, out, err = _solve(capsys, "--accuracy", "1e-6", "--json")
+    code, out, err = _solve(capsys, "--shape", "rectangle", "--aspect", "1", "--accuracy", "1e-6", "--json")
     assert code == 1 and out == ""
     assert "accuracy 1e-06 not met" in err and "finest grid 64 x 64" in err
 
 
 def test_accuracy_for_a_crystal(capsys):
     """--accuracy on a crystal (was AttributeError: no E_star): extrapolated tensor, no Li
-    normalization (needs isotropic E*, G*). Checked against the single-grid solve: the first
-    level of the sequence is that solve on coverage-weighted cells."""
+    normalization (needs isotropic E*, G*), on coverage-weighted cells (a rectangle: an ellipse
+    takes its one exact cell)."""
     code, out, err = _solve(
         capsys,
         "--shape",
-        "ellipse",
+        "rectangle",
         "--aspect",
         "0.5",
         "--anisotropy",

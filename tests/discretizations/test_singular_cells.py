@@ -186,8 +186,7 @@ def test_auto_accuracy_is_honest_per_quantity_on_singular_cells() -> None:
     singular cells: met, and every quantity's true error (Mindlin, Galin) below its own estimate.
     This is a case where expansions led by 1.5 and 2 put K_xx's estimate below its true error
     (1.27e-6 against 1.46e-6 at 128 × 32, measured), hence ``SINGULAR_EXPANSIONS``. ``auto`` takes
-    strips for an unturned ellipse below ``SINGULAR_BELOW`` (``hpcontact.discretizations.strip_cells``),
-    coverage-weighted cells above it, and strips for thin ellipses at any request."""
+    neither for an ellipse: its one exact cell (``hpcontact.discretizations.galin_ellipse``)."""
     from hpcontact import accuracy as acc
 
     params = {"shape": "ellipse", "aspect": 0.2, "nu": 0.3, "quantities": "tangential,normal"}
@@ -205,14 +204,9 @@ def test_auto_accuracy_is_honest_per_quantity_on_singular_cells() -> None:
         true = abs(r[key] / value - 1.0)
         assert true <= r["estimated_errors"][key], (key, true, r["estimated_errors"][key])
     assert all(e[0] <= 1.0 for e in r["expansion"].values() if e)
-    loose = acc.solve_to_accuracy(
-        Scene.from_params(params), 1e-2, strategy="auto"
-    )  # coverage pays at requests ≥ SINGULAR_BELOW
-    assert loose["boundary"] == "coverage"
-    thin = acc.solve_to_accuracy(
-        Scene.from_params({**params, "aspect": 1e-3}), 3e-5, n0=8, max_cells=64 * 16, strict=False, strategy="auto"
-    )
-    assert thin["boundary"] == "strip"  # too thin for singular cells: strips (hpcontact.discretizations.strip_cells)
+    for aspect, request in ((0.2, 1e-2), (0.2, 3e-5), (1e-3, 3e-5)):
+        auto = acc.solve_to_accuracy(Scene.from_params({**params, "aspect": aspect}), request, strategy="auto")
+        assert auto["boundary"] == "galin" and auto["grids"] == [1]
 
 
 def test_edge_near_field_leaves_a_clean_first_order_error() -> None:
