@@ -146,7 +146,9 @@ def _sampled_coverage(shape: Shape, grid: Grid, subsamples: int) -> np.ndarray:
     ii, jj = np.nonzero(boundary)
     s = (np.arange(subsamples) + 0.5) / subsamples - 0.5
     sx, sy = np.meshgrid(s * grid.dx, s * grid.dy, indexing="ij")
-    step = max(1, 2**22 // subsamples**2)
+    # 2^19 sample points per batch: ~70 B a point in ``contains``' temporaries, ~36 MiB (2^22 took
+    # ~110 MiB on 256 cells, 225 on 512, in the same CPU time; docs/performance.md §"Accuracy tasks")
+    step = max(1, 2**19 // subsamples**2)
     for k in range(0, ii.size, step):
         i, j = ii[k : k + step], jj[k : k + step]
         hit = shape.contains(x[i, j][:, None, None] + sx[None], y[i, j][:, None, None] + sy[None])

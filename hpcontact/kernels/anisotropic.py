@@ -131,8 +131,25 @@ _FAR_TOL = 1e-14
 _BETA_FAR = 0.5
 _FAR_PREFACTOR = 0.3
 _FAR_MAX_ORDER = 24
-#: Points per vectorized chunk (memory ~ 100 bytes × columns per point).
-_CHUNK = 1 << 20
+#: Workspace of one vectorized chunk of quadrature points, in bytes: a chunk holds
+#: ``CHUNK_BYTES`` // bytes-per-point points (``_chunk_points``), ~1e5 for the nine columns of
+#: a tangential + normal crystal, enough for numpy to run at full speed (chunks of 2^20 points,
+#: ~310 MiB of temporaries, were 5–45 % slower on 128² … 512²: docs/performance.md §"Memory
+#: per task"). With ``threads`` > 1 each thread holds one chunk.
+CHUNK_BYTES = 32 << 20
+#: Bytes per quadrature point of one chunk with ``ncol`` table columns, as ``tracemalloc``
+#: measures them: far field 8 (13 + 3 ncol) (coordinates, 1/r weights, angle, the stencil's
+#: index and four weights; gathered term, running sum and a transient per column: 128, 168,
+#: 312 B measured for ncol = 1, 3, 9), edges 8 (16 + 4 ncol) (the panel angle, sin and cos
+#: terms and one more array per column).
+_FAR_POINT_WORDS = (13, 3)
+_EDGE_POINT_WORDS = (16, 4)
+
+
+def _chunk_points(ncol: int, words: tuple[int, int]) -> int:
+    """Quadrature points per chunk: ``CHUNK_BYTES`` over the bytes per point of ``ncol``
+    columns (``words`` = float64 words per point, fixed and per column)."""
+    return max(1, CHUNK_BYTES // (8 * (words[0] + words[1] * ncol)))
 
 
 # --------------------------------------------------------------------------------------------
@@ -485,7 +502,7 @@ class AnisotropicKernel:
         lo = phi1[edge_of_panel] + k * h
         xg, wg = self._gauss(_EDGE_ORDER)
         rem = np.zeros((ncol, E))
-        step = max(1, _CHUNK // _EDGE_ORDER)
+        step = max(1, _chunk_points(ncol, _EDGE_POINT_WORDS) // _EDGE_ORDER)
         for start in range(0, edge_of_panel.size, step):
             sl = slice(start, start + step)
             e = edge_of_panel[sl]
@@ -552,10 +569,11 @@ class AnisotropicKernel:
             py = _far_order(qy[far])
             key = px * 1000 + py
             tasks = []
+            points = _chunk_points(tab.shape[0], _FAR_POINT_WORDS)
             for k in np.unique(key):
                 sel = far[key == k]
                 p2 = int(k // 1000) * int(k % 1000)
-                step = max(1, _CHUNK // p2)
+                step = max(1, points // p2)
                 tasks += [(sel[i : i + step], int(k // 1000), int(k % 1000)) for i in range(0, sel.size, step)]
 
             def work(task: tuple[NDArray, int, int]) -> None:
@@ -683,6 +701,7 @@ def anisotropic_offset_blocks(
             col_index[("o", i, j)] = len(cols)
             cols.append(0.5 * (g[:, i, j] - g[:, j, i]))
     tab = np.ascontiguousarray(np.stack(cols, axis=0))
+    del cols  # the columns live on in tab only (9 columns of 2^17: 9 MiB)
     # Half plane of offsets.
     P, Q = np.meshgrid(np.arange(nx), np.arange(-(ny - 1), ny), indexing="ij")
     keep = (P > 0) | (Q >= 0)

@@ -4,7 +4,12 @@ of the sweep's cost model and of the accuracy study's memory plan.
 
 **Memory.** The arrays of one solve take fixed_k + per_cell_k × padded cells bytes
 (``MEMORY_MODEL``; k = ``task_kind``), float64 array sizes fitted to ``tracemalloc`` peaks of
-single solves with cold kernel caches (docs/performance.md §"Memory per task").
+single solves with cold kernel caches (docs/performance.md §"Memory per task"). A crystal's
+peak is the larger of two phases: the solve's arrays (that line) and the kernels' build
+(``KERNEL_BUILD_BYTES``: the Barnett–Lothe table's construction, ~45 MiB, or the cell
+quadrature's workspace: one chunk of ``kernels.anisotropic.CHUNK_BYTES`` = 32 MiB per thread,
+the table's columns and the offsets' arrays), which is the larger below ~256 × 256 cells; each
+thread beyond the first adds one chunk.
 
 **Grid.** A contact scene is solved on ``geometry.grid_for(shape, n, n_across)``: n cells along
 x and, unless ``n_across`` is given, max(min(n, 16), round(n Y/X)) across, with (X, Y) the
@@ -41,6 +46,7 @@ from typing import Any
 
 from hpcontact.errors import InputError
 from hpcontact.geometry import Shape, grid_for, mask_pixels
+from hpcontact.kernels.anisotropic import CHUNK_BYTES
 from hpcontact.materials.elastic_constants import describes_crystal
 from hpcontact.numerics.convolution import padded_shape
 from hpcontact.numerics.memory import MIB
@@ -56,10 +62,16 @@ ITERATIONS_PER_DIGIT = 1.8
 # Memory per kind: (fixed bytes, bytes per padded cell), fitted as stated in the module docstring.
 MEMORY_MODEL = {
     "contact": (1.0 * MIB, 182.0),
-    "crystal": (45.0 * MIB, 525.0),
-    "crystal_indentation": (45.0 * MIB, 525.0),
+    "crystal": (12.0 * MIB, 300.0),
+    "crystal_indentation": (45.0 * MIB, 60.0),
     "slip": (2.0 * MIB, 530.0),
 }
+#: The least a crystal solve peaks at on any grid (one thread): its kernels' build (module
+#: docstring); ``array_bytes`` is at least this + (threads − 1) × ``CHUNK_BYTES``.
+KERNEL_BUILD_BYTES = {"crystal": 55.0 * MIB, "crystal_indentation": 45.0 * MIB}
+#: A crystal body's quadrature tables, a slip scene's fixed part (docs/performance.md §"Memory
+#: per task").
+CRYSTAL_TABLES_BYTES = 45.0 * MIB
 #: A slip scene is solved on n × n cells with this margin around the Hertz contact, by default
 #: n = ``SLIP_DEFAULT_N``.
 SLIP_GRID_MARGIN = 1.1
@@ -90,13 +102,25 @@ def padded_cells(params: Mapping[str, Any]) -> float:
 
 
 def array_bytes(params: Mapping[str, Any]) -> float:
-    """The arrays of one solve of the one-grid scene ``params``: fixed_k + per_cell_k × padded cells (bytes); a slip
-    scene with a crystal body has the crystal's fixed part (its kernels' quadrature tables)."""
+    """The arrays of one solve of the one-grid scene ``params``: fixed_k + per_cell_k × padded cells (bytes), for a
+    crystal at least its kernels' build (``KERNEL_BUILD_BYTES`` + one quadrature chunk per thread beyond the first);
+    a slip scene with a crystal body has ``CRYSTAL_TABLES_BYTES`` as its fixed part."""
     kind = task_kind(params)
     fixed, per_cell = MEMORY_MODEL[kind]
     if kind == "slip" and describes_crystal(params):
-        fixed = MEMORY_MODEL["crystal"][0]
-    return fixed + per_cell * padded_cells(params)
+        fixed = CRYSTAL_TABLES_BYTES
+    arrays = fixed + per_cell * padded_cells(params)
+    if kind in KERNEL_BUILD_BYTES:
+        threads = int(params.get("threads") or 1)
+        arrays = max(arrays, KERNEL_BUILD_BYTES[kind] + (threads - 1) * CHUNK_BYTES)
+    return arrays
+
+
+def tables_bytes(params: Mapping[str, Any]) -> float:
+    """What a solve on no grid holds (an ellipse's one exact cell): a crystal's kernel tables
+    (``CRYSTAL_TABLES_BYTES``), else the kind's fixed part."""
+    kind = task_kind(params)
+    return CRYSTAL_TABLES_BYTES if kind in KERNEL_BUILD_BYTES else MEMORY_MODEL[kind][0]
 
 
 def contact_grid(params: Mapping[str, Any]) -> tuple[int, int]:

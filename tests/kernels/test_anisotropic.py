@@ -548,6 +548,29 @@ def test_single_cell_grid_and_threads() -> None:
     assert all(np.array_equal(a[k], b[k]) for k in a)  # same arithmetic, other threads
 
 
+def test_chunk_size_changes_nothing_and_bounds_the_workspace(monkeypatch: pytest.MonkeyPatch) -> None:
+    # The quadrature's chunks split the cells, not a cell's points: the same sums whatever the
+    # chunk (down to a few hundred far points and a few edge panels per chunk, 2 threads), and
+    # the traced peak stays near the blocks + table columns + one chunk's CHUNK_BYTES.
+    import tracemalloc
+
+    c = cubic_oriented(0.25, 2.0)
+    ref = an.anisotropic_offset_blocks(c, 48, 40, 1.0, 0.8)
+    monkeypatch.setattr(an, "CHUNK_BYTES", 1 << 16)
+    got = an.anisotropic_offset_blocks(c, 48, 40, 1.0, 0.8, threads=2)
+    assert all(np.array_equal(got[k], ref[k]) for k in ref)
+    monkeypatch.undo()
+    columns = an.kernel_for(c).table[:, 0, :].nbytes * 3  # nine columns; the table outside the trace
+    tracemalloc.start()
+    try:
+        blocks = an.anisotropic_offset_blocks(c, 192, 192, 1.0, 1.0)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    out = sum(b.nbytes for b in blocks.values())  # 10 MiB
+    assert peak < out + columns + 1.5 * an.CHUNK_BYTES  # 2^20-point chunks: ~300 MiB
+
+
 def test_assembled_operator_is_symmetric_positive_definite() -> None:
     # u = Σ K(p − q) t_q over a small grid: reciprocity makes the 3N × 3N matrix symmetric and
     # positive strain energy makes it positive definite (Betti; the solver's CG relies on it).
