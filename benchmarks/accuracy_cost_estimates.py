@@ -1,20 +1,23 @@
 """Do the dry-run's estimates hold for tasks that ask for an accuracy? Per task and in total.
 
-    python benchmarks/accuracy_cost_estimates.py [--sweeps ellipses demo singular] [--no-memory] [--json PATH]
+    python benchmarks/accuracy_cost_estimates.py [--sweeps ellipses demo square] [--no-memory] [--json PATH]
     python benchmarks/accuracy_cost_estimates.py --grid-counts     # where the sequences stop
     python benchmarks/accuracy_cost_estimates.py --strips          # strip cells' seconds and their fit
 
-Two small sweeps, their specs below (``SWEEPS``), costed as ``hpcontact run SPEC --dry-run``
+Three small sweeps, their specs below (``SWEEPS``), costed as ``hpcontact run SPEC --dry-run``
 costs them (``tasks.enumerate_tasks``, ``costmodel``: the grids ``accuracy.solve_to_accuracy`` is
 predicted to solve, ``tasks.accuracy_plan``) and run with the sweep's task function:
 
 * ``ellipses``: ellipses b/a = 0.3 and 0.01 × A = 1 (isotropic) and 3 (cubic, ψ = 60°), nu = 0.3,
-  accuracy 1e-4 (coverage-weighted cells, strips, crystals);
+  accuracy 1e-4: each one exact cell (``galin``: ``accuracy.exact_solve``, no grid; estimated
+  as one task term, measured as the whole task, a crystal's kernel build included);
 * ``demo``: the scene types of jobs/demo.toml (ellipse and rectangle at b/a = 1, 1e-2, 1e-4,
   1e-8, a triangle, a 5-lobed star; isotropic and cubic A = 2, ψ = 20°), nu = 0.25, tol 1e-10,
-  accuracy 1e-3;
-* ``singular``: a circle at accuracy 1e-5 (four grids of singular cells) and 1e-6 (every planned
-  grid, to 1024 × 1024), nu = 0 and 0.5.
+  accuracy 1e-3: exact cells (the ellipses), coverage-weighted cells, strips (the rectangle 1e-8);
+* ``square``: the tasks of the most grids and the largest arrays a sweep's ``auto`` now
+  solves: a square at accuracy 1e-5 and 1e-6 (coverage-weighted cells, six grids to
+  1024 × 1024 predicted, the plan's end), nu = 0 and 0.5 (it replaced the circle's singular
+  cells, which ``auto`` no longer takes; ~5.5 min with memory).
 
 In fresh child processes, one thread each:
 
@@ -33,16 +36,16 @@ largest measured).
 ``--json`` writes every number, the per-grid seconds included.
 
 ``--grid-counts``: the evidence of ``tasks.predicted_grid_count``. Each case of ``COUNT_CASES``
-is solved once at a tight request (a fresh process; ``solve_to_accuracy``, strategy auto, not
+(shapes that take a sequence of grids: not ellipses or circles, whose exact cell takes none) is solved once at a tight request (a fresh process; ``solve_to_accuracy``, strategy auto, not
 strict) and ``accuracy.refine`` replayed on its grids for the requests 1e-3 … 1e-6 whose boundary
 cells are the same (``accuracy.first_grid``): the grids each request takes, against the
 prediction, and where it stopped.
 
 ``--strips``: CPU seconds of one grid of strip cells (``boundary_cells.covered_solve``, strategy
-strip, warm, BLAS limited) for rectangles b/a 1e-6 … 1e-12 and ellipses 1e-8 … 1 on 16 … 1024
-strips (fewer where a grid took over 30 s), against ``tasks.strip_units`` at this process's
-calibrated ``strip_s``, and the constants of ``tasks.strip_units`` fitted anew to these seconds
-(least squares on the log of model over measured, the fit behind the shipped ones).
+strip, warm, BLAS limited) for rectangles b/a 1e-6 … 1e-12 on 32 … 1024 strips (the only strips
+``auto`` takes; fewer where a grid took over 30 s), against ``tasks.strip_units`` at this
+process's calibrated ``strip_s``, and the two constants of ``tasks.strip_units`` fitted anew to
+these seconds (least squares on the log of model over measured).
 """
 
 from __future__ import annotations
@@ -94,12 +97,13 @@ shape = [
 aspect = [1.0, 1e-2, 1e-4, 1e-8]
 anisotropy = [1.0, 2.0]
 """,
-    "singular": """
+    "square": """
 [sweep]
-title = "accuracy cost: singular cells (a circle below 1e-4)"
-output = "results/accuracy_cost_estimates_singular.nc"
+title = "accuracy cost: a square at 1e-5 and 1e-6 (six grids to 1024 x 1024 predicted)"
+output = "results/accuracy_cost_estimates_square.nc"
 [scene]
-shape = "circle"
+shape = "rectangle"
+aspect = 1.0
 quantities = ["tangential", "normal"]
 [axes]
 accuracy = [1e-5, 1e-6]
@@ -169,8 +173,8 @@ def measure_time(name: str) -> dict:
                         "task": describe(task.params),
                         "params": dict(task.params),
                         "boundary": plan.strategy,
-                        "predicted": [n for n, _ in plan.grids],
-                        "solved": [g["n"] for g in grids],
+                        "predicted": [n for n, _ in plan.grids],  # an exact cell: [1], as its record's grids
+                        "solved": [g["n"] for g in grids] or list(record.get("grids") or []),
                         "stopped_by": record.get("stopped_by"),
                         "estimated_error": record.get("estimated_error"),
                         "measured_s": time.process_time() - started,
@@ -211,30 +215,26 @@ def measure_memory(name: str, index: int) -> dict:
 BASE = {"nu": 0.25, "quantities": ["tangential", "normal"], "tol": 1e-10}
 CUBIC = {"anisotropy": 2.0, "orientation": 20.0}
 # (scene, tight request): every request above it is replayed on the same grids
+# (scene, tight request): every request above it is replayed on the same grids. Shapes that take
+# grids only: an ellipse or circle takes its one exact cell (galin) at every request.
 COUNT_CASES = [
-    ({**BASE, "shape": "circle"}, 1e-7),
-    ({**BASE, "shape": "circle", "nu": 0.0}, 1e-7),
-    ({**BASE, "shape": "ellipse", "aspect": 1.0}, 1e-4),
-    ({**BASE, "shape": "ellipse", "aspect": 0.3}, 1e-4),
     ({**BASE, "shape": "rectangle", "aspect": 1.0}, 1e-7),
+    ({**BASE, "shape": "rectangle", "aspect": 1.0, "nu": 0.0}, 1e-7),
+    ({**BASE, "shape": "rectangle", "aspect": 0.3}, 1e-7),
     ({**BASE, "shape": "rectangle", "aspect": 1e-2}, 1e-7),
     ({**BASE, "shape": "rectangle", "aspect": 1e-4}, 1e-4),
     ({**BASE, "shape": "polygon", "sides": 3}, 1e-7),
     ({**BASE, "shape": "star", "sides": 5, "amplitude": 0.3}, 1e-7),
-    ({**BASE, "shape": "ellipse", "aspect": 1.0, **CUBIC}, 1e-7),
-    ({**BASE, "shape": "ellipse", "aspect": 0.3, **CUBIC}, 1e-5),
-    ({**BASE, "shape": "ellipse", "aspect": 0.3, "nu": 0.3, "anisotropy": 3.0, "orientation": 60.0}, 1e-7),
+    ({**BASE, "shape": "rectangle", "aspect": 1.0, **CUBIC}, 1e-7),
+    ({**BASE, "shape": "rectangle", "aspect": 0.3, **CUBIC}, 1e-5),
+    ({**BASE, "shape": "rectangle", "aspect": 0.3, "nu": 0.3, "anisotropy": 3.0, "orientation": 60.0}, 1e-7),
     ({**BASE, "shape": "rectangle", "aspect": 1e-8, **CUBIC}, 1e-7),
     ({**BASE, "shape": "polygon", "sides": 3, **CUBIC}, 1e-4),
-    ({**BASE, "shape": "ellipse", "aspect": 0.3}, 1e-9),
-    ({**BASE, "shape": "ellipse", "aspect": 1e-2}, 1e-9),
-    ({**BASE, "shape": "ellipse", "aspect": 1e-4}, 1e-9),
+    ({**BASE, "shape": "rectangle", "aspect": 1e-6}, 1e-9),
     ({**BASE, "shape": "rectangle", "aspect": 1e-8}, 1e-8),
 ]
 COUNT_REQUESTS = (1e-3, 1e-4, 1e-5, 1e-6)
-STRIP_CASES = [("rectangle", a, (32, 64, 128, 256, 512, 1024)) for a in (1e-6, 1e-8, 1e-12)] + [
-    ("ellipse", a, (16, 32, 64, 128, 256, 512, 1024)) for a in (1e-8, 1e-6, 1e-4, 1e-3, 3e-3, 1e-2, 0.03, 0.1, 0.3, 1.0)
-]
+STRIP_CASES = [("rectangle", a, (32, 64, 128, 256, 512, 1024)) for a in (1e-6, 1e-8, 1e-12)]
 
 
 def measure_counts(params: dict, tight: float) -> dict:
@@ -253,24 +253,16 @@ def measure_counts(params: dict, tight: float) -> dict:
             Scene.from_params({**params, "accuracy": tight}), tight, strategy="auto", strict=False
         )
     accuracy.covered_solve = solve
-    strategy, singular = record["boundary"], record["boundary"] == "singular"
+    strategy = record["boundary"]
     model = strip_cells.model_error(Scene.from_params(params).shape) if strategy == "strip" else 0.0
     grids = list(zip(record["grids"], record["grids_across"]))
     replays = {}
     for request in COUNT_REQUESTS:
-        if (
-            request < tight
-            or accuracy.first_grid(Scene.from_params({**params, "accuracy": request}), request)[0] != strategy
-        ):
+        if request < tight or accuracy.first_grid(Scene.from_params({**params, "accuracy": request}))[0] != strategy:
             continue
         found = iter(levels)
         done = accuracy.refine(
-            grids[:4] if model >= request else grids,
-            lambda n, na: next(found),
-            request,
-            accuracy.SINGULAR_EXPANSIONS if singular else None,
-            accuracy.SINGULAR_SAFETY if singular else None,
-            model_error=model,
+            grids[:4] if model >= request else grids, lambda n, na: next(found), request, model_error=model
         )
         stopped = done.stopped_by or (record["stopped_by"] if len(done.levels) == len(grids) else "model")
         replays[f"{request:g}"] = [len(done.levels), stopped, max(done.relative.values())]
@@ -298,7 +290,7 @@ def grid_counts() -> None:
                 cells.append(f"{'-':>22s}")
                 continue
             scene = Scene.from_params({**params, "accuracy": request})
-            strategy, n0, na0 = first_grid(scene, request)
+            strategy, n0, na0 = first_grid(scene)
             planned = len(plan_grids(scene, n0, na0, 2**22, math.inf, strategy).grids)
             predicted = predicted_grid_count(strategy, request, planned)
             cells.append(f"{f'{got[0]} ({predicted}) {got[1][:5]} {got[2]:.2g}':>22s}")
@@ -364,21 +356,11 @@ def strips() -> None:
         )
 
     def model(x, r):
-        per_strip, far, near, slope, cap = np.exp(x)
-        ellipse = r["shape"] == "ellipse"
-        per = per_strip + (min(slope * math.sqrt(r["aspect"]), cap) if ellipse else 0.0)
-        return per * r["n"] + far * r["far"] + (near * r["near"] if ellipse else 0.0)
+        per_strip, far = np.exp(x)
+        return per_strip * r["n"] + far * r["far"]
 
-    fit = least_squares(
-        lambda x: [math.log(model(x, r) / r["cpu_s"]) for r in rows], np.log([3e-4, 2e-6, 2e-4, 0.2, 0.05])
-    )
-    names = (
-        "STRIP_SECONDS_PER_STRIP",
-        "STRIP_SECONDS_PER_FAR_PAIR",
-        "STRIP_ELLIPSE_SECONDS_PER_NEAR_PAIR",
-        "STRIP_ELLIPSE_SLOPE",
-        "STRIP_ELLIPSE_CAP",
-    )
+    fit = least_squares(lambda x: [math.log(model(x, r) / r["cpu_s"]) for r in rows], np.log([3e-4, 2e-6]))
+    names = ("STRIP_SECONDS_PER_STRIP", "STRIP_SECONDS_PER_FAR_PAIR")
     scale = result["strip_s"] / tasks.STRIP_UNIT_SECONDS  # this machine's seconds against the development machine's
     print("fitted (this machine's seconds / the calibrated strip_s in development-machine units):")
     for name, value in zip(names, np.exp(fit.x)):
@@ -405,7 +387,7 @@ def main() -> None:
             strips()
         return
     header = (
-        f"{'task':36s} {'cells':8s} {'grids (predicted/solved)':>30s} {'est. s':>7s} {'meas. s':>7s} {'ratio':>5s} "
+        f"{'task':38s} {'cells':8s} {'grids (predicted/solved)':>30s} {'est. s':>7s} {'meas. s':>7s} {'ratio':>5s} "
         f"{'est. MiB':>8s} {'meas. MiB':>9s} {'ratio':>5s}"
     )
     results, overall = [], {"estimated_s": 0.0, "measured_s": 0.0, "estimated_b": 0.0, "measured_b": 0.0}
@@ -417,10 +399,13 @@ def main() -> None:
             if not args.no_memory:
                 row.update(harness.call_in_child(__file__, "measure_memory", name, i, check=True).result)
             est_b, meas_b = row.get("estimated_peak_bytes", math.nan), row.get("measured_peak_bytes", math.nan)
-            grids = f"{len(row['predicted'])}/{len(row['solved'])} to {row['predicted'][-1]}/{row['solved'][-1]}"
+            last = row["solved"][-1] if row["solved"] else "-"
+            grids = f"{len(row['predicted'])}/{len(row['solved'])} to {row['predicted'][-1]}/{last}"
+            if row["boundary"] == "galin":
+                grids = "one exact cell"
             print(
-                f"{row['task']:36s} {row['boundary']:8s} {grids:>30s} {row['estimated_s']:7.2f} "
-                f"{row['measured_s']:7.2f} {ratio(row['estimated_s'], row['measured_s']):5.2f} "
+                f"{row['task']:38s} {row['boundary']:8s} {grids:>30s} {row['estimated_s']:7.3f} "
+                f"{row['measured_s']:7.3f} {ratio(row['estimated_s'], row['measured_s']):5.2f} "
                 f"{est_b / 2**20:8.0f} {meas_b / 2**20:9.0f} {ratio(est_b, meas_b):5.2f}",
                 flush=True,
             )
@@ -430,7 +415,7 @@ def main() -> None:
                 target["estimated_b"] = max(target["estimated_b"], est_b)
                 target["measured_b"] = max(target["measured_b"], meas_b)
         print(
-            f"{'total ' + name:36s} {'':8s} {'':>30s} {totals['estimated_s']:7.2f} {totals['measured_s']:7.2f} "
+            f"{'total ' + name:38s} {'':8s} {'':>30s} {totals['estimated_s']:7.3f} {totals['measured_s']:7.3f} "
             f"{ratio(totals['estimated_s'], totals['measured_s']):5.2f} {totals['estimated_b'] / 2**20:8.0f} "
             f"{totals['measured_b'] / 2**20:9.0f} {ratio(totals['estimated_b'], totals['measured_b']):5.2f}",
             flush=True,
@@ -438,7 +423,7 @@ def main() -> None:
         results.append({**timing, "totals": totals})
     if len(results) > 1:
         print(
-            f"\n{'total':36s} {'':8s} {'':>30s} {overall['estimated_s']:7.2f} {overall['measured_s']:7.2f} "
+            f"\n{'total':38s} {'':8s} {'':>30s} {overall['estimated_s']:7.3f} {overall['measured_s']:7.3f} "
             f"{ratio(overall['estimated_s'], overall['measured_s']):5.2f} {overall['estimated_b'] / 2**20:8.0f} "
             f"{overall['measured_b'] / 2**20:9.0f} {ratio(overall['estimated_b'], overall['measured_b']):5.2f}"
         )

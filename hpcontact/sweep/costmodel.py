@@ -61,15 +61,17 @@ more per decade below, ``tasks.predicted_grid_count``), each grid's work summed 
 
     seconds = rate_s × fft + solve_s × solves + cell_s × cells + task_s × grids + strip_s × strips
 
-(``work_seconds``): a grid of coverage-weighted or singular cells is its one-grid FFT model
+(``work_seconds``): an ellipse's or circle's one exact cell (galin: no grid) one task term; a
+grid of coverage-weighted cells its one-grid FFT model
 (cost, cost / (S log2 S), S and one task term) times its cells' measured factor, a crystal's
 included (the crystal kind's own fit, on n = 32 and 64, has no FFT term to carry to n = 1024);
-strip cells (dense Galerkin integrals, ``hpcontact.discretizations.strip_cells``) their
+a slender rectangle's strip cells (dense Galerkin integrals, ``hpcontact.discretizations.strip_cells``) their
 ``tasks.strip_units`` at ``strip_s``, the seconds of a strip unit on this host; below 1e-3 a
 coverage-weighted task also counts a share of the grid after its last and less a share of its
 last (``tasks.accuracy_work``: the count varies by one about the predicted one). Their memory
 is ``accuracy.grid_bytes`` of the finest predicted grid with its boundary cells (the arrays that
-``accuracy.plan_grids`` budgets). The measurements: docs/performance.md §"Accuracy tasks".
+``accuracy.plan_grids`` budgets; an exact cell: its kind's fixed bytes,
+``footprint.MEMORY_MODEL``). The measurements: docs/performance.md §"Accuracy tasks".
 
 **Memory.** The peak resident memory of a rank running a task is
 
@@ -83,8 +85,10 @@ dependence), fitted to ``tracemalloc`` peaks of single solves with cold kernel c
 
 * contact: 182 B/cell (kernels xx, xy, yy, zz spectra, traction and CG vectors for 2
   components, FFT buffers) + 1 MiB;
-* crystal: 525 B/cell (nine complex kernel blocks, 3 components) + 45 MiB (quadrature tables);
-* slip: 530 B/cell + 2 MiB; with a crystal body, the crystal's 45 MiB instead of 2.
+* crystal: 300 B/cell (nine kernel blocks and their spectra, 3 components) + 12 MiB, and at
+  least the kernels' build, 55 MiB (``footprint.KERNEL_BUILD_BYTES``: the quadrature tables'
+  construction, one 32 MiB quadrature chunk per thread); indentation alone 60 B/cell + 45 MiB;
+* slip: 530 B/cell + 2 MiB; with a crystal body, the crystal's 45 MiB tables instead of 2.
 
 The kernel-spectrum cache (``HPCONTACT_KERNEL_CACHE_MB``, default 1 GiB) can hold more than one
 task's kernels on a rank; the model counts one task's, as the refusal must (a task that does not
@@ -254,15 +258,17 @@ ANISOTROPIC_SLIP_SCENE: dict[str, Any] = {
 }
 
 
-# One grid of strip cells (``hpcontact.discretizations.strip_cells``, an ellipse b/a = 1e-3 on 64
-# strips, tangential and normal: ~0.6 s, its far pairs, near pairs and strips all in it): its
-# seconds over its ``tasks.strip_units`` are the contact kind's ``strip_s`` (the dense integrals
-# of an accuracy task's strips: docs/performance.md §"Accuracy tasks").
+# One grid of strip cells (``hpcontact.discretizations.strip_cells``, a rectangle b/a = 1e-8 on
+# 512 strips, tangential and normal: ~0.35 s, its far pairs and strips in it; strips serve only
+# slender rectangles): its seconds over its ``tasks.strip_units`` are the contact kind's
+# ``strip_s`` (the dense integrals of an accuracy task's strips: docs/performance.md §"Accuracy
+# tasks"; on the development machine the same ``strip_s`` as the ellipse b/a = 1e-3 on 64 strips
+# it replaced, which ``auto`` no longer gives strips).
 STRIP_CALIBRATION_SCENE: dict[str, Any] = {
-    "shape": "ellipse",
-    "aspect": 1e-3,
+    "shape": "rectangle",
+    "aspect": 1e-8,
     "nu": 0.3,
-    "n": 64,
+    "n": 512,
     "n_across": 1,
     "quantities": _TANGENTIAL_NORMAL,
     "tol": 1e-10,

@@ -88,11 +88,14 @@ KERNEL_NEUTRAL_FIELDS = (
     "quantities",
     "threads",
     "precondition",
+    "normal_held",
 )
 # Fields that do not change the grids ``accuracy.default_grids`` picks (it reads the shape, the
 # quantities and whether the body is isotropic, not its constants or the solver's settings):
 # left out of ``solved_grids``' cache key, so an axis over nu builds one Scene for its grids.
-GRID_NEUTRAL_FIELDS = frozenset({"nu", "G", "tol", "threads", "precondition", "orientation", "miller", "azimuth"})
+GRID_NEUTRAL_FIELDS = frozenset(
+    {"nu", "G", "tol", "threads", "precondition", "orientation", "miller", "azimuth", "normal_held"}
+)
 # Fields that do not change a contact scene's estimated cost (it reads the grid, the solves, the
 # tolerance and whether the body is a crystal: not an isotropic body's constants, nor how a
 # crystal is oriented).
@@ -155,17 +158,16 @@ EXTRAPOLATION_WORK = 1.4
 # A task that asks for an accuracy (``accuracy.default_solve`` of a scene with ``accuracy``:
 # ``solve_to_accuracy(scene, accuracy, strategy="auto")``) is costed over the grids it is
 # predicted to solve (``accuracy_levels``), each a one-grid scene tagged with its boundary cells
-# under ``BOUNDARY_TAG`` ("coverage", "singular" or "strip": never a scene field, ``level_fields``
-# drops it). The evidence behind every constant below: docs/performance.md §"Accuracy tasks".
+# under ``BOUNDARY_TAG`` ("galin", "coverage" or "strip": never a scene field, ``level_fields``
+# drops it). An ellipse or circle takes its one exact cell (galin: no grid, one task term); the
+# singular cells and the ellipses' strips that ``auto`` took before are no longer reached by it.
+# The evidence behind every constant below: docs/performance.md §"Accuracy tasks".
 BOUNDARY_TAG = "boundary"
 # Where the sequence stops (``predicted_grid_count``): coverage-weighted cells met every request
 # of 1e-3 on ``MIN_GRIDS`` grids (20 scene types of the demo, isotropic and cubic) and took one
-# more grid per full decade below it (the most frequent count at 1e-4 and 1e-5); singular cells
-# met every request down to ``SINGULAR_FOUR_GRIDS_TO`` on four grids and levelled off below
-# (their estimate ~1e-6: every planned grid); strips met every request down to
+# more grid per full decade below it (the most frequent count at 1e-4 and 1e-5); strips met every request down to
 # ``STRIP_FOUR_GRIDS_TO`` on four grids (or stop there on their own bound, ``strip_cells.model_error``).
 COVERAGE_FOUR_GRIDS_TO = 1e-3
-SINGULAR_FOUR_GRIDS_TO = 3e-6
 STRIP_FOUR_GRIDS_TO = 1e-7
 # Below 1e-3 the count of coverage-weighted cells is the most frequent one, not the only one: 2 of
 # 12 requests of 1e-4 took a grid more, 2 one fewer; 3 of 8 of 1e-5 one fewer. A grid costs 4-5
@@ -174,38 +176,29 @@ STRIP_FOUR_GRIDS_TO = 1e-7
 # many such tasks, not the time of the most frequent count (``accuracy_work``).
 ONE_MORE_SHARE = 0.2
 ONE_FEWER_SHARE = 0.25
-# A grid of coverage-weighted or singular cells costs the one-grid FFT model of that grid (every
+# A grid of coverage-weighted cells costs the one-grid FFT model of that grid (every
 # term of ``costmodel``, the contact kind's rates: ``level_work``) times a factor: isotropic
 # coverage-weighted cells ``COVERAGE_WORK`` × (1 + ``COVERAGE_ASPECT_WORK`` log2 ρ), ρ the grid's
 # aspect in cells (coverage, damping and preconditioner weights; their CG iterations grow faster
-# with ρ than the one-grid model's); a crystal's ``CRYSTAL_COVERAGE_WORK``; singular cells
-# ``SINGULAR_WORK`` (near-field corrections) and ``SINGULAR_EDGE_WORK`` cost units per cell along
-# both sides (n + n_across; the near field's set-up grows with the boundary). An outline that is
+# with ρ than the one-grid model's); a crystal's ``CRYSTAL_COVERAGE_WORK``. An outline that is
 # not an ellipse, circle or rectangle (polygons, stars, masks) builds its coverage by clipping:
 # ``OUTLINE_COVERAGE_WORK`` cost units per cell along both sides and grid.
 COVERAGE_WORK = 1.05
 COVERAGE_ASPECT_WORK = 0.37
 CRYSTAL_COVERAGE_WORK = 0.9
-SINGULAR_WORK = 1.7
 OUTLINE_COVERAGE_WORK = 2.1e5
-SINGULAR_EDGE_WORK = 2.6e5
 ANALYTIC_OUTLINES = ("circle", "ellipse", "rectangle")
-# Strip cells (``strip_cells``: dense Galerkin integrals, then Cholesky) cost, per grid of n strips
-# (``strip_units``), ``STRIP_SECONDS_PER_FAR_PAIR`` per far pair (Gauss product rule on the moment
-# series), ``STRIP_SECONDS_PER_STRIP`` per strip and, on an ellipse, its width corrections:
-# ``STRIP_ELLIPSE_SECONDS_PER_NEAR_PAIR`` per near pair and min(``STRIP_ELLIPSE_SLOPE`` √(b/a),
-# ``STRIP_ELLIPSE_CAP``) more per strip (the self and touching pairs' graded rules, whose points
-# take the exact two-width averages more often the wider the ellipse): CPU seconds on the
-# development machine (fitted to two runs, 77 and 80 grids: rectangles b/a 1e-6 … 1e-12 and
-# ellipses 1e-8 … 1 on 16 … 1024 strips), counted in units of ``STRIP_UNIT_SECONDS`` (its contact
-# rate_s, so that a strip unit weighs as an FFT grid's cost unit in a task's cost);
-# ``costmodel`` calibrates the seconds of a strip unit on each host (``Rate.strip_s``).
+# Strip cells (``strip_cells``: dense Galerkin integrals, then Cholesky; ``auto`` takes them for
+# slender rectangles only, b/a ≤ ``strip_cells.MAX_ASPECT``: ellipses take their exact cell) cost,
+# per grid of n strips (``strip_units``), ``STRIP_SECONDS_PER_FAR_PAIR`` per far pair (Gauss
+# product rule on the moment series) and ``STRIP_SECONDS_PER_STRIP`` per strip: CPU seconds on the
+# development machine (fitted to two runs, 77 and 80 grids, rectangles b/a 1e-6 … 1e-12 on
+# 32 … 1024 strips among them), counted in units of ``STRIP_UNIT_SECONDS`` (its contact rate_s,
+# so that a strip unit weighs as an FFT grid's cost unit in a task's cost); ``costmodel``
+# calibrates the seconds of a strip unit on each host (``Rate.strip_s``).
 STRIP_UNIT_SECONDS = 2.4e-9
 STRIP_SECONDS_PER_FAR_PAIR = 2.6e-6
-STRIP_ELLIPSE_SECONDS_PER_NEAR_PAIR = 2.0e-4
 STRIP_SECONDS_PER_STRIP = 1.9e-4
-STRIP_ELLIPSE_SLOPE = 0.24
-STRIP_ELLIPSE_CAP = 0.058
 
 
 class Work(NamedTuple):
@@ -709,14 +702,11 @@ def predicted_grid_count(strategy: str, accuracy: float, planned: int, model_err
     """How many of its ``planned`` grids ``solve_to_accuracy`` is predicted to solve at
     ``accuracy`` with ``strategy``'s cells (docs/performance.md §"Accuracy tasks"): coverage-weighted
     cells ``MIN_GRIDS`` at requests ≥ ``COVERAGE_FOUR_GRIDS_TO`` (1e-3) and one more per full
-    decade below (1e-4: 5, 1e-5: 6); singular cells ``MIN_GRIDS`` down to
-    ``SINGULAR_FOUR_GRIDS_TO``, every planned grid below; strips ``MIN_GRIDS`` down to
+    decade below (1e-4: 5, 1e-5: 6); strips ``MIN_GRIDS`` down to
     ``STRIP_FOUR_GRIDS_TO`` or where their own bound ``model_error`` is not below the request
     (``solve_to_accuracy`` stops there), every planned grid below. Never more than planned."""
     if strategy == "strip":
         count = MIN_GRIDS if accuracy >= STRIP_FOUR_GRIDS_TO or model_error >= accuracy else planned
-    elif strategy == "singular":
-        count = MIN_GRIDS if accuracy >= SINGULAR_FOUR_GRIDS_TO else planned
     else:  # the 1e-9 keeps 1e-4 at one decade whatever the rounding of the quotient
         count = MIN_GRIDS + max(0, math.floor(math.log10(COVERAGE_FOUR_GRIDS_TO / accuracy) + 1e-9))
     return max(1, min(count, planned))
@@ -738,7 +728,9 @@ def _accuracy_plan(text: str) -> AccuracyPlan:
     """``accuracy_plan`` of the scene ``text`` (canonical JSON, ``GRID_NEUTRAL_FIELDS`` left out)."""
     scene = Scene.from_params(json.loads(text))
     accuracy = float(scene.accuracy)
-    strategy, n0, n_across0 = first_grid(scene, accuracy, "auto")
+    strategy, n0, n_across0 = first_grid(scene, "auto")
+    if strategy == "galin":  # one exact cell: the kernel's tables, no grid
+        return AccuracyPlan(strategy, ((1, 1),), 1, None, footprint.tables_bytes(scene.params))
     plan = plan_grids(scene, n0, n_across0, MAX_CELLS, math.inf, strategy)
     model = strip_cells.model_error(scene.shape) if strategy == "strip" else 0.0
     count = predicted_grid_count(strategy, accuracy, len(plan.grids), model)
@@ -755,6 +747,8 @@ def accuracy_levels(params: Mapping[str, Any]) -> list[dict[str, Any]]:
     plan = accuracy_plan(params)
     tol = max(min(float(params.get("tol", DEFAULT_TOL)), float(params["accuracy"]) * 1e-2), 1e-14)
     fields = {k: v for k, v in params.items() if k not in ("accuracy", BOUNDARY_TAG)}
+    if plan.strategy == "galin":  # one exact cell, on no grid: the scene's own n stays (unused)
+        return [{**fields, BOUNDARY_TAG: plan.strategy}]
     return [{**fields, "n": n, "n_across": na, "tol": tol, BOUNDARY_TAG: plan.strategy} for n, na in plan.grids]
 
 
@@ -790,43 +784,37 @@ def _strip_pairs(shape: str, aspect: float, n: int) -> tuple[int, int]:
 
 def strip_units(level: Mapping[str, Any]) -> float:
     """Strip units (``STRIP_UNIT_SECONDS`` each on the development machine) of one grid of strip
-    cells, the level ``level`` (n strips): its far pairs (``strip_pairs``) and strips at their
-    seconds; on an ellipse its near pairs too, and min(``STRIP_ELLIPSE_SLOPE`` √(b/a),
-    ``STRIP_ELLIPSE_CAP``) more per strip (its width corrections)."""
+    cells of a rectangle, the level ``level`` (n strips): its far pairs (``strip_pairs``) and
+    strips at their seconds. Rectangles only: an ellipse's strips (its near pairs' width
+    corrections) are not modelled, as ``auto`` never gives an ellipse strips."""
     shape, aspect, n = str(level.get("shape")), float(level.get("aspect", 1.0)), int(level["n"])
-    near, far = strip_pairs(shape, aspect, n)
-    per_strip = STRIP_SECONDS_PER_STRIP
-    if shape == "ellipse":
-        per_strip += min(STRIP_ELLIPSE_SLOPE * math.sqrt(aspect), STRIP_ELLIPSE_CAP)
-    seconds = STRIP_SECONDS_PER_FAR_PAIR * far + per_strip * n
-    if shape == "ellipse":
-        seconds += STRIP_ELLIPSE_SECONDS_PER_NEAR_PAIR * near
-    return seconds / STRIP_UNIT_SECONDS
+    if shape != "rectangle":
+        raise ValueError(f"strip units are modelled for rectangles only, not {shape}")
+    _, far = strip_pairs(shape, aspect, n)
+    return (STRIP_SECONDS_PER_FAR_PAIR * far + STRIP_SECONDS_PER_STRIP * n) / STRIP_UNIT_SECONDS
 
 
 def level_work(level: Mapping[str, Any]) -> Work:
-    """``Work`` of one level of ``accuracy_levels``: a strip grid its ``strip_units``; a grid of
-    coverage-weighted or singular cells its one-grid FFT model (``_contact_cost``: cost units,
-    solve units cost / (S log2 S), S padded cells, one task term) times its cells' factor
-    (``COVERAGE_WORK`` × (1 + ``COVERAGE_ASPECT_WORK`` log2 ρ), ``CRYSTAL_COVERAGE_WORK`` for a
-    crystal, ``SINGULAR_WORK``), plus, per cell along both sides (n + n_across), singular cells'
-    near-field set-up (``SINGULAR_EDGE_WORK``) or an outline's clipping (``OUTLINE_COVERAGE_WORK``)."""
+    """``Work`` of one level of ``accuracy_levels``: the one exact cell of an ellipse (galin) one
+    task term; a strip grid its ``strip_units``; a grid of coverage-weighted cells its one-grid
+    FFT model (``_contact_cost``: cost units, solve units cost / (S log2 S), S padded cells, one
+    task term) times its cells' factor (``COVERAGE_WORK`` × (1 + ``COVERAGE_ASPECT_WORK`` log2 ρ),
+    ``CRYSTAL_COVERAGE_WORK`` for a crystal), plus, for an outline that is not an ellipse, circle
+    or rectangle, its clipping: ``OUTLINE_COVERAGE_WORK`` per cell along both sides (n + n_across)."""
     boundary = level.get(BOUNDARY_TAG, "coverage")
+    if boundary == "galin":  # a contour integral over the kernel's Fourier series: one task term
+        return Work(0.0, 0.0, 0.0, 1.0, 0.0)
     if boundary == "strip":
         return Work(0.0, 0.0, 0.0, 1.0, strip_units(level))
     cost = _contact_cost(level)
     cells = footprint.padded_cells(level)
-    if boundary == "singular":
-        factor = SINGULAR_WORK
-    elif task_kind(level) != "contact":
+    if task_kind(level) != "contact":
         factor = CRYSTAL_COVERAGE_WORK
     else:
         nx, ny = footprint.contact_grid(level)
         factor = COVERAGE_WORK * (1.0 + COVERAGE_ASPECT_WORK * math.log2(max(nx, ny) / min(nx, ny)))
     fft = factor * cost
-    if boundary == "singular":
-        fft += SINGULAR_EDGE_WORK * (int(level["n"]) + int(level["n_across"]))
-    elif level.get("shape", "circle") not in ANALYTIC_OUTLINES:
+    if level.get("shape", "circle") not in ANALYTIC_OUTLINES:
         fft += OUTLINE_COVERAGE_WORK * (int(level["n"]) + int(level["n_across"]))
     return Work(fft, factor * cost / (cells * math.log2(cells)), factor * cells, factor, 0.0)
 
@@ -892,9 +880,12 @@ def sizing(params: Mapping[str, Any]) -> Sizing:
         plan = accuracy_plan(params)
         n, na = plan.grids[-1]
         kind = task_kind(params)
-        where = f"{n} strips" if plan.strategy == "strip" else f"{n} x {na}"
-        label = f"{kind} accuracy: {plan.strategy} cells to {where}"
-        size = Sizing(kind, footprint.padded_cells(finest), plan.finest_bytes, accuracy_work(params), label)
+        if plan.strategy == "galin":
+            label, cells = f"{kind} accuracy: one exact cell (galin)", 0.0
+        else:
+            where = f"{n} strips" if plan.strategy == "strip" else f"{n} x {na}"
+            label, cells = f"{kind} accuracy: {plan.strategy} cells to {where}", footprint.padded_cells(finest)
+        size = Sizing(kind, cells, plan.finest_bytes, accuracy_work(params), label)
     else:
         size = Sizing(task_kind(params), footprint.padded_cells(finest), footprint.array_bytes(finest))
     return _SIZINGS.setdefault(size, size)

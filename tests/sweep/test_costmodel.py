@@ -384,10 +384,10 @@ def test_an_accuracy_task_takes_the_seconds_of_its_work_at_the_contact_rates():
     rates["contact"] = Rate(rate_s=2e-9, solve_s=3e-4, cell_s=1e-7, task_s=5e-3, strip_s=4e-9)
     calibration = Calibration("h", "v", rates, base_bytes=0.0)
     for scene in (
-        {"shape": "ellipse", "aspect": 0.3, "accuracy": 1e-4},  # coverage-weighted cells
-        {"shape": "ellipse", "aspect": 0.3, "anisotropy": 3.0, "accuracy": 1e-4},  # a crystal: the contact rates too
-        {"shape": "ellipse", "aspect": 0.01, "accuracy": 1e-3},  # strips
-        {"shape": "circle", "accuracy": 1e-5},  # singular cells
+        {"shape": "rectangle", "aspect": 0.3, "accuracy": 1e-4},  # coverage-weighted cells
+        {"shape": "rectangle", "aspect": 0.3, "anisotropy": 3.0, "accuracy": 1e-4},  # a crystal: the contact rates too
+        {"shape": "rectangle", "aspect": 1e-8, "accuracy": 1e-3},  # strips
+        {"shape": "polygon", "sides": 3, "accuracy": 1e-5},  # an outline clipped into cells
     ):
         params = {**ACCURACY_ISO, **scene}
         work = sizing(params).work
@@ -395,8 +395,14 @@ def test_an_accuracy_task_takes_the_seconds_of_its_work_at_the_contact_rates():
         seconds = 2e-9 * work.fft + 3e-4 * work.solves + 1e-7 * work.cells + 5e-3 * work.grids + 4e-9 * work.strips
         assert calibration.task_seconds(params) == pytest.approx(seconds, rel=1e-14)
         assert calibration.task_seconds(params, cost=1.0) == calibration.task_seconds(params)  # work, not cost
-    strips = sizing({**ACCURACY_ISO, "shape": "ellipse", "aspect": 0.01, "accuracy": 1e-3}).work
+    strips = sizing({**ACCURACY_ISO, "shape": "rectangle", "aspect": 1e-8, "accuracy": 1e-3}).work
     assert strips.fft == strips.solves == strips.cells == 0.0 and strips.strips > 0.0
+    # an ellipse's or circle's exact cell (galin), isotropic or crystal, at any request: the task term alone
+    square = calibration.task_seconds({**ACCURACY_ISO, "shape": "rectangle", "aspect": 1.0, "accuracy": 1e-3})
+    for scene in ({"shape": "ellipse", "aspect": 0.3}, {"shape": "circle", "anisotropy": 3.0}):
+        for request in (1e-3, 1e-8):
+            params = {**ACCURACY_ISO, **scene, "accuracy": request}
+            assert calibration.task_seconds(params) == 5e-3 < square / 50
 
 
 def test_an_accuracy_tasks_memory_is_its_finest_grids_with_its_boundary_cells():
@@ -405,21 +411,31 @@ def test_an_accuracy_tasks_memory_is_its_finest_grids_with_its_boundary_cells():
 
     calibration = Calibration("h", "v", {k: Rate(1e-6, 0.0) for k in costmodel.KINDS}, base_bytes=1000.0)
     for scene, strategy, finest in (
-        ({"shape": "ellipse", "aspect": 0.01, "accuracy": 1e-3}, "strip", (128, 1)),
-        ({"shape": "ellipse", "aspect": 0.01, "anisotropy": 2.0, "accuracy": 1e-3}, "coverage", (256, 64)),
-        ({"shape": "ellipse", "aspect": 0.3, "accuracy": 1e-4}, "coverage", (512, 160)),
-        ({"shape": "circle", "accuracy": 1e-6}, "singular", (1024, 1024)),
+        ({"shape": "rectangle", "aspect": 1e-8, "accuracy": 1e-3}, "strip", (256, 1)),
+        ({"shape": "rectangle", "aspect": 1e-8, "anisotropy": 2.0, "accuracy": 1e-3}, "coverage", (256, 64)),
+        ({"shape": "rectangle", "aspect": 0.3, "accuracy": 1e-4}, "coverage", (512, 160)),
+        ({"shape": "rectangle", "aspect": 1.0, "accuracy": 1e-6}, "coverage", (1024, 1024)),
     ):
         params = {**ACCURACY_ISO, **scene}
         arrays = grid_bytes(Scene.from_params(params), *finest, strategy)
         assert costmodel.task_array_bytes(params) == arrays
         assert calibration.task_bytes(params) == 1000.0 + arrays
-    # the strips' dense matrices on 128 strips against the crystal's FFT arrays on 256 x 64 cells
-    thin = {**ACCURACY_ISO, "shape": "ellipse", "aspect": 0.01, "accuracy": 1e-3}
+    # the strips' dense matrices on 256 strips against the crystal's FFT arrays on 256 x 64 cells
+    thin = {**ACCURACY_ISO, "shape": "rectangle", "aspect": 1e-8, "accuracy": 1e-3}
     strips, crystal = costmodel.task_array_bytes(thin), costmodel.task_array_bytes({**thin, "anisotropy": 2.0})
-    assert strips == 160.0 * 128**2 + 128.0 * 2**20 and crystal < strips
-    # 1024 strips of a thin ellipse at 1e-8: the dense matrices grow as n^2
-    assert costmodel.task_array_bytes({**thin, "aspect": 1e-4, "accuracy": 1e-8}) == 160.0 * 1024**2 + 128.0 * 2**20
+    assert strips == 160.0 * 256**2 + 128.0 * 2**20 and crystal < strips
+    # 1024 strips of a thin rectangle at 1e-8: the dense matrices grow as n^2
+    assert costmodel.task_array_bytes({**thin, "accuracy": 1e-8}) == 160.0 * 1024**2 + 128.0 * 2**20
+    # an exact cell (galin): no grid, its kind's fixed bytes (a crystal's: its kernel tables)
+    # whatever the request
+    for scene, fixed in (
+        ({"shape": "ellipse", "aspect": 0.3}, footprint.MEMORY_MODEL["contact"][0]),
+        ({"shape": "circle", "anisotropy": 2.0}, footprint.CRYSTAL_TABLES_BYTES),
+    ):
+        for request in (1e-3, 1e-8):
+            params = {**ACCURACY_ISO, **scene, "accuracy": request}
+            assert costmodel.task_array_bytes(params) == fixed == footprint.tables_bytes(params)
+            assert calibration.task_bytes(params) == 1000.0 + fixed
 
 
 def test_the_dry_run_estimates_accuracy_tasks_as_task_by_task_and_labels_their_grids(write_spec, capsys, monkeypatch):
@@ -442,7 +458,9 @@ def test_the_dry_run_estimates_accuracy_tasks_as_task_by_task_and_labels_their_g
     assert est.bytes.tolist() == [calibration.task_bytes(t.params) for t in tasks]
     grids = est.grids()
     assert grids["contact accuracy: strip cells to 256 strips"] == 1  # the rectangle b/a = 1e-8
-    assert grids["crystal accuracy: coverage cells to 512 x 160"] == 2  # the crystal ellipse and rectangle b/a = 0.3
+    assert grids["crystal accuracy: coverage cells to 512 x 160"] == 1  # the crystal rectangle b/a = 0.3
+    # the circle and the four ellipses of each material: one exact cell each
+    assert grids["contact accuracy: one exact cell (galin)"] == grids["crystal accuracy: one exact cell (galin)"] == 5
     assert sum(grids.values()) == len(tasks)
     labels = {}
     for t in tasks:
@@ -451,13 +469,15 @@ def test_the_dry_run_estimates_accuracy_tasks_as_task_by_task_and_labels_their_g
     # the command line's request replaces the spec's grid: the same tasks, costed over their grids
     monkeypatch.setenv("HPCONTACT_MPI", "0")
     path = write_spec(
-        '[scene]\nshape = "ellipse"\nquantities = ["tangential", "normal"]\n[numerics]\nn = 64\n[axes]\naspect = [0.3, 0.01]\n'
+        '[scene]\nquantities = ["tangential", "normal"]\n[numerics]\nn = 64\n'
+        '[axes]\nshape = ["ellipse", "rectangle"]\naspect = [0.3, 1e-8]\n'
     )
     assert main([str(path), "--dry-run", "--json", "--accuracy", "1e-4"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert sorted(out["grids"]) == [
         "contact accuracy: coverage cells to 512 x 160",
-        "contact accuracy: strip cells to 128 strips",
+        "contact accuracy: one exact cell (galin)",
+        "contact accuracy: strip cells to 256 strips",
     ]
 
 

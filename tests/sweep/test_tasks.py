@@ -192,36 +192,39 @@ def grids_of(params):
     from hpcontact.sweep.tasks import BOUNDARY_TAG, solved_grids
 
     levels = solved_grids(params)
-    return {level[BOUNDARY_TAG] for level in levels}, [(level["n"], level["n_across"]) for level in levels]
+    grids = [(level["n"], level["n_across"]) for level in levels if level[BOUNDARY_TAG] != "galin"]
+    return {level[BOUNDARY_TAG] for level in levels}, grids
 
 
 @pytest.mark.parametrize(
     ("scene", "accuracy", "boundary", "grids"),
     [
+        # an ellipse or circle, any material, any request: one exact cell (galin), no grid
+        ({"shape": "ellipse", "aspect": 0.3}, 1e-4, "galin", []),
+        ({"shape": "circle"}, 1e-6, "galin", []),
+        ({"shape": "ellipse", "aspect": 1e-6}, 1e-8, "galin", []),
+        ({"shape": "ellipse", "aspect": 0.01, "anisotropy": 3.0, "shape_angle": 30.0}, 1e-4, "galin", []),
         # coverage-weighted cells: four grids at 1e-3, one more per full decade below (docs/performance.md)
-        ({"shape": "ellipse", "aspect": 0.3}, 1e-3, "coverage", [(32, 10), (64, 20), (128, 40), (256, 80)]),
-        ({"shape": "ellipse", "aspect": 0.3}, 1e-4, "coverage", [(32 * 2**k, 10 * 2**k) for k in range(5)]),
+        ({"shape": "rectangle", "aspect": 0.3}, 1e-3, "coverage", [(32, 10), (64, 20), (128, 40), (256, 80)]),
+        ({"shape": "rectangle", "aspect": 0.3}, 1e-4, "coverage", [(32 * 2**k, 10 * 2**k) for k in range(5)]),
         ({"shape": "polygon", "sides": 3}, 3e-4, "coverage", [(32 * 2**k, 28 * 2**k) for k in range(4)]),
         ({"shape": "polygon", "sides": 3}, 1e-5, "coverage", [(32 * 2**k, 28 * 2**k) for k in range(6)]),
         # ... never beyond the estimator's calibration (n = 1024 along x)
         ({"shape": "rectangle", "aspect": 0.01}, 1e-7, "coverage", [(32 * 2**k, 8 * 2**k) for k in range(6)]),
-        # a crystal: coverage-weighted cells whatever its outline
+        ({"shape": "rectangle", "aspect": 1.0}, 1e-6, "coverage", [(32 * 2**k, 32 * 2**k) for k in range(6)]),
+        # a crystal: coverage-weighted cells whatever its outline (but an ellipse's)
         (
-            {"shape": "ellipse", "aspect": 0.01, "anisotropy": 3.0},
+            {"shape": "rectangle", "aspect": 1e-8, "anisotropy": 3.0},
             1e-4,
             "coverage",
             [(32 * 2**k, 8 * 2**k) for k in range(5)],
         ),
-        # strips: four grids (thin ellipses from 16 strips, rectangles from 32), one across
-        ({"shape": "ellipse", "aspect": 0.01}, 1e-3, "strip", [(16, 1), (32, 1), (64, 1), (128, 1)]),
-        ({"shape": "ellipse", "aspect": 0.3}, 1e-5, "strip", [(16, 1), (32, 1), (64, 1), (128, 1)]),
+        # strips (slender rectangles, b/a <= 1e-6): four grids from 32 strips, one across
+        ({"shape": "rectangle", "aspect": 1e-6}, 1e-3, "strip", [(32, 1), (64, 1), (128, 1), (256, 1)]),
         ({"shape": "rectangle", "aspect": 1e-8}, 1e-6, "strip", [(32, 1), (64, 1), (128, 1), (256, 1)]),
         # ... below 1e-7, every planned grid (up to 1024 strips), unless the strips' own bound stops them at four
-        ({"shape": "ellipse", "aspect": 1e-4}, 1e-8, "strip", [(16 * 2**k, 1) for k in range(7)]),
-        ({"shape": "ellipse", "aspect": 0.3}, 1e-8, "strip", [(16, 1), (32, 1), (64, 1), (128, 1)]),
-        # singular cells (a circle below 1e-4): four grids down to 3e-6, every planned grid below (2^20 cells)
-        ({"shape": "circle"}, 1e-5, "singular", [(32, 32), (64, 64), (128, 128), (256, 256)]),
-        ({"shape": "circle"}, 1e-6, "singular", [(32 * 2**k, 32 * 2**k) for k in range(6)]),
+        ({"shape": "rectangle", "aspect": 1e-8}, 1e-8, "strip", [(32 * 2**k, 1) for k in range(6)]),
+        ({"shape": "rectangle", "aspect": 1e-6}, 1e-8, "strip", [(32, 1), (64, 1), (128, 1), (256, 1)]),
     ],
 )
 def test_an_accuracy_task_is_costed_over_the_grids_it_is_predicted_to_solve(scene, accuracy, boundary, grids):
@@ -234,17 +237,28 @@ def test_an_accuracy_tasks_levels_are_one_grid_scenes_whose_tag_never_reaches_va
     from hpcontact.scene import Scene
     from hpcontact.sweep.tasks import BOUNDARY_TAG, level_fields, solved_grids
 
-    params = {**ISO, "shape": "ellipse", "aspect": 0.01, "tol": 1e-4, "accuracy": 1e-4, "n": 64}  # n: ignored
-    levels = solved_grids(params)
-    assert [level["n"] for level in levels] == [16, 32, 64, 128]
-    for level in levels:
-        assert "accuracy" not in level and level["tol"] == 1e-4 * 1e-2  # solve_to_accuracy's: accuracy / 100
-        assert solved_grids(level) == [level]  # a level is one grid
-        with pytest.raises(InputError, match=BOUNDARY_TAG):
-            Scene.from_params(level)  # a scene refuses the tag ...
-        fields = level_fields(level)
-        assert BOUNDARY_TAG not in fields and Scene.from_params(fields).n == level["n"]  # ... which level_fields drops
-    assert BOUNDARY_TAG not in params
+    for scene, ns in (
+        ({"shape": "rectangle", "aspect": 1e-8}, [32, 64, 128, 256]),  # strips
+        ({"shape": "polygon", "sides": 3}, [32, 64, 128, 256, 512]),  # coverage-weighted cells
+    ):
+        params = {**ISO, **scene, "tol": 1e-4, "accuracy": 1e-4, "n": 64}  # n: ignored
+        levels = solved_grids(params)
+        assert [level["n"] for level in levels] == ns
+        for level in levels:
+            assert "accuracy" not in level and level["tol"] == 1e-4 * 1e-2  # solve_to_accuracy's: accuracy / 100
+            assert solved_grids(level) == [level]  # a level is one grid
+            with pytest.raises(InputError, match=BOUNDARY_TAG):
+                Scene.from_params(level)  # a scene refuses the tag ...
+            fields = level_fields(level)
+            assert (
+                BOUNDARY_TAG not in fields and Scene.from_params(fields).n == level["n"]
+            )  # ... which level_fields drops
+        assert BOUNDARY_TAG not in params
+    # an exact cell: one level, the scene without its accuracy (its n unused), tagged galin
+    params = {**ISO, "shape": "ellipse", "aspect": 0.3, "accuracy": 1e-4, "n": 64}
+    (level,) = solved_grids(params)
+    assert level == {**ISO, "shape": "ellipse", "aspect": 0.3, "n": 64, BOUNDARY_TAG: "galin"}
+    assert Scene.from_params(level_fields(level)).n == 64
 
 
 def test_the_grids_predicted_do_not_depend_on_this_processs_memory(monkeypatch):
@@ -260,37 +274,47 @@ def test_the_grids_predicted_do_not_depend_on_this_processs_memory(monkeypatch):
 
 
 def test_a_tighter_accuracy_costs_more():
-    from hpcontact.sweep.tasks import sizing
+    from hpcontact.sweep.tasks import Work, sizing
 
-    for scene in ({"shape": "ellipse", "aspect": 0.3, "anisotropy": 3.0}, {"shape": "star", "sides": 5}):
+    for scene in ({"shape": "rectangle", "aspect": 0.3, "anisotropy": 3.0}, {"shape": "star", "sides": 5}):
         costs = [estimated_cost({**ISO, **scene, "accuracy": a}) for a in (1e-2, 1e-3, 1e-4, 1e-5)]
         assert costs[0] == costs[1] < costs[2] < costs[3]  # 4, 4, 5, 6 grids
         works = [sizing({**ISO, **scene, "accuracy": a}).work for a in (1e-3, 1e-4, 1e-5)]
         assert all(all(a < b for a, b in zip(w, v) if b) for w, v in zip(works, works[1:]))
     # strips: four grids down to 1e-7, then every planned grid
-    thin = {**ISO, "shape": "ellipse", "aspect": 1e-3}
+    thin = {**ISO, "shape": "rectangle", "aspect": 1e-8}
     assert estimated_cost({**thin, "accuracy": 1e-3}) == estimated_cost({**thin, "accuracy": 1e-6})
     assert estimated_cost({**thin, "accuracy": 1e-8}) > estimated_cost({**thin, "accuracy": 1e-6})
     # an accuracy is costed over its grids, not as the default extrapolation (16 ... 256)
-    assert estimated_cost({**ISO, "shape": "circle", "accuracy": 1e-6}) > 10 * estimated_cost(
-        {**ISO, "shape": "circle"}
-    )
+    square = {**ISO, "shape": "rectangle", "aspect": 1.0}
+    assert estimated_cost({**square, "accuracy": 1e-6}) > 10 * estimated_cost(square)
+    # ... except an exact cell's: one task term whatever the request, no FFT or strip work
+    for ellipse in ({"shape": "ellipse", "aspect": 0.3}, {"shape": "circle", "anisotropy": 3.0}):
+        works = {sizing({**ISO, **ellipse, "accuracy": a}).work for a in (1e-2, 1e-4, 1e-6, 1e-8)}
+        assert works == {Work(0.0, 0.0, 0.0, 1.0, 0.0)}
+        assert (
+            estimated_cost({**ISO, **ellipse, "accuracy": 1e-8}) == 0.0 < estimated_cost({**square, "accuracy": 1e-2})
+        )
 
 
 def test_strip_grids_are_costed_by_their_pairs_and_strips():
-    from hpcontact.sweep.tasks import strip_pairs, strip_units
-
-    for shape, aspect in (("rectangle", 1e-8), ("ellipse", 1e-3), ("ellipse", 0.3)):
-        near, far = strip_pairs(shape, aspect, 256)
-        assert near + far == 256 * 257 // 2
-        units = [strip_units({"shape": shape, "aspect": aspect, "n": n}) for n in (32, 64, 128, 256)]
-        assert units == sorted(units) and units[0] > 0
-    # every pair of a wide ellipse is near; a thin one's near pairs are a band along the diagonal
-    assert strip_pairs("ellipse", 0.3, 128)[1] < 100 < strip_pairs("ellipse", 1e-6, 128)[1]
-    # a wider ellipse's strips cost more (exact two-width averages)
-    n64 = {"n": 64, "shape": "ellipse"}
-    assert (
-        strip_units({**n64, "aspect": 1e-6})
-        < strip_units({**n64, "aspect": 1e-3})
-        < strip_units({**n64, "aspect": 0.1})
+    from hpcontact.sweep.tasks import (
+        STRIP_SECONDS_PER_FAR_PAIR,
+        STRIP_SECONDS_PER_STRIP,
+        STRIP_UNIT_SECONDS,
+        strip_pairs,
+        strip_units,
     )
+
+    for aspect in (1e-6, 1e-8, 1e-12):
+        near, far = strip_pairs("rectangle", aspect, 256)
+        assert near + far == 256 * 257 // 2 and far > near
+        units = [strip_units({"shape": "rectangle", "aspect": aspect, "n": n}) for n in (32, 64, 128, 256)]
+        assert units == sorted(units) and units[0] > 0
+        seconds = STRIP_SECONDS_PER_FAR_PAIR * far + STRIP_SECONDS_PER_STRIP * 256
+        assert units[-1] == pytest.approx(seconds / STRIP_UNIT_SECONDS, rel=1e-14)
+    # a rectangle's near pairs are a band along the diagonal
+    assert strip_pairs("rectangle", 1e-8, 128)[0] < strip_pairs("rectangle", 1e-8, 128)[1]
+    # an ellipse never takes strips in a sweep (its exact cell instead): its strips are not modelled
+    with pytest.raises(ValueError, match="rectangles only"):
+        strip_units({"shape": "ellipse", "aspect": 1e-3, "n": 64})
