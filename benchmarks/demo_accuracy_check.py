@@ -49,29 +49,32 @@ Per point:
 
 Honest: true ≤ estimate + reference estimate, with true = |value − reference| / reference (K_xy:
 / max(|K_xx|, |K_yy|, |K_zz|) of the reference). Quantities exact by symmetry (K_a/K_b of a
-circle or of a three- or fivefold shape, true < 1e-13) are counted and marked ``sym``.
+circle or of a three- or fivefold shape: true < 1e-13 at 1e-3 and at n = 64) are counted and
+marked ``sym``; the exact cell of an ellipse (boundary ``galin``) is exact at 1e-3 alone, so its
+pairs are checks, summarized apart from the grids'.
 
 Every solve is appended to the cache (JSON lines: kind ``accuracy``, ``n64`` or ``reference``,
 keyed by the canonical JSON of the scene's fields), so an interrupted run resumes and ``--table``
 replays the table from the cache without solving. ``--points`` restricts the solving (and the
 table) to the named points.
 
-Measured (2026-11-26, 2-core AMD EPYC shared at load 6–8; 31 points; solve CPU 413 s, 359 s of
-it the numerical references; replay from the cache: seconds): 155 (point, quantity) pairs, all
-honest, also the 35 checked again against a sharper ladder record; every point met 1e-3 (worst
-estimated_error 8.9e-4, crystal rectangle b/a 1e-2; true errors ≤ 1.6e-4, median 1.2e-5); worst
-true/(estimate + reference estimate) 0.54; against the closed forms and the references sharper
-than the estimate the worst true/estimate is 0.54 (the b/a 1e-2 crystal ellipses, inside the
-thin band: ≤ 0.30). The strips of isotropic rectangles b/a 1e-6, 1e-8 estimate 2.5e-7 and
+Measured (2026-11-26, 2-core AMD EPYC shared; after ellipses became one exact cell, the 1e-3
+and n = 64 solves rerun at load 7–9, the references kept from the run before at load 6–8: the
+grid points' 1e-3 records came out bit for bit the same; 31 points; solve CPU 23.0 s + 4.1 s,
+references 359 s; replay from the cache: seconds): 155 (point, quantity) pairs, all honest, also
+the 35 checked again against a sharper ladder record (worst true/(estimate + its estimate)
+0.54, P22); every point met 1e-3 (worst estimated_error 8.9e-4, crystal rectangle b/a 1e-2).
+The 15 ellipses (boundary ``galin``, 74 pairs): estimates ≤ 2.9e-11, true errors ≤ 4.0e-15
+against Mindlin and Galin, worst true/estimate 0.20, 0.66 s CPU in all. The grids (73 pairs):
+true errors ≤ 1.6e-4, median 1.4e-5; worst true/estimate where the reference is sharper than
+the estimate 0.46. The strips of isotropic rectangles b/a 1e-6, 1e-8 estimate 2.5e-7 and
 1.5e-8 and differ from the sharpest coverage records by 6.2e-6 and 1.9e-6, within those
 records' own 1.1e-5 and 4.4e-6: not judged (honest column "ref"). K_xy is zero by symmetry at
 every point (the frame's x = [1̄10] is normal to a mirror of the cubic crystal and every demo
 shape is symmetric in x; ≤ 4e-11 of the diagonal in the runs), so it is not listed. CPU of the
-1e-3 solves 49.5 s against 4.4 s at n = 64 (11×), whose worst true error per point is 1.5e-3 …
-8.5e-3 (above 1e-3 at every point, 99 of 145 pairs). The costliest 1e-3 solve is the isotropic
-ellipse b/a 1e-2: ``auto`` takes strips there (b/a ≤ ``accuracy.STRIP_WIDE_ASPECT``), 7.8 s
-CPU for an estimate of 9.7e-9, where coverage-weighted cells meet 1e-3 in 0.7 s (1.7e-4,
-measured alongside).
+1e-3 solves 23.0 s against 4.1 s at n = 64 (5.6×; before the exact cell 49.5 s, 11×, 26.5 s of
+it the ellipses), whose worst true error per point is 1.5e-3 … 8.5e-3 (above 1e-3 at every
+point, 99 of 147 pairs; median 2.0e-3).
 """
 
 from __future__ import annotations
@@ -107,7 +110,7 @@ REFERENCE_REQUESTS = (1e-6, 1e-5, 1e-4)  # tightest first
 QUANTITIES = ("K_xx", "K_yy", "K_zz", "K_a_over_K_b", "K_min_over_K_max")
 ENTRIES = ("K_xx", "K_xy", "K_yx", "K_yy", "K_zz")
 STORED = (*ENTRIES, "K_a_over_K_b", "K_min_over_K_max", "K_max", "K_min")
-SYMMETRY = 1e-13  # true errors below this are exact by symmetry, not discretization
+SYMMETRY = 1e-13  # true errors below this in both discretizations (1e-3 and n = 64): exact by symmetry
 XY_ZERO = 1e-9  # |K_xy| / scale of the reference below this (or its own estimate): zero by symmetry
 
 SHAPES = ("ellipse", "rectangle", "triangle", "star")  # the demo's shape labels
@@ -402,6 +405,7 @@ def compared(
     rows = []
     for k in names:
         t, e, r = true(run["values"], k), run["estimates"][k], reference["estimates"].get(k, 0.0)
+        t64 = None if before is None else true(before["values"], k)
         rows.append(
             {
                 "point": p["id"],
@@ -414,9 +418,12 @@ def compared(
                 "copy": copy,
                 "reference_estimate": r,
                 "honest": t <= e + r,
-                "symmetric": t < SYMMETRY and not copy,
+                # exact in both discretizations: symmetry (the exact cell of an ellipse is exact
+                # at 1e-3 too, but not at n = 64: those pairs are checks, not symmetry)
+                "symmetric": t < SYMMETRY and (t64 is None or t64 < SYMMETRY) and not copy,
+                "exact_cell": run["boundary"] == "galin",
                 "resolved": r < e,  # the reference is sharper than the estimate it judges
-                "true_n64": None if before is None else true(before["values"], k),
+                "true_n64": t64,
             }
         )
         if sharp is not None:  # the same check against the ladder's sharpest record
@@ -500,6 +507,8 @@ def summary(points: list[dict[str, Any]], runs: dict, befores: dict, references:
     cpu = sum(runs[p["id"]]["cpu_s"] for p in both)
     cpu64 = sum(befores[p["id"]]["cpu_s"] for p in both)
     true_now = [r["true"] for r in rows if not r["symmetric"]]
+    true_cell = [r for r in rows if not r["symmetric"] and r.get("exact_cell")]
+    true_grid = [r["true"] for r in rows if not r["symmetric"] and not r.get("exact_cell")]
     true64 = [r["true_n64"] for r in rows if r["true_n64"] is not None and not r["symmetric"]]
     per_point = {}
     for r in rows:
@@ -534,6 +543,17 @@ def summary(points: list[dict[str, Any]], runs: dict, befores: dict, references:
         "cpu_n64": cpu64,
         "cpu_points": len(both),
         "true_now": (max(true_now), statistics.median(true_now)) if true_now else (math.nan, math.nan),
+        "true_exact_cell": (
+            len(true_cell),
+            max(r["true"] for r in true_cell),
+            statistics.median(r["true"] for r in true_cell),
+            max(r["estimate"] for r in true_cell),
+            max(r["true"] / r["estimate"] for r in true_cell),
+        )
+        if true_cell
+        else None,
+        "true_grids": (len(true_grid), max(true_grid), statistics.median(true_grid)) if true_grid else None,
+        "cpu_exact_cell": sum(runs[p["id"]]["cpu_s"] for p in both if runs[p["id"]]["boundary"] == "galin"),
         "true_n64": (max(true64), statistics.median(true64), sum(t > ACCURACY for t in true64), len(true64))
         if true64
         else None,
@@ -600,6 +620,15 @@ def print_summary(s: Mapping[str, Any]) -> None:
     )
     mx, med = s["true_now"]
     print(f"  true errors at {ACCURACY:g} (pairs not exact by symmetry): worst {mx:.2e}, median {med:.2e}")
+    if s["true_exact_cell"] is not None:
+        count, mx, med, est, ratio = s["true_exact_cell"]
+        print(
+            f"    on the exact cell (galin, ellipses; {count} pairs): worst {mx:.2e}, median {med:.2e}, worst "
+            f"estimate {est:.2e}, worst true/estimate {ratio:.3f}"
+        )
+    if s["true_grids"] is not None:
+        count, mx, med = s["true_grids"]
+        print(f"    on grids (coverage cells, strips; {count} pairs): worst {mx:.2e}, median {med:.2e}")
     if s["true_n64"] is not None:
         mx64, med64, over, count = s["true_n64"]
         print(
@@ -610,7 +639,8 @@ def print_summary(s: Mapping[str, Any]) -> None:
     ratio = s["cpu_accuracy"] / s["cpu_n64"] if s["cpu_n64"] else math.nan
     print(
         f"  CPU of the {s['cpu_points']} points (one thread, cold caches): --accuracy {ACCURACY:g} "
-        f"{s['cpu_accuracy']:.1f} s, n = {N_BEFORE} {s['cpu_n64']:.1f} s (ratio {ratio:.1f})"
+        f"{s['cpu_accuracy']:.1f} s ({s['cpu_exact_cell']:.2f} s of it the exact cells), n = {N_BEFORE} "
+        f"{s['cpu_n64']:.1f} s (ratio {ratio:.1f})"
     )
     print(
         "  references: "
