@@ -547,6 +547,26 @@ def run_rounds(
     select, finish)`` is one ordinary driver run over the tasks ``select`` (positions), whose
     rank 0 calls ``finish(dataset, joined)`` on the data set of every journaled task and
     writes what it returns (None: nothing, not the last round)."""
+    import os
+
+    from hpcontact.sweep import provenance
+
+    # one git revision for every round: a commit in the checkout while the sweep runs must not
+    # make the rounds' own journals look stale to the next round (the code running is the same)
+    pinned = os.environ.get(provenance.REVISION_VARIABLE)
+    revision = team.bcast(provenance.git_revision() if team.rank == 0 else None)
+    if revision is not None:
+        os.environ[provenance.REVISION_VARIABLE] = revision
+    try:
+        return _rounds(team, spec, task_of, options, stream, run_round)
+    finally:
+        if pinned is None:
+            os.environ.pop(provenance.REVISION_VARIABLE, None)
+        else:
+            os.environ[provenance.REVISION_VARIABLE] = pinned
+
+
+def _rounds(team: Any, spec: Any, task_of: np.ndarray, options: Any, stream: TextIO, run_round: RoundFunction) -> Any:
     layout = Layout.of(spec)
     task_of = np.asarray(task_of)
     state = initial_state(layout, spec.adaptive)

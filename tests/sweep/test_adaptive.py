@@ -234,3 +234,22 @@ def test_max_solves_bounds_the_solves(write_spec):
     )
     assert len(calls) == ds.attrs["sweep_solves"] <= 60
     assert ds.attrs["adaptive_max_solves"] == 60
+
+
+def test_a_commit_during_the_rounds_does_not_make_their_own_journals_stale(write_spec, monkeypatch):
+    """The git revision is read once per adaptive sweep: a commit in the checkout between two
+    rounds (another revision on every later read) must not refuse the rounds' own journals."""
+    import itertools
+    import os
+
+    from hpcontact.sweep import provenance
+
+    counter = itertools.count()
+    monkeypatch.delenv(provenance.REVISION_VARIABLE, raising=False)
+    monkeypatch.setattr(
+        provenance, "git_revision", lambda: os.environ.get(provenance.REVISION_VARIABLE) or f"rev{next(counter)}"
+    )
+    calls: list = []
+    ds = xr.open_dataset(sweep(write_spec(MINDLIN), counting(calls)))
+    assert ds.attrs["adaptive_rounds"] >= 2 and ds.attrs["sweep_solves"] == len(calls)
+    assert provenance.REVISION_VARIABLE not in os.environ  # restored after the sweep
