@@ -9,6 +9,7 @@ held; ``normal_held = "load"`` holds the normal force instead (:func:`load_held_
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -17,6 +18,15 @@ import numpy as np
 #: The suffix of a quantity's estimated relative error in a sweep's records and data set
 #: (``K_xx_error``: ``hpcontact.accuracy.error_columns``, docs/reference/dataset.md).
 ERROR_SUFFIX = "_error"
+
+#: Stored stiffnesses that carry an estimated relative error (``<name>_error``, linked from them
+#: by CF ``ancillary_variables`` in a sweep's data set): K_<ij>, K_max, K_min, K_min_over_K_max,
+#: K_a_over_K_b, Li's normalized_<ij>, and their coupled and bonded variants. Principal angles
+#: and the compliance proxy have none.
+ESTIMATED = re.compile(r"^(K_(?!nn$)\w+|normalized_(?!nn$)\w+)$")
+#: A slip sweep's computed stiffnesses: one grid each, so their ``<name>_error`` is NaN and
+#: ``error_status`` 2 everywhere (the Hertz and Mindlin references are closed forms).
+SLIP_ESTIMATED = re.compile(r"^((decoupled_)?(tangential|stick_area)_stiffness(_\w\w)?|no_slip_stiffness)$")
 
 
 def resultant(traction: np.ndarray, cell_area: float) -> np.ndarray:

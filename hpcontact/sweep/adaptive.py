@@ -46,23 +46,25 @@ sweep, stiffnesses and their ``<name>_error`` interpolated at unsolved points, p
 from __future__ import annotations
 
 import math
+import os
 import re
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any, TextIO
 
 import numpy as np
+import xarray as xr
 
 from hpcontact.errors import InputError
+from hpcontact.problems.kinds import CONTACT
+from hpcontact.quantities import ESTIMATED, SLIP_ESTIMATED
+from hpcontact.sweep import provenance
+from hpcontact.sweep.adaptive_settings import INTERPOLATED_AXES, Settings
+from hpcontact.sweep.columns import NOT_COMPUTED
+from hpcontact.sweep.dataset import DIRECTIONAL, TENSOR, _directional_errors, derive_directional
 from hpcontact.sweep.interpolation import Scale, TensorInterpolant, bisection_nodes, coordinate, refined
+from hpcontact.sweep.journal import OK
 
-#: Task axes an adaptive sweep interpolates (the rest are categorical: one sub-problem per value).
-INTERPOLATED_AXES = frozenset(
-    {"nu", "aspect", "anisotropy", "orientation", "angle", "load", "mu", "q_ratio", "anisotropy2", "orientation2"}
-)
-KEYS = ("tolerance", "max_solves", "quantities", "initial", "log")
-TOLERANCE_RANGE = "a relative error in [1e-8, 0.5]"
-DEFAULT_INITIAL = 5
 #: Stiffnesses the estimate of an off-diagonal entry is relative to (as ``dataset.error_attributes``).
 OFF_DIAGONAL = re.compile(r"^K_(xy|yx|xz|zx|yz|zy)(_coupled)?$")
 MAP_ERROR_SUFFIX = "_map_error"
@@ -73,125 +75,6 @@ SAFETY = 1.5
 
 
 State = tuple[tuple[tuple[int, ...], tuple[tuple[int, ...], ...]], ...]  # (categorical index, nodes per axis)
-
-
-@dataclass(frozen=True)
-class Settings:
-    """The checked ``[adaptive]`` table: ``tolerance`` per quantity (``quantities`` None: every
-    stored stiffness at ``default``), ``max_solves`` (None: the full grid bounds it), nodes per
-    axis of the first round and the list axes interpolated in log10."""
-
-    default: float
-    tolerances: tuple[tuple[str, float], ...] = ()
-    quantities: tuple[str, ...] | None = None
-    max_solves: int | None = None
-    initial: int = DEFAULT_INITIAL
-    log: tuple[str, ...] = ()
-
-    def tolerance(self, name: str) -> float:
-        """The tolerance of the quantity ``name``."""
-        return dict(self.tolerances).get(name, self.default)
-
-
-def _tolerance(key: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not 1e-8 <= value <= 0.5:
-        raise InputError(key, TOLERANCE_RANGE, value)
-    return float(value)
-
-
-def parse_settings(table: Any, axes: Sequence[Any], raw_axes: Mapping[str, Any], task_axes: Sequence[Any]) -> Settings:
-    """The ``Settings`` of the spec's ``[adaptive]`` ``table`` (``spec.parse_spec``); ``axes``
-    are the spec's checked axes, ``raw_axes`` its ``[axes]`` table as written, ``task_axes``
-    the axes solved per value. Refuses, naming the key, anything else."""
-    from hpcontact.sweep.dataset import ESTIMATED, SLIP_ESTIMATED
-
-    if not isinstance(table, dict):
-        raise InputError("adaptive", "a TOML table", table)
-    for key in table:
-        if key not in KEYS:
-            raise InputError(f"adaptive.{key}", f"unknown key; allowed: {', '.join(KEYS)}")
-    if "tolerance" not in table:
-        raise InputError("adaptive.tolerance", f"required: {TOLERANCE_RANGE} (or a table of them by quantity)")
-    stiffness = (ESTIMATED, SLIP_ESTIMATED)
-
-    def quantity(key: str, name: Any) -> str:
-        if not isinstance(name, str) or not any(p.match(name) for p in stiffness) or name.endswith("_error"):
-            raise InputError(
-                key, "a stored stiffness (K_xx, K_a_over_K_b, normalized_yy, tangential_stiffness, ...)", name
-            )
-        return name
-
-    raw = table["tolerance"]
-    tolerances: tuple[tuple[str, float], ...] = ()
-    if isinstance(raw, dict):
-        if not raw:
-            raise InputError("adaptive.tolerance", "a table of at least one quantity", raw)
-        tolerances = tuple(
-            (quantity(f"adaptive.tolerance.{k}", k), _tolerance(f"adaptive.tolerance.{k}", v)) for k, v in raw.items()
-        )
-        default = min(t for _, t in tolerances)
-    else:
-        default = _tolerance("adaptive.tolerance", raw)
-    quantities = None
-    if "quantities" in table:
-        names = table["quantities"]
-        if isinstance(names, str):
-            names = [names]
-        if not isinstance(names, list) or not names:
-            raise InputError("adaptive.quantities", "a list of stored stiffnesses", names)
-        quantities = tuple(dict.fromkeys(quantity("adaptive.quantities", n) for n in names))
-        if tolerances and set(quantities) != {k for k, _ in tolerances}:
-            raise InputError("adaptive.quantities", "the quantities of adaptive.tolerance, or left out", names)
-    elif tolerances:
-        quantities = tuple(k for k, _ in tolerances)
-    initial = table.get("initial", DEFAULT_INITIAL)
-    if isinstance(initial, bool) or not isinstance(initial, int) or not 2 <= initial <= 1000:
-        raise InputError(
-            "adaptive.initial", "an integer in [2, 1000] (nodes per numeric axis in the first round)", initial
-        )
-    log = table.get("log", [])
-    if isinstance(log, str):
-        log = [log]
-    if not isinstance(log, list):
-        raise InputError("adaptive.log", "a list of numeric axes", log)
-    by_name = {a.name: a for a in axes}
-    for name in log:
-        axis = by_name.get(name)
-        if axis is None or name not in INTERPOLATED_AXES:
-            raise InputError(
-                "adaptive.log", f"numeric axes of this spec ({', '.join(_numeric_names(task_axes))})", name
-            )
-        if not all(isinstance(v, (int, float)) and v > 0 for v in axis.values):
-            raise InputError("adaptive.log", f"an axis of positive values (axes.{name} has one <= 0)", name)
-    numeric = _numeric_names(task_axes)
-    if not any(len(a) >= 3 for a in task_axes if a.name in numeric):
-        raise InputError(
-            "adaptive",
-            "a spec with a numeric task axis of 3 or more values to interpolate "
-            f"({', '.join(sorted(INTERPOLATED_AXES))}); this one has none: leave [adaptive] out",
-        )
-    log = tuple(dict.fromkeys(log))
-    log += tuple(
-        name
-        for name, raw_axis in raw_axes.items()
-        if name in numeric and isinstance(raw_axis, dict) and "logspace" in raw_axis and name not in log
-    )
-    settings = Settings(default, tolerances, quantities, None, initial, log)
-    if "max_solves" in table:
-        value = table["max_solves"]
-        first = math.prod(len(bisection_nodes(len(a), initial)) if a.name in numeric else len(a) for a in task_axes)
-        if isinstance(value, bool) or not isinstance(value, int) or value < first:
-            raise InputError(
-                "adaptive.max_solves",
-                f"an integer >= {first} (the points of the first round, at most that many solves)",
-                value,
-            )
-        settings = replace(settings, max_solves=value)
-    return settings
-
-
-def _numeric_names(task_axes: Sequence[Any]) -> list[str]:
-    return [a.name for a in task_axes if a.name in INTERPOLATED_AXES]
 
 
 @dataclass(frozen=True)
@@ -375,8 +258,6 @@ def refine(
 
 def stiffness_names(ds: Any, kind: str) -> list[str]:
     """The stored stiffnesses of the data set ``ds`` (those that carry ``<name>_error``)."""
-    from hpcontact.problems.kinds import CONTACT
-    from hpcontact.sweep.dataset import ESTIMATED, SLIP_ESTIMATED
 
     pattern = ESTIMATED if kind == CONTACT else SLIP_ESTIMATED
     return [str(v) for v in ds.data_vars if pattern.match(str(v)) and not str(v).endswith("_error")]
@@ -412,11 +293,6 @@ def fill(ds: Any, spec: Any, layout: Layout, state: State, task_of: np.ndarray, 
     ``error_status`` the worst of the sub-problem's nodes), plus ``solved``,
     ``<name>_map_error`` for every stored stiffness (linked by ``ancillary_variables``) and the
     global attributes ``sweep_solves``, ``adaptive_*``."""
-    import xarray as xr
-
-    from hpcontact.sweep.columns import NOT_COMPUTED
-    from hpcontact.sweep.dataset import derive_directional
-    from hpcontact.sweep.journal import OK
 
     task_of = np.asarray(task_of)
     solved_tasks = state_tasks(layout, state, task_of)
@@ -513,7 +389,6 @@ def fill(ds: Any, spec: Any, layout: Layout, state: State, task_of: np.ndarray, 
 def _directional_map_error(ds: Any) -> Any:
     """``ds`` with ``K_nn_map_error`` (and ``normalized_nn_map_error``) where it has K_nn: the
     bound ``dataset`` derives ``K_nn_error`` by, on the tensor's map errors."""
-    from hpcontact.sweep.dataset import DIRECTIONAL, TENSOR, _directional_errors
 
     if "K_nn" not in ds or not all(f"{n}{MAP_ERROR_SUFFIX}" in ds for n in TENSOR):
         return ds
@@ -547,9 +422,6 @@ def run_rounds(
     select, finish)`` is one ordinary driver run over the tasks ``select`` (positions), whose
     rank 0 calls ``finish(dataset, joined)`` on the data set of every journaled task and
     writes what it returns (None: nothing, not the last round)."""
-    import os
-
-    from hpcontact.sweep import provenance
 
     # one git revision for every round: a commit in the checkout while the sweep runs must not
     # make the rounds' own journals look stale to the next round (the code running is the same)

@@ -67,7 +67,7 @@ import xarray as xr
 from hpcontact import __version__
 from hpcontact.materials.elastic_constants import FAMILIES
 from hpcontact.problems.kinds import CONTACT, SLIP
-from hpcontact.quantities import ERROR_SUFFIX, directional_error, directional_stiffness
+from hpcontact.quantities import ERROR_SUFFIX, ESTIMATED, SLIP_ESTIMATED, directional_error, directional_stiffness
 from hpcontact.sweep import netcdf
 from hpcontact.sweep.columns import NOT_COMPUTED, Joined, join, task_positions, to_columns
 from hpcontact.sweep.columns import is_number as _is_number
@@ -90,14 +90,6 @@ STATUS_MEANINGS = {
 #: (one grid, or a failed task): its ``<name>_error`` is NaN.
 ERROR_MET, ERROR_NOT_MET, NO_ESTIMATE = 0, 1, 2
 ERROR_STATUS_MEANINGS = {ERROR_MET: "met", ERROR_NOT_MET: "not_met", NO_ESTIMATE: "no_estimate"}
-#: Stored stiffnesses that carry an estimated relative error (``<name>_error``, linked from them
-#: by CF ``ancillary_variables``): K_<ij>, K_max, K_min, K_min_over_K_max, K_a_over_K_b, Li's
-#: normalized_<ij>, and their coupled and bonded variants. Principal angles and the compliance
-#: proxy have none.
-ESTIMATED = re.compile(r"^(K_(?!nn$)\w+|normalized_(?!nn$)\w+)$")
-#: A slip sweep's computed stiffnesses (``SLIP_ATTRS``): one grid each, so their ``<name>_error``
-#: is NaN and ``error_status`` 2 everywhere (the Hertz and Mindlin references are closed forms).
-SLIP_ESTIMATED = re.compile(r"^((decoupled_)?(tangential|stick_area)_stiffness(_\w\w)?|no_slip_stiffness)$")
 
 TENSOR = ("K_xx", "K_xy", "K_yx", "K_yy")
 DIRECTIONAL = ("K_nn", "normalized_nn")  # derived from the tensor (stored in the file)

@@ -100,6 +100,7 @@ from hpcontact.errors import InputError
 from hpcontact.materials.elastic_constants import FAMILIES as CONSTANT_FAMILIES
 from hpcontact.problems.kinds import CONTACT, SLIP, interval_fields, scene_kind, validator
 from hpcontact.scene import ACCURACY_RANGE
+from hpcontact.sweep.adaptive_settings import parse_settings
 
 TABLES = ("sweep", "scene", "numerics", "axes", "adaptive")  # [adaptive]: hpcontact.sweep.adaptive
 SWEEP_KEYS = ("title", "output", "journal", "angle_mode", "progress_interval")
@@ -497,8 +498,6 @@ def parse_spec(
         kind=kind,
     )
     if "adaptive" in data:  # the solved subset of the grid (hpcontact.sweep.adaptive)
-        from hpcontact.sweep.adaptive import parse_settings
-
         spec = replace(spec, adaptive=parse_settings(adaptive, axes, axes_table, spec.task_axes))
     if check_scenes:
         for _ in scene_runs(spec, validate):
