@@ -61,7 +61,7 @@ from hpcontact.quantities import ESTIMATED, SLIP_ESTIMATED
 from hpcontact.sweep import provenance
 from hpcontact.sweep.adaptive_settings import INTERPOLATED_AXES, Settings
 from hpcontact.sweep.columns import NOT_COMPUTED
-from hpcontact.sweep.dataset import DIRECTIONAL, TENSOR, _directional_errors, derive_directional
+from hpcontact.sweep.dataset import DIRECTIONAL, TENSOR, derive_directional, directional_errors
 from hpcontact.sweep.interpolation import Scale, TensorInterpolant, bisection_nodes, coordinate, refined
 from hpcontact.sweep.journal import OK
 
@@ -396,7 +396,7 @@ def _directional_map_error(ds: Any) -> Any:
     tmp = ds[[n for n in names if n in ds]]
     tmp = tmp.assign({f"{n}_error": ds[f"{n}{MAP_ERROR_SUFFIX}"] for n in [*TENSOR, "K_zz"] if n in ds})
     order = ds.attrs.get("sweep_axes", " ".join(map(str, ds.dims))).split()
-    derived = _directional_errors(tmp, order)
+    derived = directional_errors(tmp, order)
     out = ds
     for name in DIRECTIONAL:
         if f"{name}_error" in derived and name in ds:

@@ -532,10 +532,10 @@ def derive_directional(ds: xr.Dataset) -> xr.Dataset:
         normalized = out["K_nn"] * (ds["normalized_xx"] / kxx)
         normalized.attrs = dict(VARIABLE_ATTRS["normalized_nn"])
         out["normalized_nn"] = normalized.transpose(*[d for d in order if d in normalized.dims])
-    return _directional_errors(out, order)
+    return directional_errors(out, order)
 
 
-def _directional_errors(ds: xr.Dataset, order: list[str]) -> xr.Dataset:
+def directional_errors(ds: xr.Dataset, order: list[str]) -> xr.Dataset:
     """``ds`` with ``K_nn_error`` and ``normalized_nn_error`` where the tensor carries errors
     (``link_errors``), derived where they are not stored yet: the bound |nᵀ δK n| of
     ``quantities.directional_error`` on the entries' absolute errors (K_xy's and K_yx's relative

@@ -75,6 +75,19 @@ def started(log: Path, rank: int) -> list[tuple[int, str]]:
     return [(int(pid), key) for pid, key in (line.split() for line in lines)]
 
 
+def resumed(spec: Path, output: Path, log: Path, journaled: set[str], launched: list) -> tuple[str, list[str]]:
+    """Run the killed sweep again with ``--resume`` (logging to ``log``) and check that it ends
+    well, starts no task twice and none of the ``journaled`` ones; its output and the keys it ran."""
+    second = launch(spec, output, log, "--resume")
+    launched.append(second)
+    text = second.communicate(timeout=120)[0]
+    assert second.returncode == 0, text
+    rerun = [key for rank in (0, 1) for _, key in started(log, rank)]
+    assert len(rerun) == len(set(rerun)), "a task ran twice"
+    assert not set(rerun) & journaled, "a journaled task was computed again"
+    return text, rerun
+
+
 def test_resume_after_a_killed_rank_loses_nothing_and_recomputes_nothing(tmp_path, assert_same_results, launched):
     spec = tmp_path / "spec.toml"
     spec.write_text(SPEC)
@@ -96,13 +109,7 @@ def test_resume_after_a_killed_rank_loses_nothing_and_recomputes_nothing(tmp_pat
     journaled = set(read_journals(output.with_name("out.nc.journal")))
     assert 3 <= len(journaled) < len(keys) and journaled <= keys
 
-    second = launch(spec, output, tmp_path / "log2", "--resume")
-    launched.append(second)
-    text = second.communicate(timeout=120)[0]
-    assert second.returncode == 0, text
-    rerun = [key for rank in (0, 1) for _, key in started(tmp_path / "log2", rank)]
-    assert len(rerun) == len(set(rerun)), "a task ran twice"
-    assert not set(rerun) & journaled, "a journaled task was computed again"
+    text, rerun = resumed(spec, output, tmp_path / "log2", journaled, launched)
     assert set(rerun) | journaled == keys, "a task was lost"
     assert f"({len(journaled)} from journals)" in text
 
