@@ -1,10 +1,10 @@
 """Do the dry-run's estimates hold for tasks that ask for an accuracy? Per task and in total.
 
-    python benchmarks/accuracy_cost_estimates.py [--sweeps ellipses demo square] [--no-memory] [--json PATH]
+    python benchmarks/accuracy_cost_estimates.py [--sweeps ellipses demo exact square] [--no-memory] [--json PATH]
     python benchmarks/accuracy_cost_estimates.py --grid-counts     # where the sequences stop
     python benchmarks/accuracy_cost_estimates.py --strips          # strip cells' seconds and their fit
 
-Three small sweeps, their specs below (``SWEEPS``), costed as ``hpcontact run SPEC --dry-run``
+Four small sweeps, their specs below (``SWEEPS``), costed as ``hpcontact run SPEC --dry-run``
 costs them (``tasks.enumerate_tasks``, ``costmodel``: the grids ``accuracy.solve_to_accuracy`` is
 predicted to solve, ``tasks.accuracy_plan``) and run with the sweep's task function:
 
@@ -14,6 +14,11 @@ predicted to solve, ``tasks.accuracy_plan``) and run with the sweep's task funct
 * ``demo``: the scene types of jobs/demo.toml (ellipse and rectangle at b/a = 1, 1e-2, 1e-4,
   1e-8, a triangle, a 5-lobed star; isotropic and cubic A = 2, ψ = 20°), nu = 0.25, tol 1e-10,
   accuracy 1e-3: exact cells (the ellipses), coverage-weighted cells, strips (the rectangle 1e-8);
+* ``exact``: 36 crystal ellipses (b/a 0.5, 1e-3 × nu 0.05, 0.45 × A 0.5, 2, 3 × ψ 0°, 35.26°,
+  70°) at accuracy 1e-6 on their exact cell, in an order where no task finds its material's
+  kernel cached (18 materials, the cache keeps 8): what the scenes of
+  ``jobs/adaptive_orientation_map.toml`` cost, the kernel's build (``costmodel.Rate.exact_s``)
+  nearly all of it;
 * ``square``: the tasks of the most grids and the largest arrays a sweep's ``auto`` now
   solves: a square at accuracy 1e-5 and 1e-6 (coverage-weighted cells, six grids to
   1024 × 1024 predicted, the plan's end), nu = 0 and 0.5 (it replaced the circle's singular
@@ -96,6 +101,21 @@ shape = [
 ]
 aspect = [1.0, 1e-2, 1e-4, 1e-8]
 anisotropy = [1.0, 2.0]
+""",
+    "exact": """
+[sweep]
+title = "accuracy cost: crystal ellipses on their exact cell, each kernel built cold (as in an adaptive map)"
+output = "results/accuracy_cost_estimates_exact.nc"
+[scene]
+shape = "ellipse"
+quantities = ["tangential", "normal"]
+[numerics]
+accuracy = 1e-6
+[axes]
+aspect = [0.5, 1e-3]
+nu = [0.05, 0.45]
+anisotropy = [0.5, 2.0, 3.0]
+orientation = [0.0, 35.26438968275465, 70.0]
 """,
     "square": """
 [sweep]

@@ -60,8 +60,13 @@ more per decade below, ``tasks.predicted_grid_count``), each grid's work summed 
 ``tasks.Work`` whose terms take the contact kind's coefficients:
 
     seconds = rate_s × fft + solve_s × solves + cell_s × cells + task_s × grids + strip_s × strips
+              + exact_s × exact
 
-(``work_seconds``): an ellipse's or circle's one exact cell (galin: no grid) one task term; a
+(``work_seconds``): an ellipse's or circle's one exact cell (galin: no grid) one task term, and
+a crystal's also ``exact_s``, the build of its kernel's Fourier series (``EXACT_CALIBRATION_SCENE``
+timed cold less warm: every crystal exact cell is costed cold, although a rank's kernel cache
+keeps the last 8 materials, so sweeps that repeat a material over consecutive tasks run below
+the estimate); a
 grid of coverage-weighted cells its one-grid FFT model
 (cost, cost / (S log2 S), S and one task term) times its cells' measured factor, a crystal's
 included (the crystal kind's own fit, on n = 32 and 64, has no FFT term to carry to n = 1024);
@@ -137,9 +142,11 @@ import numpy as np
 
 from hpcontact import __version__
 from hpcontact.accuracy import task_function
+from hpcontact.discretizations import galin_ellipse
 from hpcontact.discretizations.boundary_cells import covered_solve
 from hpcontact.errors import InputError
 from hpcontact.kernels.anisotropic import as_voigt, surface_green_nodes
+from hpcontact.kernels.anisotropic import clear_cache as clear_kernels  # convolution has a clear_cache too
 from hpcontact.materials.elastic_constants import anisotropic_material
 from hpcontact.numerics.blas import limited_blas
 from hpcontact.numerics.convolution import clear_cache, wisdom_path
@@ -166,8 +173,9 @@ from hpcontact.sweep.tasks import (
 )
 
 KINDS = ("contact", "crystal", "crystal_indentation", "slip")
-# version of the calibration file's layout (2: node_s, Barnett–Lothe; 3: cell_s, kernels; 4: task_s; 5: strip_s)
-FORMAT = 5
+# version of the calibration file's layout (2: node_s, Barnett–Lothe; 3: cell_s, kernels; 4: task_s; 5: strip_s;
+# 6: exact_s)
+FORMAT = 6
 _TANGENTIAL_NORMAL = ["tangential", "normal"]
 # Calibration scenes: (small, larger) per kind, with the fields a sweep of that kind sets.
 CALIBRATION_SCENES: dict[str, tuple[dict[str, Any], dict[str, Any]]] = {
@@ -275,12 +283,27 @@ STRIP_CALIBRATION_SCENE: dict[str, Any] = {
 }
 
 
+# A crystal ellipse on its one exact cell (``hpcontact.discretizations.galin_ellipse``): the
+# seconds its kernel's Fourier series takes to build (cold cache) are the contact kind's
+# ``exact_s``, what a crystal exact cell costs beyond the task term (0.05–0.12 s on the
+# development machine over A 0.5–3, ψ 0–55°, nu 0.05–0.45; its warm solve ~1 ms).
+EXACT_CALIBRATION_SCENE: dict[str, Any] = {
+    "shape": "ellipse",
+    "aspect": 0.5,
+    "nu": 0.3,
+    "anisotropy": 2.0,
+    "orientation": 30.0,
+    "quantities": _TANGENTIAL_NORMAL,
+}
+
+
 @dataclass(frozen=True)
 class Rate:
     """Seconds of a task of one kind: ``rate_s × cost + solve_s × solve_units + cell_s ×
     padded cells + node_s × omega_nodes + task_s`` (module docstring; ``cell_s``,
-    ``task_s`` and ``strip_s``, seconds per strip unit of an accuracy task's strip cells, are
-    measured for the isotropic contact kind, ``node_s`` for slip scenes)."""
+    ``task_s``, ``strip_s``, seconds per strip unit of an accuracy task's strip cells, and
+    ``exact_s``, seconds of a crystal exact cell's kernel build, are measured for the isotropic
+    contact kind, ``node_s`` for slip scenes)."""
 
     rate_s: float
     solve_s: float
@@ -288,6 +311,7 @@ class Rate:
     cell_s: float = 0.0
     task_s: float = 0.0
     strip_s: float = 0.0
+    exact_s: float = 0.0
 
 
 def work_seconds(rate: Rate, work: Work) -> float:
@@ -299,6 +323,7 @@ def work_seconds(rate: Rate, work: Work) -> float:
         + rate.cell_s * work.cells
         + rate.task_s * work.grids
         + rate.strip_s * work.strips
+        + rate.exact_s * work.exact
     )
 
 
@@ -460,6 +485,23 @@ def _timed_strips(params: Mapping[str, Any], repeats: int = 2) -> float:
     return best
 
 
+def _timed_exact(params: Mapping[str, Any], repeats: int = 2) -> float:
+    """CPU seconds that the crystal ellipse ``params`` takes on its exact cell beyond its warm
+    solve: the build of its kernel's Fourier series, the kernel cache emptied before each of
+    ``repeats`` timings (the least counts)."""
+    scene = Scene.from_params(dict(params))
+    best = math.inf
+    for _ in range(repeats):
+        clear_kernels()
+        started = time.process_time()
+        galin_ellipse.solve(scene)
+        cold = time.process_time() - started
+        started = time.process_time()
+        galin_ellipse.solve(scene)
+        best = min(best, cold - (time.process_time() - started))
+    return max(0.0, best)
+
+
 def calibrate(scenes: Mapping[str, Sequence[Mapping[str, Any]]] = CALIBRATION_SCENES) -> Calibration:
     """Measure ``Rate`` per kind on this machine (module docstring) and the base memory."""
 
@@ -468,7 +510,9 @@ def calibrate(scenes: Mapping[str, Sequence[Mapping[str, Any]]] = CALIBRATION_SC
     rates = {kind: fit_rate(pair, [_timed(p) for p in pair]) for kind, pair in scenes.items() if kind != "contact"}
     contact = _fit_with_kernels(scenes["contact"])
     strips = max(0.0, _timed_strips(STRIP_CALIBRATION_SCENE) - contact.task_s)
-    rates["contact"] = replace(contact, strip_s=strips / strip_units(STRIP_CALIBRATION_SCENE))
+    rates["contact"] = replace(
+        contact, strip_s=strips / strip_units(STRIP_CALIBRATION_SCENE), exact_s=_timed_exact(EXACT_CALIBRATION_SCENE)
+    )
     slip, scene = rates["slip"], ANISOTROPIC_SLIP_SCENE
     cost = estimated_cost(scene)
     rest = _timed(scene) - slip.rate_s * cost - slip.solve_s * solve_units(scene, cost)
@@ -562,7 +606,7 @@ def read_calibration(path: Path) -> Calibration:
         rates[kind] = Rate(
             *(
                 _number(entry, name, f"rates.{kind}.")
-                for name in ("rate_s", "solve_s", "node_s", "cell_s", "task_s", "strip_s")
+                for name in ("rate_s", "solve_s", "node_s", "cell_s", "task_s", "strip_s", "exact_s")
             )
         )
         if not all(math.isfinite(v) and v >= 0.0 for v in asdict(rates[kind]).values()):

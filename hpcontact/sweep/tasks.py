@@ -205,14 +205,16 @@ class Work(NamedTuple):
     """The work of an accuracy task summed over its predicted grids (``accuracy_work``), one
     number per term of the cost model's seconds (``costmodel.Rate``): ``fft`` cost units
     (× rate_s), ``solves`` solve units (× solve_s), ``cells`` padded cells whose kernels are built
-    (× cell_s), ``grids`` (× task_s) and ``strips`` strip units (× strip_s); the FFT terms of a
-    grid carry its boundary cells' factor."""
+    (× cell_s), ``grids`` (× task_s), ``strips`` strip units (× strip_s) and ``exact`` crystal
+    exact cells whose kernel is built (× exact_s); the FFT terms of a grid carry its boundary
+    cells' factor."""
 
     fft: float
     solves: float
     cells: float
     grids: float
     strips: float
+    exact: float
 
 
 class Sizing(NamedTuple):
@@ -796,16 +798,17 @@ def strip_units(level: Mapping[str, Any]) -> float:
 
 def level_work(level: Mapping[str, Any]) -> Work:
     """``Work`` of one level of ``accuracy_levels``: the one exact cell of an ellipse (galin) one
-    task term; a strip grid its ``strip_units``; a grid of coverage-weighted cells its one-grid
+    task term, and for a crystal one build of its kernel's Fourier series (the Barnett–Lothe
+    integrals at 128–256 directions: nearly all of such a task's time); a strip grid its ``strip_units``; a grid of coverage-weighted cells its one-grid
     FFT model (``_contact_cost``: cost units, solve units cost / (S log2 S), S padded cells, one
     task term) times its cells' factor (``COVERAGE_WORK`` × (1 + ``COVERAGE_ASPECT_WORK`` log2 ρ),
     ``CRYSTAL_COVERAGE_WORK`` for a crystal), plus, for an outline that is not an ellipse, circle
     or rectangle, its clipping: ``OUTLINE_COVERAGE_WORK`` per cell along both sides (n + n_across)."""
     boundary = level.get(BOUNDARY_TAG, "coverage")
     if boundary == "galin":  # a contour integral over the kernel's Fourier series: one task term
-        return Work(0.0, 0.0, 0.0, 1.0, 0.0)
+        return Work(0.0, 0.0, 0.0, 1.0, 0.0, 1.0 if task_kind(level) == "crystal" else 0.0)
     if boundary == "strip":
-        return Work(0.0, 0.0, 0.0, 1.0, strip_units(level))
+        return Work(0.0, 0.0, 0.0, 1.0, strip_units(level), 0.0)
     cost = _contact_cost(level)
     cells = footprint.padded_cells(level)
     if task_kind(level) != "contact":
@@ -816,7 +819,7 @@ def level_work(level: Mapping[str, Any]) -> Work:
     fft = factor * cost
     if level.get("shape", "circle") not in ANALYTIC_OUTLINES:
         fft += OUTLINE_COVERAGE_WORK * (int(level["n"]) + int(level["n_across"]))
-    return Work(fft, factor * cost / (cells * math.log2(cells)), factor * cells, factor, 0.0)
+    return Work(fft, factor * cost / (cells * math.log2(cells)), factor * cells, factor, 0.0, 0.0)
 
 
 def accuracy_work(params: Mapping[str, Any]) -> Work:

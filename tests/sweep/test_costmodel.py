@@ -462,6 +462,13 @@ def test_the_dry_run_estimates_accuracy_tasks_as_task_by_task_and_labels_their_g
     # the circle and the four ellipses of each material: one exact cell each
     assert grids["contact accuracy: one exact cell (galin)"] == grids["crystal accuracy: one exact cell (galin)"] == 5
     assert sum(grids.values()) == len(tasks)
+    # an exact cell costs its task term, and a crystal's also the build of its kernel (exact_s)
+    exact = replace(rates["contact"], exact_s=0.07)
+    with_build = Calibration("here", __version__, {**rates, "contact": exact}, 50.0 * 2**20)
+    for t in tasks:
+        if costmodel.grid_label(t.params).endswith("(galin)"):
+            build = 0.07 if costmodel.grid_label(t.params).startswith("crystal") else 0.0
+            assert with_build.task_seconds(t.params) == pytest.approx(calibration.task_seconds(t.params) + build)
     labels = {}
     for t in tasks:
         labels[costmodel.grid_label(t.params)] = labels.get(costmodel.grid_label(t.params), 0) + 1
@@ -499,8 +506,22 @@ def test_the_calibration_measures_strips_and_its_file_keeps_them(tmp_path, monke
     monkeypatch.setattr(costmodel, "_timed", lambda params, repeats=2: 0.01)
     monkeypatch.setattr(costmodel, "_timed_solve", lambda params, repeats=2: (0.02, 10))
     monkeypatch.setattr(costmodel, "_timed_strips", lambda params, repeats=2: 0.51)
+    monkeypatch.setattr(costmodel, "_timed_exact", lambda params, repeats=2: 0.08)
     monkeypatch.setattr(costmodel, "omega_nodes", lambda params: 64)
     calibration = costmodel.calibrate()
     contact = calibration.rates["contact"]
     assert contact.strip_s == pytest.approx((0.51 - contact.task_s) / strip_units(costmodel.STRIP_CALIBRATION_SCENE))
     assert all(calibration.rates[k].strip_s == 0.0 for k in costmodel.KINDS if k != "contact")
+    assert contact.exact_s == 0.08 and all(
+        calibration.rates[k].exact_s == 0.0 for k in costmodel.KINDS if k != "contact"
+    )
+
+
+def test_the_exact_cell_calibration_times_the_kernel_build_not_a_cached_kernel():
+    """``_timed_exact`` empties the kernel cache before each cold solve: a cached kernel would
+    leave cold − warm at ~0 (the warm exact cell takes ~1 ms, its kernel's build 50–120 ms)."""
+    from hpcontact.kernels.anisotropic import kernel_for
+    from hpcontact.scene import Scene
+
+    kernel_for(Scene.from_params(costmodel.EXACT_CALIBRATION_SCENE).material)  # cached before: must not count
+    assert costmodel._timed_exact(costmodel.EXACT_CALIBRATION_SCENE, repeats=1) > 0.01

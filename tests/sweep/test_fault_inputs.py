@@ -370,7 +370,15 @@ def _valid_record() -> dict:
         "base_bytes": 1.0,
         "seconds": 1.0,
         "rates": {
-            k: {"rate_s": 1e-7, "solve_s": 0.0, "node_s": 0.0, "cell_s": 0.0, "task_s": 0.0, "strip_s": 0.0}
+            k: {
+                "rate_s": 1e-7,
+                "solve_s": 0.0,
+                "node_s": 0.0,
+                "cell_s": 0.0,
+                "task_s": 0.0,
+                "strip_s": 0.0,
+                "exact_s": 0.0,
+            }
             for k in costmodel.KINDS
         },
     }
