@@ -132,6 +132,31 @@ class Outcome:
     up_to_date: bool = False
 
 
+@dataclass
+class RoundTally:
+    """The summary's sums over the rounds of an adaptive run (``adaptive.run_rounds``): each
+    round is a run of its own, and the data set's summary is of them all (tasks run and reused,
+    task, set-up, scheduling and journal seconds); ``begun`` counts the rounds begun (every
+    rank), the sums are rank 0's."""
+
+    begun: int = 0
+    run: int = 0
+    reused: int = 0
+    task_s: float = 0.0
+    setup_s: float = 0.0
+    schedule_s: float = 0.0
+    journal_s: float = 0.0
+
+    def add(self, run: int, reused: int, task_s: float, setup_s: float, schedule_s: float, journal_s: float) -> None:
+        """Count one more round."""
+        self.run += run
+        self.reused += reused
+        self.task_s += task_s
+        self.setup_s += setup_s
+        self.schedule_s += schedule_s
+        self.journal_s += journal_s
+
+
 @dataclass(frozen=True)
 class Decision:
     """Rank 0's decisions, broadcast to every rank: tasks by position (0-based, task order)."""
@@ -440,8 +465,12 @@ def execute(
     mine = pickle.dumps(_share(spec, team.rank, team.size, validate, options), protocol=pickle.HIGHEST_PROTOCOL)
     tasks, task_of, over = _joined(spec, [pickle.loads(b) for b in team.bcast(team.gather(mine))])
 
+    tally = RoundTally() if spec.adaptive is not None else None
+
     def run_round(options: Options, select: frozenset[int] | None = None, finish: Callable | None = None) -> Outcome:
-        return _round(team, spec, tasks, task_of, over, options, task_function, stream, stop, started, select, finish)
+        return _round(
+            team, spec, tasks, task_of, over, options, task_function, stream, stop, started, select, finish, tally
+        )
 
     if spec.adaptive is not None:  # rounds of runs over subsets of the tasks (hpcontact.sweep.adaptive)
         from hpcontact.sweep.adaptive import run_rounds
@@ -463,11 +492,18 @@ def _round(
     started: float,
     select: frozenset[int] | None = None,
     finish: Callable | None = None,
+    tally: RoundTally | None = None,
 ) -> Outcome:
     """Every rank: rank 0 prepares, the ranks run the plan (see ``execute``). An adaptive round
     (``adaptive.run_rounds``) runs the tasks of ``select`` (positions) alone, and rank 0 gives
-    the data set to ``finish(dataset, joined)`` and writes what it returns (None: nothing)."""
-    keep: dict[str, Any] = {"select": select, "finish": finish}  # rank 0 only
+    the data set to ``finish(dataset, joined)`` and writes what it returns (None: nothing); its
+    set-up runs from the round's start (the first's from the run's), and ``tally`` sums the
+    rounds for the summary."""
+    round_started = started
+    if tally is not None:
+        round_started = started if tally.begun == 0 else time.perf_counter()
+        tally.begun += 1
+    keep: dict[str, Any] = {"select": select, "finish": finish, "tally": tally}  # rank 0 only
     d: Decision = _shared(team, lambda: prepare(spec, tasks, task_of, over, options, team.size, keep))
     plan = Plan.of(spec, tasks, d)
     try:
@@ -480,7 +516,7 @@ def _round(
                 )
             return Outcome(Path(spec.output), 0, up_to_date=True)
         with limited_blas():  # HPCONTACT_BLAS_THREADS while the tasks run (numerics.blas)
-            return _run(team, plan, keep, task_function, stream, stop, options, started)
+            return _run(team, plan, keep, task_function, stream, stop, options, started, round_started)
     finally:
         stop.close()
         if team.rank == 0:
@@ -496,8 +532,10 @@ def _run(
     stop: StopControl,
     options: Options,
     started: float,
+    round_started: float,
 ) -> Outcome:
-    """Every rank: the work of ``plan``, then rank 0 assembles the data set (see ``execute``)."""
+    """Every rank: the work of ``plan``, then rank 0 assembles the data set (see ``execute``);
+    the set-up runs from ``round_started``, the wall time from ``started``."""
     spec, tasks = plan.spec, plan.tasks
     if task_function is None:
         task_function = accuracy.task_function(spec.kind)
@@ -507,7 +545,7 @@ def _run(
     # at their first application, not after ~40-80 (hpcontact.numerics.convolution)
     todo = plan.isolated + plan.shared
     expect_applications(fft_applications(t.params for t in todo[team.rank :: team.size]))
-    setup_s = time.perf_counter() - started
+    setup_s = time.perf_counter() - round_started
 
     progress = None
     if team.rank == 0:
@@ -696,6 +734,20 @@ def _assemble(
         },
         derive=False,  # write_netcdf stores K_nn and normalized_nn (it derives them once, there)
     )
+    sums = RoundTally(
+        run=sum(t[1] for t in totals),
+        reused=plan.decision.reused,
+        task_s=sum(t[0] for t in totals),
+        setup_s=setup_s,
+        schedule_s=sum(t[2] for t in totals),
+        journal_s=sum(t[3] for t in totals),
+    )
+    tally: RoundTally | None = keep.get("tally")
+    if tally is not None:  # an adaptive round: the summary counts this run's rounds so far
+        selected = keep["select"] if keep["select"] is not None else range(len(plan.tasks))
+        reused = sum(1 for i in selected if plan.tasks[i].key in keep["reused"])  # this round's, from journals
+        tally.add(sums.run, reused, sums.task_s, sums.setup_s, sums.schedule_s, sums.journal_s)
+        sums = tally
     if keep.get("finish") is not None:  # an adaptive round (adaptive.run_rounds)
         dataset = keep["finish"](dataset, joined)
         if dataset is None:  # not the last round: nothing to write
@@ -704,15 +756,15 @@ def _assemble(
     summary = Summary(
         tasks=len(plan.tasks),
         points=math.prod(len(a) for a in spec.axes),
-        run=sum(t[1] for t in totals),
-        reused=plan.decision.reused,
+        run=sums.run,
+        reused=sums.reused,
         failures=len(failed),
         ranks=ranks,
         wall_s=now - started,
-        task_s=sum(t[0] for t in totals),
-        setup_s=setup_s,
-        schedule_s=sum(t[2] for t in totals),
-        journal_s=sum(t[3] for t in totals),
+        task_s=sums.task_s,
+        setup_s=sums.setup_s,
+        schedule_s=sums.schedule_s,
+        journal_s=sums.journal_s,
         gather_s=now - gather_started,
     )
     dataset.attrs.update(summary.attrs())

@@ -97,6 +97,13 @@ def test_mindlin_map_within_tolerance_with_honest_estimates_and_few_solves(write
         assert np.mean(ds[f"{name}_map_error"].values >= true) >= 0.95, name
         assert ds[f"{name}_map_error"].max() <= 1e-3  # the tolerance met by the estimate
     assert ds.attrs["adaptive_max_map_error"] <= 1e-3
+    # the summary is of every round: tasks run and task time summed, set-up per round (not the
+    # time since the run began, which counted the earlier rounds' tasks as set-up)
+    assert ds.attrs["adaptive_rounds"] >= 2
+    assert ds.attrs["sweep_tasks_run"] == len(calls) and ds.attrs["sweep_tasks_reused"] == 0
+    assert ds.attrs["sweep_task_time_s"] == pytest.approx(float(ds["wall_time_s"].where(ds["solved"] == 1).sum()))
+    spent = ds.attrs["sweep_setup_time_s"] + ds.attrs["sweep_task_time_s"]
+    assert spent <= ds.attrs["sweep_wall_time_s"] and 0.0 < ds.attrs["sweep_parallel_efficiency"] <= 1.0
 
 
 def test_the_data_set_has_the_full_sweeps_variables_and_marks_the_solved_points(write_spec, tmp_path):
@@ -166,6 +173,7 @@ def test_an_interrupted_adaptive_sweep_resumes_without_solving_twice(write_spec,
     rerun = {k for k, t in keys.items() if dict(t.params) in again}
     assert not rerun & journaled, "a journaled task was solved again"
     assert len(again) + len(journaled) == resumed.attrs["sweep_solves"] == reference.attrs["sweep_solves"]
+    assert (resumed.attrs["sweep_tasks_run"], resumed.attrs["sweep_tasks_reused"]) == (len(again), len(journaled))
     for name in reference.data_vars:
         if name not in ("wall_time_s",):
             xr.testing.assert_equal(resumed[name], reference[name])
