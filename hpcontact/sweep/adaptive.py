@@ -69,6 +69,8 @@ from hpcontact.sweep.journal import OK
 OFF_DIAGONAL = re.compile(r"^K_(xy|yx|xz|zx|yz|zy)(_coupled)?$")
 MAP_ERROR_SUFFIX = "_map_error"
 INTERPOLATED_MESSAGE = "interpolated (adaptive map)"
+#: An unsolved point whose interpolant needs a node whose solve failed (status not computed).
+UNINTERPOLATED_MESSAGE = "not interpolated: a solve it depends on failed (adaptive map)"
 #: Factor on the interpolation estimate (the next Newton term): measured on Mindlin's map
 #: (tests/sweep/test_adaptive.py), 1 under-estimates at ~7 % of the points, 1.5 at none.
 SAFETY = 1.5
@@ -343,7 +345,7 @@ def fill(ds: Any, spec: Any, layout: Layout, state: State, task_of: np.ndarray, 
     status[unsolved] = np.where(finite[unsolved], OK, NOT_COMPUTED)
     out["status"] = (dims, status, out["status"].attrs)
     message = out["message"].values.astype(object).copy()
-    message[unsolved] = INTERPOLATED_MESSAGE
+    message[unsolved] = np.where(finite[unsolved], INTERPOLATED_MESSAGE, UNINTERPOLATED_MESSAGE)
     out["message"] = (dims, message, out["message"].attrs)
     if worst_status is not None:
         out["error_status"] = (dims, worst_status, out["error_status"].attrs)
@@ -376,6 +378,7 @@ def fill(ds: Any, spec: Any, layout: Layout, state: State, task_of: np.ndarray, 
     out.attrs.update(
         sweep_solves=int(len(solved_tasks)),
         sweep_points_solved=int(solved.sum()),
+        adaptive_points_not_interpolated=int(np.count_nonzero(unsolved & ~finite)),
         adaptive_rounds=int(rounds),
         adaptive_tolerance=float(spec.adaptive.default),
         adaptive_quantities=" ".join(refined),

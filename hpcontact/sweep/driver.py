@@ -329,13 +329,19 @@ def prepare(
             )
         now = provenance.current()
         isolated, shared, reused, crashed = _decide(spec, tasks, history, options, now)
+        carried: set[str] = set()
         if keep.get("select") is not None:  # an adaptive round: its tasks alone
             isolated = [i for i in isolated if i in keep["select"]]
             shared = [i for i in shared if i in keep["select"]]
+            # the earlier rounds' failures are not run again, but stay in the data set as they failed
+            carried = {
+                t.key for t in tasks if t.key in history.entries and t.key not in reused and t.key not in crashed
+            }
+            carried -= {tasks[i].key for i in keep["select"]}
     except BaseException:
         lock.release()
         raise
-    keep.update(task_of=task_of, lock=lock, history=history, reused=reused, crashed=crashed, note=note)
+    keep.update(task_of=task_of, lock=lock, history=history, reused=reused, crashed=crashed, carried=carried, note=note)
     return Decision(isolated, shared, len(reused), len(crashed), session_name(), now, injected)
 
 
@@ -713,7 +719,7 @@ def _assemble(
     earlier = [
         (history.crashed_entry(t.key, t.params) if t.key in keep["crashed"] else history.entries[t.key], i)
         for i, t in enumerate(plan.tasks)
-        if t.key in keep["crashed"] or t.key in keep["reused"]
+        if t.key in keep["crashed"] or t.key in keep["reused"] or t.key in keep.get("carried", ())
     ]
     parts = [to_columns([e for e, _ in earlier], [i for _, i in earlier])] + [t[8] for t in totals]
     joined = join(parts, len(plan.tasks), FIXED_VARIABLES)

@@ -21,7 +21,7 @@ is ``~|f'''| h^3 / 16`` (zero on a quadratic). The estimates of the axes add
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from enum import Enum
 
 import numpy as np
@@ -146,9 +146,23 @@ def estimate_weights(x: np.ndarray, nodes: Sequence[int], stencil: int = STENCIL
     return out
 
 
-def _apply(matrix: np.ndarray, data: np.ndarray, axis: int) -> np.ndarray:
-    """``matrix`` applied along ``axis`` of ``data``."""
-    return np.moveaxis(np.tensordot(matrix, data, axes=(1, axis)), 0, axis)
+def _apply(
+    matrix: np.ndarray, data: np.ndarray, axis: int, without: Callable[[np.ndarray], np.ndarray] | None = None
+) -> np.ndarray:
+    """``matrix`` applied along ``axis`` of ``data``. A line of ``data`` along ``axis`` that
+    holds NaN (a node whose solve failed) is interpolated from its other nodes instead, by
+    ``without(valid)``, the matrix of the nodes where ``valid`` (all NaN where none is): the
+    matrix product would spread the NaN to every point (0 × NaN is NaN), and a hole in one line
+    leaves the others as they are."""
+    moved = np.moveaxis(np.asarray(data, dtype=np.float64), axis, 0)
+    lines = moved.reshape(moved.shape[0], -1)
+    missing = np.isnan(lines)
+    out = matrix @ np.where(missing, 0.0, lines)
+    holed = np.flatnonzero(missing.any(axis=0))
+    for line in holed:
+        valid = ~missing[:, line]
+        out[:, line] = without(valid) @ lines[valid, line] if without is not None and valid.any() else np.nan
+    return np.moveaxis(out.reshape((matrix.shape[0], *moved.shape[1:])), 0, axis)
 
 
 class TensorInterpolant:
@@ -160,19 +174,38 @@ class TensorInterpolant:
             raise ValueError("one node list per axis")
         self.xs = [np.asarray(x, dtype=np.float64) for x in xs]
         self.nodes = [list(n) for n in nodes]
+        self.stencil = stencil
         self.high = [weights(x, n, stencil) for x, n in zip(self.xs, self.nodes)]
         self.low = [
             (estimate_weights(x, n, stencil, 0), estimate_weights(x, n, stencil, 1))
             for x, n in zip(self.xs, self.nodes)
         ]
 
-    def values(self, data: np.ndarray) -> np.ndarray:
-        """The interpolant on the full grid from ``data`` at the nodes (shape: the node counts,
-        then any trailing dimensions)."""
+    def _without(self, axis: int, side: int | None) -> Callable[[np.ndarray], np.ndarray]:
+        """The matrix along ``axis`` (``weights``; ``estimate_weights`` of ``side``) of the nodes
+        where ``valid``: a line with a failed node interpolates from the others."""
+        x, nodes = self.xs[axis], np.asarray(self.nodes[axis])
+
+        def matrix(valid: np.ndarray) -> np.ndarray:
+            kept = nodes[valid]
+            return weights(x, kept, self.stencil) if side is None else estimate_weights(x, kept, self.stencil, side)
+
+        return matrix
+
+    def _along(self, data: np.ndarray, low: tuple[int, int] | None = None) -> np.ndarray:
+        """``data`` at the nodes interpolated axis after axis; ``low`` = (axis, side): that
+        axis with the estimate's matrix of ``side``."""
         out = np.asarray(data, dtype=np.float64)
         for axis, matrix in enumerate(self.high):
-            out = _apply(matrix, out, axis)
+            side = low[1] if low is not None and low[0] == axis else None
+            out = _apply(matrix if side is None else self.low[axis][side], out, axis, self._without(axis, side))
         return out
+
+    def values(self, data: np.ndarray) -> np.ndarray:
+        """The interpolant on the full grid from ``data`` at the nodes (shape: the node counts,
+        then any trailing dimensions). A NaN node (a failed solve) is left out of the lines
+        through it (``_apply``)."""
+        return self._along(data)
 
     def estimates(self, data: np.ndarray, full: np.ndarray | None = None) -> list[np.ndarray]:
         """The absolute error estimate of each axis on the full grid (module docstring); ``full``
@@ -181,11 +214,8 @@ class TensorInterpolant:
         out = []
         for axis in range(len(self.xs)):
             worst = None
-            for low in self.low[axis]:
-                other = np.asarray(data, dtype=np.float64)
-                for d, matrix in enumerate(self.high):
-                    other = _apply(low if d == axis else matrix, other, d)
-                diff = np.abs(other - full)
+            for side in (0, 1):
+                diff = np.abs(self._along(data, (axis, side)) - full)
                 worst = diff if worst is None else np.fmax(worst, diff)
             out.append(worst)
         return out

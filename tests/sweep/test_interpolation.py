@@ -113,3 +113,27 @@ def test_tensor_product_in_two_dimensions_with_trailing_quantities():
     assert np.mean(1.5 * estimate >= true) >= 0.95  # with adaptive.SAFETY: an estimate, not a bound
     assert 0.5 < estimate.max() / true.max() < 4.0
     assert np.all(ex[nodes[0], :, :] == 0.0) and np.all(ey[:, nodes[1], :] == 0.0)  # zero on its own nodes
+
+
+def test_a_failed_node_is_left_out_of_its_lines_and_spoils_nothing_else():
+    """A NaN node (a failed solve): the lines through it interpolate from their other nodes, so
+    a cubic × quadratic is still reproduced exactly everywhere (four valid nodes remain on the
+    cubic's line), the NaN itself included (it is interpolated over), and the estimates stay
+    finite; before, the matrix product made every point NaN (0 × NaN)."""
+    x = np.linspace(0.0, 1.0, 17)
+    y = np.linspace(0.0, 2.0, 9)
+    nodes = [[0, 4, 8, 12, 16], [0, 2, 4, 6, 8]]
+    X, Y = np.meshgrid(x, y, indexing="ij")
+    f = np.stack([X**3 * Y**2, 1.0 + X * Y], axis=-1)
+    interpolant = TensorInterpolant([x, y], nodes)
+    at_nodes = f[np.ix_(*nodes)].copy()
+    at_nodes[2, 3, :] = np.nan  # the node (x = 0.5, y = 1.5) failed
+    full = interpolant.values(at_nodes)
+    np.testing.assert_allclose(full, f, atol=1e-12)
+    assert all(np.all(np.isfinite(e)) for e in interpolant.estimates(at_nodes, full))
+    # a whole row of failed nodes: the lines along y fill it from the other rows
+    at_nodes[:, 3, :] = np.nan
+    np.testing.assert_allclose(interpolant.values(at_nodes), f, atol=1e-12)
+    # a line with no valid node left is NaN (nothing to interpolate from)
+    line = TensorInterpolant([x], [nodes[0]])
+    assert np.all(np.isnan(line.values(np.full((5, 2), np.nan))))
