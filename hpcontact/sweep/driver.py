@@ -311,10 +311,9 @@ def prepare(
         if history.files and not (options.resume or options.restart):
             now = provenance.current()
             if options.up_to_date and up_to_date(spec, tasks, history, now):
-                keep.update(
-                    task_of=task_of, lock=lock, history=history, reused={t.key for t in tasks}, crashed=set(), note=note
-                )
-                return Decision([], [], len(tasks), 0, session_name(), now, injected, up_to_date=True)
+                reused = {t.key for t in tasks if t.key in history.entries}  # an adaptive map's: a subset
+                keep.update(task_of=task_of, lock=lock, history=history, reused=reused, crashed=set(), note=note)
+                return Decision([], [], len(reused), 0, session_name(), now, injected, up_to_date=True)
             raise Refused(
                 f"{len(history.entries)} finished tasks in {spec.journal}; pass --resume to continue or "
                 f"--restart to discard them"
@@ -353,14 +352,19 @@ def up_to_date(spec: Spec, tasks: list[Task], history: History, now: Mapping[str
     ``resume`` would reuse), so none would run; no journal line was dropped and no HDF5 journal
     of an earlier hpcontact is there; the data set was written from this very spec (its ``spec``
     attribute), holds as many tasks, none failed, and no journal changed after it was written (a
-    later run that stopped before writing its own). Anything else: False (the run is refused as
-    before). Reads the data set's attributes only; changes nothing."""
+    later run that stopped before writing its own). An adaptive map (``spec.adaptive``) solves a
+    subset of the tasks: every task its journals hold must be so, and the data set's
+    ``sweep_solves`` as many (its rounds are decided by those values alone). Anything else: False
+    (the run is refused as before). Reads the data set's attributes only; changes nothing."""
     output = Path(spec.output)
     if not tasks or not output.is_file() or history.dropped or legacy_journals(spec.journal):
         return False
-    entries = [history.entries.get(task.key) for task in tasks]
-    if any(
-        e is None or e.status != OK or e.resolved != provenance.resolved_scene(t.params) for e, t in zip(entries, tasks)
+    adaptive = spec.adaptive is not None
+    journaled = [t for t in tasks if t.key in history.entries] if adaptive else tasks
+    entries = [history.entries.get(task.key) for task in journaled]
+    if not entries or any(
+        e is None or e.status != OK or e.resolved != provenance.resolved_scene(t.params)
+        for e, t in zip(entries, journaled)
     ):
         return False
     if provenance.first_mismatch(entries, now) is not None:
@@ -373,12 +377,17 @@ def up_to_date(spec: Spec, tasks: list[Task], history: History, now: Mapping[str
 
         with netCDF4.Dataset(output, "r") as nc:
             attrs = {
-                name: nc.getncattr(name) for name in ("spec", "sweep_tasks", "sweep_failures") if name in nc.ncattrs()
+                name: nc.getncattr(name)
+                for name in ("spec", "sweep_tasks", "sweep_failures", "sweep_solves")
+                if name in nc.ncattrs()
             }
     except (OSError, RuntimeError, ValueError):  # not a readable netCDF file: a run writes it again
         return False
     return (
-        attrs.get("spec") == spec.text and attrs.get("sweep_tasks") == len(tasks) and attrs.get("sweep_failures") == 0
+        attrs.get("spec") == spec.text
+        and attrs.get("sweep_tasks") == len(tasks)
+        and attrs.get("sweep_failures") == 0
+        and (not adaptive or attrs.get("sweep_solves") == len(entries))
     )
 
 
@@ -516,7 +525,7 @@ def _round(
         if d.up_to_date:
             if team.rank == 0:
                 print(
-                    f"hpcontact: {spec.output} is up to date ({len(tasks)} tasks from journals); nothing to do",
+                    f"hpcontact: {spec.output} is up to date ({d.reused} tasks from journals); nothing to do",
                     file=stream,
                     flush=True,
                 )

@@ -21,7 +21,7 @@ import xarray as xr
 from hpcontact.analytic import mindlin_ellipse_stiffness
 from hpcontact.errors import InputError
 from hpcontact.sweep.adaptive import Layout, dry_run_text, initial_state, state_tasks
-from hpcontact.sweep.driver import run_sweep
+from hpcontact.sweep.driver import Options, execute, run_sweep
 from hpcontact.sweep.journal import ERROR, read_journals
 from hpcontact.sweep.schedule import SerialTeam
 from hpcontact.sweep.spec import parse_spec
@@ -204,6 +204,20 @@ def test_a_failed_solve_is_recorded_and_the_map_around_it_still_meets_tolerance(
         true = np.abs(ds[name].values / exact - 1.0)
         assert np.all(np.isnan(true[failed])) and np.nanmax(true) <= 1e-3, name
         assert np.nanmax(ds[f"{name}_map_error"].values) <= 1e-3
+
+
+def test_a_finished_adaptive_sweep_run_again_is_up_to_date(write_spec, tmp_path):
+    """As a finished plain sweep (tests/sweep/test_driver.py): run again as `hpcontact run` runs
+    it, nothing is solved and the file is left as it is; it needed --resume before."""
+    spec = write_spec(MINDLIN)
+    path = sweep(spec, mindlin)
+    data, solves = path.read_bytes(), xr.open_dataset(path).attrs["sweep_solves"]
+    calls, stream = [], io.StringIO()
+    outcome = execute(spec, None, counting(calls), team=SerialTeam(), stream=stream, options=Options(up_to_date=True))
+    assert outcome.up_to_date and calls == [] and path.read_bytes() == data
+    assert stream.getvalue().endswith(
+        f"hpcontact: {path} is up to date ({solves} tasks from journals); nothing to do\n"
+    )
 
 
 @pytest.mark.parametrize(
