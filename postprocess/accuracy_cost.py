@@ -5,22 +5,37 @@ of docs/howto/accuracy.md, from the data set of ``jobs/accuracy_cost.toml`` (iss
         [--extrapolated results/boundary_treatment.json]
 
 Cases are the shape labels up to the first comma ("ellipse b/a=1e-4, 32 across" is case
-"ellipse b/a=1e-4" on a grid with 32 cells across). References:
+"ellipse b/a=1e-4" on a grid with 32 cells across); each row's scene parameters are read from
+the spec stored in the data set (``spec`` attribute; older data sets: from the label).
+References:
 
 * circle: K_xx = K_yy = 8Ga/(2 − nu), K_zz = 2aE* (Johnson 1985 §3.4, §7.2);
-* ellipse b/a = γ: Mindlin 1949 (K_a, K_b) and the elliptical punch π a E*/K(m) (K_zz);
+* ellipse b/a = γ (isotropic, unturned): Mindlin 1949 (K_a, K_b) and the elliptical punch
+  π a E*/K(m) (K_zz);
+* crystal or turned ellipses (anisotropy ≠ 1, or shape_angle ≠ 0): the one exact cell of
+  Galin's theorem (``hpcontact.accuracy.exact_solve``, ``discretizations/galin_ellipse.py``:
+  the bonded punch's traction c (1 − x²/a² − y²/b²)^(−½) on any half-space with an even kernel
+  homogeneous of degree −1; no grid, its own error bound ~1e-14, printed);
 * square and rectangle b/a = 1e-8 (no closed form): extrapolation over the finest grids at the
   tightest tol — a least-squares fit Q = Q* + Σ c_i h^{p_i} with p = 1, 1.5, 2 in the cell
   size along each resolved direction (n only for the square; n and n_across for the thin
   rectangle, whose mesh is exact so the error is a smooth edge-layer expansion). The spread of
-  Q* over fits with fewer terms is printed as the reference's own uncertainty.
+  Q* over fits with fewer terms is printed as the reference's own uncertainty;
+* regular polygons (no closed form): extrapolated from coverage-weighted grids 32 … 1024
+  (``hpcontact.accuracy.solve_to_accuracy``, strategy coverage; its estimate printed): the
+  centre-in-cell staircase of a slanted edge makes the study's own values fluctuate with n, so
+  a fit over them is about as uncertain as the errors it would judge. A regular polygon of
+  k ≥ 3 sides is tangentially isotropic (a second-order tensor invariant under a turn by 2π/k),
+  so its K_a/K_b = K_xx/K_yy is 1 exactly.
 
 Figures (PNG): ``error_vs_time.png`` (log–log, one panel per quantity, one curve per case: the
 cheapest time that reaches each error, over all grids and tolerances; every task as a faint
 point), ``error_vs_n.png`` (at the tightest tol; thin cases one curve per n_across) and
 ``error_vs_tol.png`` (at n = 256). ``accuracy_cost_table.md``: the time that 1 %, 0.1 %,
 0.01 % cost for each case (largest relative error of K_xx, K_yy, K_a/K_b and K_zz), the grid
-and tol that achieve it, as measured (one thread per task; the machine is named). With
+and tol that achieve it, as measured (one thread per task; the machine is named), and per case
+the error at the finest n and the observed order (slope of log error against log n, n ≥ 128,
+tightest tol). With
 ``--extrapolated`` (written by ``benchmarks/boundary_treatment.py``) the error and time of
 ``solve --accuracy`` runs are overlaid and tabulated too.
 """
@@ -31,7 +46,11 @@ import json
 import math
 import platform
 import re
+import time
+import tomllib
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import freshness
 
@@ -42,7 +61,8 @@ import numpy as np
 import xarray as xr
 from common import arguments, colours, open_dataset, panels, save
 
-from hpcontact import analytic
+from hpcontact import accuracy, analytic
+from hpcontact.scene import DEFAULTS, Scene
 
 QUANTITIES = ("K_xx", "K_yy", "K_a_over_K_b", "K_zz")
 TITLES = {
@@ -86,6 +106,78 @@ def closed_form(shape: str, aspect: float, nu: float) -> dict[str, float] | None
             "K_zz": analytic.elliptical_punch_normal_stiffness(1.0, aspect, 1.0, nu),
         }
     return None
+
+
+MATERIAL_KEYS = ("material", "cubic", "orthotropic", "voigt")  # a body other than the isotropic one
+
+
+def case_params(ds: xr.Dataset) -> dict[str, dict[str, Any]]:
+    """Per case, the scene parameters of its row: the data set's spec (``spec`` attribute: its
+    [scene] table with the row of the shape axis; n_across and the label left out), else what the
+    label says (shape and b/a) with the data set's nu."""
+    nu = float(ds["nu"].values) if "nu" in ds.coords else 0.3
+    rows: dict[str, dict[str, Any]] = {}
+    spec = tomllib.loads(ds.attrs["spec"]) if isinstance(ds.attrs.get("spec"), str) else {}
+    table = spec.get("axes", {}).get("shape", [])
+    scene = {k: v for k, v in spec.get("scene", {}).items() if k in DEFAULTS}
+    for entry in table if isinstance(table, list) else []:
+        if isinstance(entry, Mapping) and "label" in entry:
+            params = {"nu": nu, **scene, **{k: v for k, v in entry.items() if k in DEFAULTS and k != "n_across"}}
+            rows.setdefault(case_of(str(entry["label"])), params)
+    for label in ds["shape"].values:
+        case = case_of(str(label))
+        if case not in rows:
+            shape, aspect = shape_of(case)
+            rows[case] = {"shape": shape, "aspect": aspect, "nu": nu}
+    return rows
+
+
+def reference_kind(params: Mapping[str, Any]) -> str:
+    """ "closed form" (isotropic circle, unturned isotropic ellipse), "exact cell" (any other
+    ellipse or circle: crystal, turned), "coverage" (regular polygons: extrapolated from
+    coverage-weighted grids) or "extrapolated" (rectangles: from the study's own finest grids)."""
+    shape = params.get("shape", "circle")
+    if shape == "polygon":
+        return "coverage"
+    if shape not in ("circle", "ellipse"):
+        return "extrapolated"
+    isotropic = float(params.get("anisotropy", 1.0)) == 1.0 and not any(params.get(k) for k in MATERIAL_KEYS)
+    unturned = shape == "circle" or float(params.get("shape_angle", 0.0)) % 180.0 == 0.0
+    return "closed form" if isotropic and unturned else "exact cell"
+
+
+def exact_cell_reference(params: Mapping[str, Any]) -> tuple[dict[str, float], float, tuple[float, float]]:
+    """K_xx, K_yy, K_a/K_b, K_zz of an ellipse on Galin's one exact cell
+    (``hpcontact.accuracy.exact_solve``), its own estimated relative error and the CPU seconds
+    of the solve (one thread): the first call for this material in the process, and the best of
+    two more (the material's H(φ) then cached)."""
+    scene = Scene.from_params({**params, "quantities": ["tangential", "normal"]})
+    seconds = []
+    for _ in range(3):
+        start = time.process_time()
+        record = accuracy.exact_solve(scene, 1e-9, False, time.perf_counter())
+        seconds.append(time.process_time() - start)
+    return {q: float(record[q]) for q in QUANTITIES}, float(record["estimated_error"]), (seconds[0], min(seconds[1:]))
+
+
+#: What the polygons' reference asks of ``solve_to_accuracy`` (coverage-weighted cells): below
+#: what n = 1024 reaches, so the whole calibrated sequence (32 … 1024) is solved.
+POLYGON_REQUEST = 1e-6
+
+
+def coverage_reference(params: Mapping[str, Any], request: float | None = None) -> tuple[dict[str, float], dict]:
+    """K_xx, K_yy, K_a/K_b (1: a regular polygon is tangentially isotropic), K_zz extrapolated
+    from coverage-weighted grids (``hpcontact.accuracy.solve_to_accuracy``, strategy coverage,
+    ``strict=False``): each cut cell carries its covered area, so the error is smooth in h and
+    Richardson applies, where the centre-in-cell staircase of a slanted edge makes the study's own
+    grids fluctuate with n. Returns the values and the record (estimates, grids, wall time)."""
+    scene = Scene.from_params({**params, "quantities": ["tangential", "normal"]})
+    record = accuracy.solve_to_accuracy(
+        scene, POLYGON_REQUEST if request is None else request, strategy="coverage", strict=False
+    )
+    values = {q: float(record[q]) for q in ("K_xx", "K_yy", "K_zz")}
+    values["K_a_over_K_b"] = 1.0
+    return values, record
 
 
 def _fit(h_columns: list[np.ndarray], values: np.ndarray, powers: tuple[float, ...]) -> float:
@@ -139,19 +231,38 @@ def gather(ds: xr.Dataset) -> dict[str, list[dict]]:
     return cases
 
 
-def add_errors(cases: dict[str, list[dict]]) -> dict[str, str]:
+def add_errors(cases: dict[str, list[dict]], rows: Mapping[str, Mapping[str, Any]] | None = None) -> dict[str, str]:
     """Relative errors per point (``err_<q>`` and ``err``: the largest of the four); returns a
-    note per case on where its reference comes from."""
+    note per case on where its reference comes from. ``rows``: each case's scene parameters
+    (:func:`case_params`; without them, the label's shape and b/a)."""
     notes = {}
     for case, points in cases.items():
-        shape, aspect = shape_of(case)
-        reference = closed_form(shape, aspect, points[0]["nu"])
-        if reference is not None:
-            notes[case] = "closed form"
+        if rows is not None and case in rows:
+            params = dict(rows[case])
         else:
-            tightest = min(p["tol"] for p in points)
-            finest = [p for p in points if p["tol"] == tightest]
-            thin = aspect < 1.0
+            shape, aspect = shape_of(case)
+            params = {"shape": shape, "aspect": aspect, "nu": points[0]["nu"]}
+        kind = reference_kind(params)
+        if kind == "closed form":
+            reference = closed_form(params.get("shape", "circle"), float(params.get("aspect", 1.0)), points[0]["nu"])
+            notes[case] = "closed form"
+        elif kind == "exact cell":
+            reference, bound, (first, again) = exact_cell_reference(params)
+            notes[case] = (
+                f"exact cell (Galin; its own estimate {bound:.1e}; "
+                f"{1e3 * first:.0f} ms CPU the first call, {1e3 * again:.1f} ms again)"
+            )
+        elif kind == "coverage":
+            reference, record = coverage_reference(params)
+            grids = f"{record['grids'][0]}…{record['grids'][-1]}×{record['grids_across'][-1]}"
+            notes[case] = (
+                f"extrapolated from coverage-weighted grids {grids} (solve_to_accuracy; estimate "
+                + ", ".join(f"{q} {record['estimated_errors'][q]:.1e}" for q in ("K_xx", "K_yy", "K_zz"))
+                + f"; {record['wall_time_s']:.0f} s); K_a/K_b = 1 by symmetry)"
+            )
+        else:
+            thin = _is_thin(points)
+            finest = _tightest(points)
             reference, spreads = {}, {}
             for q in QUANTITIES:
                 reference[q], spreads[q] = extrapolated_reference(finest, q, thin)
@@ -165,6 +276,23 @@ def add_errors(cases: dict[str, list[dict]]) -> dict[str, str]:
                 p[f"err_{q}"] = abs(p[q] / reference[q] - 1.0)
             p["err"] = max(p[f"err_{q}"] for q in QUANTITIES)
     return notes
+
+
+def observed_order(points: list[dict], key: str = "err", n_min: int = 128) -> tuple[float, float, int]:
+    """(error at the finest n, observed order, that n) at the tightest tol: the order is minus the
+    least-squares slope of log error against log n over n ≥ ``n_min`` (thin cases: on their most
+    cells across); NaN with fewer than two such grids."""
+    pts = _tightest(points)
+    if _is_thin(points):
+        most = max(p["na"] for p in pts)
+        pts = [p for p in pts if p["na"] == most]
+    pts = sorted((p for p in pts if p["n"] >= n_min and p[key] > EXACT), key=lambda p: p["n"])
+    if not pts:
+        return math.nan, math.nan, 0
+    if len(pts) < 2:
+        return pts[-1][key], math.nan, pts[-1]["n"]
+    slope = np.polyfit(np.log([p["n"] for p in pts]), np.log([p[key] for p in pts]), 1)[0]
+    return pts[-1][key], float(-slope), pts[-1]["n"]
 
 
 def pareto(points: list[dict], key: str) -> tuple[np.ndarray, np.ndarray]:
@@ -186,18 +314,57 @@ def load_extrapolated(path: Path | None) -> list[dict]:
         return json.load(fh).get("accuracy_runs", [])
 
 
-def figure_error_vs_time(cases: dict[str, list[dict]], extrapolated: list[dict], outdir: Path) -> None:
+LINES = {"closed form": "-", "exact cell": "--", "extrapolated": "-."}  # line style by the reference's kind
+
+
+def short_reference(note: str) -> str:
+    """The kind of reference a note of :func:`add_errors` names: closed form, exact cell,
+    extrapolated (the study's grids) or extrapolated (coverage-weighted grids)."""
+    if note.startswith("extrapolated from coverage"):
+        return "extrapolated (coverage-weighted grids)"
+    return note.split(" (")[0]
+
+
+def styles(names: list[str], notes: Mapping[str, str] | None = None) -> dict[str, tuple[Any, str]]:
+    """Per case a colour (a qualitative palette up to 10 cases, else viridis) and a line style
+    that names its reference: solid closed form, dashed exact cell, dash-dotted extrapolated."""
+    if len(names) <= 10:
+        import matplotlib.pyplot as plt
+
+        palette = list(plt.cm.tab10(np.arange(len(names))))
+    else:
+        palette = colours(len(names))
+    notes = notes or {}
+    return {
+        c: (palette[i], LINES.get(short_reference(notes.get(c, "")).split(" (")[0], "-")) for i, c in enumerate(names)
+    }
+
+
+def legend_note(notes: Mapping[str, str] | None) -> str:
+    """ "; lines by reference: solid closed form, dashed exact cell, …" when cases differ in it."""
+    words = {"closed form": "solid", "exact cell": "dashed", "extrapolated": "dash-dotted"}
+    kinds = {short_reference(n).split(" (")[0] for n in (notes or {}).values()}
+    if len(kinds) < 2:
+        return ""
+    return "; lines by reference: " + ", ".join(f"{words[k]} {k}" for k in words if k in kinds)
+
+
+def figure_error_vs_time(
+    cases: dict[str, list[dict]], extrapolated: list[dict], outdir: Path, notes: Mapping[str, str] | None = None
+) -> None:
     fig, axes = panels(len(QUANTITIES), columns=2, size=4.4)
     names = list(cases)
+    style = styles(names, notes)
     for ax, q in zip(axes, QUANTITIES):
         key = f"err_{q}"
-        for colour, case in zip(colours(len(names)), names):
+        for case in names:
+            colour, ls = style[case]
             pts = [p for p in cases[case] if p[key] > EXACT]  # K_a/K_b of circle and square: 1 by symmetry
             if not pts:
                 continue
             ax.loglog([p["time"] for p in pts], [p[key] for p in pts], ".", color=colour, alpha=0.15, ms=3)
             t, e = pareto(pts, key)
-            ax.loglog(t, e, "-", color=colour, lw=1.5, label=case)
+            ax.loglog(t, e, ls, color=colour, lw=1.5, label=case)
             runs = [r for r in extrapolated if r["case"] == case and r.get(key, 0.0) > EXACT]
             if runs:
                 ax.loglog(
@@ -215,7 +382,7 @@ def figure_error_vs_time(cases: dict[str, list[dict]], extrapolated: list[dict],
         ax.grid(True, which="major", alpha=0.3)
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncol=3, fontsize=8)
-    note = "lines: cheapest grid and tol reaching each error; dots: every task"
+    note = "lines: cheapest grid and tol reaching each error; dots: every task" + legend_note(notes)
     if extrapolated:
         note += "\nstars: solve --accuracy (coverage-weighted cells + Richardson), whole grid sequence"
     fig.suptitle(f"Error versus wall time per scene\n{note}", fontsize=9)
@@ -235,13 +402,15 @@ def _is_thin(points: list[dict]) -> bool:
     return any(len(v) > 1 for v in across.values())
 
 
-def figure_error_vs_n(cases: dict[str, list[dict]], outdir: Path) -> None:
+def figure_error_vs_n(cases: dict[str, list[dict]], outdir: Path, notes: Mapping[str, str] | None = None) -> None:
     """Every case at the tightest tol; thin cases on their finest n_across."""
     fig, axes = panels(len(QUANTITIES), columns=2, size=4.4)
     names = list(cases)
+    style = styles(names, notes)
     for ax, q in zip(axes, QUANTITIES):
         key = f"err_{q}"
-        for colour, case in zip(colours(len(names)), names):
+        for case in names:
+            colour, ls = style[case]
             pts = _tightest(cases[case])
             label = case
             if _is_thin(cases[case]):
@@ -250,7 +419,7 @@ def figure_error_vs_n(cases: dict[str, list[dict]], outdir: Path) -> None:
                 label = f"{case} ({most} across)"
             pts = sorted((p for p in pts if p[key] > EXACT), key=lambda p: p["n"])
             if pts:
-                ax.loglog([p["n"] for p in pts], [p[key] for p in pts], "o-", color=colour, ms=3, label=label)
+                ax.loglog([p["n"] for p in pts], [p[key] for p in pts], "o" + ls, color=colour, ms=3, label=label)
         ax.set_xlabel("n (cells along the long side)")
         ax.set_ylabel("relative error")
         ax.set_title(TITLES[q], fontsize=10)
@@ -258,7 +427,8 @@ def figure_error_vs_n(cases: dict[str, list[dict]], outdir: Path) -> None:
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncol=3, fontsize=8)
     fig.suptitle(
-        "Error versus grid at the tightest CG tolerance (the staircase error of curved shapes is not monotone in n)",
+        "Error versus grid at the tightest CG tolerance (the staircase error of curved shapes is not monotone in n)"
+        + legend_note(notes),
         fontsize=9,
     )
     save(fig, outdir, "error_vs_n.png")
@@ -308,7 +478,9 @@ def figure_error_vs_tol(cases: dict[str, list[dict]], outdir: Path, n: int = 256
     """Total error (solid) and the CG part alone (dashed: change from the tightest tol) at n."""
     fig, axes = panels(2, columns=2, size=4.4)
     names = list(cases)
-    for colour, case in zip(colours(len(names)), names):
+    style = styles(names)
+    for case in names:
+        colour = style[case][0]
         pts = [p for p in cases[case] if p["n"] == n]
         if not pts:
             continue
@@ -358,8 +530,31 @@ def table(cases: dict[str, list[dict]], notes: dict[str, str], extrapolated: lis
                 continue
             p = min(good, key=lambda p: p["time"])
             cells.append(f"{p['time']:.2g} s ({p['n']}×{p['na']}, tol {p['tol']:.0e}, {p['iterations']} it.)")
-        ref = "closed form" if notes[case] == "closed form" else "extrapolated"
+        ref = short_reference(notes[case])
         lines.append(f"| {case} | {ref} | " + " | ".join(cells) + " |")
+    lines.append("")
+    lines.append(
+        "Error at the finest n and observed order (minus the slope of log error against log n for n ≥ 128, "
+        "tightest tol; thin cases on their most cells across), worst of the four and per quantity:"
+    )
+    lines.append("")
+    lines.append(
+        "| case | reference | finest grid | worst error | order | "
+        + " | ".join(TITLES[q].split(" (")[0] for q in QUANTITIES)
+        + " |"
+    )
+    lines.append("|---|---|---|---|---|" + "---|" * len(QUANTITIES))
+    for case, pts in cases.items():
+        err, order, n = observed_order(pts)
+        finest = [p for p in _tightest(pts) if p["n"] == n]
+        grid = f"{n}×{max(p['na'] for p in finest)}" if finest else "—"
+        per = []
+        for q in QUANTITIES:
+            e, o, _ = observed_order(pts, f"err_{q}")
+            per.append("exact by symmetry" if math.isnan(e) else f"{e:.1e} (order {o:.2f})")
+        lines.append(
+            f"| {case} | {short_reference(notes[case])} | {grid} | {err:.1e} | {order:.2f} | " + " | ".join(per) + " |"
+        )
     if extrapolated:
         lines.append("")
         lines.append(
@@ -404,10 +599,10 @@ def main() -> None:
     with freshness.stamp(__file__, args.outdir, [args.dataset, args.extrapolated]):
         ds = open_dataset(args.dataset)
         cases = gather(ds)
-        notes = add_errors(cases)
+        notes = add_errors(cases, case_params(ds))
         extrapolated = load_extrapolated(args.extrapolated)
-        figure_error_vs_time(cases, extrapolated, args.outdir)
-        figure_error_vs_n(cases, args.outdir)
+        figure_error_vs_time(cases, extrapolated, args.outdir, notes)
+        figure_error_vs_n(cases, args.outdir, notes)
         figure_thin_grids(cases, args.outdir)
         figure_error_vs_tol(cases, args.outdir)
         text = table(cases, notes, extrapolated, ds)
