@@ -119,20 +119,9 @@ def key_of(treatment: str, aspect: float, nu: float, n: int, na: int) -> str:
     return json.dumps([treatment, aspect, nu, n, na])
 
 
-def with_principal(row: dict[str, Any]) -> dict[str, Any]:
-    """A cached level with K_max and K_min (the principal values of its tangential entries), which
-    ``accuracy.extrapolate`` takes per grid for K_min/K_max; rows cached without them get them here."""
-    if "K_max" not in row and all(k in row for k in ("K_xx", "K_xy", "K_yx", "K_yy")):
-        from hpcontact.quantities import principal_stiffness
-
-        k_max, k_min, _ = principal_stiffness(np.array([[row["K_xx"], row["K_xy"]], [row["K_yx"], row["K_yy"]]]))
-        row = {**row, "K_max": k_max, "K_min": k_min}
-    return row
-
-
 def load(cache: Path) -> dict[str, dict[str, Any]]:
     return {
-        key_of(r["treatment"], r["aspect"], r["nu"], r["n"], r["n_across"]): with_principal(r)
+        key_of(r["treatment"], r["aspect"], r["nu"], r["n"], r["n_across"]): harness.with_principal(r)
         for r in harness.read_jsonl(cache)
     }
 
@@ -343,7 +332,7 @@ def exact_key(case: str, n: int, na: int) -> str:
 
 
 def load_exact(cache: Path) -> dict[str, dict[str, Any]]:
-    return {exact_key(r["case"], r["n"], r["n_across"]): with_principal(r) for r in harness.read_jsonl(cache)}
+    return {exact_key(r["case"], r["n"], r["n_across"]): harness.with_principal(r) for r in harness.read_jsonl(cache)}
 
 
 def collect_exact(cache: Path) -> None:
@@ -450,47 +439,12 @@ def exact_convergence(cache: Path, case: str, n0: int = 32) -> list[tuple[float,
 
 def singular_calibration_records(cache: Path, solve: bool = True) -> list[tuple[float, float]]:
     """(estimate, true) of the singular cells' calibration replay, ``benchmarks/edge_order.py
-    --singular-calibration``'s (its grids ``calibration_grids``, solves ``singular_rows``, cache
-    format and requests 1e-3 … 1e-6; missing grids solved here and appended, or with
-    ``solve=False`` each sequence cut where its cached grids end), replayed with the levels'
-    K_max and K_min (:func:`with_principal`), which ``accuracy.extrapolate`` needs."""
+    --singular-calibration``'s (``edge_order.singular_records``: missing grids solved and
+    appended, or with ``solve=False`` each sequence cut where its cached grids end)."""
     import edge_order as eo
 
-    requests = (1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6, 1e-6)
-    cached = {(r["aspect"], r["nu"], r["n"], r["n_across"]): with_principal(r) for r in harness.read_jsonl(cache)}
-    out = []
-    for aspect in eo.CALIBRATION_ASPECTS:
-        for nu in NUS:
-            ref = references("circle" if aspect == 1.0 else "ellipse", aspect, nu)
-            for n0 in STARTS:
-                grids = eo.calibration_grids(aspect, nu, n0)
-                for n, na in grids:
-                    if (aspect, nu, n, na) not in cached and solve:
-                        for row in eo.singular_rows(aspect, n, na):
-                            cached[(aspect, row["nu"], n, na)] = with_principal(row)
-                            harness.append_jsonl(cache, row)
-                have = [(aspect, nu, *g) in cached for g in grids] + [False]
-                grids = grids[: have.index(False)]
-                if len(grids) < acc.MIN_GRIDS:
-                    continue
-                levels = {g: cached[(aspect, nu, *g)] for g in grids}
-                for request in requests:
-                    done = acc.refine(
-                        grids,
-                        lambda n, na, levels=levels: levels[(n, na)],
-                        request,
-                        acc.SINGULAR_EXPANSIONS,
-                        acc.SINGULAR_SAFETY,
-                    )
-                    v = done.values
-                    values = {
-                        **v,
-                        "K_a_over_K_b": v["K_xx"] / v["K_yy"],
-                        "normalized_xx": v["K_xx"] / v["K_zz"],
-                        "normalized_yy": v["K_yy"] / v["K_zz"],
-                    }
-                    out.append((max(done.relative.values()), max(abs(values[k] / ref[k] - 1.0) for k in QUANTITIES)))
-    return out
+    records, _ = eo.singular_records(cache, solve=solve)
+    return [(estimate, true) for _, true, estimate in records]
 
 
 POLYGONS = ("triangle", "hexagon")

@@ -300,18 +300,22 @@ def singular_rows(
 
 
 def singular_records(
-    cache: Path, near_field: str = "subcells"
+    cache: Path, near_field: str = "subcells", solve: bool = True
 ) -> tuple[list[tuple[float, float, float]], list[tuple[float, float]]]:
     """The replay behind ``accuracy.SINGULAR_SAFETY``: every grid of :func:`calibration_grids`
     (b/a in ``CALIBRATION_ASPECTS``, nu = 0, 0.3, 0.5, n₀ = 16 and 32) solved once and cached
     (JSON lines, CPU seconds; solved here when missing), then ``accuracy.refine`` with the
     singular cells' estimator replayed on the cache for requests 1e-3 … 1e-6. Returns the records
     (request, largest true error of K_xx, K_yy, K_zz, K_a/K_b, K_xx/K_zz, K_yy/K_zz,
-    ``estimated_error``) and the per-quantity pairs (true, estimate)."""
+    ``estimated_error``) and the per-quantity pairs (true, estimate). With ``solve=False`` nothing
+    is solved: each sequence is cut where its cached grids end (and left out below
+    ``accuracy.MIN_GRIDS``). Cached rows get K_max and K_min (``harness.with_principal``)."""
     from hpcontact import accuracy as acc
 
     requests = (1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6, 1e-6)
-    cached = {(r["aspect"], r["nu"], r["n"], r["n_across"]): r for r in harness.read_jsonl(cache)}
+    cached = {
+        (r["aspect"], r["nu"], r["n"], r["n_across"]): harness.with_principal(r) for r in harness.read_jsonl(cache)
+    }
     records, pairs = [], []
     for aspect in CALIBRATION_ASPECTS:
         for nu in (0.0, 0.3, 0.5):
@@ -328,10 +332,14 @@ def singular_records(
             for n0 in (16, 32):
                 grids = calibration_grids(aspect, nu, n0, EDGE_CALIBRATION_CELLS if near_field == "edge" else None)
                 for n, na in grids:
-                    if (aspect, nu, n, na) not in cached:
+                    if (aspect, nu, n, na) not in cached and solve:
                         for row in singular_rows(aspect, n, na, near_field):
-                            cached[(aspect, row["nu"], n, na)] = row
+                            cached[(aspect, row["nu"], n, na)] = harness.with_principal(row)
                             harness.append_jsonl(cache, row)
+                have = [(aspect, nu, *g) in cached for g in grids] + [False]
+                grids = grids[: have.index(False)]
+                if len(grids) < acc.MIN_GRIDS:
+                    continue
                 levels = {g: cached[(aspect, nu, *g)] for g in grids}
                 for request in requests:
                     done = acc.refine(
@@ -378,7 +386,9 @@ def singular_calibration(cache: Path, near_field: str = "subcells") -> None:
         )
     ratio = np.array([t / e for t, e in pairs])
     print(f"per-quantity pairs: {len(ratio)}; worst true/estimate {ratio.max():.2f}; above 1: {int((ratio > 1).sum())}")
-    cached = {(r["aspect"], r["nu"], r["n"], r["n_across"]): r for r in harness.read_jsonl(cache)}
+    cached = {
+        (r["aspect"], r["nu"], r["n"], r["n_across"]): harness.with_principal(r) for r in harness.read_jsonl(cache)
+    }
     print("| b/a | nu | 1e-5: grid, estimate / true, CPU s | 1e-6: grid, estimate / true, CPU s |")
     print("|---|---|---|---|")
     for aspect in CALIBRATION_ASPECTS:

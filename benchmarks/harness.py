@@ -82,6 +82,21 @@ class Timed:
     cpu_s: float
 
 
+def with_principal(row: Mapping[str, Any]) -> dict[str, Any]:
+    """A cached grid's stiffness row with K_max and K_min (the principal values of its tangential
+    entries, ``hpcontact.quantities.principal_stiffness``), which ``accuracy.extrapolate`` takes per
+    grid for K_min/K_max: rows cached before it did get them here."""
+    row = dict(row)
+    if "K_max" not in row and all(k in row for k in ("K_xx", "K_xy", "K_yx", "K_yy")):
+        import numpy as np
+
+        from hpcontact.quantities import principal_stiffness
+
+        k_max, k_min, _ = principal_stiffness(np.array([[row["K_xx"], row["K_xy"]], [row["K_yx"], row["K_yy"]]]))
+        row.update(K_max=k_max, K_min=k_min)
+    return row
+
+
 def timed(function: Callable[[], Any]) -> Timed:
     """Call ``function()`` once; its value with the wall and CPU time it took."""
     wall, cpu = time.perf_counter(), time.process_time()
