@@ -119,6 +119,19 @@ def key_of(treatment: str, aspect: float, nu: float, n: int, na: int) -> str:
     return json.dumps([treatment, aspect, nu, n, na])
 
 
+def solved_row(solved: Any, **keys: Any) -> dict[str, Any]:
+    """The cache row of one solved grid (``harness.timed`` of ``covered_solve``): ``keys``, its
+    wall and CPU seconds, CG iterations and stiffnesses."""
+    r = solved.value
+    return {
+        **keys,
+        "wall_time_s": solved.wall_s,
+        "cpu_s": solved.cpu_s,
+        "iterations": r["iterations"],
+        **{k: r[k] for k in (*acc.TENSOR_KEYS, "K_max", "K_min") if k in r},
+    }
+
+
 def load(cache: Path) -> dict[str, dict[str, Any]]:
     return {
         key_of(r["treatment"], r["aspect"], r["nu"], r["n"], r["n_across"]): harness.with_principal(r)
@@ -157,18 +170,7 @@ def collect(cache: Path, max_n: int, strategy: str) -> None:
                     solved = harness.timed(partial(covered_solve, scene, strategy))
                 except InputError:  # the strategy does not apply to this case
                     continue
-                r = solved.value
-                row = {
-                    "treatment": treatment,
-                    "aspect": aspect,
-                    "nu": nu,
-                    "n": n,
-                    "n_across": na,
-                    "wall_time_s": solved.wall_s,
-                    "cpu_s": solved.cpu_s,
-                    "iterations": r["iterations"],
-                    **{k: r[k] for k in (*acc.TENSOR_KEYS, "K_max", "K_min") if k in r},
-                }
+                row = solved_row(solved, treatment=treatment, aspect=aspect, nu=nu, n=n, n_across=na)
                 harness.append_jsonl(cache, row)
                 print(f"  solved b/a={aspect:g} nu={nu} {n} x {na}: {row['cpu_s']:.2f} s", flush=True)
 
@@ -345,16 +347,7 @@ def collect_exact(cache: Path) -> None:
                 if exact_key(case, n, na) in cached:
                     continue
                 solved = harness.timed(partial(covered_solve, exact_scene(case, n, na), "coverage"))
-                r = solved.value
-                row = {
-                    "case": case,
-                    "n": n,
-                    "n_across": na,
-                    "wall_time_s": solved.wall_s,
-                    "cpu_s": solved.cpu_s,
-                    "iterations": r["iterations"],
-                    **{k: r[k] for k in (*acc.TENSOR_KEYS, "K_max", "K_min") if k in r},
-                }
+                row = solved_row(solved, case=case, n=n, n_across=na)
                 harness.append_jsonl(cache, row)
                 cached[exact_key(case, n, na)] = row
                 print(f"  solved {case} {n} x {na}: {row['cpu_s']:.2f} s", flush=True)
