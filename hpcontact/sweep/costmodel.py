@@ -343,6 +343,18 @@ class Calibration:
     rates: dict[str, Rate]
     base_bytes: float
     seconds: float = 0.0
+    others: float | None = None  # other processes running beside it (``other_running``; None: unknown)
+
+    def contended(self) -> str:
+        """ "" when the calibration ran alone, else what a reader of an estimate must know: other
+        processes ran beside it (``CONTENDED_FROM``), so its seconds, and every estimate, are
+        likely high."""
+        if self.others is None or self.others < CONTENDED_FROM:
+            return ""
+        return (
+            f"calibrated while ~{self.others:.1f} other process(es) ran: estimates may be 2-4x high where cores "
+            f"are shared or hyper-threaded; remove {calibration_path()} and rerun on an idle machine"
+        )
 
     def task_seconds(self, params: Mapping[str, Any], cost: float | None = None) -> float:
         """Estimated seconds of the scene ``params`` on one core (a scene that asks for an
@@ -502,13 +514,33 @@ def _timed_exact(params: Mapping[str, Any], repeats: int = 2) -> float:
     return max(0.0, best)
 
 
+#: A calibration that ran beside this many other running processes (mean of its samples) is
+#: flagged (``Calibration.contended``). On the 2-vCPU development machine, whose two vCPUs share
+#: a core, one other busy process during the ~20 s calibration made the main job's dry run
+#: 226.5 core-seconds against 68.9 calibrated alone (2026-11-26 13:32, its task time 58.6 s).
+CONTENDED_FROM = 0.5
+
+
+def other_running() -> float | None:
+    """Processes running or runnable on this machine besides this one, now (the fourth field
+    of /proc/loadavg less this process); None where there is no /proc/loadavg."""
+    try:
+        running = int(Path("/proc/loadavg").read_text().split()[3].split("/")[0])
+    except (OSError, ValueError, IndexError):
+        return None
+    return max(0.0, running - 1.0)
+
+
 def calibrate(scenes: Mapping[str, Sequence[Mapping[str, Any]]] = CALIBRATION_SCENES) -> Calibration:
     """Measure ``Rate`` per kind on this machine (module docstring) and the base memory."""
 
     started = time.perf_counter()
+    others = [other_running()]
     base = base_memory_bytes()
     rates = {kind: fit_rate(pair, [_timed(p) for p in pair]) for kind, pair in scenes.items() if kind != "contact"}
+    others.append(other_running())
     contact = _fit_with_kernels(scenes["contact"])
+    others.append(other_running())
     strips = max(0.0, _timed_strips(STRIP_CALIBRATION_SCENE) - contact.task_s)
     rates["contact"] = replace(
         contact, strip_s=strips / strip_units(STRIP_CALIBRATION_SCENE), exact_s=_timed_exact(EXACT_CALIBRATION_SCENE)
@@ -517,7 +549,16 @@ def calibrate(scenes: Mapping[str, Sequence[Mapping[str, Any]]] = CALIBRATION_SC
     cost = estimated_cost(scene)
     rest = _timed(scene) - slip.rate_s * cost - slip.solve_s * solve_units(scene, cost)
     rates["slip"] = Rate(slip.rate_s, slip.solve_s, max(0.0, rest) / omega_nodes(scene))
-    return Calibration(socket.gethostname(), __version__, rates, base, time.perf_counter() - started)
+    others.append(other_running())
+    known = [n for n in others if n is not None]
+    return Calibration(
+        socket.gethostname(),
+        __version__,
+        rates,
+        base,
+        time.perf_counter() - started,
+        statistics.fmean(known) if known else None,
+    )
 
 
 def calibration_path() -> Path:
@@ -617,7 +658,8 @@ def read_calibration(path: Path) -> Calibration:
     if not (math.isfinite(base) and base >= 0.0):
         raise ValueError("base_bytes must be finite and >= 0")
     seconds = _number(record, "seconds") if "seconds" in record else 0.0
-    return Calibration(record["host"], record["version"], rates, base, seconds)
+    others = _number(record, "others") if record.get("others") is not None else None
+    return Calibration(record["host"], record["version"], rates, base, seconds, others)
 
 
 def cached_calibration(path: Path | None = None) -> tuple[Calibration | None, str]:
@@ -676,9 +718,10 @@ def start_line(tasks: Sequence[Task], ranks: int) -> str:
     tasks = list(tasks)
     seconds = task_arrays(tasks, calibration)[0]
     wall = _replay(chunk_order(tasks), seconds, ranks, Overheads())["makespan_s"] if tasks else 0.0
+    warning = f"; {calibration.contended()}" if calibration.contended() else ""
     return (
         f"hpcontact: estimated {sum(seconds.tolist()):.4g} core-seconds, {wall:.3g} s on {ranks} rank(s) "
-        f"(cost model of {calibration.host}; --dry-run for each task)"
+        f"(cost model of {calibration.host}; --dry-run for each task{warning})"
     )
 
 

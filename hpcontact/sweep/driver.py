@@ -920,6 +920,8 @@ def dry_run(
         f"# wall time: {walls}; cost model calibrated on {calibration.host} by hpcontact {calibration.version}",
         file=stream,
     )
+    if calibration.contended():
+        print(f"# warning: cost model {calibration.contended()}", file=stream)
     if spec.adaptive is not None:  # the tasks above are the bound; the first round solves fewer
         from hpcontact.sweep.adaptive import dry_run_text
 

@@ -525,3 +525,51 @@ def test_the_exact_cell_calibration_times_the_kernel_build_not_a_cached_kernel()
 
     kernel_for(Scene.from_params(costmodel.EXACT_CALIBRATION_SCENE).material)  # cached before: must not count
     assert costmodel._timed_exact(costmodel.EXACT_CALIBRATION_SCENE, repeats=1) > 0.01
+
+
+def test_a_calibration_made_beside_other_processes_says_so(tmp_path, monkeypatch, capsys):
+    """``calibrate`` samples the processes running beside it; from ``CONTENDED_FROM`` on, the
+    dry run and the run's start line warn that the estimates are likely high (on a machine whose
+    two vCPUs share a core one busy neighbour made the main job's estimate 3.3x higher). The
+    count survives the file; a file without it (written before) reads as unknown: no warning."""
+    samples = iter([1.0, 2.0, 1.0, 0.0])
+    monkeypatch.setattr(costmodel, "other_running", lambda: next(samples))
+    monkeypatch.setattr(costmodel, "_timed", lambda params, repeats=2: 0.01)
+    monkeypatch.setattr(costmodel, "_timed_solve", lambda params, repeats=2: (0.02, 10))
+    monkeypatch.setattr(costmodel, "_timed_strips", lambda params, repeats=2: 0.5)
+    monkeypatch.setattr(costmodel, "_timed_exact", lambda params, repeats=2: 0.08)
+    monkeypatch.setattr(costmodel, "omega_nodes", lambda params: 64)
+    assert costmodel.calibrate().others == 1.0  # the mean of its four samples
+    rates = {kind: Rate(rate_s=1e-7, solve_s=0.1) for kind in costmodel.KINDS}
+    calibration = Calibration(socket.gethostname(), __version__, rates, base_bytes=1.0, others=1.0)
+    assert "1.0 other process(es)" in calibration.contended()
+    path = costmodel.save_calibration(calibration, tmp_path / "cm.json")
+    assert costmodel.read_calibration(path).others == 1.0
+    monkeypatch.setenv("HPCONTACT_COSTMODEL", str(path))
+    assert "estimates may be 2-4x high" in costmodel.start_line([], 2)
+    record = json.loads(path.read_text())
+    del record["others"]
+    path.write_text(json.dumps(record))
+    assert costmodel.read_calibration(path).others is None
+    assert costmodel.read_calibration(path).contended() == "" and "high" not in costmodel.start_line([], 2)
+
+
+def test_other_running_counts_a_busy_neighbour():
+    """/proc/loadavg's running count, less this process: a spinning child shows (the largest of
+    samples over up to 2 s, as the scheduler's view moves)."""
+    import subprocess
+    import sys
+    import time
+
+    if costmodel.other_running() is None:
+        pytest.skip("no /proc/loadavg")
+    child = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+    try:
+        seen, until = 0.0, time.monotonic() + 2.0
+        while time.monotonic() < until and seen < 1.0:
+            seen = max(seen, costmodel.other_running())
+            time.sleep(0.02)
+    finally:
+        child.kill()
+        child.wait()
+    assert seen >= 1.0
