@@ -40,8 +40,11 @@ once the arrays leave the L3 cache. Each term is there because the model without
 measured task times by 1.6-4x (docs/performance.md §"Sweep cost model": the fits, the models
 rejected, and the estimates against measurement, ``benchmarks/cost_estimates.py``). Times are
 CPU seconds of the process (``time.process_time``; the solvers run one thread unless a scene
-asks for more): the time on a core of its own, as a batch system gives one per rank, and unlike
-wall time not inflated by whatever else shares the machine while it calibrates. ``strip_s``
+asks for more, and the whole calibration runs under the BLAS limit of a sweep's tasks,
+``numerics.blas.limited_blas``: OpenBLAS's own threads had made its CPU seconds 2-3x a task's):
+the time on a core of its own, as a batch system gives one per rank, and unlike wall time not
+inflated by whatever else shares the machine while it calibrates (but slowed where that shares
+the core: ``Calibration.contended``). ``strip_s``
 (contact kind only): one grid of strip cells (``STRIP_CALIBRATION_SCENE``, timed as the others
 but under the sweep's BLAS limit, ``numerics.blas.limited_blas``: its Cholesky factors are the
 only BLAS calls that a thread pool slows) less ``task_s``, over its ``tasks.strip_units``. The
@@ -174,8 +177,8 @@ from hpcontact.sweep.tasks import (
 
 KINDS = ("contact", "crystal", "crystal_indentation", "slip")
 # version of the calibration file's layout (2: node_s, Barnett–Lothe; 3: cell_s, kernels; 4: task_s; 5: strip_s;
-# 6: exact_s)
-FORMAT = 6
+# 6: exact_s; 7: every solve under the sweep's BLAS limit, older files' rates 2-3x high)
+FORMAT = 7
 _TANGENTIAL_NORMAL = ["tangential", "normal"]
 # Calibration scenes: (small, larger) per kind, with the fields a sweep of that kind sets.
 CALIBRATION_SCENES: dict[str, tuple[dict[str, Any], dict[str, Any]]] = {
@@ -532,23 +535,26 @@ def other_running() -> float | None:
 
 
 def calibrate(scenes: Mapping[str, Sequence[Mapping[str, Any]]] = CALIBRATION_SCENES) -> Calibration:
-    """Measure ``Rate`` per kind on this machine (module docstring) and the base memory."""
+    """Measure ``Rate`` per kind on this machine (module docstring) and the base memory, every
+    solve under the BLAS limit a sweep's tasks run under (``numerics.blas.limited_blas``:
+    without it OpenBLAS's threads made the calibration's CPU seconds 2-3x those of the same
+    solves in a task, and every estimate as high; docs/performance.md §"Sweep cost model")."""
 
     started = time.perf_counter()
     others = [other_running()]
     base = base_memory_bytes()
-    rates = {kind: fit_rate(pair, [_timed(p) for p in pair]) for kind, pair in scenes.items() if kind != "contact"}
-    others.append(other_running())
-    contact = _fit_with_kernels(scenes["contact"])
-    others.append(other_running())
-    strips = max(0.0, _timed_strips(STRIP_CALIBRATION_SCENE) - contact.task_s)
-    rates["contact"] = replace(
-        contact, strip_s=strips / strip_units(STRIP_CALIBRATION_SCENE), exact_s=_timed_exact(EXACT_CALIBRATION_SCENE)
-    )
-    slip, scene = rates["slip"], ANISOTROPIC_SLIP_SCENE
-    cost = estimated_cost(scene)
-    rest = _timed(scene) - slip.rate_s * cost - slip.solve_s * solve_units(scene, cost)
-    rates["slip"] = Rate(slip.rate_s, slip.solve_s, max(0.0, rest) / omega_nodes(scene))
+    with limited_blas():
+        rates = {kind: fit_rate(pair, [_timed(p) for p in pair]) for kind, pair in scenes.items() if kind != "contact"}
+        others.append(other_running())
+        contact = _fit_with_kernels(scenes["contact"])
+        others.append(other_running())
+        strips = max(0.0, _timed_strips(STRIP_CALIBRATION_SCENE) - contact.task_s)
+        exact = _timed_exact(EXACT_CALIBRATION_SCENE)
+        rates["contact"] = replace(contact, strip_s=strips / strip_units(STRIP_CALIBRATION_SCENE), exact_s=exact)
+        slip, scene = rates["slip"], ANISOTROPIC_SLIP_SCENE
+        cost = estimated_cost(scene)
+        rest = _timed(scene) - slip.rate_s * cost - slip.solve_s * solve_units(scene, cost)
+        rates["slip"] = Rate(slip.rate_s, slip.solve_s, max(0.0, rest) / omega_nodes(scene))
     others.append(other_running())
     known = [n for n in others if n is not None]
     return Calibration(

@@ -573,3 +573,32 @@ def test_other_running_counts_a_busy_neighbour():
         child.kill()
         child.wait()
     assert seen >= 1.0
+
+
+def test_the_calibration_times_its_solves_under_the_sweeps_blas_limit(monkeypatch):
+    """A sweep's tasks run under ``limited_blas`` (one BLAS thread by default); the calibration's
+    solves must too: with OpenBLAS's threads free its CPU seconds were 2-3x a task's on the
+    2-vCPU development machine (docs/performance.md §"The calibration under the sweep's BLAS
+    limit"). The BLAS limit of the suite is lifted to two threads around the calibration."""
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    def blas_threads() -> int:
+        return max((i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"), default=1)
+
+    seen = []
+
+    def timed(params, repeats=2):
+        seen.append(blas_threads())
+        return 0.01
+
+    monkeypatch.delenv("HPCONTACT_BLAS_THREADS", raising=False)
+    monkeypatch.setattr(costmodel, "_timed", timed)
+    monkeypatch.setattr(costmodel, "_timed_solve", lambda params, repeats=2: (timed(params), 10))
+    monkeypatch.setattr(costmodel, "_timed_strips", timed)
+    monkeypatch.setattr(costmodel, "_timed_exact", timed)
+    monkeypatch.setattr(costmodel, "omega_nodes", lambda params: 64)
+    with threadpool_limits(limits=2, user_api="blas"):  # the suite limits BLAS (tests/conftest.py): lift it
+        if blas_threads() < 2:
+            pytest.skip("no BLAS with threads to limit here")
+        costmodel.calibrate()
+    assert seen and set(seen) == {1}
