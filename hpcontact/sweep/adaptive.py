@@ -415,16 +415,17 @@ def _directional_map_error(ds: Any) -> Any:
     return out
 
 
-RoundFunction = Callable[[Any, "frozenset[int] | None", "Callable[[Any, Any], Any] | None"], Any]
+RoundFunction = Callable[[Any, "frozenset[int] | None", "Callable[[Any, Any], Any] | None", "frozenset[int]"], Any]
 
 
 def run_rounds(
     team: Any, spec: Any, task_of: np.ndarray, options: Any, stream: TextIO, run_round: RoundFunction
 ) -> Any:
     """Every rank: the rounds of an adaptive sweep (module docstring). ``run_round(options,
-    select, finish)`` is one ordinary driver run over the tasks ``select`` (positions), whose
-    rank 0 calls ``finish(dataset, joined)`` on the data set of every journaled task and
-    writes what it returns (None: nothing, not the last round)."""
+    select, finish, earlier)`` is one ordinary driver run over the tasks ``select`` (positions),
+    whose rank 0 calls ``finish(dataset, joined)`` on the data set of every journaled task and
+    writes what it returns (None: nothing, not the last round); ``earlier`` are the tasks of
+    the rounds before (their failures stay in the data set, not run again)."""
 
     # one git revision for every round: a commit in the checkout while the sweep runs must not
     # make the rounds' own journals look stale to the next round (the code running is the same)
@@ -475,6 +476,7 @@ def _rounds(team: Any, spec: Any, task_of: np.ndarray, options: Any, stream: Tex
             else replace(options, resume=True, restart=False, break_lock=False, up_to_date=False),
             frozenset(int(i) for i in new),
             finish,
+            frozenset(int(i) for i in done),
         )
         following = team.bcast(decided.get("next") if team.rank == 0 else None)
         done = tasks

@@ -334,9 +334,10 @@ def prepare(
             shared = [i for i in shared if i in keep["select"]]
             # the earlier rounds' failures are not run again, but stay in the data set as they failed
             carried = {
-                t.key for t in tasks if t.key in history.entries and t.key not in reused and t.key not in crashed
+                tasks[i].key
+                for i in keep.get("earlier", ())
+                if tasks[i].key in history.entries and tasks[i].key not in reused and tasks[i].key not in crashed
             }
-            carried -= {tasks[i].key for i in keep["select"]}
     except BaseException:
         lock.release()
         raise
@@ -482,9 +483,27 @@ def execute(
 
     tally = RoundTally() if spec.adaptive is not None else None
 
-    def run_round(options: Options, select: frozenset[int] | None = None, finish: Callable | None = None) -> Outcome:
+    def run_round(
+        options: Options,
+        select: frozenset[int] | None = None,
+        finish: Callable | None = None,
+        earlier: frozenset[int] = frozenset(),
+    ) -> Outcome:
         return _round(
-            team, spec, tasks, task_of, over, options, task_function, stream, stop, started, select, finish, tally
+            team,
+            spec,
+            tasks,
+            task_of,
+            over,
+            options,
+            task_function,
+            stream,
+            stop,
+            started,
+            select,
+            finish,
+            tally,
+            earlier,
         )
 
     if spec.adaptive is not None:  # rounds of runs over subsets of the tasks (hpcontact.sweep.adaptive)
@@ -508,17 +527,19 @@ def _round(
     select: frozenset[int] | None = None,
     finish: Callable | None = None,
     tally: RoundTally | None = None,
+    earlier: frozenset[int] = frozenset(),
 ) -> Outcome:
     """Every rank: rank 0 prepares, the ranks run the plan (see ``execute``). An adaptive round
     (``adaptive.run_rounds``) runs the tasks of ``select`` (positions) alone, and rank 0 gives
     the data set to ``finish(dataset, joined)`` and writes what it returns (None: nothing); its
-    set-up runs from the round's start (the first's from the run's), and ``tally`` sums the
-    rounds for the summary."""
+    set-up runs from the round's start (the first's from the run's), ``tally`` sums the rounds
+    for the summary, and the outcomes of ``earlier`` (the rounds before) that are not reused
+    (failures) are carried into the data set as they are."""
     round_started = started
     if tally is not None:
         round_started = started if tally.begun == 0 else time.perf_counter()
         tally.begun += 1
-    keep: dict[str, Any] = {"select": select, "finish": finish, "tally": tally}  # rank 0 only
+    keep: dict[str, Any] = {"select": select, "finish": finish, "tally": tally, "earlier": earlier}  # rank 0 only
     d: Decision = _shared(team, lambda: prepare(spec, tasks, task_of, over, options, team.size, keep))
     plan = Plan.of(spec, tasks, d)
     try:
