@@ -278,7 +278,8 @@ def measure_counts(params: dict, tight: float) -> dict:
     grids = list(zip(record["grids"], record["grids_across"]))
     replays = {}
     for request in COUNT_REQUESTS:
-        if request < tight or accuracy.first_grid(Scene.from_params({**params, "accuracy": request}))[0] != strategy:
+        first = accuracy.first_grid(Scene.from_params({**params, "accuracy": request}), accuracy=request)
+        if request < tight or first[0] != strategy or first[1] != grids[0][0]:
             continue
         found = iter(levels)
         done = accuracy.refine(
@@ -310,13 +311,14 @@ def grid_counts() -> None:
                 cells.append(f"{'-':>22s}")
                 continue
             scene = Scene.from_params({**params, "accuracy": request})
-            strategy, n0, na0 = first_grid(scene)
+            strategy, n0, na0 = first_grid(scene, accuracy=request)
             planned = len(plan_grids(scene, n0, na0, 2**22, math.inf, strategy).grids)
             predicted = predicted_grid_count(strategy, request, planned)
             cells.append(f"{f'{got[0]} ({predicted}) {got[1][:5]} {got[2]:.2g}':>22s}")
         print(f"{label:44s} {r['strategy']:8s} " + " ".join(cells), flush=True)
     print(
-        "each: grids taken (predicted) what stopped it, estimate; -: another boundary cells' request, or beyond the run"
+        "each: grids taken (predicted) what stopped it, estimate; -: another boundary cells' or first grid's request,"
+        " or beyond the run"
     )
 
 

@@ -106,7 +106,7 @@ def load(cache: Path) -> dict[str, dict[str, Any]]:
 def planned(scene: Scene, request: float, max_grids: int) -> tuple[list[tuple[int, int]], float]:
     """The grids ``solve_to_accuracy(scene, request, strategy="coverage", max_grids=…)`` plans
     and its CG tolerance."""
-    strategy, n0, n_across0 = acc.first_grid(scene, STRATEGY)
+    strategy, n0, n_across0 = acc.first_grid(scene, STRATEGY, accuracy=request)
     plan = acc.plan_grids(scene, n0, n_across0, acc.MAX_CELLS, None, strategy)
     return plan.grids[:max_grids], max(min(scene.tol, request * 1e-2), 1e-14)
 

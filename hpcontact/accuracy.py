@@ -148,6 +148,7 @@ __all__ = [
     "principal_error",
     "refine",
     "first_grid",
+    "coverage_n0",
     "model_error",
     "solve_to_accuracy",
     "default_solve",
@@ -189,6 +190,14 @@ OSCILLATION_FALL = 4.0  # an oscillating extrapolant's swing shrinks at most thi
 SLOWEST_FALL = 2.0**0.5  # an extrapolant whose differences fall slower than this does not converge
 STAGNATION_LEVELS = 2  # no fall of the estimate over this many refinements: the extrapolants stagnate
 N0 = 32  # cells along the long side on the first grid
+#: Requests at least this loose start coverage-weighted cells at ``LOOSE_N0`` where that grid's
+#: cell is no wider than the outline's smallest bend (:func:`coverage_n0`). From ``N0`` their
+#: four grids overshoot such requests: over the main job's 396 tasks at 1e-3 every coverage
+#: sequence stopped at its fourth grid (n = 256) with estimates of 1e-4 … 4e-4 (docs/performance.md
+#: §"The first grid of loose requests"). Sequences from 16 are inside the estimator's calibration
+#: (the module docstring's 336 records).
+LOOSE_REQUEST = 1e-3
+LOOSE_N0 = 16
 MIN_ACROSS = 8  # never fewer cells across than 8 at n = N0 (thin shapes; 4 at n = 16, and so on)
 MAX_CELLS = 2**22  # largest grid (nx · ny) the sequence may reach by default
 TENSOR_KEYS = (
@@ -698,17 +707,37 @@ def model_error(scene: Scene, strategy: str) -> float:
     return 0.0
 
 
+def coverage_n0(shape: Shape, accuracy: float | None) -> int:
+    """The first grid (cells along the long side) of coverage-weighted cells for a request of
+    ``accuracy``: ``LOOSE_N0`` for requests ≥ ``LOOSE_REQUEST`` whose outline bends no tighter
+    than that grid's cell (2X/``LOOSE_N0`` ≤ ``Shape.smallest_bend_radius``: straight-sided shapes,
+    circles, ellipses of b/a ≥ 0.354), ``N0`` otherwise. A bend narrower than the first grid's cell
+    leaves that grid outside the sequence's asymptotic range: a five-lobed star of ε = 0.3 (bend
+    radius 0.055) from 16 stops on five grids with estimates 5.6–5.7e-4 where from 32 it stops on
+    four with 2.0–2.9e-4, at 1.09–1.11× the CPU (``benchmarks/first_grid.py``)."""
+    bend = shape.smallest_bend_radius()  # 0 for a mask, whose sequence splits its pixels instead
+    if accuracy is None or accuracy < LOOSE_REQUEST or bend == 0.0:
+        return N0
+    X, _ = shape.half_extents()
+    return LOOSE_N0 if 2.0 * X / LOOSE_N0 <= bend else N0
+
+
 def first_grid(
-    scene: Scene, strategy: str = "auto", n0: int | None = None, n_across0: int | None = None
+    scene: Scene,
+    strategy: str = "auto",
+    n0: int | None = None,
+    n_across0: int | None = None,
+    accuracy: float | None = None,
 ) -> tuple[str, int, int | None]:
     """The boundary cells :func:`solve_to_accuracy` uses for ``scene`` and the
     first grid of its sequence: (strategy, n₀, n_across₀), with ``strategy`` ``auto`` resolved:
     the one exact cell of an elliptical contact (``hpcontact.discretizations.galin_ellipse``:
     circles and ellipses, turned or not, any material, tangential and normal; ("galin", 1, 1),
     no grid sequence); strips for slender rectangles (:func:`strip_applies`) from
-    :func:`strip_n0` strips, one across; coverage-weighted cells from ``n0`` (default ``N0``)
-    otherwise. Singular cells are taken only when asked for (``strategy="singular"``): every
-    contact they apply to is an ellipse. The request does not change the choice. The sweep's
+    :func:`strip_n0` strips, one across; coverage-weighted cells from ``n0`` (default
+    :func:`coverage_n0` of the request ``accuracy``) otherwise. Singular cells are taken only when asked for (``strategy="singular"``): every
+    contact they apply to is an ellipse. The request changes only coverage-weighted cells' first
+    grid (:func:`coverage_n0`), never the choice of cells. The sweep's
     cost model plans the same grids (``hpcontact.sweep.tasks``)."""
     if strategy in ("auto", "galin") and galin_ellipse.applies(scene):
         return "galin", 1, 1
@@ -718,7 +747,9 @@ def first_grid(
         return "strip", n0 or strip_n0(scene.shape), 1
     if strategy == "strip":
         raise InputError("strategy", strip_cells.SUPPORTED_TEXT, strategy)
-    return "coverage" if strategy == "auto" else strategy, n0 or N0, n_across0
+    if strategy in ("auto", "coverage"):
+        return "coverage", n0 or coverage_n0(scene.shape, accuracy), n_across0
+    return strategy, n0 or N0, n_across0
 
 
 def solve_to_accuracy(
@@ -781,7 +812,7 @@ def solve_to_accuracy(
     if memory_budget is not None and not (math.isfinite(memory_budget) and memory_budget > 0):
         raise InputError("memory", "a memory budget > 0 bytes", memory_budget)
     tol = max(min(scene.tol, accuracy * 1e-2), 1e-14)
-    strategy, n0, n_across0 = first_grid(scene, strategy, n0, n_across0)
+    strategy, n0, n_across0 = first_grid(scene, strategy, n0, n_across0, accuracy)
     if strategy == "galin":
         return exact_solve(scene, accuracy, strict, started)
     plan = plan_grids(scene, n0, n_across0, max_cells, memory_budget, strategy)

@@ -147,6 +147,32 @@ class Shape:
         turned = phi + math.radians(self.angle_deg)
         return float(np.max(np.abs(r * np.cos(turned)))), float(np.max(np.abs(r * np.sin(turned))))
 
+    def smallest_bend_radius(self) -> float:
+        """The smallest radius of curvature of the outline (units of a; turning changes nothing):
+        circle 1, ellipse (b/a)² (its tips), rectangle and polygon ∞ (straight sides; a corner is
+        a singular point, not a bend), star the least over φ of the polar-curve radius
+
+            ρ(φ) = (r² + r′²)^(3/2) / |r² + 2 r′² − r r″|,   r = (1 + ε cos kφ)/(1 + ε),
+
+        sampled on one half-period (its extremes, the lobes' tips and the bends between them,
+        lie on the samples φ = 0 and π/k). Rough patches and masks have no outline to bend: 0."""
+        if self.name == "circle":
+            return 1.0
+        if self.name == "ellipse":
+            return self.aspect**2
+        if self.name in ("rectangle", "polygon"):
+            return math.inf
+        if self.name != "star":
+            return 0.0
+        k, eps = self.sides, self.amplitude
+        phi = np.linspace(0.0, math.pi / k, 1001)
+        r = self._radius(phi)
+        dr = -eps * k * np.sin(k * phi) / (1.0 + eps)
+        d2r = -eps * k * k * np.cos(k * phi) / (1.0 + eps)
+        denominator = np.abs(r * r + 2.0 * dr * dr - r * d2r)
+        with np.errstate(divide="ignore"):
+            return float(np.min((r * r + dr * dr) ** 1.5 / denominator))
+
     def contains(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Lab-frame points inside the shape turned by ``angle_deg``."""
         t = math.radians(self.angle_deg)

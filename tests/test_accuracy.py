@@ -103,6 +103,37 @@ def test_spread_credits_a_fall_only_when_it_shows_twice() -> None:
 
 
 # ------------------------------------------------------------------------------------------
+# the first grid of coverage-weighted cells
+# ------------------------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    "params, first",
+    [
+        ({"shape": "rectangle", "aspect": 1e-8}, 16),  # straight sides
+        ({"shape": "polygon", "sides": 3, "shape_angle": 45.0}, 16),
+        ({"shape": "circle"}, 16),  # bend 1 ≥ 2/16
+        ({"shape": "ellipse", "aspect": 0.36}, 16),  # bend 0.1296 ≥ 0.125
+        ({"shape": "ellipse", "aspect": 0.35}, 32),  # bend 0.1225 < 0.125
+        ({"shape": "star", "sides": 5, "amplitude": 0.3}, 32),  # bend 0.055 (the main job's star)
+        ({"shape": "star", "sides": 3, "amplitude": 0.05}, 16),  # bend 0.70
+    ],
+)
+def test_loose_requests_start_at_16_where_that_grid_resolves_the_outline(params, first) -> None:
+    """``coverage_n0``: 16 for requests ≥ 1e-3 where 2X/16 is within the outline's smallest bend
+    (``Shape.smallest_bend_radius``), 32 otherwise and for every tighter request; the sweep's
+    cost model plans the same first grid as the solve it costs (``tasks.accuracy_plan``)."""
+    from hpcontact.sweep.tasks import accuracy_plan
+
+    shape = Scene.from_params(params).shape
+    assert acc.coverage_n0(shape, 1e-3) == acc.coverage_n0(shape, 0.5) == first
+    assert acc.coverage_n0(shape, 9.99e-4) == acc.coverage_n0(shape, 1e-6) == acc.coverage_n0(shape, None) == 32
+    scene = Scene.from_params({**params, "accuracy": 1e-3})
+    assert acc.first_grid(scene, "coverage", accuracy=1e-3)[1] == first
+    assert acc.first_grid(scene, "singular", accuracy=1e-3)[1] == acc.N0  # singular cells keep theirs
+    if acc.first_grid(scene, accuracy=1e-3)[0] == "coverage":
+        assert accuracy_plan(scene.params).grids[0][0] == first
+
+
+# ------------------------------------------------------------------------------------------
 # solve_to_accuracy: honest on every closed form, within its limits
 # ------------------------------------------------------------------------------------------
 @pytest.mark.parametrize(
@@ -121,7 +152,8 @@ def test_solve_to_accuracy_meets_and_bounds(shape: str, aspect: float, nu: float
         true = abs(r[key] / value - 1.0)
         assert true <= r["estimated_errors"][key], (key, true, r["estimated_errors"][key])
     assert len(r["grids"]) >= acc.MIN_GRIDS
-    assert r["grids"] == [32 * 2**k for k in range(len(r["grids"]))]
+    first = acc.coverage_n0(Scene.from_params(params).shape, 1e-3)  # circles 16, thinner ellipses 32
+    assert r["grids"] == [first * 2**k for k in range(len(r["grids"]))]
     assert r["wall_time_s"] >= sum(level["wall_time_s"] for level in r["levels"])
     assert r["estimated_peak_bytes"] <= r["memory_budget_bytes"]
     for key in ("K_xx", "K_yy", "K_zz"):

@@ -730,7 +730,7 @@ def _accuracy_plan(text: str) -> AccuracyPlan:
     """``accuracy_plan`` of the scene ``text`` (canonical JSON, ``GRID_NEUTRAL_FIELDS`` left out)."""
     scene = Scene.from_params(json.loads(text))
     accuracy = float(scene.accuracy)
-    strategy, n0, n_across0 = first_grid(scene, "auto")
+    strategy, n0, n_across0 = first_grid(scene, "auto", accuracy=accuracy)
     if strategy == "galin":  # one exact cell: the kernel's tables, no grid
         return AccuracyPlan(strategy, ((1, 1),), 1, None, footprint.tables_bytes(scene.params))
     plan = plan_grids(scene, n0, n_across0, MAX_CELLS, math.inf, strategy)

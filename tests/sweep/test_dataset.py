@@ -504,19 +504,19 @@ def _stub_tables(folder: Path) -> list[str]:
 
 @pytest.fixture(scope="module")
 def real_demo(tmp_path_factory) -> Path:
-    """The demo job's shapes at two b/a, two nu, A = 1 and 2, one ψ and n = 16, solved by the
-    engine (~3 s)."""
+    """The demo job's shapes at two b/a, two nu, A = 1 and 2, one ψ and n = 16 (instead of its
+    accuracy), solved by the engine (~3 s)."""
     folder = tmp_path_factory.mktemp("demo")
     text = (ROOT / "jobs" / "demo.toml").read_text()
-    for key, value in (
-        ("n", "16"),
-        ("tol", "1e-8"),
-        ("aspect", "[1.0, 1e-4]"),
-        ("nu", "[0.0, 0.3]"),
-        ("anisotropy", "[1.0, 2.0]"),
-        ("orientation", "[20.0]"),
+    for key, line in (
+        ("accuracy", "n = 16"),
+        ("tol", "tol = 1e-8"),
+        ("aspect", "aspect = [1.0, 1e-4]"),
+        ("nu", "nu = [0.0, 0.3]"),
+        ("anisotropy", "anisotropy = [1.0, 2.0]"),
+        ("orientation", "orientation = [20.0]"),
     ):
-        text, count = re.subn(rf"(?m)^{key} = .*$", f"{key} = {value}", text)
+        text, count = re.subn(rf"(?m)^{key} = .*$", line, text)
         assert count == 1, key
     spec = parse_spec(text, path=ROOT / "jobs" / "demo.toml", validate=lambda params: None)
     entries, where = entries_of(spec, lambda fields: hpcontact.problems.contact.solve(Scene.from_params(fields)))

@@ -204,8 +204,10 @@ def grids_of(params):
         ({"shape": "circle"}, 1e-6, "galin", []),
         ({"shape": "ellipse", "aspect": 1e-6}, 1e-8, "galin", []),
         ({"shape": "ellipse", "aspect": 0.01, "anisotropy": 3.0, "shape_angle": 30.0}, 1e-4, "galin", []),
-        # coverage-weighted cells: four grids at 1e-3, one more per full decade below (docs/performance.md)
-        ({"shape": "rectangle", "aspect": 0.3}, 1e-3, "coverage", [(32, 10), (64, 20), (128, 40), (256, 80)]),
+        # coverage-weighted cells: four grids at 1e-3 (from 16 where the outline allows:
+        # accuracy.coverage_n0), one more per full decade below (docs/performance.md)
+        ({"shape": "rectangle", "aspect": 0.3}, 1e-3, "coverage", [(16, 5), (32, 10), (64, 20), (128, 40)]),
+        ({"shape": "star", "amplitude": 0.3}, 1e-3, "coverage", [(32 * 2**k, 31 * 2**k) for k in range(4)]),
         ({"shape": "rectangle", "aspect": 0.3}, 1e-4, "coverage", [(32 * 2**k, 10 * 2**k) for k in range(5)]),
         ({"shape": "polygon", "sides": 3}, 3e-4, "coverage", [(32 * 2**k, 28 * 2**k) for k in range(4)]),
         ({"shape": "polygon", "sides": 3}, 1e-5, "coverage", [(32 * 2**k, 28 * 2**k) for k in range(6)]),
