@@ -269,6 +269,15 @@ STRIP_WIDE_MAX_N = 256
 #: (docs/performance.md §"Cost and memory of `--accuracy`").
 STRIP_BYTES_PER_PAIR = 160.0
 STRIP_BYTES_BASE = 128.0 * 2**20
+#: A rectangle's strips (no two-width averages): ``STRIP_BYTES_PER_PAIR`` · n² +
+#: ``STRIP_FAR_BYTES`` per far pair of one batch (min(n(n + 1)/2, ``strip_cells.FAR_CHUNK``) pairs:
+#: the Gauss product rule's arrays) + ``STRIP_RECTANGLE_BASE``. It bounds the ``tracemalloc``
+#: peaks of ``covered_solve`` on rectangles b/a 1e-6, 1e-8, 1e-12 at n = 32 … 1024: 3.7, 7.6,
+#: 15.3, 53.2, 126.7, 157.7 MiB against 7.0, 9.8, 21.1, 66.2, 146, 266 (2026-11-26; the batch
+#: dominates below ~360 strips, where ``STRIP_BYTES_BASE`` over-counted 2.4–35×;
+#: docs/performance.md §"Cost and memory of `--accuracy`").
+STRIP_FAR_BYTES = 1600.0
+STRIP_RECTANGLE_BASE = 6.0 * 2**20
 
 
 # ------------------------------------------------------------------------------------------
@@ -448,7 +457,11 @@ def grid_bytes(scene: Scene, n: int, n_across: int, strategy: str = "coverage") 
     (``hpcontact.problems.footprint.array_bytes``) plus ``COVERAGE_BYTES_PER_CELL`` per cell;
     singular, plus ``SINGULAR_BYTES_PER_NEAR_CELL`` per cell of the near set
     (``SINGULAR_NEAR_CELLS_PER_SIDE_CELL`` × (n + n_across) cells); strip (n strips),
-    ``STRIP_BYTES_PER_PAIR`` n² + ``STRIP_BYTES_BASE``."""
+    ``STRIP_BYTES_PER_PAIR`` n² + ``STRIP_BYTES_BASE``, a rectangle's with its far-pair batch
+    instead (``STRIP_FAR_BYTES``, ``STRIP_RECTANGLE_BASE``)."""
+    if strategy == "strip" and scene.shape.name == "rectangle":
+        batch = min(n * (n + 1) // 2, strip_cells.FAR_CHUNK)
+        return STRIP_BYTES_PER_PAIR * n * n + STRIP_FAR_BYTES * batch + STRIP_RECTANGLE_BASE
     if strategy == "strip":
         return STRIP_BYTES_PER_PAIR * n * n + STRIP_BYTES_BASE
     near = (

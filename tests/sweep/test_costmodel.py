@@ -423,9 +423,10 @@ def test_an_accuracy_tasks_memory_is_its_finest_grids_with_its_boundary_cells():
     # the strips' dense matrices on 256 strips against the crystal's FFT arrays on 128 x 32 cells
     thin = {**ACCURACY_ISO, "shape": "rectangle", "aspect": 1e-8, "accuracy": 1e-3}
     strips, crystal = costmodel.task_array_bytes(thin), costmodel.task_array_bytes({**thin, "anisotropy": 2.0})
-    assert strips == 160.0 * 256**2 + 128.0 * 2**20 and crystal < strips
-    # 1024 strips of a thin rectangle at 1e-8: the dense matrices grow as n^2
-    assert costmodel.task_array_bytes({**thin, "accuracy": 1e-8}) == 160.0 * 1024**2 + 128.0 * 2**20
+    assert strips == 160.0 * 256**2 + 1600.0 * 256 * 257 / 2 + 6.0 * 2**20 and crystal < strips
+    # 1024 strips of a thin rectangle at 1e-8: the dense matrices grow as n^2, the far pairs'
+    # batch stops at strip_cells.FAR_CHUNK pairs
+    assert costmodel.task_array_bytes({**thin, "accuracy": 1e-8}) == 160.0 * 1024**2 + 1600.0 * 2**16 + 6.0 * 2**20
     # an exact cell (galin): no grid, its kind's fixed bytes (a crystal's: its kernel tables)
     # whatever the request
     for scene, fixed in (
