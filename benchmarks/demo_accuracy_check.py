@@ -58,23 +58,23 @@ keyed by the canonical JSON of the scene's fields), so an interrupted run resume
 replays the table from the cache without solving. ``--points`` restricts the solving (and the
 table) to the named points.
 
-Measured (2026-11-26, 2-core AMD EPYC shared; after ellipses became one exact cell, the 1e-3
-and n = 64 solves rerun at load 7–9, the references kept from the run before at load 6–8: the
-grid points' 1e-3 records came out bit for bit the same; 31 points; solve CPU 23.0 s + 4.1 s,
-references 359 s; replay from the cache: seconds): 155 (point, quantity) pairs, all honest, also
-the 35 checked again against a sharper ladder record (worst true/(estimate + its estimate)
-0.54, P22); every point met 1e-3 (worst estimated_error 8.9e-4, crystal rectangle b/a 1e-2).
-The 15 ellipses (boundary ``galin``, 74 pairs): estimates ≤ 2.9e-11, true errors ≤ 4.0e-15
-against Mindlin and Galin, worst true/estimate 0.20, 0.66 s CPU in all. The grids (73 pairs):
-true errors ≤ 1.6e-4, median 1.4e-5; worst true/estimate where the reference is sharper than
-the estimate 0.46. The strips of isotropic rectangles b/a 1e-6, 1e-8 estimate 2.5e-7 and
-1.5e-8 and differ from the sharpest coverage records by 6.2e-6 and 1.9e-6, within those
-records' own 1.1e-5 and 4.4e-6: not judged (honest column "ref"). K_xy is zero by symmetry at
-every point (the frame's x = [1̄10] is normal to a mirror of the cubic crystal and every demo
-shape is symmetric in x; ≤ 4e-11 of the diagonal in the runs), so it is not listed. CPU of the
-1e-3 solves 23.0 s against 4.1 s at n = 64 (5.6×; before the exact cell 49.5 s, 11×, 26.5 s of
-it the ellipses), whose worst true error per point is 1.5e-3 … 8.5e-3 (above 1e-3 at every
-point, 99 of 147 pairs; median 2.0e-3).
+Measured (2026-11-26 14:58, 2-core AMD EPYC, idle; after requests ≥ 1e-3 start coverage-weighted
+cells at 16 where the outline allows, ``accuracy.coverage_n0``: the 1e-3 solves rerun, the n = 64
+solves and the references kept from the runs of that morning, load 6–9; 31 points; solve CPU
+17.0 s + 4.1 s, references 359 s; replay from the cache: seconds): 155 (point, quantity) pairs,
+all honest, also the 35 checked again against a sharper ladder record (worst true/(estimate +
+its estimate) 0.54, P22); worst true/(estimate + reference estimate) 0.475 (P22); every point met
+1e-3 (worst estimated_error 3.9e-4, P20, isotropic rectangle b/a 1e-4). The 15 ellipses (boundary
+``galin``, 74 pairs): estimates ≤ 2.9e-11, true errors ≤ 4.0e-15 against Mindlin and Galin, worst
+true/estimate 0.20, 1.05 s CPU in all. The grids (73 pairs): true errors ≤ 1.8e-4, median
+2.4e-5; worst true/estimate where the reference is sharper than the estimate 0.50 (P20). The
+strips of isotropic rectangles b/a 1e-6, 1e-8 estimate ≤ 2.5e-7 and 1.5e-8 and differ from the
+sharpest coverage records by less than those records' own estimates: not judged (honest column
+"ref"). K_xy is zero by symmetry at every point (the frame's x = [1̄10] is normal to a mirror of
+the cubic crystal and every demo shape is symmetric in x), so it is not listed. CPU of the 1e-3
+solves 17.0 s against 4.1 s at n = 64 (4.1×; from n₀ = 32 it was 23.0 s, 5.6×), whose worst
+true error per point is 1.5e-3 … 8.5e-3 (above 1e-3 at every point, 99 of 147 pairs; median
+2.0e-3).
 """
 
 from __future__ import annotations
