@@ -748,10 +748,10 @@ def first_grid(
     circles and ellipses, turned or not, any material, tangential and normal; ("galin", 1, 1),
     no grid sequence); strips for slender rectangles (:func:`strip_applies`) from
     :func:`strip_n0` strips, one across; coverage-weighted cells from ``n0`` (default
-    :func:`coverage_n0` of the request ``accuracy``) otherwise. Singular cells are taken only when asked for (``strategy="singular"``): every
-    contact they apply to is an ellipse. The request changes only coverage-weighted cells' first
-    grid (:func:`coverage_n0`), never the choice of cells. The sweep's
-    cost model plans the same grids (``hpcontact.sweep.tasks``)."""
+    :func:`coverage_n0` of the request ``accuracy``) otherwise. Singular cells are taken only
+    when asked for (``strategy="singular"``): every contact they apply to is an ellipse. The
+    request changes only coverage-weighted cells' first grid, never the choice of cells. The
+    sweep's cost model plans the same grids (``hpcontact.sweep.tasks``)."""
     if strategy in ("auto", "galin") and galin_ellipse.applies(scene):
         return "galin", 1, 1
     if strategy == "galin":

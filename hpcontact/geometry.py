@@ -154,8 +154,8 @@ class Shape:
 
             ρ(φ) = (r² + r′²)^(3/2) / |r² + 2 r′² − r r″|,   r = (1 + ε cos kφ)/(1 + ε),
 
-        sampled on one half-period (its extremes, the lobes' tips and the bends between them,
-        lie on the samples φ = 0 and π/k). Rough patches and masks have no outline to bend: 0."""
+        at 1001 points of one half-period, which include the lobe's tip (φ = 0) and the bend
+        between two lobes (φ = π/k). Rough patches and masks have no outline to bend: 0."""
         if self.name == "circle":
             return 1.0
         if self.name == "ellipse":
