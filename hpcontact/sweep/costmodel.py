@@ -52,7 +52,7 @@ calibration takes tens of seconds and is cached like FFTW wisdom, in ``costmodel
 ($HPCONTACT_COSTMODEL overrides), keyed by host and package version: a file of another host or
 version, or one that cannot be read as a calibration, is ignored with a warning and replaced.
 ``hpcontact run`` prints the estimate of the tasks it will compute before it starts
-(``start_line``), from the cached calibration only: without one it says so rather than make
+(``start_estimate``), from the cached calibration only: without one it says so rather than make
 every rank wait for a calibration.
 
 **Accuracy tasks.** A task that asks for an accuracy (``[numerics] accuracy``, ``hpcontact run
@@ -713,22 +713,24 @@ def load_calibration(path: Path | None = None, stream: Any = None) -> Calibratio
     return calibration
 
 
-def start_line(tasks: Sequence[Task], ranks: int) -> str:
-    """The line ``hpcontact run`` prints on rank 0 before work starts: the estimated core-seconds
-    of ``tasks`` (those this run computes) and the replayed wall time on ``ranks`` ranks, from the
-    cached calibration. It never calibrates (that takes ~30 s, which a run must not wait for):
-    without a usable cache the line says so and how to get one."""
+def start_estimate(tasks: Sequence[Task], ranks: int) -> tuple[str, np.ndarray | None]:
+    """The line ``hpcontact run`` prints on rank 0 before work starts — the estimated core-seconds
+    of ``tasks`` (those this run computes) and the replayed wall time on ``ranks`` ranks — and
+    each task's estimated seconds (for the progress lines' ETA), from the cached calibration. It
+    never calibrates (that takes ~30 s, which a run must not wait for): without a usable cache
+    the line says so and how to get one, and the seconds are None."""
     calibration, why = cached_calibration()
     if calibration is None:
-        return f"hpcontact: no cost estimate ({why}; hpcontact run SPEC --dry-run calibrates once, ~30 s)"
+        return f"hpcontact: no cost estimate ({why}; hpcontact run SPEC --dry-run calibrates once, ~30 s)", None
     tasks = list(tasks)
     seconds = task_arrays(tasks, calibration)[0]
     wall = _replay(chunk_order(tasks), seconds, ranks, Overheads())["makespan_s"] if tasks else 0.0
     warning = f"; {calibration.contended()}" if calibration.contended() else ""
-    return (
+    line = (
         f"hpcontact: estimated {sum(seconds.tolist()):.4g} core-seconds, {wall:.3g} s on {ranks} rank(s) "
         f"(cost model of {calibration.host}; --dry-run for each task{warning})"
     )
+    return line, seconds
 
 
 @dataclass(frozen=True)

@@ -61,7 +61,7 @@ from hpcontact.sweep.arguments import (
     add_run_arguments,
 )
 from hpcontact.sweep.columns import NOT_COMPUTED, join, to_columns
-from hpcontact.sweep.costmodel import check_memory, start_line
+from hpcontact.sweep.costmodel import check_memory, start_estimate
 from hpcontact.sweep.guard import Refused, RunLock, usable_folder, usable_output
 from hpcontact.sweep.journal import (
     BAD_INPUT,
@@ -80,7 +80,16 @@ from hpcontact.sweep.journal import (
     to_json,
 )
 from hpcontact.sweep.progress import Progress, Summary
-from hpcontact.sweep.schedule import SLOTS, LaunchError, Team, claimed_chunks, report_done, totals_done, world
+from hpcontact.sweep.schedule import (
+    SLOTS,
+    LaunchError,
+    Team,
+    claimed_chunks,
+    cost_units,
+    report_done,
+    totals_done,
+    world,
+)
 from hpcontact.sweep.signals import ALIVE_PREFIX, DEFAULT_GRACE_S, DEFAULT_STALL_S, STOP_NAME, Abandoned, StopControl
 from hpcontact.sweep.spec import Spec, Validator, load_spec
 from hpcontact.sweep.tasks import (
@@ -601,8 +610,18 @@ def _run(
             file=stream,
             flush=True,
         )
-        print(start_line(todo, team.size), file=stream, flush=True)
-        progress = Progress(len(tasks), plan.decision.reused, sum(t.cost for t in todo), spec.progress_interval, stream)
+        line, seconds = start_estimate(todo, team.size)
+        print(line, file=stream, flush=True)
+        handed = [t for chunk in chunks for t in chunk]  # what the ranks report, in hand-out order
+        estimated = None if seconds is None else dict(zip((t.key for t in todo), seconds.tolist()))
+        progress = Progress(
+            len(tasks),
+            plan.decision.reused,
+            [cost_units(t.cost) for t in handed],
+            None if estimated is None else [estimated[t.key] for t in handed],
+            spec.progress_interval,
+            stream,
+        )
 
     index = {t.key: i for i, t in enumerate(tasks)}
     task_s = schedule_s = journal_s = 0.0

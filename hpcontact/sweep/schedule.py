@@ -422,9 +422,14 @@ def claimed_chunks(chunks: Sequence[tuple[Any, ...]], counter: Counter) -> Itera
         yield chunks[index]
 
 
+def cost_units(cost: float) -> int:
+    """The units a finished task of relative ``cost`` adds to the count (at least one)."""
+    return max(1, int(round(cost)))
+
+
 def report_done(counter: Counter, cost: float) -> None:
-    """Count one finished task of estimated ``cost`` (at least one unit), without waiting."""
-    counter.add(TASKS_DONE, (1, max(1, int(round(cost)))))
+    """Count one finished task of relative ``cost`` (``cost_units``), without waiting."""
+    counter.add(TASKS_DONE, (1, cost_units(cost)))
 
 
 def totals_done(counter: Counter) -> tuple[int, int]:

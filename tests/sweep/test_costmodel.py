@@ -222,16 +222,18 @@ def test_the_barnett_lothe_term_counts_the_omega_nodes_of_each_anisotropic_body(
     assert calibration.task_seconds({"shape": "circle", "anisotropy": 2.0, "n": 16}) == 0.0
 
 
-def test_the_start_line_uses_the_cached_calibration_and_never_calibrates(tmp_path, monkeypatch):
+def test_the_start_estimate_uses_the_cached_calibration_and_never_calibrates(tmp_path, monkeypatch):
     monkeypatch.setenv("HPCONTACT_COSTMODEL", str(tmp_path / "cm.json"))
     monkeypatch.setattr(costmodel, "calibrate", lambda: pytest.fail("a run must not wait for a calibration"))
     tasks = [Task(key="a", params={"shape": "circle", "n": 32, "tol": 1e-6}, cost=4096 * 12 * 6.0, group="g")]
-    assert costmodel.start_line(tasks, 2).startswith("hpcontact: no cost estimate (no calibration cached in")
+    line, seconds = costmodel.start_estimate(tasks, 2)
+    assert line.startswith("hpcontact: no cost estimate (no calibration cached in") and seconds is None
     rates = {kind: Rate(rate_s=1e-6, solve_s=0.0) for kind in costmodel.KINDS}
     costmodel.save_calibration(Calibration(socket.gethostname(), __version__, rates, 1.0))
     # 1e-6 s per unit x 294 912 units = 0.2949 s of one task; on 2 ranks the makespan adds the
     # replayed overheads, so only the core-seconds are exact
-    assert "estimated 0.2949 core-seconds" in costmodel.start_line(tasks, 2)
+    line, seconds = costmodel.start_estimate(tasks, 2)
+    assert "estimated 0.2949 core-seconds" in line and seconds.tolist() == [pytest.approx(0.294912, rel=1e-12)]
 
 
 def test_the_task_term_is_the_same_for_every_contact_task():
@@ -547,12 +549,12 @@ def test_a_calibration_made_beside_other_processes_says_so(tmp_path, monkeypatch
     path = costmodel.save_calibration(calibration, tmp_path / "cm.json")
     assert costmodel.read_calibration(path).others == 1.0
     monkeypatch.setenv("HPCONTACT_COSTMODEL", str(path))
-    assert "estimates may be 2-4x high" in costmodel.start_line([], 2)
+    assert "estimates may be 2-4x high" in costmodel.start_estimate([], 2)[0]
     record = json.loads(path.read_text())
     del record["others"]
     path.write_text(json.dumps(record))
     assert costmodel.read_calibration(path).others is None
-    assert costmodel.read_calibration(path).contended() == "" and "high" not in costmodel.start_line([], 2)
+    assert costmodel.read_calibration(path).contended() == "" and "high" not in costmodel.start_estimate([], 2)[0]
 
 
 def test_other_running_counts_a_busy_neighbour():

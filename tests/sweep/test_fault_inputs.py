@@ -439,7 +439,7 @@ def test_an_endless_or_blocking_cost_cache_is_ignored_at_once_and_replaced(tmp_p
     code = (
         "import sys, warnings; from pathlib import Path; from hpcontact.sweep import costmodel\n"
         "path = Path(sys.argv[1]); cached, why = costmodel.cached_calibration(path); print(why)\n"
-        "print(costmodel.start_line([], 2))\n"
+        "print(costmodel.start_estimate([], 2)[0])\n"
         "from hpcontact import __version__; import socket\n"
         "fresh = costmodel.Calibration(socket.gethostname(), __version__, {k: costmodel.Rate(1e-7, 0.0) for k in "
         "costmodel.KINDS}, 1.0)\n"
