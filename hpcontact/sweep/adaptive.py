@@ -455,7 +455,7 @@ def _rounds(team: Any, spec: Any, task_of: np.ndarray, options: Any, stream: Tex
         new = np.setdiff1d(tasks, done)
         if team.rank == 0:
             print(
-                f"hpcontact: adaptive round {rounds}: {len(new)} new scene(s) to solve, {len(tasks)} of "
+                f"hpcontact: adaptive round {rounds}: {len(new)} scene(s) added, {len(tasks)} of "
                 f"{len(np.unique(task_of))} in all",
                 file=stream,
                 flush=True,
