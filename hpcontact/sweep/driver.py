@@ -62,7 +62,7 @@ from hpcontact.sweep.arguments import (
 )
 from hpcontact.sweep.columns import NOT_COMPUTED, join, to_columns
 from hpcontact.sweep.costmodel import check_memory, start_estimate
-from hpcontact.sweep.guard import Refused, RunLock, usable_folder, usable_output
+from hpcontact.sweep.guard import Refused, RunLock, apart, usable_folder, usable_output
 from hpcontact.sweep.journal import (
     BAD_INPUT,
     ERROR,
@@ -304,6 +304,7 @@ def prepare(
 ) -> Decision:
     """Rank 0's preparation (see the module docstring); ``keep`` receives what stays on rank 0
     (each point's task, the lock, the history, the reused and quarantined keys)."""
+    apart(spec)  # the output is not the spec, a mask or the journal folder (a dry run checks the same)
     if over:
         check_memory(tasks, *options.mem_per_rank)
     injected = faults.faults_from_environment()
@@ -873,6 +874,7 @@ def dry_run(
     spec = load_spec(
         spec_path, output=output, check_scenes=False, accuracy=accuracy
     )  # checked once, while enumerating:
+    apart(spec)  # refused as the run refuses it (guard.apart), before the enumeration
     progress = progress_lines(sys.stderr, points(spec))
     tasks, task_of = join_parts(spec, [enumerate_part(spec, check=True, progress=progress, lean=True)])
     limit, source = (mem_per_rank, "--mem-per-rank") if mem_per_rank is not None else default_memory_per_rank()

@@ -1,5 +1,11 @@
 """May this run use this output? Refusals made before any task runs (exit status 2).
 
+* What the run writes may not eat what it reads, nor each other (``apart``, also in a dry run):
+  the output may not be the spec, a mask file the spec names or the journal folder, nor lie in
+  the journal folder; the journal folder may not be the spec or a mask file. Paths are compared
+  with their symbolic links resolved, and existing ones by ``os.path.samefile`` too (hard
+  links), so ``hpcontact run foo.nc`` on a TOML spec named foo.nc (default output: foo.nc) is
+  refused, not answered by the data set replacing the spec.
 * The output's folder and the journal folder must be writable (each is created when its parent
   exists; a missing grandparent is a typo, refused), so a run never fails at its end for want of
   a place to write; the output itself, where it exists, must be a file (a folder in its place
@@ -30,13 +36,24 @@ import json
 import os
 import secrets
 import socket
+import tomllib
 from pathlib import Path
 from typing import Any
 
 from hpcontact.errors import InputError
 from hpcontact.sweep.journal import JOB_VARIABLES, batch_job, journal_files, read_file, sync_folder
+from hpcontact.sweep.spec import LABEL_AXES, PATH_FIELDS
 
-__all__ = ["JOB_VARIABLES", "LOCK_NAME", "Refused", "RunLock", "batch_job", "usable_folder", "usable_output"]
+__all__ = [
+    "JOB_VARIABLES",
+    "LOCK_NAME",
+    "Refused",
+    "RunLock",
+    "apart",
+    "batch_job",
+    "usable_folder",
+    "usable_output",
+]
 
 LOCK_NAME = "LOCK"
 LOCK_BYTES = 4096  # a lock record is ~150 bytes: a larger file is not one
@@ -87,6 +104,70 @@ def usable_output(path: Path) -> None:
         raise Refused(
             f"the output {path} is {what}, not a file: name another output ([sweep].output or --output) or move it away"
         )
+
+
+def _same(a: Path, b: Path) -> bool:
+    """Whether ``a`` and ``b`` name one file or folder: the same path once symbolic links are
+    resolved, or (both existing) the same file (``os.path.samefile``: hard links, bind mounts)."""
+    if os.path.realpath(a) == os.path.realpath(b):
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except (OSError, ValueError):
+        return False
+
+
+def _inside(path: Path, folder: Path) -> bool:
+    """Whether ``path`` lies in ``folder``, at any depth (symbolic links resolved)."""
+    return any(_same(parent, folder) for parent in Path(os.path.realpath(path)).parents)
+
+
+def _inputs(spec: Any) -> list[tuple[str, Path]]:
+    """What the run of ``spec`` reads, each with the spec key that names it: the spec file and
+    every input file (``spec.PATH_FIELDS``: masks) of [scene] and of the label tables."""
+    found = [("spec", Path(spec.path))] if Path(spec.path).is_file() else []  # not a dict's "<dict>"
+    found += [(f"scene.{name}", Path(spec.fixed[name])) for name in sorted(PATH_FIELDS) if name in spec.fixed]
+    for axis in spec.axes:
+        if axis.name in LABEL_AXES:
+            found += [
+                (f"axes.{axis.name}[{i}].{name}", Path(fields[name]))
+                for i, fields in enumerate(axis.fields)
+                for name in sorted(PATH_FIELDS)
+                if name in fields
+            ]
+    return found
+
+
+def _named(spec: Any) -> tuple[str, str]:
+    """The output and the journal folder of ``spec`` as a refusal names them: path and origin."""
+    try:
+        sweep = tomllib.loads(spec.text).get("sweep", {})
+    except (tomllib.TOMLDecodeError, AttributeError):
+        sweep = {}
+    output, journal = Path(spec.output), Path(spec.journal)
+    if "output" not in sweep and output == Path(f"{Path(spec.path).stem}.nc"):
+        output_name = f"the output {output} (the spec's name with .nc: set sweep.output or pass --output)"
+    else:
+        output_name = f"the output {output} (sweep.output or --output)"
+    origin = "sweep.journal" if "journal" in sweep else "the output's name + .journal"
+    return output_name, f"the journal folder {journal} ({origin})"
+
+
+def apart(spec: Any) -> None:
+    """``Refused`` (one line naming both paths and where they come from) when what the run of
+    ``spec`` writes would overwrite what it reads, or each other (module docstring). Changes
+    nothing and reads only file metadata: a run (``driver.prepare``) and a dry run alike."""
+    output, journal = Path(spec.output), Path(spec.journal)
+    if _same(output, journal):
+        raise Refused("{} is {}: name them apart".format(*_named(spec)))
+    if _inside(output, journal):
+        raise Refused("{} lies in {}: name an output outside it".format(*_named(spec)))
+    for field, path in _inputs(spec):
+        read = f"the spec {path}" if field == "spec" else f"the input file {path} ({field})"
+        if _same(output, path):
+            raise Refused(f"{_named(spec)[0]} is {read}: the data set would replace it; name another output")
+        if _same(journal, path):
+            raise Refused(f"{_named(spec)[1]} is {read}: name another journal folder (sweep.journal)")
 
 
 def _read(path: Path) -> bytes | None:
