@@ -16,16 +16,19 @@ from hpcontact.sweep.interpolation import bisection_nodes
 INTERPOLATED_AXES = frozenset(
     {"nu", "aspect", "anisotropy", "orientation", "angle", "load", "mu", "q_ratio", "anisotropy2", "orientation2"}
 )
-KEYS = ("tolerance", "max_solves", "quantities", "initial", "log")
+KEYS = ("tolerance", "max_solves", "quantities", "initial", "log", "checks")
 TOLERANCE_RANGE = "a relative error in [1e-8, 0.5]"
 DEFAULT_INITIAL = 5
+#: Random points of each sub-problem solved per check round (``hpcontact.sweep.adaptive``).
+DEFAULT_CHECKS = 30
 
 
 @dataclass(frozen=True)
 class Settings:
     """The checked ``[adaptive]`` table: ``tolerance`` per quantity (``quantities`` None: every
     stored stiffness at ``default``), ``max_solves`` (None: the full grid bounds it), nodes per
-    axis of the first round and the list axes interpolated in log10."""
+    axis of the first round, the list axes interpolated in log10 and the random points of
+    each sub-problem solved per check round (0: no check)."""
 
     default: float
     tolerances: tuple[tuple[str, float], ...] = ()
@@ -33,6 +36,7 @@ class Settings:
     max_solves: int | None = None
     initial: int = DEFAULT_INITIAL
     log: tuple[str, ...] = ()
+    checks: int = DEFAULT_CHECKS
 
     def tolerance(self, name: str) -> float:
         """The tolerance of the quantity ``name``."""
@@ -93,6 +97,13 @@ def parse_settings(table: Any, axes: Sequence[Any], raw_axes: Mapping[str, Any],
         raise InputError(
             "adaptive.initial", "an integer in [2, 1000] (nodes per numeric axis in the first round)", initial
         )
+    checks = table.get("checks", DEFAULT_CHECKS)
+    if isinstance(checks, bool) or not isinstance(checks, int) or not 0 <= checks <= 10_000:
+        raise InputError(
+            "adaptive.checks",
+            "an integer in [0, 10000] (random points solved per sub-problem to check the map)",
+            checks,
+        )
     log = table.get("log", [])
     if isinstance(log, str):
         log = [log]
@@ -118,7 +129,7 @@ def parse_settings(table: Any, axes: Sequence[Any], raw_axes: Mapping[str, Any],
         for name, raw_axis in raw_axes.items()
         if name in numeric and isinstance(raw_axis, dict) and "logspace" in raw_axis and name not in log
     )
-    settings = Settings(default, tolerances, quantities, None, initial, log)
+    settings = Settings(default, tolerances, quantities, None, initial, log, checks)
     if "max_solves" in table:
         value = table["max_solves"]
         first = math.prod(len(bisection_nodes(len(a), initial)) if a.name in numeric else len(a) for a in task_axes)

@@ -13,6 +13,7 @@ from __future__ import annotations
 import hashlib
 import io
 import math
+import sys
 
 import numpy as np
 import pytest
@@ -20,12 +21,13 @@ import xarray as xr
 
 from hpcontact.analytic import mindlin_ellipse_stiffness
 from hpcontact.errors import InputError
+from hpcontact.sweep import adaptive
 from hpcontact.sweep.adaptive import Layout, dry_run_text, initial_state, state_tasks
 from hpcontact.sweep.driver import Options, execute, run_sweep
 from hpcontact.sweep.journal import ERROR, read_journals
 from hpcontact.sweep.schedule import SerialTeam
 from hpcontact.sweep.spec import parse_spec
-from hpcontact.sweep.tasks import enumerate_tasks
+from hpcontact.sweep.tasks import enumerate_part, enumerate_tasks, join_parts
 
 MINDLIN = """
 [sweep]
@@ -109,7 +111,9 @@ def test_mindlin_map_within_tolerance_with_honest_estimates_and_few_solves(write
 
 def test_the_data_set_has_the_full_sweeps_variables_and_marks_the_solved_points(write_spec, tmp_path):
     small = MINDLIN.replace("[0, -4, 41]", "[0, -4, 9]").replace("[0, 0.5, 21]", "[0, 0.5, 5]")
-    adaptive = xr.open_dataset(sweep(write_spec(small.replace("tolerance = 1e-3", "tolerance = 0.5")), mindlin))
+    adaptive = xr.open_dataset(
+        sweep(write_spec(small.replace("tolerance = 1e-3", "tolerance = 0.5\nchecks = 0")), mindlin)
+    )
     full_text = small.split("[adaptive]")[0]
     full = xr.open_dataset(sweep(write_spec(full_text, "full.toml"), mindlin, output=tmp_path / "full.nc"))
     extra = {"solved", *(f"{n}_map_error" for n in full.data_vars if f"{n}_error" in full.data_vars)}
@@ -302,3 +306,64 @@ def test_a_commit_during_the_rounds_does_not_make_their_own_journals_stale(write
     ds = xr.open_dataset(sweep(write_spec(MINDLIN), counting(calls)))
     assert ds.attrs["adaptive_rounds"] >= 2 and ds.attrs["sweep_solves"] == len(calls)
     assert provenance.REVISION_VARIABLE not in os.environ  # restored after the sweep
+
+
+def test_checks_make_an_estimator_tuned_too_low_honest_again(write_spec, monkeypatch, tmp_path):
+    """A map nobody tuned the estimate to, made here by tuning it wrong: the factor on the
+    interpolation estimate at 0.1 instead of 1.5 (15x too small). Without checks the map
+    claims its tolerance and is dishonest at most interpolated points; the check rounds
+    (random solves compared with the interpolant) raise the factor until they hold, the
+    refinement goes on with it, and the map is honest at >= 95 % of its points and within
+    its tolerance of Mindlin's closed form everywhere."""
+    monkeypatch.setattr(adaptive, "SAFETY", 0.1)
+    text = MINDLIN.replace("tolerance = 1e-3", "tolerance = 1e-4").replace("accuracy = 1e-4", "accuracy = 1e-6")
+    monkeypatch.setattr(sys.modules[__name__], "SOLVE_ERROR", 1e-6)
+    monkeypatch.setattr(sys.modules[__name__], "NOISE", 1e-7)
+    plain = write_spec(text.replace("tolerance = 1e-4", "tolerance = 1e-4\nchecks = 0"), "plain.toml")
+    unchecked = xr.open_dataset(sweep(plain, mindlin, output=tmp_path / "plain.nc"))
+    checked = xr.open_dataset(sweep(write_spec(text), mindlin))
+    exact = exact_map(checked)
+    for ds, honest in ((unchecked, False), (checked, True)):
+        true = np.abs(ds["K_yy"].values / exact["K_yy"] - 1.0)
+        share = float(np.mean(ds["K_yy_map_error"].values >= true))
+        assert (share >= 0.95) == honest, share
+    assert checked.attrs["adaptive_check_rounds"] >= 2 and checked.attrs["adaptive_estimate_factor"] > 0.1
+    assert checked.attrs["adaptive_check_points"] >= 60 and checked.attrs["adaptive_met"] == 1
+    for name, value in exact.items():
+        assert np.max(np.abs(checked[name].values / value - 1.0)) <= 1e-4, name
+
+
+def test_check_points_are_reproducible_unsolved_and_bounded_by_max_solves():
+    """Every rank and a resumed run draw the same check points; none is a task already solved;
+    ``max_solves`` counts them."""
+    spec = parse_spec(MINDLIN.replace("tolerance = 1e-3", "tolerance = 1e-3\nmax_solves = 40"), check_scenes=False)
+    layout = Layout.of(spec)
+    task_of = join_parts(spec, [enumerate_part(spec)])[1]
+    state = initial_state(layout, spec.adaptive)
+    first = adaptive.drawn_checks(layout, spec.adaptive, state, adaptive.Checks(), task_of)
+    again = adaptive.drawn_checks(layout, spec.adaptive, state, adaptive.Checks(), task_of)
+    assert first == again and first.pending and len(first.points) == 40 - 25
+    nodes = set(np.asarray(task_of).ravel()[adaptive.state_points(layout, state)].tolist())
+    assert not nodes & set(np.asarray(task_of).ravel()[list(first.points)].tolist())
+    assert len(state_tasks(layout, state, task_of, first)) == 40
+    full = adaptive.drawn_checks(layout, spec.adaptive, state, first, task_of)
+    assert full == first  # no room left: nothing drawn
+
+
+def test_the_run_says_whether_the_map_met_its_tolerance(write_spec, tmp_path):
+    """The last line of an adaptive run: met or not, the worst map error, where, the solves."""
+    out = io.StringIO()
+    run_sweep(write_spec(MINDLIN), team=SerialTeam(), stream=out, task_function=mindlin)
+    last = out.getvalue().strip().splitlines()[-1]
+    assert last.startswith("hpcontact: adaptive map met its tolerance (0.001): worst map error ")
+    assert " at aspect = " in last and "solves for 861 points" in last and "random check point(s)" in last
+    out = io.StringIO()
+    capped = MINDLIN.replace("tolerance = 1e-3", "tolerance = 1e-6\nmax_solves = 60")
+    run_sweep(
+        write_spec(capped, "capped.toml"),
+        team=SerialTeam(),
+        stream=out,
+        task_function=mindlin,
+        output=tmp_path / "capped.nc",
+    )
+    assert "adaptive map did NOT meet its tolerance (1e-06)" in out.getvalue().strip().splitlines()[-1]
