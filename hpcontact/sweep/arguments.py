@@ -15,8 +15,9 @@ EXIT_STATUS = """exit status:
      written (disk full: the message names the file; journals intact, free space and --resume),
      or a rank showed no sign of life for --stall-timeout (journals intact, --resume)
   2  bad input or a refusal, before any task runs: bad spec, output or journal folder not
-     writable, lock held by another run, journals without --resume/--restart, stale journals,
-     a task whose estimated memory exceeds --mem-per-rank
+     writable, an output that is the spec, a mask or the journal folder (or lies in it), lock
+     held by another run, journals without --resume/--restart, stale journals, a task whose
+     estimated memory exceeds --mem-per-rank
   3  data set written, but some tasks failed (the summary names up to 5 with their messages)
   4  stopped by Ctrl-C (SIGINT), SIGTERM or SIGUSR1 to any rank, in any phase: journals
      intact, run again with --resume (a stop after the data set is written changes nothing)"""
@@ -65,15 +66,15 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--dry-run",
         action="store_true",
-        help="list the tasks with their indices and estimated cost (core-seconds, peak memory, wall "
-        "time at 1, 64, 1024 ranks); compute nothing",
+        help="print the estimated cost (core-seconds, peak memory, wall time at 1, 64, 1024 ranks), "
+        "then the tasks with their indices (of more than 15: the first 10 and the last 5); compute nothing",
     )
     parser.add_argument("--json", action="store_true", help="with --dry-run: print one JSON object")
     parser.add_argument(
         "--list-all",
         action="store_true",
-        help="with --dry-run: list every task (of more than 2000, a dry run lists the first and last 20 and "
-        "the number left out)",
+        help="with --dry-run: list every task (of more than 15, a dry run lists the first 10 and the last 5 "
+        "and the number left out)",
     )
     parser.add_argument(
         "--mem-per-rank",

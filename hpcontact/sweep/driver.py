@@ -842,11 +842,21 @@ def _assemble(
     return Outcome(path, len(failed))
 
 
-#: A dry run of more tasks lists the first and the last ``LISTED_EDGE`` of them and says how many it
-#: left out (``--list-all``: every task; ``--json`` always lists every task): 10^6 lines are
-#: nothing a reader reads, and printing them takes longer than the estimate.
-LISTED_TASKS = 2000
-LISTED_EDGE = 20
+#: A dry run lists a sample of the tasks, after its summary: the first ``LISTED_HEAD`` and the last
+#: ``LISTED_TAIL``, and a line saying how many it left out between them (``--list-all``: every task;
+#: ``--json`` always lists every task). Mindlin's adaptive map has 861 tasks, a large sweep 10^6:
+#: lines nobody reads, and printing them takes longer than the estimate.
+LISTED_HEAD = 10
+LISTED_TAIL = 5
+
+
+def listed_tasks(count: int, list_all: bool = False) -> Sequence[int | None]:
+    """The indices of the tasks a text dry run of ``count`` tasks lists, in order, with None where
+    it says how many it left out: every task when ``list_all`` or when there are no more than
+    ``LISTED_HEAD + LISTED_TAIL``, else the first ``LISTED_HEAD`` and the last ``LISTED_TAIL``."""
+    if list_all or count <= LISTED_HEAD + LISTED_TAIL:
+        return range(count)
+    return [*range(LISTED_HEAD), None, *range(count - LISTED_TAIL, count)]
 
 
 def dry_run(
@@ -860,12 +870,12 @@ def dry_run(
     list_all: bool = False,
     accuracy: float | None = None,
 ) -> int:
-    """``hpcontact run SPEC --dry-run``: the tasks with their 0-based indices (the order
-    ``HPCONTACT_FAULTS`` counts in), relative cost, estimated seconds and peak memory and
-    parameters (of more than ``LISTED_TASKS`` tasks the first and last ``LISTED_EDGE`` and the
-    number left out, unless ``list_all``); the distinct grids and kernel sets; the totals
-    (core-seconds, core-hours, peak memory) and the wall time on 1, 64 and 1024 ranks
-    (``costmodel``); a warning on stderr for tasks over ``mem_per_rank`` bytes (default:
+    """``hpcontact run SPEC --dry-run``: a line with the title, the number of tasks and the output;
+    the summary: the distinct grids and kernel sets, the totals (core-seconds, core-hours, peak
+    memory), the wall time on 1, 64 and 1024 ranks (``costmodel``) and an adaptive spec's first
+    round and bound; then the tasks with their 0-based indices (the order ``HPCONTACT_FAULTS``
+    counts in), relative cost, estimated seconds and peak memory and parameters: a sample
+    (``listed_tasks``) unless ``list_all``. A warning on stderr for tasks over ``mem_per_rank`` bytes (default:
     ``numerics.memory.default_memory_per_rank``). With ``as_json``, one JSON object instead,
     every task in its ``tasks_list`` (written as it goes, not built in memory). Nothing is
     computed but the cost model's calibration (once per host and version,
@@ -934,21 +944,6 @@ def dry_run(
         f"estimated peak MiB, scene)",
         file=stream,
     )
-    shown = json.JSONEncoder(sort_keys=True).encode  # json.dumps(..., sort_keys=True) without an encoder per line
-    listed = range(len(tasks))
-    if len(tasks) > LISTED_TASKS and not list_all:
-        listed = [*range(LISTED_EDGE), None, *range(len(tasks) - LISTED_EDGE, len(tasks))]
-    for begin in range(0, len(listed), 10_000):
-        stream.write(
-            "".join(
-                f"# {len(tasks) - 2 * LISTED_EDGE} tasks not listed ({LISTED_EDGE} ... {len(tasks) - LISTED_EDGE - 1}; "
-                f"--list-all lists every task)\n"
-                if i is None
-                else f"{i:6d}  {tasks[i].key[:12]}  {tasks[i].cost:10.3g}  {float(est.seconds[i]):9.3g}  "
-                f"{float(est.bytes[i]) / 2**20:7.0f}  {shown(dict(tasks[i].params))}\n"
-                for i in listed[begin : begin + 10_000]
-            )
-        )
     counts = est.grids()  # once: a label per task
     grids = "; ".join(f"{label}: {count} tasks" for label, count in counts.items())
     print(f"# {len(counts)} grid(s) ({grids}); {est.kernel_sets()} kernel set(s)", file=stream)
@@ -964,10 +959,24 @@ def dry_run(
     )
     if calibration.contended():
         print(f"# warning: cost model {calibration.contended()}", file=stream)
-    if spec.adaptive is not None:  # the tasks above are the bound; the first round solves fewer
+    if spec.adaptive is not None:  # all the tasks are the bound; the first round solves fewer
         from hpcontact.sweep.adaptive import dry_run_text
 
         print(dry_run_text(spec, task_of), file=stream)
+    shown = json.JSONEncoder(sort_keys=True).encode  # json.dumps(..., sort_keys=True) without an encoder per line
+    listed = listed_tasks(len(tasks), list_all)
+    left_out = len(tasks) - LISTED_HEAD - LISTED_TAIL
+    for begin in range(0, len(listed), 10_000):
+        stream.write(
+            "".join(
+                f"# ... {left_out} more tasks ({LISTED_HEAD} ... {len(tasks) - LISTED_TAIL - 1}; "
+                f"--list-all lists every task)\n"
+                if i is None
+                else f"{i:6d}  {tasks[i].key[:12]}  {tasks[i].cost:10.3g}  {float(est.seconds[i]):9.3g}  "
+                f"{float(est.bytes[i]) / 2**20:7.0f}  {shown(dict(tasks[i].params))}\n"
+                for i in listed[begin : begin + 10_000]
+            )
+        )
     return EXIT_OK
 
 

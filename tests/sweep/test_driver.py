@@ -3,6 +3,7 @@ work (spec, lock, journals without a flag, stale journals, unusable output), sto
 
 from __future__ import annotations
 
+import argparse
 import io
 import json
 import os
@@ -349,7 +350,7 @@ def test_dry_run_lists_the_tasks_in_order_and_computes_nothing(write_spec, capsy
     spec = write_spec(SPEC)
     assert main([str(spec), "--dry-run"]) == 0
     lines = [line for line in capsys.readouterr().out.splitlines() if not line.startswith("#")]  # estimates: '#'
-    assert len(lines) == TASKS and [int(line.split()[0]) for line in lines] == list(range(TASKS))
+    assert len(lines) == TASKS and [int(line.split()[0]) for line in lines] == list(range(TASKS))  # 15: no sample
     assert json.loads(lines[0].split(None, 5)[5])["shape"] == "circle"
     assert not (spec.parent / "out.nc.journal").exists()
 
@@ -464,31 +465,77 @@ nu = {{ linspace = [0, 0.5, {points}] }}
 """
 
 
-def test_a_long_dry_run_lists_a_sample_and_the_number_left_out_and_list_all_lists_every_task(
+def test_a_dry_run_prints_its_summary_then_a_sample_of_the_tasks_and_list_all_lists_every_task(
     write_spec, capsys, monkeypatch
 ):
-    """A dry run of 10^5 tasks lists the first and last ``LISTED_EDGE`` and says how many it left
-    out; ``--list-all`` lists all; the summary lines are the same either way."""
-    from hpcontact.sweep.driver import LISTED_EDGE
+    """A dry run of more tasks than its sample prints its title line and summary first (grids,
+    estimate, wall time), then the first ``LISTED_HEAD`` and the last ``LISTED_TAIL`` tasks with
+    one line between them saying how many it left out; ``--list-all`` prints the same summary,
+    then every task."""
+    from hpcontact.sweep.driver import LISTED_HEAD, LISTED_TAIL
 
+    assert (LISTED_HEAD, LISTED_TAIL) == (10, 5)
     monkeypatch.setenv("HPCONTACT_MPI", "0")
-    spec = write_spec(LONG_SPEC.format(points=100_000))
+    spec = write_spec(LONG_SPEC.format(points=3000))
     assert main([str(spec), "--dry-run"]) == 0
     sample = capsys.readouterr().out.splitlines()
     assert main([str(spec), "--dry-run", "--list-all"]) == 0
     every = capsys.readouterr().out.splitlines()
-    listed = [line for line in sample if not line.startswith("#")]
-    indices = list(range(LISTED_EDGE)) + list(range(100_000 - LISTED_EDGE, 100_000))
-    assert [int(line.split()[0]) for line in listed] == indices
-    left_out = [line for line in sample if "not listed" in line]
-    assert left_out == [f"# {100_000 - 2 * LISTED_EDGE} tasks not listed ({LISTED_EDGE} ... {99_999 - LISTED_EDGE}; "
-                        "--list-all lists every task)"]  # fmt: skip
-    tasks = [line for line in every if not line.startswith("#")]
-    assert [int(line.split()[0]) for line in tasks] == list(range(100_000))
-    assert set(listed) <= set(tasks) and json.loads(tasks[-1].split(None, 5)[5])["nu"] == 0.5
-    assert [line for line in sample if line.startswith("#") and line not in left_out] == [
-        line for line in every if line.startswith("#")
-    ]
+    assert len(sample) == 4 + 10 + 1 + 5
+    assert sample[0].startswith("# a long axis: 3000 tasks -> ") and sample[0].endswith("(index, key, relative "
+        "cost, estimated seconds, estimated peak MiB, scene)")  # fmt: skip
+    assert [line.split(maxsplit=2)[1] for line in sample[1:4]] == ["1", "estimated:", "wall"]  # grids first
+    assert [int(line.split()[0]) for line in sample[4:14] + sample[15:]] == [*range(10), *range(2995, 3000)]
+    assert sample[14] == "# ... 2985 more tasks (10 ... 2994; --list-all lists every task)"
+    assert every[:4] == sample[:4] and len(every) == 4 + 3000
+    assert [int(line.split()[0]) for line in every[4:]] == list(range(3000))
+    assert set(sample[4:14] + sample[15:]) <= set(every) and json.loads(every[-1].split(None, 5)[5])["nu"] == 0.5
+
+
+def test_every_dry_run_follows_one_rule_for_its_sample():
+    """Up to ``LISTED_HEAD + LISTED_TAIL`` tasks: every one; one more: the sample, one left out."""
+    from hpcontact.sweep.arguments import add_run_arguments
+    from hpcontact.sweep.driver import listed_tasks
+
+    assert list(listed_tasks(0)) == [] and list(listed_tasks(15)) == list(range(15))
+    assert list(listed_tasks(16)) == [*range(10), None, *range(11, 16)]
+    assert list(listed_tasks(16, list_all=True)) == list(range(16))
+    assert list(listed_tasks(10**6)) == [*range(10), None, *range(10**6 - 5, 10**6)]
+    parser = argparse.ArgumentParser()
+    add_run_arguments(parser)
+    assert "of more than 15, a dry run lists the first 10 and the last 5" in " ".join(parser.format_help().split())
+
+
+ADAPTIVE_SPEC = """
+[sweep]
+title = "adaptive"
+[scene]
+shape = "ellipse"
+quantities = ["tangential"]
+[numerics]
+n = 16
+[axes]
+aspect = { logspace = [0, -2, 9] }
+nu = { linspace = [0, 0.5, 5] }
+[adaptive]
+tolerance = 1e-3
+"""
+
+
+def test_an_adaptive_dry_run_states_its_first_round_before_the_tasks(write_spec, capsys, monkeypatch):
+    """Issue 40: a dry run of an adaptive spec printed every task (861 lines for Mindlin's map)
+    before its summary; now the summary, the first round and the bound come first."""
+    monkeypatch.setenv("HPCONTACT_MPI", "0")
+    spec = write_spec(ADAPTIVE_SPEC)
+    assert main([str(spec), "--dry-run"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith("# adaptive: 45 tasks -> ")
+    assert lines[4].startswith("# adaptive: first round ")  # and the bound (hpcontact.sweep.adaptive.dry_run_text)
+    assert all(line.startswith("#") for line in lines[:5]) and not lines[5].startswith("#")
+    assert len(lines) == 5 + 10 + 1 + 5 and lines[15] == "# ... 30 more tasks (10 ... 39; --list-all lists every task)"
+    assert main([str(spec), "--dry-run", "--list-all"]) == 0
+    every = capsys.readouterr().out.splitlines()
+    assert every[:5] == lines[:5] and [int(line.split()[0]) for line in every[5:]] == list(range(45))
 
 
 def test_a_dry_run_as_json_lists_every_task_and_list_all_needs_a_dry_run(write_spec, capsys, monkeypatch):
