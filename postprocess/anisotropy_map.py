@@ -4,15 +4,19 @@
 
 Writes ``anisotropy_curves.png`` (one panel per shape: K_a/K_b = K_xx/K_yy versus b/a, points
 per nu, Mindlin's bonded ellipse as lines, Li 2017 Fig. 7) and ``anisotropy_map_<shape>.png``
-(filled contours over log10 b/a and nu, the swept points marked on a coarse grid); shapes whose
+over log10 b/a and nu: filled contours where the data back the values between the grid points
+(an adaptive map, or a dense grid: ``common.draw_map``; the caption states the worst map error
+of what is drawn), the swept points alone, coloured, otherwise (the points marked on a coarse
+grid); shapes whose
 stiffness ignores b/a are left out. Other axes (anisotropy, orientation, n, tol) are taken at
 their first value (A = 1 where swept) and named in the title. ``--format pdf`` or ``svg``
 writes those instead of PNGs.
 
 Where the data set estimates the error of K_a/K_b (``K_a_over_K_b_error``), the curves carry
-bars ± the estimated error, the maps are hatched where it is more than 10 % of the map's range
+bars ± the estimated error, a filled map is hatched where its error is more than one contour
+interval, a map of points where a point's error is more than 10 % of the map's range
 (``common.ERROR_FRACTION``; points without an estimate hatched the other way) and each title
-states the worst estimated relative error; a data set without estimates says so there.
+states the worst error; a data set without estimates says so there.
 """
 
 from __future__ import annotations
@@ -28,12 +32,11 @@ from common import (
     arguments,
     by_shape,
     colours,
+    draw_map,
     error_bars,
     error_caption,
     error_marks,
-    hatch_errors,
     label,
-    mark_points,
     open_dataset,
     panels,
     save,
@@ -104,17 +107,14 @@ def maps(ds, names, outdir) -> None:
         da = da.transpose("nu", "aspect")
         fig, ax = plt.subplots(figsize=(6.0, 4.2), layout="constrained")
         levels = MaxNLocator(20).tick_values(float(da.min()), 1.0)
-        filled = ax.contourf(np.log10(da["aspect"]), da["nu"], da.values, levels=levels, cmap="viridis")
-        lines = ax.contour(np.log10(da["aspect"]), da["nu"], da.values, levels=levels[::4], colors="w", linewidths=0.6)
-        ax.clabel(lines, fmt="%.2f", fontsize=7)
-        errors = error_marks(ds, da)
-        hatch_errors(ax, np.log10(da["aspect"]), da["nu"], errors)
-        mark_points(ax, np.log10(da["aspect"]), da["nu"], da.values)
-        fig.colorbar(filled, ax=ax, label="K_a / K_b  (K_xx / K_yy)")
+        drawn, errors = draw_map(ax, ds, da, np.log10(da["aspect"]), da["nu"], levels)
+        fig.colorbar(drawn, ax=ax, label="K_a / K_b  (K_xx / K_yy)")
         ax.set_xlabel("log10(b/a)")
         ax.set_ylabel(label(ds["nu"]))
         notes = ", ".join(filter(None, [note, scalar_notes(ds)]))
-        ax.set_title(f"{shape}: K_a/K_b{f' ({notes})' if notes else ''}\n{error_caption(errors)}", fontsize=10)
+        named = shape or (str(ds["shape"].values) if "shape" in ds.coords and ds["shape"].ndim == 0 else "contact")
+        title = f"Bonded {named}: tangential stiffness ratio K_a/K_b{f' ({notes})' if notes else ''}"
+        ax.set_title(f"{title}\n{error_caption(errors)}", fontsize=10)
         save(fig, outdir, f"anisotropy_map_{shape or 'all'}.png")
 
 

@@ -313,6 +313,9 @@ class ErrorMarks:
     fraction: float = ERROR_FRACTION
     requested: float | None = None
     reason: str = ""
+    drawn: str = (
+        ""  # draw_map: "map" (filled, map error + drawing), "drawing" (filled, no estimate of the values), "points"
+    )
 
     @property
     def worst(self) -> float:
@@ -376,24 +379,33 @@ def error_caption(marks: ErrorMarks | Iterable[ErrorMarks], shown: str = "hatche
     ``hatch_errors``), "bars" (``error_bars``) or "band" (``error_band``) — and how many points
     have no estimate; ``NO_ESTIMATES`` (or the reason) when the data set has none."""
     marks = [marks] if isinstance(marks, ErrorMarks) else list(marks)
+    drawn = marks[0].drawn if marks else ""
+    lead = {"points": "swept points only, nothing drawn between them"}.get(drawn)
     without = list(dict.fromkeys(m.reason for m in marks if m.relative is None))  # in order, once each
     marks = [m for m in marks if m.relative is not None]
     if not marks:
-        return "; ".join(without) or NO_ESTIMATES
+        return "; ".join(filter(None, [lead, *without])) or NO_ESTIMATES
     missing = sum(int(m.missing.values.sum()) for m in marks)
     worst = [m.worst for m in marks if np.isfinite(m.worst)]
     if not worst:
-        return "; ".join([f"no error estimate at the {missing} points shown", *without])
+        return "; ".join(filter(None, [lead, f"no error estimate at the {missing} points shown", *without]))
     requested = marks[0].requested
-    parts = [
-        f"worst estimated relative error {max(worst):.1e}" + (f" (requested {requested:.1e})" if requested else "")
-    ]
+    what = {
+        "map": "worst map error of what is drawn {} (interpolation between solves + solves + drawing between grid points)",
+        "grid": "worst error of what is drawn {} (solves + drawing between grid points)",
+        "drawing": "worst error of what is drawn {} (the drawing between grid points; the solves unestimated)",
+    }.get(drawn, "worst estimated relative error {}")
+    parts = [lead] if lead else []
+    asked = "map tolerance" if drawn == "map" else "requested"
+    parts.append(what.format(f"{max(worst):.1e}") + (f" ({asked} {requested:.1e})" if requested else ""))
     if shown == "hatched":
         count = sum(int(m.exceeds.values.sum()) for m in marks)
-        parts.append(
-            f"hatched {EXCEEDS_HATCH}: error > {marks[0].fraction * 100:g} % of the map's range "
-            f"({count or 'no'} point{'' if count == 1 else 's'})"
+        limit = (
+            "one contour interval"
+            if drawn in ("map", "drawing")
+            else f"{marks[0].fraction * 100:g} % of the map's range"
         )
+        parts.append(f"hatched {EXCEEDS_HATCH}: error > {limit} ({count or 'no'} point{'' if count == 1 else 's'})")
         if missing:
             parts.append(f"hatched {MISSING_HATCH}: no estimate ({missing} point{'' if missing == 1 else 's'})")
     else:
@@ -401,6 +413,120 @@ def error_caption(marks: ErrorMarks | Iterable[ErrorMarks], shown: str = "hatche
         if missing:
             parts.append(f"no estimate at {missing} point{'' if missing == 1 else 's'}")
     return "; ".join(parts + without)
+
+
+# Maps. A filled contour map draws every value between its grid points: contourf interpolates
+# linearly between neighbours. So a map is drawn filled only where something backs those values:
+# an adaptive map (``<name>_map_error``: interpolation between its solves, checked) or a grid of
+# at least ``DENSE`` values along each axis; its error is then the map error (or the solves'
+# error) plus the error of the drawing between grid points (``drawing_error``), and the caption
+# states the worst of that sum over what is drawn. Any other map (a plain sweep on a few nodes)
+# draws its points alone, coloured by value, and nothing between them (``draw_map``).
+
+MAP_ERROR = "_map_error"
+DENSE = 9  # values along each axis of a plain sweep's map for it to be drawn filled
+#: Factor on the drawing error's estimate (|f''| h²/8 with f'' from the grid's second divided
+#: differences at the interval's ends): f'' may peak inside an interval.
+DRAWING_SAFETY = 2.0
+
+
+def _drawing_error_1d(x: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """Along the last axis of ``values`` (coordinates ``x``): the error of linear interpolation
+    between neighbouring points, h²|f''|/8 on an interval of width h (Davis, *Interpolation
+    and Approximation*, 1963, Thm. 3.1.1), with f'' the larger second divided difference at the
+    interval's ends, × ``DRAWING_SAFETY``; each point gets the larger of its two intervals'.
+    NaN with fewer than three points (no second difference)."""
+    x = np.asarray(x, dtype=float)
+    if len(x) < 3:
+        return np.full(values.shape, np.nan)
+    h = np.diff(x)  # signed: an axis may run down (b/a from 1)
+    slope = np.diff(values, axis=-1) / h
+    second = 2.0 * np.abs(np.diff(slope, axis=-1) / (h[:-1] + h[1:]))  # at the interior points
+    second = np.concatenate([second[..., :1], second, second[..., -1:]], axis=-1)  # ends: their neighbour's
+    interval = DRAWING_SAFETY * h**2 * np.fmax(second[..., :-1], second[..., 1:]) / 8.0
+    edge = np.full(values.shape[:-1] + (1,), np.nan)
+    left = np.concatenate([edge, interval], axis=-1)
+    right = np.concatenate([interval, edge], axis=-1)
+    return np.fmax(left, right)
+
+
+def drawing_error(x: np.ndarray, y: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """The absolute error of a filled map of ``values`` (shape ``(len(y), len(x))``) between
+    its grid points, at each point the worst of the cells it corners: the errors of linear
+    interpolation along x and along y add (``_drawing_error_1d``)."""
+    values = np.asarray(values, dtype=float)
+    along_x = _drawing_error_1d(np.asarray(x, dtype=float), values)
+    along_y = _drawing_error_1d(np.asarray(y, dtype=float), values.T).T
+    return along_x + along_y
+
+
+def map_error(ds: xr.Dataset, da: xr.DataArray, names: Sequence[str] | None = None) -> xr.DataArray | None:
+    """The map error of the panel ``da`` from the data set's ``<name>_map_error`` (an adaptive
+    map; the sum over ``names`` for a product or quotient of stored variables), None when the
+    data set has none for one of them."""
+    names = [str(da.name)] if names is None else list(names)
+    if not all(f"{n}{MAP_ERROR}" in ds for n in names):
+        return None
+    return sum(at_points(ds[f"{n}{MAP_ERROR}"], da).astype(float) for n in names)
+
+
+def filled(ds: xr.Dataset, da: xr.DataArray, names: Sequence[str] | None = None) -> bool:
+    """Whether the map of ``da`` is drawn filled: an adaptive map, or ``DENSE`` values or more
+    along each of its axes."""
+    return map_error(ds, da, names) is not None or all(da.sizes[d] >= DENSE for d in da.dims)
+
+
+def draw_map(ax, ds: xr.Dataset, da: xr.DataArray, x, y, levels, names: Sequence[str] | None = None, lines: int = 4):
+    """Draw the map of ``da`` (a quantity of ``ds`` over ``(y, x)``; or a product or quotient
+    of the stored ``names``) on ``ax`` with the colour ``levels``, and return ``(mappable,
+    marks)`` for the colour bar and ``error_caption``. Filled (``filled``): contours, every
+    ``lines``-th level labelled, the map error plus the drawing error at every point, hatched
+    where that is more than one contour interval. Otherwise the swept points alone, coloured
+    squares, their solves' estimated errors, the points that exceed hatched. The points are
+    marked (``mark_points``; an adaptive map's: those it solved)."""
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    values = np.asarray(da.values, dtype=float)
+    if not filled(ds, da, names):
+        marks = error_marks(ds, da, names)
+        X, Y = np.meshgrid(x, y)
+        ok = np.isfinite(values)
+        style = {"marker": "s", "s": 120, "cmap": "viridis", "vmin": levels[0], "vmax": levels[-1], "zorder": 3}
+        mappable = ax.scatter(X[ok], Y[ok], c=values[ok], edgecolors="k", linewidths=0.4, **style)
+        for mask, hatch in ((marks.exceeds, EXCEEDS_HATCH), (marks.missing, MISSING_HATCH)):
+            chosen = np.asarray(mask, dtype=bool) & ok
+            if chosen.any():
+                ax.scatter(X[chosen], Y[chosen], marker="s", s=120, facecolors="none", hatch=hatch, zorder=4)
+        mark_points(ax, x, y, values)
+        marks.drawn = "points"
+        return mappable, marks
+    base = map_error(ds, da, names)
+    drawn = "map"
+    marks_base = error_marks(ds, da, names) if base is None else None
+    if base is None and marks_base.relative is not None:
+        base, drawn = marks_base.relative, "grid"
+    drawing = drawing_error(x, y, values) / np.abs(error_scale(ds, da, (names or [str(da.name)])[0]).values)
+    relative = xr.DataArray(drawing, coords=da.coords, dims=da.dims)
+    relative = relative + (base.fillna(0.0) if base is not None else 0.0)
+    span = _span(da.astype(float))
+    interval = float(levels[1] - levels[0])
+    marks = error_marks(ds, da, names, relative=relative, fraction=interval / span if span > 0.0 else ERROR_FRACTION)
+    if base is None:
+        marks.reason = marks_base.reason if marks_base is not None else NO_ESTIMATES
+    marks.drawn = drawn if base is not None else "drawing"
+    mappable = ax.contourf(x, y, values, levels=levels, cmap="viridis")
+    contour = ax.contour(x, y, values, levels=levels[::lines], colors="w", linewidths=0.6)
+    ax.clabel(contour, fmt="%.2f", fontsize=7)
+    hatch_errors(ax, x, y, marks)
+    if drawn == "map" and "solved" in ds:  # an adaptive map: the points it solved
+        solved = at_points(ds["solved"], da).values == 1
+        X, Y = np.meshgrid(x, y)
+        ax.plot(
+            X[solved], Y[solved], "o", ms=2.2, mfc="k", mec="w", mew=0.3, ls="none", label="solved points", zorder=4
+        )
+        marks.requested = float(ds.attrs.get("adaptive_tolerance", 0.0)) or None
+    else:
+        mark_points(ax, x, y, values)
+    return mappable, marks
 
 
 def hatch_errors(ax, x: np.ndarray, y: np.ndarray, marks: ErrorMarks) -> list:

@@ -22,9 +22,14 @@ along [110] (0°) -> [111] (35.26°) -> [001] (90°), docs/design.md §2.5):
   the map is drawn at ``--nu`` (default: the value nearest 0.3, crystal_tangential's); with a
   shape axis (jobs/demo.toml) for ``--shape`` (default: the first).
 
-Error estimates (``V_error`` in the data set): the map is hatched where the estimated error of
-K_min/K_max is more than 10 % of the panel's range (``common.ERROR_FRACTION``; points without an
-estimate hatched the other way), the curves carry bars ± the estimated error; the ratio's error
+The map is filled only where the data back the values between its grid points (an adaptive
+map, or a dense grid; ``common.draw_map``: the caption states the worst map error of what is
+drawn, interpolation and drawing included); otherwise it shows the swept points alone.
+
+Error estimates (``V_error`` in the data set): a filled map is hatched where its error is more
+than one contour interval, a map of points where a point's estimated error of K_min/K_max is
+more than 10 % of the panel's range (``common.ERROR_FRACTION``; points without an estimate
+hatched the other way), the curves carry bars ± the estimated error; the ratio's error
 is the stored ``K_min_over_K_max_error`` when there is one, else the sum of the relative errors
 of K_min and K_max (a first-order bound). The sphere's points carry bars where the data set
 estimates ``ellipse_b_over_a`` and ``load`` (P/P([001]): the sum of the two loads' relative
@@ -47,12 +52,11 @@ from common import (
     anisotropy_ticks,
     arguments,
     colours,
+    draw_map,
     error_bars,
     error_caption,
     error_marks,
-    hatch_errors,
     label,
-    mark_points,
     open_dataset,
     panels,
     relative_error,
@@ -229,14 +233,8 @@ def tangential_map(ds, outdir, nu: float | None, shape: str | None) -> None:
     errors = []
     for ax, aspect in zip(axes, aspects):
         da = (ratio.sel(aspect=aspect) if aspect is not None else ratio).transpose("anisotropy", "orientation")
-        errors.append(error_marks(ds, da, names=ratio_parts(ds)))
-        hatch_errors(ax, da["orientation"], da["anisotropy"], errors[-1])
-        filled = ax.contourf(da["orientation"], da["anisotropy"], da.values, levels=levels, cmap="viridis")
-        lines = ax.contour(
-            da["orientation"], da["anisotropy"], da.values, levels=levels[::3], colors="w", linewidths=0.5
-        )
-        ax.clabel(lines, fmt="%.2f", fontsize=6)
-        mark_points(ax, da["orientation"], da["anisotropy"], da.values)
+        drawn, marks = draw_map(ax, ds, da, da["orientation"], da["anisotropy"], levels, ratio_parts(ds), lines=3)
+        errors.append(marks)
         ax.set_yscale("log")
         anisotropy_ticks(ax, da["anisotropy"].values)
         ax.axhline(1.0, color="w", lw=0.6, ls="--")
@@ -244,7 +242,7 @@ def tangential_map(ds, outdir, nu: float | None, shape: str | None) -> None:
         ax.set_xlabel(PSI_LABEL, fontsize=8)
         ax.set_ylabel(label(ds["anisotropy"], "cubic anisotropy A = 2 C44/(C11 - C12)"), fontsize=8)
         ax.set_title(aspect_title(ratio, aspect), fontsize=9)
-    fig.colorbar(filled, ax=axes, label="K_min / K_max (principal tangential stiffnesses)")
+    fig.colorbar(drawn, ax=axes, label="K_min / K_max (principal tangential stiffnesses)")
     fig.suptitle(
         f"Tangential stiffness anisotropy of a bonded punch on a cubic crystal\n{notes}\n{error_caption(errors)}",
         fontsize=10,

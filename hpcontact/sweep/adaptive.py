@@ -694,7 +694,7 @@ def dry_run_text(spec: Any, task_of: np.ndarray) -> str:
     scales = ", ".join(f"{spec.task_axes[p].name} ({s.value})" for p, s in zip(layout.numeric, layout.scales))
     quantities = "every stored stiffness" if settings.quantities is None else ", ".join(settings.quantities)
     return (
-        f"# adaptive: first round {len(first)} of the {total} tasks above (nodes "
+        f"# adaptive: first round {len(first)} of the {total} tasks (nodes "
         f"{' x '.join(str(len(bisection_nodes(layout.shape[p], settings.initial))) for p in layout.numeric)} per "
         f"sub-problem); solves {bound}; tolerance {settings.default:g} on {quantities}; interpolated axes: {scales}"
     )

@@ -9,16 +9,20 @@ from __future__ import annotations
 import ast
 import io
 import os
+import re
 import runpy
 import shutil
 import subprocess
 import sys
 from pathlib import Path
 
+import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 import xarray as xr
 from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.contour import ContourSet
+from scipy.interpolate import RegularGridInterpolator
 
 import hpcontact
 from hpcontact.quantities import rotated_tensor
@@ -631,3 +635,75 @@ def test_scripts_mark_the_estimated_errors_or_say_there_are_none(saved, error_fi
     for name in ("anisotropy_curves.png", "polar.png", "knn_vs_angle.png", "tensor_components_all.png"):
         collections = [c for ax in drawn[name].axes for c in ax.collections]
         assert bool(collections) == (kind == "large"), name
+
+
+# Maps drawn only where the data back them (common.draw_map): a filled map states the worst
+# error of what it draws, the drawing between grid points included; a plain sweep's few nodes
+# are drawn alone.
+
+
+def _known_map(aspects: np.ndarray, nus: np.ndarray) -> np.ndarray:
+    """A known smooth map over (nu, log10 b/a): Mindlin's bonded-ellipse K_a/K_b."""
+    from hpcontact.analytic import mindlin_ellipse_stiffness_ratio
+
+    return mindlin_ellipse_stiffness_ratio(aspects[None, :], nus[:, None])
+
+
+def _map_dataset(aspects: np.ndarray, nus: np.ndarray, map_error: float | None) -> xr.Dataset:
+    values = _known_map(aspects, nus).T  # (aspect, nu)
+    ds = xr.Dataset({"K_a_over_K_b": (("aspect", "nu"), values)}, coords={"aspect": aspects, "nu": nus})
+    if map_error is not None:  # an adaptive map whose every point is exact to map_error
+        ds["K_a_over_K_b_map_error"] = (("aspect", "nu"), np.full(values.shape, map_error))
+        ds["solved"] = (("aspect", "nu"), np.ones(values.shape, dtype=np.int32))
+        ds.attrs["adaptive_tolerance"] = 1e-3
+    return ds
+
+
+def _worst_in(caption: str) -> float:
+    return float(re.search(r"worst map error of what is drawn ([0-9.e+-]+)", caption).group(1))
+
+
+def test_a_filled_map_states_an_error_that_holds_for_what_it_draws(common_module):
+    """A map of a known function (Mindlin's K_a/K_b, 25 b/a x 11 nu, as the main job's) drawn
+    filled: its caption's worst error is at least the true error of the picture — the bilinear
+    interpolant between grid points that the filled contours draw, sampled 8 x 8 per cell,
+    against the function itself — and not more than 10 x it (a bound that says something); the
+    error of the values at the points (here a stated 1e-5) is added to it."""
+    common = common_module
+    aspects, nus = np.logspace(0, -8, 25), np.linspace(0.0, 0.5, 11)
+    for stated in (0.0, 1e-5):
+        ds = _map_dataset(aspects, nus, stated)
+        da = ds["K_a_over_K_b"].transpose("nu", "aspect")
+        fig, ax = plt.subplots()
+        levels = np.linspace(float(da.min()), 1.0, 21)
+        _, marks = common.draw_map(ax, ds, da, np.log10(aspects), nus, levels)
+        plt.close(fig)
+        caption = common.error_caption(marks)
+        x, y = np.log10(aspects), nus
+        fine_x = np.concatenate([np.linspace(a, b, 9)[:-1] for a, b in zip(x[:-1], x[1:])] + [x[-1:]])
+        fine_y = np.concatenate([np.linspace(a, b, 9)[:-1] for a, b in zip(y[:-1], y[1:])] + [y[-1:]])
+        drawn = RegularGridInterpolator((y, x[::-1]), da.values[:, ::-1])(
+            np.stack(np.meshgrid(fine_y, fine_x, indexing="ij"), axis=-1)
+        )
+        exact = _known_map(10.0**fine_x, fine_y)
+        true = float(np.max(np.abs(drawn / exact - 1.0)))
+        assert true > 1e-6  # the drawing has an error to state
+        assert true + stated <= _worst_in(caption) <= 10.0 * (true + stated), (caption, true)
+        assert "map tolerance 1.0e-03" in caption
+
+
+def test_a_plain_sweep_of_few_points_draws_them_alone(common_module):
+    """5 b/a x 3 nu nodes (the old main job's map): no contour between them, coloured points,
+    and the caption says nothing is drawn between them."""
+    common = common_module
+    aspects, nus = np.logspace(0, -8, 5), np.array([0.0, 0.25, 0.45])
+    ds = _map_dataset(aspects, nus, None)
+    da = ds["K_a_over_K_b"].transpose("nu", "aspect")
+    fig, ax = plt.subplots()
+    mappable, marks = common.draw_map(ax, ds, da, np.log10(aspects), nus, np.linspace(0.5, 1.0, 21))
+    assert not [c for c in ax.collections if isinstance(c, ContourSet)]
+    assert len(mappable.get_offsets()) == 15
+    plt.close(fig)
+    assert common.error_caption(marks).startswith("swept points only, nothing drawn between them")
+    dense = _map_dataset(np.logspace(0, -8, 9), np.linspace(0, 0.5, 9), None)
+    assert not common.filled(ds, da) and common.filled(dense, dense["K_a_over_K_b"])
