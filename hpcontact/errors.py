@@ -21,6 +21,14 @@ class InputError(ValueError):
         super().__init__(f"{field}{shown}: {allowed}")
 
 
+def unused_field(field: str, value: Any, setting: str, setting_value: Any, why: str) -> InputError:
+    """The one message of a field given for a scene that does not read it (never silently
+    ignored): ``nu = 0.1: not used with material = 'Cu' (its elastic constants fix the Poisson
+    ratio); leave nu out``. ``setting`` is the field whose value ``setting_value`` makes ``field``
+    unused, ``why`` says why."""
+    return InputError(field, f"not used with {setting} = {setting_value!r} ({why}); leave {field} out", value)
+
+
 class ConvergenceError(RuntimeError):
     """An iterative solver stopped before reaching its tolerance (iterations and residual kept)."""
 

@@ -45,6 +45,7 @@ from numpy.typing import ArrayLike, NDArray
 from hpcontact.errors import InputError, finite_number
 
 __all__ = [
+    "CRYSTAL_NU_RANGE",
     "Crystal",
     "VOIGT_PAIRS",
     "voigt_to_tensor",
@@ -74,6 +75,11 @@ _SYMMETRY_RTOL = 1e-12
 #: the surface Green's function cancel to no significant digits (nearly incompressible limit:
 #: the ratio is ~ (1 − 2 nu) for an isotropic body, so nu = 0.4999999999 is still accepted).
 _CONDITION_MIN = 1e-13
+#: The Poisson ratio of a stiffness built from it (``cubic_from_nu_A``, ``isotropic``; a cubic
+#: crystal from (nu, A != 1) in ``hpcontact.scene`` and ``elastic_constants``), stated once: open
+#: at 0.5, which an isotropic body allows (``isotropic.NU_RANGE``: its closed forms take it) but
+#: where no finite stiffness exists (C11 = 2 G (1 − nu)/(1 − 2 nu)).
+CRYSTAL_NU_RANGE = "Poisson ratio in (-1, 0.5) for a crystal (nu = 0.5 has no finite stiffness)"
 
 
 # --------------------------------------------------------------------------------------------
@@ -259,9 +265,9 @@ def cubic_from_nu_A(nu: float, A: float, scale: float = 1.0) -> Crystal:
     G = scale and Poisson ratio nu.  Allowed: −1 < nu < 0.5 (nu = 0.5 has no finite stiffness;
     the isotropic closed form covers it), A > 0, scale > 0.
     """
-    nu = finite_number("nu", nu, "Poisson ratio in (-1, 0.5) for a cubic crystal")
+    nu = finite_number("nu", nu, CRYSTAL_NU_RANGE)
     if not -1.0 < nu < 0.5:
-        raise InputError("nu", "Poisson ratio in (-1, 0.5) for a cubic crystal (0.5 has no finite stiffness)", nu)
+        raise InputError("nu", CRYSTAL_NU_RANGE, nu)
     A = _positive("anisotropy", A)
     scale = _positive("scale", scale)
     C11 = 2.0 * scale * (1.0 - nu) / (1.0 - 2.0 * nu)
@@ -273,9 +279,9 @@ def cubic_from_nu_A(nu: float, A: float, scale: float = 1.0) -> Crystal:
 def isotropic(G: float, nu: float) -> Crystal:
     """Isotropic stiffness: C11 = λ + 2G, C12 = λ, C44 = G, λ = 2 G nu/(1 − 2 nu); −1 < nu < 0.5."""
     G = _positive("G", G)
-    nu = finite_number("nu", nu, "Poisson ratio in (-1, 0.5)")
+    nu = finite_number("nu", nu, CRYSTAL_NU_RANGE)
     if not -1.0 < nu < 0.5:
-        raise InputError("nu", "Poisson ratio in (-1, 0.5) for a stiffness matrix", nu)
+        raise InputError("nu", CRYSTAL_NU_RANGE, nu)
     lam = 2.0 * G * nu / (1.0 - 2.0 * nu)
     return cubic(lam + 2.0 * G, lam, G, name=f"isotropic(G={G!r}, nu={nu!r})")
 

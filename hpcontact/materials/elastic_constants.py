@@ -45,8 +45,16 @@ from typing import Any
 
 import numpy as np
 
-from hpcontact.errors import InputError, finite_number
-from hpcontact.materials.crystal import Crystal, crystal, cubic, cubic_from_nu_A, orthotropic, rotation_from_miller
+from hpcontact.errors import InputError, finite_number, unused_field
+from hpcontact.materials.crystal import (
+    CRYSTAL_NU_RANGE,
+    Crystal,
+    crystal,
+    cubic,
+    cubic_from_nu_A,
+    orthotropic,
+    rotation_from_miller,
+)
 
 CUBIC = ("C11", "C12", "C44")
 ORTHOTROPIC = ("E1", "E2", "E3", "G12", "G13", "G23", "nu12", "nu13", "nu23")
@@ -55,6 +63,14 @@ ORIENTATION = ("orientation", "miller", "azimuth")
 #: Fields of one body beyond the isotropic E, G, nu and the library ``material``.
 CONSTANT_FIELDS = ("anisotropy",) + FAMILIES + ORIENTATION
 CRYSTAL_PREFIX = "crystal:"
+#: Why a field of the isotropic or (nu, A) description is not used beside constants or a library
+#: crystal, which give the whole stiffness (``errors.unused_field``; ``hpcontact.scene.UNUSED_FIELDS``).
+FIXED_BY_CONSTANTS = {
+    "nu": "its elastic constants fix the Poisson ratio",
+    "G": "its elastic constants fix the moduli, in GPa",
+    "E": "its elastic constants fix the moduli, in GPa",
+    "anisotropy": "its elastic constants fix the anisotropy",
+}
 
 
 def crystal_name(name: Any) -> str | None:
@@ -217,12 +233,10 @@ def anisotropic_material(
     if not given:
         return None
     family = given[0]
-    if family != "anisotropy" and family != "material":
-        for other in ("nu", "G", "E"):
+    if family != "anisotropy":  # constants or a library crystal: the whole stiffness
+        for other in ("nu", "G", "E", "anisotropy"):
             if p.get(f[other]) is not None:
-                raise InputError(
-                    f[other], f"not with {f[family]} (the constants give the whole stiffness)", p[f[other]]
-                )
+                raise unused_field(f[other], p[f[other]], f[family], p[f[family]], FIXED_BY_CONSTANTS[other])
     if family == "cubic":
         base = cubic_from_field(f["cubic"], p[f["cubic"]], gpa)
     elif family == "orthotropic":
@@ -242,9 +256,9 @@ def anisotropic_material(
 
 def _nu_A(p: Mapping[str, Any], f: Mapping[str, str], anisotropy: float) -> Crystal:
     """Cubic from (nu, A) with the modulus scale G (or E of the A = 1 body)."""
-    nu = finite_number(f["nu"], p.get(f["nu"], 0.3), "Poisson ratio in (-1, 0.5) for a cubic crystal")
+    nu = finite_number(f["nu"], p.get(f["nu"], 0.3), CRYSTAL_NU_RANGE)
     if not -1.0 < nu < 0.5:
-        raise InputError(f["nu"], "Poisson ratio in (-1, 0.5) for a cubic crystal (A != 1)", p.get(f["nu"]))
+        raise InputError(f["nu"], CRYSTAL_NU_RANGE, p.get(f["nu"]))
     if p.get(f["E"]) is not None and p.get(f["G"]) is not None:
         raise InputError(f["G"], f"either {f['E']} or {f['G']} (the modulus scale), not both", p[f["G"]])
     if p.get(f["E"]) is not None:

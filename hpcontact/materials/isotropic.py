@@ -1,7 +1,7 @@
 """Isotropic elastic materials and the moduli that the references use.
 
 G is the shear modulus (any consistent stress unit; dimensionless G = 1 by default), nu the
-Poisson ratio in [−1, 0.5]. E* = 2G/(1−nu) and G* = 4G/(2−nu) are the effective moduli of one
+Poisson ratio in (−1, 0.5] (``NU_RANGE``). E* = 2G/(1−nu) and G* = 4G/(2−nu) are the effective moduli of one
 elastic body against a rigid one (Li 2017, §3; Johnson 1985, §4.2 and §7.1).
 """
 
@@ -11,6 +11,12 @@ import math
 from dataclasses import dataclass
 
 from hpcontact.errors import InputError
+
+#: The Poisson ratio of an isotropic body, the one statement of its range (``hpcontact.scene``
+#: and the command line's help import it): nu = −1 (zero bulk modulus) is refused, nu = 0.5
+#: (incompressible) allowed, its closed-form kernels hold. A crystal's stiffness needs
+#: nu < 0.5 (``crystal.CRYSTAL_NU_RANGE``).
+NU_RANGE = "Poisson ratio in (-1, 0.5]"
 
 
 @dataclass(frozen=True)
@@ -24,7 +30,7 @@ class Isotropic:
         if not (math.isfinite(self.G) and self.G > 0.0):
             raise InputError("G", "a finite shear modulus > 0", self.G)
         if not (math.isfinite(self.nu) and -1.0 < self.nu <= 0.5):
-            raise InputError("nu", "Poisson ratio in (-1, 0.5]", self.nu)
+            raise InputError("nu", NU_RANGE, self.nu)
 
     @property
     def E_star(self) -> float:
