@@ -191,11 +191,14 @@ def solve(
         Contact mask file (.npy, or .png: dark pixels in contact) for ``shape="mask"``; unit a
         is half the long side of the contact.
     nu
-        Poisson ratio in (-1, 0.5] [0.3].
+        Poisson ratio in (-1, 0.5], < 0.5 for a crystal (A ≠ 1) [0.3].
     G
         Shear modulus, the stress unit of the scene [1].
     anisotropy
         Cubic anisotropy factor A = 2 C44/(C11 − C12) in [0.01, 100]; 1 is isotropic [1].
+        ``nu``, ``G`` and ``anisotropy`` describe the body only without ``material``,
+        ``cubic``, ``orthotropic`` or ``voigt``: beside one of them (its constants give the
+        whole stiffness) they raise ``InputError``.
     orientation
         Surface normal along [110] → [111] → [001]: ψ in [0, 90] degrees [[001]].
     miller

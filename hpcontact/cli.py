@@ -24,6 +24,7 @@ import numpy
 from hpcontact import __version__
 from hpcontact.api import SLIP_FIELDS, solve_fields
 from hpcontact.errors import ConvergenceError, InputError
+from hpcontact.materials.isotropic import NU_RANGE
 from hpcontact.numerics.convolution import load_wisdom, pyfftw, save_wisdom, wisdom_path
 from hpcontact.problems.kinds import SLIP, quantity_names, scene_kind
 from hpcontact.scene import DEFAULTS, SHAPES
@@ -145,8 +146,13 @@ def _solve_parser(sub: argparse._SubParsersAction) -> None:
         + _default("normal_held"),
     )
 
-    material = p.add_argument_group("material (isotropic unless a crystal is named or A != 1)")
-    material.add_argument("--nu", type=float, help=f"Poisson ratio, in (-1, 0.5]{_default('nu')}")
+    material = p.add_argument_group(
+        "material (isotropic unless a crystal is named or A != 1)",
+        "--nu, --G and --anisotropy describe the body only without --material, --cubic,\n"
+        "--orthotropic or --voigt (beside one of them they are refused); --orientation,\n"
+        "--miller and --azimuth turn any crystal",
+    )
+    material.add_argument("--nu", type=float, help=f"{NU_RANGE}; < 0.5 for a crystal (A != 1){_default('nu')}")
     material.add_argument("--G", type=float, help=f"shear modulus: the stress unit of the results{_default('G')}")
     material.add_argument(
         "--anisotropy",

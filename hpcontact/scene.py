@@ -16,11 +16,11 @@ from typing import Any
 
 import numpy as np
 
-from hpcontact.errors import InputError, finite_number, integer
+from hpcontact.errors import InputError, finite_number, integer, unused_field
 from hpcontact.geometry import SHAPES, Shape, mask_pixels
 from hpcontact.materials.crystal import Crystal, crystal, cubic_from_nu_A
-from hpcontact.materials.elastic_constants import constants_material
-from hpcontact.materials.isotropic import Isotropic
+from hpcontact.materials.elastic_constants import FAMILIES, FIXED_BY_CONSTANTS, constants_material
+from hpcontact.materials.isotropic import NU_RANGE, Isotropic
 
 Material = Isotropic | Crystal
 
@@ -67,15 +67,41 @@ INTERVAL_FIELDS: dict[str, tuple[float, ...]] = {
     "n": (),
     "accuracy": (),
 }
-#: Fields that act only for some shapes (``hpcontact.geometry.Shape``).
-SHAPE_FIELDS: dict[str, tuple[str, ...]] = {
-    "aspect": ("ellipse", "rectangle"),
-    "sides": ("polygon", "star"),
-    "amplitude": ("star",),
-    "seed": ("rough",),
-    "hurst": ("rough",),
-    "rms": ("rough",),
-    "mask": ("mask",),
+#: Fields that give the body's whole stiffness, in GPa: constants (``cubic``, ``orthotropic``,
+#: ``voigt``: ``elastic_constants.FAMILIES``) or a library crystal (``material``). Without one
+#: the body is isotropic (nu, G) or, at A != 1, the cubic crystal from (nu, A) with
+#: (C11 − C12)/2 = G (``_built_material``).
+BODY_FIELDS = (*FAMILIES, "material")
+#: The one table of the fields that only some scenes read: field -> (the setting that decides,
+#: its values whose scenes read the field, why the others do not; None: "only ... read it").
+#: A field given (not None) for any other scene is refused (``_refuse_unused``) with one message
+#: (``errors.unused_field``), never silently ignored. The settings: ``shape``; ``quantities``
+#: (read when one of the values is asked); ``body``, the field of ``BODY_FIELDS`` given (None:
+#: none is, nu, G and A describe the body). A shape's field at its default value changes nothing
+#: and is accepted (a loop over shapes may pass aspect = 1 to each); a body's field is refused
+#: at any value (nu = 0.3 beside material = 'Cu' would read as copper's Poisson ratio). The
+#: orientation fields (``orientation``, ``miller``, ``azimuth``) are read by every crystal, the
+#: library's and the constants' included, and accepted on an isotropic body, where they change
+#: nothing: a sweep over A that contains 1 gives them to every scene (and leaves them out of its
+#: isotropic scenes, ``hpcontact.sweep.spec``).
+UNUSED_FIELDS: dict[str, tuple[str, tuple[str | None, ...], str | None]] = {
+    "aspect": ("shape", ("ellipse", "rectangle"), None),
+    "sides": ("shape", ("polygon", "star"), None),
+    "amplitude": ("shape", ("star",), None),
+    "seed": ("shape", ("rough",), None),
+    "hurst": ("shape", ("rough",), None),
+    "rms": ("shape", ("rough",), None),
+    "mask": ("shape", ("mask",), None),
+    "shape_angle": (
+        "shape",
+        tuple(name for name in SHAPES if name not in ("mask", "rough")),
+        "a mask or a rough patch is not turned",
+    ),
+    "radius": ("quantities", ("indentation",), None),
+    "depth": ("quantities", ("indentation",), None),
+    "nu": ("body", (None,), FIXED_BY_CONSTANTS["nu"]),
+    "G": ("body", (None,), FIXED_BY_CONSTANTS["G"]),
+    "anisotropy": ("body", (None,), FIXED_BY_CONSTANTS["anisotropy"]),
 }
 
 DEFAULTS: dict[str, Any] = {
@@ -150,11 +176,11 @@ class Scene:
         p = {**DEFAULTS, **{k: v for k, v in params.items() if v is not None}}
         if p["shape"] not in SHAPES:
             raise InputError("shape", f"one of {', '.join(SHAPES)}", p["shape"])
-        nu = finite_number("nu", p["nu"], "Poisson ratio in [-1, 0.5]")
-        if not -1.0 <= nu <= 0.5:
-            raise InputError("nu", "Poisson ratio in [-1, 0.5]", p["nu"])
-        if nu == -1.0:
-            raise InputError("nu", "Poisson ratio in (-1, 0.5] (nu = -1 has zero bulk modulus)", p["nu"])
+        quantities = _quantities(p["quantities"])
+        _refuse_unused(params, p["shape"], quantities)
+        nu = finite_number("nu", p["nu"], NU_RANGE)
+        if not -1.0 < nu <= 0.5:
+            raise InputError("nu", NU_RANGE, p["nu"])
         G = finite_number("G", p["G"], "shear modulus, finite and > 0")
         if G <= 0.0:
             raise InputError("G", "shear modulus, finite and > 0", p["G"])
@@ -173,8 +199,6 @@ class Scene:
         tol = finite_number("tol", p["tol"], "CG tolerance in [1e-14, 1e-2]")
         if not 1e-14 <= tol <= 1e-2:
             raise InputError("tol", "CG tolerance in [1e-14, 1e-2]", p["tol"])
-        quantities = _quantities(p["quantities"])
-        _refuse_unused(params, quantities, p["shape"])
         accuracy = None if p["accuracy"] is None else _accuracy(p["accuracy"], quantities, p["shape"])
         radius = None if p["radius"] is None else finite_number("radius", p["radius"], RADIUS_RANGE)
         depth = None if p["depth"] is None else finite_number("depth", p["depth"], DEPTH_RANGE)
@@ -266,28 +290,46 @@ def _boolean(field_name: str, value: Any) -> bool:
     raise InputError(field_name, "true or false (a boolean, not a string or number)", value)
 
 
-def _refuse_unused(params: Mapping[str, Any], quantities: tuple[str, ...], shape: str) -> None:
-    """Refuse a field given for a scene that does nothing with it (no silent default).
-
-    ``radius`` and ``depth`` only act with ``indentation``; a shape-only field other than its
-    default only with its shapes (``SHAPE_FIELDS``); ``shape_angle`` does not turn a ``mask`` or ``rough`` contact
-    (an image and a generated patch have no turned version here). Orientation fields of an
-    isotropic body are accepted: a sweep over A that contains 1 gives them to every scene. A
-    ``mask`` file is checked by its header (``geometry.mask_pixels``: a .npy or .png within the
-    grid limit), so a bad or oversized file is refused before anything is decoded.
+def _refuse_unused(params: Mapping[str, Any], shape: str, quantities: tuple[str, ...]) -> None:
+    """Refuse a field given (``params``: as the caller gave them, before defaults) for a scene
+    that does not read it (``UNUSED_FIELDS``: one table, one message), before any range is
+    checked: ``nu = 0.7`` beside ``material = 'Cu'`` is unused, whatever its range. A ``mask``
+    file is checked by its header (``geometry.mask_pixels``: a .npy or .png within the grid
+    limit), so a bad or oversized file is refused before anything is decoded.
     """
-    given = {k for k, v in params.items() if v is not None}
-    if "indentation" not in quantities:
-        for name in ("radius", "depth"):
-            if name in given:
-                raise InputError(name, "only with quantities indentation", params[name])
-    for name, shapes in SHAPE_FIELDS.items():  # at its default value a field changes nothing
-        if name in given and shape not in shapes and params[name] != DEFAULTS[name]:
-            raise InputError(name, f"only with shape {' or '.join(shapes)}", params[name])
-    if shape in ("mask", "rough") and "shape_angle" in given and float(params["shape_angle"]) != 0.0:
-        raise InputError("shape_angle", "0 for shape mask or rough (they are not turned)", params["shape_angle"])
-    if shape == "mask" and "mask" in given:  # the file's header: type, shape, the grid limit (nothing decoded)
+    body = next((name for name in BODY_FIELDS if params.get(name) is not None), None)
+    settings: dict[str, tuple[Any, Any]] = {  # setting -> (what UNUSED_FIELDS compares, what a message shows)
+        "shape": (shape, shape),
+        "quantities": (quantities, ",".join(quantities)),
+        "body": (body, None if body is None else params[body]),
+    }
+    for name, (setting, readers, why) in UNUSED_FIELDS.items():
+        value = params.get(name)
+        if value is None:
+            continue
+        current, shown = settings[setting]
+        read = any(q in readers for q in current) if setting == "quantities" else current in readers
+        if read or (setting == "shape" and _at_default(name, value)):
+            continue
+        if why is None:
+            why = f"only {' or '.join(str(r) for r in readers)} read{'s' if len(readers) == 1 else ''} it"
+        raise unused_field(name, value, body if setting == "body" else setting, shown, why)
+    if shape == "mask" and params.get("mask") is not None:  # the file's header: type, shape, the grid limit
         mask_pixels(str(params["mask"]))
+
+
+def _at_default(name: str, value: Any) -> bool:
+    """Whether ``value`` is the field's default (a number compared as a number: shape_angle
+    -0.0 or 0 is 0.0)."""
+    default = DEFAULTS[name]
+    if default is None:  # a mask: given is not the default
+        return False
+    if isinstance(default, float) and not isinstance(value, bool):
+        try:
+            return float(value) == default
+        except (TypeError, ValueError):
+            return False
+    return bool(value == default)
 
 
 def _miller(value: Any) -> tuple[int, int, int]:
@@ -327,8 +369,9 @@ def _cached_material(key: tuple) -> Material:
 def _built_material(p: Mapping[str, Any], G: float, nu: float) -> Material:
     """The half-space: isotropic (closed-form kernels) unless a crystal or A ≠ 1 is asked.
 
-    ``material`` names a library crystal (GPa; G and nu are then ignored); otherwise a cubic
-    crystal from (nu, A) with (C11 − C12)/2 = G (docs/design.md §2.5). A crystal is turned so that the
+    ``material`` names a library crystal (GPa; nu, G and A given beside it are refused,
+    ``UNUSED_FIELDS``, so their defaults here are not read); otherwise a cubic crystal from
+    (nu, A) with (C11 − C12)/2 = G (docs/design.md §2.5; nu < 0.5: ``CRYSTAL_NU_RANGE``). A crystal is turned so that the
     surface normal is ``miller`` (h k l) or the path angle ``orientation`` ψ, default [001],
     then by ``azimuth`` degrees in plane. At A = 1 without a named crystal the body is
     isotropic whatever the orientation, and stays on the closed-form path.
@@ -352,9 +395,7 @@ def _built_material(p: Mapping[str, Any], G: float, nu: float) -> Material:
     if p["material"] is not None:
         base = crystal(str(p["material"]))
     else:
-        if nu == 0.5:
-            raise InputError("nu", "Poisson ratio in (-1, 0.5) for a cubic crystal (A != 1)", nu)
-        base = cubic_from_nu_A(nu, anisotropy, scale=G)
+        base = cubic_from_nu_A(nu, anisotropy, scale=G)  # refuses nu = 0.5 (CRYSTAL_NU_RANGE)
     if orientation is not None:
         return base.oriented(psi_deg=orientation, azimuth_deg=azimuth)
     return base.oriented(miller=miller or (0, 0, 1), azimuth_deg=azimuth)

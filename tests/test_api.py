@@ -76,6 +76,37 @@ def test_solve_refuses_unknown_keywords_and_misplaced_fields():
         hpcontact.solve(nu=0.7, n=8)
 
 
+@pytest.mark.parametrize(
+    "fields, message",
+    [
+        (
+            {"material": "Cu", "nu": 0.1},
+            "nu = 0.1: not used with material = 'Cu' (its elastic constants fix the Poisson ratio); leave nu out",
+        ),
+        (
+            {"material": "Cu", "anisotropy": 3},
+            "anisotropy = 3: not used with material = 'Cu' (its elastic constants fix the anisotropy); "
+            "leave anisotropy out",
+        ),
+        (
+            {"cubic": (168.4, 121.4, 75.4), "G": 2.0},
+            "G = 2.0: not used with cubic = (168.4, 121.4, 75.4) (its elastic constants fix the moduli, in GPa); "
+            "leave G out",
+        ),
+    ],
+)
+def test_solve_refuses_a_field_the_material_makes_unused(capsys, fields, message):
+    """Issue 42: the Python face goes through the scene's validation, so it refuses what the
+    command line refuses, in the same words (the CLI prints them after "hpcontact: error: ")."""
+    with pytest.raises(InputError) as info:
+        hpcontact.solve(n=8, **fields)
+    body, unused = fields  # the body's field first, the unused one second
+    assert str(info.value) == message and info.value.field == unused
+    if body == "material":  # the command line: the same line (its --anisotropy is a float: 3.0)
+        assert cli_main(["solve", "--n", "8", *(f"--{k}={v}" for k, v in fields.items())]) == 2
+        assert capsys.readouterr().err == f"hpcontact: error: {message.replace(' = 3:', ' = 3.0:')}\n"
+
+
 def test_blas_is_limited_only_while_solving(monkeypatch):
     """The limit is a context around the solve (HPCONTACT_BLAS_THREADS, default 1), lifted after."""
     monkeypatch.delenv("HPCONTACT_BLAS_THREADS", raising=False)

@@ -405,3 +405,81 @@ def test_normal_held_option(capsys):
     assert any("normal_held load = approach" in line for line in load["plan"]["derived"])
     for key in TANGENTIAL_KEYS:
         assert load[key] == approach[key], key
+
+
+# ------------------------------------------------------------------------------------------
+# a field the material makes unused exits 2 with one line (issue 42 item 1)
+# ------------------------------------------------------------------------------------------
+UNUSED_BESIDE_A_BODY = [
+    (
+        ["--material", "Cu", "--nu", "0.1", "--n", "32"],
+        "nu = 0.1: not used with material = 'Cu' (its elastic constants fix the Poisson ratio); leave nu out",
+    ),
+    (
+        ["--material", "Cu", "--anisotropy", "3"],
+        "anisotropy = 3.0: not used with material = 'Cu' (its elastic constants fix the anisotropy); "
+        "leave anisotropy out",
+    ),
+    (
+        ["--material", "Cu", "--G", "2", "--orientation", "20"],
+        "G = 2.0: not used with material = 'Cu' (its elastic constants fix the moduli, in GPa); leave G out",
+    ),
+    (
+        ["--cubic", "C11=168 C12=121 C44=75", "--nu", "0.3"],
+        "nu = 0.3: not used with cubic = 'C11=168 C12=121 C44=75' (its elastic constants fix the Poisson ratio); "
+        "leave nu out",
+    ),
+    (
+        ["--shape", "circle", "--sides", "6"],
+        "sides = 6: not used with shape = 'circle' (only polygon or star read it); leave sides out",
+    ),
+]
+
+
+@pytest.mark.parametrize("args, line", UNUSED_BESIDE_A_BODY, ids=lambda v: " ".join(v) if isinstance(v, list) else "")
+def test_a_field_the_scene_does_not_use_exits_2_with_one_line(capsys, args, line):
+    code, out, err = _exit_code(capsys, *args, "--json")
+    assert code == 2 and out == ""
+    assert err.splitlines() == [f"hpcontact: error: {line}"]
+
+
+def test_the_issue_42_command_exits_2_in_a_process():
+    proc = subprocess.run(
+        [sys.executable, "-m", "hpcontact", "solve", "--material", "Cu", "--nu", "0.1", "--n", "32"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert proc.returncode == 2 and proc.stdout == ""
+    assert proc.stderr.splitlines() == [f"hpcontact: error: {UNUSED_BESIDE_A_BODY[0][1]}"]
+
+
+def test_what_the_material_reads_still_solves(capsys):
+    alone = _json(capsys, "--material", "Cu", "--n", "8")
+    turned = _json(capsys, "--material", "Cu", "--orientation", "20", "--n", "8")
+    assert turned["K_xx"] != alone["K_xx"]  # a named crystal reads its orientation
+    assert _json(capsys, "--material", "Cu", "--miller", "1 1 0", "--azimuth", "10", "--n", "8")["K_xx"] > 0
+    crystal = _json(capsys, "--nu", "0.2", "--anisotropy", "3", "--orientation", "20", "--n", "8")
+    assert crystal["plan"]["kernel_source"].startswith("anisotropic")
+    isotropic = _json(capsys, "--nu", "0.1", "--n", "8")
+    assert isotropic["plan"]["kernel_source"].startswith("isotropic closed form")
+
+
+@pytest.mark.parametrize(
+    "axes, key",
+    [
+        ('[scene]\nmaterial = "Cu"\n[axes]\nnu = [0.1, 0.3]\n', "axes.nu"),
+        ('[scene]\nnu = 0.3\n[axes]\nmaterial = ["Cu", "W"]\n', "scene.nu"),
+    ],
+)
+def test_a_sweep_combining_a_material_with_nu_exits_2_with_one_line(capsys, tmp_path, axes, key):
+    spec = tmp_path / "job.toml"
+    spec.write_text(f"{axes}[numerics]\nn = 16\n")
+    code = main(["run", str(spec), "--dry-run", "--output", str(tmp_path / "job.nc")])
+    out, err = capsys.readouterr()
+    assert code == 2 and out == ""
+    lines = err.splitlines()
+    assert len(lines) == 1 and lines[0].endswith(
+        f"{key} = {0.1 if key == 'axes.nu' else 0.3}: not used with material = 'Cu' "
+        "(its elastic constants fix the Poisson ratio); leave nu out"
+    )

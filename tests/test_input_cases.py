@@ -28,10 +28,18 @@ def _solve(capsys, *args: str) -> tuple[int, str, str]:
         (["--shape", "ellipse", "--aspect", "1e-300"], "aspect", "[1e-12, 1]"),
         (["--quantities", "indentation", "--radius", "1e-300", "--depth", "1e-301"], "radius", "[1e-30, 1e30]"),
         (["--quantities", "indentation", "--radius", "1", "--depth", "1e-300"], "depth", "[1e-15, 1)"),
-        (["--radius", "2"], "radius", "only with quantities indentation"),
-        (["--shape", "circle", "--sides", "6"], "sides", "only with shape polygon or star"),
-        (["--shape", "rough", "--shape-angle", "30"], "shape_angle", "0 for shape mask or rough"),
+        (["--radius", "2"], "radius", "not used with quantities = 'tangential' (only indentation reads it)"),
+        (["--shape", "circle", "--sides", "6"], "sides", "not used with shape = 'circle' (only polygon or star read"),
+        (
+            ["--shape", "rough", "--shape-angle", "30"],
+            "shape_angle",
+            "not used with shape = 'rough' (a mask or a rough",
+        ),
         (["--shape", "mask", "--mask", "/nonexistent/contact.npy"], "mask", "an existing .npy or .png file"),
+        (["--material", "Cu", "--nu", "0.1"], "nu", "not used with material = 'Cu' (its elastic constants fix"),
+        (["--material", "Cu", "--anisotropy", "3"], "anisotropy", "not used with material = 'Cu'"),
+        (["--nu", "-1"], "nu", "Poisson ratio in (-1, 0.5]"),
+        (["--anisotropy", "2", "--nu", "0.5"], "nu", "Poisson ratio in (-1, 0.5) for a crystal"),
     ],
 )
 def test_bad_input_exits_2_naming_field_and_range(capsys, args, field, allowed):

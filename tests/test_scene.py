@@ -7,11 +7,18 @@ line holding the field name (the command line prints it as is, docs/design.md §
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
+import numpy as np
 import pytest
 
 from hpcontact.errors import InputError
+from hpcontact.materials.crystal import CRYSTAL_NU_RANGE, Crystal, cubic_from_nu_A
+from hpcontact.materials.crystal import isotropic as isotropic_stiffness
+from hpcontact.materials.elastic_constants import anisotropic_material
+from hpcontact.materials.isotropic import NU_RANGE, Isotropic
 from hpcontact.scene import DEFAULTS, QUANTITIES, Scene, validate
+from hpcontact.sweep.spec import load_spec, parse_spec
 
 pytestmark = pytest.mark.filterwarnings("error")
 
@@ -201,3 +208,202 @@ def test_normal_held_is_approach_or_load(value):
     assert Scene.from_params({}).normal_held == "approach" == DEFAULTS["normal_held"]
     assert Scene.from_params({"normal_held": None}).normal_held == "approach"
     assert Scene.from_params({"normal_held": "load", "quantities": "normal"}).normal_held == "load"
+
+
+# ------------------------------------------------------------------------------------------
+# a field the scene would not use is refused (issue 42 item 1): one table, one message
+# ------------------------------------------------------------------------------------------
+CU = {"material": "Cu", "n": 16}
+CUBIC = {"cubic": "C11=168.4 C12=121.4 C44=75.4", "n": 16}
+ORTHOTROPIC = {"orthotropic": "E1=25 E2=1 E3=1 G12=0.5 G13=0.5 G23=0.2 nu12=0.25 nu13=0.25 nu23=0.25"}
+VOIGT = {"voigt": " ".join(str(float(v)) for v in np.diag([2.0, 2.0, 2.0, 0.5, 0.5, 0.5]).ravel())}  # A = 0.5
+
+
+@pytest.mark.parametrize(
+    "body, setting",
+    [(CU, "material"), (CUBIC, "cubic"), (ORTHOTROPIC, "orthotropic"), (VOIGT, "voigt")],
+    ids=["material", "cubic", "orthotropic", "voigt"],
+)
+@pytest.mark.parametrize(
+    "field, value, why",
+    [
+        ("nu", 0.1, "the Poisson ratio"),
+        ("nu", 0.3, "the Poisson ratio"),  # the default value too: given is given
+        ("nu", 0.7, "the Poisson ratio"),  # out of range, but unused first
+        ("G", 2.0, "the moduli, in GPa"),
+        ("G", 1.0, "the moduli, in GPa"),
+        ("anisotropy", 3.0, "the anisotropy"),
+        ("anisotropy", 1.0, "the anisotropy"),
+    ],
+)
+def test_a_body_given_by_its_constants_refuses_nu_G_and_A(body, setting, field, value, why):
+    err = _refused({**body, field: value})
+    shown = body[setting]
+    assert err.field == field and err.value == value
+    assert str(err) == (
+        f"{field} = {value!r}: not used with {setting} = {shown!r} (its elastic constants fix {why}); leave {field} out"
+    )
+
+
+def test_the_issue_42_command_lines_are_refused_with_one_message():
+    assert str(_refused({"material": "Cu", "nu": 0.1, "n": 32})) == (
+        "nu = 0.1: not used with material = 'Cu' (its elastic constants fix the Poisson ratio); leave nu out"
+    )
+    assert str(_refused({"material": "Cu", "anisotropy": 3})) == (
+        "anisotropy = 3: not used with material = 'Cu' (its elastic constants fix the anisotropy); leave anisotropy out"
+    )
+    # the first unused field of the table is named (nu before G before anisotropy)
+    assert _refused({"material": "Cu", "anisotropy": 3.0, "G": 2.0, "nu": 0.2}).field == "nu"
+    # two descriptions of the body: a conflict, not an unused field
+    assert _refused({"material": "Cu", **CUBIC}).field == "material"
+
+
+def test_what_a_named_crystal_or_constants_read_is_still_accepted():
+    plain = Scene.from_params(CU).material
+    assert plain == Scene.from_params({**CU, "nu": None, "G": None, "anisotropy": None}).material  # None: not given
+    turned = {
+        "orientation": 20.0,
+        "miller": "1 1 0",
+        "azimuth": 30.0,
+        "shape_angle": 15.0,
+    }
+    for name, value in turned.items():  # the orientation fields and the shape's turn act on every crystal
+        assert Scene.from_params({**CU, name: value}).material != plain, name
+        for body in (CUBIC, ORTHOTROPIC, VOIGT):
+            base = Scene.from_params(body).material
+            assert Scene.from_params({**body, name: value}).material != base, (name, body)
+    assert Scene.from_params({**CU, "orientation": 20.0, "azimuth": 30.0}).material.name == "Cu"
+
+
+def test_nu_G_and_A_still_describe_the_body_without_constants():
+    assert Scene.from_params({"nu": 0.1}).material == Isotropic(G=1.0, nu=0.1)
+    assert Scene.from_params({"nu": 0.1, "G": 2.0, "anisotropy": 1.0}).material == Isotropic(G=2.0, nu=0.1)
+    crystal = Scene.from_params({"nu": 0.2, "anisotropy": 3.0, "orientation": 20.0}).material
+    assert isinstance(crystal, Crystal) and crystal != Scene.from_params({"nu": 0.2, "anisotropy": 3.0}).material
+    # orientation of an isotropic body: accepted (a sweep over A that contains 1 gives it to every scene)
+    assert Scene.from_params({"anisotropy": 1.0, "orientation": 20.0}).material == Isotropic(G=1.0, nu=0.3)
+    assert Scene.from_params({"orientation": 20.0, "miller": None}).material == Isotropic(G=1.0, nu=0.3)
+
+
+@pytest.mark.parametrize(
+    "params, message",
+    [
+        (
+            {"shape": "circle", "sides": 6},
+            "sides = 6: not used with shape = 'circle' (only polygon or star read it); leave sides out",
+        ),
+        (
+            {"shape": "ellipse", "amplitude": 0.3},
+            "amplitude = 0.3: not used with shape = 'ellipse' (only star reads it); leave amplitude out",
+        ),
+        (
+            {"shape": "polygon", "aspect": 0.5},
+            "aspect = 0.5: not used with shape = 'polygon' (only ellipse or rectangle read it); leave aspect out",
+        ),
+        (
+            {"shape": "rough", "shape_angle": 30.0},
+            "shape_angle = 30.0: not used with shape = 'rough' (a mask or a rough patch is not turned); "
+            "leave shape_angle out",
+        ),
+        (
+            {"quantities": "tangential,normal", "radius": 2.0},
+            "radius = 2.0: not used with quantities = 'tangential,normal' (only indentation reads it); leave radius out",
+        ),
+        (
+            {"depth": 0.1},
+            "depth = 0.1: not used with quantities = 'tangential' (only indentation reads it); leave depth out",
+        ),
+    ],
+)
+def test_shape_and_indentation_fields_are_refused_in_the_same_message(params, message):
+    assert str(_refused(params)) == message
+
+
+def test_a_shape_field_at_its_default_changes_nothing_and_is_accepted():
+    # a loop over shapes may pass aspect = 1 (or sides = 5, shape_angle = 0) to each
+    for shape in ("circle", "polygon", "star"):
+        assert Scene.from_params({"shape": shape, "aspect": 1.0}).shape.name == shape
+    assert Scene.from_params({"shape": "circle", "sides": 5, "amplitude": 0.2}).shape.name == "circle"
+    assert Scene.from_params({"shape": "rough", "shape_angle": 0}).shape.angle_deg == 0.0
+    assert Scene.from_params({"shape": "rough", "shape_angle": -0.0}).shape.name == "rough"
+    assert _refused({"shape": "rough", "shape_angle": "x"}).field == "shape_angle"  # not a number: not 0
+
+
+# ------------------------------------------------------------------------------------------
+# the Poisson ratio's range, stated once for an isotropic body and once for a crystal
+# ------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("nu", [-1.0, -1.5, 0.5000001, 0.7, NAN, "soft"])
+def test_an_isotropic_nu_out_of_range_names_the_half_open_range(nu):
+    err = _refused({"nu": nu})
+    assert err.field == "nu" and err.allowed == NU_RANGE == "Poisson ratio in (-1, 0.5]"
+    with pytest.raises(InputError) as info:
+        Isotropic(G=1.0, nu=-1.0 if isinstance(nu, str) else nu)
+    assert info.value.allowed == NU_RANGE
+
+
+def test_a_crystal_nu_range_is_open_at_one_half():
+    assert CRYSTAL_NU_RANGE.startswith("Poisson ratio in (-1, 0.5) ")
+    assert _refused({"nu": 0.5, "anisotropy": 2.0}).allowed == CRYSTAL_NU_RANGE
+    assert _refused({"nu": -1.0, "anisotropy": 2.0}).allowed == NU_RANGE  # the isotropic check comes first
+    for build in (lambda: cubic_from_nu_A(0.5, 2.0), lambda: isotropic_stiffness(1.0, 0.5)):
+        with pytest.raises(InputError) as info:
+            build()
+        assert info.value.field == "nu" and info.value.allowed == CRYSTAL_NU_RANGE
+    with pytest.raises(InputError) as info:  # a slip body from (nu, A): the same text
+        anisotropic_material({"anisotropy2": 2.0, "nu2": 0.5}, "2")
+    assert info.value.field == "nu2" and info.value.allowed == CRYSTAL_NU_RANGE
+    assert Scene.from_params({"nu": 0.5}).material.nu == 0.5  # A = 1: the isotropic body takes 0.5
+
+
+def test_the_slip_bodies_refuse_nu_beside_constants_in_the_same_message():
+    with pytest.raises(InputError) as info:
+        anisotropic_material({"material2": "crystal:Ni", "nu2": 0.2}, "2", library=False)
+    assert str(info.value) == (
+        "nu2 = 0.2: not used with material2 = 'crystal:Ni' (its elastic constants fix the Poisson ratio); leave nu2 out"
+    )
+    with pytest.raises(InputError) as info:
+        anisotropic_material({**CUBIC, "E": 2.0}, "")
+    assert info.value.field == "E" and "not used with cubic" in str(info.value)
+
+
+# ------------------------------------------------------------------------------------------
+# sweeps: the same refusal, located in the spec; the shipped jobs still pass
+# ------------------------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    "text, key, field",
+    [
+        ('[scene]\nmaterial = "Cu"\n[axes]\nnu = [0.1, 0.3]\n', "axes.nu", "nu"),
+        ('[scene]\nnu = 0.3\n[axes]\nmaterial = ["Cu", "W"]\n', "scene.nu", "nu"),
+        ('[axes]\nmaterial = ["Cu", "W"]\nanisotropy = [1.0, 2.0]\n', "axes.anisotropy", "anisotropy"),
+        ('[scene]\ncubic = "C11=168 C12=121 C44=75"\nG = 2.0\n[axes]\norientation = [0.0, 90.0]\n', "scene.G", "G"),
+        (
+            '[axes]\nshape = ["ellipse", { label = "Cu disk", shape = "circle", material = "Cu" }]\nnu = [0.1, 0.3]\n',
+            "axes.nu",
+            "nu",
+        ),
+    ],
+)
+def test_a_spec_combining_a_named_body_with_nu_G_or_A_is_refused(text, key, field):
+    with pytest.raises(InputError) as info:
+        parse_spec(text + "[numerics]\nn = 16\n", path="job.toml")
+    assert info.value.field == key and "\n" not in str(info.value)
+    assert "not used with" in info.value.allowed and info.value.allowed.endswith(f"leave {field} out")
+
+
+def test_sweeps_whose_fields_apply_to_some_points_only_are_accepted():
+    accepted = [
+        '[axes]\nmaterial = ["Cu", "W"]\norientation = [0.0, 90.0]\n',  # orientation turns every crystal
+        "[scene]\nnu = 0.3\n[axes]\nanisotropy = [1.0, 2.0]\norientation = [0.0, 90.0]\n",  # A = 1 ignores it
+        '[axes]\nshape = ["circle", "ellipse"]\naspect = [1.0, 0.5]\n',  # a circle ignores b/a
+        '[axes]\nshape = ["ellipse", { label = "Cu disk", shape = "circle", material = "Cu" }]\naspect = [0.5]\n',
+    ]
+    for text in accepted:
+        spec = parse_spec(text + "[numerics]\nn = 16\n", path="job.toml")
+        assert len(list(spec.points())) >= 2
+
+
+def test_every_shipped_job_passes_the_scene_validation(tmp_path):
+    jobs = sorted((Path(__file__).resolve().parents[1] / "jobs").glob("*.toml"))
+    assert len(jobs) >= 10
+    for path in jobs:
+        assert load_spec(path, output=tmp_path / f"{path.stem}.nc").axes, path.name

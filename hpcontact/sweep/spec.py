@@ -39,8 +39,10 @@ Axis names are those of docs/design.md §1 (``shape angle nu aspect anisotropy o
 
 A field the scene ignores is left out of its parameters, so equal scenes are solved once: at
 A = 1 without a named crystal the body is isotropic and ``orientation``, ``miller`` and
-``azimuth`` are dropped; with a named ``material`` its library constants hold and ``nu``,
-``G`` and ``anisotropy`` are dropped (both after validation, so a bad value is still refused). A ``shape`` value is a shape name or a table with a ``label``
+``azimuth`` are dropped (after validation, so a bad value is still refused). ``nu``, ``G`` or
+``anisotropy`` in a scene whose body is a named ``material`` or elastic constants (``cubic``,
+``orthotropic``, ``voigt``) is refused, as by ``hpcontact solve`` (``hpcontact.scene.UNUSED_FIELDS``),
+naming the key it came from (``axes.nu``, ``scene.G``). A ``shape`` value is a shape name or a table with a ``label``
 (its coordinate in the data set) and scene fields (``shape``, ``sides``, ``aspect``, …); fields
 of such a table win over the other axes. Anything unknown, empty, duplicated or impossible is
 refused with an ``InputError`` naming the key (``axes.nu``, ``scene.G``, …), so a bad spec never
@@ -340,9 +342,10 @@ class Spec:
 
 
 def _drop_ignored_material_fields(params: dict[str, Any]) -> None:
-    """Leave out the material fields ``hpcontact.scene`` ignores for these parameters: nu, G
-    and A of a body given otherwise (a library crystal or elastic constants), the orientation
-    of an isotropic body (A = 1 and neither a library crystal nor constants)."""
+    """Leave out the material fields ``hpcontact.scene`` ignores for these parameters: the
+    orientation of an isotropic body (A = 1 and neither a library crystal nor constants), and
+    nu, G and A of a body given otherwise (a library crystal or elastic constants), which the
+    scene's validator refuses (a spec checked by another validator may still hold them)."""
     if any(params.get(name) is not None for name in ("material", *CONSTANT_FAMILIES)):
         for name in ISOTROPIC_CONSTANTS:
             params.pop(name, None)
