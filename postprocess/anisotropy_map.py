@@ -29,16 +29,17 @@ if __name__ == "__main__":
 import matplotlib.pyplot as plt
 import numpy as np
 from common import (
+    COARSE,
     arguments,
     by_shape,
     colours,
     draw_map,
     error_bars,
     error_caption,
-    error_marks,
     label,
     open_dataset,
     panels,
+    point_marks,
     save,
     scalar_notes,
     select_rest,
@@ -49,6 +50,7 @@ from matplotlib.ticker import MaxNLocator
 from hpcontact.analytic import mindlin_ellipse_stiffness_ratio
 
 RATIO = "K_a_over_K_b"
+CURVES = 6  # nu values drawn as curves at most
 
 
 def depends_on_aspect(ds, shape: str) -> bool:
@@ -58,10 +60,20 @@ def depends_on_aspect(ds, shape: str) -> bool:
     return bool((spread > 0.0).any())
 
 
+def shape_name(ds, shape: str) -> str:
+    """The shape's label, or the sweep's one shape when shape is not an axis."""
+    if shape:
+        return shape
+    return str(ds["shape"].values) if "shape" in ds.coords and ds["shape"].ndim == 0 else "contact"
+
+
 def curves(ds, names, outdir) -> None:
     """K_a/K_b versus b/a per shape, one colour per nu, Mindlin's ellipse as lines."""
     fig, axes = panels(len(names))
     nus = ds["nu"].values if "nu" in ds[RATIO].dims else np.atleast_1d(ds["nu"].values)
+    if len(nus) > CURVES:  # a dense map: CURVES of its nu values, evenly spread, the ends included
+        nus = nus[np.unique(np.linspace(0, len(nus) - 1, CURVES).round().astype(int))]
+    size = 3.5 if ds.sizes["aspect"] <= COARSE else 1.5
     fine = np.logspace(np.log10(ds["aspect"].values.min()), 0.0, 200)
     note = ""
     errors = []
@@ -70,14 +82,14 @@ def curves(ds, names, outdir) -> None:
         for colour, nu in zip(colours(len(nus)), nus):
             at_nu = da.sel(nu=nu) if "nu" in da.dims else da
             at_nu, note = select_rest(at_nu, ["aspect"])
-            errors.append(error_marks(ds, at_nu))
+            errors.append(point_marks(ds, at_nu))
             error_bars(ax, at_nu["aspect"], at_nu, errors[-1].absolute, colour)
-            ax.plot(at_nu["aspect"], at_nu, "o", ms=3.5, color=colour, label=f"ν = {nu:.2g}")
+            ax.plot(at_nu["aspect"], at_nu, "o", ms=size, color=colour, label=f"ν = {nu:.2g}")
             ax.plot(fine, mindlin_ellipse_stiffness_ratio(fine, nu), "-", lw=1.0, color=colour)
         ax.set_xscale("log")
         ax.set_xlabel("aspect ratio b/a")
         ax.set_ylabel("K_a / K_b  (K_xx / K_yy)")
-        ax.set_title(shape or ds.attrs.get("title", ""))
+        ax.set_title(shape_name(ds, shape))
         ax.grid(True, which="both", alpha=0.3)
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(
@@ -112,8 +124,7 @@ def maps(ds, names, outdir) -> None:
         ax.set_xlabel("log10(b/a)")
         ax.set_ylabel(label(ds["nu"]))
         notes = ", ".join(filter(None, [note, scalar_notes(ds)]))
-        named = shape or (str(ds["shape"].values) if "shape" in ds.coords and ds["shape"].ndim == 0 else "contact")
-        title = f"Bonded {named}: tangential stiffness ratio K_a/K_b{f' ({notes})' if notes else ''}"
+        title = f"Bonded {shape_name(ds, shape)}: tangential stiffness ratio K_a/K_b{f' ({notes})' if notes else ''}"
         ax.set_title(f"{title}\n{error_caption(errors)}", fontsize=10)
         save(fig, outdir, f"anisotropy_map_{shape or 'all'}.png")
 

@@ -393,10 +393,11 @@ def error_caption(marks: ErrorMarks | Iterable[ErrorMarks], shown: str = "hatche
     what = {
         "map": "worst map error of what is drawn {} (interpolation between solves + solves + drawing between grid points)",
         "grid": "worst error of what is drawn {} (solves + drawing between grid points)",
+        "points of a map": "worst map error at the points drawn {} (interpolation between solves + solves)",
         "drawing": "worst error of what is drawn {} (the drawing between grid points; the solves unestimated)",
     }.get(drawn, "worst estimated relative error {}")
     parts = [lead] if lead else []
-    asked = "map tolerance" if drawn == "map" else "requested"
+    asked = "map tolerance" if drawn in ("map", "points of a map") else "requested"
     parts.append(what.format(f"{max(worst):.1e}") + (f" ({asked} {requested:.1e})" if requested else ""))
     if shown == "hatched":
         count = sum(int(m.exceeds.values.sum()) for m in marks)
@@ -468,6 +469,17 @@ def map_error(ds: xr.Dataset, da: xr.DataArray, names: Sequence[str] | None = No
     if not all(f"{n}{MAP_ERROR}" in ds for n in names):
         return None
     return sum(at_points(ds[f"{n}{MAP_ERROR}"], da).astype(float) for n in names)
+
+
+def point_marks(ds: xr.Dataset, da: xr.DataArray, names: Sequence[str] | None = None) -> ErrorMarks:
+    """``error_marks`` of values shown at their grid points (curves): of an adaptive map its
+    map error (an interpolated point's value is an interpolation), else the solves' estimates."""
+    error = map_error(ds, da, names)
+    if error is None:
+        return error_marks(ds, da, names)
+    marks = error_marks(ds, da, names, relative=error)
+    marks.drawn, marks.requested = "points of a map", float(ds.attrs.get("adaptive_tolerance", 0.0)) or None
+    return marks
 
 
 def filled(ds: xr.Dataset, da: xr.DataArray, names: Sequence[str] | None = None) -> bool:
