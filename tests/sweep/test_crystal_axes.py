@@ -95,23 +95,21 @@ def test_material_axis_is_a_string_coordinate_and_validated():
     assert refused(CRYSTALS.replace("90]", "120]")).field == "axes.orientation"
 
 
-def test_ignored_material_fields_are_dropped_so_equal_scenes_are_solved_once():
+def test_ignored_fields_are_dropped_so_equal_scenes_are_solved_once_and_unused_ones_refused():
     spec = parse(CUBIC)
     tasks, where = enumerate_tasks(spec)
     assert len(where) == 4 and len(tasks) == 3  # A = 1 is isotropic: one scene for both orientations
     assert where[(0, 0)] == where[(0, 1)] and where[(1, 0)] != where[(1, 1)]
     assert "orientation" not in spec.scene_params((0, 1)) and spec.scene_params((1, 1))["orientation"] == 90.0
-    # a named crystal ignores nu and A: one scene per material and orientation
-    named = parse(CRYSTALS + "nu = [0.1, 0.3]\n")
-    tasks, where = enumerate_tasks(named)
-    assert len(where) == 12 and len(tasks) == 6 and "nu" not in tasks[0].params
     # validation still sees the dropped fields: an impossible orientation is refused at A = 1
     assert (
         refused(CUBIC.replace("anisotropy = [1.0, 3.0]", "anisotropy = [1.0]").replace("[0, 90]", "[0, 95]")).field
         == "axes.orientation"
     )
+    # a named crystal fixes nu and A: an axis of them beside it is refused, not silently ignored
+    assert refused(CRYSTALS + "nu = [0.1, 0.3]\n").field == "axes.nu"
     assert refused(CRYSTALS + "nu = [0.1, 0.7]\n").field == "axes.nu"
-    assert len(enumerate_tasks(parse(CRYSTALS + "anisotropy = [2.0, 3.0]\n"))[0]) == 6
+    assert refused(CRYSTALS + "anisotropy = [2.0, 3.0]\n").field == "axes.anisotropy"
 
 
 def test_crystal_scenes_cost_more_than_isotropic_ones():

@@ -293,7 +293,7 @@ def test_runs_give_the_scenes_of_the_points_one_by_one():
         "aspect = { logspace = [0, -2, 41] }\n",
         '[axes]\nshape = ["ellipse", { label = "tri", shape = "polygon", sides = 3 }]\nnu = [0.0, 0.45]\n'
         "angle = { linspace = [0, 180, 7] }\norientation = [0.0, 20.0, 90.0]\nanisotropy = [0.5, 1.0, 2.0]\n",
-        '[scene]\nmaterial = "Cu"\n[axes]\nnu = [0.1, 0.3]\norientation = { linspace = [0, 90, 30] }\n',
+        '[scene]\nmaterial = "Cu"\n[axes]\nshape = ["circle", "ellipse"]\norientation = { linspace = [0, 90, 30] }\n',
         '[sweep]\nangle_mode = "rotated"\n[axes]\nshape = [{ label = "a", shape = "ellipse", aspect = 0.5, shape_angle = 10 },'
         ' { label = "b", shape = "ellipse", aspect = 0.5, shape_angle = 20 }]\nangle = [-0.0, 10, 20, 1e-300]\n',
         "[axes]\nnu = [0.1, 0.2]\n",
