@@ -155,17 +155,23 @@ class Checks:
     """The check rounds so far (module docstring): the flat indices of the random points
     solved (sorted), the factor on the interpolation estimate of each sub-problem (in the
     state's order; empty: ``SAFETY`` for every one), the check rounds judged, whether the last
-    one raised a factor, and whether points are drawn but not yet judged."""
+    one raised a factor, whether points are drawn but not yet judged, and which sub-problems
+    estimate conservatively (empty: none)."""
 
     points: tuple[int, ...] = ()
     safety: tuple[float, ...] = ()
     rounds: int = 0
     raised: bool = False
     pending: bool = False
+    conservative: tuple[bool, ...] = ()
 
     def factor(self, s: int) -> float:
         """The factor on the interpolation estimate of the sub-problem ``s``."""
         return self.safety[s] if self.safety else SAFETY
+
+    def cautious(self, s: int) -> bool:
+        """Whether the sub-problem ``s`` estimates conservatively (``TensorInterpolant.estimates``)."""
+        return self.conservative[s] if self.conservative else False
 
 
 def state_points(layout: Layout, state: State, checks: Checks | None = None) -> np.ndarray:
@@ -222,6 +228,78 @@ def _relative_scale(names: Sequence[str], values: np.ndarray) -> np.ndarray:
     return scale
 
 
+#: Principal stiffnesses: not smooth where K_max = K_min (a kink |A − 1| at the isotropic body, one
+#: at the {111} orientation), so an adaptive map derives them from the interpolated tensor
+#: (``principal_from_tensor``), which is smooth there, instead of interpolating them.
+PRINCIPAL = ("K_max", "K_min", "K_min_over_K_max")
+
+
+def principal_from_tensor(values: np.ndarray, axes: list[np.ndarray], names: Sequence[str]) -> None:
+    """Replace in place, along the last axis of ``values`` (quantities ``names``) and of each
+    axis' relative estimate in ``axes``, the principal stiffnesses (``PRINCIPAL``) by those of
+    the tensor's symmetric part, (a + d)/2 ± √(((a − d)/2)² + c²) with c = (K_xy + K_yx)/2
+    (``quantities.principal_stiffness``), and their estimates from the entries' absolute
+    estimates e (entrywise, of the symmetric part; e_c = ½(e_xy + e_yx)): the smaller of Weyl's
+    bound W = ½(e_xx + e_yy) + hypot(½(e_xx − e_yy), e_c) (``accuracy.principal_error``; Horn &
+    Johnson Thm 4.3.1) and the expansion of K_max,min = m ± r, m = ½(a + d), r = |p|, p = (h, c)
+    = r (cos φ, sin φ), h = ½(a − d): |p + δp| ≤ r + p̂·δp + |δp⊥|²/(2r) (√(1 + x) ≤ 1 + x/2),
+    so |δK_max,min| ≤ ½e_xx(1 ± cos φ) + ½e_yy(1 ∓ cos φ) + |sin φ| e_c + (|sin φ| ½(e_xx + e_yy)
+    + |cos φ| e_c)²/gap, gap = 2r = K_max − K_min; each relative to itself, the ratio's the sum
+    of the two. Well apart (a diagonal tensor: K_xx's own estimate for its eigenvalue) the
+    expansion is the sharper, near a crossing Weyl's. Needs the four
+    entries and their estimates relative to ``_relative_scale`` (the diagonal entries to
+    themselves, the off-diagonal ones to the largest diagonal entry)."""
+    index = {n: i for i, n in enumerate(names)}
+    a, b, c, d = (values[..., index[n]] for n in TENSOR)
+    mean, half = 0.5 * (a + d), np.hypot(0.5 * (a - d), 0.5 * (b + c))
+    derived = {"K_max": mean + half, "K_min": mean - half}
+    derived["K_min_over_K_max"] = derived["K_min"] / derived["K_max"]
+    scale = _relative_scale(names, values)
+    for name, value in derived.items():
+        if name in index:
+            values[..., index[name]] = value
+    phi = np.arctan2(0.5 * (b + c), 0.5 * (a - d))  # (h, c) = r (cos φ, sin φ): twice K_max's direction
+    cos, sin = np.cos(phi), np.abs(np.sin(phi))
+    gap = 2.0 * half
+    for e in axes:
+        ea, eb, ec, ed = (np.abs(e[..., index[n]] * scale[..., index[n]]) for n in TENSOR)
+        off = 0.5 * (eb + ec)
+        weyl = 0.5 * (ea + ed) + np.hypot(0.5 * (ea - ed), off)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            second = np.where(gap > 0.0, (sin * 0.5 * (ea + ed) + np.abs(cos) * off) ** 2 / gap, np.inf)
+        first = {
+            "K_max": 0.5 * ea * (1.0 + cos) + 0.5 * ed * (1.0 - cos) + sin * off,
+            "K_min": 0.5 * ea * (1.0 - cos) + 0.5 * ed * (1.0 + cos) + sin * off,
+        }
+        relative = {n: np.fmin(weyl, first[n] + second) / np.abs(derived[n]) for n in ("K_max", "K_min")}
+        relative["K_min_over_K_max"] = relative["K_max"] + relative["K_min"]
+        for name, value in relative.items():
+            if name in index:
+                e[..., index[name]] = value
+
+
+#: Relative size below which the tensor's off-diagonal part and the diagonal's difference count
+#: as zero (``_crosses``): far above the solves' round-off, far below any tolerance.
+CROSSING_NOISE = 1e-8
+
+
+def _crosses(data: np.ndarray, errors: np.ndarray, names: Sequence[str]) -> bool:
+    """Whether the principal stiffnesses of a sub-problem may cross (K_max = K_min, a kink of
+    each): its tensor at the nodes (``data``, quantities ``names`` last; ``errors`` the solves'
+    relative errors, laid out alike) has an off-diagonal part, or K_xx − K_yy of both signs,
+    above the solves' errors (at least ``CROSSING_NOISE``) relative to the diagonal. Otherwise
+    they are its diagonal entries, as smooth as those, and interpolated directly (a ratio's
+    errors then partly cancel, which the tensor's bound cannot see)."""
+    index = {n: i for i, n in enumerate(names)}
+    a, b, c, d = (data[..., index[n]] for n in TENSOR)
+    noise = np.fmax(CROSSING_NOISE, sum(errors[..., index[n]] for n in TENSOR))
+    size = np.fmax(np.abs(a), np.abs(d))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        off = np.abs(0.5 * (b + c)) / size - noise
+        difference = (a - d) / size
+    return bool(np.nanmax(off, initial=-1.0) > 0.0) or bool(np.any(difference > noise) and np.any(difference < -noise))
+
+
 def estimate(
     layout: Layout,
     cat: Sequence[int],
@@ -229,25 +307,38 @@ def estimate(
     names: Sequence[str],
     fields: Mapping[str, np.ndarray],
     safety: float = SAFETY,
+    conservative: bool = False,
 ) -> Estimate:
     """The ``Estimate`` of the sub-problem ``cat`` from the values at ``nodes`` of the
     quantities ``names`` (``fields``: name → array over the task axes; ``<name>_error``, when
-    there, the solve's relative error); ``safety`` the factor on the interpolation estimate."""
+    there, the solve's relative error); ``safety`` the factor on the interpolation estimate,
+    ``conservative`` its kind (``TensorInterpolant.estimates``). The principal stiffnesses
+    come from the interpolated tensor where ``fields`` has it and they may cross
+    (``_crosses``, ``principal_from_tensor``)."""
+    derive = any(n in PRINCIPAL for n in names) and all(t in fields for t in TENSOR)
+    work = list(names) + [t for t in TENSOR if derive and t not in names]
     interpolant = TensorInterpolant([layout.xs[j] for j in range(len(layout.numeric))], nodes)
-    data = np.stack([layout.take(fields[n], cat, nodes) for n in names], axis=-1)
+    data = np.stack([layout.take(fields[n], cat, nodes) for n in work], axis=-1)
     full = interpolant.values(data)
-    scale = _relative_scale(names, full)
-    axes = [safety * e / scale for e in interpolant.estimates(data, full)]
+    scale = _relative_scale(work, full)
+    estimates = interpolant.estimates(data, full, conservative)
+    axes = [safety * e / scale for e in estimates]
     errors = np.stack(
         [
             np.abs(np.nan_to_num(layout.take(fields[f"{n}_error"], cat, nodes), nan=0.0))
             if f"{n}_error" in fields
             else np.zeros(data.shape[:-1])
-            for n in names
+            for n in work
         ],
         axis=-1,
     )
-    return Estimate(full, axes, np.abs(interpolant.values(errors)), scale)
+    if derive and _crosses(data, errors, work):
+        principal_from_tensor(full, axes, work)
+        scale = _relative_scale(work, full)
+    kept = slice(0, len(names))
+    return Estimate(
+        full[..., kept], [e[..., kept] for e in axes], np.abs(interpolant.values(errors))[..., kept], scale[..., kept]
+    )
 
 
 def refine(
@@ -269,7 +360,7 @@ def refine(
     dims = max(sum(1 for x in layout.xs if len(x) > 1), 1)
     candidates = []  # (score, sub-problem position, axis, interval)
     for s, (cat, nodes) in enumerate(state):
-        est = estimate(layout, cat, nodes, names, fields, checks.factor(s))
+        est = estimate(layout, cat, nodes, names, fields, checks.factor(s), checks.cautious(s))
         with np.errstate(invalid="ignore"):
             over = est.map_error > tol
             share = np.maximum(tol - est.solve, tol / 4.0) / dims
@@ -345,7 +436,10 @@ def drawn_checks(layout: Layout, settings: Settings, state: State, checks: Check
     if not drawn:
         return checks
     safety = checks.safety or tuple(SAFETY for _ in state)
-    return replace(checks, points=tuple(sorted({*checks.points, *drawn})), safety=safety, pending=True)
+    conservative = checks.conservative or tuple(False for _ in state)
+    return replace(
+        checks, points=tuple(sorted({*checks.points, *drawn})), safety=safety, conservative=conservative, pending=True
+    )
 
 
 def judged(
@@ -354,38 +448,65 @@ def judged(
     """``checks`` after its pending points are solved: in each sub-problem, the worst ratio of
     the interpolant's miss at a check point — |solved − interpolated| relative to the
     quantity's scale, less the check's own and the nodes' interpolated solve errors — to the
-    interpolation estimate there; above 1 the sub-problem's factor is raised by it ×
-    ``CHECK_MARGIN`` (at most ``MAX_RAISE``). Every check point is judged again each time (the
-    nodes may have moved)."""
+    interpolation estimate there. Above 1, the sub-problem first turns conservative
+    (``TensorInterpolant.estimates``: the lower order's error too) and is judged again; still
+    above 1, its factor is raised by the ratio × ``CHECK_MARGIN`` (at most ``MAX_RAISE``).
+    Every check point is judged again each time (the nodes may have moved)."""
     full = np.zeros(layout.shape, dtype=bool)
     full.ravel()[list(checks.points)] = True
     safety = list(checks.safety or (SAFETY for _ in state))
+    conservative = list(checks.conservative or (False for _ in state))
     raised = False
     for s, (cat, nodes) in enumerate(state):
         here = layout.take(full, cat)
         if not here.any():
             continue
-        est = estimate(layout, cat, nodes, names, fields, safety[s])
-        actual = np.stack([layout.take(fields[n], cat)[here] for n in names], axis=-1)
-        own = np.stack(
-            [
-                np.abs(np.nan_to_num(layout.take(fields[f"{n}_error"], cat)[here], nan=0.0))
-                if f"{n}_error" in fields
-                else np.zeros(int(here.sum()))
-                for n in names
-            ],
-            axis=-1,
-        )
-        with np.errstate(invalid="ignore", divide="ignore"):
-            miss = np.abs(actual - est.values[here]) / est.scale[here] - own - est.solve[here]
-            interpolation = est.interpolation[here]
-            ratio = np.where(miss > interpolation, np.where(interpolation > 0.0, miss / interpolation, np.inf), 0.0)
-        ratio = np.nan_to_num(ratio, nan=0.0, posinf=np.inf)
-        worst = float(ratio.max()) if ratio.size else 0.0
+        worst = _worst_miss(layout, cat, nodes, names, fields, here, safety[s], conservative[s])
+        if worst > 1.0 and not conservative[s]:
+            conservative[s], raised = True, True
+            worst = _worst_miss(layout, cat, nodes, names, fields, here, safety[s], True)
         if worst > 1.0:
             safety[s] *= min(worst * CHECK_MARGIN, MAX_RAISE)
             raised = True
-    return replace(checks, safety=tuple(safety), rounds=checks.rounds + 1, raised=raised, pending=False)
+    return replace(
+        checks,
+        safety=tuple(safety),
+        conservative=tuple(conservative),
+        rounds=checks.rounds + 1,
+        raised=raised,
+        pending=False,
+    )
+
+
+def _worst_miss(
+    layout: Layout,
+    cat: Sequence[int],
+    nodes: Sequence[Sequence[int]],
+    names: Sequence[str],
+    fields: Mapping[str, np.ndarray],
+    here: np.ndarray,
+    safety: float,
+    conservative: bool,
+) -> float:
+    """The worst ratio of miss to interpolation estimate at the check points ``here`` of the
+    sub-problem ``cat`` (``judged``); 0 where every check holds."""
+    est = estimate(layout, cat, nodes, names, fields, safety, conservative)
+    actual = np.stack([layout.take(fields[n], cat)[here] for n in names], axis=-1)
+    own = np.stack(
+        [
+            np.abs(np.nan_to_num(layout.take(fields[f"{n}_error"], cat)[here], nan=0.0))
+            if f"{n}_error" in fields
+            else np.zeros(int(here.sum()))
+            for n in names
+        ],
+        axis=-1,
+    )
+    with np.errstate(invalid="ignore", divide="ignore"):
+        miss = np.abs(actual - est.values[here]) / est.scale[here] - own - est.solve[here]
+        interpolation = est.interpolation[here]
+        ratio = np.where(miss > interpolation, np.where(interpolation > 0.0, miss / interpolation, np.inf), 0.0)
+    ratio = np.nan_to_num(ratio, nan=0.0, posinf=np.inf)
+    return float(ratio.max()) if ratio.size else 0.0
 
 
 def stiffness_names(ds: Any, kind: str) -> list[str]:
@@ -440,7 +561,7 @@ def fill(
     maps = {n: np.full(layout.shape, np.nan) for n in names}
     worst_status = ds["error_status"].values.copy() if "error_status" in ds else None
     for s, (cat, nodes) in enumerate(state):
-        est = estimate(layout, cat, nodes, names, fields, checks.factor(s))
+        est = estimate(layout, cat, nodes, names, fields, checks.factor(s), checks.cautious(s))
         mask = layout.take(solved, cat)
         for q, name in enumerate(names):
             current = layout.take(values[name], cat)
@@ -524,6 +645,7 @@ def fill(
         adaptive_check_points=len(checks.points),
         adaptive_check_rounds=int(checks.rounds),
         adaptive_estimate_factor=float(max(checks.safety, default=SAFETY)),
+        adaptive_conservative_subproblems=int(sum(checks.conservative)),
     )
     if spec.adaptive.max_solves is not None:
         out.attrs["adaptive_max_solves"] = int(spec.adaptive.max_solves)
@@ -609,10 +731,10 @@ def _rounds(team: Any, spec: Any, task_of: np.ndarray, options: Any, stream: Tex
             ds: Any, joined: Any, state: State = state, checks: Checks = checks, this_round: int = this_round
         ) -> Any:
             names = refined_names(ds, spec)
+            stored = stiffness_names(ds, spec.kind)
             if checks.pending:
-                stored = stiffness_names(ds, spec.kind)
                 checks = judged(layout, state, checks, _fields(ds, stored), stored)
-            following = refine(layout, spec.adaptive, state, _fields(ds, names), names, task_of, checks)
+            following = refine(layout, spec.adaptive, state, _fields(ds, stored), names, task_of, checks)
             if following is None and wants_check(spec.adaptive, checks):
                 drawn = drawn_checks(layout, spec.adaptive, state, checks, task_of)
                 if drawn.pending:

@@ -180,25 +180,35 @@ class TensorInterpolant:
             (estimate_weights(x, n, stencil, 0), estimate_weights(x, n, stencil, 1))
             for x, n in zip(self.xs, self.nodes)
         ]
+        self.lower = [
+            (weights(x, n, stencil, drop=0), weights(x, n, stencil, drop=1)) for x, n in zip(self.xs, self.nodes)
+        ]
 
-    def _without(self, axis: int, side: int | None) -> Callable[[np.ndarray], np.ndarray]:
-        """The matrix along ``axis`` (``weights``; ``estimate_weights`` of ``side``) of the nodes
-        where ``valid``: a line with a failed node interpolates from the others."""
+    def _without(self, axis: int, side: int | None, lower: bool = False) -> Callable[[np.ndarray], np.ndarray]:
+        """The matrix along ``axis`` (``weights``; ``estimate_weights`` of ``side``, or with
+        ``lower`` ``weights`` one order lower) of the nodes where ``valid``: a line with a
+        failed node interpolates from the others."""
         x, nodes = self.xs[axis], np.asarray(self.nodes[axis])
 
         def matrix(valid: np.ndarray) -> np.ndarray:
             kept = nodes[valid]
-            return weights(x, kept, self.stencil) if side is None else estimate_weights(x, kept, self.stencil, side)
+            if side is None:
+                return weights(x, kept, self.stencil)
+            if lower:
+                return weights(x, kept, self.stencil, drop=side)
+            return estimate_weights(x, kept, self.stencil, side)
 
         return matrix
 
-    def _along(self, data: np.ndarray, low: tuple[int, int] | None = None) -> np.ndarray:
+    def _along(self, data: np.ndarray, low: tuple[int, int] | None = None, lower: bool = False) -> np.ndarray:
         """``data`` at the nodes interpolated axis after axis; ``low`` = (axis, side): that
-        axis with the estimate's matrix of ``side``."""
+        axis with the estimate's matrix of ``side`` (with ``lower``: one order lower)."""
         out = np.asarray(data, dtype=np.float64)
         for axis, matrix in enumerate(self.high):
             side = low[1] if low is not None and low[0] == axis else None
-            out = _apply(matrix if side is None else self.low[axis][side], out, axis, self._without(axis, side))
+            if side is not None:
+                matrix = (self.lower if lower else self.low)[axis][side]
+            out = _apply(matrix, out, axis, self._without(axis, side, lower))
         return out
 
     def values(self, data: np.ndarray) -> np.ndarray:
@@ -207,15 +217,22 @@ class TensorInterpolant:
         through it (``_apply``)."""
         return self._along(data)
 
-    def estimates(self, data: np.ndarray, full: np.ndarray | None = None) -> list[np.ndarray]:
+    def estimates(
+        self, data: np.ndarray, full: np.ndarray | None = None, conservative: bool = False
+    ) -> list[np.ndarray]:
         """The absolute error estimate of each axis on the full grid (module docstring); ``full``
-        is ``values(data)`` when the caller has it. Zero at the nodes of that axis."""
+        is ``values(data)`` when the caller has it. Zero at the nodes of that axis.
+        ``conservative``: the larger of that and the difference from the two interpolants one
+        order lower (the lower order's own error: it over-estimates the interpolant's by about
+        one order of the spacing, and does not vanish where the next derivative changes sign
+        across the stencil, as the next term's estimate can)."""
         full = self.values(data) if full is None else full
         out = []
         for axis in range(len(self.xs)):
             worst = None
             for side in (0, 1):
-                diff = np.abs(self._along(data, (axis, side)) - full)
-                worst = diff if worst is None else np.fmax(worst, diff)
+                for lower in (False, True) if conservative else (False,):
+                    diff = np.abs(self._along(data, (axis, side), lower) - full)
+                    worst = diff if worst is None else np.fmax(worst, diff)
             out.append(worst)
         return out
