@@ -121,8 +121,9 @@ def select_rest(
     return da, ", ".join(notes)
 
 
-def scalar_notes(ds: xr.Dataset, names: Iterable[str] = ("nu", "n", "tol", "aspect")) -> str:
-    """Fixed settings of the sweep (scalar coordinates) as a note."""
+def scalar_notes(ds: xr.Dataset, names: Iterable[str] = ("nu", "aspect")) -> str:
+    """Fixed physical parameters of the sweep (scalar coordinates) as a note; solver settings
+    (n, tol) stay out of titles: the error caption says what they buy."""
     return ", ".join(value_text(ds, n) for n in names if n in ds.coords and ds[n].ndim == 0)
 
 
@@ -503,11 +504,14 @@ def draw_map(ax, ds: xr.Dataset, da: xr.DataArray, x, y, levels, names: Sequence
         X, Y = np.meshgrid(x, y)
         ok = np.isfinite(values)
         style = {"marker": "s", "s": 120, "cmap": "viridis", "vmin": levels[0], "vmax": levels[-1], "zorder": 3}
+        style["clip_on"] = False  # most grids end at their extreme values: the squares there whole
         mappable = ax.scatter(X[ok], Y[ok], c=values[ok], edgecolors="k", linewidths=0.4, **style)
         for mask, hatch in ((marks.exceeds, EXCEEDS_HATCH), (marks.missing, MISSING_HATCH)):
             chosen = np.asarray(mask, dtype=bool) & ok
             if chosen.any():
-                ax.scatter(X[chosen], Y[chosen], marker="s", s=120, facecolors="none", hatch=hatch, zorder=4)
+                ax.scatter(
+                    X[chosen], Y[chosen], marker="s", s=120, facecolors="none", hatch=hatch, zorder=4, clip_on=False
+                )
         mark_points(ax, x, y, values)
         marks.drawn = "points"
         return mappable, marks

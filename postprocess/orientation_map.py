@@ -166,7 +166,7 @@ def sphere_curves(ds, outdir, fine: int) -> None:
         title="points: BEM\n(Polonsky-Keer)\nlines: Willis\nelliptical Hertz",
         title_fontsize=8,
     )
-    notes = ", ".join(filter(None, [note, f"d/R = {d / R:.3g}", scalar_notes(ds, ("n", "tol"))]))
+    notes = ", ".join(filter(None, [note, f"d/R = {d / R:.3g}", scalar_notes(ds, ())]))
     fig.suptitle(
         f"Rigid sphere on a cubic crystal (Rodríguez-Tembleque et al. 2011, Figs. 9-10)\n{notes}\n"
         + error_caption(errors, "bars"),
@@ -226,7 +226,7 @@ def tangential_map(ds, outdir, nu: float | None, shape: str | None) -> None:
     """Filled map of K_min/K_max over ψ × A, one panel per b/a; and curves versus ψ."""
     ratio, note = tangential_ratio(ds, nu, shape)
     aspects = list(ratio["aspect"].values) if "aspect" in ratio.dims else [None]
-    notes = ", ".join(filter(None, [note, scalar_notes(ds, ("nu", "n", "tol"))]))
+    notes = ", ".join(filter(None, [note, scalar_notes(ds, ("nu",))]))
     lowest = float(ratio.min())
     levels = MaxNLocator(24).tick_values(lowest, 1.0)
     fig, axes = panels(len(aspects), size=4.2)
