@@ -25,6 +25,8 @@ from __future__ import annotations
 import functools
 import itertools
 import math
+import sys
+from pathlib import Path
 
 import mpmath as mp
 import numpy as np
@@ -33,6 +35,9 @@ from scipy import integrate
 
 from hpcontact.discretizations import strip_cells as sc
 from hpcontact.materials.isotropic import Isotropic
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import roundoff as ro  # noqa: E402
 
 pytestmark = pytest.mark.filterwarnings("error")
 
@@ -214,11 +219,41 @@ def test_double_antiderivative_against_mpmath(q: float, b: float) -> None:
 # ------------------------------------------------------------------------------------------
 # 5. the Galerkin integrals against scipy's adaptive quadrature
 # ------------------------------------------------------------------------------------------
-def _galerkin_reference(I: tuple[float, float], J: tuple[float, float], b: float) -> tuple[float, float]:
+#: Accuracy of the τ rule's averages ⟨1/r⟩, ⟨s²/r³⟩ that the reference integrates: what
+#: test_profile_averages_against_mpmath asserts against 20-digit quadratures (relative).
+RULE_ACCURACY = 5e-15
+#: Per evaluation of the reference's integrand, relative: a term w/r or w s²/(r r r) (hypot,
+#: products, division: ≤ 8u), math.fsum of the terms (correctly rounded: u), the profile weight
+#: (its own 2 operations) and the product (u); then the 21-point Gauss–Kronrod sum (γ₂₂) and
+#: the node's position (local coordinates from an exact break: ≤ 2u of the piece): 36u.
+REFERENCE_ROUNDING = 36
+
+
+@functools.cache
+def _rule(b: float) -> tuple[np.ndarray, np.ndarray]:
+    return sc.difference_rule(b)
+
+
+def _average(s: float, b: float, entry: int) -> float:
+    """⟨1/r⟩ (entry 0) or ⟨s²/r³⟩ (entry 1) at s by the τ rule, summed exactly (math.fsum)."""
+    t, weight = _rule(b)
+    r = np.hypot(s, t)
+    terms = weight / r if entry == 0 else weight * (s * s) / (r * r * r)
+    return math.fsum(terms)
+
+
+def _galerkin_reference(
+    I: tuple[float, float], J: tuple[float, float], b: float
+) -> tuple[tuple[float, float], tuple[float, float]]:
     """∫_I ∫_J ⟨k⟩(x − x') dx' dx = ∫ ⟨k⟩(s) w(s) ds with x' = x − s: w(s) = |I ∩ (J + s)| =
-    max(0, min(|I|, |J|, s − lo, hi − s)), lo = a1 − c2, hi = a2 − c1 (the overlap trapezoid,
-    written in s − lo and hi − s so that it is exact where it is small), by scipy's quad between
-    its corners, at s = 0 (the log² singularity of ⟨k⟩) and at ±b·10^k around it."""
+    max(0, min(|I|, |J|, s − lo, hi − s)), lo = a1 − c2, hi = a2 − c1 (the overlap trapezoid),
+    by scipy's quad between its corners, at s = 0 (the log² singularity of ⟨k⟩) and at ±b·10^k
+    around it, each piece in its own coordinate σ = s − (its start) so that a node's rounding is
+    u of the piece, not of |s|, and w's small values are differences of exact numbers (the
+    corners of ``graded_edges(16)`` are dyadic: exact). Returns (value, bound on its error) for
+    ⟨1/r⟩ and ⟨s²/r³⟩: the pieces' error estimates (quad's abserr), ``RULE_ACCURACY`` and the
+    rounding (``REFERENCE_ROUNDING`` u + γ of the most subintervals of a piece, quad's sum over
+    them; the pieces are summed by math.fsum), relative."""
     (a1, a2), (c1, c2) = I, J
     lo, hi = a1 - c2, a2 - c1
     flat = min(a2 - a1, c2 - c1)
@@ -231,48 +266,120 @@ def _galerkin_reference(I: tuple[float, float], J: tuple[float, float], b: float
     out = []
     for entry in (0, 1):
 
-        def integrand(s: float, entry: int = entry) -> float:
-            return float(sc.profile_averages(s, b)[entry]) * max(0.0, min(flat, s - lo, hi - s))
+        def integrand(sigma: float, start: float, entry: int = entry) -> float:
+            return _average(start + sigma, b, entry) * max(0.0, min(flat, (start - lo) + sigma, (hi - start) - sigma))
 
         # a rough total first, so that the pieces near s = 0 (tiny, where w ~ |s|) are asked for
         # 1e-16 of the total rather than 1e-13 of themselves
-        rough = sum(integrate.quad(integrand, u, v, epsrel=1e-6, limit=200)[0] for u, v in pieces)
-        out.append(
-            sum(
-                integrate.quad(integrand, u, v, epsabs=1e-16 * abs(rough), epsrel=1e-13, limit=200)[0]
-                for u, v in pieces
-            )
-        )
+        rough = sum(integrate.quad(integrand, 0.0, v - u, args=(u,), epsrel=1e-6, limit=200)[0] for u, v in pieces)
+        values, estimate, most = [], 0.0, 1
+        for u, v in pieces:
+            value, abserr, info = integrate.quad(
+                integrand, 0.0, v - u, args=(u,), epsabs=1e-16 * abs(rough), epsrel=1e-13, limit=200, full_output=1
+            )[:3]
+            values.append(value)
+            estimate += abserr
+            most = max(most, int(info["last"]))
+        total = math.fsum(values)
+        rounding = (REFERENCE_ROUNDING * ro.U + ro.gamma(most) + RULE_ACCURACY) * abs(total)
+        out.append((total, estimate + rounding))
     return out[0], out[1]
 
 
-# (i, j, bound): the bound is 3 × the largest relative error measured at b = 1e-3 and 1e-8 (in
-# brackets), at least 1e-15. Near pairs (the exact antiderivatives (4)) lose what the four terms'
-# cancellation costs, eps Σ|A(corner)|/|entry| (measured errors ≤ 0.5 × that: 2e-16 on self
-# pairs, 1.1e-14 … 1.7e-14 touching, 6.4e-14 … 8.7e-14 one strip apart, 3.5e-11 for (0, 8)).
-GALERKIN_PAIRS = [
-    (0, 0, 1e-15),  # self, end strip (0.002 long) [2.2e-16]
-    (7, 7, 1e-15),  # self, middle strip [2.2e-16]
-    (0, 1, 4e-15),  # touching, at the end [1.3e-15]
-    (7, 8, 2.7e-14),  # touching, across the middle [8.9e-15]
-    (1, 3, 1.2e-13),  # one strip between [3.9e-14]
-    (3, 5, 1e-13),  # one strip between [3.0e-14]
-    (0, 15, 1e-15),  # far apart: the series (5) with the Gauss product rule [2.2e-16]
-    (2, 12, 1e-15),  # far apart [3.3e-16]
-    (0, 8, 2.7e-11),  # unequal sizes (0.002 and 0.25) 1.33 apart, still "near" [8.7e-12]
-]
+def _gauss_error(size_i: float, size_j: float, gap: float, centres: float, b: float) -> float:
+    """Bound on the error of the ``FAR_POINTS``² Gauss product rule for a far pair (absolute):
+    per strip k, ⟨k⟩ is analytic in x off the set |x − x'| ≤ 2b (x' on the other strip), so on
+    the Bernstein ellipse of semi-major axis a = 1 + (gap − 2b)/size_k (half-way to it, in the
+    strip's [−1, 1]) |s ± it| ≥ d = (gap − 2b)/2 and |⟨1/r⟩|, |⟨s²/r³⟩| ≤ (1 + 0.1)/d · max(1, |s|²/d²)
+    (|t| ≤ 2b ≪ d: the series (5) within 1 %); Gauss–Legendre's error is then ≤ (64/15) M
+    ρ^(−2n)/(ρ² − 1) × size_k/2 (Trefethen, *Approximation Theory and Approximation Practice*,
+    Thm 19.3), ρ = a + √(a² − 1), and the product rule's ≤ size_j E_i + size_i E_j."""
+    n = sc.FAR_POINTS
+    d = 0.5 * (gap - 2.0 * b)
+    errors = []
+    for own in (size_i, size_j):
+        a = 1.0 + (gap - 2.0 * b) / own
+        rho = a + math.sqrt(a * a - 1.0)
+        reach = centres + 0.5 * (size_i + size_j) + a * own  # ≥ |s| on the ellipse
+        M = 1.1 / d * max(1.0, (reach / d) ** 2)
+        errors.append(64.0 / 15.0 * M * rho ** (-2 * n) / (rho * rho - 1.0) * 0.5 * own)
+    return size_j * errors[0] + size_i * errors[1]
 
 
-@pytest.mark.parametrize("i, j, bound", GALERKIN_PAIRS)
+def _module_error(i: int, j: int, edges: np.ndarray, b: float, entries: tuple[float, float]) -> tuple[float, float]:
+    """Bound on the rounding (and, far apart, the truncation) of ``galerkin_integrals``' entry
+    (i, j) (absolute), for ⟨1/r⟩ and ⟨s²/r³⟩.
+
+    Near pairs: −A(c₁) + A(c₂) + A(c₃) − A(c₄) over the corners c (exact here: dyadic edges).
+    Each A(c) = b [L + σ ln 2 − k R] (``double_antiderivatives``, |c| ≥ b: σ = |c|/b, L and R the
+    m-point (``COMPACT_POINTS``) compact-rule sums of σ ln(σ + r) and σ²/(r + 2τ), k = 1, 2) is
+    within (m + 13) u b P, P = L + σ ln 2 + k R: the two dot products of m positive terms (γ_m,
+    ≤ 5u a term: hypot, the sum, log, products), σ's rounding (u, amplified by σA'/A ≤ P/A),
+    the assembly (3 operations) and the factor b; the signed sum of the four adds 3u Σ|A|.
+    Relative to the entry that is (m + 13) u Σ b P/|B_ij| + 3u Σ|A|/|B_ij|: the cancellation
+    ratio of the four terms (≤ 400 for the pairs here, 1.6e5 for the tiny end strip beside the
+    long middle one) times the operations.
+
+    Far pairs: the ``FAR_POINTS``² product rule on the series (5) (``series_averages``): a term
+    within ≤ 8u (the series' few operations) + u (the product with its weight, itself ≤ 5u off)
+    + the separation's rounding (x = lo + size (ξ + 1)/2: 2u of |x| ≤ 1 each, so ≤ 4u/gap
+    relative to s ≥ gap, and ⟨k⟩'s sensitivity |s k'/k| ≤ 1), then the sum of 16 positive terms
+    (γ₁₅): (30 + 4/gap) u of the entry; plus ``_gauss_error`` and the series' truncation,
+    (35/128, 315/128) ⟨t⁸⟩/s⁸ with ⟨t⁸⟩ = 1225 b⁸/64 (test 1) at s ≥ gap."""
+    lo, hi = edges[:-1], edges[1:]
+    size = hi - lo
+    gap = max(lo[j] - hi[i], lo[i] - hi[j], 0.0)
+    if gap < sc.NEAR_GAP * max(size[i], size[j]) or gap < sc.SERIES_REACH * b:
+        corners = np.array([hi[i] - hi[j], hi[i] - lo[j], lo[i] - hi[j], lo[i] - lo[j]])
+        A1, Ax = sc.double_antiderivatives(corners, b)
+        sigma = np.abs(corners[corners != 0.0]) / b
+        assert np.all(sigma >= 1.0)  # the compact rule's branch (A(0) = 0 exactly)
+        tau, weight = sc._compact_rule()
+        r = np.hypot(sigma[:, None], 2.0 * tau)
+        L = (sigma[:, None] * np.log(sigma[:, None] + r)) @ weight
+        R = (sigma[:, None] ** 2 / (r + 2.0 * tau)) @ weight
+        m = sc.COMPACT_POINTS
+        return tuple(
+            (m + 13) * ro.U * b * float(np.sum(L + sigma * math.log(2.0) + k * R)) + 3.0 * ro.U * float(np.abs(A).sum())
+            for k, A in ((1, A1), (2, Ax))
+        )
+    centres = abs(0.5 * (lo[i] + hi[i]) - 0.5 * (lo[j] + hi[j]))
+    gauss = _gauss_error(size[i], size[j], gap, centres, b)
+    t8 = 1225.0 / 64.0 * (b / gap) ** 8
+    return tuple(
+        (30.0 + 4.0 / gap) * ro.U * abs(value) + gauss + c * t8 * abs(value)
+        for c, value in zip((35.0 / 128.0, 315.0 / 128.0), entries)
+    )
+
+
+#: (i, j) of graded_edges(16) (strips 0.002 at the ends … 0.33 in the middle): self pairs, touching
+#: pairs, one strip between, far apart (the series (5)), and unequal sizes 1.33 apart, still "near".
+GALERKIN_PAIRS = [(0, 0), (7, 7), (0, 1), (7, 8), (1, 3), (3, 5), (0, 15), (2, 12), (0, 8)]
+
+
+@pytest.mark.parametrize("i, j", GALERKIN_PAIRS)
 @pytest.mark.parametrize("b", [1e-3, 1e-8])
-def test_galerkin_integrals_against_quadrature(i: int, j: int, bound: float, b: float) -> None:
-    """Entries of galerkin_integrals(graded_edges(16), b) against ``_galerkin_reference`` (the
-    bounds: ``GALERKIN_PAIRS``)."""
+def test_galerkin_integrals_against_quadrature(i: int, j: int, b: float) -> None:
+    """Entries of galerkin_integrals(graded_edges(16), b) against ``_galerkin_reference``, each
+    within the sum of the two computations' derived error bounds (``_module_error``: the
+    near pairs' cancellation ratio Σ|A(corner)|/|B_ij| times the operations of an A, the far
+    pairs' few u and Gauss truncation; ``_galerkin_reference``: quad's estimate, the τ rule's
+    tested accuracy and the rounding) — no longer 3 × the error measured on one machine
+    (4e-15 for the touching pair (0, 1), which a Xeon exceeded: 5.4e-15 at b = 1e-8).
+    Derived bounds (relative, b = 1e-3 … 1e-8): self and far pairs 2.4e-14 … 4.3e-14 (the
+    reference's floor), touching 1.2e-13 … 4.2e-13, one strip between 5.7e-13 … 1.8e-12, the
+    tiny end strip beside the long middle one (0, 8) 3.1e-10 … 7.2e-10 (the module's "~1e-10 of
+    the entry" there). Measured: ≤ 4.4e-16 (self, far), 2.2e-16 … 1.7e-14 (touching),
+    7.8e-16 … 4.8e-14 (one between), 3.9e-12 … 1.5e-11 (0, 8): every one ≥ 15 × below its
+    bound. A wrong term of an antiderivative or of the series is O(1) of the entry."""
     edges = sc.graded_edges(16)
+    assert np.array_equal(edges * 512.0, np.round(edges * 512.0))  # dyadic: exact corner differences
     P1, Px = sc.galerkin_integrals(edges, b)
-    ref_one, ref_xx = _galerkin_reference((edges[i], edges[i + 1]), (edges[j], edges[j + 1]), b)
-    assert abs(P1[i, j] / ref_one - 1.0) < bound
-    assert abs(Px[i, j] / ref_xx - 1.0) < bound
+    (ref_one, err_one), (ref_xx, err_xx) = _galerkin_reference((edges[i], edges[i + 1]), (edges[j], edges[j + 1]), b)
+    mod_one, mod_xx = _module_error(i, j, edges, b, (P1[i, j], Px[i, j]))
+    for value, ref, bound in ((P1[i, j], ref_one, mod_one + err_one), (Px[i, j], ref_xx, mod_xx + err_xx)):
+        assert bound <= 1e-8 * abs(ref), bound  # the integrals' own claim (~1e-10 of an entry at worst)
+        assert abs(value - ref) <= bound, (abs(value / ref - 1.0), bound / abs(ref))
 
 
 @pytest.mark.parametrize("b", [1e-3, 1e-8])
