@@ -29,6 +29,7 @@ from hpcontact.numerics.convolution import load_wisdom, pyfftw, save_wisdom, wis
 from hpcontact.problems.kinds import SLIP, quantity_names, scene_kind
 from hpcontact.scene import DEFAULTS, SHAPES
 from hpcontact.sweep.arguments import add_run_arguments
+from hpcontact.sweep.show import add_show_arguments, show_command
 
 #: The partial-slip options of ``hpcontact solve`` (name, type, help), as ``hpcontact.solve`` takes them.
 SLIP_OPTIONS = SLIP_FIELDS
@@ -394,12 +395,13 @@ def parser() -> argparse.ArgumentParser:
     run.epilog = f"{RUN_EXAMPLES}\n\n{run.epilog}" if run.epilog else RUN_EXAMPLES
     run.formatter_class = argparse.RawDescriptionHelpFormatter
     sub.add_parser("info", help="versions, MPI library, FFTW wisdom location")
+    add_show_arguments(sub.add_parser("show", help="summarize a sweep's data set (axes, failures, errors, provenance)"))
     return top
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = parser().parse_args(argv)
-    command = {"solve": _cmd_solve, "run": _cmd_run, "info": _cmd_info}[args.command]
+    command = {"solve": _cmd_solve, "run": _cmd_run, "info": _cmd_info, "show": show_command}[args.command]
     try:
         return command(args)
     except InputError as exc:
