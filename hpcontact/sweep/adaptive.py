@@ -300,6 +300,28 @@ def _crosses(data: np.ndarray, errors: np.ndarray, names: Sequence[str]) -> bool
     return bool(np.nanmax(off, initial=-1.0) > 0.0) or bool(np.any(difference > noise) and np.any(difference < -noise))
 
 
+def _solve_errors(
+    layout: Layout,
+    fields: Mapping[str, np.ndarray],
+    names: Sequence[str],
+    cat: Sequence[int],
+    nodes: Sequence[Sequence[int]] | None = None,
+) -> np.ndarray:
+    """The solves' own relative errors ``<name>_error`` of ``names`` in the sub-problem ``cat``
+    at ``nodes`` (None: every point), quantities last; 0 where a quantity has none or a point
+    NaN."""
+    shape = layout.take(fields[names[0]], cat, nodes).shape
+    return np.stack(
+        [
+            np.abs(np.nan_to_num(layout.take(fields[f"{n}_error"], cat, nodes), nan=0.0))
+            if f"{n}_error" in fields
+            else np.zeros(shape)
+            for n in names
+        ],
+        axis=-1,
+    )
+
+
 def estimate(
     layout: Layout,
     cat: Sequence[int],
@@ -323,15 +345,7 @@ def estimate(
     scale = _relative_scale(work, full)
     estimates = interpolant.estimates(data, full, conservative)
     axes = [safety * e / scale for e in estimates]
-    errors = np.stack(
-        [
-            np.abs(np.nan_to_num(layout.take(fields[f"{n}_error"], cat, nodes), nan=0.0))
-            if f"{n}_error" in fields
-            else np.zeros(data.shape[:-1])
-            for n in work
-        ],
-        axis=-1,
-    )
+    errors = _solve_errors(layout, fields, work, cat, nodes)
     if derive and _crosses(data, errors, work):
         principal_from_tensor(full, axes, work)
         scale = _relative_scale(work, full)
@@ -492,15 +506,7 @@ def _worst_miss(
     sub-problem ``cat`` (``judged``); 0 where every check holds."""
     est = estimate(layout, cat, nodes, names, fields, safety, conservative)
     actual = np.stack([layout.take(fields[n], cat)[here] for n in names], axis=-1)
-    own = np.stack(
-        [
-            np.abs(np.nan_to_num(layout.take(fields[f"{n}_error"], cat)[here], nan=0.0))
-            if f"{n}_error" in fields
-            else np.zeros(int(here.sum()))
-            for n in names
-        ],
-        axis=-1,
-    )
+    own = _solve_errors(layout, fields, names, cat)[here]
     with np.errstate(invalid="ignore", divide="ignore"):
         miss = np.abs(actual - est.values[here]) / est.scale[here] - own - est.solve[here]
         interpolation = est.interpolation[here]
