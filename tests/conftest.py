@@ -1,6 +1,7 @@
 """Suite-wide rules: every test solves with BLAS limited as the command line and the sweep do
 (``hpcontact.numerics.blas.limited_blas``, one thread unless ``HPCONTACT_BLAS_THREADS``); and in
-CI (``CI=true``) a skipped test fails the run.
+CI (``CI`` set to 1, true or yes: ``.ci/run`` exports ``CI=true`` itself, so the gate does not
+depend on the CI service setting it) a skipped test fails the run.
 
 The only skips allowed there split the MPI tests between the two pytest invocations of
 ``.ci/run``: plain ``pytest tests`` runs the tests that start their own ``mpiexec`` and skips the
