@@ -250,8 +250,9 @@ def test_mirror_shortcut_equals_a_real_y_solve():
     1e-13) and by the kernels' own asymmetry under M (‖g − M g‖ in ℓ¹ over the blocks,
     ``ro.turned``: 1.6e-16 … 1.8e-16, round-off of the cell integrals, through 1/λ_min). Bound
     5.2e-11 (tangential) and 7.1e-11 (coupled) of K_xx (it was 1e-13 "at CG tol 1e-13", 90 × a
-    measurement of 1.1e-15); measured 2.5e-15 and 4.5e-15 here. A mirror with a sign or a
-    component swapped wrong is O(1) off.
+    measurement of 1.1e-15); measured 2.5e-15 and 4.5e-15 here, 2.5e-15 and 1.2e-14 with
+    numpy's SIMD at its baseline and OpenBLAS's Nehalem kernels (.ci/run's second setting). A
+    mirror with a sign or a component swapped wrong is O(1) off.
     """
     scene = Scene.from_params({**BASE, "shape": "circle", "aspect": 1.0, "quantities": "tangential,coupled"})
     grid, mask = discretize(scene)
