@@ -36,7 +36,7 @@ def main() -> None:
     )
     ds = common.open_dataset(args.dataset)
     if "solved" not in ds:
-        raise SystemExit(f"{args.dataset}: not an adaptive sweep (no 'solved' variable)")
+        common.refuse(f"{args.dataset}: not an adaptive sweep (no 'solved' variable)")
     name = args.quantity or ("K_a_over_K_b" if "K_a_over_K_b" in ds else str(next(iter(ds.data_vars))))
     axes = [d for d in ds["solved"].dims if d in NUMERIC and ds.sizes[d] > 1]
     pairs = list(itertools.combinations(axes, 2)) or [(axes[0], None)]

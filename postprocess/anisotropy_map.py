@@ -40,6 +40,7 @@ from common import (
     open_dataset,
     panels,
     point_marks,
+    refuse,
     save,
     scalar_notes,
     select_rest,
@@ -134,13 +135,13 @@ def main() -> None:
     with freshness.stamp(__file__, args.outdir, [args.dataset]):
         ds = open_dataset(args.dataset)
         if RATIO not in ds or "aspect" not in ds[RATIO].dims:
-            raise SystemExit(f"{args.dataset}: needs {RATIO} with an aspect axis (a tangential sweep over b/a)")
+            refuse(f"{args.dataset}: needs {RATIO} with an aspect axis (a tangential sweep over b/a)")
         names = [s for s in (args.shapes or shapes(ds)) if depends_on_aspect(ds, s)]
         flat = [s for s in (args.shapes or shapes(ds)) if s not in names]
         if flat:
             print(f"independent of b/a, not plotted: {', '.join(flat)}")
         if not names:
-            raise SystemExit(f"{args.dataset}: no shape's K_a/K_b depends on b/a")
+            refuse(f"{args.dataset}: no shape's K_a/K_b depends on b/a")
         curves(ds, names, args.outdir)
         maps(ds, names, args.outdir)
 

@@ -26,10 +26,12 @@ from __future__ import annotations
 
 import argparse
 import re
+import sys
 import textwrap
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NoReturn
 
 import freshness
 import matplotlib
@@ -75,10 +77,28 @@ def arguments(description: str, extra: Iterable[tuple[str, dict]] = ()) -> argpa
     return args
 
 
+def refuse(message: str) -> NoReturn:
+    """Stop the script on data it cannot draw: one line on stderr, exit status 2 (bad input, as
+    ``hpcontact``'s own commands), no traceback, no figure."""
+    print(f"{Path(sys.argv[0]).name}: error: {message}", file=sys.stderr)
+    raise SystemExit(2)
+
+
 def open_dataset(path: Path) -> xr.Dataset:
-    """The sweep data set (``hpcontact.open_dataset``), loaded into memory and closed."""
-    with hpcontact.open_dataset(path) as ds:
-        return ds.load()
+    """The sweep data set (``hpcontact.open_dataset``), loaded into memory and closed; a file
+    that is missing, not netCDF, damaged or not a sweep's is ``refuse``d in one line."""
+    if not Path(path).is_file():
+        refuse(f"{path}: no such file (a data set written by hpcontact run)")
+    try:
+        with hpcontact.open_dataset(path) as ds:
+            loaded = ds.load()
+    except (OSError, ValueError, KeyError, TypeError, RuntimeError) as exc:
+        refuse(
+            f"{path}: cannot read it as a sweep data set ({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else 'no detail'})"
+        )
+    if "status" not in loaded:
+        refuse(f"{path}: not a sweep data set (no 'status' variable: written by hpcontact run?)")
+    return loaded
 
 
 def label(da: xr.DataArray, name: str | None = None) -> str:

@@ -59,6 +59,7 @@ from common import (
     label,
     open_dataset,
     panels,
+    refuse,
     relative_error,
     save,
     scalar_notes,
@@ -108,7 +109,7 @@ def pole_ticks(ax) -> None:
 def sphere_curves(ds, outdir, fine: int) -> None:
     """Figs. 9 and 10 of Rodríguez-Tembleque et al. 2011: b/a and P/P[001] versus ψ."""
     if not np.any(np.isclose(ds["orientation"].values, 90.0)):
-        raise SystemExit("the normalized load needs ψ = 90° ([001]) on the orientation axis")
+        refuse("the normalized load needs ψ = 90° ([001]) on the orientation axis")
     R, d, G = scalar(ds, "radius", 1.0), scalar(ds, "depth", 1e-4), scalar(ds, "G", 1.0)
     ratio, note = select_rest(ds["ellipse_b_over_a"], ["anisotropy", "nu", "orientation"])
     load, _ = select_rest(ds["load"], ["anisotropy", "nu", "orientation"])
@@ -291,9 +292,7 @@ def main() -> None:
         ds = open_dataset(args.dataset)
         missing = [a for a in ("anisotropy", "orientation") if a not in ds.dims]
         if missing:
-            raise SystemExit(
-                f"{args.dataset}: needs the axes anisotropy and orientation (missing: {', '.join(missing)})"
-            )
+            refuse(f"{args.dataset}: needs the axes anisotropy and orientation (missing: {', '.join(missing)})")
         done = False
         if {"load", "ellipse_b_over_a"} <= set(ds.data_vars):
             sphere_curves(ds, args.outdir, args.fine)
@@ -302,7 +301,7 @@ def main() -> None:
             tangential_map(ds, args.outdir, args.nu, args.shape)
             done = True
         if not done:
-            raise SystemExit(
+            refuse(
                 f"{args.dataset}: neither an indentation sweep (load, ellipse_b_over_a) nor a tangential one (K_min, K_max)"
             )
 

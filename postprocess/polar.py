@@ -33,6 +33,7 @@ from common import (
     label,
     open_dataset,
     panels,
+    refuse,
     save,
     scalar_notes,
     select_rest,
@@ -46,7 +47,7 @@ def stiffness(ds):
     for name in ("normalized_nn", "K_nn"):
         if name in ds and "angle" in ds[name].dims:
             return ds[name]
-    raise SystemExit("the data set has no K_nn(angle): sweep with an angle axis and the tangential quantity")
+    refuse("the data set has no K_nn(angle): sweep with an angle axis and the tangential quantity")
 
 
 def curves_per_nu(da, shape, aspect):

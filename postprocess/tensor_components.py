@@ -39,6 +39,7 @@ from common import (
     label,
     open_dataset,
     panels,
+    refuse,
     save,
     scalar_notes,
     select_rest,
@@ -129,7 +130,7 @@ def main() -> None:
     with freshness.stamp(__file__, args.outdir, [args.dataset]):
         ds = open_dataset(args.dataset)
         if not set(COMPONENTS) <= set(ds.data_vars) or "angle" not in ds.dims:
-            raise SystemExit(f"{args.dataset}: needs K_xx, K_xy, K_yx, K_yy and an angle axis")
+            refuse(f"{args.dataset}: needs K_xx, K_xy, K_yx, K_yy and an angle axis")
         choose = {"aspect": args.aspect}
         if "nu" in ds.dims:
             choose["nu"] = args.nu if args.nu is not None else float(ds["nu"].max())

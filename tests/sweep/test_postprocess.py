@@ -707,3 +707,27 @@ def test_a_plain_sweep_of_few_points_draws_them_alone(common_module):
     assert common.error_caption(marks).startswith("swept points only, nothing drawn between them")
     dense = _map_dataset(np.logspace(0, -8, 9), np.linspace(0, 0.5, 9), None)
     assert not common.filled(ds, da) and common.filled(dense, dense["K_a_over_K_b"])
+
+
+@pytest.mark.parametrize("script", ["anisotropy_map.py", "polar.py", "tensor_components.py", "orientation_map.py"])
+def test_an_unreadable_data_set_is_refused_in_one_line(script, tmp_path):
+    """A missing file, a text file named .nc, a netCDF that is no sweep's: exit 2, one line on
+    stderr naming the file, no traceback, no figure (issue 43 item 6: a 20-line OSError before)."""
+    damaged = tmp_path / "damaged.nc"
+    damaged.write_text("not netCDF\n")
+    foreign = tmp_path / "foreign.nc"
+    xr.Dataset({"x": ("i", np.arange(3.0))}).to_netcdf(foreign, engine="netcdf4")
+    for path, says in (
+        (tmp_path / "missing.nc", "no such file"),
+        (damaged, "cannot read it as a sweep data set"),
+        (foreign, "not a sweep data set"),
+    ):
+        done = subprocess.run(
+            [sys.executable, str(ROOT / "postprocess" / script), str(path), str(tmp_path / "fig"), "--force"],
+            capture_output=True,
+            text=True,
+        )
+        assert done.returncode == 2, (script, path, done.stderr)
+        lines = done.stderr.strip().splitlines()
+        assert len(lines) == 1 and str(path) in lines[0] and says in lines[0], (script, lines)
+        assert not list((tmp_path / "fig").glob("*.png"))
