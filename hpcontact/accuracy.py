@@ -152,6 +152,7 @@ __all__ = [
     "model_error",
     "solve_to_accuracy",
     "default_solve",
+    "default_scene_solve",
     "default_grids",
     "extrapolates_by_default",
     "AccuracyNotMet",
@@ -955,8 +956,10 @@ def exact_errors(values: Mapping[str, float], absolute: Mapping[str, float]) -> 
     return rel
 
 
-#: Without ``n`` (``hpcontact solve`` with no grid, a sweep whose spec gives none): grids
-#: 16 … 256 along the long side, extrapolated, stopping once the estimate is ≤ 1e-4.
+#: Without ``n``: one scene (``hpcontact solve``, ``hpcontact.solve``) is solved as ``--accuracy
+#: DEFAULT_ACCURACY`` (:func:`default_scene_solve`); a sweep whose spec gives none on grids
+#: 16 … 256 along the long side (``DEFAULT_N0``, ``DEFAULT_GRIDS``), extrapolated, stopping once
+#: the estimate is ≤ 1e-4 (:func:`default_solve`).
 DEFAULT_ACCURACY = 1e-4
 DEFAULT_N0 = 16
 DEFAULT_GRIDS = 5
@@ -988,7 +991,8 @@ def default_grids(scene: Scene) -> list[tuple[int, int]]:
 
 
 def default_solve(scene: Scene) -> dict[str, Any]:
-    """One scene with the default discretization: ``hpcontact.problems.contact.solve`` when ``scene`` gives
+    """A sweep's scene with the default discretization (one scene from ``hpcontact solve`` or
+    ``hpcontact.solve``: :func:`default_scene_solve`): ``hpcontact.problems.contact.solve`` when ``scene`` gives
     ``n`` (one grid, centre-in-cell, as always) or the scene is not one that
     :func:`extrapolates_by_default`; else ``solve_to_accuracy`` on grids 16, 32, … , 256
     (``DEFAULT_GRIDS``), stopping once the estimate is ≤ ``DEFAULT_ACCURACY`` = 1e-4, never an
@@ -1008,6 +1012,23 @@ def default_solve(scene: Scene) -> dict[str, Any]:
     if not extrapolates_by_default(scene):
         return solve(scene)
     return solve_to_accuracy(scene, DEFAULT_ACCURACY, n0=DEFAULT_N0, max_grids=DEFAULT_GRIDS, strict=False)
+
+
+def default_scene_solve(scene: Scene) -> dict[str, Any]:
+    """One scene without ``n`` and without ``accuracy`` (``hpcontact solve``, ``hpcontact.solve``):
+    where the scene :func:`extrapolates_by_default`, exactly ``hpcontact solve --accuracy``
+    with ``DEFAULT_ACCURACY`` = 1e-4 (:func:`solve_to_accuracy`, strategy ``auto``: the one exact
+    cell of circles and ellipses, strips for slender rectangles, coverage-weighted grids from
+    :func:`coverage_n0` until the estimate is met or a limit stops them), so the default takes the
+    best cells for the shape. A request not met raises :class:`AccuracyNotMet` (its ``record``
+    is the extrapolated record; ``hpcontact.api.solve_fields`` returns it with an
+    ``errors.AccuracyWarning``). Other scenes: :func:`default_solve` (one grid).
+
+    A sweep's task keeps :func:`default_solve`'s five fixed grids 16 … 256 (its cost model
+    plans them, ``hpcontact.sweep.tasks.solved_grids``)."""
+    if scene.accuracy is not None or not extrapolates_by_default(scene):
+        return default_solve(scene)
+    return solve_to_accuracy(scene, DEFAULT_ACCURACY, strategy="auto")
 
 
 class AccuracyNotMet(ConvergenceError):

@@ -24,14 +24,15 @@ import math
 import numbers
 import os
 import re
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
 import numpy as np
 
-from hpcontact.accuracy import default_solve, solve_to_accuracy, task_function
-from hpcontact.errors import InputError
+from hpcontact.accuracy import AccuracyNotMet, default_scene_solve, solve_to_accuracy, task_function
+from hpcontact.errors import AccuracyWarning, InputError
 from hpcontact.numerics.blas import limited_blas
 from hpcontact.numerics.memory import parse_memory
 from hpcontact.problems.kinds import SLIP, scene_kind
@@ -96,8 +97,11 @@ def solve_fields(
     with ``quantities="slip"``). A slip scene goes to the slip solver
     (``accuracy.task_function``); a contact scene with ``accuracy`` to ``solve_to_accuracy``
     (strategy "auto", within the ``memory`` budget: "2G" or bytes; default this machine's
-    memory per core), else to ``default_solve`` (without ``n``: grids 16 … 256 extrapolated to
-    about 1e-4 where that applies; with ``n``: that grid). BLAS is limited while it runs
+    memory per core), else to ``default_scene_solve`` (without ``n``: as ``accuracy=1e-4``
+    where that applies, the exact cell of circles and ellipses; with ``n``: that grid). A
+    default that misses its 1e-4 returns its record (``accuracy_met`` False) with an
+    ``errors.AccuracyWarning`` naming the requested and estimated error and what stopped it; an
+    ``accuracy`` asked for and missed raises ``AccuracyNotMet``. BLAS is limited while it runs
     (``numerics.blas``). ``name`` spells a field in a message (``--memory`` on the command line).
     """
     fields = {k: os.fspath(v) if isinstance(v, os.PathLike) else v for k, v in params.items() if v is not None}
@@ -118,6 +122,7 @@ def solve_fields(
             accuracy,
         )
     budget = None if memory is None else parse_memory(memory, name("memory"))
+    missed = None
     with limited_blas():
         if kind == SLIP:
             return dict(task_function(kind)(fields))
@@ -125,9 +130,14 @@ def solve_fields(
         if accuracy is not None:
             record = solve_to_accuracy(scene, accuracy, memory_budget=budget, strategy="auto")
         else:
-            record = default_solve(scene)  # without n: the extrapolated default where it applies
+            try:  # without n: as accuracy=DEFAULT_ACCURACY where that applies
+                record = default_scene_solve(scene)
+            except AccuracyNotMet as exc:  # the default's own target: say so, return what was reached
+                record, missed = exc.record, str(exc)
     if scene.normal_held == "load" and "tangential" in scene.quantities:
         record["normal_held"] = "load"  # also where no Schur complement was formed (isotropic: the same K)
+    if missed is not None:
+        warnings.warn(f"default {missed}", AccuracyWarning, stacklevel=3)
     return record
 
 
@@ -217,9 +227,10 @@ def solve(
     voigt
         General 6 × 6 Voigt stiffness (GPa): 36 numbers row by row or a nested 6 × 6 list.
     n
-        Cells along the long side. Without it (and without ``accuracy``): grids 16 … 256
-        extrapolated to an estimated 1e-4 where that applies (isotropic, outlined shapes),
-        else 128.
+        Cells along the long side. Without it (and without ``accuracy``): as ``accuracy=1e-4``
+        (``hpcontact.accuracy.DEFAULT_ACCURACY``) where that applies (isotropic, outlined
+        shapes: the one exact cell of a circle or an ellipse, refined grids extrapolated
+        otherwise), else 128.
     n_across
         Cells across the short side (thin shapes).
     tol
@@ -269,6 +280,13 @@ def solve(
     hpcontact.errors.ConvergenceError
         A solve did not reach its tolerance, or ``accuracy`` was not met within the grids the
         limits allow (``hpcontact.accuracy.AccuracyNotMet`` names the limit).
+
+    Warns
+    -----
+    hpcontact.errors.AccuracyWarning
+        Without ``n`` and ``accuracy``, the default 1e-4 was not met within the grids the
+        limits allow: the record is returned (``accuracy_met`` False, ``estimated_error`` what
+        was reached) and the warning names the requested and estimated error and the limit.
     """
     unknown = sorted(set(slip) - set(SLIP_NAMES))
     if unknown:

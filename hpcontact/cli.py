@@ -16,6 +16,7 @@ import os
 import re
 import signal
 import sys
+import warnings
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -23,7 +24,7 @@ import numpy
 
 from hpcontact import __version__
 from hpcontact.api import SLIP_FIELDS, solve_fields
-from hpcontact.errors import ConvergenceError, InputError
+from hpcontact.errors import AccuracyWarning, ConvergenceError, InputError
 from hpcontact.materials.isotropic import NU_RANGE
 from hpcontact.numerics.convolution import load_wisdom, pyfftw, save_wisdom, wisdom_path
 from hpcontact.problems.kinds import SLIP, quantity_names, scene_kind
@@ -35,7 +36,7 @@ from hpcontact.sweep.show import add_show_arguments, show_command
 SLIP_OPTIONS = SLIP_FIELDS
 
 EXAMPLES = """examples:
-  hpcontact solve --shape ellipse --aspect 0.3 --nu 0.3      one scene: K of an ellipse to about 1e-4
+  hpcontact solve --shape ellipse --aspect 0.3 --nu 0.3      one scene: K of an ellipse to 1e-4 or better
   hpcontact solve --help                                     its options, defaults and examples
   mpiexec -n 2 hpcontact run jobs/demo.toml                  a sweep (run again: up to date, nothing to do)
   hpcontact run jobs/demo.toml --dry-run                     its tasks and cost; nothing computed
@@ -43,7 +44,7 @@ EXAMPLES = """examples:
 
 SOLVE_EXAMPLES = """examples:
   hpcontact solve --shape ellipse --aspect 0.3 --nu 0.3
-      tangential stiffness of an ellipse b/a = 0.3 (grids 16 ... 256 extrapolated, error about 1e-4)
+      tangential stiffness of an ellipse b/a = 0.3, as --accuracy 1e-4 (its one exact cell: round-off)
   hpcontact solve --shape ellipse --aspect 0.1 --accuracy 1e-6 --json
       to an estimated relative error of 1e-6, one JSON object
   hpcontact solve --shape rectangle --aspect 1e-4 --n 512 --n-across 16 --quantities tangential,normal
@@ -182,8 +183,7 @@ def _solve_parser(sub: argparse._SubParsersAction) -> None:
     numerics.add_argument(
         "--n",
         type=int,
-        help="cells along the long side (default: grids 16 ... 256 extrapolated to "
-        f"an estimated 1e-4 for isotropic outlined shapes, else {DEFAULTS['n']})",
+        help=f"cells along the long side (default: as --accuracy 1e-4 for isotropic outlined shapes, else {DEFAULTS['n']})",
     )
     numerics.add_argument("--n-across", type=int, help="cells across the short side (thin shapes; default: as along)")
     numerics.add_argument(
@@ -210,6 +210,11 @@ def _solve_parser(sub: argparse._SubParsersAction) -> None:
     output = p.add_argument_group("output")
     output.add_argument(
         "--json", action="store_true", help="print one JSON object (default: one value per line, with its unit)"
+    )
+    output.add_argument(
+        "--verbose",
+        action="store_true",
+        help="text output: also the per-grid diagnostics (levels; --json always has them)",
     )
 
     slip = p.add_argument_group("partial slip (--quantities slip; see hpcontact.problems.slip.partial_slip)")
@@ -302,18 +307,47 @@ def _slip_units(record: Mapping[str, Any], params: Mapping[str, Any]) -> dict[st
     return units
 
 
-def _print_record(record: dict[str, Any], params: Mapping[str, Any] | None = None) -> None:
+def _shown(value: Any) -> str:
+    """A value as the text output shows it: a float to 10 digits, a list joined by commas."""
+    if isinstance(value, float):
+        return f"{value:.10g}"
+    if isinstance(value, (list, tuple)):
+        return ", ".join(f"[{_shown(v)}]" if isinstance(v, (list, tuple)) else _shown(v) for v in value) or "-"
+    return str(value)
+
+
+#: Record keys shown in text only with ``--verbose`` (``--json`` always has them).
+DIAGNOSTICS = ("levels",)
+
+
+def _diagnostic(key: str, value: Any) -> bool:
+    """Whether a record value is a raw diagnostic (``DIAGNOSTICS``: the per-grid ``levels`` of
+    an extrapolated solve; any list of mappings or lists), shown in text only with ``--verbose``."""
+    nested = isinstance(value, (list, tuple)) and any(isinstance(v, (Mapping, list, tuple)) for v in value)
+    return key in DIAGNOSTICS or nested
+
+
+def _print_record(record: dict[str, Any], params: Mapping[str, Any] | None = None, verbose: bool = False) -> None:
     """The record as text, one value per line with its unit (``_units``), then what the unit
-    symbols mean."""
+    symbols mean. Raw diagnostics (``_diagnostic``: ``levels``) only when ``verbose``, one
+    line per item."""
     units = _units(record, params or {})
     for key, value in record.items():
         unit = f"  {units[key]}" if key in units else ""
-        if isinstance(value, float):
+        if _diagnostic(key, value):
+            if verbose and not value:
+                print(f"{key:>22s}  -")
+            for i, item in enumerate(value if verbose else ()):
+                items = item.items() if isinstance(item, Mapping) else enumerate(item)
+                print(f"{f'{key}[{i}]':>22s}  {', '.join(f'{k} {_shown(v)}' for k, v in items)}")
+        elif isinstance(value, float):
             print(f"{key:>22s}  {value:.10g}{unit}")
         elif isinstance(value, dict):
             for sub, items in value.items():
-                shown = ", ".join(map(str, items)) if isinstance(items, (list, tuple)) else items
+                shown = _shown(items)
                 print(f"{key + '.' + sub:>22s}  {shown if shown != '' else '-'}")
+        elif isinstance(value, (list, tuple)):
+            print(f"{key:>22s}  {_shown(value)}{unit}")
         else:
             print(f"{key:>22s}  {value}{unit}")
     symbols = " ".join(units.values())
@@ -336,16 +370,24 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     load_wisdom()  # FFTW plans measured by earlier runs come back in milliseconds
     params = _params(args)
     slip = {name: getattr(args, name) for name, _, _ in SLIP_OPTIONS}
-    record = solve_fields(params, slip, accuracy=args.accuracy, memory=args.memory, name=_option)
+    with warnings.catch_warnings(record=True) as caught:  # a missed default accuracy: one line, exit 1
+        warnings.simplefilter("always", AccuracyWarning)
+        record = solve_fields(params, slip, accuracy=args.accuracy, memory=args.memory, name=_option)
+    missed = [str(w.message) for w in caught if issubclass(w.category, AccuracyWarning)]
+    for w in caught:
+        if not issubclass(w.category, AccuracyWarning):
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
     if args.json:
         print(json.dumps(record))
     else:
-        _print_record(record, {**params, **{k: v for k, v in slip.items() if v is not None}})
+        _print_record(record, {**params, **{k: v for k, v in slip.items() if v is not None}}, verbose=args.verbose)
     try:
         save_wisdom()
     except OSError as exc:  # a read-only home is no reason to fail a finished solve
         print(f"hpcontact: FFTW wisdom not saved ({exc})", file=sys.stderr)
-    return 0
+    for message in missed:  # the record above is what was reached; a missed tolerance exits 1
+        print(f"hpcontact: {message}", file=sys.stderr)
+    return 1 if missed else 0
 
 
 def _cmd_run(args: argparse.Namespace) -> int:

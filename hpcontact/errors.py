@@ -38,6 +38,14 @@ class ConvergenceError(RuntimeError):
         super().__init__(f"{message} (iterations={iterations}, relative residual={residual:.3e})")
 
 
+class AccuracyWarning(UserWarning):
+    """A solve without ``n`` or ``accuracy`` (``hpcontact.solve``, ``hpcontact solve``) missed its
+    default accuracy (``hpcontact.accuracy.DEFAULT_ACCURACY``): the record is returned with
+    ``accuracy_met`` False, and this warning names the requested and the estimated error and
+    what stopped the refinement. The command line prints it as one line on stderr and exits 1.
+    An ``accuracy`` the caller asked for raises ``hpcontact.accuracy.AccuracyNotMet`` instead."""
+
+
 def finite_number(field: str, value: Any, allowed: str) -> float:
     """``value`` as a finite float, else ``InputError(field, allowed, value)`` (bools refused)."""
     if isinstance(value, bool):

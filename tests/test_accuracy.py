@@ -278,6 +278,27 @@ def test_default_discretization() -> None:
     )
 
 
+def test_the_default_of_one_scene_is_the_default_accuracy() -> None:
+    """Without n, one scene (``hpcontact solve``, ``hpcontact.solve``) is solved as ``--accuracy
+    DEFAULT_ACCURACY`` (strategy auto: an ellipse's exact cell, a slender rectangle's strips, whose
+    default grids 16 … 256 missed 1e-4 or took coverage cells; issue 42 item 2), and a miss raises
+    ``AccuracyNotMet`` for the caller to report; a sweep's task keeps ``default_solve``'s planned
+    grids 16 … 256 on coverage-weighted cells (its cost model, ``sweep.tasks.solved_grids``)."""
+    for params in ({"shape": "ellipse", "aspect": 0.3, "nu": 0.3}, {"shape": "rectangle", "aspect": 1e-7, "nu": 0.3}):
+        scene = Scene.from_params(params)
+        one = acc.default_scene_solve(scene)
+        asked = acc.solve_to_accuracy(scene, acc.DEFAULT_ACCURACY, strategy="auto")
+        assert one["boundary"] == asked["boundary"] == ("galin" if params["shape"] == "ellipse" else "strip")
+        assert one["grids"] == asked["grids"] and one["K_xx"] == asked["K_xx"] and one["accuracy_met"]
+        sweep = acc.default_solve(scene)
+        assert sweep["boundary"] == "coverage" and sweep["grids"][0] == acc.DEFAULT_N0
+    circle = acc.default_scene_solve(Scene.from_params({"shape": "circle", "nu": 0.3}))
+    K = analytic.circle_tangential_stiffness(1.0, 1.0, 0.3)
+    assert circle["estimated_error"] <= 1e-10 and abs(circle["K_xx"] / K - 1.0) <= 1e-12
+    given = acc.default_scene_solve(Scene.from_params({"shape": "circle", "nu": 0.3, "n": 16}))
+    assert given["nx"] == 16 and "estimated_error" not in given  # n given: that grid, as always
+
+
 def test_command_line_accuracy_and_memory(capsys) -> None:
     """``--memory`` goes with ``--accuracy`` only (exit 2 naming it); a budget too small for
     four grids is bad input (exit 2)."""

@@ -18,9 +18,11 @@ import pytest
 from threadpoolctl import threadpool_info, threadpool_limits
 
 import hpcontact
-from hpcontact import api
+from hpcontact import accuracy as acc
+from hpcontact import analytic, api
+from hpcontact.accuracy import DEFAULT_ACCURACY, AccuracyNotMet
 from hpcontact.cli import main as cli_main
-from hpcontact.errors import InputError
+from hpcontact.errors import AccuracyWarning, InputError
 from hpcontact.sweep.guard import Refused
 
 SOLVE_PARAMETERS = (
@@ -59,8 +61,42 @@ def test_solve_and_the_command_line_give_the_same_record(capsys):
     )
     one = hpcontact.solve(shape="ellipse", aspect=0.5, n=16)  # a grid given: that grid, not extrapolated
     assert one["nx"] == 16 and "estimated_error" not in one
-    default = hpcontact.solve(shape="ellipse", aspect=0.5)  # no n, no accuracy: the extrapolated default
-    assert default["estimated_error"] <= 1e-3 and default["grids"][0] == 16
+    default = hpcontact.solve(shape="ellipse", aspect=0.5)  # no n, no accuracy: as accuracy=1e-4
+    exact = hpcontact.solve(shape="ellipse", aspect=0.5, accuracy=1e-4)
+    assert default["boundary"] == exact["boundary"] == "galin" and default["K_xx"] == exact["K_xx"]
+    assert default["accuracy_met"] and default["estimated_error"] <= 1e-10
+
+
+@pytest.mark.filterwarnings("error")
+def test_the_default_of_a_circle_takes_the_exact_cell():
+    """Issue 42 item 2: ``hpcontact.solve(shape="circle", nu=0.3)`` took coverage-weighted grids
+    16 … 256 (1.1 s, estimate 1.8e-4, its own 1e-4 missed in silence) where ``accuracy=1e-4``
+    takes the one exact Galin cell (ms, round-off). The default is that request now."""
+    record = hpcontact.solve(shape="circle", nu=0.3)
+    K = analytic.circle_tangential_stiffness(1.0, 1.0, 0.3)
+    assert record["boundary"] == "galin" and record["accuracy_met"] and record["stopped_by"] == "met"
+    assert record["estimated_error"] <= 1e-10 and record["accuracy"] == DEFAULT_ACCURACY
+    for key in ("K_xx", "K_yy"):
+        assert abs(record[key] / K - 1.0) <= max(record["estimated_error"], 1e-14), key
+
+
+def test_a_default_that_misses_its_accuracy_warns(monkeypatch):
+    """A default (no n, no accuracy) that misses its target returns its record with an
+    ``AccuracyWarning`` naming the requested and estimated error and the limit that stopped it
+    (here a star asked for 1e-6 within 64 x 64 cells); an ``accuracy`` asked for still raises."""
+    monkeypatch.setattr(acc, "DEFAULT_ACCURACY", 1e-6)
+    monkeypatch.setattr(
+        acc.solve_to_accuracy, "__kwdefaults__", {**acc.solve_to_accuracy.__kwdefaults__, "max_cells": 64 * 64, "n0": 8}
+    )
+    with pytest.warns(AccuracyWarning) as caught:
+        record = hpcontact.solve(shape="star", nu=0.3)
+    assert len(caught) == 1 and caught[0].filename == __file__  # points at the caller
+    message = str(caught[0].message)
+    assert message.startswith("default accuracy 1e-06 not met: estimated error ")
+    assert f"{record['estimated_error']:.3g}" in message and "finest grid 64 x 64; stopped by cells" in message
+    assert not record["accuracy_met"] and record["estimated_error"] > 1e-6 and record["grids"] == [8, 16, 32, 64]
+    with pytest.raises(AccuracyNotMet, match="^accuracy 1e-06 not met"):
+        hpcontact.solve(shape="star", nu=0.3, accuracy=1e-6)
 
 
 def test_solve_refuses_unknown_keywords_and_misplaced_fields():
@@ -116,7 +152,7 @@ def test_blas_is_limited_only_while_solving(monkeypatch):
         seen.extend(i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas")
         return {"K_xx": 1.0}
 
-    monkeypatch.setattr(api, "default_solve", record_threads)
+    monkeypatch.setattr(api, "default_scene_solve", record_threads)
     with threadpool_limits(limits=2, user_api="blas"):
         before = [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
         assert hpcontact.solve(n=8) == {"K_xx": 1.0}

@@ -18,7 +18,8 @@ import sys
 import numpy as np
 import pytest
 
-from hpcontact.cli import main
+from hpcontact import analytic
+from hpcontact.cli import EXAMPLES, main
 
 pytestmark = pytest.mark.filterwarnings("error")
 
@@ -115,6 +116,46 @@ def test_plain_text_output(capsys):
     assert "K_xx" in out and "plan.kernels" in out
     with pytest.raises(json.JSONDecodeError):
         json.loads(out)
+
+
+def test_the_first_help_example_meets_its_accuracy(capsys):
+    """Issue 42 item 2: the first example of ``hpcontact --help`` ("to about 1e-4") ended with
+    accuracy_met False, stopped_by grids, 1.66e-4 and exit 0. Without --n it is solved as
+    --accuracy 1e-4: the ellipse's one exact cell, Mindlin's closed form to round-off."""
+    line = EXAMPLES.split("examples:\n", 1)[1].splitlines()[0].split()
+    assert line[:2] == ["hpcontact", "solve"] and "--n" not in line and "--accuracy" not in line
+    args = line[2 : line.index("one")]  # the command, before its description
+    assert args == ["--shape", "ellipse", "--aspect", "0.3", "--nu", "0.3"]
+    r = _json(capsys, *args)  # exit 0, nothing on stderr
+    assert r["accuracy_met"] and r["stopped_by"] == "met" and r["accuracy"] == 1e-4 and r["boundary"] == "galin"
+    K_a, K_b = analytic.mindlin_ellipse_stiffness(1.0, 0.3, 1.0, 0.3)
+    assert r["estimated_error"] <= 1e-10
+    assert abs(r["K_xx"] / K_a - 1.0) <= 1e-12 and abs(r["K_yy"] / K_b - 1.0) <= 1e-12
+    code, out, err = _run(capsys, *args)
+    assert code == 0 and err == "" and "accuracy_met  True" in out
+
+
+def test_levels_only_with_verbose_or_json(capsys):
+    """The per-grid ``levels`` (a list of dicts) are not printed in plain text: with --verbose one
+    line per grid, in --json always; the plain text shows no raw Python dict or list."""
+    args = ("--shape", "rectangle", "--aspect", "0.5", "--accuracy", "1e-3")
+    record = _json(capsys, *args)
+    assert len(record["levels"]) == len(record["grids"]) >= 4 and isinstance(record["levels"][0], dict)
+    code, plain, err = _run(capsys, *args)
+    assert code == 0 and err == ""
+    keys = [line.split()[0] for line in plain.splitlines()]
+    assert not any(k.startswith("levels") for k in keys) and "K_xx" in keys and "estimated_error" in keys
+    assert "{'" not in plain and "[{" not in plain and "[16" not in plain
+    assert f"grids  {', '.join(map(str, record['grids']))}\n" in plain
+    code, verbose, err = _run(capsys, *args, "--verbose")
+    assert code == 0 and err == ""
+    lines = [line.split(None, 1) for line in verbose.splitlines()]
+    levels = [rest for key, rest in lines if key.startswith("levels")]
+    named = [key for key, _ in lines if key.startswith("levels")]
+    assert named == [f"levels[{i}]" for i in range(len(record["grids"]))]
+    assert all(rest.startswith("K_xx ") and "iterations" in rest for rest in levels)
+    assert "{'" not in verbose
+    assert [key for key, _ in lines if not key.startswith("levels")] == keys  # the rest as in plain text
 
 
 def test_no_precondition_same_answer(capsys):

@@ -80,6 +80,29 @@ def test_accuracy_not_met_exits_1_naming_the_grid(capsys, monkeypatch):
     assert "accuracy 1e-06 not met" in err and "finest grid 64 x 64" in err
 
 
+@pytest.mark.filterwarnings("error")  # the CLI turns the AccuracyWarning into its one line
+@pytest.mark.parametrize("json_output", [False, True])
+def test_a_default_that_misses_its_accuracy_exits_1_with_one_line(capsys, monkeypatch, json_output):
+    """The same rule for the default (no --n, no --accuracy: solved as --accuracy 1e-4), which
+    was met or missed with exit 0 and no word (issue 42 item 2): exit 1 and one line on stderr
+    naming the requested and estimated error and what stopped it. The record of the grids
+    reached is still printed (the caller asked for no tolerance; the line says it was missed)."""
+    monkeypatch.setattr(acc, "DEFAULT_ACCURACY", 1e-6)
+    monkeypatch.setattr(
+        acc.solve_to_accuracy, "__kwdefaults__", {**acc.solve_to_accuracy.__kwdefaults__, "max_cells": 64 * 64, "n0": 8}
+    )
+    code, out, err = _solve(capsys, "--shape", "star", *(["--json"] if json_output else []))
+    lines = err.splitlines()
+    assert code == 1 and len(lines) == 1, err
+    assert lines[0].startswith("hpcontact: default accuracy 1e-06 not met: estimated error ")
+    assert "on the finest grid 64 x 64; stopped by cells: the next grid, 128 x 128, exceeds" in lines[0]
+    if json_output:
+        record = json.loads(out)
+        assert not record["accuracy_met"] and f"estimated error {record['estimated_error']:.3g} " in lines[0]
+    else:
+        assert "accuracy_met  False" in out and "stopped_by  cells" in out
+
+
 def test_accuracy_for_a_crystal(capsys):
     """--accuracy on a crystal (was AttributeError: no E_star): extrapolated tensor, no Li
     normalization (needs isotropic E*, G*), on coverage-weighted cells (a rectangle: an ellipse
