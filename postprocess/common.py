@@ -96,8 +96,8 @@ def open_dataset(path: Path) -> xr.Dataset:
         refuse(
             f"{path}: cannot read it as a sweep data set ({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else 'no detail'})"
         )
-    if "status" not in loaded:
-        refuse(f"{path}: not a sweep data set (no 'status' variable: written by hpcontact run?)")
+    if "status" not in loaded and not any(str(v).startswith(("K_", "load")) for v in loaded.data_vars):
+        refuse(f"{path}: not a sweep data set (no status, stiffness or load: written by hpcontact run?)")
     return loaded
 
 

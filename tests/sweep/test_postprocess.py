@@ -385,8 +385,9 @@ def test_a_failed_run_leaves_no_stamp(saved, data, tmp_path):
     stamp = tmp_path / "fig" / ".polar.stamp.json"
     assert stamp.is_file()
     data.write_bytes(b"not a netCDF file")
-    with pytest.raises(Exception):  # noqa: B017 (whatever the reader raises; run as a script: exit status 1)
+    with pytest.raises(SystemExit) as stop:  # common.refuse: one line, exit status 2
         saved("polar.py", str(data))
+    assert stop.value.code == 2
     assert sorted(p.name for p in (tmp_path / "fig").iterdir()) == sorted(POLAR)  # no stamp, no temporary file
 
 
