@@ -67,7 +67,7 @@ from scipy.optimize import brentq
 
 from hpcontact.analytic import mindlin_ellipse_integrals
 from hpcontact.errors import InputError
-from hpcontact.materials.isotropic import Isotropic
+from hpcontact.materials.isotropic import NU_RANGE, Isotropic
 
 #: name → (Young's modulus E [Pa], Poisson ratio nu, source). Dowling 2013, Table 5.2.
 MATERIALS: Mapping[str, tuple[float, float, str]] = {
@@ -130,9 +130,9 @@ def material_from_moduli(E: Any = None, G: Any = None, nu: Any = None, suffix: s
     nu defaults to 0.3 and G to 1 (the engine's dimensionless default) when neither E nor G is
     given; giving both E and G over-determines nu and is refused.
     """
-    nu_value = 0.3 if nu is None else _number(f"nu{suffix}", nu, "Poisson ratio in (-1, 0.5]")
+    nu_value = 0.3 if nu is None else _number(f"nu{suffix}", nu, NU_RANGE)
     if not (-1.0 < nu_value <= 0.5) or not math.isfinite(nu_value):
-        raise InputError(f"nu{suffix}", "Poisson ratio in (-1, 0.5]", nu)
+        raise InputError(f"nu{suffix}", NU_RANGE, nu)
     if E is not None and G is not None:
         raise InputError(f"G{suffix}", f"either E{suffix} or G{suffix}, not both", G)
     if E is not None:
