@@ -3,9 +3,9 @@
 
 * SIGINT to the job's process group — what a terminal's Ctrl-C sends to ``mpiexec`` and the
   ranks — while rank 0 sets up and rank 1 waits for it in a broadcast, while tasks run, and
-  while rank 0 writes the data set and rank 1 waits for it: each ends the job with exit 4 within
-  the grace period plus the stop thread's ``HARD_EXIT_S``, no traceback, journals intact, and
-  ``--resume`` completes a data set equal to an undisturbed run;
+  while rank 0 writes the data set and rank 1 waits for it: each ends the job with exit 4 (the
+  stop thread's forced exit after the grace and ``HARD_EXIT_S``, or the driver's own stop), no
+  traceback, journals intact, and ``--resume`` completes a data set equal to an undisturbed run;
 * SIGTERM once the data set is written changes nothing: exit 0, the data set there;
 * a rank stopped for good (SIGSTOP) is noticed by rank 0's heartbeat watch after
   ``--stall-timeout`` and the job ends with exit 1, naming the rank; ``--resume`` completes.
@@ -13,6 +13,11 @@
 The slow phases come from ``HPCONTACT_SLOW_PHASE`` (``hpcontact.sweep.faults``); a hanging task
 from ``HPCONTACT_FAULTS``. Launches its own ``mpiexec`` (skips when pytest itself runs under a
 launcher, as ``test_faults`` does).
+
+Nothing here is timed (issue 39 item 6): how soon a job ends after the signal is a benchmark
+figure (docs/explanation/reliability.md), not asserted. What is asserted is that it ends, and
+how: exit status, one line naming the cause, no traceback, journals that ``--resume`` completes.
+That it ends is bounded by ``STOP_TIMEOUT_S`` (``finish``), see there.
 """
 
 from __future__ import annotations
@@ -33,7 +38,6 @@ from launcher import MPIEXEC, STARTS_ITS_OWN_MPIEXEC
 from hpcontact.sweep.driver import run_sweep
 from hpcontact.sweep.journal import read_history
 from hpcontact.sweep.schedule import SerialTeam
-from hpcontact.sweep.signals import HARD_EXIT_S, HEARTBEAT_S
 
 SPEC = """
 [sweep]
@@ -52,11 +56,14 @@ nu = [0.0, 0.25, 0.5]
 TASKS = 3 + 3 * 3  # the circle ignores the aspect: 3 nu; the ellipse 3 aspects x 3 nu
 GRACE_S = 2.0
 STALL_S = 8.0  # heartbeats every 2 s (a quarter of it): a stall is 4 beats missed
-#: MPI start-up and teardown on 2 busy cores (test_faults.EXIT_SLACK_S, issue 9).
-SLACK_S = 8.0
-#: Setup and finish have no task in flight: a stop ends them after the grace, and at the
-#: earliest HARD_EXIT_S after the phase began (signals.StopControl._poll).
-PHASE_BOUND_S = GRACE_S + HARD_EXIT_S + SLACK_S
+#: Liveness bound, not a speed bound: ``finish`` gives a job this long to end, else the test
+#: fails (``subprocess.TimeoutExpired``) and the job is killed. The faults a stop must cut short
+#: never end on their own within it — a 600 s slow phase, a task that hangs until abandoned, a
+#: rank stopped for good — so a job that ends at all was ended by the stop machinery, and one
+#: whose stop is lost fails here instead of hanging the suite. The stop's own schedule is
+#: GRACE_S + HARD_EXIT_S = 12 s, with the stall STALL_S + 2 heartbeats + 12 s = 24 s (the tests
+#: print what they took): a machine loaded enough to stretch that 5-10 times still passes.
+STOP_TIMEOUT_S = 120.0
 
 pytestmark = STARTS_ITS_OWN_MPIEXEC
 
@@ -116,7 +123,7 @@ def descendants(pid: int) -> list[int]:
     return found
 
 
-def finish(proc: subprocess.Popen, timeout: float = 120.0) -> tuple[int, str, str]:
+def finish(proc: subprocess.Popen, timeout: float = STOP_TIMEOUT_S) -> tuple[int, str, str]:
     try:
         out, err = proc.communicate(timeout=timeout)
     finally:
@@ -171,14 +178,13 @@ def test_sigint_while_one_rank_waits_in_a_collective_ends_the_job(tmp_path, refe
     time.sleep(1.0)
     signalled = time.monotonic()
     os.killpg(proc.pid, signal.SIGINT)
-    code, out, err = finish(proc)
+    code, out, err = finish(proc)  # within STOP_TIMEOUT_S, while rank 0 would sleep 600 s: the stop ended it
     elapsed = time.monotonic() - signalled
     assert code == 4, out + err
-    assert elapsed <= PHASE_BOUND_S, f"{elapsed:.1f} s"
     assert "Traceback" not in err and "KeyboardInterrupt" not in err, err
     assert "SIGINT on rank" in err and "run again with --resume" in err
     assert not (tmp_path / "out.nc").exists()
-    print(f"SIGINT in {phase}: exit 4 after {elapsed:.1f} s (bound {PHASE_BOUND_S:g} s)")
+    print(f"SIGINT in {phase}: exit 4 after {elapsed:.1f} s (not asserted: a benchmark figure)")
     resume_equals_reference(tmp_path, reference)
 
 
@@ -186,12 +192,9 @@ def test_sigint_while_a_task_runs_stops_within_the_grace(tmp_path, reference):
     proc = start(tmp_path, env={"HPCONTACT_FAULTS": "3:hang"})
     wait_until(lambda: len(list((tmp_path / "out.nc.journal").glob("rank*.jsonl"))) == 2, proc)
     time.sleep(2.0)
-    signalled = time.monotonic()
     os.killpg(proc.pid, signal.SIGINT)
-    code, out, err = finish(proc)
-    elapsed = time.monotonic() - signalled
+    code, out, err = finish(proc)  # within STOP_TIMEOUT_S, while task 3 hangs until abandoned
     assert code == 4, out + err
-    assert elapsed <= GRACE_S + SLACK_S, f"{elapsed:.1f} s"
     assert "Traceback" not in err and "KeyboardInterrupt" not in err, err
     assert "stopped (SIGINT on rank" in err
     resume_equals_reference(tmp_path, reference)
@@ -220,17 +223,15 @@ def test_a_rank_stopped_for_good_ends_the_job_resumably(tmp_path, reference):
     os.kill(victim, signal.SIGSTOP)
     stopped = time.monotonic()
     try:
-        code, out, err = finish(proc)
+        code, out, err = finish(proc)  # within STOP_TIMEOUT_S, with rank 1 frozen for good: the watch ended it
     finally:
         try:
             os.kill(victim, signal.SIGKILL)
         except ProcessLookupError:
             pass
     elapsed = time.monotonic() - stopped
-    bound = STALL_S + 2 * min(HEARTBEAT_S, STALL_S / 4) + GRACE_S + HARD_EXIT_S + SLACK_S
     assert code != 0 and code != 4, out + err  # a failure, not a user's stop
     assert "made no progress" in err and "--stall-timeout" in err, err
     assert "Traceback" not in err, err
-    assert elapsed <= bound, f"{elapsed:.1f} s"
-    print(f"SIGSTOP of rank 1: job ended with {code} after {elapsed:.1f} s (bound {bound:g} s)")
+    print(f"SIGSTOP of rank 1: job ended with {code} after {elapsed:.1f} s (not asserted: a benchmark figure)")
     resume_equals_reference(tmp_path, reference)
