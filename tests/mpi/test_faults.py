@@ -1,8 +1,9 @@
 """Faults a 2-rank sweep survives, with real processes (``mpiexec -n 2 hpcontact run``):
 
 * a second run on the same output is refused (exit 2, naming the holder) and does not disturb
-  the first; SIGTERM to one rank stops both within the grace period (exit 4) while the other
-  rank hangs in a task (``HPCONTACT_FAULTS`` ``hang``), and ``--resume`` completes the data set,
+  the first; SIGTERM to one rank stops both (exit 4, the hung task abandoned after the grace
+  period and journaled as interrupted) while the other rank hangs in a task
+  (``HPCONTACT_FAULTS`` ``hang``), and ``--resume`` completes the data set,
   equal to an undisturbed run; a rerun without a flag is refused and deletes nothing; an
   unwritable output is refused before any task;
 * a raising task gives exit 3; journals of another git revision are refused (exit 2) unless
@@ -59,7 +60,14 @@ nu = [0.0, 0.1, 0.2, 0.3, 0.4, 0.5]
 """
 TASKS = 6 + 2 * 4 * 6  # the circle ignores the aspect
 GRACE_S = 2.0
-EXIT_SLACK_S = 8.0  # "within the grace period plus a few seconds" (issue 9): MPI teardown on 2 busy cores
+#: Liveness bound, not a speed bound (issue 39 item 6): a stopped job that has not ended this long
+#: after the signal has hung, and the test fails (``subprocess.TimeoutExpired``). The hung task
+#: never ends on its own, so a job that ends at all was ended by the stop (the grace, then
+#: ``Abandoned``). The stop's own schedule is GRACE_S + MPI teardown (2.9-3.3 s measured,
+#: docs/explanation/reliability.md; printed, not asserted), at most GRACE_S + HARD_EXIT_S = 12 s
+#: should a rank not take the abandon signal: a machine loaded enough to stretch that 5 times
+#: still passes.
+STOP_TIMEOUT_S = GRACE_S + 60.0
 KILLS = 20
 
 pytestmark = STARTS_ITS_OWN_MPIEXEC
@@ -183,14 +191,14 @@ def test_concurrent_run_refused_sigterm_stops_within_the_grace_and_resume_comple
     wait_for(settled, first)
     signalled = time.monotonic()
     os.kill(other, signal.SIGTERM)  # to the rank that is not hanging: the stop must reach the other one
-    out, err = first.communicate(timeout=GRACE_S + 60.0)
+    out, err = first.communicate(timeout=STOP_TIMEOUT_S)  # ends, though one rank hangs for good
     elapsed = time.monotonic() - signalled
     assert first.returncode == 4, out + err
-    assert elapsed <= GRACE_S + EXIT_SLACK_S, elapsed
     assert "stopped (SIGTERM on rank" in err and "run again with --resume" in err
     (session,) = sessions(tmp_path).values()
+    # the stop reached the hanging rank, which abandoned its task after the grace (not the forced exit)
     assert keys[hang] in session["interrupted"] and not (tmp_path / "out.nc").exists()
-    print(f"SIGTERM to exit 4: {elapsed:.2f} s with a {GRACE_S:g} s grace (rank {hung_rank} hung)")
+    print(f"SIGTERM to exit 4: {elapsed:.2f} s with a {GRACE_S:g} s grace (rank {hung_rank} hung; not asserted)")
 
     code, out, err = run(tmp_path, "--resume")
     assert code == 0, out + err
