@@ -61,8 +61,14 @@ def _assert_same_results(a: xr.Dataset, b: xr.Dataset, rtol: float = 1e-12) -> N
     """Same coordinates, status, messages and plans; every stiffness equal to ``rtol`` of the
     largest stiffness, other floats to ``rtol`` of their own scale; NaN exactly where NaN.
 
-    Not bitwise: the engine plans FFTs with FFTW_MEASURE, which may pick different algorithms
-    in different processes; the rounding differences stay below ~5e-13 relative at tol = 1e-12.
+    Not bitwise: by default each process plans its own FFTs and re-plans a layout with
+    FFTW_MEASURE once it repays (or takes saved wisdom), and plans chosen by timing differ between
+    processes and round differently. The tests' tiny grids keep FFTW_ESTIMATE plans, the same
+    everywhere, and then agree bitwise (``test_parallel_sweep``'s real-solve test asserts it
+    with ``HPCONTACT_FFTW_PLANNER=FFTW_ESTIMATE``); ``rtol`` leaves room for a process that did
+    re-plan. Forced FFTW_MEASURE at n = 48 and 128, tol 1e-10, measured up to 2.2e-12 of the
+    largest stiffness between 1 process and 2 ranks (2026-11-28, 2-core Intel Xeon VM): above
+    the default ``rtol``: a comparison of grids that large needs ``rtol`` ~5e-12.
     """
     assert set(a.variables) == set(b.variables)
     for name in a.coords:

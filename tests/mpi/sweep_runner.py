@@ -1,5 +1,7 @@
-"""A sweep run for ``test_kill_resume`` and ``test_oversubscribed``: the real solver (or, with
-``--synthetic``, ``synthetic``), with each task's start logged per rank.
+"""A sweep run for ``test_kill_resume``, ``test_oversubscribed`` and ``test_parallel_sweep``: the
+real solver (or, with ``--synthetic``, ``synthetic``), with each task's start logged per rank.
+Synthetic records carry the same bits in any process; real solves do only when every process
+uses the same FFTW plans (``HPCONTACT_FFTW_PLANNER=FFTW_ESTIMATE`` in the environment).
 
 ``python sweep_runner.py SPEC --output PATH --log DIR [--resume] [--delay S] [--synthetic]
 [--parent PID]`` (under mpiexec): before each task, the rank appends ``pid key`` to
