@@ -483,6 +483,11 @@ def run_sweep(
     from hpcontact.sweep.guard import Refused
     from hpcontact.sweep.schedule import SerialTeam
 
+    if isinstance(spec, bytes) or not isinstance(spec, (str, os.PathLike, Mapping)):
+        raise InputError(
+            "spec",
+            f"a TOML file's path (str or os.PathLike) or a dict of its tables, not {type(spec).__name__}",
+        )
     if resume and restart:
         raise InputError(
             "restart", "not with resume=True (resume continues from the journals, restart discards them)", True
@@ -529,6 +534,7 @@ def _dict_spec(spec: Mapping[str, Any], output: str | None, accuracy: float | No
     """The ``Spec`` of a spec given as a dict: its TOML text through ``parse_spec``."""
     from hpcontact.sweep.spec import parse_spec
 
+    _check_nesting(spec)
     sweep = spec.get("sweep")
     if output is None and not (isinstance(sweep, Mapping) and sweep.get("output") is not None):
         raise InputError(
@@ -536,6 +542,38 @@ def _dict_spec(spec: Mapping[str, Any], output: str | None, accuracy: float | No
             "a data set path ending in .nc: a spec given as a dict names it in its sweep table (output) or by output=",
         )
     return parse_spec(toml_text(spec), path=DICT_SPEC_PATH, output=output, check_scenes=False, accuracy=accuracy)
+
+
+#: The deepest nesting of a spec given as a dict (tables, inline tables, lists): a spec uses 3
+#: or 4 levels ([axes] → label table → list of tables → fields); deeper is a mistake, and far
+#: deeper (thousands) would exhaust Python's recursion before anything could name it.
+MAX_SPEC_DEPTH = 64
+
+
+def _check_nesting(spec: Mapping[str, Any]) -> None:
+    """``InputError`` naming the key path where a dict spec nests deeper than
+    ``MAX_SPEC_DEPTH`` or contains itself (a mapping or list among its own ancestors). Walks
+    without recursion, so no depth of nesting can exhaust the stack first."""
+    stack: list[tuple[Any, str, tuple[int, ...]]] = [(spec, "", ())]
+    while stack:
+        value, where, ancestors = stack.pop()
+        if isinstance(value, Mapping):
+            children = [(v, f"{where}.{k}" if where else str(k)) for k, v in value.items()]
+        elif isinstance(value, (list, tuple)):
+            children = [(v, f"{where}[{i}]") for i, v in enumerate(value)]
+        else:
+            continue
+        if id(value) in ancestors:
+            raise InputError(where or "spec", "a spec without cycles: this value contains itself")
+        if len(ancestors) >= MAX_SPEC_DEPTH:
+            raise InputError(
+                f"{where[:200]}..." if len(where) > 200 else where,
+                f"a spec nested at most {MAX_SPEC_DEPTH} levels deep (tables, lists)",
+            )
+        inner = (*ancestors, id(value))
+        stack += [
+            (child, path, inner) for child, path in reversed(children) if isinstance(child, (Mapping, list, tuple))
+        ]
 
 
 def toml_text(spec: Mapping[str, Any]) -> str:

@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -20,7 +21,7 @@ from hpcontact.errors import InputError, finite_number, integer, unused_field
 from hpcontact.geometry import SHAPES, Shape, mask_pixels
 from hpcontact.materials.crystal import Crystal, crystal, cubic_from_nu_A
 from hpcontact.materials.elastic_constants import FAMILIES, FIXED_BY_CONSTANTS, constants_material
-from hpcontact.materials.isotropic import NU_RANGE, Isotropic
+from hpcontact.materials.isotropic import NU_RANGE, Isotropic, modulus, modulus_range
 
 Material = Isotropic | Crystal
 
@@ -181,9 +182,8 @@ class Scene:
         nu = finite_number("nu", p["nu"], NU_RANGE)
         if not -1.0 < nu <= 0.5:
             raise InputError("nu", NU_RANGE, p["nu"])
-        G = finite_number("G", p["G"], "shear modulus, finite and > 0")
-        if G <= 0.0:
-            raise InputError("G", "shear modulus, finite and > 0", p["G"])
+        G = finite_number("G", p["G"], modulus_range("shear modulus"))
+        modulus("G", G, "shear modulus")
         material = _turned_with_shape(constants_material(params) or _material(p, G, nu), p["shape_angle"])
         aspect = finite_number("aspect", p["aspect"], ASPECT_RANGE)
         if not MIN_ASPECT <= aspect <= 1.0:
@@ -221,7 +221,8 @@ class Scene:
             rms=finite_number("rms", p["rms"], "roughness rms in (0, 1]"),
             mask_path=p["mask"],
         )
-        threads = integer("threads", p["threads"], 1, "an integer >= 1")
+        cpus = usable_cpus()
+        threads = integer("threads", p["threads"], 1, f"an integer in [1, {cpus}] (this machine's CPUs)", cpus)
         return cls(
             shape=shape,
             material=material,
@@ -258,6 +259,15 @@ class Scene:
             {"n": n, "n_across": n_across} if tol is None else {"n": n, "n_across": n_across, "tol": tol}
         )
         return dataclasses.replace(self, **changes, params=self.fields(**changes))
+
+
+def usable_cpus() -> int:
+    """The CPUs this process may run on: its affinity mask where the OS has one, else
+    ``os.cpu_count()`` (the upper limit of ``threads``: more threads than CPUs only contend)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):
+        return max(1, os.cpu_count() or 1)
 
 
 def _accuracy(value: Any, quantities: tuple[str, ...], shape: str) -> float:

@@ -254,3 +254,85 @@ def test_toml_text_round_trips():
     assert parsed["scene"] == {"quantities": ["tangential", "normal"], "precondition": False, "G": 2.5}
     assert parsed["axes"]["shape"] == spec["axes"]["shape"] and parsed["axes"]["aspect"] == {"logspace": [0, -8, 5]}
     assert parsed["axes"]["nu"] == [0.0, 0.25] and parsed["axes"]["weird key"] == [float("inf"), -float("inf")]
+
+
+# Malformed inputs raise InputError naming the field (issue 43 item 7) -------------------------
+
+
+@pytest.mark.parametrize("spec", [[1, 2], 3, None, b"jobs/demo.toml"])
+def test_run_sweep_refuses_a_spec_that_is_not_a_path_or_a_dict(spec):
+    with pytest.raises(InputError) as info:
+        hpcontact.run_sweep(spec, stream=io.StringIO())
+    assert info.value.field == "spec" and "dict" in str(info.value) and "os.PathLike" in str(info.value)
+
+
+def test_run_sweep_refuses_a_dict_spec_nested_too_deep_or_containing_itself(tmp_path):
+    deep: dict = {}
+    inner = deep
+    for _ in range(5000):
+        inner["a"] = {}
+        inner = inner["a"]
+    with pytest.raises(InputError) as info:
+        hpcontact.run_sweep({"scene": deep}, output=tmp_path / "x.nc", stream=io.StringIO())
+    assert info.value.field.startswith("scene.a.a.a") and "64 levels" in str(info.value)
+    looped: dict = {"scene": {"shape": "circle"}, "axes": {"nu": [0.3]}}
+    looped["scene"]["self"] = looped
+    with pytest.raises(InputError) as info:
+        hpcontact.run_sweep(looped, output=tmp_path / "x.nc", stream=io.StringIO())
+    assert info.value.field == "scene.self" and "contains itself" in str(info.value)
+
+
+@pytest.mark.parametrize("name", ["a\0b.nc", "a" * 300 + ".nc"])
+def test_run_sweep_refuses_an_output_the_os_cannot_name(tmp_path, name):
+    spec = {"scene": {"shape": "circle"}, "numerics": {"n": 8}, "axes": {"nu": [0.3]}}
+    for kwargs in ({"output": tmp_path / name}, {}):
+        given = spec if kwargs else {**spec, "sweep": {"output": str(tmp_path / name)}}
+        with pytest.raises(InputError) as info:
+            hpcontact.run_sweep(given, stream=io.StringIO(), **kwargs)
+        assert info.value.field == "output" and "the output" in str(info.value)
+        assert ("output=" if kwargs else "sweep.output") in str(info.value)
+
+
+def test_threads_above_this_machines_cpus_are_refused_naming_the_range(capsys):
+    from hpcontact.scene import usable_cpus
+
+    with pytest.raises(InputError) as info:
+        hpcontact.solve(shape="circle", n=8, threads=10**6)
+    assert info.value.field == "threads" and f"[1, {usable_cpus()}]" in str(info.value)
+    assert cli_main(["solve", "--n", "8", "--threads", str(usable_cpus() + 1)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "threads" in err
+
+
+@pytest.mark.parametrize(
+    ("fields", "field"),
+    [
+        ({"G": 1e308}, "G"),
+        ({"G": 1e-101}, "G"),
+        ({"cubic": "C11=1e300 C12=5e299 C44=4e299"}, "cubic.C11"),
+        ({"orthotropic": "E1=1e101 E2=1 E3=1 G12=1 G13=1 G23=1 nu12=0 nu13=0 nu23=0"}, "orthotropic.E1"),
+        ({"voigt": [1e-101 if i % 7 == 0 else 0.0 for i in range(36)]}, "voigt"),
+    ],
+)
+def test_moduli_outside_the_finite_range_are_refused_naming_the_field(fields, field):
+    with pytest.raises(InputError) as info:
+        hpcontact.solve(shape="circle", n=8, **fields)
+    assert info.value.field == field and "[1e-100, 1e+100]" in str(info.value)
+
+
+def test_moduli_at_the_ends_of_the_range_still_solve():
+    one = hpcontact.solve(shape="circle", n=8, quantities="tangential")
+    for G in (1e-100, 1e100):
+        record = hpcontact.solve(shape="circle", n=8, G=G, quantities="tangential")
+        assert record["K_xx"] / G == pytest.approx(one["K_xx"], rel=1e-12)
+
+
+def test_run_sweep_refuses_a_spec_file_too_large_or_not_regular(tmp_path):
+    from hpcontact.sweep.spec import MAX_SPEC_BYTES
+
+    big = tmp_path / "big.toml"
+    big.write_text("# " + "x" * MAX_SPEC_BYTES + "\n")
+    for path in (big, tmp_path, "/dev/zero"):
+        with pytest.raises(InputError) as info:
+            hpcontact.run_sweep(path, stream=io.StringIO())
+        assert info.value.field == "spec" and f"at most {MAX_SPEC_BYTES // 2**20} MiB" in str(info.value)

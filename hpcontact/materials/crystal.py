@@ -43,6 +43,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from hpcontact.errors import InputError, finite_number
+from hpcontact.materials.isotropic import MAX_MODULUS, MIN_MODULUS, modulus, modulus_range
 
 __all__ = [
     "CRYSTAL_NU_RANGE",
@@ -129,6 +130,8 @@ def check_stiffness(C6: ArrayLike, field_name: str = "stiffness") -> NDArray[np.
     scale = float(np.max(np.abs(C)))
     if scale == 0.0:
         raise InputError(field_name, "a positive definite stiffness (got all zeros)", 0.0)
+    if not MIN_MODULUS <= scale <= MAX_MODULUS:  # isotropic.MIN_MODULUS: finite arithmetic
+        raise InputError(field_name, modulus_range("largest entry |C_IJ|"), f"largest entry {scale:.6g}")
     asym = float(np.max(np.abs(C - C.T))) / scale
     if asym > _SYMMETRY_RTOL:
         raise InputError(field_name, "a symmetric matrix, C_IJ = C_JI", f"relative asymmetry {asym:.3e}")
@@ -244,6 +247,9 @@ def cubic(C11: float, C12: float, C44: float, *, name: str = "", citation: str =
     C11 = finite_number("C11", C11, "a finite stiffness")
     C12 = finite_number("C12", C12, "a finite stiffness")
     C44 = finite_number("C44", C44, "a finite stiffness")
+    for constant, value in (("C11", C11), ("C12", C12), ("C44", C44)):
+        if abs(value) > MAX_MODULUS:  # the smallest: check_stiffness, on the largest entry
+            raise InputError(constant, modulus_range(f"|{constant}|"), value)
     if not C44 > 0.0:
         raise InputError("C44", "C44 > 0 (positive definite cubic stiffness)", C44)
     if not C11 - C12 > 0.0:
@@ -307,8 +313,8 @@ def orthotropic(
     S44 = 1/G23, S55 = 1/G13, S66 = 1/G12; C = S⁻¹.  nu_ij is the contraction along j for a
     tension along i (nu_ij/E_i = nu_ji/E_j).  Positive definiteness is checked.
     """
-    E1, E2, E3 = (_positive(n, v) for n, v in (("E1", E1), ("E2", E2), ("E3", E3)))
-    G12, G13, G23 = (_positive(n, v) for n, v in (("G12", G12), ("G13", G13), ("G23", G23)))
+    E1, E2, E3 = (modulus(n, _positive(n, v)) for n, v in (("E1", E1), ("E2", E2), ("E3", E3)))
+    G12, G13, G23 = (modulus(n, _positive(n, v)) for n, v in (("G12", G12), ("G13", G13), ("G23", G23)))
     nu12, nu13, nu23 = (
         finite_number(n, v, "a finite Poisson ratio") for n, v in (("nu12", nu12), ("nu13", nu13), ("nu23", nu23))
     )

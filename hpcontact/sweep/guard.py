@@ -52,6 +52,7 @@ __all__ = [
     "apart",
     "batch_job",
     "usable_folder",
+    "usable_names",
     "usable_output",
 ]
 
@@ -153,10 +154,50 @@ def _named(spec: Any) -> tuple[str, str]:
     return output_name, f"the journal folder {journal} ({origin})"
 
 
+#: What the run adds to the output's name: its temporary data set ``.NAME.tmp-PID``
+#: (``netcdf.write``, a pid has at most 7 digits) and the default journal folder ``NAME.journal``.
+NAME_EXTRA = len(".") + len(".tmp-") + 7
+
+
+def _name_max(folder: Path) -> int:
+    """The longest file name (bytes) the file system of ``folder`` (or its nearest existing
+    parent) allows: ``PC_NAME_MAX``, 255 where it cannot be asked."""
+    for place in (folder, *folder.parents):
+        try:
+            return int(os.pathconf(place, "PC_NAME_MAX"))
+        except (OSError, ValueError):
+            continue
+    return 255
+
+
+def usable_names(spec: Any) -> None:
+    """``Refused`` naming the output (or journal folder) whose path the OS cannot take: a NUL
+    character, or a component longer than the file system's ``PC_NAME_MAX`` (the output's last
+    component with room for its temporary file, ``NAME_EXTRA``). The one check of these names,
+    made before any other look at them (``apart``)."""
+    for path, what in ((Path(spec.output), 0), (Path(spec.journal), 1)):
+        named = _named(spec)[what]
+        if "\0" in str(path):
+            shown = named.replace(str(path), repr(str(path)), 1)  # the NUL shown as \x00
+            raise Refused(f"{shown} contains a NUL character: name a path without one")
+        limit = _name_max(path.absolute().parent)
+        for part in path.parts:
+            extra = NAME_EXTRA if (what == 0 and part == path.name) else 0
+            size = len(os.fsencode(part)) + extra
+            if size > limit:
+                room = f" ({extra} bytes kept for its temporary file)" if extra else ""
+                raise Refused(
+                    f"{named} has a name component of {len(os.fsencode(part))} bytes, over the "
+                    f"{limit - extra} this file system allows{room}: name a shorter path"
+                )
+
+
 def apart(spec: Any) -> None:
     """``Refused`` (one line naming both paths and where they come from) when what the run of
-    ``spec`` writes would overwrite what it reads, or each other (module docstring). Changes
-    nothing and reads only file metadata: a run (``driver.prepare``) and a dry run alike."""
+    ``spec`` writes would overwrite what it reads, or each other (module docstring); first, a
+    name the OS cannot take (``usable_names``). Changes nothing and reads only file metadata: a
+    run (``driver.prepare``) and a dry run alike."""
+    usable_names(spec)
     output, journal = Path(spec.output), Path(spec.journal)
     if _same(output, journal):
         raise Refused("{} is {}: name them apart".format(*_named(spec)))

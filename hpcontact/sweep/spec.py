@@ -90,6 +90,8 @@ from __future__ import annotations
 import itertools
 import json
 import math
+import os
+import stat
 import tomllib
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, replace
@@ -200,6 +202,10 @@ SHAPE_ONLY_FIELDS: Mapping[str, frozenset[str]] = {
 #: 10^7 points take minutes and gigabytes; a larger spec is refused before anything is
 #: enumerated (split it, or coarsen an axis).
 MAX_POINTS = 10**7
+#: The largest spec file read (bytes): the shipped specs are a few kB, and an explicit axis of
+#: 10**6 values (a tenth of ``MAX_POINTS``) is ~10 MB of TOML; a larger file, or one that is not
+#: a regular file (/dev/zero, a FIFO, a folder), is refused before it is read.
+MAX_SPEC_BYTES = 16 * 2**20
 PROGRESS_POINTS = 100_000  # points between calls of scene_runs' progress callback
 #: A range of at most this many points is checked scene by scene (every distinct scene
 #: validated: at most ~0.5 s); in a larger one, each run of three or more points along the last
@@ -381,14 +387,45 @@ def load_spec(
     """
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise InputError("spec", f"a readable TOML file ({exc.strerror})", str(path)) from None
+        text = _read_spec(path).decode("utf-8").replace("\r\n", "\n").replace("\r", "\n")  # as read_text
     except UnicodeDecodeError as exc:
         raise InputError("spec", f"a TOML file in UTF-8 (byte {exc.start} is not UTF-8)", str(path)) from None
     if not any(line.strip() and not line.lstrip().startswith("#") for line in text.splitlines()):
         raise InputError("spec", "a TOML spec with content (this file is empty or holds only comments)", str(path))
     return parse_spec(text, path=path, output=output, validate=validate, check_scenes=check_scenes, accuracy=accuracy)
+
+
+def _read_spec(path: Path) -> bytes:
+    """The bytes of the spec file ``path``: a regular file of at most ``MAX_SPEC_BYTES``, else
+    ``InputError`` naming the file and the limit. Opened without blocking (a FIFO), checked by
+    ``fstat`` on the open file, read no further than the limit."""
+    limit = f"a regular TOML file of at most {MAX_SPEC_BYTES // 2**20} MiB ({MAX_SPEC_BYTES} bytes)"
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    except (OSError, ValueError) as exc:  # ValueError: a NUL in the path
+        why = exc.strerror if isinstance(exc, OSError) else "a path without NUL characters"
+        raise InputError("spec", f"a readable TOML file ({why})", str(path)) from None
+    mode = os.fstat(fd).st_mode
+    if not stat.S_ISREG(mode):
+        os.close(fd)
+        what = (
+            "a folder"
+            if stat.S_ISDIR(mode)
+            else "a FIFO"
+            if stat.S_ISFIFO(mode)
+            else "a device"
+            if stat.S_ISCHR(mode) or stat.S_ISBLK(mode)
+            else "not a regular file"
+        )
+        raise InputError("spec", f"{limit}; this is {what}", str(path))
+    with os.fdopen(fd, "rb") as fh:
+        try:
+            data = fh.read(MAX_SPEC_BYTES + 1)
+        except OSError as exc:
+            raise InputError("spec", f"a readable TOML file ({exc.strerror})", str(path)) from None
+    if len(data) > MAX_SPEC_BYTES:
+        raise InputError("spec", f"{limit}; this file is larger", str(path))
+    return data
 
 
 def parse_spec(
@@ -405,6 +442,8 @@ def parse_spec(
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise InputError("spec", f"valid TOML ({exc})", str(path)) from None
+    except RecursionError:  # arrays or inline tables nested thousands deep
+        raise InputError("spec", "TOML nested at most a few hundred levels deep", str(path)) from None
     _known_keys("", data, TABLES)
     tables = {}
     for name in TABLES:

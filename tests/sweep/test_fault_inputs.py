@@ -568,3 +568,43 @@ def test_entries_of_a_well_formed_journal_are_unchanged(tmp_path):
     got = history.entries["k"]
     assert history.dropped == 0 and got.record == entry.record and np.isnan(got.wall_time_s)
     assert history.headers[0]["job"] == os.environ.get("SLURM_JOB_ID") or history.headers[0]["job"] is None
+
+
+# 7. Malformed inputs refused naming the field (issue 43 item 7) -------------------------------
+
+
+@pytest.mark.parametrize("kind", ["folder", "fifo", "device", "large"])
+def test_a_spec_that_is_not_a_regular_file_or_too_large_exits_2_in_one_line(tmp_path, cli, kind):
+    from hpcontact.sweep.spec import MAX_SPEC_BYTES
+
+    path = {"folder": tmp_path, "fifo": tmp_path / "spec.toml", "device": Path("/dev/zero")}.get(kind)
+    if kind == "fifo":
+        os.mkfifo(path)
+    if kind == "large":
+        path = tmp_path / "spec.toml"
+        path.write_text("# " + "x" * MAX_SPEC_BYTES + "\n" + SPEC)
+    status, _, err = cli(path, task_function=never)
+    assert status == 2 and err.count("\n") == 1 and "Traceback" not in err, err
+    assert f"spec = {str(path)!r}" in err and "at most 16 MiB" in err
+
+
+@pytest.mark.parametrize("name", ["a\0b.nc", "a" * 300 + ".nc"])
+def test_an_output_the_os_cannot_name_exits_2_naming_the_output(write_spec, tmp_path, cli, name):
+    spec = write_spec(SPEC)
+    status, _, err = cli(spec, "--output", str(tmp_path / name), task_function=never)
+    assert status == 2 and err.count("\n") == 1 and "Traceback" not in err, err
+    assert "the output" in err and "--output" in err
+    named = SPEC.replace("[sweep]", f"[sweep]\noutput = {json.dumps(str(tmp_path / name))}")
+    status, _, err = cli(write_spec(named), task_function=never)
+    assert status == 2 and "sweep.output" in err and "Traceback" not in err, err
+
+
+def test_every_shipped_spec_is_still_accepted():
+    from hpcontact.sweep.spec import MAX_SPEC_BYTES, load_spec, parse_spec
+
+    jobs = sorted((Path(__file__).parents[2] / "jobs").glob("*.toml"))
+    assert jobs
+    for job in jobs:
+        assert job.stat().st_size < MAX_SPEC_BYTES
+        assert load_spec(job, check_scenes=False).text == job.read_text(encoding="utf-8")
+        parse_spec(job.read_text(encoding="utf-8"), path=job, check_scenes=False)
