@@ -67,7 +67,7 @@ from scipy.optimize import brentq
 
 from hpcontact.analytic import mindlin_ellipse_integrals
 from hpcontact.errors import InputError
-from hpcontact.materials.isotropic import NU_RANGE, Isotropic
+from hpcontact.materials.isotropic import NU_RANGE, Isotropic, modulus, modulus_range
 
 #: name → (Young's modulus E [Pa], Poisson ratio nu, source). Dowling 2013, Table 5.2.
 MATERIALS: Mapping[str, tuple[float, float, str]] = {
@@ -136,14 +136,10 @@ def material_from_moduli(E: Any = None, G: Any = None, nu: Any = None, suffix: s
     if E is not None and G is not None:
         raise InputError(f"G{suffix}", f"either E{suffix} or G{suffix}, not both", G)
     if E is not None:
-        e = _number(f"E{suffix}", E, "Young's modulus, finite and > 0")
-        if not (math.isfinite(e) and e > 0.0):
-            raise InputError(f"E{suffix}", "Young's modulus, finite and > 0", E)
+        e = modulus(f"E{suffix}", _number(f"E{suffix}", E, modulus_range("Young's modulus")), "Young's modulus")
         return Isotropic(G=e / (2.0 * (1.0 + nu_value)), nu=nu_value)
-    g = 1.0 if G is None else _number(f"G{suffix}", G, "shear modulus, finite and > 0")
-    if not (math.isfinite(g) and g > 0.0):
-        raise InputError(f"G{suffix}", "shear modulus, finite and > 0", G)
-    return Isotropic(G=g, nu=nu_value)
+    g = 1.0 if G is None else _number(f"G{suffix}", G, modulus_range("shear modulus"))
+    return Isotropic(G=modulus(f"G{suffix}", g, "shear modulus"), nu=nu_value)
 
 
 def _radius(field: str, value: Any) -> float:

@@ -133,6 +133,8 @@ def test_pair_from_params_refuses_bad_fields() -> None:
         ({**base, "material": "unobtainium"}, "material"),
         ({**base, "material": "Cu", "E": 1.0}, "E"),
         ({**base, "E": -1.0}, "E"),
+        ({**base, "E": 1e308}, "E"),  # beyond the moduli's range: named, not a ZeroDivisionError
+        ({**base, "G2": 1e-308}, "G2"),
         ({**base, "nu": 0.7}, "nu"),
         ({**base, "nu2": 0.7}, "nu2"),
         ({**base, "material2": "rigid", "material": "rigid"}, "material"),
