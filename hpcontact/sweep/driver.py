@@ -612,7 +612,9 @@ def _run(
             flush=True,
         )
         line, seconds = start_estimate(todo, team.size)
-        print(line, file=stream, flush=True)
+        tally: RoundTally | None = keep.get("tally")
+        if tally is None or tally.begun == 1:  # an adaptive map's later rounds: said once, in its first
+            print(line, file=stream, flush=True)
         handed = [t for chunk in chunks for t in chunk]  # what the ranks report, in hand-out order
         estimated = None if seconds is None else dict(zip((t.key for t in todo), seconds.tolist()))
         progress = Progress(
