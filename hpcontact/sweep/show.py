@@ -372,7 +372,7 @@ def add_show_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentPars
 def show_command(args: argparse.Namespace) -> int:
     """``hpcontact show``: print the summary of ``args.file``; 2 with one line on stderr when the
     file cannot be summarized."""
-    from hpcontact.api import open_dataset
+    from hpcontact.sweep.dataset import open_dataset  # as hpcontact.open_dataset, without an upward import
 
     path = args.file
     try:
