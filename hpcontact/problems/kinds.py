@@ -1,4 +1,4 @@
-"""Scene kinds: which validator checks a scene (the solver of each kind: ``accuracy.task_function``).
+"""Scene kinds: the registry of what differs between a contact scene and a slip scene.
 
 A sweep runs one kind of scene, named by its [scene] ``quantities``:
 
@@ -13,24 +13,142 @@ A sweep runs one kind of scene, named by its [scene] ``quantities``:
   tangentially with Coulomb friction, ``hpcontact.problems.slip.partial_slip.solve_slip`` checked by
   ``hpcontact.problems.slip.partial_slip.validate``.
 
-This module names the kinds and their validators; ``hpcontact.accuracy.task_function`` maps a
-kind to its solver (the contact kind's default is an accuracy study, one floor up). The sweep's
-``spec`` (validation), ``tasks`` (cost) and ``dataset`` (units) ask them.
+Each kind is one ``Kind`` record in ``KINDS`` (``kind_of(params)`` finds a scene's): its
+validator and the data that answer what the sweep asks of a kind (which record keys carry
+estimated errors, whether an accuracy or an angle mode applies, whether ignored fields are
+dropped, which fields leave the kernels alone, how a scene's defaults resolve). Upper floors that
+need a function per kind keep a mapping keyed by ``Kind.name`` (``hpcontact.accuracy.task_function``:
+the solver; the command line's units), a lookup rather than a comparison.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import re
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from typing import Any
 
 from hpcontact.problems.slip.partial_slip import validate as validate_slip
-from hpcontact.scene import INTERVAL_FIELDS
+from hpcontact.quantities import ESTIMATED, SLIP_ESTIMATED
+from hpcontact.scene import DEFAULTS, INTERVAL_FIELDS
 from hpcontact.scene import validate as validate_contact
 
 CONTACT = "contact"
 SLIP = "slip"
 
 Validator = Callable[[Mapping[str, Any]], Any]
+
+
+@dataclass(frozen=True)
+class Kind:
+    """One kind of scene and what the sweep needs to know of it.
+
+    ``validate`` checks one scene (``InputError`` naming the bad field); ``interval_fields`` the
+    fields whose valid values form one interval for it, with their branch values (a long axis
+    of one is checked at its extreme and branch values, ``sweep.spec.scene_runs``);
+    ``estimated`` matches the record keys that carry an estimated relative error
+    ``<name>_error`` in the data set (``quantities.ESTIMATED`` / ``SLIP_ESTIMATED``);
+    ``accuracy_refused`` says why a requested accuracy does not apply (None: it does, grids
+    extrapolated by ``hpcontact.accuracy``); ``angle_mode_refused`` why ``[sweep] angle_mode``
+    does not (None: it does; else ``angle`` is a scene field solved per value);
+    ``reduces_fields`` whether fields the scene ignores (geometry its shape ignores, material
+    fields its body ignores) are left out of its parameters, so equal scenes compare equal;
+    ``kernel_neutral_fields`` the fields that change neither its kernels nor its grid spacing
+    (tasks differing only in these may share kernels); ``memory_group`` the calibration and
+    memory group of every scene of the kind (``problems.footprint.MEMORY_MODEL``; None: by the
+    scene's body); ``planned`` whether ``hpcontact.plan.plan_for`` lays out its solves.
+    """
+
+    name: str
+    validate: Validator
+    interval_fields: Mapping[str, tuple[float, ...]]
+    estimated: re.Pattern[str]
+    accuracy_refused: str | None
+    angle_mode_refused: str | None
+    reduces_fields: bool
+    kernel_neutral_fields: tuple[str, ...]
+    memory_group: str | None
+    planned: bool
+    resolve: Callable[[Mapping[str, Any]], dict[str, Any]]
+
+    @property
+    def accuracy_applies(self) -> bool:
+        """Whether a scene of this kind may ask for an accuracy (grid sequences extrapolated)."""
+        return self.accuracy_refused is None
+
+
+def _resolved_contact(params: Mapping[str, Any]) -> dict[str, Any]:
+    """A contact scene with every default filled in: ``hpcontact.scene.DEFAULTS`` under its fields."""
+    return {**DEFAULTS, **params}
+
+
+def _resolved_slip(params: Mapping[str, Any]) -> dict[str, Any]:
+    """A slip scene with every default filled in: the fields of its validated ``SlipScene``."""
+    return dataclasses.asdict(validate_slip(params))
+
+
+KINDS: Mapping[str, Kind] = {
+    CONTACT: Kind(
+        name=CONTACT,
+        validate=validate_contact,
+        interval_fields=INTERVAL_FIELDS,
+        estimated=ESTIMATED,
+        accuracy_refused=None,
+        angle_mode_refused=None,
+        reduces_fields=True,
+        # the outline or the solves, not the material or the grid spacing (bounding boxes aside)
+        kernel_neutral_fields=(
+            "shape",
+            "sides",
+            "amplitude",
+            "shape_angle",
+            "seed",
+            "hurst",
+            "rms",
+            "mask",
+            "tol",
+            "quantities",
+            "threads",
+            "precondition",
+            "normal_held",
+        ),
+        memory_group=None,
+        planned=True,
+        resolve=_resolved_contact,
+    ),
+    SLIP: Kind(
+        name=SLIP,
+        validate=validate_slip,
+        interval_fields={},  # slip sweeps are small: checked scene by scene
+        estimated=SLIP_ESTIMATED,
+        accuracy_refused="a slip scene is solved on its grid, n cells across the contact",
+        angle_mode_refused="angle is the load direction, solved per value",
+        reduces_fields=False,
+        # the loading, not the kernels: lengths are scaled by the Hertz radius, so the grid
+        # depends on n and b/a only, the kernel on nu_eq (hpcontact.problems.slip.partial_slip)
+        kernel_neutral_fields=(
+            "load",
+            "mu",
+            "q_ratio",
+            "angle",
+            "steps",
+            "control",
+            "displacement",
+            "path",
+            "coupling",
+            "tensor",
+            "history",
+            "tol",
+            "quantities",
+            "threads",
+            "precondition",
+        ),
+        memory_group=SLIP,
+        planned=False,
+        resolve=_resolved_slip,
+    ),
+}
 
 
 def quantity_names(value: Any) -> list[str]:
@@ -41,20 +159,24 @@ def quantity_names(value: Any) -> list[str]:
     return [str(item).strip() for item in items if str(item).strip()]
 
 
-def scene_kind(params: Mapping[str, Any]) -> str:
+def kind_of(params: Mapping[str, Any]) -> Kind:
     """The kind of the scene (or of the fixed fields of a spec) ``params``: ``slip`` when its
     ``quantities`` name slip (the slip validator then refuses anything else beside it), else
     ``contact``."""
-    return SLIP if SLIP in quantity_names(params.get("quantities")) else CONTACT
+    return KINDS[SLIP if SLIP in quantity_names(params.get("quantities")) else CONTACT]
+
+
+def scene_kind(params: Mapping[str, Any]) -> str:
+    """The name of ``kind_of(params)``."""
+    return kind_of(params).name
 
 
 def validator(kind: str) -> Validator:
-    """The check of one scene of ``kind``: raises ``InputError`` naming the bad field."""
-    return validate_slip if kind == SLIP else validate_contact
+    """The check of one scene of the kind named ``kind``: raises ``InputError`` naming the bad field."""
+    return KINDS[kind].validate
 
 
 def interval_fields(kind: str) -> Mapping[str, tuple[float, ...]]:
-    """Fields whose valid values form one interval for the validator of ``kind``, with their
-    branch values (``hpcontact.scene.INTERVAL_FIELDS``; none for slip scenes, whose sweeps are
-    small and checked scene by scene)."""
-    return {} if kind == SLIP else INTERVAL_FIELDS
+    """Fields whose valid values form one interval for the validator of the kind named ``kind``,
+    with their branch values (``Kind.interval_fields``)."""
+    return KINDS[kind].interval_fields
