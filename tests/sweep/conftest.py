@@ -1,13 +1,18 @@
-"""Shared helpers of the sweep tests: specs written to a temporary folder and fake solvers."""
+"""Shared helpers of the sweep tests: specs written to a temporary folder, fake solvers and a
+sweep run in this process alone."""
 
 from __future__ import annotations
 
+import io
 import socket
 from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, TextIO
 
 import pytest
+
+from hpcontact.sweep.driver import run_sweep
+from hpcontact.sweep.schedule import SerialTeam
 
 
 def _fake_solve(params: Mapping[str, Any]) -> dict[str, Any]:
@@ -48,6 +53,24 @@ def write_spec(tmp_path: Path) -> Callable[[str], Path]:
         return path
 
     return write
+
+
+@pytest.fixture(scope="session")
+def sweep() -> Callable[..., Path]:
+    """``run_sweep(spec, task_function, stream=..., **options)`` in this process alone (a
+    ``SerialTeam``, also when pytest runs under mpiexec); the progress lines go to ``stream``, a
+    fresh ``io.StringIO`` unless given. Returns the path of the data set written."""
+
+    def run(
+        spec: str | Path,
+        task_function: Callable[[Mapping[str, Any]], Mapping[str, Any]] | None = None,
+        stream: TextIO | None = None,
+        **options: Any,
+    ) -> Path:
+        stream = stream if stream is not None else io.StringIO()
+        return run_sweep(spec, task_function=task_function, team=SerialTeam(), stream=stream, **options)
+
+    return run
 
 
 @pytest.fixture(scope="session")

@@ -23,7 +23,7 @@ from hpcontact.analytic import mindlin_ellipse_stiffness
 from hpcontact.errors import InputError
 from hpcontact.sweep import adaptive
 from hpcontact.sweep.adaptive import Layout, dry_run_text, initial_state, state_tasks
-from hpcontact.sweep.driver import Options, execute, run_sweep
+from hpcontact.sweep.driver import Options, execute
 from hpcontact.sweep.journal import ERROR, read_journals
 from hpcontact.sweep.schedule import SerialTeam
 from hpcontact.sweep.spec import parse_spec
@@ -77,16 +77,12 @@ def counting(calls):
     return task
 
 
-def sweep(path, task, **options):
-    return run_sweep(path, team=SerialTeam(), stream=io.StringIO(), task_function=task, **options)
-
-
 def exact_map(ds: xr.Dataset) -> dict[str, np.ndarray]:
     ka, kb = mindlin_ellipse_stiffness(1.0, ds["aspect"].values[:, None], 1.0, ds["nu"].values[None, :])
     return {"K_xx": ka, "K_yy": kb, "K_max": kb, "K_min": ka, "K_a_over_K_b": ka / kb, "K_min_over_K_max": ka / kb}
 
 
-def test_mindlin_map_within_tolerance_with_honest_estimates_and_few_solves(write_spec):
+def test_mindlin_map_within_tolerance_with_honest_estimates_and_few_solves(sweep, write_spec):
     """Issue 27's done-when on the stand-in: 41 x 21 points, every one within 1e-3 of Mindlin's
     closed form, the map-error estimate >= the true error at >= 95 % of the points, <= 172
     solves (20 % of the grid)."""
@@ -109,7 +105,7 @@ def test_mindlin_map_within_tolerance_with_honest_estimates_and_few_solves(write
     assert spent <= ds.attrs["sweep_wall_time_s"] and 0.0 < ds.attrs["sweep_parallel_efficiency"] <= 1.0
 
 
-def test_the_data_set_has_the_full_sweeps_variables_and_marks_the_solved_points(write_spec, tmp_path):
+def test_the_data_set_has_the_full_sweeps_variables_and_marks_the_solved_points(sweep, write_spec, tmp_path):
     small = MINDLIN.replace("[0, -4, 41]", "[0, -4, 9]").replace("[0, 0.5, 21]", "[0, 0.5, 5]")
     adaptive = xr.open_dataset(
         sweep(write_spec(small.replace("tolerance = 1e-3", "tolerance = 0.5\nchecks = 0")), mindlin)
@@ -138,7 +134,7 @@ def test_the_data_set_has_the_full_sweeps_variables_and_marks_the_solved_points(
     assert adaptive["K_nn"].dims == full["K_nn"].dims
 
 
-def test_categorical_axes_are_separate_sub_problems(write_spec):
+def test_categorical_axes_are_separate_sub_problems(sweep, write_spec):
     """A shape axis is never interpolated across: the rectangle's jump of +1 leaves the
     ellipse's map as accurate as alone, and each shape gets its own nodes."""
     text = MINDLIN.replace('shape = "ellipse"\n', "").replace("[axes]\n", '[axes]\nshape = ["ellipse", "rectangle"]\n')
@@ -151,7 +147,7 @@ def test_categorical_axes_are_separate_sub_problems(write_spec):
     assert ds["solved"].sel(shape="ellipse").sum() >= 25 and ds["solved"].sel(shape="rectangle").sum() >= 25
 
 
-def test_an_interrupted_adaptive_sweep_resumes_without_solving_twice(write_spec, tmp_path):
+def test_an_interrupted_adaptive_sweep_resumes_without_solving_twice(sweep, write_spec, tmp_path):
     class Interrupted(BaseException):
         pass
 
@@ -184,7 +180,7 @@ def test_an_interrupted_adaptive_sweep_resumes_without_solving_twice(write_spec,
             xr.testing.assert_equal(resumed[name], reference[name])
 
 
-def test_a_failed_solve_is_recorded_and_the_map_around_it_still_meets_tolerance(write_spec):
+def test_a_failed_solve_is_recorded_and_the_map_around_it_still_meets_tolerance(sweep, write_spec):
     """A scene that fails (a node of the first round: b/a = 1e-2, nu = 0.25) keeps its status
     and message in the data set and is not solved again; the lines through it interpolate from
     their other nodes, so every other point is filled and within tolerance of Mindlin's closed
@@ -210,7 +206,7 @@ def test_a_failed_solve_is_recorded_and_the_map_around_it_still_meets_tolerance(
         assert np.nanmax(ds[f"{name}_map_error"].values) <= 1e-3
 
 
-def test_a_finished_adaptive_sweep_run_again_is_up_to_date(write_spec, tmp_path):
+def test_a_finished_adaptive_sweep_run_again_is_up_to_date(sweep, write_spec, tmp_path):
     """As a finished plain sweep (tests/sweep/test_driver.py): run again as `hpcontact run` runs
     it, nothing is solved and the file is left as it is; it needed --resume before."""
     spec = write_spec(MINDLIN)
@@ -273,14 +269,14 @@ def test_settings_scales_first_round_and_dry_run_line():
     assert "aspect (log), nu (linear)" in line
 
 
-def test_a_quantity_the_scenes_do_not_store_is_refused(write_spec):
+def test_a_quantity_the_scenes_do_not_store_is_refused(sweep, write_spec):
     text = MINDLIN.replace("[0, -4, 41]", "[0, -4, 5]").replace("[0, 0.5, 21]", "[0, 0.5, 3]")
     with pytest.raises(InputError) as refused:
         sweep(write_spec(text.replace("tolerance = 1e-3", 'tolerance = 1e-3\nquantities = ["K_zz"]')), mindlin)
     assert refused.value.field == "adaptive.quantities" and refused.value.value == "K_zz"
 
 
-def test_max_solves_bounds_the_solves(write_spec):
+def test_max_solves_bounds_the_solves(sweep, write_spec):
     calls: list = []
     ds = xr.open_dataset(
         sweep(write_spec(MINDLIN.replace("tolerance = 1e-3", "tolerance = 1e-6\nmax_solves = 60")), counting(calls))
@@ -289,7 +285,7 @@ def test_max_solves_bounds_the_solves(write_spec):
     assert ds.attrs["adaptive_max_solves"] == 60
 
 
-def test_a_commit_during_the_rounds_does_not_make_their_own_journals_stale(write_spec, monkeypatch):
+def test_a_commit_during_the_rounds_does_not_make_their_own_journals_stale(sweep, write_spec, monkeypatch):
     """The git revision is read once per adaptive sweep: a commit in the checkout between two
     rounds (another revision on every later read) must not refuse the rounds' own journals."""
     import itertools
@@ -308,7 +304,7 @@ def test_a_commit_during_the_rounds_does_not_make_their_own_journals_stale(write
     assert provenance.REVISION_VARIABLE not in os.environ  # restored after the sweep
 
 
-def test_checks_make_an_estimator_tuned_too_low_honest_again(write_spec, monkeypatch, tmp_path):
+def test_checks_make_an_estimator_tuned_too_low_honest_again(sweep, write_spec, monkeypatch, tmp_path):
     """A map nobody tuned the estimate to, made here by tuning it wrong: the factor on the
     interpolation estimate at 0.1 instead of 1.5 (15x too small). Without checks the map
     claims its tolerance and is dishonest at most interpolated points; the check rounds
@@ -350,22 +346,16 @@ def test_check_points_are_reproducible_unsolved_and_bounded_by_max_solves():
     assert full == first  # no room left: nothing drawn
 
 
-def test_the_run_says_whether_the_map_met_its_tolerance(write_spec, tmp_path):
+def test_the_run_says_whether_the_map_met_its_tolerance(sweep, write_spec, tmp_path):
     """The last line of an adaptive run: met or not, the worst map error, where, the solves."""
     out = io.StringIO()
-    run_sweep(write_spec(MINDLIN), team=SerialTeam(), stream=out, task_function=mindlin)
+    sweep(write_spec(MINDLIN), mindlin, stream=out)
     last = out.getvalue().strip().splitlines()[-1]
     assert last.startswith("hpcontact: adaptive map met its tolerance (0.001): worst map error ")
     assert " at aspect = " in last and "solves for 861 points" in last and "random check point(s)" in last
     out = io.StringIO()
     capped = MINDLIN.replace("tolerance = 1e-3", "tolerance = 1e-6\nmax_solves = 60")
-    run_sweep(
-        write_spec(capped, "capped.toml"),
-        team=SerialTeam(),
-        stream=out,
-        task_function=mindlin,
-        output=tmp_path / "capped.nc",
-    )
+    sweep(write_spec(capped, "capped.toml"), mindlin, stream=out, output=tmp_path / "capped.nc")
     assert "adaptive map did NOT meet its tolerance (1e-06)" in out.getvalue().strip().splitlines()[-1]
 
 
@@ -399,7 +389,7 @@ def crossing(params):
     return record
 
 
-def test_principal_values_come_from_the_interpolated_tensor_across_their_kink(write_spec, tmp_path, monkeypatch):
+def test_principal_values_come_from_the_interpolated_tensor_across_their_kink(sweep, write_spec, tmp_path, monkeypatch):
     """K_min/K_max = (2 − |t|)/(2 + |t|) has a kink at A = 1 that no polynomial interpolant
     follows; the tensor is linear in A. Derived from the interpolated tensor, the map is within
     its tolerance everywhere with an honest map error, in fewer solves than interpolating the

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import io
 import os
 import subprocess
 import sys
@@ -13,9 +12,7 @@ import pytest
 import xarray as xr
 
 from hpcontact.errors import InputError
-from hpcontact.sweep.driver import run_sweep
 from hpcontact.sweep.journal import OK
-from hpcontact.sweep.schedule import SerialTeam
 from hpcontact.sweep.spec import parse_spec
 from hpcontact.sweep.tasks import enumerate_tasks, estimated_cost
 
@@ -120,12 +117,8 @@ def test_crystal_scenes_cost_more_than_isotropic_ones():
     assert estimated_cost(sphere) == estimated_cost({**sphere, "aspect": 0.01})  # n x n sphere grid
 
 
-def sweep(write_spec, text: str):
-    return run_sweep(write_spec(text), team=SerialTeam(), stream=io.StringIO())
-
-
-def test_indentation_sweep_over_crystals_writes_labelled_variables(write_spec):
-    with xr.open_dataset(sweep(write_spec, CRYSTALS)) as ds:
+def test_indentation_sweep_over_crystals_writes_labelled_variables(sweep, write_spec):
+    with xr.open_dataset(sweep(write_spec(CRYSTALS))) as ds:
         ds = ds.load()
     assert dict(ds.sizes) == {"material": 2, "orientation": 3}
     assert ds["material"].values.tolist() == ["Cu", "W"] and ds["material"].dtype.kind in "OU"
@@ -158,8 +151,8 @@ def test_indentation_sweep_over_crystals_writes_labelled_variables(write_spec):
     assert 0.0 < P_111 / willis_tungsten((1, 1, 1), (-1, 1, 0))["load"] - 1.0 < 1.7e-3
 
 
-def test_indentation_sweep_over_anisotropy_and_orientation(write_spec):
-    with xr.open_dataset(sweep(write_spec, CUBIC)) as ds:
+def test_indentation_sweep_over_anisotropy_and_orientation(sweep, write_spec):
+    with xr.open_dataset(sweep(write_spec(CUBIC))) as ds:
         ds = ds.load()
     assert dict(ds.sizes) == {"anisotropy": 2, "orientation": 2}
     assert unit(ds["load"]) == "G L2" and ds["anisotropy"].attrs["units"] == "1"
@@ -199,14 +192,9 @@ def run_script(script: str, *args: str) -> subprocess.CompletedProcess:
     )
 
 
-def test_orientation_map_draws_the_sphere_curves_and_the_tangential_map(write_spec, tmp_path):
-    sphere = sweep(write_spec, CUBIC)
-    tangential = run_sweep(
-        write_spec(TANGENTIAL, "tangential.toml"),
-        output=tmp_path / "tangential.nc",
-        team=SerialTeam(),
-        stream=io.StringIO(),
-    )
+def test_orientation_map_draws_the_sphere_curves_and_the_tangential_map(sweep, write_spec, tmp_path):
+    sphere = sweep(write_spec(CUBIC))
+    tangential = sweep(write_spec(TANGENTIAL, "tangential.toml"), output=tmp_path / "tangential.nc")
     with xr.open_dataset(tangential) as ds:
         ratio = (ds["K_min"] / ds["K_max"]).load()
     assert float(ratio.sel(aspect=1.0, anisotropy=3.0, orientation=90)) == pytest.approx(1.0, abs=1e-6)  # 4-fold
@@ -265,14 +253,12 @@ orientation = [0, 20]
 """
 
 
-def test_sweep_through_isotropy_has_no_step(write_spec, tmp_path):
+def test_sweep_through_isotropy_has_no_step(sweep, write_spec, tmp_path):
     """A sweep over A in {0.999, 1, 1.001} (A = 1 on the closed-form path, its neighbours on
     the crystal path): in every stiffness variable the A = 1 value is the midpoint of its
     neighbours up to the curvature term K''(1)(1e-3)²/2 (measured ≤ 1.4e-7 of the largest K at
     n = 16, tests/test_conventions.py); bound 4e-7. The old convention step was 9e-3."""
-    path = run_sweep(
-        write_spec(THROUGH_ISOTROPY, "iso.toml"), output=tmp_path / "iso.nc", team=SerialTeam(), stream=io.StringIO()
-    )
+    path = sweep(write_spec(THROUGH_ISOTROPY, "iso.toml"), output=tmp_path / "iso.nc")
     with xr.open_dataset(path) as ds:
         ds = ds.load()
     assert (ds["status"] == OK).all()
@@ -305,12 +291,12 @@ normal_held = ["approach", "load"]
 """
 
 
-def test_normal_held_is_a_string_axis_and_a_scene_key(write_spec, tmp_path):
+def test_normal_held_is_a_string_axis_and_a_scene_key(sweep, write_spec, tmp_path):
     """Issue 26 item 4: ``normal_held`` as an axis is a text coordinate (the records' own
     ``normal_held`` equals it and is not stored twice); holding the load lowers a crystal's K_yy
     and leaves an isotropic body's numbers as they are. Fixed in [scene], a scalar coordinate. A
     bad value names its key."""
-    with xr.open_dataset(sweep(write_spec, NORMAL_HELD)) as ds:
+    with xr.open_dataset(sweep(write_spec(NORMAL_HELD))) as ds:
         ds = ds.load()
     assert (ds["status"] == OK).all()
     assert list(ds["normal_held"].values) == ["approach", "load"] and "record_normal_held" not in ds
@@ -321,7 +307,7 @@ def test_normal_held_is_a_string_axis_and_a_scene_key(write_spec, tmp_path):
     fixed = f'[sweep]\noutput = "{tmp_path / "fixed.nc"}"\n' + NORMAL_HELD.replace(
         'normal_held = ["approach", "load"]\n', ""
     ).replace("[numerics]", 'normal_held = "load"\n[numerics]')
-    with xr.open_dataset(sweep(write_spec, fixed)) as ds:
+    with xr.open_dataset(sweep(write_spec(fixed))) as ds:
         assert ds["normal_held"].dims == () and str(ds["normal_held"].values) == "load"
     with pytest.raises(InputError) as info:
         parse_spec(NORMAL_HELD.replace('"load"]', '"force"]'))

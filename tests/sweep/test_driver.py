@@ -17,7 +17,7 @@ import pytest
 import xarray as xr
 
 from hpcontact.errors import ConvergenceError, InputError
-from hpcontact.sweep.driver import Options, Stopped, execute, main, run_sweep
+from hpcontact.sweep.driver import Options, Stopped, execute, main
 from hpcontact.sweep.guard import Refused
 from hpcontact.sweep.journal import BAD_INPUT, ERROR, NOT_CONVERGED, OK, journal_files, read_history, read_journals
 from hpcontact.sweep.schedule import SerialTeam
@@ -44,11 +44,6 @@ class Interrupted(BaseException):
     """Stands in for a killed process: not an Exception, so the sweep does not record it."""
 
 
-def sweep(spec, stream=None, **options):
-    """``run_sweep`` in this process alone (also when pytest runs under mpiexec)."""
-    return run_sweep(spec, team=SerialTeam(), stream=stream if stream is not None else io.StringIO(), **options)
-
-
 def counting(function, calls):
     def task(params):
         calls.append(params)
@@ -65,7 +60,7 @@ def data_equal(a: xr.Dataset, b: xr.Dataset) -> None:
     xr.testing.assert_identical(a, b)
 
 
-def test_a_sweep_runs_every_task_once_and_writes_the_data_set(write_spec, fake_solve, tmp_path):
+def test_a_sweep_runs_every_task_once_and_writes_the_data_set(sweep, write_spec, fake_solve, tmp_path):
     calls = []
     stream = io.StringIO()
     path = sweep(write_spec(SPEC), task_function=counting(fake_solve, calls), stream=stream)
@@ -85,7 +80,7 @@ def test_a_sweep_runs_every_task_once_and_writes_the_data_set(write_spec, fake_s
     assert "parallel efficiency" in text and "0 failed" in text
 
 
-def test_failing_tasks_are_recorded_and_the_others_complete(write_spec, fake_solve):
+def test_failing_tasks_are_recorded_and_the_others_complete(sweep, write_spec, fake_solve):
     def flaky(params):
         if params.get("aspect") == 0.01:
             raise ConvergenceError("CG stalled", 100, 1e-3)
@@ -112,7 +107,7 @@ def test_failing_tasks_are_recorded_and_the_others_complete(write_spec, fake_sol
     assert "6 failed" in stream.getvalue() and "CG stalled" in stream.getvalue()
 
 
-def test_resume_after_an_interruption_recomputes_nothing_and_loses_nothing(write_spec, fake_solve, tmp_path):
+def test_resume_after_an_interruption_recomputes_nothing_and_loses_nothing(sweep, write_spec, fake_solve, tmp_path):
     spec = write_spec(SPEC)
     reference = sweep(spec, output=tmp_path / "reference.nc", task_function=fake_solve)
 
@@ -144,7 +139,7 @@ def test_resume_after_an_interruption_recomputes_nothing_and_loses_nothing(write
     assert again == []
 
 
-def test_a_second_run_without_a_flag_is_refused_and_restart_discards(write_spec, fake_solve, tmp_path):
+def test_a_second_run_without_a_flag_is_refused_and_restart_discards(sweep, write_spec, fake_solve, tmp_path):
     spec = write_spec(SPEC)
     sweep(spec, task_function=fake_solve)
     before = journal_files(tmp_path / "out.nc.journal")
@@ -202,7 +197,7 @@ def test_resume_retries_errors_and_non_convergence_and_keeps_bad_input(write_spe
 
 
 def test_stale_journals_are_refused_unless_accepted_and_provenance_lists_every_contributor(
-    write_spec, fake_solve, tmp_path, monkeypatch
+    sweep, write_spec, fake_solve, tmp_path, monkeypatch
 ):
     spec = write_spec(SPEC)
     monkeypatch.setenv("HPCONTACT_GIT_REVISION", "aaaa")
@@ -230,7 +225,7 @@ def test_stale_journals_are_refused_unless_accepted_and_provenance_lists_every_c
         assert contributors == {"aaaa": 3, "bbbb-dirty": TASKS - 3} and ds.attrs["git_revision"] == "bbbb-dirty"
 
 
-def test_a_changed_engine_default_changes_the_task(write_spec, fake_solve, monkeypatch):
+def test_a_changed_engine_default_changes_the_task(sweep, write_spec, fake_solve, monkeypatch):
     from hpcontact.scene import DEFAULTS
 
     spec = write_spec(SPEC)  # n is given, tol is left to the engine's default
@@ -241,7 +236,7 @@ def test_a_changed_engine_default_changes_the_task(write_spec, fake_solve, monke
     assert len(calls) == TASKS
 
 
-def test_one_run_per_output(write_spec, fake_solve, tmp_path, monkeypatch):
+def test_one_run_per_output(sweep, write_spec, fake_solve, tmp_path, monkeypatch):
     spec = write_spec(SPEC)
     folder = tmp_path / "out.nc.journal"
     folder.mkdir()
@@ -275,7 +270,7 @@ def test_one_run_per_output(write_spec, fake_solve, tmp_path, monkeypatch):
     assert not lock.exists()
 
 
-def test_unusable_outputs_are_refused_before_any_task(write_spec, tmp_path):
+def test_unusable_outputs_are_refused_before_any_task(sweep, write_spec, tmp_path):
     def never(params):
         raise AssertionError("no task may run")
 
@@ -289,7 +284,7 @@ def test_unusable_outputs_are_refused_before_any_task(write_spec, tmp_path):
         sweep(spec, output="/proc/hpcontact-test/out.nc", task_function=never)  # not writable, even by root
 
 
-def test_a_stop_request_abandons_the_task_after_the_grace_and_resume_completes(write_spec, fake_solve, tmp_path):
+def test_a_stop_request_abandons_the_task_after_the_grace_and_resume_completes(sweep, write_spec, fake_solve, tmp_path):
     spec = write_spec(SPEC)
     stop = StopControl(grace_s=0.3).install()
     calls, woke = [], []
@@ -316,7 +311,7 @@ def test_a_stop_request_abandons_the_task_after_the_grace_and_resume_completes(w
     assert len(again) == TASKS - 3
 
 
-def test_a_bad_spec_is_refused_before_any_task(write_spec):
+def test_a_bad_spec_is_refused_before_any_task(sweep, write_spec):
     def never(params):
         raise AssertionError("no task may run")
 
@@ -333,7 +328,7 @@ def test_main_exits_2_with_one_line_naming_the_key(write_spec, capsys, monkeypat
 
 
 def test_a_data_set_that_cannot_be_written_stops_cleanly_and_resume_writes_it(
-    write_spec, fake_solve, tmp_path, monkeypatch
+    sweep, write_spec, fake_solve, tmp_path, monkeypatch
 ):
     spec = write_spec(SPEC)
     monkeypatch.setenv("HPCONTACT_DATA_SET_LIMIT", "4096")  # the netCDF library fails as on a full disk
@@ -366,7 +361,7 @@ def test_a_malformed_fault_list_is_refused(write_spec, capsys, monkeypatch):
 UP_TO_DATE = Options(up_to_date=True)  # what `hpcontact run` and hpcontact.run_sweep pass
 
 
-def test_a_finished_sweep_run_again_is_up_to_date_and_touches_nothing(write_spec, fake_solve, tmp_path):
+def test_a_finished_sweep_run_again_is_up_to_date_and_touches_nothing(sweep, write_spec, fake_solve, tmp_path):
     """Issue 28: the README's command run twice. Nothing runs, the data set keeps its bytes and
     mtime, one line says so; without ``up_to_date`` (the library default) it is refused as before."""
     spec = write_spec(SPEC)
@@ -384,13 +379,13 @@ def test_a_finished_sweep_run_again_is_up_to_date_and_touches_nothing(write_spec
         sweep(spec, task_function=fake_solve)
 
 
-def _refused_unless_resumed(spec, fake_solve):
+def _refused_unless_resumed(sweep, spec, fake_solve):
     with pytest.raises(Refused, match=r"finished tasks in .*; pass --resume .* --restart"):
         sweep(spec, task_function=fake_solve, options=UP_TO_DATE)
 
 
 def test_up_to_date_means_every_task_ok_in_the_journals_and_the_data_set_written_after_them(
-    write_spec, fake_solve, tmp_path, monkeypatch
+    sweep, write_spec, fake_solve, tmp_path, monkeypatch
 ):
     """Anything short of "the data set is the one a run would write now" keeps the refusal."""
     spec = write_spec(SPEC)
@@ -400,30 +395,30 @@ def test_up_to_date_means_every_task_ok_in_the_journals_and_the_data_set_written
     later = path.stat().st_mtime + 10.0  # a journal written after the data set (a later run that stopped)
     newest = journal_files(journal)[-1]
     os.utime(newest, (later, later))
-    _refused_unless_resumed(spec, fake_solve)
+    _refused_unless_resumed(sweep, spec, fake_solve)
     os.utime(newest, (later - 20.0, later - 20.0))
     sweep(spec, task_function=fake_solve, options=UP_TO_DATE)  # back in order: up to date
 
     edited = write_spec(SPEC + "# a comment\n")  # another spec text: its data set was not written from it
-    _refused_unless_resumed(edited, fake_solve)
+    _refused_unless_resumed(sweep, edited, fake_solve)
     more = write_spec(SPEC.replace("nu = [0.0, 0.25, 0.5]", "nu = [0.0, 0.25, 0.3, 0.5]"))  # tasks not journaled
-    _refused_unless_resumed(more, fake_solve)
+    _refused_unless_resumed(sweep, more, fake_solve)
     fewer = write_spec(SPEC.replace("nu = [0.0, 0.25, 0.5]", "nu = [0.0, 0.25]"))  # every task ok, other data set
-    _refused_unless_resumed(fewer, fake_solve)
+    _refused_unless_resumed(sweep, fewer, fake_solve)
     write_spec(SPEC)
 
     monkeypatch.setenv("HPCONTACT_GIT_REVISION", "another-revision")  # other code: stale, not up to date
-    _refused_unless_resumed(spec, fake_solve)
+    _refused_unless_resumed(sweep, spec, fake_solve)
     monkeypatch.delenv("HPCONTACT_GIT_REVISION")
 
     data = path.read_bytes()
     path.unlink()  # journals without their data set
-    _refused_unless_resumed(spec, fake_solve)
+    _refused_unless_resumed(sweep, spec, fake_solve)
     path.write_bytes(data[: len(data) // 2])  # a damaged data set
-    _refused_unless_resumed(spec, fake_solve)
+    _refused_unless_resumed(sweep, spec, fake_solve)
 
 
-def test_a_sweep_with_failed_tasks_is_not_up_to_date(write_spec, fake_solve):
+def test_a_sweep_with_failed_tasks_is_not_up_to_date(sweep, write_spec, fake_solve):
     def bad_at_half(params):
         if params["nu"] == 0.5:
             raise InputError("nu", "a Poisson ratio below 0.5 here")
@@ -431,7 +426,7 @@ def test_a_sweep_with_failed_tasks_is_not_up_to_date(write_spec, fake_solve):
 
     spec = write_spec(SPEC)
     sweep(spec, task_function=bad_at_half)
-    _refused_unless_resumed(spec, fake_solve)  # bad input is kept by --resume, but the data set is not all ok
+    _refused_unless_resumed(sweep, spec, fake_solve)  # bad input is kept by --resume, but the data set is not all ok
 
 
 def test_the_command_line_run_twice_exits_0_the_second_time(write_spec, tmp_path, capsys, monkeypatch):

@@ -38,10 +38,9 @@ from hpcontact import __version__
 from hpcontact.sweep import costmodel, netcdf
 from hpcontact.sweep.costmodel import Calibration, Rate
 from hpcontact.sweep.dataset import DamagedFile, open_dataset
-from hpcontact.sweep.driver import Options, main, run_sweep
+from hpcontact.sweep.driver import Options, main
 from hpcontact.sweep.guard import LOCK_NAME, Refused, RunLock
 from hpcontact.sweep.journal import OK, Entry, Journal, journal_files, read_history, read_journals
-from hpcontact.sweep.schedule import SerialTeam
 
 SPEC = """
 [sweep]
@@ -56,11 +55,6 @@ aspect = [1.0, 0.5]
 nu = [0.0, 0.25, 0.5]
 """
 TASKS = 3 + 2 * 3  # the circle ignores the aspect
-
-
-def sweep(spec, stream=None, **options):
-    """``run_sweep`` in this process alone (also when pytest runs under mpiexec)."""
-    return run_sweep(spec, team=SerialTeam(), stream=stream if stream is not None else io.StringIO(), **options)
 
 
 def counting(function, calls):
@@ -206,7 +200,7 @@ def test_an_unreadable_lock_without_evidence_is_refused_naming_break_lock(tmp_pa
     assert note is not None and "--break-lock" in note and json.loads((tmp_path / LOCK_NAME).read_text())
 
 
-def test_a_requeued_run_takes_over_an_empty_lock_and_completes(write_spec, fake_solve, tmp_path, monkeypatch):
+def test_a_requeued_run_takes_over_an_empty_lock_and_completes(sweep, write_spec, fake_solve, tmp_path, monkeypatch):
     monkeypatch.setenv("SLURM_JOB_ID", "77")
     spec = write_spec(SPEC)
     calls = []
@@ -487,7 +481,7 @@ def test_an_output_that_is_a_folder_exits_2_in_one_line_before_any_task(write_sp
     assert not (tmp_path / "out.nc.journal").exists() and not os.listdir(tmp_path / "out.nc")
 
 
-def test_an_output_that_is_a_device_is_refused(write_spec, tmp_path):
+def test_an_output_that_is_a_device_is_refused(sweep, write_spec, tmp_path):
     (tmp_path / "out.nc").symlink_to("/dev/null")
     with pytest.raises(Refused, match="is not a regular file, not a file"):
         sweep(write_spec(SPEC), task_function=never)
@@ -497,7 +491,7 @@ def test_an_output_that_is_a_device_is_refused(write_spec, tmp_path):
 
 
 @pytest.fixture
-def written(write_spec, fake_solve, tmp_path) -> Path:
+def written(sweep, write_spec, fake_solve, tmp_path) -> Path:
     return sweep(write_spec(SPEC), task_function=fake_solve)
 
 

@@ -9,7 +9,6 @@ with a relative error estimate that varies over the points, so that the worst on
 
 from __future__ import annotations
 
-import io
 import json
 import math
 import re
@@ -25,8 +24,6 @@ import xarray as xr
 from hpcontact import __version__, open_dataset
 from hpcontact.analytic import mindlin_ellipse_stiffness
 from hpcontact.cli import main
-from hpcontact.sweep.driver import run_sweep
-from hpcontact.sweep.schedule import SerialTeam
 from hpcontact.sweep.show import summarize, summary
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -71,10 +68,6 @@ def fails_once(params):
     return mindlin(params)
 
 
-def sweep(write_spec, text: str, task=mindlin) -> Path:
-    return run_sweep(write_spec(text), team=SerialTeam(), stream=io.StringIO(), task_function=task)
-
-
 def show(capsys, *args) -> tuple[int, str, str]:
     code = main(["show", *map(str, args)])
     out, err = capsys.readouterr()
@@ -88,8 +81,8 @@ def at(ds: xr.Dataset, var: xr.DataArray) -> str:
 
 
 @pytest.fixture
-def plain(write_spec) -> Path:
-    return sweep(write_spec, PLAIN)
+def plain(sweep, write_spec) -> Path:
+    return sweep(write_spec(PLAIN), mindlin)
 
 
 def test_the_summary_of_a_plain_sweep_states_its_axes_counts_worst_errors_and_provenance(plain, capsys):
@@ -125,8 +118,8 @@ def test_the_summary_of_a_plain_sweep_states_its_axes_counts_worst_errors_and_pr
         )
 
 
-def test_the_summary_of_an_adaptive_map_states_its_map_errors_tolerance_and_solves(write_spec, capsys):
-    path = sweep(write_spec, ADAPTIVE)
+def test_the_summary_of_an_adaptive_map_states_its_map_errors_tolerance_and_solves(sweep, write_spec, capsys):
+    path = sweep(write_spec(ADAPTIVE), mindlin)
     code, out, err = show(capsys, path)
     assert code == 0 and err == ""
     lines = out.splitlines()
@@ -156,8 +149,8 @@ def test_the_summary_of_an_adaptive_map_states_its_map_errors_tolerance_and_solv
     )
 
 
-def test_a_failed_task_is_counted_with_its_point_and_message(write_spec, capsys):
-    path = sweep(write_spec, PLAIN, fails_once)
+def test_a_failed_task_is_counted_with_its_point_and_message(sweep, write_spec, capsys):
+    path = sweep(write_spec(PLAIN), fails_once)
     code, out, err = show(capsys, path)
     assert code == 0 and err == ""
     lines = out.splitlines()
@@ -206,7 +199,7 @@ def _flip(path: Path, variable: str) -> None:
         ("damaged", "variable K_xx is damaged"),
     ],
 )
-def test_a_bad_file_is_one_line_naming_it_and_exit_2(case, reason, tmp_path, write_spec, capsys):
+def test_a_bad_file_is_one_line_naming_it_and_exit_2(sweep, case, reason, tmp_path, write_spec, capsys):
     path = tmp_path / "results.nc"
     if case == "text":
         path.write_text("K_xx = 1.0\n", encoding="utf-8")
@@ -215,7 +208,7 @@ def test_a_bad_file_is_one_line_naming_it_and_exit_2(case, reason, tmp_path, wri
     elif case == "directory":
         path.mkdir()
     elif case == "damaged":
-        path = sweep(write_spec, PLAIN)
+        path = sweep(write_spec(PLAIN), mindlin)
         _flip(path, "K_xx")
     code, out, err = show(capsys, path)
     assert code == 2 and out == ""
