@@ -10,10 +10,60 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+
+
+@dataclass(frozen=True)
+class Quantity:
+    """What a scene may ask for (``quantities``), declared once: everything that depends on
+    the quantity (validation, the cost model, the strategies of ``hpcontact.accuracy``, the
+    discretizations that give it) reads this record rather than a list of its own.
+
+    ``solves``: operator solves it costs relative to one scalar solve (the cost model's
+    weight; a crystal's ``tangential`` is costed apart). ``refinable``: its discretization
+    follows the contact's edge, so its grids can be refined and extrapolated. ``exact_cell``:
+    Galin's one exact cell of an ellipse gives it (``discretizations/galin_ellipse.py``).
+    ``singular_cells``: one scalar block per load direction, as the singular and strip cells
+    of ``discretizations/boundary_cells.py`` need."""
+
+    name: str
+    meaning: str
+    solves: float
+    refinable: bool = False
+    exact_cell: bool = False
+    singular_cells: bool = False
+
+
+#: The quantities a contact scene may ask for, in the order the command line lists them.
+QUANTITIES: Mapping[str, Quantity] = {
+    q.name: q
+    for q in (
+        Quantity(
+            "tangential",
+            "the 2 x 2 tangential stiffness tensor of the bonded punch (x and y loads)",
+            solves=2.0,
+            refinable=True,
+            exact_cell=True,
+            singular_cells=True,
+        ),
+        Quantity(
+            "normal", "the normal stiffness K_zz", solves=1.0, refinable=True, exact_cell=True, singular_cells=True
+        ),
+        Quantity("compliance", "Li's uniform-traction compliance proxy (Li 2017 sec. 3.2)", solves=0.1),
+        Quantity("coupled", "the 3 x 3 stiffness with normal-tangential coupling", solves=3.0, refinable=True),
+        Quantity("indentation", "a rigid sphere pressed to an approach d (Polonsky-Keer)", solves=3.0),
+    )
+}
+
+
+def names_where(test: Callable[[Quantity], bool] = lambda q: True) -> tuple[str, ...]:
+    """The names of the quantities for which ``test`` holds, in ``QUANTITIES`` order."""
+    return tuple(name for name, q in QUANTITIES.items() if test(q))
+
 
 #: The suffix of a quantity's estimated relative error in a sweep's records and data set
 #: (``K_xx_error``: ``hpcontact.accuracy.error_columns``, docs/reference/dataset.md).

@@ -240,3 +240,23 @@ def test_a_stiffness_that_is_not_positive_definite_is_refused(bad):
     forces = {"tangential_x": bad[:, 0], "tangential_y": bad[:, 1], "tangential_z": bad[:, 2]}
     with pytest.raises(FloatingPointError, match="normal_held load"):
         q.stiffness_record(forces, ("tangential",), None)
+
+
+def test_quantity_registry_drives_what_each_discretization_accepts():
+    """Each quantity is declared once (``quantities.QUANTITIES``): the scene accepts exactly
+    those, Galin's exact cell applies to a circle exactly for the ``exact_cell`` ones, and the
+    coverage-weighted cells refuse the ones that are not ``refinable`` before solving."""
+    from hpcontact.discretizations import boundary_cells, galin_ellipse
+    from hpcontact.errors import InputError
+    from hpcontact.quantities import QUANTITIES
+    from hpcontact.scene import Scene
+
+    for name, quantity in QUANTITIES.items():
+        extra = {"radius": 1.0, "depth": 0.01} if name == "indentation" else {}
+        scene = Scene.from_params({"shape": "circle", "quantities": name, "n": 8, **extra})
+        assert galin_ellipse.applies(scene) is quantity.exact_cell, name
+        if not quantity.refinable:
+            with pytest.raises(InputError, match="coverage-weighted cells"):
+                boundary_cells.covered_solve(scene)
+    with pytest.raises(InputError, match="quantities"):
+        Scene.from_params({"shape": "circle", "quantities": "shear"})

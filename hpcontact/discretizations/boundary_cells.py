@@ -61,7 +61,7 @@ from hpcontact.numerics.conjugate_gradient import conjugate_gradient
 from hpcontact.numerics.convolution import COMPONENT_INDEX
 from hpcontact.numerics.preconditioner import FourierPreconditioner
 from hpcontact.plan import Plan, Solve, make_plan
-from hpcontact.scene import REFINABLE_QUANTITIES, Scene
+from hpcontact.scene import Scene
 
 __all__ = [
     "COVERAGE_ROUNDING",
@@ -81,8 +81,8 @@ COVERAGE_ROUNDING = (
     1e-9  # closed-form coverage loses ~n²·eps to differences (~6e-11 at n = 1024: docs/validation.md §"Boundary cells")
 )
 SUBSAMPLES = 32  # sub-samples per cell side where the coverage has no closed form
-SUPPORTED = REFINABLE_QUANTITIES
-SINGULAR_SUPPORTED = ("tangential", "normal")  # one scalar block per load direction
+SUPPORTED = q.names_where(lambda q: q.refinable)
+SINGULAR_SUPPORTED = q.names_where(lambda q: q.singular_cells)  # one scalar block per load direction
 STRATEGIES = ("auto", "singular", "strip", "coverage")
 
 

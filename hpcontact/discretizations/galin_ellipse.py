@@ -88,7 +88,7 @@ from hpcontact.plan import plan_for
 from hpcontact.scene import Scene
 
 #: Quantities the one-cell Galin solve gives (``tangential``: Re H approach held; ``normal``: H_zz).
-SUPPORTED = ("tangential", "normal")
+SUPPORTED = q.names_where(lambda q: q.exact_cell)
 #: Shapes it solves: those whose contact is an ellipse.
 SHAPES = ("circle", "ellipse")
 #: Trapezoidal rule for the moments: aliasing e^{−ALIAS_DIGITS} ≈ 4e-18 (below round-off).
