@@ -1,0 +1,84 @@
+"""Rank 0 at the end of a round: the data set from the ranks' outcome columns of this run and the
+outcomes reused from earlier journals, its summary, and the netCDF file (xarray is imported
+here: the other ranks, and runs that stop, never need it)."""
+
+from __future__ import annotations
+
+import datetime
+import json
+import time
+from pathlib import Path
+from typing import Any, TextIO
+
+import numpy as np
+
+from hpcontact.sweep import faults, provenance
+from hpcontact.sweep.columns import NOT_COMPUTED, join, to_columns
+from hpcontact.sweep.journal import OK
+from hpcontact.sweep.run.records import Kept, Options, Outcome, Plan, RankTotals, RoundScope
+from hpcontact.sweep.run.summary import print_summary, round_sums, summary_of
+
+
+def joined_outcomes(plan: Plan, kept: Kept, totals: list[RankTotals]) -> Any:
+    """Every task's last outcome as columns (``columns.join``): this run's, from the ranks'
+    ``totals``, and those of earlier journals (reused, quarantined, or carried from an adaptive
+    round before)."""
+    from hpcontact.sweep.dataset import FIXED_VARIABLES
+
+    history = kept.history
+    earlier = [
+        (history.crashed_entry(t.key, t.params) if t.key in kept.crashed else history.entries[t.key], i)
+        for i, t in enumerate(plan.tasks)
+        if t.key in kept.crashed or t.key in kept.reused or t.key in kept.carried
+    ]
+    parts = [to_columns([e for e, _ in earlier], [i for _, i in earlier])] + [t.columns for t in totals]
+    return join(parts, len(plan.tasks), FIXED_VARIABLES)
+
+
+def assemble(
+    plan: Plan,
+    kept: Kept,
+    scope: RoundScope,
+    ranks: int,
+    totals: list[RankTotals],
+    started: float,
+    setup_s: float,
+    options: Options,
+    stream: TextIO,
+) -> Outcome:
+    """Rank 0: the data set of the round (``joined_outcomes``), given to an adaptive round's
+    ``scope.finish``, with its summary, written as netCDF; the summary printed on ``stream``."""
+    from hpcontact.sweep.dataset import dataset_of, write_netcdf
+
+    spec = plan.spec
+    gather_started = time.perf_counter()
+    joined = joined_outcomes(plan, kept, totals)
+    failed = [int(i) for i in np.flatnonzero((joined.status != OK) & (joined.status != NOT_COMPUTED))]
+    dataset = dataset_of(
+        spec,
+        kept.task_of,
+        joined,
+        {
+            "hpcontact_version": plan.decision.provenance["hpcontact_version"],
+            "git_revision": plan.decision.provenance["git_revision"],
+            "numerics": json.dumps(provenance.numerics(), sort_keys=True),
+            "sweep_contributors": joined.provenance,
+            "created": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+            "mpi_size": ranks,
+            "history": f"hpcontact run {spec.path}{' --resume' if options.resume else ''}",
+            "sweep_journal_sync_time_s": sum(t.sync_s for t in totals),
+        },
+        derive=False,  # write_netcdf stores K_nn and normalized_nn (it derives them once, there)
+    )
+    sums = round_sums(plan, kept, scope, totals, setup_s)
+    if scope.finish is not None:  # an adaptive round (adaptive.run_rounds)
+        dataset = scope.finish(dataset, joined)
+        if dataset is None:  # not the last round: nothing to write
+            return Outcome(Path(spec.output), len(failed))
+    now = time.perf_counter()
+    summary = summary_of(plan, sums, len(failed), ranks, now - started, now - gather_started)
+    dataset.attrs.update(summary.attrs())
+    faults.slow_phase("write")
+    path = write_netcdf(dataset, spec.output)
+    print_summary(summary, plan, joined, failed, totals, path, now, stream)
+    return Outcome(path, len(failed))

@@ -1,0 +1,163 @@
+"""The records a run passes between its roles: the options of ``hpcontact run``, rank 0's
+decision and what it keeps for itself, the scope of an adaptive round, each rank's totals, and
+the outcome."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from collections.abc import Set as AbstractSet
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from hpcontact.sweep.guard import RunLock
+from hpcontact.sweep.journal import History
+from hpcontact.sweep.spec import Spec
+from hpcontact.sweep.tasks import Task
+
+TaskFunction = Callable[[Mapping[str, Any]], Mapping[str, Any]]
+
+
+class Stopped(Exception):
+    """The run ended without a data set on every rank: stopped by a signal (``status`` 4), or a
+    journal or the data set could not be written (a full disk; ``status`` 1); journals intact."""
+
+    def __init__(self, message: str, status: int) -> None:
+        super().__init__(message)
+        self.status = status
+
+
+@dataclass(frozen=True)
+class Options:
+    """How a run treats existing journals and locks (``hpcontact run`` flags)."""
+
+    resume: bool = False
+    restart: bool = False
+    accept_stale: bool = False
+    retry_crashed: bool = False
+    break_lock: bool = False
+    mem_per_rank: tuple[int, str] | None = None  # bytes a rank may use and where that comes from: checked if set
+    up_to_date: bool = (
+        False  # journals without resume/restart: a data set that is ``up_to_date`` is left as is, not refused
+    )
+
+
+NO_FLAGS = Options()  # ``hpcontact run`` without flags
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What a finished run produced: the data set and its failed tasks (crashed included);
+    ``up_to_date``: nothing was run or written (``up_to_date``)."""
+
+    path: Path
+    failures: int
+    up_to_date: bool = False
+
+
+@dataclass
+class RoundTally:
+    """The summary's sums over the rounds of an adaptive run (``adaptive.run_rounds``): each
+    round is a run of its own, and the data set's summary is of them all (tasks run and reused,
+    task, set-up, scheduling and journal seconds); ``begun`` counts the rounds begun (every
+    rank), the sums are rank 0's."""
+
+    begun: int = 0
+    run: int = 0
+    reused: int = 0
+    task_s: float = 0.0
+    setup_s: float = 0.0
+    schedule_s: float = 0.0
+    journal_s: float = 0.0
+
+    def add(self, run: int, reused: int, task_s: float, setup_s: float, schedule_s: float, journal_s: float) -> None:
+        """Count one more round."""
+        self.run += run
+        self.reused += reused
+        self.task_s += task_s
+        self.setup_s += setup_s
+        self.schedule_s += schedule_s
+        self.journal_s += journal_s
+
+
+@dataclass(frozen=True)
+class RoundScope:
+    """What one round of a run covers: a plain run is one round of every task (the defaults);
+    an adaptive round (``adaptive.run_rounds``) runs the tasks of ``select`` (positions) alone,
+    rank 0 gives the data set to ``finish(dataset, joined)`` and writes what it returns (None:
+    nothing), ``tally`` sums the rounds for the summary, and the outcomes of ``earlier`` (the
+    rounds before) that are not reused (failures) are carried into the data set as they are."""
+
+    select: frozenset[int] | None = None
+    finish: Callable[[Any, Any], Any] | None = None
+    tally: RoundTally | None = None
+    earlier: frozenset[int] = frozenset()
+
+
+EVERY_TASK = RoundScope()  # a plain run's one round
+
+
+@dataclass(frozen=True)
+class Decision:
+    """Rank 0's decisions, broadcast to every rank: tasks by position (0-based, task order)."""
+
+    isolated: list[int]  # suspects, run by rank 0 alone
+    shared: list[int]  # the rest of the work, in chunks for every rank
+    reused: int
+    crashed: int
+    session: str
+    provenance: dict[str, Any]
+    faults: dict[int, str]
+    up_to_date: bool = False  # the data set is the one this run would write: nothing to do
+
+
+@dataclass(frozen=True)
+class Kept:
+    """What rank 0's preparation keeps on rank 0 for the round (``resume.prepare``): each
+    point's task, the output's lock, the journals' history, the keys of the tasks reused from
+    it, quarantined (crashed) and carried (an adaptive round's earlier failures), and the lock's
+    note (a broken lock), if any."""
+
+    task_of: Any
+    lock: RunLock
+    history: History
+    reused: AbstractSet[str]
+    crashed: AbstractSet[str]
+    note: str | None
+    carried: AbstractSet[str] = frozenset()
+
+
+@dataclass(frozen=True)
+class Plan:
+    """The work of every rank: the spec, its tasks (every rank joins them from the ranks'
+    shares) and rank 0's decisions, with the suspects (run by rank 0 alone) and the rest of the
+    work (in chunks for every rank) as tasks."""
+
+    spec: Spec
+    tasks: list[Task]
+    decision: Decision
+    isolated: list[Task]
+    shared: list[Task]
+
+    @classmethod
+    def of(cls, spec: Spec, tasks: list[Task], decision: Decision) -> Plan:
+        """The plan of ``decision``, its task positions turned into tasks."""
+        return cls(spec, tasks, decision, [tasks[i] for i in decision.isolated], [tasks[i] for i in decision.shared])
+
+
+@dataclass(frozen=True)
+class RankTotals:
+    """What one rank sends rank 0 at the end of a round: its task, scheduling, journal and
+    journal-sync seconds, the tasks it ran, why it stopped (None: it did not) and whether that
+    was a failure, the journal error that stopped it, and the columns of its outcomes
+    (``columns.to_columns``; None when the run stopped)."""
+
+    task_s: float
+    run: int
+    schedule_s: float
+    journal_s: float
+    sync_s: float
+    reason: str | None
+    failed: bool
+    failure: str | None
+    columns: Any

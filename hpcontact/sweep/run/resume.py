@@ -1,0 +1,176 @@
+"""The resume policy of a run (rank 0): which tasks of the journals of earlier runs are reused,
+run again, quarantined or run alone, whether a data set is already up to date, and the lock
+held while the run writes (see ``hpcontact.sweep.driver``)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from hpcontact.sweep import faults, provenance
+from hpcontact.sweep.costmodel import check_memory
+from hpcontact.sweep.guard import Refused, RunLock, apart, usable_folder, usable_output
+from hpcontact.sweep.journal import (
+    OK,
+    RETRIED,
+    History,
+    clear_journals,
+    journal_files,
+    legacy_journals,
+    read_history,
+    session_name,
+)
+from hpcontact.sweep.run.records import EVERY_TASK, Decision, Kept, Options, RoundScope
+from hpcontact.sweep.signals import ALIVE_PREFIX, STOP_NAME
+from hpcontact.sweep.spec import Spec
+from hpcontact.sweep.tasks import Task
+
+
+def prepare(
+    spec: Spec,
+    tasks: list[Task],
+    task_of: Any,
+    over: bool,
+    options: Options,
+    ranks: int,
+    scope: RoundScope = EVERY_TASK,
+) -> tuple[Decision, Kept]:
+    """Rank 0's preparation of a round of ``scope`` (see ``hpcontact.sweep.driver``): the
+    decision every rank follows and what stays on rank 0 (``Kept``)."""
+    apart(spec)  # the output is not the spec, a mask or the journal folder (a dry run checks the same)
+    if over:
+        check_memory(tasks, *options.mem_per_rank)
+    injected = faults.faults_from_environment()
+    usable_output(Path(spec.output))
+    usable_folder(spec.journal, "journal folder")
+    lock = RunLock(spec.journal, ranks)
+    note = lock.acquire(options.break_lock)
+    try:
+        (spec.journal / STOP_NAME).unlink(missing_ok=True)
+        for beat in spec.journal.glob(f"{ALIVE_PREFIX}*"):  # an earlier run's heartbeats
+            beat.unlink(missing_ok=True)
+        history = read_history(spec.journal)
+        faults.slow_phase("setup")
+        if history.files and not (options.resume or options.restart):
+            now = provenance.current()
+            if options.up_to_date and up_to_date(spec, tasks, history, now):
+                reused = {t.key for t in tasks if t.key in history.entries}  # an adaptive map's: a subset
+                return (
+                    Decision([], [], len(reused), 0, session_name(), now, injected, up_to_date=True),
+                    Kept(task_of, lock, history, reused, set(), note),
+                )
+            raise Refused(
+                f"{len(history.entries)} finished tasks in {spec.journal}; pass --resume to continue or "
+                f"--restart to discard them"
+            )
+        if options.restart:
+            clear_journals(spec.journal)
+            history = History()
+        elif legacy_journals(spec.journal):
+            raise Refused(
+                f"{spec.journal} holds HDF5 journals of an earlier hpcontact (rank*.h5), which carry no "
+                f"provenance and cannot be reused; pass --restart to discard them"
+            )
+        now = provenance.current()
+        isolated, shared, reused, crashed = _decide(spec, tasks, history, options, now)
+        carried: set[str] = set()
+        if scope.select is not None:  # an adaptive round: its tasks alone
+            isolated = [i for i in isolated if i in scope.select]
+            shared = [i for i in shared if i in scope.select]
+            # the earlier rounds' failures are not run again, but stay in the data set as they failed
+            carried = {
+                tasks[i].key
+                for i in scope.earlier
+                if tasks[i].key in history.entries and tasks[i].key not in reused and tasks[i].key not in crashed
+            }
+    except BaseException:
+        lock.release()
+        raise
+    return (
+        Decision(isolated, shared, len(reused), len(crashed), session_name(), now, injected),
+        Kept(task_of, lock, history, reused, crashed, note, carried),
+    )
+
+
+def up_to_date(spec: Spec, tasks: list[Task], history: History, now: Mapping[str, Any]) -> bool:
+    """Whether the data set of ``spec`` is the one a run would write now, so that a run without
+    ``resume`` or ``restart`` has nothing to do (``Options.up_to_date``; the README's command run
+    twice): the data set exists; every task of the spec is in the journals, its last outcome ok,
+    for the same resolved scene and computed by this code (version, git revision, numerics: what
+    ``resume`` would reuse), so none would run; no journal line was dropped and no HDF5 journal
+    of an earlier hpcontact is there; the data set was written from this very spec (its ``spec``
+    attribute), holds as many tasks, none failed, and no journal changed after it was written (a
+    later run that stopped before writing its own). An adaptive map (``spec.adaptive``) solves a
+    subset of the tasks: every task its journals hold must be so, and the data set's
+    ``sweep_solves`` as many (its rounds are decided by those values alone). Anything else: False
+    (the run is refused as before). Reads the data set's attributes only; changes nothing."""
+    output = Path(spec.output)
+    if not tasks or not output.is_file() or history.dropped or legacy_journals(spec.journal):
+        return False
+    adaptive = spec.adaptive is not None
+    journaled = [t for t in tasks if t.key in history.entries] if adaptive else tasks
+    entries = [history.entries.get(task.key) for task in journaled]
+    if not entries or any(
+        e is None or e.status != OK or e.resolved != provenance.resolved_scene(t.params)
+        for e, t in zip(entries, journaled)
+    ):
+        return False
+    if provenance.first_mismatch(entries, now) is not None:
+        return False
+    written = output.stat().st_mtime_ns
+    if any(path.stat().st_mtime_ns > written for path in journal_files(spec.journal)):
+        return False
+    try:
+        import netCDF4
+
+        with netCDF4.Dataset(output, "r") as nc:
+            attrs = {
+                name: nc.getncattr(name)
+                for name in ("spec", "sweep_tasks", "sweep_failures", "sweep_solves")
+                if name in nc.ncattrs()
+            }
+    except (OSError, RuntimeError, ValueError):  # not a readable netCDF file: a run writes it again
+        return False
+    return (
+        attrs.get("spec") == spec.text
+        and attrs.get("sweep_tasks") == len(tasks)
+        and attrs.get("sweep_failures") == 0
+        and (not adaptive or attrs.get("sweep_solves") == len(entries))
+    )
+
+
+def _decide(
+    spec: Spec, tasks: list[Task], history: History, options: Options, now: Mapping[str, Any]
+) -> tuple[list[int], list[int], set[str], set[str]]:
+    """Suspects to isolate and the rest to share (positions), the reused keys, and the
+    quarantined keys."""
+    keys = {t.key for t in tasks}
+    reused = []
+    for task in tasks:
+        entry = history.entries.get(task.key)
+        if (
+            entry is not None
+            and entry.status not in RETRIED
+            and entry.resolved == provenance.resolved_scene(task.params)
+        ):
+            reused.append(entry)
+    if not options.accept_stale:
+        mismatch = provenance.first_mismatch(reused, now)
+        if mismatch is not None:
+            raise Refused(
+                f"stale journals in {spec.journal}: {mismatch}; pass --accept-stale to reuse such "
+                f"results or --restart to discard them"
+            )
+    done = {e.key for e in reused}
+    suspects = {k: s for k, s in history.suspects().items() if k in keys and k not in done}
+    crashed = set() if options.retry_crashed else {k for k in history.crashed() if k in suspects}
+    todo = [i for i, t in enumerate(tasks) if t.key not in done and t.key not in crashed]
+    isolated = [i for i in todo if tasks[i].key in suspects]
+    shared = [i for i in todo if tasks[i].key not in suspects]
+    return isolated, shared, done, crashed
+
+
+def journal_path(spec: Spec, rank: int, session: str) -> Path:
+    """The journal of ``rank`` in the run ``session``."""
+    return spec.journal / f"rank{rank:05d}-{session}.jsonl"

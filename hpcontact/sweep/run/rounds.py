@@ -1,0 +1,365 @@
+"""The MPI rounds of a run: every rank's share joined into the tasks, rank 0's decision
+(``resume.prepare``) broadcast, the tasks run in chunks from the shared counter and journaled,
+and rank 0's data set (``assembly.assemble``); see ``hpcontact.sweep.driver``."""
+
+from __future__ import annotations
+
+import json
+import pickle
+import sys
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any, TextIO
+
+from hpcontact import accuracy
+from hpcontact.errors import ConvergenceError, InputError
+from hpcontact.numerics.blas import limited_blas
+from hpcontact.numerics.convolution import expect_applications
+from hpcontact.problems.footprint import fft_applications
+from hpcontact.sweep import faults, provenance
+from hpcontact.sweep.arguments import EXIT_OK, EXIT_STOPPED, EXIT_UNEXPECTED
+from hpcontact.sweep.columns import to_columns
+from hpcontact.sweep.costmodel import start_estimate
+from hpcontact.sweep.journal import BAD_INPUT, ERROR, NOT_CONVERGED, OK, Entry, Journal, to_json
+from hpcontact.sweep.progress import Progress
+from hpcontact.sweep.run.assembly import assemble
+from hpcontact.sweep.run.records import (
+    EVERY_TASK,
+    NO_FLAGS,
+    Decision,
+    Kept,
+    Options,
+    Outcome,
+    Plan,
+    RankTotals,
+    RoundScope,
+    RoundTally,
+    Stopped,
+    TaskFunction,
+)
+from hpcontact.sweep.run.resume import journal_path, prepare
+from hpcontact.sweep.run.shares import from_rank_zero, joined, share
+from hpcontact.sweep.schedule import SLOTS, Team, claimed_chunks, cost_units, report_done, totals_done, world
+from hpcontact.sweep.signals import Abandoned, StopControl
+from hpcontact.sweep.spec import Spec, Validator, load_spec
+from hpcontact.sweep.tasks import Task, changed_inputs, make_chunks
+
+
+def run_task(
+    function: TaskFunction, task: Task, rank: int, stop: StopControl | None = None, fault: str | None = None
+) -> Entry:
+    """Call ``function`` on the task's parameters; any exception becomes a failed entry.
+    ``Abandoned`` (a stop request's grace is over) and other BaseExceptions propagate."""
+    started = time.perf_counter()
+    status, message, record = OK, "", {}
+    try:
+        if stop is not None:
+            stop.running = True
+        faults.before_task(fault)
+        result = function(dict(task.params))
+        if not isinstance(result, Mapping):
+            raise TypeError(f"the task function returned {type(result).__name__}, not a mapping")
+        record = json.loads(to_json(result))  # exactly what the journal will hold
+    except InputError as exc:
+        status, message = BAD_INPUT, f"InputError: {exc}"
+    except ConvergenceError as exc:
+        status, message = NOT_CONVERGED, f"ConvergenceError: {exc}"
+    except Exception as exc:  # noqa: BLE001 - any failure of one scene is recorded, the sweep goes on
+        status, message = ERROR, f"{type(exc).__name__}: {exc}"
+    finally:
+        if stop is not None:
+            stop.running = False
+    return Entry(
+        key=task.key,
+        params=task.params,
+        status=status,
+        message=message,
+        record=record,
+        wall_time_s=time.perf_counter() - started,
+        finished=time.time(),
+        rank=rank,
+    )
+
+
+@dataclass(frozen=True)
+class Run:
+    """What every round of one run shares: the team, the spec and its tasks (joined from the
+    ranks' shares, each point's task, whether one may exceed the memory per rank), the task
+    function (None: the spec's scene kind's), rank 0's stream, this rank's stop control, and
+    the run's start (``time.perf_counter``)."""
+
+    team: Team
+    spec: Spec
+    tasks: list[Task]
+    task_of: Any
+    over: bool
+    task_function: TaskFunction | None
+    stream: TextIO
+    stop: StopControl
+    started: float
+
+
+def execute(
+    spec_path: str | Path | Spec,
+    output: str | Path | None = None,
+    task_function: TaskFunction | None = None,
+    *,
+    team: Team | None = None,
+    validate: Validator | None = None,
+    stream: TextIO | None = None,
+    options: Options = NO_FLAGS,
+    stop: StopControl | None = None,
+    accuracy: float | None = None,
+) -> Outcome:
+    """Run the sweep of ``spec_path`` on ``team`` (default: MPI world, or one process).
+
+    ``options`` say what to do with existing journals and locks (``hpcontact.sweep.driver``);
+    ``output`` overrides the spec's output path and ``accuracy`` its [numerics] accuracy, n and
+    n_across (``hpcontact run --accuracy``); ``task_function`` solves one scene and ``validate``
+    checks one scene's parameters (defaults: those of the spec's scene kind,
+    ``accuracy.task_function``); rank 0 prints progress and the summary to ``stream`` (default
+    stdout); ``stop`` is this rank's stop control (default: one without signal handlers, which
+    still stops with the other ranks). Spec errors and refusals raise ``InputError``
+    (``Refused``) on every rank before any work starts; a stopped run raises ``Stopped`` on
+    every rank. ``spec_path`` may be a ``Spec`` already parsed (``spec.parse_spec`` with
+    ``check_scenes=False``; ``output`` None): a spec given as a dict (``hpcontact.run_sweep``).
+    With ``options.up_to_date``, a sweep whose data set is ``up_to_date`` prints one line and
+    returns it (``Outcome.up_to_date``): nothing is run or written.
+    """
+    team = team if team is not None else world()
+    started = time.perf_counter()  # after the imports and MPI start-up
+    stream = stream if stream is not None else sys.stdout
+    stop = stop if stop is not None else StopControl()
+    spec = from_rank_zero(
+        team,
+        lambda: (
+            spec_path
+            if isinstance(spec_path, Spec) and output is None and accuracy is None
+            else load_spec(spec_path, output=output, validate=validate, check_scenes=False, accuracy=accuracy)
+        ),
+    )
+    mine = pickle.dumps(share(spec, team.rank, team.size, validate, options), protocol=pickle.HIGHEST_PROTOCOL)
+    tasks, task_of, over = joined(spec, [pickle.loads(b) for b in team.bcast(team.gather(mine))])
+    run = Run(team, spec, tasks, task_of, over, task_function, stream, stop, started)
+    if spec.adaptive is None:
+        return _round(run, options, EVERY_TASK)
+    tally = RoundTally()
+
+    def run_round(
+        options: Options,
+        select: frozenset[int] | None = None,
+        finish: Callable | None = None,
+        earlier: frozenset[int] = frozenset(),
+    ) -> Outcome:
+        return _round(run, options, RoundScope(select, finish, tally, earlier))
+
+    # rounds of runs over subsets of the tasks (hpcontact.sweep.adaptive)
+    from hpcontact.sweep.adaptive import run_rounds
+
+    return run_rounds(team, spec, task_of, options, stream, run_round)
+
+
+def _round(run: Run, options: Options, scope: RoundScope) -> Outcome:
+    """Every rank: rank 0 prepares, the ranks run the plan (see ``execute``) over the tasks of
+    ``scope``; the set-up runs from the round's start (the first's from the run's)."""
+    team, spec = run.team, run.spec
+    round_started = run.started
+    if scope.tally is not None:
+        round_started = run.started if scope.tally.begun == 0 else time.perf_counter()
+        scope.tally.begun += 1
+    prepared: list[Kept] = []  # rank 0's
+
+    def decide() -> Decision:
+        decision, kept = prepare(spec, run.tasks, run.task_of, run.over, options, team.size, scope)
+        prepared.append(kept)
+        return decision
+
+    decision: Decision = from_rank_zero(team, decide)
+    plan = Plan.of(spec, run.tasks, decision)
+    try:
+        if decision.up_to_date:
+            if team.rank == 0:
+                print(
+                    f"hpcontact: {spec.output} is up to date ({decision.reused} tasks from journals); nothing to do",
+                    file=run.stream,
+                    flush=True,
+                )
+            return Outcome(Path(spec.output), 0, up_to_date=True)
+        with limited_blas():  # HPCONTACT_BLAS_THREADS while the tasks run (numerics.blas)
+            return _run(run, plan, prepared[0] if prepared else None, scope, options, round_started)
+    finally:
+        run.stop.close()
+        if prepared:
+            prepared[0].lock.release()
+
+
+def _announce(run: Run, plan: Plan, kept: Kept, scope: RoundScope, todo: list[Task], chunks: list) -> Progress:
+    """Rank 0 before the tasks run: the lock's note, dropped journal lines, changed inputs, the
+    round's line (tasks to run, reused, alone on rank 0, quarantined, chunks) and its estimate
+    (an adaptive map's in its first round alone); the progress report of the tasks handed out."""
+    spec, stream, decision = run.spec, run.stream, plan.decision
+    if kept.note:
+        print(f"hpcontact: {kept.note}", file=stream)
+    if kept.history.dropped:
+        print(f"hpcontact: warning: {kept.history.dropped_note(spec.journal)}", file=stream)
+    changed = changed_inputs(run.tasks, kept.history.entries)  # a mask replaced under its path
+    if changed:
+        print(f"hpcontact: {changed}", file=stream)
+    print(
+        f"hpcontact: {spec.title}: {len(run.tasks)} tasks, {len(todo)} to run"
+        f"{f' ({decision.reused} from journals)' if decision.reused else ''}"
+        f"{f', {len(plan.isolated)} alone on rank 0 (their last run died)' if plan.isolated else ''}"
+        f"{f', {decision.crashed} quarantined (--retry-crashed runs them)' if decision.crashed else ''}"
+        f", {len(chunks)} chunks on {run.team.size} rank(s)",
+        file=stream,
+        flush=True,
+    )
+    line, seconds = start_estimate(todo, run.team.size)
+    if scope.tally is None or scope.tally.begun == 1:  # an adaptive map's later rounds: said once, in its first
+        print(line, file=stream, flush=True)
+    handed = [t for chunk in chunks for t in chunk]  # what the ranks report, in hand-out order
+    estimated = None if seconds is None else dict(zip((t.key for t in todo), seconds.tolist()))
+    return Progress(
+        len(run.tasks),
+        decision.reused,
+        [cost_units(t.cost) for t in handed],
+        None if estimated is None else [estimated[t.key] for t in handed],
+        spec.progress_interval,
+        stream,
+    )
+
+
+def _run(run: Run, plan: Plan, kept: Kept | None, scope: RoundScope, options: Options, round_started: float) -> Outcome:
+    """Every rank: the work of ``plan``, then rank 0 assembles the data set (see ``execute``)
+    from what it ``kept`` (None on the other ranks); the set-up runs from ``round_started``,
+    the wall time from the run's start."""
+    team, spec, tasks, stop, decision = run.team, plan.spec, plan.tasks, run.stop, plan.decision
+    task_function = run.task_function if run.task_function is not None else accuracy.task_function(spec.kind)
+    chunks = make_chunks(plan.shared, team.size)
+    # this rank's share of the FFT applications per grid, estimated from every R-th task (the
+    # work stays 1/R of the tasks per rank): grids the sweep uses often get measured FFTW plans
+    # at their first application, not after ~40-80 (hpcontact.numerics.convolution)
+    todo = plan.isolated + plan.shared
+    expect_applications(fft_applications(t.params for t in todo[team.rank :: team.size]))
+    setup_s = time.perf_counter() - round_started
+    progress = _announce(run, plan, kept, scope, todo, chunks) if team.rank == 0 else None
+
+    index = {t.key: i for i, t in enumerate(tasks)}
+    task_s = schedule_s = journal_s = 0.0
+    ran = 0
+    failure: str | None = None
+    stop.watch(spec.journal, team.rank, team.size)
+    counter = team.counter(SLOTS)
+    journal = Journal(
+        journal_path(spec, team.rank, decision.session),
+        team.rank,
+        {"session": decision.session, "spec_path": str(spec.path), **decision.provenance},
+    )
+    done: list[Entry] = []  # this rank's outcomes, and their tasks' positions
+    done_at: list[int] = []
+
+    def run_one(task: Task) -> None:
+        nonlocal task_s, journal_s, ran
+        fault = decision.faults.get(index[task.key])
+        mark = time.perf_counter()
+        journal.started(task.key)
+        journal_s += time.perf_counter() - mark
+        try:
+            entry = run_task(task_function, task, team.rank, stop, fault)
+        except Abandoned as exc:
+            journal.interrupted(task.key, str(exc))
+            return
+        except BaseException:
+            journal.interrupted(task.key, "the run was interrupted")
+            raise
+        entry = replace(entry, resolved=provenance.resolved_scene(task.params), provenance=decision.provenance)
+        task_s += entry.wall_time_s
+        ran += 1
+        mark = time.perf_counter()
+        faults.tear(fault, journal.line(entry), journal.write_raw)
+        journal.append(entry)
+        journal_s += time.perf_counter() - mark
+        done.append(entry)
+        done_at.append(index[task.key])
+
+    try:
+        try:
+            if team.rank == 0:
+                for task in plan.isolated:
+                    if stop.stopping:
+                        break
+                    run_one(task)
+            claim = time.perf_counter()
+            for chunk in claimed_chunks(chunks, counter):
+                schedule_s += time.perf_counter() - claim
+                if stop.stopping:
+                    break
+                for task in chunk:
+                    if stop.stopping:
+                        break
+                    run_one(task)
+                    mark = time.perf_counter()
+                    report_done(counter, task.cost)
+                    schedule_s += time.perf_counter() - mark
+                    if progress is not None and progress.due():
+                        progress.report(*totals_done(counter))
+                claim = time.perf_counter()
+            schedule_s += time.perf_counter() - claim
+        finally:
+            journal.close()
+    except OSError as exc:  # the journal cannot be written: stop this rank cleanly, and the others
+        failure = f"cannot write {exc.filename or spec.journal}: {exc.strerror or exc}"
+        stop.request(f"rank {team.rank}: {failure}", failed=True)
+    counter.close()
+    stop.enter("finish")
+    totals: list[RankTotals] = team.gather(
+        RankTotals(
+            task_s=task_s,
+            run=ran,
+            schedule_s=schedule_s,
+            journal_s=journal_s,
+            sync_s=journal.sync_s,
+            reason=stop.reason,
+            failed=stop.failed,
+            failure=failure,
+            columns=None if stop.reason is not None else to_columns(done, done_at),
+        )
+    )
+
+    def finish() -> tuple[Outcome | None, str, int]:
+        stopped = [t for t in totals if t.reason is not None]
+        if stopped:
+            failed = [t.failure for t in totals if t.failure]
+            ran = sum(t.run for t in totals)
+            status = EXIT_UNEXPECTED if any(t.failed for t in stopped) else EXIT_STOPPED
+            what = f"stopped ({'; '.join(failed) if failed else stopped[0].reason})"
+            return (
+                None,
+                (
+                    f"hpcontact: {what}: {ran} tasks finished in this run; journals intact in "
+                    f"{spec.journal}; run again with --resume"
+                ),
+                status,
+            )
+        try:
+            outcome = assemble(plan, kept, scope, team.size, totals, run.started, setup_s, options, run.stream)
+            stop.enter("done")  # the data set is written: a stop request changes nothing now
+            faults.slow_phase("done")
+            return outcome, "", EXIT_OK
+        except OSError as exc:  # a full disk at the end: the journals hold everything
+            return (
+                None,
+                (
+                    f"hpcontact: cannot write the data set {exc.filename or spec.output}: {exc.strerror or exc}; "
+                    f"journals intact in {spec.journal}; free space and run again with --resume"
+                ),
+                EXIT_UNEXPECTED,
+            )
+
+    outcome, message, status = from_rank_zero(team, finish)
+    stop.enter("done")
+    if outcome is None:
+        raise Stopped(message, status)
+    return outcome
