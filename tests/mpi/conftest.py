@@ -15,9 +15,7 @@ rank to rank).
 
 from __future__ import annotations
 
-import os
 import shutil
-import signal
 import subprocess
 import tempfile
 from collections.abc import Callable, Iterator
@@ -26,6 +24,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import xarray as xr
+from launcher import kill
 
 from hpcontact.sweep.schedule import Team, world
 
@@ -100,5 +99,4 @@ def launched():
     yield procs
     for proc in procs:
         if proc.poll() is None:
-            os.killpg(proc.pid, signal.SIGKILL)
-            proc.communicate()
+            kill(proc)

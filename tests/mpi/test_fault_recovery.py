@@ -19,16 +19,13 @@ from __future__ import annotations
 
 import json
 import os
-import signal
-import subprocess
-import sys
 import time
 import zlib
 from pathlib import Path
 
 import pytest
 import xarray as xr
-from launcher import MPIEXEC, STARTS_ITS_OWN_MPIEXEC
+from launcher import STARTS_ITS_OWN_MPIEXEC, finish, start_run
 
 from hpcontact.sweep.journal import OK, journal_files, read_history
 
@@ -45,48 +42,13 @@ shape = ["circle", "ellipse"]
 nu = [0.0, 0.5]
 """
 TASKS = 4
-CLEARED = (
-    "HPCONTACT_MPI",
-    "HPCONTACT_FAULTS",
-    "HPCONTACT_DATA_SET_LIMIT",
-    "SLURM_JOB_ID",
-    "PBS_JOBID",
-    "LSB_JOBID",
-    "JOB_ID",
-)
-
 pytestmark = STARTS_ITS_OWN_MPIEXEC
 
 
-def run(
-    folder: Path, *options: str, spec: str | bytes = SPEC, timeout: float = 120.0, **env: str
-) -> tuple[int, str, str]:
-    """``mpiexec -n 2 hpcontact run spec.toml OPTIONS`` in ``folder``: exit status, stdout, stderr."""
-    path = folder / "spec.toml"
-    path.write_bytes(spec if isinstance(spec, bytes) else spec.encode())
-    environment = {k: v for k, v in os.environ.items() if k not in CLEARED}
-    environment.update(
-        OMP_NUM_THREADS="1",
-        HPCONTACT_WISDOM=str(folder / "wisdom"),
-        HPCONTACT_COSTMODEL=str(folder / "costmodel.json"),
-        **env,
-    )
-    proc = subprocess.Popen(
-        [MPIEXEC, "-n", "2", sys.executable, "-m", "hpcontact.cli", "run", "spec.toml", *options],
-        cwd=folder,
-        env=environment,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        start_new_session=True,
-    )
-    try:
-        out, err = proc.communicate(timeout=timeout)
-    finally:
-        if proc.poll() is None:
-            os.killpg(proc.pid, signal.SIGKILL)
-            proc.communicate()
-    return proc.returncode, out, err
+def run(folder: Path, *options: str, spec: str | bytes = SPEC, **env: str) -> tuple[int, str, str]:
+    """``mpiexec -n 2 hpcontact run spec.toml OPTIONS`` in ``folder`` with ``env``, its cost-model
+    cache there too: exit status, stdout, stderr."""
+    return finish(start_run(folder, spec, *options, env={"HPCONTACT_COSTMODEL": str(folder / "costmodel.json"), **env}))
 
 
 def complete(folder: Path) -> None:

@@ -30,13 +30,12 @@ import random
 import resource
 import signal
 import subprocess
-import sys
 import time
 from pathlib import Path
 
 import pytest
 import xarray as xr
-from launcher import MPIEXEC, STARTS_ITS_OWN_MPIEXEC
+from launcher import STARTS_ITS_OWN_MPIEXEC, finish, start_run
 
 from hpcontact.sweep.driver import run_sweep
 from hpcontact.sweep.journal import CRASHED, OK, decode_lines, journal_files, read_history
@@ -84,35 +83,15 @@ def reference(tmp_path_factory) -> Path:
 def start(
     folder: Path, *options: str, revision: str = "a", faults: str | None = None, procs: list | None = None
 ) -> subprocess.Popen:
-    """``mpiexec -n 2 hpcontact run spec.toml OPTIONS`` in ``folder``."""
-    (folder / "spec.toml").write_text(SPEC)
-    env = {k: v for k, v in os.environ.items() if k not in ("HPCONTACT_MPI", "HPCONTACT_FAULTS")}
-    env.update(OMP_NUM_THREADS="1", HPCONTACT_GIT_REVISION=revision, HPCONTACT_WISDOM=str(folder / "wisdom"))
-    if faults:
-        env["HPCONTACT_FAULTS"] = faults
-    proc = subprocess.Popen(
-        [MPIEXEC, "-n", "2", sys.executable, "-m", "hpcontact.cli", "run", "spec.toml", *options],
-        cwd=folder,
-        env=env,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        start_new_session=True,
-    )
-    if procs is not None:
-        procs.append(proc)
-    return proc
+    """``mpiexec -n 2 hpcontact run spec.toml OPTIONS`` in ``folder`` as git ``revision``, with
+    ``HPCONTACT_FAULTS`` set to ``faults`` when given."""
+    env = {"HPCONTACT_GIT_REVISION": revision, **({"HPCONTACT_FAULTS": faults} if faults else {})}
+    return start_run(folder, SPEC, *options, env=env, procs=procs)
 
 
-def run(folder: Path, *options: str, timeout: float = 120.0, **kwargs) -> tuple[int, str, str]:
+def run(folder: Path, *options: str, **kwargs) -> tuple[int, str, str]:
     """Run to the end: exit status, stdout, stderr."""
-    proc = start(folder, *options, **kwargs)
-    try:
-        out, err = proc.communicate(timeout=timeout)
-    finally:
-        if proc.poll() is None:
-            os.killpg(proc.pid, signal.SIGKILL)
-    return proc.returncode, out, err
+    return finish(start(folder, *options, **kwargs))
 
 
 def sessions(folder: Path) -> dict[str, dict]:
