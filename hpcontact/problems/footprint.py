@@ -51,7 +51,7 @@ from hpcontact.materials.elastic_constants import describes_crystal
 from hpcontact.numerics.convolution import padded_shape
 from hpcontact.numerics.memory import MIB
 from hpcontact.plan import plan_for
-from hpcontact.problems.kinds import SLIP, quantity_names, scene_kind
+from hpcontact.problems.kinds import kind_of, quantity_names
 from hpcontact.scene import DEFAULTS, Scene
 
 ITERATIONS_PER_DOUBLING = 0.3  # relative growth of CG iterations per doubling of ρ (module docstring)
@@ -72,9 +72,8 @@ KERNEL_BUILD_BYTES = {"crystal": 55.0 * MIB, "crystal_indentation": 45.0 * MIB}
 #: A crystal body's quadrature tables, a slip scene's fixed part (docs/performance.md §"Memory
 #: per task").
 CRYSTAL_TABLES_BYTES = 45.0 * MIB
-#: A slip scene is solved on n × n cells with this margin around the Hertz contact, by default
-#: n = ``SLIP_DEFAULT_N``.
-SLIP_GRID_MARGIN = 1.1
+#: A slip scene is solved on n × n cells around the Hertz contact (``Kind.grid_margin``), by
+#: default n = ``SLIP_DEFAULT_N``.
 SLIP_DEFAULT_N = 64
 
 
@@ -84,8 +83,9 @@ def task_kind(params: Mapping[str, Any]) -> str:
     by quadrature and a few solves: a far smaller share of solves in its cost, and slower per
     cost unit than the crystal punch's, docs/performance.md §"Crystal indentation"); else
     'contact'."""
-    if scene_kind(params) == SLIP:
-        return "slip"
+    group = kind_of(params).memory_group
+    if group is not None:
+        return group
     if params.get("material") is None and float(params.get("anisotropy", 1.0)) == 1.0:
         return "contact"
     return "crystal_indentation" if quantity_names(params.get("quantities")) == ["indentation"] else "crystal"
@@ -94,8 +94,9 @@ def task_kind(params: Mapping[str, Any]) -> str:
 def padded_cells(params: Mapping[str, Any]) -> float:
     """Cells of the padded FFT grid (twice the contact grid each way) of the one-grid scene
     ``params``: 4 nx × ny for a contact scene (``contact_grid``), (2 × 1.1 n)² for a slip scene."""
-    if scene_kind(params) == SLIP:
-        side = 2.0 * SLIP_GRID_MARGIN * int(params.get("n", SLIP_DEFAULT_N))
+    margin = kind_of(params).grid_margin
+    if margin is not None:  # n × n cells around the Hertz contact
+        side = 2.0 * margin * int(params.get("n", SLIP_DEFAULT_N))
         return side * side
     nx, ny = contact_grid(params)
     return 4.0 * nx * ny
@@ -213,7 +214,7 @@ def fft_applications(scenes: Iterable[Mapping[str, Any]]) -> dict[tuple[int, tup
     for params in scenes:
         p = {**DEFAULTS, **{k: v for k, v in params.items() if v is not None}}
         crystal = p.get("material") is not None or float(p.get("anisotropy", 1.0)) != 1.0
-        if params.get("n") is None or crystal or scene_kind(params) == SLIP or p["shape"] in ("rough", "mask"):
+        if params.get("n") is None or crystal or not kind_of(params).planned or p["shape"] in ("rough", "mask"):
             continue
         key = (tuple(quantity_names(p["quantities"])), float(p["nu"]))
         if key not in components:

@@ -30,6 +30,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from hpcontact.problems.slip.partial_slip import validate as validate_slip
+from hpcontact.problems.slip.problem import GRID_MARGIN as SLIP_GRID_MARGIN
 from hpcontact.quantities import ESTIMATED, SLIP_ESTIMATED
 from hpcontact.scene import DEFAULTS, INTERVAL_FIELDS
 from hpcontact.scene import validate as validate_contact
@@ -57,7 +58,9 @@ class Kind:
     ``kernel_neutral_fields`` the fields that change neither its kernels nor its grid spacing
     (tasks differing only in these may share kernels); ``memory_group`` the calibration and
     memory group of every scene of the kind (``problems.footprint.MEMORY_MODEL``; None: by the
-    scene's body); ``planned`` whether ``hpcontact.plan.plan_for`` lays out its solves.
+    scene's body); ``planned`` whether ``hpcontact.plan.plan_for`` lays out its solves;
+    ``grid_margin``, for a scene solved on n × n cells around its Hertz contact, the half-width
+    of that grid in Hertz semi-axes (None: on its shape's contact grid, ``geometry.grid_for``).
     """
 
     name: str
@@ -70,6 +73,7 @@ class Kind:
     kernel_neutral_fields: tuple[str, ...]
     memory_group: str | None
     planned: bool
+    grid_margin: float | None
     resolve: Callable[[Mapping[str, Any]], dict[str, Any]]
 
     @property
@@ -115,6 +119,7 @@ KINDS: Mapping[str, Kind] = {
         ),
         memory_group=None,
         planned=True,
+        grid_margin=None,
         resolve=_resolved_contact,
     ),
     SLIP: Kind(
@@ -146,6 +151,7 @@ KINDS: Mapping[str, Kind] = {
         ),
         memory_group=SLIP,
         planned=False,
+        grid_margin=SLIP_GRID_MARGIN,
         resolve=_resolved_slip,
     ),
 }

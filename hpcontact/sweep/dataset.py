@@ -57,7 +57,7 @@ import os
 import re
 import shlex
 import sys
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -67,7 +67,7 @@ import xarray as xr
 from hpcontact import __version__
 from hpcontact.materials.elastic_constants import FAMILIES
 from hpcontact.problems.kinds import CONTACT, SLIP
-from hpcontact.quantities import ERROR_SUFFIX, ESTIMATED, SLIP_ESTIMATED, directional_error, directional_stiffness
+from hpcontact.quantities import ERROR_SUFFIX, ESTIMATED, directional_error, directional_stiffness
 from hpcontact.sweep import netcdf
 from hpcontact.sweep.columns import NOT_COMPUTED, Joined, join, task_positions, to_columns
 from hpcontact.sweep.columns import is_number as _is_number
@@ -324,7 +324,7 @@ def dataset_of(
         if name in renamed and "long_name" in variable_attrs:
             variable_attrs["long_name"] = f"{variable_attrs['long_name']} (task record; differs from the coordinate)"
         ds[name].attrs.update(variable_attrs)
-    ds = link_errors(ds, ESTIMATED if spec.kind == CONTACT else SLIP_ESTIMATED)
+    ds = link_errors(ds, spec.kind_record.estimated)
     scales = {s for name in ds.variables for s in scale_symbols(str(ds[name].attrs.get("scale", "")))}
     ds.attrs.update(_global_attrs(spec, attrs, scales))
     return derive_directional(ds) if derive else ds
@@ -433,9 +433,13 @@ def _equals_coordinate(array: np.ndarray, grid: np.ndarray | None) -> bool:
 
 def _attribute_table(spec: Spec) -> dict[str, dict[str, Any]]:
     """Attributes (units, long_name) of every variable and coordinate name for the spec's
-    scene kind."""
-    if spec.kind == SLIP:
-        return _slip_attribute_table(spec)
+    scene kind (``ATTRIBUTE_TABLES``)."""
+    return ATTRIBUTE_TABLES[spec.kind](spec)
+
+
+def _contact_attribute_table(spec: Spec) -> dict[str, dict[str, Any]]:
+    """Contact attributes (``AXIS_ATTRS``, ``VARIABLE_ATTRS``): stresses in G, or GPa when the
+    scenes name library crystals; an indentation's grid in L."""
     gpa = _names_crystals(spec)
     table = {name: _with_stress_unit(attrs, gpa) for name, attrs in {**AXIS_ATTRS, **VARIABLE_ATTRS}.items()}
     if _indentation_only(spec):  # the record's grid is the sphere's
@@ -459,6 +463,12 @@ def _slip_attribute_table(spec: Spec) -> dict[str, dict[str, Any]]:
             attrs["units"] = re.sub(r"\b([FL])(?=-?\d*\b)", lambda m: units[m.group(1)], unit).replace("N m-2", "Pa")
         table[name] = cf_attributes(attrs)
     return table
+
+
+ATTRIBUTE_TABLES: Mapping[str, Callable[[Spec], dict[str, dict[str, Any]]]] = {
+    CONTACT: _contact_attribute_table,
+    SLIP: _slip_attribute_table,
+}
 
 
 def _names_materials(spec: Spec) -> bool:
@@ -666,26 +676,7 @@ def _global_attrs(spec: Spec, attrs: Mapping[str, Any], scales: set[str] = froze
         "spec_path": str(spec.path),
         "spec": spec.text,
     }
-    if spec.kind == SLIP:
-        if _names_materials(spec):
-            out["units"] = "SI: forces in N, lengths in m, stiffnesses in N/m, areas in m2 (library materials, Pa)"
-        else:
-            out["units"] = "F and L: the force and length units of the input (moduli in F/L2, radii in L)"
-    else:
-        gpa = _names_crystals(spec)
-        stress = (
-            "GPa (library crystal constants)"
-            if gpa
-            else "G (shear modulus; (C11 - C12)/2 for a cubic crystal from nu and A)"
-        )
-        out.update(
-            {
-                "stiffness_units": f"forces per unit displacement in units of {'GPa' if gpa else 'G'} a (a semi-major extent of the punch = 1)",
-                "stress_units": stress,
-                "length_units": "a: semi-major extent of the punch (= 1 on the grid; for a mask, half the long side of the contact); "
-                "L: unit of the sphere's radius and depth",
-            }
-        )
+    out.update(UNIT_ATTRIBUTES[spec.kind](spec))
     if spec.fixed.get("accuracy") is not None:
         out["requested_accuracy"] = float(spec.fixed["accuracy"])  # every point's error_status says whether it is met
     for name, value in spec.fixed.items():
@@ -694,6 +685,32 @@ def _global_attrs(spec: Spec, attrs: Mapping[str, Any], scales: set[str] = froze
     out.update({k: _attribute_value(v) for k, v in attrs.items() if v is not None})
     out["history"] = _history(spec, attrs)
     return {k: v for k, v in out.items() if v is not None}
+
+
+def _contact_units(spec: Spec) -> dict[str, str]:
+    """The global unit attributes of a contact sweep: stresses in G or GPa, lengths in a or L."""
+    gpa = _names_crystals(spec)
+    stress = (
+        "GPa (library crystal constants)"
+        if gpa
+        else "G (shear modulus; (C11 - C12)/2 for a cubic crystal from nu and A)"
+    )
+    return {
+        "stiffness_units": f"forces per unit displacement in units of {'GPa' if gpa else 'G'} a (a semi-major extent of the punch = 1)",
+        "stress_units": stress,
+        "length_units": "a: semi-major extent of the punch (= 1 on the grid; for a mask, half the long side of the contact); "
+        "L: unit of the sphere's radius and depth",
+    }
+
+
+def _slip_units(spec: Spec) -> dict[str, str]:
+    """The global unit attribute of a slip sweep: SI for library materials, else the input's F and L."""
+    if _names_materials(spec):
+        return {"units": "SI: forces in N, lengths in m, stiffnesses in N/m, areas in m2 (library materials, Pa)"}
+    return {"units": "F and L: the force and length units of the input (moduli in F/L2, radii in L)"}
+
+
+UNIT_ATTRIBUTES: Mapping[str, Callable[[Spec], dict[str, str]]] = {CONTACT: _contact_units, SLIP: _slip_units}
 
 
 def _attribute_value(value: Any) -> Any:

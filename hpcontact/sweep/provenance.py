@@ -12,7 +12,6 @@ numpy, scipy and pyFFTW and the machine architecture.
 
 from __future__ import annotations
 
-import dataclasses
 import hashlib
 import json
 import os
@@ -24,8 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from hpcontact import __version__
-from hpcontact.problems.kinds import SLIP, scene_kind, validator
-from hpcontact.scene import DEFAULTS
+from hpcontact.problems.kinds import kind_of
 from hpcontact.sweep.journal import Entry, to_json
 
 REVISION_VARIABLE = "HPCONTACT_GIT_REVISION"  # overrides the detected revision (installs without .git)
@@ -85,10 +83,9 @@ def current() -> dict[str, Any]:
 
 
 def resolved_scene(params: Mapping[str, Any]) -> dict[str, Any]:
-    """The scene ``params`` with every default filled in (see the module docstring)."""
-    if scene_kind(params) == SLIP:
-        return json.loads(to_json(dataclasses.asdict(validator(SLIP)(params))))
-    return json.loads(to_json({**DEFAULTS, **params}))
+    """The scene ``params`` with every default filled in (``Kind.resolve``, see the module
+    docstring), as its JSON reads back."""
+    return json.loads(to_json(kind_of(params).resolve(params)))
 
 
 def describe(provenance: Mapping[str, Any]) -> str:

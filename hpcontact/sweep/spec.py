@@ -102,7 +102,7 @@ import numpy as np
 
 from hpcontact.errors import InputError
 from hpcontact.materials.elastic_constants import FAMILIES as CONSTANT_FAMILIES
-from hpcontact.problems.kinds import CONTACT, SLIP, interval_fields, scene_kind, validator
+from hpcontact.problems.kinds import CONTACT, KINDS, Kind, kind_of
 from hpcontact.scene import ACCURACY_RANGE
 from hpcontact.sweep.adaptive_settings import parse_settings
 
@@ -288,6 +288,11 @@ class Spec:
     adaptive: Any = None  # [adaptive]: adaptive.Settings (None: every point is solved)
 
     @property
+    def kind_record(self) -> Kind:
+        """The registry's record of the spec's scene kind (``kinds.KINDS``)."""
+        return KINDS[self.kind]
+
+    @property
     def task_axes(self) -> tuple[Axis, ...]:
         """Axes that need a solve per value: all but ``angle`` in tensor mode."""
         if self.angle_mode == "tensor":
@@ -314,7 +319,7 @@ class Spec:
         """
         params, tables, angle = self._merged(index)
         params = self._finished(params, tables, angle)
-        if reduce_material and self.kind == CONTACT:
+        if reduce_material and self.kind_record.reduces_fields:
             _drop_ignored_material_fields(params)
         return params
 
@@ -340,7 +345,7 @@ class Spec:
             params.update(table)
         if angle is not None:
             params["shape_angle"] = float(params.get("shape_angle", 0.0)) - angle
-        if self.kind == CONTACT and "shape" in params:
+        if self.kind_record.reduces_fields and "shape" in params:
             for name, shapes in SHAPE_ONLY_FIELDS.items():
                 if name in params and params["shape"] not in shapes:
                     del params[name]
@@ -489,18 +494,18 @@ def parse_spec(
             raise InputError(f"axes.{axis.name}", f"an axis or a fixed [{section}] field, not both")
 
     _refuse_grid_with_accuracy(fixed, axes, "--accuracy" if accuracy is not None else "numerics.accuracy")
-    kind = scene_kind(fixed)
-    if kind == SLIP and ("accuracy" in fixed or any(a.name == "accuracy" for a in axes)):
+    kind = kind_of(fixed)
+    if not kind.accuracy_applies and ("accuracy" in fixed or any(a.name == "accuracy" for a in axes)):
         raise InputError(
             "--accuracy" if accuracy is not None else "numerics.accuracy",
-            "not with slip scenes (a slip scene is solved on its grid, n cells across the contact)",
+            f"not with {kind.name} scenes ({kind.accuracy_refused})",
             fixed.get("accuracy"),
         )
-    if kind == SLIP:
+    if kind.angle_mode_refused is not None:
         if "angle_mode" in sweep:
             raise InputError(
                 "sweep.angle_mode",
-                "not used by slip scenes (angle is the load direction, solved per value)",
+                f"not used by {kind.name} scenes ({kind.angle_mode_refused})",
                 sweep["angle_mode"],
             )
         angle_mode = ANGLE_FIELD
@@ -537,7 +542,7 @@ def parse_spec(
         progress_interval=float(interval),
         fixed=fixed,
         axes=axes,
-        kind=kind,
+        kind=kind.name,
     )
     if "adaptive" in data:  # the solved subset of the grid (hpcontact.sweep.adaptive)
         spec = replace(spec, adaptive=parse_settings(adaptive, axes, axes_table, spec.task_axes))
@@ -881,10 +886,10 @@ def _context_runs(
         return
     if checker is not None:
         checker.run(index, base, field, values)
-    contact = spec.kind == CONTACT
-    branches = REDUCTION_BRANCHES.get(field, ()) if contact else ()
+    reduces = spec.kind_record.reduces_fields
+    branches = REDUCTION_BRANCHES.get(field, ()) if reduces else ()
     reduced = dict(base)
-    if contact:
+    if reduces:
         _drop_ignored_material_fields(reduced)
     template = None
     if reduced.get(field) is PLACEHOLDER:
@@ -946,7 +951,7 @@ def _point_run(
     text = canonical_json(params)
     if checker is not None:
         checker.scene(index, params, text)
-    if spec.kind == CONTACT:
+    if spec.kind_record.reduces_fields:
         fields = len(params)
         _drop_ignored_material_fields(params)
         if len(params) != fields:
@@ -961,8 +966,8 @@ class _Check:
 
     def __init__(self, spec: Spec, validate: Validator | None, intervals: bool = True) -> None:
         self.spec = spec
-        self.validate = validator(spec.kind) if validate is None else validate
-        self.intervals = interval_fields(spec.kind) if validate is None and intervals else {}
+        self.validate = spec.kind_record.validate if validate is None else validate
+        self.intervals = spec.kind_record.interval_fields if validate is None and intervals else {}
         self.seen: set[str] = set()  # texts of the scenes validated
 
     def scene(self, index: tuple[int, ...], params: Mapping[str, Any], text: str | None = None) -> None:
