@@ -1,0 +1,308 @@
+"""The one field schema (``hpcontact.fields``): the tables it replaced are its queries.
+
+Each reference below is the literal table as the package held it before the schema (issue 38):
+a derived table must equal it exactly.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from hpcontact import fields
+from hpcontact.errors import InputError
+from hpcontact.fields import CONTACT, SLIP
+
+OLD_KERNEL_NEUTRAL_FIELDS = {
+    "shape",
+    "sides",
+    "amplitude",
+    "shape_angle",
+    "seed",
+    "hurst",
+    "rms",
+    "mask",
+    "tol",
+    "quantities",
+    "threads",
+    "precondition",
+    "normal_held",
+}
+OLD_GRID_NEUTRAL_FIELDS = {
+    "nu",
+    "G",
+    "tol",
+    "threads",
+    "precondition",
+    "orientation",
+    "miller",
+    "azimuth",
+    "normal_held",
+}
+OLD_COST_NEUTRAL_FIELDS = {"nu", "G", "threads", "precondition", "orientation", "miller", "azimuth"}
+OLD_SLIP_KERNEL_NEUTRAL_FIELDS = {
+    "load",
+    "mu",
+    "q_ratio",
+    "angle",
+    "steps",
+    "control",
+    "displacement",
+    "path",
+    "coupling",
+    "tensor",
+    "history",
+    "tol",
+    "quantities",
+    "threads",
+    "precondition",
+}
+OLD_DEFAULTS = {
+    "shape": "circle",
+    "aspect": 1.0,
+    "sides": 5,
+    "shape_angle": 0.0,
+    "amplitude": 0.2,
+    "seed": 0,
+    "hurst": 0.8,
+    "rms": 0.02,
+    "mask": None,
+    "nu": 0.3,
+    "G": 1.0,
+    "anisotropy": 1.0,
+    "orientation": None,
+    "miller": None,
+    "azimuth": 0.0,
+    "material": None,
+    "cubic": None,
+    "orthotropic": None,
+    "voigt": None,
+    "n": 128,
+    "n_across": None,
+    "tol": 1e-8,
+    "accuracy": None,
+    "quantities": ("tangential",),
+    "radius": None,
+    "depth": None,
+    "threads": 1,
+    "precondition": True,
+    "normal_held": "approach",
+}
+OLD_FLOAT_FIELDS = {
+    "angle",
+    "nu",
+    "aspect",
+    "anisotropy",
+    "orientation",
+    "tol",
+    "accuracy",
+    "G",
+    "shape_angle",
+    "amplitude",
+    "hurst",
+    "rms",
+    "radius",
+    "depth",
+    "azimuth",
+    "load",
+    "mu",
+    "q_ratio",
+    "radius_b",
+    "radius2",
+    "radius2_b",
+    "body2_angle",
+    "E",
+    "E2",
+    "G2",
+    "nu2",
+    "displacement",
+    "anisotropy2",
+    "orientation2",
+    "azimuth2",
+}
+OLD_INT_FIELDS = {"n", "n_across", "sides", "seed", "threads", "steps"}
+OLD_FLAT_FIELDS = {"radius_b", "radius2", "radius2_b"}
+OLD_PATH_FIELDS = {"mask"}
+OLD_STRING_FIELDS = {
+    "material": "a library material name (crystals: Cu, Al, Fe, ...; slip bodies: Cu, Fe, Al, rigid)",
+    "material2": "a library material name of body 2 (Cu, Fe, Al, rigid)",
+    "control": "force or displacement",
+    "path": "load or loop",
+    "coupling": "auto, both, coupled or decoupled",
+    "mask": "a .npy or .png mask file; a relative path is relative to the spec's folder",
+    "normal_held": "approach or load: what the tangential stiffness holds in the normal direction",
+}
+OLD_SHAPE_ONLY_FIELDS = {
+    "aspect": {"ellipse", "rectangle"},
+    "sides": {"polygon", "star"},
+    "amplitude": {"star"},
+    "seed": {"rough"},
+    "hurst": {"rough"},
+    "rms": {"rough"},
+    "mask": {"mask"},
+}
+OLD_AXIS_ATTRS = {
+    "shape": {"long_name": "contact shape"},
+    "angle": {"long_name": "direction of the tangential load from the x axis", "units": "degree"},
+    "nu": {"long_name": "Poisson ratio", "units": "1"},
+    "aspect": {"long_name": "aspect ratio b/a of the contact", "units": "1"},
+    "anisotropy": {"long_name": "cubic anisotropy factor A = 2 C44 / (C11 - C12)", "units": "1"},
+    "orientation": {"long_name": "surface normal along [110] -> [111] -> [001]", "units": "degree"},
+    "material": {"long_name": "library crystal (elastic constants in GPa)"},
+    "normal_held": {
+        "long_name": "what the tangential stiffness holds in the normal direction: approach (u_z = 0) or load (F_z = 0)"
+    },
+    "miller": {"long_name": "surface normal (h k l) of the crystal"},
+    "azimuth": {"long_name": "in-plane turn of the crystal about the surface normal", "units": "degree"},
+    "radius": {"long_name": "radius R of the rigid sphere", "units": "L"},
+    "depth": {"long_name": "approach d of the rigid sphere", "units": "L"},
+    "n": {"long_name": "grid cells along the long side", "units": "1"},
+    "n_across": {"long_name": "grid cells across the short side", "units": "1"},
+    "tol": {"long_name": "conjugate-gradient relative residual tolerance", "units": "1"},
+    "accuracy": {"long_name": "requested relative accuracy of every stiffness (grid extrapolation)", "units": "1"},
+    "G": {"long_name": "shear modulus G: the stress unit of the scene", "units": "1"},
+    "amplitude": {"long_name": "relative lobe amplitude of the star", "units": "1"},
+    "sides": {"long_name": "polygon sides or star lobes", "units": "1"},
+    "shape_angle": {"long_name": "rotation of the shape on the grid", "units": "degree"},
+    "seed": {"long_name": "random seed of the rough surface", "units": "1"},
+    "hurst": {"long_name": "Hurst exponent of the rough surface", "units": "1"},
+    "rms": {"long_name": "rms height of the rough surface", "units": "a"},
+    "mask": {"long_name": "contact mask image (path)"},
+    "threads": {"long_name": "FFTW threads per solve", "units": "1"},
+    "quantities": {"long_name": "quantities solved for"},
+}
+#: The coordinate entries of the old ``dataset.SLIP_ATTRS`` that are fields (not ``pair``),
+#: and the kind-neutral ones a slip data set took from the contact table (tol, threads, quantities).
+OLD_SLIP_COORDINATE_ATTRS = {
+    "mu": ("friction coefficient", "1"),
+    "q_ratio": ("tangential load at the end of the path Q/(mu P)", "1"),
+    "angle": ("direction of the tangential load from x", "degree"),
+    "radius": ("radius of curvature of body 1", "L"),
+    "radius_b": ("second principal radius of curvature of body 1", "L"),
+    "radius2": ("radius of curvature of body 2 (inf: flat)", "L"),
+    "radius2_b": ("second principal radius of curvature of body 2", "L"),
+    "body2_angle": ("angle between the principal axes of the bodies", "degree"),
+    "material": ("material of body 1 (hpcontact.problems.slip.bodies library, or crystal:NAME)", ""),
+    "material2": ("material of body 2 (hpcontact.problems.slip.bodies library, or crystal:NAME)", ""),
+    "orthotropic": ("orthotropic engineering constants of body 1", ""),
+    "orthotropic2": ("orthotropic engineering constants of body 2", ""),
+    "orientation": ("surface normal of the crystal along [110] -> [111] -> [001]", "degree"),
+    "azimuth": ("in-plane turn of the crystal about the surface normal", "degree"),
+    "miller": ("surface normal (h k l) of the crystal", ""),
+    "E": ("Young's modulus of body 1", "F L-2"),
+    "G": ("shear modulus of body 1", "F L-2"),
+    "nu": ("Poisson ratio of body 1", "1"),
+    "E2": ("Young's modulus of body 2", "F L-2"),
+    "G2": ("shear modulus of body 2", "F L-2"),
+    "nu2": ("Poisson ratio of body 2", "1"),
+    "displacement": ("final tangential displacement (displacement control)", "L"),
+    "n": ("grid cells across the contact's major diameter", "1"),
+    "steps": ("tangential load steps", "1"),
+    "control": ("tangential load control: force or displacement", ""),
+    "path": ("tangential loading path: load, or loop (load, unload, reload)", ""),
+    "coupling": ("coupling of the normal and tangential problems: auto, both, coupled or decoupled", ""),
+    "load": ("normal load P", "F"),
+    "tol": ("conjugate-gradient relative residual tolerance", "1"),
+    "threads": ("FFTW threads per solve", "1"),
+    "quantities": ("quantities solved for", ""),
+}
+OLD_SLIP_VALIDATOR_FIELDS = (
+    "quantities radius radius_b radius2 radius2_b body2_angle material material2 E G nu E2 G2 nu2 load mu q_ratio "
+    "angle n tol steps control displacement path tensor history coupling threads precondition normal_friction "
+    "anisotropy cubic orthotropic voigt orientation miller azimuth "
+    "anisotropy2 cubic2 orthotropic2 voigt2 orientation2 miller2 azimuth2"
+).split()
+
+
+def test_task_neutral_tables_are_the_old_ones():
+    assert set(fields.names(CONTACT, neutral_to="kernel")) == OLD_KERNEL_NEUTRAL_FIELDS
+    assert set(fields.names(CONTACT, neutral_to="grid")) == OLD_GRID_NEUTRAL_FIELDS
+    assert set(fields.names(CONTACT, neutral_to="cost")) == OLD_COST_NEUTRAL_FIELDS
+    assert set(fields.names(SLIP, neutral_to="kernel")) == OLD_SLIP_KERNEL_NEUTRAL_FIELDS
+
+
+def test_contact_defaults_are_the_old_ones_in_their_order():
+    assert fields.defaults(CONTACT) == OLD_DEFAULTS
+    assert set(fields.names(CONTACT)) == set(OLD_DEFAULTS)
+
+
+def test_spec_type_tables_are_the_old_ones():
+    assert fields.of_type(float) == OLD_FLOAT_FIELDS
+    assert fields.of_type(int) == OLD_INT_FIELDS
+    assert fields.flat_fields() == OLD_FLAT_FIELDS
+    assert fields.path_fields() == OLD_PATH_FIELDS
+    assert fields.string_texts() == OLD_STRING_FIELDS
+    shape_only = {name: set(readers) for name, (_, readers, why) in fields.read_by("shape").items() if why is None}
+    assert shape_only == OLD_SHAPE_ONLY_FIELDS
+
+
+def test_coordinate_attributes_are_the_old_ones():
+    assert fields.axis_attrs(CONTACT) == OLD_AXIS_ATTRS
+    slip = {name: (a["long_name"], a.get("units", "")) for name, a in fields.axis_attrs(SLIP).items()}
+    assert slip == OLD_SLIP_COORDINATE_ATTRS
+
+
+def test_slip_fields_are_the_slip_validators():
+    assert set(fields.names(SLIP)) == set(OLD_SLIP_VALIDATOR_FIELDS)
+
+
+def test_shapes_are_the_geometrys():
+    from hpcontact.geometry import SHAPES
+
+    assert fields.SHAPES == SHAPES
+
+
+def test_range_messages_are_the_materials():
+    from hpcontact.materials import isotropic
+
+    assert isotropic.NU_RANGE == fields.field("nu").message
+    assert isotropic.modulus_range("shear modulus") == fields.field("G").message
+
+
+def test_a_slip_variant_differs_only_where_declared():
+    contact, slip = fields.field("n"), fields.field("n", SLIP)
+    assert (contact.default, slip.default) == (128, 64)
+    assert slip.check(8) == 8 and contact.check(2) == 2
+    with pytest.raises(InputError, match=r"n = 4: an integer in \[8, 4096\]"):
+        slip.check(4)
+    assert slip.help == contact.help and slip.kinds == contact.kinds
+
+
+@pytest.mark.parametrize(
+    ("name", "good", "bad"),
+    [
+        ("nu", (0.5, -0.999), (-1.0, 0.51, math.nan, "x", True)),
+        ("aspect", (1e-12, 1.0), (1e-13, 1.5, math.inf)),
+        ("tol", (1e-14, 1e-2), (1e-15, 0.1)),
+        ("accuracy", (1e-9, 0.999), (1.0, 1e-10)),
+        ("anisotropy", (0.01, 100.0), (0.0, 101.0)),
+        ("n", (2, 4096.0), (1, 2.5, "a")),
+        ("seed", (0,), (-1,)),
+    ],
+)
+def test_check_is_the_interval_with_its_one_message(name, good, bad):
+    f = fields.field(name)
+    for value in good:
+        assert f.check(value) == value
+    for value in bad:
+        with pytest.raises(InputError) as caught:
+            f.check(value)
+        assert caught.value.field == name and caught.value.allowed == f.message
+
+
+def test_cli_help_fills_default_range_and_choices():
+    assert fields.cli_help("nu") == "Poisson ratio in (-1, 0.5]; < 0.5 for a crystal (A != 1) (default: 0.3)"
+    assert fields.cli_help("shape").startswith("circle, ellipse, rectangle") and "(default: circle)" in fields.cli_help(
+        "shape"
+    )
+    assert fields.cli_help("quantities").endswith("(default: tangential)")
+    assert fields.cli_help("n").endswith("else 128)")
+    assert "{" not in "".join(fields.cli_help(f.name) for f in fields.cli_fields())
+
+
+def test_every_field_is_declared_once_with_a_kind_or_as_a_solve_option():
+    all_names = [f.name for f in fields.FIELDS]
+    assert len(all_names) == len(set(all_names))
+    assert [f.name for f in fields.FIELDS if not f.kinds] == ["memory"]
+    assert all(set(f.changes) <= set(fields.EFFECTS) for f in fields.FIELDS)
