@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import difflib
 import math
+from collections.abc import Iterable
 from typing import Any
 
 
@@ -27,6 +29,19 @@ def unused_field(field: str, value: Any, setting: str, setting_value: Any, why: 
     ratio); leave nu out``. ``setting`` is the field whose value ``setting_value`` makes ``field``
     unused, ``why`` says why."""
     return InputError(field, f"not used with {setting} = {setting_value!r} ({why}); leave {field} out", value)
+
+
+def did_you_mean(word: Any, choices: Iterable[str], quote: bool = False) -> str:
+    """``"; did you mean X?"`` with the name of ``choices`` closest to an unknown ``word``
+    (difflib, ratio >= 0.6; else one that differs only in case), ``""`` when none is close or
+    the closest is ``word`` itself; ``quote``: X as Python shows a string (``'aspect'``)."""
+    names = list(choices)
+    close = difflib.get_close_matches(str(word), names, n=1, cutoff=0.6) or [
+        c for c in names if c.lower() == str(word).lower()
+    ]
+    if not close or close[0] == word:
+        return ""
+    return f"; did you mean {close[0]!r}?" if quote else f"; did you mean {close[0]}?"
 
 
 class ConvergenceError(RuntimeError):

@@ -163,8 +163,9 @@ _NONE: frozenset[str] = frozenset()
 _SHAPE = _changes("grid", "cost")  # the outline: not the material or the grid spacing
 _BOTH = (CONTACT, SLIP)
 
-#: Every field, in the order of ``hpcontact solve --help`` (its groups: scene, material,
-#: numerics, partial slip).
+#: Every field: the contact scene's in the order of ``hpcontact.scene.DEFAULTS`` (within each
+#: group of ``hpcontact solve --help``: scene, material, numerics, the order of its options),
+#: then the slip scene's own.
 FIELDS: tuple[Field, ...] = (
     # scene
     Field(
@@ -282,54 +283,6 @@ FIELDS: tuple[Field, ...] = (
         changes=_SHAPE,
         text="a .npy or .png mask file; a relative path is relative to the spec's folder",
         path=True,
-    ),
-    Field(
-        "quantities",
-        object,
-        ("tangential",),
-        kinds=_BOTH,
-        long_name="quantities solved for",
-        help="comma list: tangential, normal, compliance, coupled, indentation; or slip{default}",
-        group="scene",
-        changes=_SHAPE,
-        slip=(("default", ("slip",)),),
-    ),
-    Field(
-        "radius",
-        float,
-        None,
-        Interval(MIN_RADIUS, 1.0 / MIN_RADIUS),
-        RADIUS_RANGE,
-        kinds=_BOTH,
-        read_by=("quantities", ("indentation",), None),
-        long_name="radius R of the rigid sphere",
-        unit="L",
-        help="rigid sphere radius (indentation; unit L of your choice), or radius of body 1 (slip)",
-        group="scene",
-        slip=(("interval", None), ("message", None), ("long_name", "radius of curvature of body 1")),
-    ),
-    Field(
-        "depth",
-        float,
-        None,
-        None,
-        DEPTH_RANGE,
-        read_by=("quantities", ("indentation",), None),
-        long_name="approach d of the rigid sphere",
-        unit="L",
-        help="rigid sphere approach (indentation), in [1e-15, 1) x radius",
-        group="scene",
-    ),
-    Field(
-        "normal_held",
-        str,
-        "approach",
-        choices=NORMAL_HELD,
-        long_name="what the tangential stiffness holds in the normal direction: approach (u_z = 0) or load (F_z = 0)",
-        help="what tangential holds normally: approach (u_z = 0) or load (F_z = 0; differs for crystals only){default}",
-        group="scene",
-        changes=_changes("cost"),
-        text="approach or load: what the tangential stiffness holds in the normal direction",
     ),
     # material
     Field(
@@ -511,6 +464,43 @@ FIELDS: tuple[Field, ...] = (
         metavar="SIZE",
     ),
     Field(
+        "quantities",
+        object,
+        ("tangential",),
+        kinds=_BOTH,
+        long_name="quantities solved for",
+        help="comma list: tangential, normal, compliance, coupled, indentation; or slip{default}",
+        group="scene",
+        changes=_SHAPE,
+        slip=(("default", ("slip",)),),
+    ),
+    Field(
+        "radius",
+        float,
+        None,
+        Interval(MIN_RADIUS, 1.0 / MIN_RADIUS),
+        RADIUS_RANGE,
+        kinds=_BOTH,
+        read_by=("quantities", ("indentation",), None),
+        long_name="radius R of the rigid sphere",
+        unit="L",
+        help="rigid sphere radius (indentation; unit L of your choice), or radius of body 1 (slip)",
+        group="scene",
+        slip=(("interval", None), ("message", None), ("long_name", "radius of curvature of body 1")),
+    ),
+    Field(
+        "depth",
+        float,
+        None,
+        None,
+        DEPTH_RANGE,
+        read_by=("quantities", ("indentation",), None),
+        long_name="approach d of the rigid sphere",
+        unit="L",
+        help="rigid sphere approach (indentation), in [1e-15, 1) x radius",
+        group="scene",
+    ),
+    Field(
         "threads",
         int,
         1,
@@ -533,6 +523,17 @@ FIELDS: tuple[Field, ...] = (
         option="--no-precondition",
         group="numerics",
         changes=_NONE,
+    ),
+    Field(
+        "normal_held",
+        str,
+        "approach",
+        choices=NORMAL_HELD,
+        long_name="what the tangential stiffness holds in the normal direction: approach (u_z = 0) or load (F_z = 0)",
+        help="what tangential holds normally: approach (u_z = 0) or load (F_z = 0; differs for crystals only){default}",
+        group="scene",
+        changes=_changes("cost"),
+        text="approach or load: what the tangential stiffness holds in the normal direction",
     ),
     # partial slip
     *(

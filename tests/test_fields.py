@@ -224,6 +224,7 @@ def test_task_neutral_tables_are_the_old_ones():
 
 def test_contact_defaults_are_the_old_ones_in_their_order():
     assert fields.defaults(CONTACT) == OLD_DEFAULTS
+    assert list(fields.defaults(CONTACT)) == list(OLD_DEFAULTS)
     assert set(fields.names(CONTACT)) == set(OLD_DEFAULTS)
 
 

@@ -12,24 +12,9 @@ from dataclasses import dataclass
 
 from hpcontact.errors import InputError
 
-#: The Poisson ratio of an isotropic body, the one statement of its range (``hpcontact.scene``
-#: and the command line's help import it): nu = −1 (zero bulk modulus) is refused, nu = 0.5
-#: (incompressible) allowed, its closed-form kernels hold. A crystal's stiffness needs
-#: nu < 0.5 (``crystal.CRYSTAL_NU_RANGE``).
-NU_RANGE = "Poisson ratio in (-1, 0.5]"
-#: Moduli (G, E, a crystal's constants, in the scene's stress unit) within 1e-100 … 1e100: the
-#: solver's arithmetic stays finite and normal there. Kernels scale as h/G (cells h down to
-#: ~1e-16 a at b/a = 1e-12), CG inner products as N h^k G^±1 over up to 2**26 cells, and the
-#: Barnett–Lothe kernel forms 3 x 3 Christoffel determinants, cubes of the constants: at
-#: 1e±100 these are ~1e±300 at worst, inside float64's 1e-308 … 1.8e308 (measured: G = 1e300
-#: fails on a 1024 grid, a crystal at 1e±290 on any grid).
-MIN_MODULUS = 1e-100
-MAX_MODULUS = 1e100
-
-
-def modulus_range(what: str = "modulus") -> str:
-    """The allowed range of a modulus in words (``MIN_MODULUS`` … ``MAX_MODULUS``)."""
-    return f"{what} in [{MIN_MODULUS:g}, {MAX_MODULUS:g}] (finite arithmetic in the solver)"
+# The Poisson ratio's range (nu = 0.5 allowed: the closed-form kernels hold; a crystal needs
+# nu < 0.5, ``crystal.CRYSTAL_NU_RANGE``) and the moduli's are stated once, in the field schema.
+from hpcontact.fields import MAX_MODULUS, MIN_MODULUS, NU_RANGE, modulus_range
 
 
 def modulus(field: str, value: float, what: str = "modulus") -> float:
