@@ -1,0 +1,169 @@
+"""The sweep data set on disk (hpcontact.sweep.netcdf): chunks, the stored types, a write that is
+atomic and names its output when it fails, checksums that catch a damaged chunk, and the plan
+codes of older files read back as text. What was stored is inspected with netCDF4 and h5py."""
+
+from __future__ import annotations
+
+import errno
+import json
+import math
+import os
+from pathlib import Path
+
+import h5py
+import netCDF4
+import numpy as np
+import pytest
+import xarray as xr
+
+from hpcontact.sweep import netcdf
+from hpcontact.sweep.netcdf import CHUNK_BYTES, INT_FILL, DamagedFile, chunk_shape, read, verify, write
+
+
+@pytest.mark.parametrize(
+    ("shape", "itemsize", "expected"),
+    [
+        ((3, 4), 8, (3, 4)),  # small: one chunk
+        ((1000, 1000), 8, (500, 1000)),  # 8 MB: the leading axis halved once (4 000 000 B <= 4 MiB)
+        ((64, 3, 10_000), 8, (16, 3, 10_000)),  # 15.4 MB: the first axis only (64 -> 32 -> 16: 3.8 MB)
+        ((9, 7, 100_000), 8, (1, 4, 100_000)),  # the first axis down to 1 (5.6 MB), then the second
+        ((1, 10**7), 8, (1, 312_500)),  # the last axis halved only when the leading ones are 1
+        ((0, 5), 8, (1, 5)),  # an empty axis: chunks of at least 1
+    ],
+)
+def test_chunks_halve_the_leading_axes_first_until_they_fit(shape, itemsize, expected):
+    chunks = chunk_shape(shape, itemsize)
+    assert chunks == expected and math.prod(chunks) * itemsize <= CHUNK_BYTES
+
+
+def _data_set() -> xr.Dataset:
+    aspect = np.array([1.0, 0.5, 0.25])
+    nu = np.array([0.0, 0.5])
+    K = np.arange(6.0).reshape(3, 2) / 7.0
+    K[1, 1] = np.nan
+    iterations = np.array([[3.0, 4.0], [5.0, np.nan], [7.0, 8.0]])
+    plans = np.array([['{"solves": 2}', ""], ['{"solves": 2}', '{"solves": 1}'], ["", ""]], dtype=object)
+    return xr.Dataset(
+        {
+            "K_xx": (("aspect", "nu"), K, {"long_name": "stiffness", "units": "1"}),
+            "iterations": (("aspect", "nu"), iterations),
+            "status": (("aspect", "nu"), np.zeros((3, 2), dtype=np.int64)),
+            "plan": (("aspect", "nu"), plans),
+            "radius": ((), 1.5),
+        },
+        coords={"aspect": aspect, "nu": nu},
+        attrs={"title": "t", "resumed": True, "tasks": 6, "big": 2**40},
+    )
+
+
+def test_a_written_data_set_reads_back_as_it_was_built(tmp_path):
+    ds = _data_set()
+    path = write(ds, tmp_path / "sub" / "out.nc")
+    assert path == tmp_path / "sub" / "out.nc" and os.listdir(path.parent) == ["out.nc"]  # no temporary left
+    with read(path) as back:
+        back = back.load()
+    for name in ("K_xx", "iterations", "radius", "aspect", "nu"):
+        np.testing.assert_array_equal(back[name].values, ds[name].values, err_msg=name)  # NaN where NaN
+    assert back["status"].values.tolist() == [[0, 0]] * 3
+    assert back["plan"].values.tolist() == ds["plan"].values.tolist()
+    assert back["K_xx"].attrs["long_name"] == "stiffness"
+    assert back.attrs["resumed"] == "true" and back.attrs["tasks"] == 6 and back.attrs["big"] == 2**40
+
+
+def test_counts_are_int32_with_a_fill_numbers_compressed_and_checksummed(tmp_path):
+    path = write(_data_set(), tmp_path / "out.nc")
+    with netCDF4.Dataset(path) as nc:
+        iterations = nc["iterations"]
+        assert iterations.dtype == np.int32 and iterations.getncattr("_FillValue") == INT_FILL
+        iterations.set_auto_maskandscale(False)
+        assert iterations[1, 1] == INT_FILL
+        assert nc["status"].dtype == np.int32 and "_FillValue" not in nc["status"].ncattrs()
+        assert "_FillValue" not in nc["aspect"].ncattrs()  # a coordinate without a fill
+        assert nc["plan"].dtype == np.dtype("S1")  # text as characters
+        for name in ("K_xx", "iterations", "plan"):
+            filters = nc[name].filters()
+            assert filters["zlib"] and filters["shuffle"] and filters["fletcher32"], name
+            assert filters["complevel"] == netcdf.COMPLEVEL
+        assert nc["radius"].chunking() == "contiguous"  # a scalar cannot be chunked
+        assert type(nc.getncattr("tasks")) in (int, np.int32)
+
+
+def test_a_failed_write_names_the_output_and_leaves_no_temporary_file(tmp_path, monkeypatch):
+    def fails(self, target, **options):
+        Path(target).write_bytes(b"partial")
+        raise RuntimeError("NetCDF: HDF error")
+
+    monkeypatch.setattr(xr.Dataset, "to_netcdf", fails)
+    path = tmp_path / "out.nc"
+    with pytest.raises(OSError) as caught:
+        write(_data_set(), path)
+    assert caught.value.filename == str(path) and caught.value.errno == errno.EIO  # the disk has room
+    assert "NetCDF: HDF error" in str(caught.value) and os.listdir(tmp_path) == []
+
+
+def test_a_failed_write_on_a_full_file_system_is_enospc_with_the_free_bytes(tmp_path, monkeypatch):
+    def fails(self, target, **options):
+        raise RuntimeError("NetCDF: HDF error")
+
+    class Full:
+        f_bavail, f_frsize = 3, 512
+
+    monkeypatch.setattr(xr.Dataset, "to_netcdf", fails)
+    monkeypatch.setattr(netcdf.os, "statvfs", lambda folder: Full())
+    with pytest.raises(OSError) as caught:
+        write(_data_set(), tmp_path / "out.nc")
+    assert caught.value.errno == errno.ENOSPC
+    assert caught.value.strerror == f"{os.strerror(errno.ENOSPC)} (NetCDF: HDF error); 1536 bytes free"
+
+
+def test_the_old_file_stays_whole_when_a_new_write_fails(tmp_path, monkeypatch):
+    path = write(_data_set(), tmp_path / "out.nc")
+    before = path.read_bytes()
+    monkeypatch.setattr(xr.Dataset, "to_netcdf", lambda self, target, **options: 1 / 0)
+    with pytest.raises(ZeroDivisionError):
+        write(_data_set(), path)
+    assert path.read_bytes() == before and os.listdir(tmp_path) == ["out.nc"]
+
+
+def _flip_one_byte(path: Path, variable: str) -> None:
+    with h5py.File(path, "r") as h5:
+        info = h5[variable].id.get_chunk_info(0)
+    with open(path, "r+b") as fh:
+        fh.seek(info.byte_offset + info.size // 2)
+        byte = fh.read(1)[0]
+        fh.seek(info.byte_offset + info.size // 2)
+        fh.write(bytes([byte ^ 0xFF]))
+
+
+def test_verify_passes_a_whole_file_and_names_the_variable_of_a_damaged_chunk(tmp_path):
+    path = write(_data_set(), tmp_path / "out.nc")
+    verify(path)
+    _flip_one_byte(path, "iterations")
+    with pytest.raises(DamagedFile) as caught:
+        verify(path)
+    assert caught.value.variable == "iterations" and caught.value.filename == str(path)
+    assert str(caught.value).startswith(f"{path}: variable iterations is damaged (")
+
+
+def test_verify_reads_a_large_variable_a_few_chunks_at_a_time(tmp_path, monkeypatch):
+    monkeypatch.setattr(netcdf, "VERIFY_BYTES", 64)  # 8 values: each row of 2 read on its own
+    ds = xr.Dataset({"v": (("i", "j"), np.arange(40.0).reshape(20, 2))})
+    path = write(ds, tmp_path / "big.nc")
+    verify(path)
+    _flip_one_byte(path, "v")
+    with pytest.raises(DamagedFile, match="variable v is damaged"):
+        verify(path)
+
+
+def test_plan_codes_of_an_older_file_read_back_as_text(tmp_path):
+    plans = ['{"solves": 1}', '{"solves": 2}']
+    codes = xr.DataArray(
+        [[0.0, 1.0], [np.nan, 0.0]],
+        dims=("aspect", "nu"),
+        attrs={"plan_table": json.dumps(plans), "text_attributes": json.dumps({"long_name": "solve plan"})},
+    )
+    path = tmp_path / "old.nc"
+    xr.Dataset({"plan": codes}).to_netcdf(path, engine="netcdf4")
+    with read(path) as ds:
+        assert ds["plan"].values.tolist() == [[plans[0], plans[1]], ["", plans[0]]]
+        assert ds["plan"].attrs == {"long_name": "solve plan"}
