@@ -12,16 +12,27 @@ import functools
 import math
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from hpcontact.errors import InputError, finite_number, integer, unused_field
+from hpcontact.fields import ACCURACY_RANGE as ACCURACY_RANGE  # the sweep's spec reads it here, for now
+from hpcontact.fields import (
+    CONTACT,
+    DEPTH_RANGE,
+    MIN_DEPTH,
+    NORMAL_HELD,
+    RADIUS_RANGE,
+    defaults,
+    field,
+    read_by,
+)
 from hpcontact.geometry import SHAPES, Shape, mask_pixels
 from hpcontact.materials.crystal import Crystal, crystal, cubic_from_nu_A
 from hpcontact.materials.elastic_constants import FAMILIES, FIXED_BY_CONSTANTS, constants_material
-from hpcontact.materials.isotropic import NU_RANGE, Isotropic, modulus, modulus_range
+from hpcontact.materials.isotropic import Isotropic
 
 Material = Isotropic | Crystal
 
@@ -29,27 +40,6 @@ QUANTITIES = ("tangential", "normal", "compliance", "coupled", "indentation")
 #: Quantities whose discretization follows the contact's edge, so that grids can be refined and
 #: extrapolated (``hpcontact.discretizations.boundary_cells``, ``hpcontact.accuracy``).
 REFINABLE_QUANTITIES = ("tangential", "normal", "coupled")
-#: A requested accuracy (``accuracy``: the estimated relative error every reported stiffness
-#: must reach, ``hpcontact.accuracy.solve_to_accuracy``).
-ACCURACY_RANGE = "a relative error in [1e-9, 1)"
-#: What the ``tangential`` stiffness holds fixed in the normal direction (``normal_held``,
-#: ``hpcontact.plan``, ``hpcontact.quantities.load_held_stiffness``): the normal approach
-#: (u_z = 0, the default: Li 2017 and the existing data sets) or the normal load (F_z = 0,
-#: Mindlin 1949 / Cattaneo's experiment). The two coincide for isotropic bodies; any scene
-#: accepts the field, and only ``tangential`` reads it.
-NORMAL_HELD = ("approach", "load")
-
-#: b/a below 1e-12 is refused: the cell integrals are verified for cell aspect 1e-10 … 1e10
-#: (tests/kernels) and K_a/K_b for b/a down to 1e-12 (tests/test_hard_cases.py); by 1e-160 the
-#: cell integrals overflow and by 1e-200 the cell height underflows.
-MIN_ASPECT = 1e-12
-ASPECT_RANGE = "b/a in [1e-12, 1]"
-#: Sphere radius and approach: lengths, loads (~ E* R^1/2 d^3/2) and cell areas (~ R d) stay
-#: far from overflow and underflow for radius in [1e-30, 1e30] and d/R in [1e-15, 1).
-MIN_RADIUS = 1e-30
-MIN_DEPTH = 1e-15
-RADIUS_RANGE = "sphere radius in [1e-30, 1e30]"
-DEPTH_RANGE = "approach d with d/radius in [1e-15, 1)"
 #: Fields whose valid values form one interval while every other field is held: ``from_params``
 #: checks a range of each (its limits are the ones above and in the checks below, nowhere else),
 #: and nothing else it does with the value fails inside that range, except at the branch values
@@ -74,68 +64,24 @@ INTERVAL_FIELDS: dict[str, tuple[float, ...]] = {
 #: (C11 − C12)/2 = G (``_built_material``).
 BODY_FIELDS = (*FAMILIES, "material")
 #: The one table of the fields that only some scenes read: field -> (the setting that decides,
-#: its values whose scenes read the field, why the others do not; None: "only ... read it").
-#: A field given (not None) for any other scene is refused (``_refuse_unused``) with one message
-#: (``errors.unused_field``), never silently ignored. The settings: ``shape``; ``quantities``
-#: (read when one of the values is asked); ``body``, the field of ``BODY_FIELDS`` given (None:
-#: none is, nu, G and A describe the body). A shape's field at its default value changes nothing
-#: and is accepted (a loop over shapes may pass aspect = 1 to each); a body's field is refused
-#: at any value (nu = 0.3 beside material = 'Cu' would read as copper's Poisson ratio). The
+#: its values whose scenes read the field, why the others do not; None: "only ... read it"),
+#: from the schema (``hpcontact.fields.Field.read_by``). A field given (not None) for any other
+#: scene is refused (``_refuse_unused``) with one message (``errors.unused_field``), never
+#: silently ignored. The settings: ``shape``; ``quantities`` (read when one of the values is
+#: asked); ``body``, the field of ``BODY_FIELDS`` given (None: none is, nu, G and A describe the
+#: body; why: ``FIXED_BY_CONSTANTS``). A shape's field at its default value changes nothing and
+#: is accepted (a loop over shapes may pass aspect = 1 to each); a body's field is refused at
+#: any value (nu = 0.3 beside material = 'Cu' would read as copper's Poisson ratio). The
 #: orientation fields (``orientation``, ``miller``, ``azimuth``) are read by every crystal, the
 #: library's and the constants' included, and accepted on an isotropic body, where they change
 #: nothing: a sweep over A that contains 1 gives them to every scene (and leaves them out of its
 #: isotropic scenes, ``hpcontact.sweep.spec``).
 UNUSED_FIELDS: dict[str, tuple[str, tuple[str | None, ...], str | None]] = {
-    "aspect": ("shape", ("ellipse", "rectangle"), None),
-    "sides": ("shape", ("polygon", "star"), None),
-    "amplitude": ("shape", ("star",), None),
-    "seed": ("shape", ("rough",), None),
-    "hurst": ("shape", ("rough",), None),
-    "rms": ("shape", ("rough",), None),
-    "mask": ("shape", ("mask",), None),
-    "shape_angle": (
-        "shape",
-        tuple(name for name in SHAPES if name not in ("mask", "rough")),
-        "a mask or a rough patch is not turned",
-    ),
-    "radius": ("quantities", ("indentation",), None),
-    "depth": ("quantities", ("indentation",), None),
-    "nu": ("body", (None,), FIXED_BY_CONSTANTS["nu"]),
-    "G": ("body", (None,), FIXED_BY_CONSTANTS["G"]),
-    "anisotropy": ("body", (None,), FIXED_BY_CONSTANTS["anisotropy"]),
+    name: (setting, readers, FIXED_BY_CONSTANTS[name] if setting == "body" else why)
+    for name, (setting, readers, why) in read_by().items()
 }
-
-DEFAULTS: dict[str, Any] = {
-    "shape": "circle",
-    "aspect": 1.0,
-    "sides": 5,
-    "shape_angle": 0.0,
-    "amplitude": 0.2,
-    "seed": 0,
-    "hurst": 0.8,
-    "rms": 0.02,
-    "mask": None,
-    "nu": 0.3,
-    "G": 1.0,
-    "anisotropy": 1.0,
-    "orientation": None,
-    "miller": None,
-    "azimuth": 0.0,
-    "material": None,
-    "cubic": None,
-    "orthotropic": None,
-    "voigt": None,
-    "n": 128,
-    "n_across": None,
-    "tol": 1e-8,
-    "accuracy": None,
-    "quantities": ("tangential",),
-    "radius": None,
-    "depth": None,
-    "threads": 1,
-    "precondition": True,
-    "normal_held": "approach",
-}
+#: The engine's default of every contact field (``hpcontact.fields``; a test may patch one here).
+DEFAULTS: dict[str, Any] = defaults(CONTACT)
 
 
 def _quantities(value: Any) -> tuple[str, ...]:
@@ -166,7 +112,7 @@ class Scene:
     normal_held: str = "approach"
     radius: float | None = None
     depth: float | None = None
-    params: dict = field(default_factory=dict, compare=False)
+    params: dict = dataclasses.field(default_factory=dict, compare=False)
 
     @classmethod
     def from_params(cls, params: Mapping[str, Any]) -> Scene:
@@ -179,26 +125,15 @@ class Scene:
             raise InputError("shape", f"one of {', '.join(SHAPES)}", p["shape"])
         quantities = _quantities(p["quantities"])
         _refuse_unused(params, p["shape"], quantities)
-        nu = finite_number("nu", p["nu"], NU_RANGE)
-        if not -1.0 < nu <= 0.5:
-            raise InputError("nu", NU_RANGE, p["nu"])
-        G = finite_number("G", p["G"], modulus_range("shear modulus"))
-        modulus("G", G, "shear modulus")
+        nu = field("nu").check(p["nu"])
+        G = field("G").check(p["G"])
         material = _turned_with_shape(constants_material(params) or _material(p, G, nu), p["shape_angle"])
-        aspect = finite_number("aspect", p["aspect"], ASPECT_RANGE)
-        if not MIN_ASPECT <= aspect <= 1.0:
-            raise InputError("aspect", ASPECT_RANGE, p["aspect"])
-        n = integer("n", p["n"], 2, "an integer >= 2 (cells along the long side)")
-        n_across = (
-            None
-            if p["n_across"] is None
-            else integer("n_across", p["n_across"], 1, "an integer >= 1 (cells across the short side)")
-        )
+        aspect = field("aspect").check(p["aspect"])
+        n = field("n").check(p["n"])
+        n_across = None if p["n_across"] is None else field("n_across").check(p["n_across"])
         if n * (n_across or n) > 2**26:
             raise InputError("n", "a grid of at most 2**26 cells", f"{n} x {n_across or n}")
-        tol = finite_number("tol", p["tol"], "CG tolerance in [1e-14, 1e-2]")
-        if not 1e-14 <= tol <= 1e-2:
-            raise InputError("tol", "CG tolerance in [1e-14, 1e-2]", p["tol"])
+        tol = field("tol").check(p["tol"])
         accuracy = None if p["accuracy"] is None else _accuracy(p["accuracy"], quantities, p["shape"])
         radius = None if p["radius"] is None else finite_number("radius", p["radius"], RADIUS_RANGE)
         depth = None if p["depth"] is None else finite_number("depth", p["depth"], DEPTH_RANGE)
@@ -206,23 +141,28 @@ class Scene:
             raise InputError("radius", f"{RADIUS_RANGE} (needed for indentation)", None)
         if "indentation" in quantities and depth is None:
             raise InputError("depth", f"{DEPTH_RANGE} (needed for indentation)", None)
-        if radius is not None and not MIN_RADIUS <= radius <= 1.0 / MIN_RADIUS:
-            raise InputError("radius", RADIUS_RANGE, p["radius"])
+        if radius is not None:
+            field("radius").check(p["radius"])
         if depth is not None and not (radius is not None and MIN_DEPTH * radius <= depth < radius):
             raise InputError("depth", DEPTH_RANGE, p["depth"])
         shape = Shape(
             name=p["shape"],
             aspect=aspect,
-            sides=integer("sides", p["sides"], 2, "an integer >= 2"),
-            angle_deg=finite_number("shape_angle", p["shape_angle"], "a finite angle in degrees"),
-            amplitude=finite_number("amplitude", p["amplitude"], "star modulation in [0, 1)"),
-            seed=integer("seed", p["seed"], 0, "an integer >= 0"),
-            hurst=finite_number("hurst", p["hurst"], "Hurst exponent in (0, 1)"),
-            rms=finite_number("rms", p["rms"], "roughness rms in (0, 1]"),
+            **{
+                attribute: field(name).check(p[name])
+                for attribute, name in (
+                    ("sides", "sides"),
+                    ("angle_deg", "shape_angle"),
+                    ("amplitude", "amplitude"),
+                    ("seed", "seed"),
+                    ("hurst", "hurst"),
+                    ("rms", "rms"),
+                )
+            },
             mask_path=p["mask"],
         )
         cpus = usable_cpus()
-        threads = integer("threads", p["threads"], 1, f"an integer in [1, {cpus}] (this machine's CPUs)", cpus)
+        threads = integer("threads", p["threads"], 1, field("threads").message.format(cpus), cpus)
         return cls(
             shape=shape,
             material=material,
@@ -273,9 +213,7 @@ def usable_cpus() -> int:
 def _accuracy(value: Any, quantities: tuple[str, ...], shape: str) -> float:
     """A requested accuracy, for a scene whose grids can be refined: an outline (not a rough
     patch) and quantities in ``REFINABLE_QUANTITIES``."""
-    accuracy = finite_number("accuracy", value, ACCURACY_RANGE)
-    if not 1e-9 <= accuracy < 1.0:
-        raise InputError("accuracy", ACCURACY_RANGE, value)
+    accuracy = field("accuracy").check(value)
     if shape == "rough":
         raise InputError("accuracy", "not for shape rough (its patch comes from one grid and cannot be refined)", value)
     other = [x for x in quantities if x not in REFINABLE_QUANTITIES]
@@ -343,7 +281,7 @@ def _at_default(name: str, value: Any) -> bool:
 
 
 def _miller(value: Any) -> tuple[int, int, int]:
-    allowed = 'three integers "h k l", not all zero'
+    allowed = field("miller").message
     try:
         items = value.replace(",", " ").split() if isinstance(value, str) else list(value)
         hkl = tuple(int(item) for item in items)
@@ -386,17 +324,9 @@ def _built_material(p: Mapping[str, Any], G: float, nu: float) -> Material:
     then by ``azimuth`` degrees in plane. At A = 1 without a named crystal the body is
     isotropic whatever the orientation, and stays on the closed-form path.
     """
-    anisotropy = finite_number("anisotropy", p["anisotropy"], "cubic anisotropy factor A in [0.01, 100]")
-    if not 0.01 <= anisotropy <= 100.0:
-        raise InputError("anisotropy", "cubic anisotropy factor A in [0.01, 100]", p["anisotropy"])
-    azimuth = finite_number("azimuth", p["azimuth"], "a finite in-plane angle in degrees")
-    orientation = p["orientation"]
-    if orientation is not None:
-        orientation = finite_number("orientation", orientation, "path angle psi in [0, 90] degrees")
-        if not 0.0 <= orientation <= 90.0:
-            raise InputError(
-                "orientation", "path angle psi in [0, 90] degrees ([110] -> [111] -> [001])", p["orientation"]
-            )
+    anisotropy = field("anisotropy").check(p["anisotropy"])
+    azimuth = field("azimuth").check(p["azimuth"])
+    orientation = None if p["orientation"] is None else field("orientation").check(p["orientation"])
     miller = None if p["miller"] is None else _miller(p["miller"])
     if orientation is not None and miller is not None:
         raise InputError("miller", "either miller or orientation, not both", p["miller"])
@@ -419,7 +349,7 @@ def _turned_with_shape(material: Material, shape_angle: Any) -> Material:
     ``azimuth`` (or the orientation fields). The frame turned by −β has axes (rows of R)
     (cos β, −sin β, 0) and (sin β, cos β, 0) in the current one (``Crystal.rotated``).
     """
-    beta = math.radians(finite_number("shape_angle", shape_angle, "a finite angle in degrees"))
+    beta = math.radians(field("shape_angle").check(shape_angle))
     if isinstance(material, Isotropic) or beta == 0.0:
         return material
     c, s = math.cos(beta), math.sin(beta)
