@@ -1,4 +1,4 @@
-"""The cost model (``hpcontact.sweep.costmodel``) and ``hpcontact run --dry-run`` / ``--mem-per-rank``."""
+"""The cost model (``hpcontact.sweep.cost``) and ``hpcontact run --dry-run`` / ``--mem-per-rank``."""
 
 from __future__ import annotations
 
@@ -12,10 +12,16 @@ import pytest
 from hpcontact import __version__
 from hpcontact.problems import footprint
 from hpcontact.problems.slip.crystal_pair import pair_from_params
-from hpcontact.sweep import costmodel
-from hpcontact.sweep.costmodel import Calibration, Overheads, Rate, replay
+from hpcontact.sweep.cost import calibration as calibration_module
+from hpcontact.sweep.cost import calibration_file
+from hpcontact.sweep.cost.engine import omega_nodes, timed_exact
+from hpcontact.sweep.cost.estimate import estimate, grid_label, start_estimate
+from hpcontact.sweep.cost.grids import padded_cells
+from hpcontact.sweep.cost.rates import KINDS, Calibration, Rate, task_array_bytes
+from hpcontact.sweep.cost.replay import Overheads, replay
+from hpcontact.sweep.cost.task_cost import estimated_cost
 from hpcontact.sweep.driver import main
-from hpcontact.sweep.tasks import Task, estimated_cost, padded_cells
+from hpcontact.sweep.tasks import Task
 
 SPEC = """
 [sweep]
@@ -78,7 +84,7 @@ def test_longest_first_order_bounds_the_tail():
 
 
 def test_task_estimate_is_rate_times_cost_plus_per_solve_and_memory_grows_with_the_grid():
-    rates = {kind: Rate(rate_s=2e-6, solve_s=0.5) for kind in costmodel.KINDS}
+    rates = {kind: Rate(rate_s=2e-6, solve_s=0.5) for kind in KINDS}
     calibration = Calibration("h", "v", rates, base_bytes=1000.0)
     params = {"shape": "circle", "n": 32, "quantities": ["tangential"], "tol": 1e-6}
     # S = 4 x 32 x 32 = 4096 padded cells, log2 S = 12; 2 solves x 6 digits x the grid's
@@ -98,20 +104,22 @@ def test_the_fit_recovers_the_rates_of_two_scenes():
     large = {**small, "n": 128, "tol": 1e-10}
     true = Rate(rate_s=3e-8, solve_s=0.02)
     seconds = [Calibration("h", "v", {"contact": true}, 0.0).task_seconds(p) for p in (small, large)]
-    fitted = costmodel.fit_rate([small, large], seconds)
+    fitted = calibration_module.fit_rate([small, large], seconds)
     # a 2 x 2 solve of exact data: rounding only
     assert fitted.rate_s == pytest.approx(true.rate_s, rel=1e-9) and fitted.solve_s == pytest.approx(0.02, rel=1e-9)
     # time proportional to cost alone: the fit's solve term would be negative, so it is dropped
-    assert costmodel.fit_rate([small, large], [1e-7 * estimated_cost(p) for p in (small, large)]).solve_s == 0.0
+    assert (
+        calibration_module.fit_rate([small, large], [1e-7 * estimated_cost(p) for p in (small, large)]).solve_s == 0.0
+    )
 
 
 def test_calibration_cache_round_trips_and_is_used_without_calibrating(tmp_path, monkeypatch):
-    rates = {kind: Rate(rate_s=1e-7 * (i + 1), solve_s=0.25 * i) for i, kind in enumerate(costmodel.KINDS)}
+    rates = {kind: Rate(rate_s=1e-7 * (i + 1), solve_s=0.25 * i) for i, kind in enumerate(KINDS)}
     saved = Calibration(socket.gethostname(), __version__, rates, base_bytes=123456789.0, seconds=9.5)
-    path = costmodel.save_calibration(saved, tmp_path / "cm.json")
-    assert costmodel.read_calibration(path) == saved
-    monkeypatch.setattr(costmodel, "calibrate", lambda: pytest.fail("the cache was not used"))
-    assert costmodel.load_calibration(path) == saved
+    path = calibration_file.save_calibration(saved, tmp_path / "cm.json")
+    assert calibration_file.read_calibration(path) == saved
+    monkeypatch.setattr(calibration_file, "calibrate", lambda: pytest.fail("the cache was not used"))
+    assert calibration_file.load_calibration(path) == saved
 
 
 @pytest.mark.parametrize(
@@ -126,15 +134,15 @@ def test_calibration_cache_round_trips_and_is_used_without_calibrating(tmp_path,
 )
 def test_a_corrupt_or_foreign_cache_is_ignored_with_a_warning_and_replaced(tmp_path, monkeypatch, content):
     path = tmp_path / "cm.json"
-    fresh = Calibration(socket.gethostname(), __version__, {k: Rate(1e-7, 0.0) for k in costmodel.KINDS}, 1.0)
+    fresh = Calibration(socket.gethostname(), __version__, {k: Rate(1e-7, 0.0) for k in KINDS}, 1.0)
     if content == "FOREIGN":
-        costmodel.save_calibration(Calibration("another-host", __version__, fresh.rates, 1.0), path)
+        calibration_file.save_calibration(Calibration("another-host", __version__, fresh.rates, 1.0), path)
     else:
         path.write_text(content)
-    monkeypatch.setattr(costmodel, "calibrate", lambda: fresh)
+    monkeypatch.setattr(calibration_file, "calibrate", lambda: fresh)
     with pytest.warns(RuntimeWarning, match="cost calibration .* ignored"):
-        assert costmodel.load_calibration(path) == fresh
-    assert costmodel.read_calibration(path) == fresh  # replaced
+        assert calibration_file.load_calibration(path) == fresh
+    assert calibration_file.read_calibration(path) == fresh  # replaced
 
 
 def test_dry_run_json_has_the_totals_and_one_entry_per_task(write_spec, capsys, monkeypatch):
@@ -201,43 +209,43 @@ def test_slip_work_follows_the_load_path():
     assert estimated_cost(crystal) > estimated_cost(coupled)
 
 
-ORTHOTROPIC = costmodel.ANISOTROPIC_SLIP_SCENE["orthotropic"]
+ORTHOTROPIC = calibration_module.ANISOTROPIC_SLIP_SCENE["orthotropic"]
 
 
 def test_the_barnett_lothe_term_counts_the_omega_nodes_of_each_anisotropic_body():
-    assert costmodel.omega_nodes(SIMILAR_SLIP) == 0
+    assert omega_nodes(SIMILAR_SLIP) == 0
     crystal = {**SIMILAR_SLIP, "material": "crystal:Cu"}  # on polycrystalline Cu: a dissimilar pair
-    one = costmodel.omega_nodes({**crystal, "coupling": "coupled"})
+    one = omega_nodes({**crystal, "coupling": "coupled"})
     assert one > 0
-    assert costmodel.omega_nodes(crystal) == 2 * one  # coupling auto: the coupled and the decoupled path
-    assert costmodel.omega_nodes({**crystal, "material2": "crystal:Cu"}) == 2 * one  # similar: one path, two bodies
+    assert omega_nodes(crystal) == 2 * one  # coupling auto: the coupled and the decoupled path
+    assert omega_nodes({**crystal, "material2": "crystal:Cu"}) == 2 * one  # similar: one path, two bodies
     # the adaptive ω rule needs more nodes for a more anisotropic body (E1/E2 = 800 against 25)
     stiffer = ORTHOTROPIC.replace("E1=25", "E1=800")
-    scene = costmodel.ANISOTROPIC_SLIP_SCENE
-    assert costmodel.omega_nodes({**scene, "orthotropic": stiffer}) > costmodel.omega_nodes(scene)
-    rates = {kind: Rate(rate_s=0.0, solve_s=0.0, node_s=1e-3) for kind in costmodel.KINDS}
+    scene = calibration_module.ANISOTROPIC_SLIP_SCENE
+    assert omega_nodes({**scene, "orthotropic": stiffer}) > omega_nodes(scene)
+    rates = {kind: Rate(rate_s=0.0, solve_s=0.0, node_s=1e-3) for kind in KINDS}
     calibration = Calibration("h", "v", rates, base_bytes=0.0)
-    assert calibration.task_seconds(scene) == pytest.approx(1e-3 * costmodel.omega_nodes(scene), rel=1e-15)
+    assert calibration.task_seconds(scene) == pytest.approx(1e-3 * omega_nodes(scene), rel=1e-15)
     # the term is the slip scenes': a crystal punch has its own calibration kind
     assert calibration.task_seconds({"shape": "circle", "anisotropy": 2.0, "n": 16}) == 0.0
 
 
 def test_the_start_estimate_uses_the_cached_calibration_and_never_calibrates(tmp_path, monkeypatch):
     monkeypatch.setenv("HPCONTACT_COSTMODEL", str(tmp_path / "cm.json"))
-    monkeypatch.setattr(costmodel, "calibrate", lambda: pytest.fail("a run must not wait for a calibration"))
+    monkeypatch.setattr(calibration_file, "calibrate", lambda: pytest.fail("a run must not wait for a calibration"))
     tasks = [Task(key="a", params={"shape": "circle", "n": 32, "tol": 1e-6}, cost=4096 * 12 * 6.0, group="g")]
-    line, seconds = costmodel.start_estimate(tasks, 2)
+    line, seconds = start_estimate(tasks, 2)
     assert line.startswith("hpcontact: no cost estimate (no calibration cached in") and seconds is None
-    rates = {kind: Rate(rate_s=1e-6, solve_s=0.0) for kind in costmodel.KINDS}
-    costmodel.save_calibration(Calibration(socket.gethostname(), __version__, rates, 1.0))
+    rates = {kind: Rate(rate_s=1e-6, solve_s=0.0) for kind in KINDS}
+    calibration_file.save_calibration(Calibration(socket.gethostname(), __version__, rates, 1.0))
     # 1e-6 s per unit x 294 912 units = 0.2949 s of one task; on 2 ranks the makespan adds the
     # replayed overheads, so only the core-seconds are exact
-    line, seconds = costmodel.start_estimate(tasks, 2)
+    line, seconds = start_estimate(tasks, 2)
     assert "estimated 0.2949 core-seconds" in line and seconds.tolist() == [pytest.approx(0.294912, rel=1e-12)]
 
 
 def test_the_task_term_is_the_same_for_every_contact_task():
-    rates = {kind: Rate(rate_s=0.0, solve_s=0.0, task_s=0.01) for kind in costmodel.KINDS}
+    rates = {kind: Rate(rate_s=0.0, solve_s=0.0, task_s=0.01) for kind in KINDS}
     calibration = Calibration("h", "v", rates, base_bytes=0.0)
     small = {"shape": "circle", "n": 16, "quantities": ["tangential"], "tol": 1e-2}
     large = {"shape": "ellipse", "aspect": 0.1, "n": 512, "quantities": ["tangential", "normal"], "tol": 1e-10}
@@ -245,7 +253,7 @@ def test_the_task_term_is_the_same_for_every_contact_task():
 
 
 def test_the_kernel_term_is_per_padded_cell_whatever_the_tolerance():
-    rates = {kind: Rate(rate_s=0.0, solve_s=0.0, cell_s=1e-7) for kind in costmodel.KINDS}
+    rates = {kind: Rate(rate_s=0.0, solve_s=0.0, cell_s=1e-7) for kind in KINDS}
     calibration = Calibration("h", "v", rates, base_bytes=0.0)
     circle = {"shape": "circle", "n": 64, "quantities": ["tangential"], "tol": 1e-10}
     # 4 x 64 x 64 padded cells, once per task: the kernel set is built before any iteration
@@ -358,16 +366,15 @@ def test_estimate_equals_each_task_s_seconds_bytes_and_grid(write_spec):
     extrapolated = parse_spec('[scene]\nshape = "ellipse"\n[axes]\naspect = [1.0, 0.1]\n', validate=lambda p: None)
     tasks += enumerate_tasks(extrapolated)[0]  # no n: costed over the default grids
     rates = {
-        k: Rate(rate_s=1e-6 * (i + 1), solve_s=3e-3, node_s=0.0, cell_s=1e-8, task_s=2e-3)
-        for i, k in enumerate(costmodel.KINDS)
+        k: Rate(rate_s=1e-6 * (i + 1), solve_s=3e-3, node_s=0.0, cell_s=1e-8, task_s=2e-3) for i, k in enumerate(KINDS)
     }
     calibration = Calibration("here", __version__, rates, 50.0 * 2**20)
-    est = costmodel.estimate(tasks, calibration)
+    est = estimate(tasks, calibration)
     assert est.seconds.tolist() == [calibration.task_seconds(t.params, t.cost) for t in tasks]
     assert est.bytes.tolist() == [calibration.task_bytes(t.params) for t in tasks]
     labels = {}
     for t in tasks:
-        labels[costmodel.grid_label(t.params)] = labels.get(costmodel.grid_label(t.params), 0) + 1
+        labels[grid_label(t.params)] = labels.get(grid_label(t.params), 0) + 1
     assert list(est.grids().items()) == list(labels.items())
     assert est.kernel_sets() == len({t.group for t in tasks})
     assert est.total_seconds == sum(calibration.task_seconds(t.params, t.cost) for t in tasks)
@@ -380,9 +387,9 @@ ACCURACY_ISO = {"nu": 0.3, "quantities": ["tangential", "normal"], "tol": 1e-10}
 
 
 def test_an_accuracy_task_takes_the_seconds_of_its_work_at_the_contact_rates():
-    from hpcontact.sweep.tasks import Work, sizing
+    from hpcontact.sweep.cost.task_cost import Work, sizing
 
-    rates = {k: Rate(rate_s=1e-6 * (i + 1), solve_s=0.0) for i, k in enumerate(costmodel.KINDS)}
+    rates = {k: Rate(rate_s=1e-6 * (i + 1), solve_s=0.0) for i, k in enumerate(KINDS)}
     rates["contact"] = Rate(rate_s=2e-9, solve_s=3e-4, cell_s=1e-7, task_s=5e-3, strip_s=4e-9)
     calibration = Calibration("h", "v", rates, base_bytes=0.0)
     for scene in (
@@ -411,7 +418,7 @@ def test_an_accuracy_tasks_memory_is_its_finest_grids_with_its_boundary_cells():
     from hpcontact.accuracy import grid_bytes
     from hpcontact.scene import Scene
 
-    calibration = Calibration("h", "v", {k: Rate(1e-6, 0.0) for k in costmodel.KINDS}, base_bytes=1000.0)
+    calibration = Calibration("h", "v", {k: Rate(1e-6, 0.0) for k in KINDS}, base_bytes=1000.0)
     for scene, strategy, finest in (
         ({"shape": "rectangle", "aspect": 1e-8, "accuracy": 1e-3}, "strip", (256, 1)),
         ({"shape": "rectangle", "aspect": 1e-8, "anisotropy": 2.0, "accuracy": 1e-3}, "coverage", (128, 32)),  # from 16
@@ -420,15 +427,15 @@ def test_an_accuracy_tasks_memory_is_its_finest_grids_with_its_boundary_cells():
     ):
         params = {**ACCURACY_ISO, **scene}
         arrays = grid_bytes(Scene.from_params(params), *finest, strategy)
-        assert costmodel.task_array_bytes(params) == arrays
+        assert task_array_bytes(params) == arrays
         assert calibration.task_bytes(params) == 1000.0 + arrays
     # the strips' dense matrices on 256 strips against the crystal's FFT arrays on 128 x 32 cells
     thin = {**ACCURACY_ISO, "shape": "rectangle", "aspect": 1e-8, "accuracy": 1e-3}
-    strips, crystal = costmodel.task_array_bytes(thin), costmodel.task_array_bytes({**thin, "anisotropy": 2.0})
+    strips, crystal = task_array_bytes(thin), task_array_bytes({**thin, "anisotropy": 2.0})
     assert strips == 160.0 * 256**2 + 1600.0 * 256 * 257 / 2 + 6.0 * 2**20 and crystal < strips
     # 1024 strips of a thin rectangle at 1e-8: the dense matrices grow as n^2, the far pairs'
     # batch stops at strip_cells.FAR_CHUNK pairs
-    assert costmodel.task_array_bytes({**thin, "accuracy": 1e-8}) == 160.0 * 1024**2 + 1600.0 * 2**16 + 6.0 * 2**20
+    assert task_array_bytes({**thin, "accuracy": 1e-8}) == 160.0 * 1024**2 + 1600.0 * 2**16 + 6.0 * 2**20
     # an exact cell (galin): no grid, its kind's fixed bytes (a crystal's: its kernel tables)
     # whatever the request
     for scene, fixed in (
@@ -437,7 +444,7 @@ def test_an_accuracy_tasks_memory_is_its_finest_grids_with_its_boundary_cells():
     ):
         for request in (1e-3, 1e-8):
             params = {**ACCURACY_ISO, **scene, "accuracy": request}
-            assert costmodel.task_array_bytes(params) == fixed == footprint.tables_bytes(params)
+            assert task_array_bytes(params) == fixed == footprint.tables_bytes(params)
             assert calibration.task_bytes(params) == 1000.0 + fixed
 
 
@@ -453,10 +460,10 @@ def test_the_dry_run_estimates_accuracy_tasks_as_task_by_task_and_labels_their_g
     tasks, _ = enumerate_tasks(spec)
     rates = {
         k: Rate(rate_s=1e-6 * (i + 1), solve_s=3e-3, cell_s=1e-8, task_s=2e-3, strip_s=5e-9)
-        for i, k in enumerate(costmodel.KINDS)
+        for i, k in enumerate(KINDS)
     }
     calibration = Calibration("here", __version__, rates, 50.0 * 2**20)
-    est = costmodel.estimate(tasks, calibration)
+    est = estimate(tasks, calibration)
     assert est.seconds.tolist() == [calibration.task_seconds(t.params, t.cost) for t in tasks]
     assert est.bytes.tolist() == [calibration.task_bytes(t.params) for t in tasks]
     grids = est.grids()
@@ -469,12 +476,12 @@ def test_the_dry_run_estimates_accuracy_tasks_as_task_by_task_and_labels_their_g
     exact = replace(rates["contact"], exact_s=0.07)
     with_build = Calibration("here", __version__, {**rates, "contact": exact}, 50.0 * 2**20)
     for t in tasks:
-        if costmodel.grid_label(t.params).endswith("(galin)"):
-            build = 0.07 if costmodel.grid_label(t.params).startswith("crystal") else 0.0
+        if grid_label(t.params).endswith("(galin)"):
+            build = 0.07 if grid_label(t.params).startswith("crystal") else 0.0
             assert with_build.task_seconds(t.params) == pytest.approx(calibration.task_seconds(t.params) + build)
     labels = {}
     for t in tasks:
-        labels[costmodel.grid_label(t.params)] = labels.get(costmodel.grid_label(t.params), 0) + 1
+        labels[grid_label(t.params)] = labels.get(grid_label(t.params), 0) + 1
     assert labels == grids
     # the command line's request replaces the spec's grid: the same tasks, costed over their grids
     monkeypatch.setenv("HPCONTACT_MPI", "0")
@@ -492,32 +499,32 @@ def test_the_dry_run_estimates_accuracy_tasks_as_task_by_task_and_labels_their_g
 
 
 def test_the_calibration_measures_strips_and_its_file_keeps_them(tmp_path, monkeypatch):
-    from hpcontact.sweep.tasks import strip_units
+    from hpcontact.sweep.cost.task_cost import strip_units
 
-    rates = {kind: Rate(rate_s=1e-7, solve_s=0.1) for kind in costmodel.KINDS}
+    rates = {kind: Rate(rate_s=1e-7, solve_s=0.1) for kind in KINDS}
     rates["contact"] = Rate(rate_s=1e-7, solve_s=0.1, cell_s=1e-7, task_s=0.01, strip_s=3e-9)
     saved = Calibration(socket.gethostname(), __version__, rates, base_bytes=1.0)
-    assert costmodel.read_calibration(costmodel.save_calibration(saved, tmp_path / "cm.json")) == saved
+    assert calibration_file.read_calibration(calibration_file.save_calibration(saved, tmp_path / "cm.json")) == saved
     # a file of the layout before strips (format 4) is not this layout: ignored, recalibrated
     old = json.loads((tmp_path / "cm.json").read_text())
     old["format"] = 4
     for entry in old["rates"].values():
         del entry["strip_s"]
     (tmp_path / "cm.json").write_text(json.dumps(old))
-    assert costmodel.cached_calibration(tmp_path / "cm.json")[0] is None
+    assert calibration_file.cached_calibration(tmp_path / "cm.json")[0] is None
     # strip_s: the strip scene's seconds, less the task term, over its strip units
-    monkeypatch.setattr(costmodel, "_timed", lambda params, repeats=2: 0.01)
-    monkeypatch.setattr(costmodel, "_timed_solve", lambda params, repeats=2: (0.02, 10))
-    monkeypatch.setattr(costmodel, "_timed_strips", lambda params, repeats=2: 0.51)
-    monkeypatch.setattr(costmodel, "_timed_exact", lambda params, repeats=2: 0.08)
-    monkeypatch.setattr(costmodel, "omega_nodes", lambda params: 64)
-    calibration = costmodel.calibrate()
+    monkeypatch.setattr(calibration_module, "_timed", lambda params, repeats=2: 0.01)
+    monkeypatch.setattr(calibration_module, "_timed_solve", lambda params, repeats=2: (0.02, 10))
+    monkeypatch.setattr(calibration_module, "timed_strips", lambda params, repeats=2: 0.51)
+    monkeypatch.setattr(calibration_module, "timed_exact", lambda params, repeats=2: 0.08)
+    monkeypatch.setattr(calibration_module, "omega_nodes", lambda params: 64)
+    calibration = calibration_module.calibrate()
     contact = calibration.rates["contact"]
-    assert contact.strip_s == pytest.approx((0.51 - contact.task_s) / strip_units(costmodel.STRIP_CALIBRATION_SCENE))
-    assert all(calibration.rates[k].strip_s == 0.0 for k in costmodel.KINDS if k != "contact")
-    assert contact.exact_s == 0.08 and all(
-        calibration.rates[k].exact_s == 0.0 for k in costmodel.KINDS if k != "contact"
+    assert contact.strip_s == pytest.approx(
+        (0.51 - contact.task_s) / strip_units(calibration_module.STRIP_CALIBRATION_SCENE)
     )
+    assert all(calibration.rates[k].strip_s == 0.0 for k in KINDS if k != "contact")
+    assert contact.exact_s == 0.08 and all(calibration.rates[k].exact_s == 0.0 for k in KINDS if k != "contact")
 
 
 def test_the_exact_cell_calibration_times_the_kernel_build_not_a_cached_kernel():
@@ -526,8 +533,8 @@ def test_the_exact_cell_calibration_times_the_kernel_build_not_a_cached_kernel()
     from hpcontact.kernels.anisotropic import kernel_for
     from hpcontact.scene import Scene
 
-    kernel_for(Scene.from_params(costmodel.EXACT_CALIBRATION_SCENE).material)  # cached before: must not count
-    assert costmodel._timed_exact(costmodel.EXACT_CALIBRATION_SCENE, repeats=1) > 0.01
+    kernel_for(Scene.from_params(calibration_module.EXACT_CALIBRATION_SCENE).material)  # cached before: must not count
+    assert timed_exact(calibration_module.EXACT_CALIBRATION_SCENE, repeats=1) > 0.01
 
 
 def test_a_calibration_made_beside_other_processes_says_so(tmp_path, monkeypatch, capsys):
@@ -536,25 +543,25 @@ def test_a_calibration_made_beside_other_processes_says_so(tmp_path, monkeypatch
     two vCPUs share a core one busy neighbour made the main job's estimate 3.3x higher). The
     count survives the file; a file without it (written before) reads as unknown: no warning."""
     samples = iter([1.0, 2.0, 1.0, 0.0])
-    monkeypatch.setattr(costmodel, "other_running", lambda: next(samples))
-    monkeypatch.setattr(costmodel, "_timed", lambda params, repeats=2: 0.01)
-    monkeypatch.setattr(costmodel, "_timed_solve", lambda params, repeats=2: (0.02, 10))
-    monkeypatch.setattr(costmodel, "_timed_strips", lambda params, repeats=2: 0.5)
-    monkeypatch.setattr(costmodel, "_timed_exact", lambda params, repeats=2: 0.08)
-    monkeypatch.setattr(costmodel, "omega_nodes", lambda params: 64)
-    assert costmodel.calibrate().others == 1.0  # the mean of its four samples
-    rates = {kind: Rate(rate_s=1e-7, solve_s=0.1) for kind in costmodel.KINDS}
+    monkeypatch.setattr(calibration_module, "other_running", lambda: next(samples))
+    monkeypatch.setattr(calibration_module, "_timed", lambda params, repeats=2: 0.01)
+    monkeypatch.setattr(calibration_module, "_timed_solve", lambda params, repeats=2: (0.02, 10))
+    monkeypatch.setattr(calibration_module, "timed_strips", lambda params, repeats=2: 0.5)
+    monkeypatch.setattr(calibration_module, "timed_exact", lambda params, repeats=2: 0.08)
+    monkeypatch.setattr(calibration_module, "omega_nodes", lambda params: 64)
+    assert calibration_module.calibrate().others == 1.0  # the mean of its four samples
+    rates = {kind: Rate(rate_s=1e-7, solve_s=0.1) for kind in KINDS}
     calibration = Calibration(socket.gethostname(), __version__, rates, base_bytes=1.0, others=1.0)
     assert "1.0 other process(es)" in calibration.contended()
-    path = costmodel.save_calibration(calibration, tmp_path / "cm.json")
-    assert costmodel.read_calibration(path).others == 1.0
+    path = calibration_file.save_calibration(calibration, tmp_path / "cm.json")
+    assert calibration_file.read_calibration(path).others == 1.0
     monkeypatch.setenv("HPCONTACT_COSTMODEL", str(path))
-    assert "estimates may be 2-4x high" in costmodel.start_estimate([], 2)[0]
+    assert "estimates may be 2-4x high" in start_estimate([], 2)[0]
     record = json.loads(path.read_text())
     del record["others"]
     path.write_text(json.dumps(record))
-    assert costmodel.read_calibration(path).others is None
-    assert costmodel.read_calibration(path).contended() == "" and "high" not in costmodel.start_estimate([], 2)[0]
+    assert calibration_file.read_calibration(path).others is None
+    assert calibration_file.read_calibration(path).contended() == "" and "high" not in start_estimate([], 2)[0]
 
 
 def test_other_running_counts_a_busy_neighbour():
@@ -564,13 +571,13 @@ def test_other_running_counts_a_busy_neighbour():
     import sys
     import time
 
-    if costmodel.other_running() is None:
+    if calibration_module.other_running() is None:
         pytest.skip("no /proc/loadavg")
     child = subprocess.Popen([sys.executable, "-c", "while True: pass"])
     try:
         seen, until = 0.0, time.monotonic() + 2.0
         while time.monotonic() < until and seen < 1.0:
-            seen = max(seen, costmodel.other_running())
+            seen = max(seen, calibration_module.other_running())
             time.sleep(0.02)
     finally:
         child.kill()
@@ -595,13 +602,13 @@ def test_the_calibration_times_its_solves_under_the_sweeps_blas_limit(monkeypatc
         return 0.01
 
     monkeypatch.delenv("HPCONTACT_BLAS_THREADS", raising=False)
-    monkeypatch.setattr(costmodel, "_timed", timed)
-    monkeypatch.setattr(costmodel, "_timed_solve", lambda params, repeats=2: (timed(params), 10))
-    monkeypatch.setattr(costmodel, "_timed_strips", timed)
-    monkeypatch.setattr(costmodel, "_timed_exact", timed)
-    monkeypatch.setattr(costmodel, "omega_nodes", lambda params: 64)
+    monkeypatch.setattr(calibration_module, "_timed", timed)
+    monkeypatch.setattr(calibration_module, "_timed_solve", lambda params, repeats=2: (timed(params), 10))
+    monkeypatch.setattr(calibration_module, "timed_strips", timed)
+    monkeypatch.setattr(calibration_module, "timed_exact", timed)
+    monkeypatch.setattr(calibration_module, "omega_nodes", lambda params: 64)
     with threadpool_limits(limits=2, user_api="blas"):  # the suite limits BLAS (tests/conftest.py): lift it
         if blas_threads() < 2:
             pytest.skip("no BLAS with threads to limit here")
-        costmodel.calibrate()
+        calibration_module.calibrate()
     assert seen and set(seen) == {1}

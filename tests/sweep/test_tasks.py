@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import pytest
 
+from hpcontact.sweep.cost.task_cost import estimated_cost
 from hpcontact.sweep.spec import parse_spec
-from hpcontact.sweep.tasks import Task, enumerate_tasks, estimated_cost, make_chunks, task_key
+from hpcontact.sweep.tasks import Task, enumerate_tasks, make_chunks, task_key
 
 
 def spec_of(text: str):
@@ -189,7 +190,7 @@ ISO = {"nu": 0.3, "quantities": ["tangential", "normal"], "tol": 1e-10}
 
 
 def grids_of(params):
-    from hpcontact.sweep.tasks import BOUNDARY_TAG, solved_grids
+    from hpcontact.sweep.cost.grids import BOUNDARY_TAG, solved_grids
 
     levels = solved_grids(params)
     grids = [(level["n"], level["n_across"]) for level in levels if level[BOUNDARY_TAG] != "galin"]
@@ -237,7 +238,7 @@ def test_an_accuracy_task_is_costed_over_the_grids_it_is_predicted_to_solve(scen
 def test_an_accuracy_tasks_levels_are_one_grid_scenes_whose_tag_never_reaches_validation():
     from hpcontact.errors import InputError
     from hpcontact.scene import Scene
-    from hpcontact.sweep.tasks import BOUNDARY_TAG, level_fields, solved_grids
+    from hpcontact.sweep.cost.grids import BOUNDARY_TAG, level_fields, solved_grids
 
     for scene, ns in (
         ({"shape": "rectangle", "aspect": 1e-8}, [32, 64, 128, 256]),  # strips
@@ -265,18 +266,18 @@ def test_an_accuracy_tasks_levels_are_one_grid_scenes_whose_tag_never_reaches_va
 
 def test_the_grids_predicted_do_not_depend_on_this_processs_memory(monkeypatch):
     from hpcontact import accuracy
-    from hpcontact.sweep import tasks as tasks_module
+    from hpcontact.sweep.cost import grids
 
     params = {**ISO, "shape": "polygon", "sides": 3, "accuracy": 1e-5}
     planned = grids_of(params)
-    tasks_module._accuracy_plan.cache_clear()
+    grids._accuracy_plan.cache_clear()
     monkeypatch.setattr(accuracy, "resident_bytes", lambda: 1e18)  # plan_grids adds it to every grid's bytes
     assert grids_of(params) == planned and len(planned[1]) == 6
-    tasks_module._accuracy_plan.cache_clear()
+    grids._accuracy_plan.cache_clear()
 
 
 def test_a_tighter_accuracy_costs_more():
-    from hpcontact.sweep.tasks import Work, sizing
+    from hpcontact.sweep.cost.task_cost import Work, sizing
 
     for scene in ({"shape": "rectangle", "aspect": 0.3, "anisotropy": 3.0}, {"shape": "star", "sides": 5}):
         costs = [estimated_cost({**ISO, **scene, "accuracy": a}) for a in (1e-2, 1e-3, 1e-4, 1e-5)]
@@ -301,11 +302,11 @@ def test_a_tighter_accuracy_costs_more():
 
 
 def test_strip_grids_are_costed_by_their_pairs_and_strips():
-    from hpcontact.sweep.tasks import (
+    from hpcontact.sweep.cost.engine import strip_pairs
+    from hpcontact.sweep.cost.task_cost import (
         STRIP_SECONDS_PER_FAR_PAIR,
         STRIP_SECONDS_PER_STRIP,
         STRIP_UNIT_SECONDS,
-        strip_pairs,
         strip_units,
     )
 

@@ -1,0 +1,204 @@
+"""A sweep's estimate before it runs (``--dry-run``): every task's core-seconds and peak memory, and the wall time on R ranks.
+
+**At scale.** ``estimate`` reads each task's cost and ``tasks.Sizing`` (kind, padded cells, array
+bytes: made once per distinct value while the tasks are enumerated) and computes seconds and
+bytes for all tasks at once (numpy, the same operations in the same order as ``task_seconds``,
+so the same numbers); the tasks are put in chunk order once (``tasks.chunk_order``) and cut for
+each number of ranks replayed (``tasks.chunk_bounds``): a dry run of 10^6 tasks estimates in
+seconds (``benchmarks/dry_run_points.py``).
+
+``hpcontact run`` prints the estimate of the tasks it will compute before it starts
+(``start_estimate``), from the cached calibration only: without one it says so rather than make
+every rank wait for a calibration.
+
+``check_memory`` refuses a run whose largest task would not fit in ``--mem-per-rank``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from hpcontact.errors import InputError
+from hpcontact.numerics.memory import MIB, resident_bytes
+from hpcontact.problems.footprint import task_kind
+from hpcontact.sweep.cost.calibration_file import cached_calibration
+from hpcontact.sweep.cost.engine import omega_nodes
+from hpcontact.sweep.cost.grids import asks_accuracy, padded_cells
+from hpcontact.sweep.cost.rates import IMPORTS_BYTES, Calibration, base_memory_bytes, work_seconds
+from hpcontact.sweep.cost.replay import DEFAULT_OVERHEADS, Overheads, replay_chunks
+from hpcontact.sweep.cost.task_cost import Sizing, sizing
+from hpcontact.sweep.tasks import ChunkOrder, Task, chunk_order, paused_gc
+
+
+@dataclass
+class Estimate:
+    """A sweep's estimate: per task (in sweep order) seconds and bytes (float64 arrays: 16 B a
+    task, not the 64 of two lists of floats); totals; wall time by ranks; the distinct grids
+    (padded cells → tasks) and kernel sets; tasks over the limit. ``sizing_of`` gives each
+    task's position in ``sizings`` (distinct ``tasks.Sizing`` values, in first-appearance
+    order)."""
+
+    tasks: list[Task]
+    seconds: np.ndarray
+    bytes: np.ndarray
+    wall_s: dict[int, float] = field(default_factory=dict)
+    efficiency: dict[int, float] = field(default_factory=dict)
+    sizing_of: np.ndarray | None = None
+    sizings: list[Sizing] = field(default_factory=list)
+    chunks: ChunkOrder | None = None  # the tasks in chunk order (``tasks.chunk_order``), when replayed
+
+    @property
+    def total_seconds(self) -> float:
+        return float(sum(np.asarray(self.seconds, dtype=np.float64).tolist()))  # in task order, as sum() adds
+
+    @property
+    def peak_bytes(self) -> float:
+        return float(np.max(self.bytes)) if len(self.bytes) else 0.0
+
+    def grids(self) -> dict[str, int]:
+        """Distinct grids: label → number of tasks (labels in first-appearance order)."""
+        if self.sizing_of is None:
+            self.sizing_of, self.sizings = _sizings(self.tasks)
+        counts: dict[str, int] = {}
+        for size, count in zip(self.sizings, np.bincount(self.sizing_of, minlength=len(self.sizings)).tolist()):
+            label = sizing_label(size)
+            counts[label] = counts.get(label, 0) + count
+        return counts
+
+    def kernel_sets(self) -> int:
+        """Distinct kernel sets (the tasks' kernel groups)."""
+        if self.chunks is not None:
+            return len(self.chunks.groups) - 1  # where each group starts, and the end
+        return len({t.group for t in self.tasks})
+
+    def over(self, limit: float) -> list[int]:
+        """Indices of the tasks whose memory exceeds ``limit`` bytes."""
+        return np.flatnonzero(np.asarray(self.bytes, dtype=np.float64) > limit).tolist()
+
+
+def grid_label(params: Mapping[str, Any]) -> str:
+    """A grid, as the dry-run names it: the kind's FFT grid in padded cells (a task that asks for
+    an accuracy: its boundary cells and finest predicted grid, ``tasks.sizing``)."""
+    if asks_accuracy(params):
+        return sizing_label(sizing(params))
+    return f"{task_kind(params)} {padded_cells(params):.0f} padded cells"
+
+
+def sizing_label(size: Sizing) -> str:
+    """``grid_label`` of a task of this ``tasks.Sizing``."""
+    if size.label is not None:
+        return size.label
+    return f"{size.kind} {size.cells:.0f} padded cells"
+
+
+def _sizings(tasks: Sequence[Task]) -> tuple[np.ndarray, list[Sizing]]:
+    """Each task's position in the list of distinct sizings (first-appearance order), and that
+    list; a task without one (``Task.sizing`` None) gets ``tasks.sizing`` of its parameters.
+    Tasks share a few sizing objects: they are told apart by ``id`` with numpy, then by value."""
+    objects = [t.sizing for t in tasks]
+    ids = np.fromiter(map(id, objects), dtype=np.int64, count=len(objects))
+    for i in np.flatnonzero(ids == id(None)).tolist():
+        objects[i] = sizing(tasks[i].params)
+        ids[i] = id(objects[i])
+    unique, first, inverse = np.unique(ids, return_index=True, return_inverse=True)
+    slot = np.empty(len(unique), dtype=np.intp)
+    position: dict[Sizing, int] = {}
+    for k in np.argsort(first, kind="stable").tolist():  # distinct objects in first-appearance order
+        slot[k] = position.setdefault(objects[first[k]], len(position))  # equal values share a slot
+    return slot[inverse.reshape(-1)], list(position)
+
+
+def task_arrays(
+    tasks: Sequence[Task], calibration: Calibration
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[Sizing]]:
+    """``Calibration.task_seconds`` and ``task_bytes`` of every task at once, from its cost and
+    sizing (the same operations in the same order: the same floats), with ``_sizings``' map."""
+    which, sizes = _sizings(tasks)
+    cost = np.array([t.cost for t in tasks], dtype=np.float64)
+    seconds = np.empty(len(tasks), dtype=np.float64)
+    for k, size in enumerate(sizes):  # a few distinct sizings: each a vector operation
+        if size.work is not None:  # an accuracy task: its work, whatever its cost
+            seconds[which == k] = work_seconds(calibration.rates["contact"], size.work)
+            continue
+        rate, at = calibration.rates[size.kind], np.flatnonzero(which == k)
+        c = cost[at]
+        nodes = 0.0
+        if size.kind == "slip":
+            nodes = np.array([omega_nodes(dict(tasks[i].params)) for i in at.tolist()], dtype=np.float64)
+        seconds[at] = (
+            rate.rate_s * c
+            + rate.solve_s * (c / (size.cells * math.log2(size.cells)))
+            + rate.cell_s * size.cells
+            + rate.node_s * nodes
+            + rate.task_s
+        )
+    nbytes = calibration.base_bytes + np.array([s.array_bytes for s in sizes], dtype=np.float64)[which]
+    return seconds, nbytes, which, sizes
+
+
+def estimate(
+    tasks: Sequence[Task],
+    calibration: Calibration,
+    ranks: Sequence[int] = (1, 64, 1024),
+    overheads: Overheads = DEFAULT_OVERHEADS,
+) -> Estimate:
+    """Seconds and bytes of every task (``task_arrays``), and the replayed wall time on each of
+    ``ranks`` (the tasks put in chunk order once, ``tasks.chunk_order``)."""
+    tasks = tasks if isinstance(tasks, list) else list(tasks)
+    with paused_gc():
+        seconds, nbytes, which, sizes = task_arrays(tasks, calibration)
+        result = Estimate(tasks, seconds, nbytes, sizing_of=which, sizings=sizes)
+        chunks = result.chunks = chunk_order(tasks) if tasks else None
+        for r in ranks:
+            replayed = replay_chunks(chunks, seconds, r, overheads) if tasks else {"makespan_s": 0.0, "efficiency": 1.0}
+            result.wall_s[r], result.efficiency[r] = replayed["makespan_s"], replayed["efficiency"]
+    return result
+
+
+def check_memory(tasks: Sequence[Task], limit: float, source: str) -> None:
+    """``InputError`` (field --mem-per-rank) when a task's estimated peak memory exceeds
+    ``limit`` bytes; the base memory is this process's (no calibration needed). Importing what
+    a run imports to measure it costs rank 0 ~1 s while every rank waits, so that is done only
+    for a task within IMPORTS_BYTES of the limit."""
+    if not tasks:
+        return
+    which, sizes = _sizings(tasks)
+    arrays = np.array([s.array_bytes for s in sizes], dtype=np.float64)[which]  # task_array_bytes of each
+    worst = int(np.argmax(arrays))
+    if resident_bytes() + IMPORTS_BYTES + float(arrays[worst]) <= limit:
+        return
+    base = base_memory_bytes()
+    need = base + float(arrays[worst])
+    if need > limit:
+        over = int(np.count_nonzero(base + arrays > limit))
+        raise InputError(
+            "--mem-per-rank",
+            f"at least the largest task's estimated peak memory {need / MIB:.0f} MiB (task {worst}; {over} task(s) "
+            f"over the limit; see hpcontact run SPEC --dry-run)",
+            f"{limit / MIB:.0f} MiB ({source})",
+        )
+
+
+def start_estimate(tasks: Sequence[Task], ranks: int) -> tuple[str, np.ndarray | None]:
+    """The line ``hpcontact run`` prints on rank 0 before work starts — the estimated core-seconds
+    of ``tasks`` (those this run computes) and the replayed wall time on ``ranks`` ranks — and
+    each task's estimated seconds (for the progress lines' ETA), from the cached calibration. It
+    never calibrates (that takes ~30 s, which a run must not wait for): without a usable cache
+    the line says so and how to get one, and the seconds are None."""
+    calibration, why = cached_calibration()
+    if calibration is None:
+        return f"hpcontact: no cost estimate ({why}; hpcontact run SPEC --dry-run calibrates once, ~30 s)", None
+    tasks = list(tasks)
+    seconds = task_arrays(tasks, calibration)[0]
+    wall = replay_chunks(chunk_order(tasks), seconds, ranks, DEFAULT_OVERHEADS)["makespan_s"] if tasks else 0.0
+    warning = f"; {calibration.contended()}" if calibration.contended() else ""
+    line = (
+        f"hpcontact: estimated {sum(seconds.tolist()):.4g} core-seconds, {wall:.3g} s on {ranks} rank(s) "
+        f"(cost model of {calibration.host}; --dry-run for each task{warning})"
+    )
+    return line, seconds

@@ -1,0 +1,209 @@
+"""The seconds and memory of one task at this machine's calibrated rates (``Rate``, ``Calibration``).
+
+**Seconds.** A task of kind k (``task_kind``: ``contact``, ``crystal``, ``crystal_indentation``
+or ``slip``) takes, on one core of the calibrated host,
+
+    seconds = rate_k × cost + solve_k × cost / (S log2 S) + cell_k × S + task_k [+ node_s × ω nodes, slip]
+
+with ``cost = hpcontact.sweep.tasks.estimated_cost(params)`` as the cost units (padded FFT cells
+S · log2 S × solves × CG iterations, the iterations as digits of tolerance × the grid's
+iteration factor (1 + 0.3 log2 ρ) log2 S / 18, ρ the contact grid's aspect in cells: ``footprint``; a slip
+scene's solves follow its load path, ``tasks.slip_cost``) and S = ``tasks.padded_cells(params)``
+(the grid of the turned shape's bounding box, ``footprint.contact_grid``): the first term is the
+FFT work, the second the work per solve-iteration that does not grow with the grid (Python, CG
+bookkeeping, set-up: cost / (S log2 S)). A slip scene with anisotropic bodies (a crystal, an
+orthotropic body) evaluates their surface Green's functions by the Barnett–Lothe integrals
+several times per task (the grid's kernels, the preconditioner, the coupling size, the Hertz
+estimate), at a cost proportional to the ω nodes the adaptive rule needs for that body
+(``omega_nodes``: 64 for Cu, Ni, Si crystals; 256-1024 for the orthotropic bodies of
+Rodríguez-Tembleque et al. 2011, E1/E2 = 25-800), twice when both the coupled and the
+decoupled path are solved (each builds its preconditioner from them), and independent of the
+grid and the load steps: the third term.
+
+``cost.calibration`` measures the coefficients; ``cost.calibration_file`` keeps them per host and
+version.
+
+**Accuracy tasks.** A task that asks for an accuracy (``[numerics] accuracy``, ``hpcontact run
+--accuracy``) solves a sequence of grids (``accuracy.solve_to_accuracy``, strategy auto): it is
+costed over the grids it is predicted to solve (``tasks.accuracy_plan``: ``accuracy.first_grid``'s
+boundary cells, ``accuracy.plan_grids``' grids, four at 1e-3 for coverage-weighted cells and one
+more per decade below, ``tasks.predicted_grid_count``), each grid's work summed into a
+``tasks.Work`` whose terms take the contact kind's coefficients:
+
+    seconds = rate_s × fft + solve_s × solves + cell_s × cells + task_s × grids + strip_s × strips
+              + exact_s × exact
+
+(``work_seconds``): an ellipse's or circle's one exact cell (galin: no grid) one task term, and
+a crystal's also ``exact_s``, the build of its kernel's Fourier series (``EXACT_CALIBRATION_SCENE``
+timed cold less warm: every crystal exact cell is costed cold, although a rank's kernel cache
+keeps the last 8 materials, so sweeps that repeat a material over consecutive tasks run below
+the estimate); a
+grid of coverage-weighted cells its one-grid FFT model
+(cost, cost / (S log2 S), S and one task term) times its cells' measured factor, a crystal's
+included (the crystal kind's own fit, on n = 32 and 64, has no FFT term to carry to n = 1024);
+a slender rectangle's strip cells (dense Galerkin integrals, ``hpcontact.discretizations.strip_cells``) their
+``tasks.strip_units`` at ``strip_s``, the seconds of a strip unit on this host; below 1e-3 a
+coverage-weighted task also counts a share of the grid after its last and less a share of its
+last (``tasks.accuracy_work``: the count varies by one about the predicted one). Their memory
+is ``accuracy.grid_bytes`` of the finest predicted grid with its boundary cells (the arrays that
+``accuracy.plan_grids`` budgets; an exact cell: its kind's fixed bytes,
+``footprint.MEMORY_MODEL``). The measurements: docs/performance.md §"Accuracy tasks".
+
+**Memory.** The peak resident memory of a rank running a task is
+
+    bytes = base + fixed_k + per_cell_k × padded_cells(params)
+
+``base`` is this process's peak resident set (``resource.getrusage``) after importing what a
+run imports (the solvers, MPI, xarray); ``padded_cells`` is the padded FFT grid
+(``tasks.padded_cells``). ``fixed_k`` and ``per_cell_k`` are float64 array sizes (no machine
+dependence), fitted to ``tracemalloc`` peaks of single solves with cold kernel caches
+(``footprint.MEMORY_MODEL``; the fits: docs/performance.md §"Memory per task"):
+
+* contact: 182 B/cell (kernels xx, xy, yy, zz spectra, traction and CG vectors for 2
+  components, FFT buffers) + 1 MiB;
+* crystal: 300 B/cell (nine kernel blocks and their spectra, 3 components) + 12 MiB, and at
+  least the kernels' build, 55 MiB (``footprint.KERNEL_BUILD_BYTES``: the quadrature tables'
+  construction, one 32 MiB quadrature chunk per thread); indentation alone 60 B/cell + 45 MiB;
+* slip: 530 B/cell + 2 MiB; with a crystal body, the crystal's 45 MiB tables instead of 2.
+
+The kernel-spectrum cache (``HPCONTACT_KERNEL_CACHE_MB``, default 1 GiB) can hold more than one
+task's kernels on a rank; the model counts one task's, as the refusal must (a task that does not
+fit alone cannot run; the cache evicts before it).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import socket
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from hpcontact.numerics.convolution import wisdom_path
+from hpcontact.numerics.memory import MIB, resident_bytes
+from hpcontact.problems import footprint
+from hpcontact.problems.footprint import task_kind
+from hpcontact.sweep.cost.engine import omega_nodes
+from hpcontact.sweep.cost.grids import asks_accuracy, padded_cells, solved_grids
+from hpcontact.sweep.cost.task_cost import Work, estimated_cost, sizing
+
+# The calibrated kinds of task (``footprint.task_kind``): each has its ``Rate``.
+KINDS = ("contact", "crystal", "crystal_indentation", "slip")
+
+#: A calibration that ran beside this many other running processes (mean of its samples) is
+#: flagged (``Calibration.contended``). On the 2-vCPU development machine, whose two vCPUs share
+#: a core, one other busy process during the ~20 s calibration made the main job's dry run
+#: 226.5 core-seconds against 68.9 calibrated alone (2026-11-26 13:32, its task time 58.6 s).
+CONTENDED_FROM = 0.5
+
+# What importing a run's modules (hpcontact.solve, xarray, the slip solver, mpi4py.MPI) can add
+# to a process that has not yet: 3x the 80 MiB they added (docs/performance.md §"Base memory of a rank").
+IMPORTS_BYTES = 3 * 80 * MIB
+
+
+@dataclass(frozen=True)
+class Rate:
+    """Seconds of a task of one kind: ``rate_s × cost + solve_s × solve_units + cell_s ×
+    padded cells + node_s × omega_nodes + task_s`` (module docstring; ``cell_s``,
+    ``task_s``, ``strip_s``, seconds per strip unit of an accuracy task's strip cells, and
+    ``exact_s``, seconds of a crystal exact cell's kernel build, are measured for the isotropic
+    contact kind, ``node_s`` for slip scenes)."""
+
+    rate_s: float
+    solve_s: float
+    node_s: float = 0.0
+    cell_s: float = 0.0
+    task_s: float = 0.0
+    strip_s: float = 0.0
+    exact_s: float = 0.0
+
+
+def work_seconds(rate: Rate, work: Work) -> float:
+    """Seconds of an accuracy task's ``tasks.Work`` at the contact kind's ``rate`` (module
+    docstring, "Accuracy tasks")."""
+    return (
+        rate.rate_s * work.fft
+        + rate.solve_s * work.solves
+        + rate.cell_s * work.cells
+        + rate.task_s * work.grids
+        + rate.strip_s * work.strips
+        + rate.exact_s * work.exact
+    )
+
+
+def solve_units(params: Mapping[str, Any], cost: float) -> float:
+    """Solves × digits of the scene ``params`` of estimated ``cost``: cost / (S log2 S)."""
+    cells = padded_cells(params)
+    return cost / (cells * math.log2(cells))
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """This machine's seconds per kind and the base memory of a run, with where they were
+    measured (``host``, package ``version``) and how long the calibration took."""
+
+    host: str
+    version: str
+    rates: dict[str, Rate]
+    base_bytes: float
+    seconds: float = 0.0
+    others: float | None = None  # other processes running beside it (``other_running``; None: unknown)
+
+    def contended(self) -> str:
+        """ "" when the calibration ran alone, else what a reader of an estimate must know: other
+        processes ran beside it (``CONTENDED_FROM``), so its seconds, and every estimate, are
+        likely high."""
+        if self.others is None or self.others < CONTENDED_FROM:
+            return ""
+        return (
+            f"calibrated while ~{self.others:.1f} other process(es) ran: estimates may be 2-4x high where cores "
+            f"are shared or hyper-threaded; remove {calibration_path()} and rerun on an idle machine"
+        )
+
+    def task_seconds(self, params: Mapping[str, Any], cost: float | None = None) -> float:
+        """Estimated seconds of the scene ``params`` on one core (a scene that asks for an
+        accuracy: its ``tasks.Work`` at the contact kind's rates, whatever ``cost``)."""
+        if asks_accuracy(params):
+            return work_seconds(self.rates["contact"], sizing(params).work)
+        kind = task_kind(params)
+        rate = self.rates[kind]
+        cost = estimated_cost(params) if cost is None else cost
+        nodes = omega_nodes(params) if kind == "slip" else 0
+        return (
+            rate.rate_s * cost
+            + rate.solve_s * solve_units(params, cost)
+            + rate.cell_s * padded_cells(params)
+            + rate.node_s * nodes
+            + rate.task_s
+        )
+
+    def task_bytes(self, params: Mapping[str, Any]) -> float:
+        """Estimated peak resident bytes of a rank running the scene ``params``."""
+        return self.base_bytes + task_array_bytes(params)
+
+
+def calibration_path() -> Path:
+    """$HPCONTACT_COSTMODEL, else ``costmodel-HOST.json`` beside the FFTW wisdom file."""
+
+    env = os.environ.get("HPCONTACT_COSTMODEL")
+    return Path(env) if env else wisdom_path().with_name(f"costmodel-{socket.gethostname()}.json")
+
+
+def task_array_bytes(params: Mapping[str, Any]) -> float:
+    """The arrays of one task of ``params`` (``footprint.array_bytes`` of the finest grid it
+    solves, ``tasks.solved_grids``; a task that asks for an accuracy: ``accuracy.grid_bytes`` of
+    its finest predicted grid with its boundary cells, ``tasks.sizing``)."""
+    if asks_accuracy(params):
+        return sizing(params).array_bytes
+    return footprint.array_bytes(solved_grids(params)[-1])
+
+
+def base_memory_bytes() -> float:
+    """Peak resident bytes of this process after importing what a run imports (module
+    docstring)."""
+    import mpi4py.MPI  # noqa: F401 - imported for its resident size, as a run does
+    import xarray  # noqa: F401
+
+    return resident_bytes()
