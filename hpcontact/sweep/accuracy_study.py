@@ -9,10 +9,9 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from hpcontact.kernels import isotropic
-from hpcontact.numerics.convolution import clear_cache
 from hpcontact.problems.contact import solve
 from hpcontact.scene import Scene
+from hpcontact.sweep.cost.engine import clear_kernel_caches
 from hpcontact.sweep.driver import main
 
 
@@ -24,10 +23,7 @@ def cold_solve(params: Mapping[str, Any]) -> dict[str, Any]:
     CG. The study wants what one scene costs on its own: influence coefficients, spectra, FFT
     operator and solves (FFTW wisdom stays warm, as in any long-running sweep).
     """
-    clear_cache()
-    cached = getattr(isotropic, "_centred_integral", None)
-    if cached is not None and hasattr(cached, "cache_clear"):
-        cached.cache_clear()
+    clear_kernel_caches()
     return solve(Scene.from_params(params))
 
 
