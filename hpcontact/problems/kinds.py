@@ -29,14 +29,13 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from hpcontact import fields
+from hpcontact.fields import CONTACT, SLIP
 from hpcontact.problems.slip.partial_slip import validate as validate_slip
 from hpcontact.problems.slip.problem import GRID_MARGIN as SLIP_GRID_MARGIN
 from hpcontact.quantities import ESTIMATED, SLIP_ESTIMATED
 from hpcontact.scene import DEFAULTS, INTERVAL_FIELDS
 from hpcontact.scene import validate as validate_contact
-
-CONTACT = "contact"
-SLIP = "slip"
 
 Validator = Callable[[Mapping[str, Any]], Any]
 
@@ -56,7 +55,8 @@ class Kind:
     ``reduces_fields`` whether fields the scene ignores (geometry its shape ignores, material
     fields its body ignores) are left out of its parameters, so equal scenes compare equal;
     ``kernel_neutral_fields`` the fields that change neither its kernels nor its grid spacing
-    (tasks differing only in these may share kernels); ``memory_group`` the calibration and
+    (tasks differing only in these may share kernels; ``hpcontact.fields``: the fields of the
+    kind that do not change the kernel); ``memory_group`` the calibration and
     memory group of every scene of the kind (``problems.footprint.MEMORY_MODEL``; None: by the
     scene's body); ``planned`` whether ``hpcontact.plan.plan_for`` lays out its solves;
     ``grid_margin``, for a scene solved on n × n cells around its Hertz contact, the half-width
@@ -101,22 +101,7 @@ KINDS: Mapping[str, Kind] = {
         accuracy_refused=None,
         angle_mode_refused=None,
         reduces_fields=True,
-        # the outline or the solves, not the material or the grid spacing (bounding boxes aside)
-        kernel_neutral_fields=(
-            "shape",
-            "sides",
-            "amplitude",
-            "shape_angle",
-            "seed",
-            "hurst",
-            "rms",
-            "mask",
-            "tol",
-            "quantities",
-            "threads",
-            "precondition",
-            "normal_held",
-        ),
+        kernel_neutral_fields=fields.names(CONTACT, neutral_to="kernel"),
         memory_group=None,
         planned=True,
         grid_margin=None,
@@ -130,25 +115,7 @@ KINDS: Mapping[str, Kind] = {
         accuracy_refused="a slip scene is solved on its grid, n cells across the contact",
         angle_mode_refused="angle is the load direction, solved per value",
         reduces_fields=False,
-        # the loading, not the kernels: lengths are scaled by the Hertz radius, so the grid
-        # depends on n and b/a only, the kernel on nu_eq (hpcontact.problems.slip.partial_slip)
-        kernel_neutral_fields=(
-            "load",
-            "mu",
-            "q_ratio",
-            "angle",
-            "steps",
-            "control",
-            "displacement",
-            "path",
-            "coupling",
-            "tensor",
-            "history",
-            "tol",
-            "quantities",
-            "threads",
-            "precondition",
-        ),
+        kernel_neutral_fields=fields.names(SLIP, neutral_to="kernel"),
         memory_group=SLIP,
         planned=False,
         grid_margin=SLIP_GRID_MARGIN,

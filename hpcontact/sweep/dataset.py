@@ -72,7 +72,8 @@ from hpcontact.sweep import netcdf
 from hpcontact.sweep.columns import NOT_COMPUTED, Joined, join, task_positions, to_columns
 from hpcontact.sweep.columns import is_number as _is_number
 from hpcontact.sweep.journal import BAD_INPUT, CRASHED, ERROR, NOT_CONVERGED, OK, Entry, to_json
-from hpcontact.sweep.spec import LABEL_AXES, Spec
+from hpcontact.sweep.space.axes import LABEL_AXES
+from hpcontact.sweep.space.spec import Spec
 from hpcontact.sweep.units import cf_attributes, convention, scale_symbols
 
 FIXED_VARIABLES = ("status", "message", "wall_time_s")  # per task, whatever its record holds

@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 
 from hpcontact.errors import InputError
-from hpcontact.sweep import spec as spec_module
-from hpcontact.sweep.spec import canonical_json, load_spec, parse_spec
+from hpcontact.sweep.space import enumeration
+from hpcontact.sweep.space.parse import load_spec, parse_spec
+from hpcontact.sweep.space.spec import canonical_json
 
 
 def accept(params):
@@ -201,7 +202,7 @@ def _values(values) -> str:
     return "[" + ", ".join(repr(v) for v in values) + "]"
 
 
-LONG = spec_module.SCENE_CHECK_POINTS // 4  # the tests below check ranges of more than LONG // 2 as intervals
+LONG = enumeration.SCENE_CHECK_POINTS // 4  # the tests below check ranges of more than LONG // 2 as intervals
 NU_WITH_MINUS_ONE = [0.1 + 0.3 * i / LONG for i in range(LONG)]
 NU_WITH_MINUS_ONE[1234] = -1.0
 LONG_AXES = [
@@ -227,7 +228,7 @@ LONG_AXES = [
 @pytest.fixture
 def interval_checks(monkeypatch):
     """Ranges of more than LONG // 2 points checked run by run at their extreme values."""
-    monkeypatch.setattr(spec_module, "SCENE_CHECK_POINTS", LONG // 2)
+    monkeypatch.setattr(enumeration, "SCENE_CHECK_POINTS", LONG // 2)
 
 
 EXPECTED = [
@@ -304,7 +305,7 @@ def test_runs_give_the_scenes_of_the_points_one_by_one():
         want = [(i, spec.scene_params(i)) for i in spec.points()]
         n = len(want)
         for start, stop in ((0, n), (1, n - 1), (n // 3, n // 3 + 5), (n - 1, n)):
-            got = list(spec_module.scene_texts(spec, start=start, stop=stop))
+            got = list(enumeration.scene_texts(spec, start=start, stop=stop))
             assert [(i, p, list(p)) for i, p, _ in got] == [(i, p, list(p)) for i, p in want[start:stop]]
             assert [t for _, _, t in got] == [canonical_json(p) for _, p in want[start:stop]]
 
@@ -335,7 +336,7 @@ def test_short_runs_of_many_contexts_are_checked_at_their_ends_too(isotropic, to
     anisotropy = [1.5 + 0.01 * k for k in range(60)]
     anisotropy[isotropic] = 1.0
     text = f"[axes]\nanisotropy = {_values(anisotropy)}\nnu = {{ linspace = [0.3, {top}, 50] }}\n"
-    monkeypatch.setattr(spec_module, "SCENE_CHECK_POINTS", 100)
+    monkeypatch.setattr(enumeration, "SCENE_CHECK_POINTS", 100)
     calls = []
     build = Scene.from_params.__func__
     monkeypatch.setattr(Scene, "from_params", classmethod(lambda cls, p: calls.append(1) or build(cls, p)))

@@ -1,0 +1,323 @@
+"""Sweep job spec: a TOML file → axes, fixed scene fields and settings, checked before any work.
+
+A spec has four tables (docs/design.md §1, §4.2; every key is optional except one axis or a fixed scene)::
+
+    [sweep]                          # how the sweep runs
+    title = "Li 2017, Fig. 7"
+    output = "results/aspect.nc"     # relative to the working directory; --output overrides
+    journal = "results/aspect.nc.journal"   # per-rank HDF5 journals (default: output + ".journal")
+    angle_mode = "tensor"            # "tensor": K_nn(angle) from the tensor, no solve per angle;
+                                     # "rotated": Li's check, one solve per angle, shape_angle −= angle
+    progress_interval = 10.0         # seconds between progress lines on rank 0
+
+    [scene]                          # fixed fields of every scene (names of `hpcontact solve`)
+    quantities = ["tangential", "normal"]
+
+    [numerics]                       # accuracy settings of every scene
+    n = 128                          # one grid ... (or accuracy = 1e-4 instead of n, n_across:
+    n_across = 16                    # a grid sequence to that estimated relative error)
+    tol = 1e-10
+
+    [axes]                           # the parameter space: a Cartesian product
+    shape = ["ellipse", "rectangle", { label = "hexagon", shape = "polygon", sides = 6 }]
+    aspect = { logspace = [0, -8, 9] }      # numpy.logspace(start, stop, num): 1 … 1e-8
+    nu = [0.1, 0.3, 0.5]
+    angle = { linspace = [0, 180, 37] }     # numpy.linspace(start, stop, num)
+
+Axis names are those of docs/design.md §1 (``shape angle nu aspect anisotropy orientation``), ``material``
+(library crystal names, a string coordinate: ``material = ["Cu", "Al", "W"]``), ``normal_held``
+(``["approach", "load"]``, a string coordinate: what ``tangential`` holds normally), plus ``n``,
+``tol`` and ``accuracy`` for accuracy studies. Crystal scenes::
+
+    [scene]                          # Rodríguez-Tembleque et al. 2011: sphere on a cubic crystal
+    quantities = ["indentation"]
+    radius = 1.0                     # rigid sphere radius R and approach d (fixed fields)
+    depth = 1e-4
+    [axes]
+    anisotropy = [0.5, 1, 2]         # cubic from (nu, A), (C11 - C12)/2 = G
+    orientation = { linspace = [0, 90, 19] }   # psi along [110] -> [111] -> [001]
+
+A field the scene ignores is left out of its parameters, so equal scenes are solved once: at
+A = 1 without a named crystal the body is isotropic and ``orientation``, ``miller`` and
+``azimuth`` are dropped (after validation, so a bad value is still refused). ``nu``, ``G`` or
+``anisotropy`` in a scene whose body is a named ``material`` or elastic constants (``cubic``,
+``orthotropic``, ``voigt``) is refused, as by ``hpcontact solve`` (``hpcontact.scene.UNUSED_FIELDS``),
+naming the key it came from (``axes.nu``, ``scene.G``). A ``shape`` value is a shape name or a table with a ``label``
+(its coordinate in the data set) and scene fields (``shape``, ``sides``, ``aspect``, …); fields
+of such a table win over the other axes. Anything unknown, empty, duplicated or impossible is
+refused with an ``InputError`` naming the key (``axes.nu``, ``scene.G``, …), so a bad spec never
+reaches a rank's work loop. Values are checked by the scene's own validator: every distinct
+scene of the sweep, except in a range of more than ``SCENE_CHECK_POINTS`` points (a large spec,
+or a rank's share of one) along its last axis when that axis is a field whose valid values form
+an interval (``kinds.interval_fields``: nu, b/a, A, ψ, …): there the validator checks each run's
+extreme and branch values (a bisection finds the first refused point when one is refused:
+``scene_runs``), with the same error, naming the same key, as a check of every scene.
+
+A ``mask`` file (``shape = "mask"``, a .npy or .png contact mask; in [scene] or a shape table)
+given by a relative path is found relative to the spec file's folder, not the working directory
+(an absolute path stays as is); scenes hold it absolute. Its header is read when the spec is
+checked (``geometry.mask_pixels``: a wrong type or a mask over the grid limit is refused before
+anything is decoded), and its content is part of the task key (``tasks.task_key``): ``--resume``
+after the file changed computes its tasks again.
+
+Partial-slip scenes (``quantities = "slip"``: ``hpcontact.problems.slip.partial_slip``, two bodies pressed by a load P
+and loaded tangentially to Q = q_ratio mu P; the scene kind, ``kinds``) take the axes ``load``,
+``mu``, ``q_ratio`` and ``pair``; a ``pair`` value is a table with a ``label`` and body fields
+(``material material2 radius radius_b radius2 radius2_b body2_angle E G nu E2 G2 nu2``, or any
+other scene field; its fields win over the other axes)::
+
+    [scene]
+    quantities = "slip"
+    radius = 8e-3                    # body 1 and body 2, metres (library materials: SI units)
+    radius2 = 9e-3
+    steps = 5                        # force-controlled load steps up to q_ratio mu P
+    [axes]
+    pair = [
+        { label = "Cu-Fe", material = "Cu", material2 = "Fe" },
+        { label = "Fe-flat", material = "Fe", material2 = "Fe", radius2 = "flat" },
+    ]
+    load = [10.0, 100.0]             # newtons
+    mu = [0.3]
+    q_ratio = { linspace = [0, 0.9, 10] }
+
+In a slip sweep ``angle`` is the direction of the tangential load, an ordinary field solved per
+value (``angle_mode`` is for punch tensors and is refused). Radii of body 2 and the second radii
+(``radius_b radius2 radius2_b``) may be ``inf`` or ``"flat"`` (a flat direction).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import stat
+import tomllib
+from collections.abc import Mapping
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+from hpcontact.errors import InputError, did_you_mean
+from hpcontact.problems.kinds import kind_of
+from hpcontact.scene import ACCURACY_RANGE
+from hpcontact.sweep.adaptive_settings import parse_settings
+from hpcontact.sweep.space.axes import (
+    AXIS_NAMES,
+    LABEL_AXES,
+    MAX_POINTS,
+    PATH_FIELDS,
+    Axis,
+    normalize,
+    parse_axis,
+    with_paths,
+)
+from hpcontact.sweep.space.enumeration import scene_runs
+from hpcontact.sweep.space.spec import ANGLE_FIELD, ANGLE_MODES, NUMERIC_KEYS, SWEEP_KEYS, TABLES, Spec, Validator
+
+#: The largest spec file read (bytes): the shipped specs are a few kB, and an explicit axis of
+#: 10**6 values (a tenth of ``MAX_POINTS``) is ~10 MB of TOML; a larger file, or one that is not
+#: a regular file (/dev/zero, a FIFO, a folder), is refused before it is read.
+MAX_SPEC_BYTES = 16 * 2**20
+
+
+def load_spec(
+    path: str | Path,
+    output: str | Path | None = None,
+    validate: Validator | None = None,
+    check_scenes: bool = True,
+    accuracy: float | None = None,
+) -> Spec:
+    """Read and check the spec at ``path``; ``output`` overrides [sweep].output, ``accuracy``
+    (``hpcontact run --accuracy``) the spec's [numerics] accuracy, n and n_across.
+
+    ``validate`` checks one scene's parameters (default: the validator of the spec's scene kind,
+    ``kinds.validator``); it runs on every distinct scene of the sweep, so impossible values are
+    refused up front. With ``check_scenes`` false the scenes are left to the caller (``scenes``:
+    the driver spreads them over the ranks and checks them while it enumerates the tasks).
+    """
+    path = Path(path)
+    try:
+        text = _read_spec(path).decode("utf-8").replace("\r\n", "\n").replace("\r", "\n")  # as read_text
+    except UnicodeDecodeError as exc:
+        raise InputError("spec", f"a TOML file in UTF-8 (byte {exc.start} is not UTF-8)", str(path)) from None
+    if not any(line.strip() and not line.lstrip().startswith("#") for line in text.splitlines()):
+        raise InputError("spec", "a TOML spec with content (this file is empty or holds only comments)", str(path))
+    return parse_spec(text, path=path, output=output, validate=validate, check_scenes=check_scenes, accuracy=accuracy)
+
+
+def _read_spec(path: Path) -> bytes:
+    """The bytes of the spec file ``path``: a regular file of at most ``MAX_SPEC_BYTES``, else
+    ``InputError`` naming the file and the limit. Opened without blocking (a FIFO), checked by
+    ``fstat`` on the open file, read no further than the limit."""
+    limit = f"a regular TOML file of at most {MAX_SPEC_BYTES // 2**20} MiB ({MAX_SPEC_BYTES} bytes)"
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    except (OSError, ValueError) as exc:  # ValueError: a NUL in the path
+        why = exc.strerror if isinstance(exc, OSError) else "a path without NUL characters"
+        raise InputError("spec", f"a readable TOML file ({why})", str(path)) from None
+    mode = os.fstat(fd).st_mode
+    if not stat.S_ISREG(mode):
+        os.close(fd)
+        what = (
+            "a folder"
+            if stat.S_ISDIR(mode)
+            else "a FIFO"
+            if stat.S_ISFIFO(mode)
+            else "a device"
+            if stat.S_ISCHR(mode) or stat.S_ISBLK(mode)
+            else "not a regular file"
+        )
+        raise InputError("spec", f"{limit}; this is {what}", str(path))
+    with os.fdopen(fd, "rb") as fh:
+        try:
+            data = fh.read(MAX_SPEC_BYTES + 1)
+        except OSError as exc:
+            raise InputError("spec", f"a readable TOML file ({exc.strerror})", str(path)) from None
+    if len(data) > MAX_SPEC_BYTES:
+        raise InputError("spec", f"{limit}; this file is larger", str(path))
+    return data
+
+
+def parse_spec(
+    text: str,
+    path: str | Path = "<string>",
+    output: str | Path | None = None,
+    validate: Validator | None = None,
+    check_scenes: bool = True,
+    accuracy: float | None = None,
+) -> Spec:
+    """Check the TOML ``text`` of a spec and build the ``Spec`` (see the module docstring and
+    ``load_spec``)."""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError("spec", f"valid TOML ({exc})", str(path)) from None
+    except RecursionError:  # arrays or inline tables nested thousands deep
+        raise InputError("spec", "TOML nested at most a few hundred levels deep", str(path)) from None
+    _known_keys("", data, TABLES)
+    tables = {}
+    for name in TABLES:
+        table = data.get(name, {})
+        if not isinstance(table, dict):
+            raise InputError(name, "a TOML table", table)
+        tables[name] = table
+    sweep, scene, numerics, axes_table, adaptive = (tables[name] for name in TABLES)
+    _known_keys("sweep.", sweep, SWEEP_KEYS)
+    _known_keys("numerics.", numerics, NUMERIC_KEYS)
+    _known_keys("axes.", axes_table, AXIS_NAMES)
+    for key in NUMERIC_KEYS:
+        if key in scene:
+            raise InputError(f"scene.{key}", "a numerical setting: put it in [numerics]", scene[key])
+
+    fixed = {key: normalize(f"scene.{key}", key, value) for key, value in scene.items()}
+    fixed.update({key: normalize(f"numerics.{key}", key, value) for key, value in numerics.items()})
+    if accuracy is not None:  # the command line's request replaces the spec's grid and accuracy
+        for key in ("n", "n_across"):
+            fixed.pop(key, None)
+        fixed["accuracy"] = normalize("--accuracy", "accuracy", accuracy)
+        if not 1e-9 <= fixed["accuracy"] < 1.0:
+            raise InputError("--accuracy", ACCURACY_RANGE, accuracy)
+    axes = tuple(parse_axis(name, value) for name, value in axes_table.items())
+    base = Path(path).parent.absolute()
+    fixed = with_paths(fixed, base)
+    axes = tuple(
+        replace(a, fields=tuple(with_paths(f, base) for f in a.fields))
+        if a.name in LABEL_AXES or a.name in PATH_FIELDS
+        else a
+        for a in axes
+    )
+    total = math.prod(len(a) for a in axes)
+    if total > MAX_POINTS:
+        raise InputError(
+            "axes",
+            f"at most {MAX_POINTS} points, the product of the axes' lengths (this spec has "
+            f"{' x '.join(str(len(a)) for a in axes)} = {total}); split it or coarsen an axis",
+        )
+    for axis in axes:
+        section = "numerics" if axis.name in numerics else "scene"
+        if axis.name in fixed:
+            raise InputError(f"axes.{axis.name}", f"an axis or a fixed [{section}] field, not both")
+
+    _refuse_grid_with_accuracy(fixed, axes, "--accuracy" if accuracy is not None else "numerics.accuracy")
+    kind = kind_of(fixed)
+    if not kind.accuracy_applies and ("accuracy" in fixed or any(a.name == "accuracy" for a in axes)):
+        raise InputError(
+            "--accuracy" if accuracy is not None else "numerics.accuracy",
+            f"not with {kind.name} scenes ({kind.accuracy_refused})",
+            fixed.get("accuracy"),
+        )
+    if kind.angle_mode_refused is not None:
+        if "angle_mode" in sweep:
+            raise InputError(
+                "sweep.angle_mode",
+                f"not used by {kind.name} scenes ({kind.angle_mode_refused})",
+                sweep["angle_mode"],
+            )
+        angle_mode = ANGLE_FIELD
+    else:
+        angle_mode = sweep.get("angle_mode", "tensor")
+        if angle_mode not in ANGLE_MODES:
+            raise InputError("sweep.angle_mode", f"one of {', '.join(ANGLE_MODES)}", angle_mode)
+        if angle_mode == "rotated" and not any(a.name == "angle" for a in axes):
+            raise InputError("sweep.angle_mode", "'rotated' needs an angle axis in [axes]", angle_mode)
+    interval = sweep.get("progress_interval", 10.0)
+    if isinstance(interval, bool) or not isinstance(interval, (int, float)) or not interval > 0:
+        raise InputError("sweep.progress_interval", "a number of seconds > 0", interval)
+    title = sweep.get("title", Path(path).stem)
+    if not isinstance(title, str):
+        raise InputError("sweep.title", "a string", title)
+    out = (
+        Path(output)
+        if output is not None
+        else Path(_string("sweep.output", sweep.get("output", f"{Path(path).stem}.nc")))
+    )
+    if out.suffix != ".nc":
+        raise InputError("output" if output is not None else "sweep.output", "a path ending in .nc", str(out))
+    journal = (
+        Path(_string("sweep.journal", sweep["journal"])) if "journal" in sweep else out.with_name(out.name + ".journal")
+    )
+
+    spec = Spec(
+        path=Path(path),
+        text=text,
+        title=title,
+        output=out,
+        journal=journal,
+        angle_mode=angle_mode,
+        progress_interval=float(interval),
+        fixed=fixed,
+        axes=axes,
+        kind=kind.name,
+    )
+    if "adaptive" in data:  # the solved subset of the grid (hpcontact.sweep.adaptive)
+        spec = replace(spec, adaptive=parse_settings(adaptive, axes, axes_table, spec.task_axes))
+    if check_scenes:
+        for _ in scene_runs(spec, validate):
+            pass
+    return spec
+
+
+def _refuse_grid_with_accuracy(fixed: Mapping[str, Any], axes: tuple[Axis, ...], key: str) -> None:
+    """A requested accuracy picks its own grids (``hpcontact.accuracy.solve_to_accuracy``): a
+    fixed grid beside it (``n``, ``n_across``, fixed or an axis) would be ignored, so it is
+    refused."""
+    names = set(fixed) | {a.name for a in axes}
+    if "accuracy" not in names:
+        return
+    for grid in ("n", "n_across"):
+        if grid in names:
+            where = f"axes.{grid}" if grid not in fixed else f"numerics.{grid}"
+            raise InputError(key, f"an accuracy or a grid ({where}), not both: an accuracy picks its own grids")
+
+
+def _known_keys(prefix: str, table: Mapping[str, Any], allowed: tuple[str, ...]) -> None:
+    for key in table:
+        if key not in allowed:
+            raise InputError(
+                f"{prefix}{key}", f"unknown key; allowed: {', '.join(allowed)}{did_you_mean(key, allowed)}"
+            )
+
+
+def _string(key: str, value: Any) -> str:
+    if not isinstance(value, str) or not value:
+        raise InputError(key, "a non-empty string", value)
+    return value
