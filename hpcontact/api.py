@@ -18,7 +18,6 @@ discretization, BLAS limited while it runs (``numerics.blas``).
 
 from __future__ import annotations
 
-import difflib
 import json
 import math
 import numbers
@@ -32,7 +31,8 @@ from typing import TYPE_CHECKING, Any, TextIO
 import numpy as np
 
 from hpcontact.accuracy import AccuracyNotMet, default_scene_solve, solve_to_accuracy, task_function
-from hpcontact.errors import AccuracyWarning, InputError
+from hpcontact.errors import AccuracyWarning, InputError, did_you_mean
+from hpcontact.fields import CONTACT, cli_fields, cli_help, names, recorded
 from hpcontact.numerics.blas import limited_blas
 from hpcontact.numerics.memory import parse_memory
 from hpcontact.problems.kinds import SLIP, scene_kind
@@ -41,39 +41,11 @@ from hpcontact.scene import Scene
 if TYPE_CHECKING:
     import xarray as xr
 
-#: The fields of a partial-slip scene beyond those of a contact scene (``--quantities slip``;
-#: ``hpcontact.problems.slip.problem.validate``): name, type, help text of ``hpcontact solve``.
-SLIP_FIELDS: tuple[tuple[str, type, str], ...] = (
-    ("radius_b", float, "second principal radius of body 1 (ellipsoid)"),
-    ("radius2", float, "radius of body 2 (default: a flat)"),
-    ("radius2_b", float, "second principal radius of body 2"),
-    ("body2_angle", float, "angle between the principal axes of the bodies (degrees)"),
-    ("material2", str, "body 2 by name (Cu, Fe/steel, Al, rigid)"),
-    ("E", float, "Young's modulus of body 1"),
-    ("E2", float, "Young's modulus of body 2"),
-    ("G2", float, "shear modulus of body 2"),
-    ("nu2", float, "Poisson ratio of body 2"),
-    ("load", float, "normal load P (> 0)"),
-    ("mu", float, "friction coefficient (>= 0)"),
-    ("q_ratio", float, "tangential load Q/(mu P) in [0, 1)"),
-    ("angle", float, "direction of the tangential load (degrees from x)"),
-    ("steps", int, "tangential load steps"),
-    ("control", str, "force or displacement"),
-    ("displacement", float, "final tangential displacement (with control displacement)"),
-    ("path", str, "load (monotonic), loop (load, unload, reload) or proportional (normal load with the displacement)"),
-    ("coupling", str, "auto, both, coupled or decoupled"),
-    ("tensor", bool, "add the incremental 2 x 2 tangential stiffness tensor"),
-    ("history", bool, "add every load step"),
-    ("normal_friction", bool, "apply the normal load in steps with friction (Spence; coupled path)"),
-    ("anisotropy2", float, "body 2: cubic anisotropy factor A (with nu2 and G2 or E2)"),
-    ("orientation2", float, "body 2: normal along [110] -> [111] -> [001], psi in degrees (lab frame)"),
-    ("miller2", str, 'body 2: lattice direction "h k l" along the lab normal'),
-    ("azimuth2", float, "body 2: in-plane turn of the crystal (degrees)"),
-    ("cubic2", str, 'body 2: cubic crystal "C11=... C12=... C44=..." (GPa)'),
-    ("orthotropic2", str, "body 2: orthotropic engineering constants (GPa), as orthotropic"),
-    ("voigt2", str, "body 2: general 6 x 6 Voigt stiffness, 36 numbers (GPa)"),
-)
-SLIP_NAMES = tuple(name for name, _, _ in SLIP_FIELDS)
+#: The slip scene's own fields (beyond a contact scene's), keywords of ``hpcontact.solve`` and
+#: options of ``hpcontact solve``; all of its keywords: the contact scene's fields, ``memory``
+#: (a solve option, not a field) and these (``hpcontact.fields``).
+SLIP_KEYWORDS = tuple(f.name for f in cli_fields("slip"))
+SOLVE_KEYWORDS = (*names(CONTACT), "memory", *SLIP_KEYWORDS)
 
 
 def keyword(field: str) -> str:
@@ -92,9 +64,9 @@ def solve_fields(
     """Solve one scene from its fields and return its record: the dispatch of ``hpcontact
     solve`` and ``hpcontact.solve``.
 
-    ``params`` are the scene's fields (``hpcontact.scene.DEFAULTS`` names them; ``None`` or
-    missing: the engine's default), ``slip`` the partial-slip fields (``SLIP_FIELDS``, only
-    with ``quantities="slip"``). A slip scene goes to the slip solver
+    ``params`` are the scene's fields (``hpcontact.fields`` declares them; ``None`` or
+    missing: the engine's default), ``slip`` the slip scene's own fields (``SLIP_KEYWORDS``,
+    only with ``quantities="slip"``). A slip scene goes to the slip solver
     (``accuracy.task_function``); a contact scene with ``accuracy`` to ``solve_to_accuracy``
     (strategy "auto", within the ``memory`` budget: "2G" or bytes; default this machine's
     memory per core), else to ``default_scene_solve`` (without ``n``: as ``accuracy=1e-4``
@@ -134,8 +106,7 @@ def solve_fields(
                 record = default_scene_solve(scene)
             except AccuracyNotMet as exc:  # the default's own target: say so, return what was reached
                 record, missed = exc.record, str(exc)
-    if scene.normal_held == "load" and "tangential" in scene.quantities:
-        record["normal_held"] = "load"  # also where no Schur complement was formed (isotropic: the same K)
+    record.update(recorded(scene.quantities, vars(scene)))  # also where no Schur complement was formed
     if missed is not None:
         warnings.warn(f"default {missed}", AccuracyWarning, stacklevel=3)
     return record
@@ -173,7 +144,35 @@ def solve(
     normal_held: str | None = None,
     accuracy: float | None = None,
     memory: str | int | None = None,
-    **slip: Any,
+    radius_b: float | str | None = None,
+    radius2: float | str | None = None,
+    radius2_b: float | str | None = None,
+    body2_angle: float | None = None,
+    material2: str | None = None,
+    E: float | None = None,
+    E2: float | None = None,
+    G2: float | None = None,
+    nu2: float | None = None,
+    load: float | None = None,
+    mu: float | None = None,
+    q_ratio: float | None = None,
+    angle: float | None = None,
+    steps: int | None = None,
+    control: str | None = None,
+    displacement: float | None = None,
+    path: str | None = None,
+    coupling: str | None = None,
+    tensor: bool | None = None,
+    history: bool | None = None,
+    normal_friction: bool | None = None,
+    anisotropy2: float | None = None,
+    orientation2: float | None = None,
+    miller2: str | Sequence[int] | None = None,
+    azimuth2: float | None = None,
+    cubic2: str | Mapping[str, float] | Sequence[float] | None = None,
+    orthotropic2: str | Mapping[str, float] | Sequence[float] | None = None,
+    voigt2: str | Sequence[float] | Sequence[Sequence[float]] | None = None,
+    **unknown: Any,
 ) -> dict[str, Any]:
     """Solve one scene and return its record, as ``hpcontact solve --json`` prints it.
 
@@ -237,8 +236,8 @@ def solve(
         Conjugate-gradient relative residual tolerance in [1e-14, 1e-2] [1e-8].
     quantities
         Comma string or list of ``tangential`` [default], ``normal``, ``compliance``,
-        ``coupled``, ``indentation``; or ``slip`` (partial slip of two bodies: give the fields
-        of ``SLIP_FIELDS`` as keywords, e.g. ``radius=0.01, load=100.0, mu=0.3, q_ratio=0.5``).
+        ``coupled``, ``indentation``; or ``slip`` (partial slip of two bodies: give its fields
+        below as keywords, e.g. ``radius=0.01, load=100.0, mu=0.3, q_ratio=0.5``).
     radius, depth
         Rigid sphere radius and approach (``indentation``), in a length unit L of your choice.
     threads
@@ -257,9 +256,7 @@ def solve(
     memory
         Memory budget of ``accuracy`` (``"2G"``, ``"512M"`` or bytes) [this machine's memory
         per core].
-    **slip
-        The partial-slip fields (``SLIP_FIELDS``: ``load``, ``mu``, ``q_ratio``, ``radius2``,
-        ``material2``, ``steps``, ...), only with ``quantities="slip"``.
+    {slip_parameters}
 
     Returns
     -------
@@ -288,87 +285,29 @@ def solve(
         limits allow: the record is returned (``accuracy_met`` False, ``estimated_error`` what
         was reached) and the warning names the requested and estimated error and the limit.
     """
-    unknown = sorted(set(slip) - set(SLIP_NAMES))
+    given = locals()
     if unknown:
+        word = sorted(unknown)[0]
         raise TypeError(
-            f"solve() got an unexpected keyword argument {unknown[0]!r}"
-            f"{did_you_mean(unknown[0], _SOLVE_KEYWORDS + SLIP_NAMES, quote=True)}"
+            f"solve() got an unexpected keyword argument {word!r}{did_you_mean(word, SOLVE_KEYWORDS, quote=True)}"
         )
-    params = {
-        "shape": shape,
-        "aspect": aspect,
-        "sides": sides,
-        "shape_angle": shape_angle,
-        "amplitude": amplitude,
-        "seed": seed,
-        "hurst": hurst,
-        "rms": rms,
-        "mask": mask,
-        "nu": nu,
-        "G": G,
-        "anisotropy": anisotropy,
-        "orientation": orientation,
-        "miller": miller,
-        "azimuth": azimuth,
-        "material": material,
-        "cubic": cubic,
-        "orthotropic": orthotropic,
-        "voigt": voigt,
-        "n": n,
-        "n_across": n_across,
-        "tol": tol,
-        "quantities": quantities,
-        "radius": radius,
-        "depth": depth,
-        "threads": threads,
-        "precondition": precondition,
-        "normal_held": normal_held,
-    }
+    params = {name: given[name] for name in names(CONTACT) if name != "accuracy"}
+    slip = {name: given[name] for name in SLIP_KEYWORDS}
     return solve_fields(params, slip, accuracy=accuracy, memory=memory)
 
 
-_SOLVE_KEYWORDS = (
-    "shape",
-    "aspect",
-    "sides",
-    "shape_angle",
-    "amplitude",
-    "seed",
-    "hurst",
-    "rms",
-    "mask",
-    "nu",
-    "G",
-    "anisotropy",
-    "orientation",
-    "miller",
-    "azimuth",
-    "material",
-    "cubic",
-    "orthotropic",
-    "voigt",
-    "n",
-    "n_across",
-    "tol",
-    "quantities",
-    "radius",
-    "depth",
-    "threads",
-    "precondition",
-    "normal_held",
-    "accuracy",
-    "memory",
+def _slip_parameters(indent: str) -> str:
+    """The slip scene's own keywords of ``solve``, as its docstring lists them (``indent``:
+    that of its parameter names): each with its command-line help (``hpcontact.fields``)."""
+    return "".join(
+        f'{indent}{name}\n{indent}    Partial slip (``quantities="slip"`` only): {cli_help(name)}.\n'
+        for name in SLIP_KEYWORDS
+    )
+
+
+solve.__doc__ = re.sub(
+    r"^( *)\{slip_parameters\}\n", lambda m: _slip_parameters(m.group(1)), solve.__doc__ or "", flags=re.M
 )
-
-
-def did_you_mean(word: str, choices: Sequence[str], quote: bool = False) -> str:
-    """``"; did you mean X?"`` with the closest of ``choices`` (difflib), else ``""``."""
-    close = difflib.get_close_matches(word, list(choices), n=1, cutoff=0.6)
-    if not close:
-        close = [c for c in choices if c.lower() == word.lower()]
-    if not close:
-        return ""
-    return f"; did you mean {close[0]!r}?" if quote else f"; did you mean {close[0]}?"
 
 
 def open_dataset(path: str | Path, **options: Any) -> xr.Dataset:

@@ -10,7 +10,6 @@ and examples.
 from __future__ import annotations
 
 import argparse
-import difflib
 import json
 import os
 import re
@@ -23,17 +22,20 @@ from typing import Any
 import numpy
 
 from hpcontact import __version__
-from hpcontact.api import SLIP_FIELDS, solve_fields
-from hpcontact.errors import AccuracyWarning, ConvergenceError, InputError
-from hpcontact.materials.isotropic import NU_RANGE
+from hpcontact.api import solve_fields
+from hpcontact.errors import AccuracyWarning, ConvergenceError, InputError, did_you_mean
+from hpcontact.fields import CONTACT, Field, cli_fields, cli_help, names
 from hpcontact.numerics.convolution import load_wisdom, pyfftw, save_wisdom, wisdom_path
 from hpcontact.problems.kinds import SLIP, quantity_names, scene_kind
-from hpcontact.scene import DEFAULTS, SHAPES
+from hpcontact.scene import DEFAULTS
 from hpcontact.sweep.arguments import add_run_arguments
 from hpcontact.sweep.show import add_show_arguments, show_command
 
-#: The partial-slip options of ``hpcontact solve`` (name, type, help), as ``hpcontact.solve`` takes them.
-SLIP_OPTIONS = SLIP_FIELDS
+#: The scene fields of ``hpcontact solve`` (``--no-precondition`` for ``precondition``;
+#: ``--accuracy`` goes to the solve beside them) and its partial-slip options, as
+#: ``hpcontact.solve`` takes them: the field schema's (``hpcontact.fields``).
+FIELDS = tuple(name for name in names(CONTACT) if name != "accuracy")
+SLIP_OPTIONS = tuple(f.name for f in cli_fields("slip"))
 
 EXAMPLES = """examples:
   hpcontact solve --shape ellipse --aspect 0.3 --nu 0.3      one scene: K of an ellipse to 1e-4 or better
@@ -68,7 +70,7 @@ class _Parser(argparse.ArgumentParser):
     def error(self, message: str) -> None:  # type: ignore[override]
         choice = re.search(r"invalid choice: '([^']*)' \(choose from (.*)\)", message)
         if choice:
-            message += _did_you_mean(choice.group(1), re.findall(r"'([^']*)'", choice.group(2)))
+            message += did_you_mean(choice.group(1), re.findall(r"'([^']*)'", choice.group(2)))
         self.exit(2, f"hpcontact: {message}\n")
 
     def parse_args(self, args: Sequence[str] | None = None, namespace: Any = None) -> argparse.Namespace:  # type: ignore[override]
@@ -87,24 +89,25 @@ class _Parser(argparse.ArgumentParser):
         known = [option for action in parser._actions for option in action.option_strings if option.startswith("--")]
         for extra in extras:
             if extra.startswith("--"):
-                return _did_you_mean(extra.split("=", 1)[0], known)
+                return did_you_mean(extra.split("=", 1)[0], known)
         return ""
-
-
-def _did_you_mean(word: str, choices: Sequence[str]) -> str:
-    close = difflib.get_close_matches(word, list(choices), n=1, cutoff=0.6)
-    return f"; did you mean {close[0]}?" if close else ""
-
-
-def _default(name: str) -> str:
-    """ " (default: X)" with X the engine's default of the scene field ``name`` (scene.DEFAULTS)."""
-    value = DEFAULTS[name]
-    shown = ",".join(value) if isinstance(value, (list, tuple)) else value
-    return f" (default: {shown})"
 
 
 def _option(name: str) -> str:
     return f"--{name.replace('_', '-')}"
+
+
+def _add_field(group: argparse._ArgumentGroup, f: Field) -> None:
+    """The option of the field ``f`` (``hpcontact.fields``): a number parsed as its type, a
+    boolean as a flag that sets the value other than its default (``--no-precondition``), any
+    other value as text."""
+    if f.type is bool:
+        group.add_argument(
+            f.cli_option, dest=f.name, action="store_const", const=not f.default, default=None, help=cli_help(f.name)
+        )
+    else:
+        numeric = {"type": f.type} if f.type in (int, float) else {}
+        group.add_argument(f.cli_option, **numeric, metavar=f.metavar, help=cli_help(f.name))
 
 
 def _solve_parser(sub: argparse._SubParsersAction) -> None:
@@ -116,96 +119,19 @@ def _solve_parser(sub: argparse._SubParsersAction) -> None:
         epilog=SOLVE_EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    scene = p.add_argument_group("scene (lengths in units of a, the semi-major extent of the contact)")
-    scene.add_argument("--shape", help=f"{', '.join(SHAPES)}{_default('shape')}")
-    scene.add_argument("--aspect", type=float, help=f"b/a of ellipse or rectangle, in [1e-12, 1]{_default('aspect')}")
-    scene.add_argument("--sides", type=int, help=f"polygon sides or star lobes{_default('sides')}")
-    scene.add_argument(
-        "--shape-angle", type=float, help=f"turn the shape by this angle (degrees){_default('shape_angle')}"
-    )
-    scene.add_argument(
-        "--amplitude", type=float, help=f"star modulation epsilon of r = 1 + eps cos(k phi){_default('amplitude')}"
-    )
-    scene.add_argument("--seed", type=int, help=f"seed of the rough surface{_default('seed')}")
-    scene.add_argument("--hurst", type=float, help=f"Hurst exponent of the rough surface, in (0, 1){_default('hurst')}")
-    scene.add_argument("--rms", type=float, help=f"rms height of the rough surface (units of a){_default('rms')}")
-    scene.add_argument(
-        "--mask", help="contact mask file (.npy or .png) for --shape mask; a = half the long side of the contact"
-    )
-    scene.add_argument(
-        "--quantities",
-        help="comma list: tangential, normal, compliance, coupled, indentation; or slip" + _default("quantities"),
-    )
-    scene.add_argument(
-        "--radius",
-        type=float,
-        help="rigid sphere radius (indentation; unit L of your choice), or radius of body 1 (slip)",
-    )
-    scene.add_argument("--depth", type=float, help="rigid sphere approach (indentation), in [1e-15, 1) x radius")
-    scene.add_argument(
-        "--normal-held",
-        help="what tangential holds normally: approach (u_z = 0) or load (F_z = 0; differs for crystals only)"
-        + _default("normal_held"),
-    )
-
-    material = p.add_argument_group(
-        "material (isotropic unless a crystal is named or A != 1)",
-        "--nu, --G and --anisotropy describe the body only without --material, --cubic,\n"
-        "--orthotropic or --voigt (beside one of them they are refused); --orientation,\n"
-        "--miller and --azimuth turn any crystal",
-    )
-    material.add_argument("--nu", type=float, help=f"{NU_RANGE}; < 0.5 for a crystal (A != 1){_default('nu')}")
-    material.add_argument("--G", type=float, help=f"shear modulus: the stress unit of the results{_default('G')}")
-    material.add_argument(
-        "--anisotropy",
-        type=float,
-        help=f"cubic anisotropy factor A = 2 C44/(C11 - C12), 1 = isotropic{_default('anisotropy')}",
-    )
-    material.add_argument(
-        "--orientation",
-        type=float,
-        help="surface normal along [110] -> [111] -> [001], psi in [0, 90] degrees (default: [001])",
-    )
-    material.add_argument("--miller", help='surface normal as Miller indices "h k l" (default: "0 0 1")')
-    material.add_argument("--azimuth", type=float, help=f"in-plane turn of the crystal (degrees){_default('azimuth')}")
-    material.add_argument(
-        "--material",
-        help="library crystal by name (Cu, Al, Fe, Ni, W, Si, ...; GPa); with --quantities slip: the isotropic "
-        "body 1 (Cu, Fe/steel, Al, rigid) or a crystal as crystal:NAME",
-    )
-    material.add_argument("--cubic", help='cubic crystal "C11=... C12=... C44=..." (GPa)')
-    material.add_argument(
-        "--orthotropic", help='orthotropic "E1=.. E2=.. E3=.. G12=.. G13=.. G23=.. nu12=.. nu13=.. nu23=.." (GPa)'
-    )
-    material.add_argument("--voigt", help="general 6 x 6 Voigt stiffness, 36 numbers row by row (GPa)")
-
-    numerics = p.add_argument_group("numerics")
-    numerics.add_argument(
-        "--n",
-        type=int,
-        help=f"cells along the long side (default: as --accuracy 1e-4 for isotropic outlined shapes, else {DEFAULTS['n']})",
-    )
-    numerics.add_argument("--n-across", type=int, help="cells across the short side (thin shapes; default: as along)")
-    numerics.add_argument(
-        "--tol", type=float, help=f"CG relative residual tolerance, in [1e-14, 1e-2]{_default('tol')}"
-    )
-    numerics.add_argument(
-        "--accuracy",
-        type=float,
-        metavar="REL",
-        help="extrapolate over grids until the estimated relative error <= REL, in [1e-9, 1) (default: off)",
-    )
-    numerics.add_argument(
-        "--memory",
-        metavar="SIZE",
-        help="memory budget of --accuracy, e.g. 2G (default: this machine's memory per core)",
-    )
-    numerics.add_argument(
-        "--threads", type=int, help=f"FFTW threads{_default('threads')}; BLAS: HPCONTACT_BLAS_THREADS (default: 1)"
-    )
-    numerics.add_argument(
-        "--no-precondition", action="store_true", help="plain CG, for comparison (default: Fourier-preconditioned CG)"
-    )
+    groups = {
+        "scene": p.add_argument_group("scene (lengths in units of a, the semi-major extent of the contact)"),
+        "material": p.add_argument_group(
+            "material (isotropic unless a crystal is named or A != 1)",
+            "--nu, --G and --anisotropy describe the body only without --material, --cubic,\n"
+            "--orthotropic or --voigt (beside one of them they are refused); --orientation,\n"
+            "--miller and --azimuth turn any crystal",
+        ),
+        "numerics": p.add_argument_group("numerics"),
+    }
+    for group, arguments in groups.items():
+        for f in cli_fields(group):
+            _add_field(arguments, f)
 
     output = p.add_argument_group("output")
     output.add_argument(
@@ -218,25 +144,12 @@ def _solve_parser(sub: argparse._SubParsersAction) -> None:
     )
 
     slip = p.add_argument_group("partial slip (--quantities slip; see hpcontact.problems.slip.partial_slip)")
-    for name, kind, text in SLIP_OPTIONS:
-        if kind is bool:
-            slip.add_argument(_option(name), action="store_true", default=None, help=text)
-        else:
-            slip.add_argument(_option(name), type=kind, help=text)
-
-
-#: The scene fields of ``hpcontact solve`` (with ``--no-precondition`` for ``precondition``).
-FIELDS = (
-    "shape aspect sides shape_angle amplitude seed hurst rms mask nu G anisotropy orientation miller azimuth "
-    "material cubic orthotropic voigt n n_across tol quantities radius depth threads normal_held"
-).split()
+    for f in cli_fields("slip"):
+        _add_field(slip, f)
 
 
 def _params(args: argparse.Namespace) -> dict[str, Any]:
-    params = {name: getattr(args, name) for name in FIELDS if getattr(args, name) is not None}
-    if args.no_precondition:
-        params["precondition"] = False
-    return params
+    return {name: getattr(args, name) for name in FIELDS if getattr(args, name) is not None}
 
 
 def _stress_unit(params: Mapping[str, Any]) -> str:
@@ -369,7 +282,7 @@ def _print_record(record: dict[str, Any], params: Mapping[str, Any] | None = Non
 def _cmd_solve(args: argparse.Namespace) -> int:
     load_wisdom()  # FFTW plans measured by earlier runs come back in milliseconds
     params = _params(args)
-    slip = {name: getattr(args, name) for name, _, _ in SLIP_OPTIONS}
+    slip = {name: getattr(args, name) for name in SLIP_OPTIONS}
     with warnings.catch_warnings(record=True) as caught:  # a missed default accuracy: one line, exit 1
         warnings.simplefilter("always", AccuracyWarning)
         record = solve_fields(params, slip, accuracy=args.accuracy, memory=args.memory, name=_option)

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -111,7 +112,8 @@ class Field:
     the option's name, ``group``: its group in ``hpcontact solve --help``, ``metavar``.
     ``changes``: what the field changes in a task (``EFFECTS``). ``text``: what a string value
     is, in words (a sweep spec's message); ``path``: an input file, ``flat``: a radius that may
-    be infinite (a flat direction). ``slip``: the field's differences in a slip scene, as
+    be infinite (a flat direction). ``recorded_by``: the quantities whose record carries the
+    field's value when it is not the default (``recorded``). ``slip``: the field's differences in a slip scene, as
     (attribute, value) pairs (``field(name, SLIP)``).
     """
 
@@ -134,6 +136,7 @@ class Field:
     text: str | None = None
     path: bool = False
     flat: bool = False
+    recorded_by: tuple[str, ...] = ()
     slip: tuple[tuple[str, Any], ...] = ()
 
     def check(self, value: Any) -> Any:
@@ -533,6 +536,7 @@ FIELDS: tuple[Field, ...] = (
         help="what tangential holds normally: approach (u_z = 0) or load (F_z = 0; differs for crystals only){default}",
         group="scene",
         changes=_changes("cost"),
+        recorded_by=("tangential",),
         text="approach or load: what the tangential stiffness holds in the normal direction",
     ),
     # partial slip
@@ -850,6 +854,17 @@ def read_by(setting: str | None = None) -> dict[str, tuple[str, tuple[str | None
     """Fields that only some contact scenes read (field -> ``Field.read_by``), those decided
     by ``setting`` (``shape``, ``quantities``, ``body``) when given."""
     return {f.name: f.read_by for f in FIELDS if f.read_by is not None and setting in (None, f.read_by[0])}
+
+
+def recorded(quantities: tuple[str, ...], values: Mapping[str, Any]) -> dict[str, Any]:
+    """The fields a contact record of ``quantities`` states, from a scene's ``values``: each
+    whose value is not its default where a quantity that reads it is asked (``recorded_by``:
+    ``normal_held = "load"`` beside ``tangential``)."""
+    return {
+        f.name: values[f.name]
+        for f in FIELDS
+        if any(q in f.recorded_by for q in quantities) and values[f.name] != f.default
+    }
 
 
 def axis_attrs(kind: str = CONTACT) -> dict[str, dict[str, str]]:

@@ -336,3 +336,30 @@ def test_run_sweep_refuses_a_spec_file_too_large_or_not_regular(tmp_path):
         with pytest.raises(InputError) as info:
             hpcontact.run_sweep(path, stream=io.StringIO())
         assert info.value.field == "spec" and f"at most {MAX_SPEC_BYTES // 2**20} MiB" in str(info.value)
+
+
+def test_solve_keywords_are_the_field_schemas():
+    """Issue 38: the explicit keywords of ``hpcontact.solve`` are the schema's contact fields,
+    the documented extra ``memory`` (``accuracy`` is a contact field) and the slip scene's own
+    fields, each keyword-only, typed and documented; ``**unknown`` only names a misspelling."""
+    from hpcontact.fields import CONTACT, SLIP, names
+
+    parameters = inspect.signature(hpcontact.solve).parameters
+    keywords = [name for name, p in parameters.items() if p.kind is inspect.Parameter.KEYWORD_ONLY]
+    assert set(keywords) == set(names(CONTACT)) | {"accuracy", "memory"} | set(names(SLIP)) - {"quantities"}
+    assert len(keywords) == len(set(keywords))
+    assert [p.kind for p in parameters.values()][-1] is inspect.Parameter.VAR_KEYWORD
+    for name in names(SLIP):
+        assert parameters[name].annotation is not inspect.Parameter.empty, name
+        assert re.search(rf"^    (\w+, )*{name}(, \w+)*$", hpcontact.solve.__doc__, re.MULTILINE), name
+
+
+def test_a_field_the_scene_does_not_read_is_refused_as_on_the_command_line(capsys):
+    """Issue 38: ``nu`` beside a library crystal is refused with one message, in Python and on
+    the command line alike (never silently ignored)."""
+    message = "nu = 0.1: not used with material = 'Cu' (its elastic constants fix the Poisson ratio); leave nu out"
+    with pytest.raises(InputError) as caught:
+        hpcontact.solve(material="Cu", nu=0.1, n=8)
+    assert str(caught.value) == message
+    assert cli_main(["solve", "--material", "Cu", "--nu", "0.1", "--n", "8"]) == 2
+    assert capsys.readouterr().err == f"hpcontact: error: {message}\n"

@@ -529,3 +529,39 @@ def test_a_sweep_combining_a_material_with_nu_exits_2_with_one_line(capsys, tmp_
         f"{key} = {0.1 if key == 'axes.nu' else 0.3}: not used with material = 'Cu' "
         "(its elastic constants fix the Poisson ratio); leave nu out"
     )
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (
+            ["--material", "Cu", "--nu", "0.1"],
+            "nu = 0.1: not used with material = 'Cu' (its elastic constants fix the Poisson ratio); leave nu out",
+        ),
+        (
+            ["--cubic", "C11=168 C12=121 C44=75", "--G", "2"],
+            "G = 2.0: not used with cubic = 'C11=168 C12=121 C44=75' (its elastic constants fix the moduli, in GPa); "
+            "leave G out",
+        ),
+        (
+            ["--shape", "circle", "--sides", "7"],
+            "sides = 7: not used with shape = 'circle' (only polygon or star read it); leave sides out",
+        ),
+    ],
+)
+def test_a_field_the_scene_does_not_read_is_refused(capsys, args, message):
+    """Issue 38: ``hpcontact solve --material Cu --nu 0.1`` exits 2 naming nu, as Python does."""
+    code, out, err = _run(capsys, *args, "--n", "8")
+    assert (code, out, err) == (2, "", f"hpcontact: error: {message}\n")
+
+
+def test_solve_options_are_the_field_schemas(capsys):
+    """Issue 38: every field of the schema with a command-line group is an option of
+    ``hpcontact solve``, with its help text (``hpcontact.fields.cli_help``)."""
+    from hpcontact.cli import parser
+    from hpcontact.fields import cli_fields, cli_help
+
+    solve = next(a for a in parser()._actions if a.dest == "command").choices["solve"]
+    options = {a.dest: a for a in solve._actions}
+    for f in cli_fields():
+        assert options[f.name].option_strings == [f.cli_option] and options[f.name].help == cli_help(f.name), f.name
