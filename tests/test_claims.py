@@ -16,9 +16,11 @@ For every row of every table in docs/claims.md:
   ``test (bound)``, ``benchmark, dated (… YYYY-MM-DD …)`` or ``untested``; a test row names a
   test, a benchmark row a command or file.
 
-And for the deterministic figures a fast command reproduces (the dry runs of the two main jobs,
-~2.5 s each: a dry run enumerates and estimates, it never solves), the number every page quotes
-equals what the command prints.
+And for the deterministic figures a fast command reproduces, the number every page quotes
+equals what the command prints: the task and point counts of the two main jobs' dry runs (~2.5 s
+each: a dry run enumerates and estimates, it never solves), the records of ``hpcontact solve``
+that the README and the one-scene tutorial print (~3 s), and the adaptive maps' check
+probability (arithmetic).
 """
 
 from __future__ import annotations
@@ -294,3 +296,11 @@ def test_the_printed_records_are_what_the_commands_print(page: str) -> None:
             assert printed[name].split()[0] == quoted[name].split()[0], (
                 f"{page}: hpcontact solve {arguments}: {name} quoted {quoted[name]}, printed {printed[name]}"
             )
+
+
+def test_check_pass_probability_as_quoted() -> None:
+    """“(1 − p)^30 (4 % for p = 10 %)”: the chance that 30 random checks all miss a fraction p
+    of a map where the estimate is short, at the quoted precision."""
+    for page, match in _quoted(r"\(1 − p\)\^(\d+) \((\d+) % for p = (\d+) %\)", ("docs/howto/adaptive.md",)):
+        checks, quoted, share = map(int, match.groups())
+        assert round(100 * (1 - share / 100) ** checks) == quoted, f"{page}: “{match[0]}”"
