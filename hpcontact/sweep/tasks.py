@@ -45,9 +45,10 @@ from typing import Any, NamedTuple, TextIO
 
 import numpy as np
 
+from hpcontact import fields
 from hpcontact.geometry import file_sha256
 from hpcontact.problems import footprint
-from hpcontact.problems.kinds import CONTACT, SLIP, scene_kind
+from hpcontact.problems.kinds import scene_kind
 from hpcontact.sweep.cost.engine import strip_pairs  # noqa: F401 - moved; importers updated by the coordinator
 from hpcontact.sweep.cost.grids import (
     _default_grids,  # noqa: F401 - moved; importers updated by the coordinator
@@ -79,42 +80,13 @@ from hpcontact.sweep.spec import (
     text_template,
 )
 
-# Fields that change a scene's outline or its solves but not its material or grid spacing:
-# tasks differing only in these may share kernels (when their bounding boxes match).
-KERNEL_NEUTRAL_FIELDS = (
-    "shape",
-    "sides",
-    "amplitude",
-    "shape_angle",
-    "seed",
-    "hurst",
-    "rms",
-    "mask",
-    "tol",
-    "quantities",
-    "threads",
-    "precondition",
-    "normal_held",
-)
-# Fields of a slip scene that set its loading, not its kernels (hpcontact.problems.slip.partial_slip: lengths are
-# scaled by the Hertz radius, so the grid depends on n and b/a only, the kernel on nu_eq).
-SLIP_KERNEL_NEUTRAL_FIELDS = (
-    "load",
-    "mu",
-    "q_ratio",
-    "angle",
-    "steps",
-    "control",
-    "displacement",
-    "path",
-    "coupling",
-    "tensor",
-    "history",
-    "tol",
-    "quantities",
-    "threads",
-    "precondition",
-)
+# Fields that change neither a scene's kernels nor its grid spacing, by kind (``hpcontact.fields``):
+# a contact scene's outline or solves; a slip scene's loading (lengths are scaled by the Hertz
+# radius, so its grid depends on n and b/a only, its kernel on nu_eq). Tasks differing only in
+# these may share kernels (a contact scene's when their bounding boxes match).
+KERNEL_NEUTRAL_FIELDS: Mapping[str, frozenset[str]] = {
+    kind: frozenset(fields.names(kind, neutral_to="kernel")) for kind in fields.KINDS
+}
 # A chunk costs at most 1/(CHUNKS_PER_RANK · ranks) of the whole sweep.
 CHUNKS_PER_RANK = 4
 
@@ -343,7 +315,7 @@ class _Table:
     def __init__(self, spec: Spec, lean: bool = False) -> None:
         self.lean = lean
         self.field = run_field(spec)
-        self.ignored = SLIP_KERNEL_NEUTRAL_FIELDS if spec.kind == SLIP else KERNEL_NEUTRAL_FIELDS
+        self.ignored = KERNEL_NEUTRAL_FIELDS[spec.kind]
         self.rows: list[Task] = []
         self.texts: dict[str, int] = {}
         self.families: dict[tuple[str, str], _Family] = {}
@@ -454,12 +426,13 @@ class _Table:
         (``GRID_ONLY_FIELDS`` with ``n`` given), else ``costed`` (cached by the cost key)."""
         name, base = run.name, run.params
         each = (lambda params: costed(params.as_dict())) if self.lean else costed  # a dict for every cost function
-        if scene_kind(base) != CONTACT or any(base.get(n) is not None for n in PATH_FIELDS):
+        if any(base.get(n) is not None for n in PATH_FIELDS):
             return each
-        branches = COST_BRANCH_FIELDS.get(name)
-        if name in COST_NEUTRAL_FIELDS or (branches is not None and not any(v in branches for v in run.values)):
+        kind = scene_kind(base)
+        branches = COST_BRANCH_FIELDS[kind].get(name)
+        if name in COST_NEUTRAL_FIELDS[kind] or (branches is not None and not any(v in branches for v in run.values)):
             return None
-        if name in GRID_ONLY_FIELDS and base.get("n") is not None and base.get("accuracy") is None:
+        if name in GRID_ONLY_FIELDS[kind] and base.get("n") is not None and base.get("accuracy") is None:
             by_grid: dict[tuple[int, int], tuple[float, Sizing]] = {}
 
             def per_grid(params: dict[str, Any] | RunScene) -> tuple[float, Sizing]:

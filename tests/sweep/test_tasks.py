@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 import pytest
 
 from hpcontact.sweep.cost.task_cost import estimated_cost
@@ -121,15 +123,14 @@ def point_by_point(spec):
     from hpcontact.sweep.spec import canonical_json
     from hpcontact.sweep.tasks import KERNEL_NEUTRAL_FIELDS
 
+    neutral_fields = KERNEL_NEUTRAL_FIELDS[spec.kind]
     rows, row_of, task_of = [], {}, []
     for index in spec.points():
         params = spec.scene_params(index)
         text = canonical_json(params)
         if text not in row_of:
-            neutral = [k for k in params if k in KERNEL_NEUTRAL_FIELDS]
-            group = (
-                canonical_json({k: v for k, v in params.items() if k not in KERNEL_NEUTRAL_FIELDS}) if neutral else text
-            )
+            neutral = [k for k in params if k in neutral_fields]
+            group = canonical_json({k: v for k, v in params.items() if k not in neutral_fields}) if neutral else text
             row_of[text] = len(rows)
             rows.append((task_key(params, text), params, estimated_cost(params), group))
         task_of.append(row_of[text])
@@ -141,13 +142,14 @@ def test_tasks_of_runs_are_those_of_the_points_one_by_one(text, monkeypatch):
     """Keys, parameters (key order too), costs, groups and each point's task: the same in the same
     order, whole, cut into runs at every 257th point (later runs find the scenes of earlier ones
     by value) and in three ranges joined; ``lean`` tasks read the same parameters."""
-    from hpcontact.sweep import spec as spec_module
+    from hpcontact.sweep.spec import scene_runs
     from hpcontact.sweep.tasks import RunScene, enumerate_part, join_parts, points
 
     spec = spec_of(text)
     rows, task_of = point_by_point(spec)
     n = points(spec)
-    monkeypatch.setattr(spec_module, "PROGRESS_POINTS", 257)
+    enumeration = sys.modules[scene_runs.__module__]  # where scene_runs counts its points
+    monkeypatch.setattr(enumeration, "PROGRESS_POINTS", 257)
     calls = []
     for parts in (
         [enumerate_part(spec)],

@@ -13,9 +13,10 @@ import math
 from collections.abc import Mapping
 from typing import Any, NamedTuple
 
+from hpcontact import fields
 from hpcontact.accuracy import DEFAULT_ACCURACY, MAX_CELLS, MIN_GRIDS, default_grids, first_grid, grid_bytes, plan_grids
 from hpcontact.problems import footprint
-from hpcontact.problems.kinds import SLIP, scene_kind
+from hpcontact.problems.kinds import CONTACT, kind_of
 from hpcontact.scene import Scene
 from hpcontact.sweep.cost.engine import strip_model_error
 from hpcontact.sweep.spec import canonical_json
@@ -23,9 +24,7 @@ from hpcontact.sweep.spec import canonical_json
 # Fields that do not change the grids ``accuracy.default_grids`` picks (it reads the shape, the
 # quantities and whether the body is isotropic, not its constants or the solver's settings):
 # left out of ``solved_grids``' cache key, so an axis over nu builds one Scene for its grids.
-GRID_NEUTRAL_FIELDS = frozenset(
-    {"nu", "G", "tol", "threads", "precondition", "orientation", "miller", "azimuth", "normal_held"}
-)
+GRID_NEUTRAL_FIELDS = frozenset(fields.names(CONTACT, neutral_to="grid"))  # ``hpcontact.fields``
 # The engine's CG tolerance where a spec leaves it out.
 DEFAULT_TOL = 1e-8
 # A task that asks for an accuracy (``accuracy.default_solve`` of a scene with ``accuracy``:
@@ -54,7 +53,7 @@ def solved_grids(params: Mapping[str, Any]) -> list[Mapping[str, Any]]:
     long side, five grids) with that grid's ``n``, ``n_across`` and the CG tolerance
     ``solve_to_accuracy`` uses (at most the default accuracy / 100). Cached per scene, the
     fields that do not change its grids (``GRID_NEUTRAL_FIELDS``) aside."""
-    if scene_kind(params) == SLIP:
+    if not kind_of(params).accuracy_applies:  # solved on its own grid (a slip scene)
         return [params]
     if params.get("accuracy") is not None:  # before n: solve_to_accuracy ignores the scene's grid
         return accuracy_levels(params)
@@ -78,7 +77,7 @@ def asks_accuracy(params: Mapping[str, Any]) -> bool:
     """Whether ``params`` is a contact scene that asks for an accuracy (a sweep's ``[numerics]
     accuracy``, ``hpcontact run --accuracy``): ``accuracy.default_solve`` solves it as
     ``hpcontact solve --accuracy`` does."""
-    return params.get("accuracy") is not None and scene_kind(params) != SLIP
+    return params.get("accuracy") is not None and kind_of(params).accuracy_applies
 
 
 class AccuracyPlan(NamedTuple):

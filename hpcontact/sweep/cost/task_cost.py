@@ -16,13 +16,14 @@ from __future__ import annotations
 import functools
 import json
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any, NamedTuple
 
+from hpcontact import fields
 from hpcontact.accuracy import MIN_GRIDS
 from hpcontact.problems import footprint
 from hpcontact.problems.footprint import iteration_factor, task_kind
-from hpcontact.problems.kinds import SLIP, quantity_names, scene_kind
+from hpcontact.problems.kinds import CONTACT, SLIP, quantity_names, scene_kind
 from hpcontact.problems.slip.crystal_pair import pair_from_params
 from hpcontact.sweep.cost.engine import strip_pairs
 from hpcontact.sweep.cost.grids import (
@@ -37,17 +38,24 @@ from hpcontact.sweep.cost.grids import (
 )
 from hpcontact.sweep.spec import PATH_FIELDS, canonical_json
 
-# Fields that do not change a contact scene's estimated cost (it reads the grid, the solves, the
-# tolerance and whether the body is a crystal: not an isotropic body's constants, nor how a
-# crystal is oriented).
-COST_NEUTRAL_FIELDS = frozenset({"nu", "G", "threads", "precondition", "orientation", "miller", "azimuth"})
+# Fields that do not change a scene's estimated cost, by kind (``hpcontact.fields``): a contact
+# scene's cost reads the grid, the solves, the tolerance and whether the body is a crystal, not an
+# isotropic body's constants nor how a crystal is oriented; a slip scene's reads its pair's
+# constants (the coupling size β, ``slip_cost``): none of its fields is left out.
+COST_NEUTRAL_FIELDS: Mapping[str, frozenset[str]] = {
+    CONTACT: frozenset(fields.names(CONTACT, neutral_to="cost")),
+    SLIP: frozenset(),
+}
 # Fields that change a contact scene's cost, grid and memory only where they cross these values
-# (A = 1: an isotropic body, else a crystal): a run away from them has one cost.
-COST_BRANCH_FIELDS: Mapping[str, tuple[float, ...]] = {"anisotropy": (1.0,)}
+# (A = 1: an isotropic body, else a crystal): a run away from them has one cost. By kind.
+COST_BRANCH_FIELDS: Mapping[str, Mapping[str, tuple[float, ...]]] = {CONTACT: {"anisotropy": (1.0,)}, SLIP: {}}
 # Fields that change a contact scene with ``n`` (one grid) only through its contact grid
 # (``footprint.contact_grid``: the cost reads the padded cells and the grid's iteration factor):
-# a run over one of them is costed once per distinct grid.
-GRID_ONLY_FIELDS = frozenset(footprint.GRID_FIELDS) - {"quantities"}
+# a run over one of them is costed once per distinct grid. By kind (a slip scene: none).
+GRID_ONLY_FIELDS: Mapping[str, frozenset[str]] = {
+    CONTACT: frozenset(footprint.GRID_FIELDS) - {"quantities"},
+    SLIP: frozenset(),
+}
 # Relative number of operator solves per requested quantity (tangential: x and y loads).
 SOLVES_PER_QUANTITY = {"tangential": 2.0, "normal": 1.0, "compliance": 0.1, "coupled": 3.0, "indentation": 3.0}
 # The engine's quantities where a spec leaves them out; only ratios of costs matter.
@@ -209,11 +217,21 @@ def estimated_cost(params: Mapping[str, Any]) -> float:
 def costed(params: Mapping[str, Any]) -> tuple[float, Sizing]:
     """``estimated_cost`` and ``sizing`` of the scene ``params``, cached as ``estimated_cost``
     (the sizes depend on the grid, the kind and the solves, which the cost key holds)."""
-    if scene_kind(params) == SLIP:
-        return slip_cost(params), sizing(params)
+    return COSTED_BY_KIND[scene_kind(params)](params)
+
+
+def _contact_costed(params: Mapping[str, Any]) -> tuple[float, Sizing]:
+    """``costed`` of a contact scene: cached by its cost key (its fields but the cost-neutral
+    ones), except for a scene reading a file (a mask: its grid is the file's)."""
     if any(params.get(name) is not None for name in PATH_FIELDS):
         return _contact_cost(params), sizing(params)
-    return _cached_contact_cost(canonical_json({k: v for k, v in params.items() if k not in COST_NEUTRAL_FIELDS}))
+    neutral = COST_NEUTRAL_FIELDS[CONTACT]
+    return _cached_contact_cost(canonical_json({k: v for k, v in params.items() if k not in neutral}))
+
+
+def _slip_costed(params: Mapping[str, Any]) -> tuple[float, Sizing]:
+    """``costed`` of a slip scene: ``slip_cost``, scene by scene."""
+    return slip_cost(params), sizing(params)
 
 
 @functools.lru_cache(maxsize=4096)
@@ -299,3 +317,10 @@ def slip_cost(params: Mapping[str, Any]) -> float:
         coupled *= 2.0 if params.get("normal_friction") else 1.0
         passes = coupled if coupling == "coupled" else 1.0 + coupled
     return size * math.log2(size) * (1.0 + tangential * passes) * digits
+
+
+# ``costed`` by scene kind (``hpcontact.problems.kinds``).
+COSTED_BY_KIND: Mapping[str, Callable[[Mapping[str, Any]], tuple[float, Sizing]]] = {
+    CONTACT: _contact_costed,
+    SLIP: _slip_costed,
+}
