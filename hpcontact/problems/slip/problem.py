@@ -31,10 +31,10 @@ from typing import Any
 import numpy as np
 
 from hpcontact.errors import ConvergenceError, InputError, finite_number, integer
+from hpcontact.fields import SLIP, names
 from hpcontact.geometry import Grid
 from hpcontact.kernels.engine import Engine
 from hpcontact.kernels.isotropic import isotropic_surface_green
-from hpcontact.materials.elastic_constants import CONSTANT_FIELDS
 from hpcontact.materials.isotropic import Isotropic
 from hpcontact.numerics.conjugate_gradient import Solution, polonsky_keer
 from hpcontact.numerics.convolution import ConvolutionOperator, cached_spectrum
@@ -43,42 +43,8 @@ from hpcontact.numerics.preconditioner import FourierPreconditioner
 from hpcontact.problems.slip.bodies import HertzEllipse, Pair
 from hpcontact.problems.slip.crystal_pair import AnisotropicPair, PairCompliance, PairEngine, pair_from_params
 
-FIELDS = (
-    (
-        "quantities",
-        "radius",
-        "radius_b",
-        "radius2",
-        "radius2_b",
-        "body2_angle",
-        "material",
-        "material2",
-        "E",
-        "G",
-        "nu",
-        "E2",
-        "G2",
-        "nu2",
-        "load",
-        "mu",
-        "q_ratio",
-        "angle",
-        "n",
-        "tol",
-        "steps",
-        "control",
-        "displacement",
-        "path",
-        "tensor",
-        "history",
-        "coupling",
-        "threads",
-        "precondition",
-        "normal_friction",
-    )
-    + CONSTANT_FIELDS
-    + tuple(f"{name}2" for name in CONSTANT_FIELDS)
-)
+#: The fields of a slip scene (``hpcontact.fields``: those of kind slip).
+FIELDS = names(SLIP)
 #: Fields of the generic ``hpcontact solve`` parser that a slip scene does not use: the contact
 #: shape follows from the bodies. Accepted (so the CLI may pass its defaults) and ignored.
 IGNORED = ("shape",)
