@@ -23,7 +23,6 @@ from hpcontact.fields import (
     CONTACT,
     DEPTH_RANGE,
     MIN_DEPTH,
-    NORMAL_HELD,
     RADIUS_RANGE,
     defaults,
     field,
@@ -173,7 +172,7 @@ class Scene:
             accuracy=accuracy,
             threads=threads,
             precondition=_boolean("precondition", p["precondition"]),
-            normal_held=_normal_held(p["normal_held"]),
+            normal_held=_choice("normal_held", p["normal_held"]),
             radius=radius,
             depth=depth,
             params=dict(params),
@@ -224,11 +223,13 @@ def _accuracy(value: Any, quantities: tuple[str, ...], shape: str) -> float:
     return accuracy
 
 
-def _normal_held(value: Any) -> str:
-    """One of ``NORMAL_HELD``, exactly (a spec's "Load" is refused, not guessed)."""
-    if isinstance(value, str) and value in NORMAL_HELD:
+def _choice(name: str, value: Any) -> str:
+    """One of the field's choices (``hpcontact.fields``), exactly (a spec's "Load" is refused,
+    not guessed)."""
+    choices = field(name).choices
+    if isinstance(value, str) and value in choices:
         return value
-    raise InputError("normal_held", f"one of {', '.join(NORMAL_HELD)}", value)
+    raise InputError(name, f"one of {', '.join(choices)}", value)
 
 
 def _boolean(field_name: str, value: Any) -> bool:
