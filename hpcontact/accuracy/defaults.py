@@ -1,0 +1,126 @@
+"""The default discretization of a scene without ``n`` (extrapolated where it can be) and the
+solver of each scene kind (:func:`task_function`)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from typing import Any
+
+from hpcontact import quantities as q
+from hpcontact.accuracy.refinement import solve_to_accuracy
+from hpcontact.accuracy.strategies import grid_sequence
+from hpcontact.discretizations.boundary_cells import SUPPORTED
+from hpcontact.materials.isotropic import Isotropic
+from hpcontact.problems.contact import solve
+from hpcontact.problems.kinds import CONTACT, SLIP
+from hpcontact.problems.slip.partial_slip import solve_slip
+from hpcontact.scene import Scene
+
+#: Without ``n``: one scene (``hpcontact solve``, ``hpcontact.solve``) is solved as ``--accuracy
+#: DEFAULT_ACCURACY`` (:func:`default_scene_solve`); a sweep whose spec gives none on grids
+#: 16 … 256 along the long side (``DEFAULT_N0``, ``DEFAULT_GRIDS``), extrapolated, stopping once
+#: the estimate is ≤ 1e-4 (:func:`default_solve`).
+DEFAULT_ACCURACY = 1e-4
+DEFAULT_N0 = 16
+DEFAULT_GRIDS = 5
+
+
+def extrapolates_by_default(scene: Scene) -> bool:
+    """Whether ``scene`` without ``n`` gets the extrapolated default (:func:`default_solve`):
+    an isotropic body, a shape with a refinable outline (not rough, not a mask) and
+    quantities that coverage-weighted cells solve (tangential, normal, coupled)."""
+    if scene.grid_given:
+        return False
+    return (
+        isinstance(scene.material, Isotropic)
+        and scene.shape.name not in ("rough", "mask")
+        and all(x in SUPPORTED for x in scene.quantities)
+    )
+
+
+def default_grids(scene: Scene) -> list[tuple[int, int]]:
+    """The grids (n, n_across) :func:`default_solve` solves ``scene`` on at most: grids 16, 32,
+    … (``DEFAULT_N0``, ``DEFAULT_GRIDS`` of them, ``grid_sequence``'s cells across), or [] when
+    ``scene`` gives ``n`` or does not :func:`extrapolate by default <extrapolates_by_default>`.
+    It stops earlier when the estimate is met on fewer (never before ``MIN_GRIDS``); the memory
+    plan never cuts grids this small. The sweep's cost model sums its tasks' cost over these
+    (``hpcontact.sweep.tasks.solved_grids``)."""
+    if not extrapolates_by_default(scene):
+        return []
+    return grid_sequence(scene.shape, DEFAULT_N0)[:DEFAULT_GRIDS]
+
+
+def default_solve(scene: Scene) -> dict[str, Any]:
+    """A sweep's scene with the default discretization (one scene from ``hpcontact solve`` or
+    ``hpcontact.solve``: :func:`default_scene_solve`): ``hpcontact.problems.contact.solve`` when ``scene`` gives
+    ``n`` (one grid, centre-in-cell, as always) or the scene is not one that
+    :func:`extrapolates_by_default`; else ``solve_to_accuracy`` on grids 16, 32, … , 256
+    (``DEFAULT_GRIDS``), stopping once the estimate is ≤ ``DEFAULT_ACCURACY`` = 1e-4, never an
+    error: the record's ``estimated_error`` says what was reached (docs/howto/accuracy.md,
+    "Without ``--n``: the default": 0.3–1.1 s CPU, true errors ≤ 9e-5 on ellipses b/a 1 … 1e-8).
+    Its ``nx``, ``ny``, ``dx``, ``dy`` are the finest grid's, ``grids`` and ``grids_across`` list every grid.
+
+    A scene with an ``accuracy`` field (a sweep's ``[numerics] accuracy``, ``hpcontact run
+    --accuracy``) is solved as ``hpcontact solve --accuracy`` solves it: :func:`solve_to_accuracy`
+    with strategy ``auto``, its ``n`` ignored, a request not met returned with ``accuracy_met``
+    False and ``stopped_by`` the limit (not an error: the record's estimates say what was reached).
+
+    A sweep's contact tasks run this too (:func:`task_function`): a spec
+    without ``n`` gets the extrapolated default and its data set ``estimated_error``."""
+    if scene.accuracy is not None:
+        return solve_to_accuracy(scene, scene.accuracy, strategy="auto", strict=False)
+    if not extrapolates_by_default(scene):
+        return solve(scene)
+    return solve_to_accuracy(scene, DEFAULT_ACCURACY, n0=DEFAULT_N0, max_grids=DEFAULT_GRIDS, strict=False)
+
+
+def default_scene_solve(scene: Scene) -> dict[str, Any]:
+    """One scene without ``n`` and without ``accuracy`` (``hpcontact solve``, ``hpcontact.solve``):
+    where the scene :func:`extrapolates_by_default`, exactly ``hpcontact solve --accuracy``
+    with ``DEFAULT_ACCURACY`` = 1e-4 (:func:`solve_to_accuracy`, strategy ``auto``: the one exact
+    cell of circles and ellipses, strips for slender rectangles, coverage-weighted grids from
+    :func:`coverage_n0` until the estimate is met or a limit stops them), so the default takes the
+    best cells for the shape. A request not met raises :class:`AccuracyNotMet` (its ``record``
+    is the extrapolated record; ``hpcontact.api.solve_fields`` returns it with an
+    ``errors.AccuracyWarning``). Other scenes: :func:`default_solve` (one grid).
+
+    A sweep's task keeps :func:`default_solve`'s five fixed grids 16 … 256 (its cost model
+    plans them, ``hpcontact.sweep.tasks.solved_grids``)."""
+    if scene.accuracy is not None or not extrapolates_by_default(scene):
+        return default_solve(scene)
+    return solve_to_accuracy(scene, DEFAULT_ACCURACY, strategy="auto")
+
+
+TaskFunction = Callable[[Mapping[str, Any]], Mapping[str, Any]]
+
+
+def task_function(kind: str) -> TaskFunction:
+    """The function that solves one scene of ``kind`` (``problems.kinds.Kind.name``): parameters →
+    record (``SOLVERS``)."""
+    return SOLVERS[kind]
+
+
+def solve_contact_fields(fields: Mapping[str, Any]) -> dict[str, Any]:
+    """:func:`default_solve` of the contact scene of ``fields`` (a sweep's task, a journal's
+    entry: the edge where fields become a ``Scene``), its per-quantity estimates as numbers
+    (:func:`error_columns`)."""
+    return error_columns(default_solve(Scene.from_params(fields)))
+
+
+def error_columns(record: Mapping[str, Any]) -> dict[str, Any]:
+    """``record`` with its ``estimated_errors`` (a mapping per quantity) as one number per
+    quantity, ``<quantity>_error`` (``quantities.ERROR_SUFFIX``): what a sweep's journals and data set store
+    (docs/reference/dataset.md §"Error estimates"). A record without estimates (one grid) is
+    returned as it is."""
+    out = dict(record)
+    errors = out.pop("estimated_errors", None)
+    if not errors:
+        return out
+    out.update({f"{name}{q.ERROR_SUFFIX}": float(value) for name, value in errors.items()})
+    return out
+
+
+#: The solver of each scene kind (``problems.kinds.KINDS``), by ``Kind.name``: a slip scene
+#: ``problems.slip.partial_slip.solve_slip``, a contact scene :func:`default_solve`
+#: (:func:`solve_contact_fields`).
+SOLVERS: Mapping[str, TaskFunction] = {CONTACT: solve_contact_fields, SLIP: solve_slip}

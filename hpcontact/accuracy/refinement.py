@@ -1,0 +1,288 @@
+r"""The refinement loop of ``--accuracy``: solve a planned grid sequence until the estimate
+meets the request (:func:`refine`, :func:`solve_to_accuracy`), or the one exact cell
+(:func:`exact_solve`).
+
+The refinement stops when the request is met, when the planned grids run out (``max_cells``
+cells, or the memory budget: :func:`plan_grids` counts this process's peak resident set plus the
+sweep cost model's arrays of the next grid, ``hpcontact.sweep.costmodel``), or when the estimate
+has not fallen over two refinements (stagnation); the grids also stop where the estimator's
+calibration ends (``calibration``: n = 1024 along the long side for coverage-weighted cells,
+``COVERAGE_MAX_N``; 2^20 cells for singular cells, ``SINGULAR_MAX_CELLS``; 1024 strips,
+``STRIP_MAX_N``; masks unlimited); the
+record says which (``stopped_by``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from hpcontact import quantities as q
+from hpcontact.accuracy.extrapolation import MIN_GRIDS, TENSOR_KEYS, exact_errors, extrapolate
+from hpcontact.accuracy.grid_plan import GridPlan, plan_grids
+from hpcontact.accuracy.strategies import EXACT, MAX_CELLS, cells, first_grid
+from hpcontact.discretizations import galin_ellipse
+from hpcontact.discretizations.boundary_cells import covered_solve
+from hpcontact.errors import ConvergenceError, InputError
+from hpcontact.numerics.convolution import clear_cache
+from hpcontact.numerics.memory import resident_bytes
+from hpcontact.scene import Scene
+
+STAGNATION_LEVELS = 2  # no fall of the estimate over this many refinements: the extrapolants stagnate
+
+
+def stagnates(history: Sequence[float], levels: int = STAGNATION_LEVELS) -> bool:
+    """True when the estimate has not fallen over the last ``levels`` refinements."""
+    return len(history) > levels and history[-1] >= history[-1 - levels]
+
+
+@dataclasses.dataclass(frozen=True)
+class Refinement:
+    """What :func:`refine` found: the per-grid records, the extrapolated values, their estimated
+    relative errors, observed orders and expansions (as :func:`extrapolate`), and what stopped
+    it (``met``, ``stagnation``, or None when the grids ran out)."""
+
+    levels: list[dict[str, Any]]
+    values: dict[str, float]
+    relative: dict[str, float]
+    orders: dict[str, float]
+    expansions: dict[str, list[float]]
+    stopped_by: str | None
+
+
+def refine(
+    grids: Sequence[tuple[int, int]],
+    solve_level: Any,
+    accuracy: float,
+    expansions: Sequence[tuple[float, ...]] | None = None,
+    safety: float | None = None,
+    model_error: float = 0.0,
+) -> Refinement:
+    """Solve ``solve_level(n, n_across)`` on ``grids`` in turn, extrapolating from the
+    ``MIN_GRIDS``-th on, until the largest estimated relative error is ≤ ``accuracy`` (``met``)
+    or has not fallen over ``STAGNATION_LEVELS`` refinements (``stagnation``). The one loop of
+    ``solve_to_accuracy`` and of the replays of ``benchmarks/accuracy_sharpness.py``;
+    ``expansions`` and ``safety`` as :func:`estimate`; ``model_error``, a relative bound on what
+    the discretization itself leaves whatever the grid (strip cells' profile), is added to every
+    estimate."""
+    levels: list[dict[str, Any]] = []
+    history: list[float] = []
+    found: tuple[dict[str, float], dict[str, float], dict[str, float], dict[str, list[float]]] = ({}, {}, {}, {})
+    for n, na in grids:
+        levels.append(solve_level(n, na))
+        if len(levels) < MIN_GRIDS:
+            continue
+        found = extrapolate(levels, expansions, safety)
+        if model_error:
+            found = (found[0], {k: v + model_error for k, v in found[1].items()}, found[2], found[3])
+        history.append(max(found[1].values()))
+        if history[-1] <= accuracy:
+            return Refinement(levels, *found, stopped_by="met")
+        if stagnates(history):
+            return Refinement(levels, *found, stopped_by="stagnation")
+    return Refinement(levels, *found, stopped_by=None)
+
+
+def solve_to_accuracy(
+    scene: Scene,
+    accuracy: float,
+    *,
+    n0: int | None = None,
+    n_across0: int | None = None,
+    max_cells: int = MAX_CELLS,
+    memory_budget: float | None = None,
+    max_grids: int | None = None,
+    strategy: str = "coverage",
+    strict: bool = True,
+) -> dict[str, Any]:
+    """Solve ``scene`` on refined coverage-weighted grids until the estimated relative error
+    of every reported stiffness is ≤ ``accuracy``; return the extrapolated record.
+
+    The grids are planned before the first solve (:func:`plan_grids`): none exceeds
+    ``max_cells`` cells or the memory budget (bytes; default the machine's memory per core).
+    The refinement stops at the first of: the request met; the planned grids used up (limit
+    ``cells`` or ``memory budget``); ``max_grids`` grids; the estimate not falling over
+    ``STAGNATION_LEVELS`` refinements (``stagnation``: the extrapolants stagnate, finer grids
+    would not help). A request not met follows the rule of every solver here (docs/howto/accuracy.md:
+    a missed tolerance is an error, exit status 1): :class:`AccuracyNotMet` names the finest grid and the
+    limit that stopped it; ``strict=False`` returns the record instead (``accuracy_met`` False).
+
+    The record has the keys of ``hpcontact.problems.contact.solve`` (extrapolated ``K_*`` and the
+    quantities derived from them; ``nx ny dx dy`` of the finest grid), and
+
+    * ``estimated_error``: the largest estimated relative error (K_xx, K_yy, K_zz and
+      K_a/K_b relative to themselves, off-diagonal entries relative to the largest diagonal);
+    * ``estimated_errors``: the same per quantity; ``convergence_order``: the observed order
+      of each raw sequence; ``expansion``: the exponents of the expansion each value comes
+      from; ``accuracy_met``: whether ``estimated_error`` ≤ ``accuracy``;
+    * ``stopped_by``: ``met``, ``cells``, ``memory budget``, ``calibration`` (the next grid is
+      beyond the estimator's calibrated range, :func:`calibrated`), ``grids``, ``stagnation`` or
+      ``model`` (cells whose own bound, :func:`model_error`, is not below the request);
+      ``memory_budget_bytes``, ``memory_budget_source``, ``estimated_peak_bytes`` (of the finest
+      grid used);
+    * ``grids``: the n of every grid used, ``grids_across``: their n_across, ``levels``: the
+      per-grid stiffnesses, wall times and iterations; ``wall_time_s``: the total.
+
+    The scene's ``n`` and ``n_across`` are ignored (the sequence
+    starts at ``n0`` (default 32) and ``n_across0``). ``strategy`` is the boundary treatment of
+    ``covered_solve`` (coverage, singular, strip) or galin or auto; ``auto`` (what ``hpcontact solve
+    --accuracy`` uses) takes the one exact cell of circles and ellipses (galin, :func:`exact_solve`:
+    no grids, errors at round-off), strips (``STRIP_N0`` = 32 strips first, one across) for slender
+    rectangles (:func:`strip_applies`; where their model bound is not below the
+    request, four grids and ``stopped_by`` "model"), and coverage-weighted cells elsewhere
+    (:func:`first_grid`); the record's ``boundary`` says which ran, and with strips
+    ``model_error`` the bound included in every estimate. The memory plan counts the arrays of
+    the cells used (:func:`grid_bytes`, with singular cells' near field, strips' dense matrices). The CG tolerance is tightened to at most
+    accuracy/100 so that it never limits the answer. A mask is refined by splitting its pixels
+    (the sequence starts at the contact's long side in pixels); a rough patch cannot be refined
+    and is refused (InputError), as are quantities other than tangential, normal, coupled.
+    """
+    started = time.perf_counter()
+    if not (isinstance(accuracy, (int, float)) and math.isfinite(accuracy) and 1e-9 <= accuracy < 1.0):
+        raise InputError("accuracy", "a relative error in [1e-9, 1)", accuracy)
+    if memory_budget is not None and not (math.isfinite(memory_budget) and memory_budget > 0):
+        raise InputError("memory", "a memory budget > 0 bytes", memory_budget)
+    tol = max(min(scene.tol, accuracy * 1e-2), 1e-14)
+    strategy, n0, n_across0 = first_grid(scene, strategy, n0, n_across0, accuracy)
+    if strategy == EXACT:
+        return exact_solve(scene, accuracy, strict, started)
+    chosen = cells(strategy)
+    plan = plan_grids(scene, n0, n_across0, max_cells, memory_budget, strategy)
+    sequence = plan.grids[:max_grids] if max_grids is not None else plan.grids
+    if len(sequence) < MIN_GRIDS:
+        within = "the estimator's calibrated range" if plan.limit == "calibration" else f"{max_cells} cells"
+        field, limit = (
+            ("memory", f"a memory budget above {plan.next_bytes / 2**20:.0f} MiB")
+            if plan.limit == "memory budget"
+            else ("accuracy", f"a first grid small enough for {MIN_GRIDS} levels within {within}")
+        )
+        raise InputError(
+            field,
+            f"{limit} ({MIN_GRIDS} grids are the fewest an estimate needs)",
+            plan.budget if plan.limit == "memory budget" else sequence[:1],
+        )
+
+    def solve_level(n: int, na: int) -> dict[str, Any]:
+        level = covered_solve(scene.on_grid(n, na, tol), strategy)
+        clear_cache()  # this grid's kernels serve no other grid: the budget counts one grid's
+        return level
+
+    model = chosen.model_error(scene)
+    if model >= accuracy:  # no grid can bring the estimate below the cells' own bound
+        sequence = sequence[:MIN_GRIDS]
+    done = refine(
+        sequence,
+        solve_level,
+        accuracy,
+        chosen.expansions,
+        chosen.safety,
+        model_error=model,
+    )
+    levels, values, relative, orders, expansions = done.levels, done.values, done.relative, done.orders, done.expansions
+    stopped_by = done.stopped_by or (
+        "model"
+        if model >= accuracy
+        else "grids"
+        if max_grids is not None and max_grids < len(plan.grids)
+        else plan.limit
+    )
+    finest = levels[-1]
+    record: dict[str, Any] = {
+        k: finest[k] for k in ("nx", "ny", "dx", "dy", "contact_cells", "contact_area", "normal_held") if k in finest
+    }
+    record.update(values)
+    worst = max(relative.values())
+    record.update(q.derived_quantities(values, scene.material, noise=worst))
+    record["estimated_error"] = worst
+    record["estimated_errors"] = dict(relative)
+    record["convergence_order"] = {k: (v if math.isfinite(v) else None) for k, v in orders.items()}  # JSON-safe
+    record["expansion"] = expansions
+    record["accuracy"] = float(accuracy)
+    record["accuracy_met"] = bool(worst <= accuracy)
+    record["stopped_by"] = stopped_by
+    record["boundary"] = strategy
+    record["grids"] = [n for n, _ in sequence[: len(levels)]]
+    record["grids_across"] = [na for _, na in sequence[: len(levels)]]
+    record["memory_budget_bytes"] = plan.budget
+    record["memory_budget_source"] = plan.budget_source
+    record["estimated_peak_bytes"] = plan.base_bytes + chosen.grid_bytes(scene, *sequence[len(levels) - 1])
+    record["model_error"] = model
+    record["levels"] = [
+        {k: r[k] for k in (*TENSOR_KEYS, "K_a_over_K_b", "wall_time_s", "iterations", "contact_area") if k in r}
+        for r in levels
+    ]
+    record["iterations"] = int(sum(r["iterations"] for r in levels))
+    record["residual"] = max(r["residual"] for r in levels)
+    record["plan"] = {
+        **finest["plan"],
+        "extrapolation": "generalized Richardson over grids ratio 2, expansion of least spread",
+    }
+    record["wall_time_s"] = time.perf_counter() - started
+    if strict and not record["accuracy_met"]:
+        raise AccuracyNotMet(record, plan)
+    return record
+
+
+def exact_solve(scene: Scene, accuracy: float, strict: bool, started: float) -> dict[str, Any]:
+    """:func:`solve_to_accuracy` of an elliptical contact on its one exact cell
+    (``galin_ellipse.solve``): the same record keys, with ``grids`` [1], no ``levels``,
+    ``stopped_by`` "met" or, where the integral's own bound is not below the request, "model"
+    (``model_error`` is that bound); the estimates per quantity come from :func:`exact_errors`."""
+    record = galin_ellipse.solve(scene)
+    relative = exact_errors(record, record.pop("absolute_errors"))
+    worst = max(relative.values())
+    record.update(
+        {
+            "estimated_error": worst,
+            "estimated_errors": relative,
+            "convergence_order": {},
+            "expansion": {},
+            "accuracy": float(accuracy),
+            "accuracy_met": bool(worst <= accuracy),
+            "stopped_by": "met" if worst <= accuracy else "model",
+            "grids": [1],
+            "grids_across": [1],
+            "levels": [],
+            "model_error": worst,
+            "estimated_peak_bytes": resident_bytes(),
+            "wall_time_s": time.perf_counter() - started,
+        }
+    )
+    if strict and not record["accuracy_met"]:
+        raise AccuracyNotMet(record, GridPlan([(1, 1)], "model", (1, 1), 0.0, 0.0, math.inf, "none", 1))
+    return record
+
+
+class AccuracyNotMet(ConvergenceError):
+    """``--accuracy`` stopped before its request: the estimate on the finest grid is above it.
+
+    ``record`` is the extrapolated record (``accuracy_met`` False, ``stopped_by`` the limit)."""
+
+    def __init__(self, record: Mapping[str, Any], plan: GridPlan) -> None:
+        self.record = dict(record)
+        finest = f"{record['grids'][-1]} x {record['grids_across'][-1]}"
+        nxt = f"{plan.next_grid[0]} x {plan.next_grid[1]}"
+        stopped = record["stopped_by"]
+        why = (
+            f"the next grid, {nxt}, is beyond those on which the error estimate of {record['boundary']} cells is "
+            f"calibrated ({cells(record['boundary']).calibration_range()})"
+            if stopped == "calibration"
+            else {
+                "cells": f"the next grid, {nxt}, exceeds the {plan.max_cells} cells allowed",
+                "memory budget": f"the next grid, {nxt}, needs an estimated {plan.next_bytes / 2**20:.0f} MiB, above the memory "
+                f"budget of {plan.budget / 2**20:.0f} MiB ({plan.budget_source})",
+                "grids": "the number of grids allowed is used up",
+                "model": f"the {record['boundary']} cells' own error bound, {record.get('model_error', 0.0):.2g} "
+                "(accuracy.model_error: what they leave at this b/a on the grids of their sequence), is not below the request",
+                "stagnation": f"the estimate did not fall over the last {STAGNATION_LEVELS} refinements (the extrapolants stagnate)",
+            }[stopped]
+        )
+        super().__init__(
+            f"accuracy {record['accuracy']:g} not met: estimated error {record['estimated_error']:.3g} on the finest "
+            f"grid {finest}; stopped by {record['stopped_by']}: {why}",
+            int(record["iterations"]),
+            float(record["residual"]),
+        )
