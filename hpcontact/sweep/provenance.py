@@ -13,15 +13,19 @@ numpy, scipy and pyFFTW and the machine architecture.
 from __future__ import annotations
 
 import hashlib
+import inspect
 import json
 import os
 import platform
+import shlex
 import subprocess
+import sys
 from collections.abc import Iterable, Mapping
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
+import hpcontact
 from hpcontact import __version__
 from hpcontact.problems.kinds import kind_of
 from hpcontact.sweep.journal import Entry, to_json
@@ -115,3 +119,90 @@ def contributors(entries: Iterable[Entry]) -> str:
         text = to_json({name: entry.provenance.get(name) for name in FIELDS})
         counts[text] = counts.get(text, 0) + 1
     return json.dumps([{**json.loads(text), "tasks": n} for text, n in sorted(counts.items())], sort_keys=True)
+
+
+# The entry points whose call is the command a data set's history records: (module, function) →
+# how it is shown. Python calls as calls, command-line mains as their argv.
+_CALLS = {
+    ("hpcontact.api", "run_sweep"): "hpcontact.run_sweep",
+    ("hpcontact.sweep.driver", "run_sweep"): "hpcontact.sweep.driver.run_sweep",
+}
+_MAINS = {("hpcontact.cli", "main"): "hpcontact", ("hpcontact.sweep.driver", "main"): None}
+
+
+def invocation() -> str | None:
+    """The command that runs the sweep being written, as it was given: the outermost of
+    ``hpcontact.run_sweep(...)`` (its arguments that differ from the defaults:
+    "hpcontact.run_sweep('jobs/demo.toml', resume=True)") and the command-line entry points
+    (``hpcontact run ...``, ``python -m hpcontact.sweep ...``: the process's command line, or
+    the ``argv`` a caller passed to ``main``) on the call stack; None when neither is (a data
+    set built directly). It walks the call stack (``sys._getframe``): the fallback of
+    ``dataset._history`` until the entry points pass the command they were given
+    (``dataset.dataset_of(..., command=...)``)."""
+    found = None
+    frame = sys._getframe(1)
+    while frame is not None:
+        key = (frame.f_globals.get("__name__"), frame.f_code.co_name)
+        if key in _CALLS or key in _MAINS:
+            found = (key, frame)
+        frame = frame.f_back
+    if found is None:
+        return None
+    key, frame = found
+    if key in _CALLS:
+        return _call_text(_CALLS[key], frame.f_globals[key[1]], frame.f_locals)
+    argv = frame.f_locals.get("argv")
+    args = list(sys.argv[1:] if argv is None else argv)
+    program = _MAINS[key] or (frame.f_locals.get("prog") if argv is not None else None) or "hpcontact run"
+    if argv is None and sys.argv and sys.argv[0]:
+        program = _program(sys.argv[0], program)
+    return " ".join([program, shlex.join(map(str, args))]).strip()
+
+
+def _program(argv0: str, default: str) -> str:
+    """How the process was started: ``python -m <module>`` for a module of this package run as
+    a script, else the name of the script (``hpcontact``: the console command)."""
+    path = Path(argv0).resolve()
+    package = Path(hpcontact.__file__).resolve().parent
+    if path.suffix == ".py" and path.is_relative_to(package):
+        parts = path.relative_to(package.parent).with_suffix("").parts
+        return "python -m " + ".".join(parts[:-1] if parts[-1] == "__main__" else parts)
+    return Path(argv0).name or default
+
+
+def _call_text(name: str, function: Any, values: Mapping[str, Any]) -> str:
+    """``name(arguments)``: the arguments of a call of ``function`` (``values``: its frame's
+    locals) that differ from their defaults, positional ones first; streams left out."""
+    shown = []
+    for parameter in inspect.signature(function).parameters.values():
+        if parameter.name not in values or parameter.name == "stream":
+            continue
+        value = values[parameter.name]
+        if parameter.default is not inspect.Parameter.empty and value is parameter.default:
+            continue
+        if (
+            parameter.default is not inspect.Parameter.empty
+            and isinstance(value, (bool, int, float, str))
+            and value == parameter.default
+        ):
+            continue
+        text = _argument_text(value)
+        no_default = parameter.default is inspect.Parameter.empty
+        shown.append(
+            text if no_default and parameter.kind is parameter.POSITIONAL_OR_KEYWORD else f"{parameter.name}={text}"
+        )
+    return f"{name}({', '.join(shown)})"
+
+
+def _argument_text(value: Any) -> str:
+    """An argument as it reads in a call: paths as strings, functions by name, a spec dict
+    in full (its JSON), other objects by their type."""
+    if isinstance(value, os.PathLike):
+        return repr(os.fspath(value))
+    if value is None or isinstance(value, (bool, int, float, str)):
+        return repr(value)
+    if isinstance(value, Mapping):
+        return json.dumps(value, sort_keys=True, default=str)
+    if callable(value) and hasattr(value, "__qualname__"):
+        return value.__qualname__
+    return f"{type(value).__name__}(...)"
