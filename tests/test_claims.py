@@ -34,7 +34,8 @@ import socket
 import subprocess
 import sys
 import tomllib
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
@@ -161,8 +162,10 @@ def test_every_claim_names_its_page_section_excerpts_and_status(row: Row) -> Non
         assert PATH.search(reproduced) or "hpcontact " in reproduced, f"{row}: a benchmark row names no command"
 
 
-# The figures a dry run reproduces. A dry run reads the cost model's calibration but never
-# calibrates here: a calibration file with round numbers is written first (as tests/sweep do).
+# The figures that commands reproduce: the dry runs of the main jobs and the records of
+# `hpcontact solve` the pages print, all run at once by the fixture `printed`. A dry run reads the
+# cost model's calibration but never calibrates here: a calibration file with round numbers is
+# written first (as tests/sweep do).
 
 
 @pytest.fixture(scope="module")
@@ -185,23 +188,41 @@ class DryRun:
     tasks: int
     scenes: list[dict]
 
+    @classmethod
+    def parse(cls, output: str) -> DryRun:
+        lines = output.splitlines()
+        tasks = re.search(r": (\d+) tasks -> ", lines[0])
+        assert tasks, f"the dry run's first line names no task count: {lines[0]}"
+        return cls(int(tasks[1]), [json.loads(line[line.index("{") :]) for line in lines if not line.startswith("#")])
+
+
+def _dry_run(spec: str) -> tuple[str, ...]:
+    """The arguments of ``hpcontact`` for the dry run of ``spec``, every task listed."""
+    return ("run", "--dry-run", "--list-all", spec)
+
+
+def _solve(arguments: str) -> tuple[str, ...]:
+    """The arguments of ``hpcontact`` for ``hpcontact solve ARGUMENTS``."""
+    return ("solve", *arguments.split())
+
 
 @pytest.fixture(scope="module")
-def dry_run(calibration: Path) -> Callable[[str], DryRun]:
-    """``hpcontact run --dry-run --list-all SPEC`` in a fresh interpreter, parsed."""
+def printed(calibration: Path) -> dict[tuple[str, ...], str]:
+    """What ``hpcontact ARGUMENTS`` prints, for the dry runs of ``DRY_RUN_SPECS`` and every
+    ``hpcontact solve`` console block of ``SOLVE_PAGES``: each in a fresh interpreter, all at once."""
+    commands = [_dry_run(spec) for spec in DRY_RUN_SPECS]
+    commands += [_solve(arguments) for page in SOLVE_PAGES for arguments, _ in _console_blocks(page)]
+    env = {**os.environ, "HPCONTACT_COSTMODEL": str(calibration), "HPCONTACT_MPI": "0"}
 
-    @cache
-    def run(spec: str) -> DryRun:
-        env = {**os.environ, "HPCONTACT_COSTMODEL": str(calibration), "HPCONTACT_MPI": "0"}
-        command = [sys.executable, "-m", "hpcontact", "run", "--dry-run", "--list-all", spec]
-        done = subprocess.run(command, cwd=ROOT, env=env, capture_output=True, text=True, timeout=120, check=True)
-        lines = done.stdout.splitlines()
-        tasks = re.search(r": (\d+) tasks -> ", lines[0])
-        assert tasks, f"{spec}: the dry run's first line names no task count: {lines[0]}"
-        scenes = [json.loads(line[line.index("{") :]) for line in lines if not line.startswith("#")]
-        return DryRun(int(tasks[1]), scenes)
+    def run(arguments: tuple[str, ...]) -> str:
+        command = [sys.executable, "-m", "hpcontact", *arguments]
+        return subprocess.run(
+            command, cwd=ROOT, env=env, capture_output=True, text=True, timeout=120, check=True
+        ).stdout
 
-    return run
+    unique = list(dict.fromkeys(commands))
+    with ThreadPoolExecutor(max_workers=len(unique)) as pool:
+        return dict(zip(unique, pool.map(run, unique), strict=True))
 
 
 def _count(text: str) -> int:
@@ -225,14 +246,15 @@ def _quoted(pattern: str, pages: tuple[str, ...]) -> list[tuple[str, re.Match[st
     return found
 
 
+DRY_RUN_SPECS = ("jobs/demo.toml", "jobs/demo_map.toml")
 DEMO_PAGES = ("README.md", "docs/tutorials/sweep.md", "docs/howto/accuracy.md")
 DEMO_MAP_PAGES = ("README.md", "docs/tutorials/sweep.md")
 
 
-def test_demo_tasks_and_points_as_quoted(dry_run: Callable[[str], DryRun]) -> None:
+def test_demo_tasks_and_points_as_quoted(printed: dict[tuple[str, ...], str]) -> None:
     """“396 tasks for 33 300 points”: the dry run's task count, and the product of the spec's
     axes (the points of the data set); “5 b/a × 3 nu (× 3 A × 5 ψ) points”: the spec's axes."""
-    tasks = dry_run("jobs/demo.toml").tasks
+    tasks = DryRun.parse(printed[_dry_run("jobs/demo.toml")]).tasks
     points = 1
     for length in _axis_lengths("jobs/demo.toml").values():
         points *= length
@@ -242,10 +264,10 @@ def test_demo_tasks_and_points_as_quoted(dry_run: Callable[[str], DryRun]) -> No
         )
 
 
-def test_demo_map_points_as_quoted(dry_run: Callable[[str], DryRun]) -> None:
+def test_demo_map_points_as_quoted(printed: dict[tuple[str, ...], str]) -> None:
     """“65 b/a × 21 nu” and “of the 1 365 points” of the dense map: the distinct b/a and nu of
     the dry run's tasks, and their number."""
-    report = dry_run("jobs/demo_map.toml")
+    report = DryRun.parse(printed[_dry_run("jobs/demo_map.toml")])
     aspects = len({scene["aspect"] for scene in report.scenes})
     nus = len({scene["nu"] for scene in report.scenes})
     for page, match in _quoted(r"(\d+) b/a × (\d+) nu(?! \(×)", DEMO_MAP_PAGES):
@@ -265,14 +287,6 @@ STABLE_KEYS = frozenset(
 SOLVE_PAGES = ("README.md", "docs/tutorials/one-scene.md")
 
 
-@cache
-def _solve(arguments: str) -> dict[str, str]:
-    """``hpcontact solve ARGUMENTS`` in a fresh interpreter: name → value as printed."""
-    command = [sys.executable, "-m", "hpcontact", "solve", *arguments.split()]
-    done = subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=120, check=True)
-    return dict(line.split(None, 1) for line in done.stdout.splitlines() if line.strip())
-
-
 def _console_blocks(page: str) -> Iterator[tuple[str, dict[str, str]]]:
     """(arguments, name → value) of every ``$ … hpcontact solve …`` console block of ``page``
     that prints a record."""
@@ -286,15 +300,15 @@ def _console_blocks(page: str) -> Iterator[tuple[str, dict[str, str]]]:
 
 
 @pytest.mark.parametrize("page", SOLVE_PAGES)
-def test_the_printed_records_are_what_the_commands_print(page: str) -> None:
+def test_the_printed_records_are_what_the_commands_print(page: str, printed: dict[tuple[str, ...], str]) -> None:
     """“K_xx  1.958717286” and the other values of a record that do not move with rounding."""
     blocks = list(_console_blocks(page))
     assert blocks, f"{page} no longer prints a record of hpcontact solve: drop its row in docs/claims.md"
     for arguments, quoted in blocks:
-        printed = _solve(arguments)
+        record = dict(line.split(None, 1) for line in printed[_solve(arguments)].splitlines() if line.strip())
         for name in STABLE_KEYS & quoted.keys():
-            assert printed[name].split()[0] == quoted[name].split()[0], (
-                f"{page}: hpcontact solve {arguments}: {name} quoted {quoted[name]}, printed {printed[name]}"
+            assert record[name].split()[0] == quoted[name].split()[0], (
+                f"{page}: hpcontact solve {arguments}: {name} quoted {quoted[name]}, printed {record[name]}"
             )
 
 
