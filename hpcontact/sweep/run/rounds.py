@@ -169,11 +169,11 @@ def _round(run: Run, options: Options, scope: RoundScope) -> Outcome:
     if scope.tally is not None:
         round_started = run.started if scope.tally.begun == 0 else time.perf_counter()
         scope.tally.begun += 1
-    prepared: list[Kept] = []  # rank 0's
+    kept: Kept | None = None  # rank 0's
 
     def decide() -> Decision:
+        nonlocal kept
         decision, kept = prepare(spec, run.tasks, run.task_of, run.over, options, team.size, scope)
-        prepared.append(kept)
         return decision
 
     decision: Decision = from_rank_zero(team, decide)
@@ -188,14 +188,16 @@ def _round(run: Run, options: Options, scope: RoundScope) -> Outcome:
                 )
             return Outcome(Path(spec.output), 0, up_to_date=True)
         with limited_blas():  # HPCONTACT_BLAS_THREADS while the tasks run (numerics.blas)
-            return _run(run, plan, prepared[0] if prepared else None, scope, options, round_started)
+            return _run(run, plan, kept, scope, options, round_started)
     finally:
         run.stop.close()
-        if prepared:
-            prepared[0].lock.release()
+        if kept is not None:
+            kept.lock.release()
 
 
-def _announce(run: Run, plan: Plan, kept: Kept, scope: RoundScope, todo: list[Task], chunks: list) -> Progress:
+def _announce(
+    run: Run, plan: Plan, kept: Kept, scope: RoundScope, todo: list[Task], chunks: list[tuple[Task, ...]]
+) -> Progress:
     """Rank 0 before the tasks run: the lock's note, dropped journal lines, changed inputs, the
     round's line (tasks to run, reused, alone on rank 0, quarantined, chunks) and its estimate
     (an adaptive map's in its first round alone); the progress report of the tasks handed out."""

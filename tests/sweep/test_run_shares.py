@@ -1,0 +1,86 @@
+"""What the ranks share before they run (``hpcontact.sweep.run.shares``): rank 0's value or
+error on every rank, and the first bad share raised alike on every rank (the same on 2 ranks
+under MPI: ``tests/mpi/test_parallel_sweep.py``)."""
+
+from __future__ import annotations
+
+import contextlib
+import pickle
+from typing import Any
+
+import pytest
+
+from hpcontact.errors import InputError
+from hpcontact.sweep.run.shares import Share, SharedError, from_rank_zero, joined
+from hpcontact.sweep.schedule import SerialTeam
+
+
+class RankOne(SerialTeam):
+    """Rank 1 of two: its broadcast receives what rank 0 sent (``sent``)."""
+
+    rank = 1
+    size = 2
+
+    def __init__(self, sent: Any) -> None:
+        self.sent = sent
+
+    def bcast(self, obj: Any) -> Any:
+        return pickle.loads(pickle.dumps(self.sent))
+
+
+def rank_zero_sends(make) -> Any:
+    """What rank 0 broadcasts when ``make`` runs there (its exception kept from rank 0)."""
+    sent = []
+
+    class RankZero(SerialTeam):
+        def bcast(self, obj: Any) -> Any:
+            sent.append(obj)
+            return obj
+
+    with contextlib.suppress(Exception):  # rank 0 raises; what it sent is the point here
+        from_rank_zero(RankZero(), make)
+    return sent[0]
+
+
+def test_rank_zero_value_on_every_rank():
+    assert from_rank_zero(SerialTeam(), lambda: {"a": 1}) == {"a": 1}
+    assert from_rank_zero(RankOne(rank_zero_sends(lambda: 42)), lambda: pytest.fail("rank 1 makes nothing")) == 42
+
+
+def test_bad_input_on_rank_zero_is_the_same_input_error_on_every_rank():
+    error = InputError("axes.nu", "values in (-1, 0.5]", 0.7)
+
+    def make() -> None:
+        raise error
+
+    with pytest.raises(InputError) as raised:
+        from_rank_zero(SerialTeam(), make)
+    assert raised.value is error  # rank 0 raises its own exception (a Refused stays Refused)
+    with pytest.raises(InputError) as elsewhere:
+        from_rank_zero(RankOne(rank_zero_sends(make)), make)
+    assert (elsewhere.value.field, elsewhere.value.allowed, elsewhere.value.value) == (
+        "axes.nu",
+        "values in (-1, 0.5]",
+        0.7,
+    )
+    assert str(elsewhere.value) == str(error)
+
+
+def test_another_error_on_rank_zero_is_named_on_every_rank():
+    def make() -> None:
+        raise ZeroDivisionError("division by zero")
+
+    with pytest.raises(RuntimeError, match="^ZeroDivisionError on rank 0: division by zero$"):
+        from_rank_zero(RankOne(rank_zero_sends(make)), make)
+
+
+def test_the_first_bad_share_in_rank_order_is_raised():
+    shares = [
+        Share(None, False, None),
+        Share(None, False, SharedError.of(InputError("axes.a", "positive", -1.0), 1)),
+        Share(None, False, SharedError.of(KeyError("x"), 2)),
+    ]
+    with pytest.raises(InputError, match="axes.a"):
+        joined(None, shares)
+    with pytest.raises(RuntimeError, match="^KeyError on rank 2: 'x'$"):
+        joined(None, shares[2:])
