@@ -14,8 +14,9 @@ request, ``stopped_by`` "model" after four grids; coverage-weighted cells on ell
 (``benchmarks/strip_calibration.py``: rectangles b/a = 1e-6 … 1e-12 against the strip model's
 limit from 2048 and 4096 strips, ellipses b/a = 1 … 1e-10 against Mindlin and Galin; nu 0, 0.3,
 0.5; n₀ = 32, 64 and 16, 32; requests 1e-3 … 1e-7): honest on every record
-(docs/validation.md §"Calibration on strip cells"). Otherwise, for requests below 1e-4 (``SINGULAR_BELOW``)
-singular cells where they apply, on
+(docs/validation.md §"Calibration on strip cells"). Singular cells, where they apply, are taken
+only when asked for (``strategy="singular"``: every contact they apply to has the exact cell,
+which ``auto`` takes; their calibration covers requests below 1e-4, ``SINGULAR_BELOW``), on
 sequences from :func:`singular_start` (near-square cells; b/a = 0.05 starts at 160 × 8), with
 the candidates led by order 1 only (``SINGULAR_EXPANSIONS``) and the spread times
 ``SINGULAR_SAFETY`` = 6, on grids up to ``SINGULAR_MAX_CELLS`` = 2^20 cells. Replayed on every

@@ -1,5 +1,5 @@
 """The ``[adaptive]`` table of a sweep spec, checked: what ``spec.parse_spec`` reads and
-``hpcontact.sweep.adaptive`` runs (its module docstring says what each key does)."""
+``hpcontact.sweep.maps`` runs (``maps.rounds`` says what each key does)."""
 
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ INTERPOLATED_AXES = frozenset(
 KEYS = ("tolerance", "max_solves", "quantities", "initial", "log", "checks")
 TOLERANCE_RANGE = "a relative error in [1e-8, 0.5]"
 DEFAULT_INITIAL = 5
-#: Random points of each sub-problem solved per check round (``hpcontact.sweep.adaptive``).
+#: Random points of each sub-problem solved per check round (``hpcontact.sweep.maps.checks``).
 DEFAULT_CHECKS = 30
 
 

@@ -1,6 +1,6 @@
 """Tensor-product interpolation of a map from a subset of its grid, with an error estimate.
 
-An adaptive sweep (``hpcontact.sweep.adaptive``) solves the points of a tensor product of node
+An adaptive sweep (``hpcontact.sweep.maps``) solves the points of a tensor product of node
 sets, one increasing list of grid indices per numeric axis (always both ends), and fills every
 other grid point from them. Along one axis the interpolant is local Lagrange of ``STENCIL``
 nodes (cubic: the two nodes either side of the point's interval, shifted inwards at the ends;

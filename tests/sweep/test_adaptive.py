@@ -1,4 +1,4 @@
-"""Adaptive maps (hpcontact.sweep.adaptive): the [adaptive] table, the rounds, the data set,
+"""Adaptive maps (hpcontact.sweep.maps): the [adaptive] table, the rounds, the data set,
 resume without solving a point twice.
 
 The map tests solve with a stand-in for the solver: Mindlin's closed form (hpcontact.analytic)
@@ -21,10 +21,12 @@ import xarray as xr
 
 from hpcontact.analytic import mindlin_ellipse_stiffness
 from hpcontact.errors import InputError
-from hpcontact.sweep import adaptive
-from hpcontact.sweep.adaptive import Layout, dry_run_text, initial_state, state_tasks
 from hpcontact.sweep.driver import Options, execute
 from hpcontact.sweep.journal import ERROR, read_journals
+from hpcontact.sweep.maps import refinement
+from hpcontact.sweep.maps.checks import drawn_checks
+from hpcontact.sweep.maps.refinement import Checks, Layout, initial_state, state_points, state_tasks
+from hpcontact.sweep.maps.rounds import dry_run_text
 from hpcontact.sweep.schedule import SerialTeam
 from hpcontact.sweep.spec import parse_spec
 from hpcontact.sweep.tasks import enumerate_part, enumerate_tasks, join_parts
@@ -311,7 +313,7 @@ def test_checks_make_an_estimator_tuned_too_low_honest_again(sweep, write_spec, 
     (random solves compared with the interpolant) raise the factor until they hold, the
     refinement goes on with it, and the map is honest at >= 95 % of its points and within
     its tolerance of Mindlin's closed form everywhere."""
-    monkeypatch.setattr(adaptive, "SAFETY", 0.1)
+    monkeypatch.setattr(refinement, "SAFETY", 0.1)
     text = MINDLIN.replace("tolerance = 1e-3", "tolerance = 1e-4").replace("accuracy = 1e-4", "accuracy = 1e-6")
     monkeypatch.setattr(sys.modules[__name__], "SOLVE_ERROR", 1e-6)
     monkeypatch.setattr(sys.modules[__name__], "NOISE", 1e-7)
@@ -336,13 +338,13 @@ def test_check_points_are_reproducible_unsolved_and_bounded_by_max_solves():
     layout = Layout.of(spec)
     task_of = join_parts(spec, [enumerate_part(spec)])[1]
     state = initial_state(layout, spec.adaptive)
-    first = adaptive.drawn_checks(layout, spec.adaptive, state, adaptive.Checks(), task_of)
-    again = adaptive.drawn_checks(layout, spec.adaptive, state, adaptive.Checks(), task_of)
+    first = drawn_checks(layout, spec.adaptive, state, Checks(), task_of)
+    again = drawn_checks(layout, spec.adaptive, state, Checks(), task_of)
     assert first == again and first.pending and len(first.points) == 40 - 25
-    nodes = set(np.asarray(task_of).ravel()[adaptive.state_points(layout, state)].tolist())
+    nodes = set(np.asarray(task_of).ravel()[state_points(layout, state)].tolist())
     assert not nodes & set(np.asarray(task_of).ravel()[list(first.points)].tolist())
     assert len(state_tasks(layout, state, task_of, first)) == 40
-    full = adaptive.drawn_checks(layout, spec.adaptive, state, first, task_of)
+    full = drawn_checks(layout, spec.adaptive, state, first, task_of)
     assert full == first  # no room left: nothing drawn
 
 
@@ -402,6 +404,6 @@ def test_principal_values_come_from_the_interpolated_tensor_across_their_kink(sw
         true = np.abs(ds[name].values / value - 1.0)
         assert true.max() <= 1e-3, name
         assert np.mean(ds[f"{name}_map_error"].values >= true) >= 0.95, name
-    monkeypatch.setattr(adaptive, "PRINCIPAL", ())
+    monkeypatch.setattr(refinement, "PRINCIPAL", ())
     direct = xr.open_dataset(sweep(write_spec(CROSSING, "direct.toml"), crossing, output=tmp_path / "direct.nc"))
     assert ds.attrs["sweep_solves"] < direct.attrs["sweep_solves"]

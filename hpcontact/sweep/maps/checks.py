@@ -1,0 +1,135 @@
+"""The check rounds of an adaptive map: random solves that test its error estimate.
+
+Checks. The estimate is a model of the interpolation error, tuned on the maps it was tested
+on; a map nobody tuned it to can break it. So when the refinement ends, a check round solves
+``checks`` random unsolved points of every sub-problem (default ``DEFAULT_CHECKS``; a fixed seed
+per round and sub-problem, so a resumed sweep draws the same) and compares each solve with
+the interpolant there. Where the interpolant misses a check by more than its map error (less
+the two solves' own estimated errors, which the difference may hold), the sub-problem's
+factor on the interpolation estimate (``SAFETY`` at first) is multiplied by the worst ratio
+found × ``CHECK_MARGIN``, the refinement resumes with it, and a new check round follows, at
+most ``MAX_CHECK_ROUNDS`` in all. A check point is a solved point of the data set (its map
+error is its solve's error). What this guarantees: after a check round that needed no
+increase, the estimate held at every one of the ``checks`` random points of each sub-problem;
+were it below the true error on a fraction p of the map, that happens with probability
+(1 − p)^checks (p = 10 %: 4 % for 30 checks).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import replace
+
+import numpy as np
+
+from hpcontact.sweep.adaptive_settings import Settings
+from hpcontact.sweep.maps.refinement import Checks, Layout, State, estimate, solve_errors, state_tasks
+
+#: A check that shows the estimate short by a ratio r raises the factor by r × this margin.
+CHECK_MARGIN = 1.25
+#: Check rounds at most (one, plus one after each round that had to raise a factor).
+MAX_CHECK_ROUNDS = 3
+#: The largest factor a check may raise a sub-problem's estimate by in one round (an estimate
+#: of zero at a missed check: the interpolant is blind there; the map refines around it).
+MAX_RAISE = 1e3
+
+
+def wants_check(settings: Settings, checks: Checks) -> bool:
+    """Whether a refinement that has ended is followed by a check round: the first, and one
+    after each that raised a factor, at most ``MAX_CHECK_ROUNDS``."""
+    return settings.checks > 0 and checks.rounds < MAX_CHECK_ROUNDS and (checks.rounds == 0 or checks.raised)
+
+
+def drawn_checks(layout: Layout, settings: Settings, state: State, checks: Checks, task_of: np.ndarray) -> Checks:
+    """``checks`` with ``settings.checks`` more random points of every sub-problem whose tasks
+    are not solved yet (fewer where fewer are left, or where ``max_solves`` leaves fewer); the
+    generator seeded by the check round and the sub-problem, so every rank and a resumed sweep
+    draw the same. Unchanged when there is none to draw."""
+    task_of = np.asarray(task_of)
+    flat = np.arange(math.prod(layout.shape)).reshape(layout.shape)
+    solved = set(state_tasks(layout, state, task_of, checks).tolist())
+    room = None if settings.max_solves is None else settings.max_solves - len(solved)
+    drawn: list[int] = []
+    for s, (cat, _) in enumerate(state):
+        points = layout.take(flat, cat).ravel()
+        tasks = task_of.ravel()[points]
+        free: dict[int, int] = {}  # a task not solved yet -> its first point in the sub-problem
+        for point, task in zip(points.tolist(), tasks.tolist()):
+            if task not in solved:
+                free.setdefault(task, point)
+        count = min(settings.checks, len(free), room if room is not None else len(free))
+        if count <= 0:
+            continue
+        rng = np.random.default_rng([checks.rounds, s, 27])
+        picked = rng.choice(np.asarray(sorted(free.values())), size=count, replace=False)
+        drawn.extend(int(p) for p in picked)
+        solved.update(int(t) for t in task_of.ravel()[picked])
+        if room is not None:
+            room -= count
+    if not drawn:
+        return checks
+    safety = checks.factors(len(state))
+    conservative = checks.conservative or tuple(False for _ in state)
+    return replace(
+        checks, points=tuple(sorted({*checks.points, *drawn})), safety=safety, conservative=conservative, pending=True
+    )
+
+
+def judged(
+    layout: Layout, state: State, checks: Checks, fields: Mapping[str, np.ndarray], names: Sequence[str]
+) -> Checks:
+    """``checks`` after its pending points are solved: in each sub-problem, the worst ratio of
+    the interpolant's miss at a check point — |solved − interpolated| relative to the
+    quantity's scale, less the check's own and the nodes' interpolated solve errors — to the
+    interpolation estimate there. Above 1, the sub-problem first turns conservative
+    (``TensorInterpolant.estimates``: the lower order's error too) and is judged again; still
+    above 1, its factor is raised by the ratio × ``CHECK_MARGIN`` (at most ``MAX_RAISE``).
+    Every check point is judged again each time (the nodes may have moved)."""
+    full = np.zeros(layout.shape, dtype=bool)
+    full.ravel()[list(checks.points)] = True
+    safety = list(checks.factors(len(state)))
+    conservative = list(checks.conservative or (False for _ in state))
+    raised = False
+    for s, (cat, nodes) in enumerate(state):
+        here = layout.take(full, cat)
+        if not here.any():
+            continue
+        worst = _worst_miss(layout, cat, nodes, names, fields, here, safety[s], conservative[s])
+        if worst > 1.0 and not conservative[s]:
+            conservative[s], raised = True, True
+            worst = _worst_miss(layout, cat, nodes, names, fields, here, safety[s], True)
+        if worst > 1.0:
+            safety[s] *= min(worst * CHECK_MARGIN, MAX_RAISE)
+            raised = True
+    return replace(
+        checks,
+        safety=tuple(safety),
+        conservative=tuple(conservative),
+        rounds=checks.rounds + 1,
+        raised=raised,
+        pending=False,
+    )
+
+
+def _worst_miss(
+    layout: Layout,
+    cat: Sequence[int],
+    nodes: Sequence[Sequence[int]],
+    names: Sequence[str],
+    fields: Mapping[str, np.ndarray],
+    here: np.ndarray,
+    safety: float,
+    conservative: bool,
+) -> float:
+    """The worst ratio of miss to interpolation estimate at the check points ``here`` of the
+    sub-problem ``cat`` (``judged``); 0 where every check holds."""
+    est = estimate(layout, cat, nodes, names, fields, safety, conservative)
+    actual = np.stack([layout.take(fields[n], cat)[here] for n in names], axis=-1)
+    own = solve_errors(layout, fields, names, cat)[here]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        miss = np.abs(actual - est.values[here]) / est.scale[here] - own - est.solve[here]
+        interpolation = est.interpolation[here]
+        ratio = np.where(miss > interpolation, np.where(interpolation > 0.0, miss / interpolation, np.inf), 0.0)
+    ratio = np.nan_to_num(ratio, nan=0.0, posinf=np.inf)
+    return float(ratio.max()) if ratio.size else 0.0

@@ -1,0 +1,184 @@
+"""Adaptive maps: solve the grid points a map needs, interpolate the rest (``[adaptive]``).
+
+A spec with an ``[adaptive]`` table keeps its ``[axes]`` as the output grid, but the sweep
+solves a subset of it, chosen in rounds::
+
+    [adaptive]
+    tolerance = 1e-3          # relative map error allowed (or a table: {K_a_over_K_b = 1e-3, ...})
+    max_solves = 200          # optional: solves at most (distinct scenes)
+    quantities = ["K_a_over_K_b"]   # optional: the stiffnesses refined on (default: every one stored)
+    initial = 5               # optional: nodes per numeric axis in the first round (>= 2)
+    log = ["load"]            # optional: list axes interpolated in log10 (logspace axes always are)
+
+Rounds. Each round is an ordinary run of the driver (``driver._round``) over the tasks of the
+round's new points: every rank takes chunks of them, each journaled as usual; rank 0 builds
+the data set of all journaled tasks and decides the next round from the values at the nodes
+alone (not from other journaled points), so a sweep interrupted in any round and run again
+with ``--resume`` takes the same rounds, reuses every journaled task and solves none twice.
+Only the last round writes the data set (``fill``): the full grid, every variable of a full
+sweep, stiffnesses and their ``<name>_error`` interpolated at unsolved points, plus
+``solved``, ``<name>_map_error`` and the global attribute ``sweep_solves``
+(docs/reference/dataset.md).
+
+The nodes, the map error and the refinement: ``hpcontact.sweep.maps.refinement``; the check
+rounds: ``hpcontact.sweep.maps.checks``; the data set: ``hpcontact.sweep.maps.fill``.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from dataclasses import replace
+from typing import Any, TextIO
+
+import numpy as np
+
+from hpcontact.sweep import provenance
+from hpcontact.sweep.adaptive_settings import Settings
+from hpcontact.sweep.interpolation import bisection_nodes
+from hpcontact.sweep.maps.checks import drawn_checks, judged, wants_check
+from hpcontact.sweep.maps.fill import MAP_ERROR_SUFFIX, fill, quantity_fields, refined_names, stiffness_names
+from hpcontact.sweep.maps.refinement import Checks, Layout, State, initial_state, refine, state_tasks
+
+RoundFunction = Callable[[Any, "frozenset[int] | None", "Callable[[Any, Any], Any] | None", "frozenset[int]"], Any]
+
+
+def run_rounds(
+    team: Any, spec: Any, task_of: np.ndarray, options: Any, stream: TextIO, run_round: RoundFunction
+) -> Any:
+    """Every rank: the rounds of an adaptive sweep (module docstring). ``run_round(options,
+    select, finish, earlier)`` is one ordinary driver run over the tasks ``select`` (positions),
+    whose rank 0 calls ``finish(dataset, joined)`` on the data set of every journaled task and
+    writes what it returns (None: nothing, not the last round); ``earlier`` are the tasks of
+    the rounds before (their failures stay in the data set, not run again)."""
+
+    # one git revision for every round: a commit in the checkout while the sweep runs must not
+    # make the rounds' own journals look stale to the next round (the code running is the same)
+    pinned = os.environ.get(provenance.REVISION_VARIABLE)
+    revision = team.bcast(provenance.git_revision() if team.rank == 0 else None)
+    if revision is not None:
+        os.environ[provenance.REVISION_VARIABLE] = revision
+    try:
+        return _rounds(team, spec, task_of, options, stream, run_round)
+    finally:
+        if pinned is None:
+            os.environ.pop(provenance.REVISION_VARIABLE, None)
+        else:
+            os.environ[provenance.REVISION_VARIABLE] = pinned
+
+
+def _rounds(team: Any, spec: Any, task_of: np.ndarray, options: Any, stream: TextIO, run_round: RoundFunction) -> Any:
+    layout = Layout.of(spec)
+    task_of = np.asarray(task_of)
+    state = initial_state(layout, spec.adaptive)
+    checks = Checks()
+    done: np.ndarray = np.empty(0, dtype=np.intp)
+    decided: dict[str, Any] = {}
+    rounds = 0
+    while True:
+        rounds += 1
+        tasks = state_tasks(layout, state, task_of, checks)
+        new = np.setdiff1d(tasks, done)
+        if team.rank == 0:
+            what = "random point(s) solved to check the map error" if checks.pending else "scene(s) added"
+            print(
+                f"hpcontact: adaptive round {rounds}: {len(new)} {what}, {len(tasks)} of "
+                f"{len(np.unique(task_of))} in all",
+                file=stream,
+                flush=True,
+            )
+        this_round = rounds
+
+        def finish(
+            ds: Any, joined: Any, state: State = state, checks: Checks = checks, this_round: int = this_round
+        ) -> Any:
+            names = refined_names(ds, spec)
+            stored = stiffness_names(ds, spec.kind)
+            if checks.pending:
+                checks = judged(layout, state, checks, quantity_fields(ds, stored), stored)
+            following = refine(layout, spec.adaptive, state, quantity_fields(ds, stored), names, task_of, checks)
+            if following is None and wants_check(spec.adaptive, checks):
+                drawn = drawn_checks(layout, spec.adaptive, state, checks, task_of)
+                if drawn.pending:
+                    decided["next"] = (state, drawn)
+                    return None
+            decided["next"] = None if following is None else (following, checks)
+            if following is not None:
+                return None
+            out = fill(ds, spec, layout, state, task_of, this_round, checks)
+            decided["line"] = outcome_line(out, spec)
+            return out
+
+        outcome = run_round(
+            options
+            if rounds == 1
+            else replace(options, resume=True, restart=False, break_lock=False, up_to_date=False),
+            frozenset(int(i) for i in new),
+            finish,
+            frozenset(int(i) for i in done),
+        )
+        following = team.bcast(decided.get("next") if team.rank == 0 else None)
+        done = tasks
+        if following is None:
+            if team.rank == 0 and "line" in decided:
+                print(decided["line"], file=stream, flush=True)
+            return outcome
+        state, checks = following
+
+
+def _shown(value: Any) -> str:
+    """An axis value for a line of text: numbers to four digits, labels as they are."""
+    return f"{value:.4g}" if isinstance(value, (int, float, np.number)) else str(value)
+
+
+def outcome_line(ds: Any, spec: Any) -> str:
+    """The run's last word on the map (``fill``'s data set): whether every refined quantity met
+    its tolerance, the worst map error, the quantity and point where it is, the solves and the
+    check points."""
+    settings: Settings = spec.adaptive
+    worst, where = -1.0, ""
+    for name in str(ds.attrs.get("adaptive_quantities", "")).split():
+        error = ds[f"{name}{MAP_ERROR_SUFFIX}"]
+        if not np.any(np.isfinite(error.values)):
+            continue
+        flat = int(np.nanargmax(error.values))
+        value = float(error.values.ravel()[flat])
+        if value > worst:
+            index = np.unravel_index(flat, error.shape)
+            point = ", ".join(f"{d} = {_shown(ds[d].values[i])}" for d, i in zip(error.dims, index) if ds.sizes[d] > 1)
+            worst, where = value, f"{name} at {point}" if point else name
+    met = bool(ds.attrs.get("adaptive_met", 0))
+    solves, points = int(ds.attrs["sweep_solves"]), int(np.prod([ds.sizes[d] for d in ds["status"].dims]))
+    verdict = "met its tolerance" if met else "did NOT meet its tolerance"
+    tolerance = f"{settings.default:g}" if not settings.tolerances else "the quantities' tolerances"
+    checked = int(ds.attrs.get("adaptive_check_points", 0))
+    check = (
+        f"; {checked} random check point(s), estimate factor {float(ds.attrs['adaptive_estimate_factor']):.3g}"
+        if checked
+        else "; no check points"
+    )
+    return (
+        f"hpcontact: adaptive map {verdict} ({tolerance}): worst map error {worst:.2e} ({where}); "
+        f"{solves} solves for {points} points{check}"
+    )
+
+
+def dry_run_text(spec: Any, task_of: np.ndarray) -> str:
+    """The dry run's lines on an adaptive spec: the first round and the bound."""
+    layout = Layout.of(spec)
+    task_of = np.asarray(task_of)
+    first = state_tasks(layout, initial_state(layout, spec.adaptive), task_of)
+    total = len(np.unique(task_of))
+    settings: Settings = spec.adaptive
+    bound = (
+        f"at most {min(settings.max_solves, total)} (max_solves)"
+        if settings.max_solves is not None
+        else f"at most {total} (the full grid)"
+    )
+    scales = ", ".join(f"{spec.task_axes[p].name} ({s.value})" for p, s in zip(layout.numeric, layout.scales))
+    quantities = "every stored stiffness" if settings.quantities is None else ", ".join(settings.quantities)
+    return (
+        f"# adaptive: first round {len(first)} of the {total} tasks (nodes "
+        f"{' x '.join(str(len(bisection_nodes(layout.shape[p], settings.initial))) for p in layout.numeric)} per "
+        f"sub-problem); solves {bound}; tolerance {settings.default:g} on {quantities}; interpolated axes: {scales}"
+    )
