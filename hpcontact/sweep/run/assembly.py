@@ -45,9 +45,11 @@ def assemble(
     setup_s: float,
     options: Options,
     stream: TextIO,
+    command: str | None = None,
 ) -> Outcome:
     """Rank 0: the data set of the round (``joined_outcomes``), given to an adaptive round's
-    ``scope.finish``, with its summary, written as netCDF; the summary printed on ``stream``."""
+    ``scope.finish``, with its summary, written as netCDF; the summary printed on ``stream``;
+    ``command``: the command as its user gave it, for the history (``dataset.dataset_of``)."""
     from hpcontact.sweep.dataset import dataset_of, write_netcdf
 
     spec = plan.spec
@@ -69,6 +71,7 @@ def assemble(
             "sweep_journal_sync_time_s": sum(t.sync_s for t in totals),
         },
         derive=False,  # write_netcdf stores K_nn and normalized_nn (it derives them once, there)
+        command=command,
     )
     sums = round_sums(plan, kept, scope, totals, setup_s)
     if scope.finish is not None:  # an adaptive round (adaptive.run_rounds)

@@ -87,8 +87,9 @@ def run_task(
 class Run:
     """What every round of one run shares: the team, the spec and its tasks (joined from the
     ranks' shares, each point's task, whether one may exceed the memory per rank), the task
-    function (None: the spec's scene kind's), rank 0's stream, this rank's stop control, and
-    the run's start (``time.perf_counter``)."""
+    function (None: the spec's scene kind's), rank 0's stream, this rank's stop control, the
+    run's start (``time.perf_counter``), and the command as its user gave it (the data set's
+    history; None: ``provenance.invocation`` finds it)."""
 
     team: Team
     spec: Spec
@@ -99,6 +100,7 @@ class Run:
     stream: TextIO
     stop: StopControl
     started: float
+    command: str | None
 
 
 def execute(
@@ -112,6 +114,7 @@ def execute(
     options: Options = NO_FLAGS,
     stop: StopControl | None = None,
     accuracy: float | None = None,
+    command: str | None = None,
 ) -> Outcome:
     """Run the sweep of ``spec_path`` on ``team`` (default: MPI world, or one process).
 
@@ -126,7 +129,9 @@ def execute(
     every rank. ``spec_path`` may be a ``Spec`` already parsed (``spec.parse_spec`` with
     ``check_scenes=False``; ``output`` None): a spec given as a dict (``hpcontact.run_sweep``).
     With ``options.up_to_date``, a sweep whose data set is ``up_to_date`` prints one line and
-    returns it (``Outcome.up_to_date``): nothing is run or written.
+    returns it (``Outcome.up_to_date``): nothing is run or written. ``command`` is the command
+    as its user gave it, for the data set's history (default: found by
+    ``provenance.invocation``).
     """
     team = team if team is not None else world()
     started = time.perf_counter()  # after the imports and MPI start-up
@@ -142,7 +147,7 @@ def execute(
     )
     mine = pickle.dumps(share(spec, team.rank, team.size, validate, options), protocol=pickle.HIGHEST_PROTOCOL)
     tasks, task_of, over = joined(spec, [pickle.loads(b) for b in team.bcast(team.gather(mine))])
-    run = Run(team, spec, tasks, task_of, over, task_function, stream, stop, started)
+    run = Run(team, spec, tasks, task_of, over, task_function, stream, stop, started, command)
     if spec.adaptive is None:
         return _round(run, options, EVERY_TASK)
     tally = RoundTally()
@@ -346,7 +351,9 @@ def _run(run: Run, plan: Plan, kept: Kept | None, scope: RoundScope, options: Op
                 status,
             )
         try:
-            outcome = assemble(plan, kept, scope, team.size, totals, run.started, setup_s, options, run.stream)
+            outcome = assemble(
+                plan, kept, scope, team.size, totals, run.started, setup_s, options, run.stream, run.command
+            )
             stop.enter("done")  # the data set is written: a stop request changes nothing now
             faults.slow_phase("done")
             return outcome, "", EXIT_OK
