@@ -486,3 +486,41 @@ def test_coverage_cells_on_thin_ellipses_add_their_measured_bias() -> None:
     assert acc.model_error(wide, "coverage") == 0.0 == acc.model_error(Scene.from_params(params), "singular")
     with pytest.raises(acc.AccuracyNotMet, match="stopped by model: the coverage cells' own error bound, 7e-05"):
         acc.solve_to_accuracy(Scene.from_params(params), 1e-5, strategy="coverage")
+
+
+# ------------------------------------------------------------------------------------------
+# the package's registries and its face
+# ------------------------------------------------------------------------------------------
+def test_every_scene_kind_has_a_solver_and_every_strategy_is_a_kind_of_cells() -> None:
+    """``task_function`` is a lookup by ``Kind.name`` that covers the registry of scene kinds;
+    each refinement strategy is a kind of boundary cells ``covered_solve`` knows, and any other
+    name is refused as ``covered_solve`` refuses it."""
+    from hpcontact.discretizations import boundary_cells
+    from hpcontact.problems.kinds import KINDS
+    from hpcontact.problems.slip.partial_slip import solve_slip
+
+    assert set(acc.SOLVERS) == set(KINDS)
+    assert acc.task_function("slip") is solve_slip
+    assert acc.task_function("contact") is acc.defaults.solve_contact_fields
+    for name, strategy in acc.STRATEGIES.items():
+        assert strategy.name == name and name in boundary_cells.STRATEGIES
+    with pytest.raises(InputError, match="^strategy = 'exact': one of auto, singular, strip, coverage"):
+        acc.first_grid(Scene.from_params({"shape": "polygon", "sides": 5}), "exact")
+
+
+def test_a_name_set_on_the_face_is_set_where_it_is_used(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Setting a constant on ``hpcontact.accuracy`` (tests, ``benchmarks/accuracy_sharpness.py
+    --set``) sets it in every module of the package that holds it, and undoing it restores them."""
+    from hpcontact.accuracy import extrapolation, grid_plan, refinement
+
+    before = extrapolation.SAFETY
+    sequence = [1.0 + 2.0**-k + 0.5 * 4.0**-k + 0.01 * (-1) ** k * 8.0**-k for k in range(5)]
+    plain = acc.estimate(sequence).error
+    with monkeypatch.context() as patch:
+        patch.setattr(acc, "SAFETY", 7.0)
+        patch.setattr(acc, "resident_bytes", lambda: 1.0)
+        assert extrapolation.SAFETY == acc.SAFETY == 7.0
+        assert grid_plan.resident_bytes() == refinement.resident_bytes() == 1.0
+        assert acc.estimate(sequence).error == pytest.approx(plain * 7.0 / before, rel=1e-12)
+    assert extrapolation.SAFETY == acc.SAFETY == before
+    assert grid_plan.resident_bytes() > 1.0

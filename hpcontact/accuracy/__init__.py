@@ -132,14 +132,13 @@ __all__ = [
 ]
 
 _PARTS = (extrapolation, memory, strategies, grid_plan, refinement, defaults)
-
-
-def __getattr__(name: str) -> Any:
-    """Any other public name of the package's modules (PEP 562)."""
-    for part in _PARTS:
-        if not name.startswith("_") and name in vars(part):
-            return vars(part)[name]
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+# every other public name of the modules is an attribute here too (``hpcontact.accuracy.STRIP_N0``),
+# so that setting one (below) and undoing it restores the modules' value
+for _part in _PARTS:
+    for _name, _value in vars(_part).items():
+        if not _name.startswith("_") and not isinstance(_value, types.ModuleType):
+            globals().setdefault(_name, _value)
+del _part, _name, _value
 
 
 class _Face(types.ModuleType):
