@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import io
 
-from hpcontact.sweep.progress import Progress, Summary
+from hpcontact.sweep.progress import Progress
+from hpcontact.sweep.run.summary import Summary
 
 
 def test_progress_line_counts_reused_tasks_and_extrapolates_cost_units_without_a_calibration():

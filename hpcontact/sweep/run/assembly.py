@@ -16,7 +16,7 @@ from hpcontact.sweep import faults, provenance
 from hpcontact.sweep.columns import NOT_COMPUTED, join, to_columns
 from hpcontact.sweep.journal import OK
 from hpcontact.sweep.run.records import Kept, Options, Outcome, Plan, RankTotals, RoundScope
-from hpcontact.sweep.run.summary import print_summary, round_sums, summary_of
+from hpcontact.sweep.run.summary import Summary, print_summary, round_sums
 
 
 def joined_outcomes(plan: Plan, kept: Kept, totals: list[RankTotals]) -> Any:
@@ -79,7 +79,7 @@ def assemble(
         if dataset is None:  # not the last round: nothing to write
             return Outcome(Path(spec.output), len(failed))
     now = time.perf_counter()
-    summary = summary_of(plan, sums, len(failed), ranks, now - started, now - gather_started)
+    summary = Summary.of(plan, sums, len(failed), ranks, now - started, now - gather_started)
     dataset.attrs.update(summary.attrs())
     faults.slow_phase("write")
     path = write_netcdf(dataset, spec.output)
