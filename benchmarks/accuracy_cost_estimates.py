@@ -5,8 +5,8 @@
     python benchmarks/accuracy_cost_estimates.py --strips          # strip cells' seconds and their fit
 
 Four small sweeps, their specs below (``SWEEPS``), costed as ``hpcontact run SPEC --dry-run``
-costs them (``tasks.enumerate_tasks``, ``costmodel``: the grids ``accuracy.solve_to_accuracy`` is
-predicted to solve, ``tasks.accuracy_plan``) and run with the sweep's task function:
+costs them (``tasks.enumerate_tasks``, ``cost``: the grids ``accuracy.solve_to_accuracy`` is
+predicted to solve, ``cost.grids.accuracy_plan``) and run with the sweep's task function:
 
 * ``ellipses``: ellipses b/a = 0.3 and 0.01 × A = 1 (isotropic) and 3 (cubic, ψ = 60°), nu = 0.3,
   accuracy 1e-4: each one exact cell (``galin``: ``accuracy.exact_solve``, no grid; estimated
@@ -17,7 +17,7 @@ predicted to solve, ``tasks.accuracy_plan``) and run with the sweep's task funct
 * ``exact``: 36 crystal ellipses (b/a 0.5, 1e-3 × nu 0.05, 0.45 × A 0.5, 2, 3 × ψ 0°, 35.26°,
   70°) at accuracy 1e-6 on their exact cell, in an order where no task finds its material's
   kernel cached (18 materials, the cache keeps 8): what the scenes of
-  ``jobs/adaptive_orientation_map.toml`` cost, the kernel's build (``costmodel.Rate.exact_s``)
+  ``jobs/adaptive_orientation_map.toml`` cost, the kernel's build (``cost.rates.Rate.exact_s``)
   nearly all of it;
 * ``square``: the tasks of the most grids and the largest arrays a sweep's ``auto`` now
   solves: a square at accuracy 1e-5 and 1e-6 (coverage-weighted cells, six grids to
@@ -29,10 +29,10 @@ In fresh child processes, one thread each:
 * **time**: the sweep's tasks in sweep order with the real task function under the sweep's BLAS
   limit (``numerics.blas.limited_blas``), each task's CPU seconds (``time.process_time``) and
   the CPU seconds of each grid it solved; the cost model calibrated in that process just before
-  and after the tasks (``costmodel.calibrate``, under the same load: ``benchmarks/cost_estimates.py``
+  and after the tasks (``cost.calibration.calibrate``, under the same load: ``benchmarks/cost_estimates.py``
   says why), the mean of the two estimates per task against the measured seconds;
-* **memory**: each task alone after a run's imports (``costmodel.base_memory_bytes``), its
-  process's peak resident set against the estimate (that base + ``costmodel.task_array_bytes``).
+* **memory**: each task alone after a run's imports (``cost.rates.base_memory_bytes``), its
+  process's peak resident set against the estimate (that base + ``cost.rates.task_array_bytes``).
 
 The table: per task the boundary cells and the grids predicted and solved, estimated and measured
 CPU seconds and peak MiB with their ratios (estimate / measured); per sweep and overall the
@@ -40,7 +40,7 @@ total seconds and the largest peak (the dry run's ``estimated_peak_memory_bytes`
 largest measured).
 ``--json`` writes every number, the per-grid seconds included.
 
-``--grid-counts``: the evidence of ``tasks.predicted_grid_count``. Each case of ``COUNT_CASES``
+``--grid-counts``: the evidence of ``cost.grids.predicted_grid_count``. Each case of ``COUNT_CASES``
 (shapes that take a sequence of grids: not ellipses or circles, whose exact cell takes none) is solved once at a tight request (a fresh process; ``solve_to_accuracy``, strategy auto, not
 strict) and ``accuracy.refine`` replayed on its grids for the requests 1e-3 … 1e-6 whose boundary
 cells are the same (``accuracy.first_grid``): the grids each request takes, against the
@@ -48,8 +48,8 @@ prediction, and where it stopped.
 
 ``--strips``: CPU seconds of one grid of strip cells (``boundary_cells.covered_solve``, strategy
 strip, warm, BLAS limited) for rectangles b/a 1e-6 … 1e-12 on 32 … 1024 strips (the only strips
-``auto`` takes; fewer where a grid took over 30 s), against ``tasks.strip_units`` at this
-process's calibrated ``strip_s``, and the two constants of ``tasks.strip_units`` fitted anew to
+``auto`` takes; fewer where a grid took over 30 s), against ``cost.task_cost.strip_units`` at this
+process's calibrated ``strip_s``, and the two constants of ``cost.task_cost.strip_units`` fitted anew to
 these seconds (least squares on the log of model over measured).
 """
 
@@ -134,8 +134,8 @@ nu = [0.0, 0.5]
 
 def load_tasks(name: str):
     """The tasks of the sweep ``name`` as the dry run makes them."""
-    from hpcontact.sweep.spec import load_spec
-    from hpcontact.sweep.tasks import enumerate_tasks
+    from hpcontact.sweep.space.parse import load_spec
+    from hpcontact.sweep.work.tasks import enumerate_tasks
 
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / f"{name}.toml"
@@ -160,11 +160,11 @@ def measure_time(name: str) -> dict:
     calibrate again; the estimates of both calibrations per task."""
     from hpcontact import accuracy
     from hpcontact.numerics.blas import limited_blas
-    from hpcontact.sweep import costmodel
-    from hpcontact.sweep.tasks import accuracy_plan
+    from hpcontact.sweep.cost.calibration import calibrate
+    from hpcontact.sweep.cost.grids import accuracy_plan
 
     spec, tasks = load_tasks(name)
-    before = costmodel.calibrate()
+    before = calibrate()
     function = accuracy.task_function(spec.kind)
     solve = accuracy.covered_solve
     grids: list[dict] = []
@@ -204,7 +204,7 @@ def measure_time(name: str) -> dict:
                 )
     finally:
         accuracy.covered_solve = solve
-    after = costmodel.calibrate()
+    after = calibrate()
     for row, task in zip(rows, tasks):
         estimates = [c.task_seconds(task.params, task.cost) for c in (before, after)]
         row["estimated_s"] = 0.5 * (estimates[0] + estimates[1])
@@ -219,15 +219,15 @@ def measure_memory(name: str, index: int) -> dict:
     from hpcontact.accuracy import task_function
     from hpcontact.numerics.blas import limited_blas
     from hpcontact.numerics.memory import resident_bytes
-    from hpcontact.sweep import costmodel
+    from hpcontact.sweep.cost.rates import base_memory_bytes, task_array_bytes
 
     spec, tasks = load_tasks(name)
-    base = costmodel.base_memory_bytes()
+    base = base_memory_bytes()
     task = tasks[index]
     with limited_blas():
         task_function(spec.kind)(dict(task.params))
     return {
-        "estimated_peak_bytes": base + costmodel.task_array_bytes(task.params),
+        "estimated_peak_bytes": base + task_array_bytes(task.params),
         "measured_peak_bytes": resident_bytes(),
     }
 
@@ -291,10 +291,10 @@ def measure_counts(params: dict, tight: float) -> dict:
 
 
 def grid_counts() -> None:
-    """``--grid-counts``: the table of grids taken against ``tasks.predicted_grid_count``."""
+    """``--grid-counts``: the table of grids taken against ``cost.grids.predicted_grid_count``."""
     from hpcontact.accuracy import first_grid, plan_grids
     from hpcontact.scene import Scene
-    from hpcontact.sweep.tasks import predicted_grid_count
+    from hpcontact.sweep.cost.grids import predicted_grid_count
 
     print(f"{'scene':44s} {'cells':8s} " + " ".join(f"{f'{r:g}':>22s}" for r in COUNT_REQUESTS))
     for params, tight in COUNT_CASES:
@@ -324,14 +324,15 @@ def grid_counts() -> None:
 
 def measure_strips(cap_s: float = 30.0) -> dict:
     """In this process: CPU seconds of one strip grid per case of ``STRIP_CASES`` (warm, BLAS
-    limited), the calibrated ``strip_s`` and each grid's ``tasks.strip_units``."""
+    limited), the calibrated ``strip_s`` and each grid's ``cost.task_cost.strip_units``."""
     from hpcontact.discretizations.boundary_cells import covered_solve
     from hpcontact.numerics.blas import limited_blas
     from hpcontact.scene import Scene
-    from hpcontact.sweep import costmodel
-    from hpcontact.sweep.tasks import strip_pairs, strip_units
+    from hpcontact.sweep.cost.calibration import calibrate
+    from hpcontact.sweep.cost.engine import strip_pairs
+    from hpcontact.sweep.cost.task_cost import strip_units
 
-    rate = costmodel.calibrate().rates["contact"]
+    rate = calibrate().rates["contact"]
     rows = []
     with limited_blas():
         for shape, aspect, ns in STRIP_CASES:
@@ -365,7 +366,7 @@ def strips() -> None:
     import numpy as np
     from scipy.optimize import least_squares
 
-    from hpcontact.sweep import tasks
+    from hpcontact.sweep.work import tasks
 
     result = harness.call_in_child(__file__, "measure_strips", check=True).result
     rows = result["rows"]

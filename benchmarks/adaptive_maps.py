@@ -173,7 +173,7 @@ def uniform_nodes(n: int, stride: int) -> list[int]:
 
 def tensor_at(solved: Solved, xs, nodes, point) -> np.ndarray:
     """The tensor cubic interpolant (``interpolation.weights``) from ``nodes`` at the grid ``point``."""
-    from hpcontact.sweep.interpolation import weights
+    from hpcontact.numerics.interpolation import weights
 
     rows = [weights(x, n)[p] for x, n, p in zip(xs, nodes, point)]
     stencil = [[(int(n[j]), w[j]) for j in np.flatnonzero(w)] for n, w in zip(nodes, rows)]
@@ -188,7 +188,7 @@ def smallest_uniform(solved: Solved, xs, shape, picked, direct, q: int, target: 
     their solved values): each axis alone first (1-D interpolation along it at the points), then
     the tensor interpolant of that candidate at the points, tightening the coarsest axis until it
     holds. Returns (strides, strides each axis alone allowed, node count, worst error)."""
-    from hpcontact.sweep.interpolation import weights
+    from hpcontact.numerics.interpolation import weights
 
     alone = []
     for d, n in enumerate(shape):
@@ -225,8 +225,8 @@ def crystal(team, output: Path, count: int, seed: int, reuse: bool = False) -> N
     import xarray as xr
 
     from hpcontact.sweep.driver import run_sweep
-    from hpcontact.sweep.spec import parse_spec
-    from hpcontact.sweep.tasks import enumerate_tasks
+    from hpcontact.sweep.space.parse import parse_spec
+    from hpcontact.sweep.work.tasks import enumerate_tasks
 
     folder = Path(team.bcast(tempfile.mkdtemp(prefix="adaptive-crystal-") if team.rank == 0 else None))
     spec = folder / "crystal.toml"
@@ -354,7 +354,7 @@ def run(task_function, output: Path, team) -> tuple[dict[str, float], float]:
 
 def uniform(target: float) -> tuple[int, float, tuple[int, int]]:
     """The smallest uniform sub-grid whose cubic interpolant of the exact map is within ``target``."""
-    from hpcontact.sweep.interpolation import TensorInterpolant
+    from hpcontact.numerics.interpolation import TensorInterpolant
 
     aspect, nu = np.logspace(0, -4, 41), np.linspace(0, 0.5, 21)
     exact = exact_map(aspect, nu)
@@ -390,14 +390,14 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=27, help="their seed (default 27)")
     args = parser.parse_args()
     if args.crystal:
-        from hpcontact.sweep.schedule import world
+        from hpcontact.sweep.run.schedule import world
 
         crystal(world(), Path(args.crystal_output), args.points, args.seed, args.reuse)
         return
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "sweep"))
     from test_adaptive import mindlin  # the stand-in of the unit test
 
-    from hpcontact.sweep.schedule import SerialTeam, world
+    from hpcontact.sweep.run.schedule import SerialTeam, world
 
     team = world()
     rows = []

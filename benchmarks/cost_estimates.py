@@ -7,7 +7,7 @@ For each job (default: every jobs/*.toml), two fresh child processes:
 * **time**: the job's tasks are solved in sweep order with the real task function (the kernel
   cache kept as a sweep's rank keeps it) and their CPU time summed (``time.process_time``, one
   thread: a core's time, as the estimate is; their wall time is printed beside it); the cost model is
-  calibrated in that same process just before and just after the tasks (``costmodel.calibrate``,
+  calibrated in that same process just before and just after the tasks (``cost.calibration.calibrate``,
   timed under the same load as the tasks, which matters on a shared machine: a load that comes or
   goes between the tasks and one calibration moved a job's ratio by 1.5-2x) and the mean of the
   two estimates of exactly the tasks that ran is compared with their measured time; the ratio of
@@ -19,7 +19,7 @@ For each job (default: every jobs/*.toml), two fresh child processes:
 
 ``--accuracy REL`` runs the jobs as ``hpcontact run JOB --accuracy REL`` does (their grids
 replaced by the request: every contact task solves ``accuracy.solve_to_accuracy``, costed over
-the grids it is predicted to solve, ``tasks.accuracy_plan``), e.g. ``jobs/demo.toml --accuracy
+the grids it is predicted to solve, ``cost.grids.accuracy_plan``), e.g. ``jobs/demo.toml --accuracy
 1e-3 --budget 60``; ``benchmarks/accuracy_cost_estimates.py`` gives the same per task.
 """
 
@@ -39,13 +39,13 @@ def measure_time(job: str, budget_s: float, accuracy: float | None = None) -> di
     then calibrate; estimated and measured seconds."""
     from hpcontact.accuracy import task_function
     from hpcontact.numerics.memory import resident_bytes
-    from hpcontact.sweep import costmodel
-    from hpcontact.sweep.spec import load_spec
-    from hpcontact.sweep.tasks import enumerate_tasks
+    from hpcontact.sweep.cost.calibration import calibrate
+    from hpcontact.sweep.space.parse import load_spec
+    from hpcontact.sweep.work.tasks import enumerate_tasks
 
     spec = load_spec(job, accuracy=accuracy)
     tasks, _ = enumerate_tasks(spec)
-    before = costmodel.calibrate()
+    before = calibrate()
     step = max(1, math.ceil(sum(before.task_seconds(t.params, t.cost) for t in tasks) / budget_s))
     chosen = list(range(0, len(tasks), step))
     function = task_function(spec.kind)
@@ -56,7 +56,7 @@ def measure_time(job: str, budget_s: float, accuracy: float | None = None) -> di
         measured += t.cpu_s
         wall += t.wall_s
     rss = resident_bytes()
-    after = costmodel.calibrate()
+    after = calibrate()
     estimates = [sum(c.task_seconds(tasks[i].params, tasks[i].cost) for i in chosen) for c in (before, after)]
     return {
         "job": Path(job).stem,
@@ -84,17 +84,17 @@ def measure_memory(job: str, accuracy: float | None = None) -> dict:
     resident bytes."""
     from hpcontact.accuracy import task_function
     from hpcontact.numerics.memory import resident_bytes
-    from hpcontact.sweep import costmodel
-    from hpcontact.sweep.spec import load_spec
-    from hpcontact.sweep.tasks import enumerate_tasks
+    from hpcontact.sweep.cost.rates import base_memory_bytes, task_array_bytes
+    from hpcontact.sweep.space.parse import load_spec
+    from hpcontact.sweep.work.tasks import enumerate_tasks
 
     spec = load_spec(job, accuracy=accuracy)
     tasks, _ = enumerate_tasks(spec)
-    base = costmodel.base_memory_bytes()
-    largest = max(tasks, key=lambda t: costmodel.task_array_bytes(t.params))
+    base = base_memory_bytes()
+    largest = max(tasks, key=lambda t: task_array_bytes(t.params))
     task_function(spec.kind)(dict(largest.params))
     return {
-        "estimated_peak_bytes": base + costmodel.task_array_bytes(largest.params),
+        "estimated_peak_bytes": base + task_array_bytes(largest.params),
         "measured_peak_bytes": resident_bytes(),
     }
 

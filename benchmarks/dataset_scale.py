@@ -28,10 +28,10 @@ from pathlib import Path
 import harness
 
 import hpcontact
-from hpcontact.sweep.dataset import build_dataset, write_netcdf
-from hpcontact.sweep.journal import OK, Entry, Journal, read_journals
-from hpcontact.sweep.spec import parse_spec
-from hpcontact.sweep.tasks import enumerate_tasks
+from hpcontact.sweep.data.dataset import build_dataset, write_netcdf
+from hpcontact.sweep.data.journal import OK, Entry, Journal, read_journals
+from hpcontact.sweep.space.parse import parse_spec
+from hpcontact.sweep.work.tasks import enumerate_tasks
 
 SPEC = """
 [sweep]

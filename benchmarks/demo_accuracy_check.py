@@ -98,8 +98,9 @@ from hpcontact.numerics import convolution
 from hpcontact.numerics.blas import limited_blas
 from hpcontact.problems.contact import solve
 from hpcontact.scene import Scene
-from hpcontact.sweep.spec import canonical_json, load_spec
-from hpcontact.sweep.tasks import enumerate_tasks
+from hpcontact.sweep.space.parse import load_spec
+from hpcontact.sweep.space.spec import canonical_json
+from hpcontact.sweep.work.tasks import enumerate_tasks
 
 SPEC = harness.ROOT / "jobs" / "demo.toml"
 TESTS = harness.ROOT / "tests"

@@ -73,7 +73,8 @@ def write_calibration(path: str) -> str:
     """A synthetic calibration for this host and the hpcontact this process imports (1e-6 s per
     cost unit for every kind, 100 MiB base): the dry run reads it instead of calibrating."""
     from hpcontact import __version__
-    from hpcontact.sweep.costmodel import KINDS, Calibration, Rate, save_calibration
+    from hpcontact.sweep.cost.calibration_file import save_calibration
+    from hpcontact.sweep.cost.rates import KINDS, Calibration, Rate
 
     rates = {kind: Rate(rate_s=1e-6, solve_s=0.0) for kind in KINDS}
     return str(save_calibration(Calibration(socket.gethostname(), __version__, rates, 100.0 * 2**20), Path(path)))
@@ -82,11 +83,13 @@ def write_calibration(path: str) -> str:
 def phases(spec_path: str) -> dict[str, float]:
     """Seconds of each phase of a dry run of ``spec_path`` in this process (this checkout's API;
     the calibration of ``HPCONTACT_COSTMODEL``), and the points and tasks."""
-    from hpcontact.sweep import costmodel, driver
-    from hpcontact.sweep.spec import load_spec
-    from hpcontact.sweep.tasks import enumerate_part, join_parts, points
+    from hpcontact.sweep.cost.calibration_file import load_calibration
+    from hpcontact.sweep.run.dry_run import dry_run
+    from hpcontact.sweep.space.parse import load_spec
+    from hpcontact.sweep.work.estimate import estimate
+    from hpcontact.sweep.work.tasks import enumerate_part, join_parts, points
 
-    calibration = costmodel.load_calibration()
+    calibration = load_calibration()
     out: dict[str, float] = {}
 
     def timed(name, function):
@@ -98,9 +101,9 @@ def phases(spec_path: str) -> dict[str, float]:
     spec = timed("spec", lambda: load_spec(spec_path, check_scenes=False))
     part = timed("enumerate and check", lambda: enumerate_part(spec, check=True))
     tasks, _ = timed("join", lambda: join_parts(spec, [part]))
-    timed("estimate", lambda: costmodel.estimate(tasks, calibration))
+    timed("estimate", lambda: estimate(tasks, calibration))
     with open(os.devnull, "w", encoding="utf-8") as sink:
-        total = timed("dry run", lambda: driver.dry_run(spec_path, stream=sink, calibration=calibration))
+        total = timed("dry run", lambda: dry_run(spec_path, stream=sink, calibration=calibration))
     assert total == 0
     out["output"] = max(0.0, out.pop("dry run") - sum(out.values()))
     return {**out, "points": points(spec), "tasks": len(tasks)}

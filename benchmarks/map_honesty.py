@@ -26,7 +26,7 @@ import numpy as np
 import xarray as xr
 
 from hpcontact.sweep.driver import run_sweep
-from hpcontact.sweep.schedule import SerialTeam
+from hpcontact.sweep.run.schedule import SerialTeam
 
 MAPS = {
     "M1": (

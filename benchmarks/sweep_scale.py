@@ -7,7 +7,7 @@ What it does, in order:
 1. **Task costs, measured.** Runs three small real sweeps in this process (one core, the real
    solver): thin shapes (ellipse, rectangle, polygons, b/a 1 … 1e-8), cubic crystals (A, ψ) and
    Coulomb partial slip (sphere pairs). Each journal entry gives a measured wall time; the
-   spec's tasks give the estimated cost (``tasks.estimated_cost``, the units the scheduler
+   spec's tasks give the estimated cost (``cost.task_cost.estimated_cost``, the units the scheduler
    orders by) and kernel group. Real jobs already run (``--specs jobs/demo.toml ...``: their
    journals) are added to these.
 2. **Overheads, measured.** Under ``mpiexec -n 2``, the real ``ServedCounter``: a worker's claim
@@ -18,7 +18,7 @@ What it does, in order:
    over the ranks (each share of the points enumerated with every distinct scene validated,
    ``tasks.enumerate_part``, as the driver's share does: the sum over shares) and the setup on the
    critical path (every rank unpickles and joins all shares, ``tasks.join_parts``; rank 0 checks
-   the journals and decides, ``driver.prepare``; the decision pickled
+   the journals and decides, ``run.resume.prepare``; the decision pickled
    and unpickled as its broadcast does; every rank makes the chunks for 1024 ranks); the gather spread over the ranks (synthetic solver-like outcomes,
    ``dataset_scale.record``, turned into columns, ``columns.to_columns``) and rank 0's serial
    gather (the columns unpickled and joined, the data set built and written). Best of
@@ -28,7 +28,7 @@ What it does, in order:
    6 nu × 17 b/a × 11 A × 19 ψ (the load angle derived; isotropic points share their
    orientation-free scene, polygons ignore b/a: 48 132 distinct tasks) — the tasks are chunked and
    ordered by the real ``make_chunks`` for R ranks (kernel groups included) and run by the
-   discrete-event model of the scheduler, ``hpcontact.sweep.costmodel.replay`` (the one the
+   discrete-event model of the scheduler, ``sweep.cost.replay.replay`` (the one the
    dry-run uses): every rank computes; a worker's claim waits for the server (FIFO, measured service
    time) plus the measured wake-up latency; rank 0 claims without messages; the ranks share the
    enumeration and the columns, rank 0 alone joins them (serial setup and gather) while the
@@ -60,10 +60,11 @@ import harness
 import numpy as np
 
 from hpcontact.problems.footprint import task_kind
-from hpcontact.sweep.costmodel import Overheads, replay
-from hpcontact.sweep.journal import OK, read_journals
-from hpcontact.sweep.spec import Spec, load_spec, parse_spec
-from hpcontact.sweep.tasks import Task, enumerate_part, enumerate_tasks, join_parts, make_chunks, points
+from hpcontact.sweep.data.journal import OK, read_journals
+from hpcontact.sweep.space.parse import load_spec, parse_spec
+from hpcontact.sweep.space.spec import Spec
+from hpcontact.sweep.work.replay import Overheads, replay
+from hpcontact.sweep.work.tasks import Task, enumerate_part, enumerate_tasks, join_parts, make_chunks, points
 
 SMALL_SWEEPS = {
     "thin shapes": """
@@ -159,7 +160,7 @@ def run_small_sweeps(folder: Path) -> tuple[dict[str, Distribution], dict[str, f
     import xarray as xr
 
     from hpcontact.sweep.driver import run_sweep
-    from hpcontact.sweep.schedule import SerialTeam
+    from hpcontact.sweep.run.schedule import SerialTeam
 
     out: dict[str, Distribution] = {}
     overhead = {"driver_s": []}
@@ -185,7 +186,7 @@ def run_small_sweeps(folder: Path) -> tuple[dict[str, Distribution], dict[str, f
 PROBE = r"""
 import time
 from hpcontact.sweep import schedule
-from hpcontact.sweep.schedule import SLOTS, MPITeam, world
+from hpcontact.sweep.run.schedule import SLOTS, MPITeam, world
 team = world()
 counter = team.counter(SLOTS)  # as the driver runs it: rank 0 serves from a thread
 if team.rank == 1:
@@ -253,13 +254,14 @@ def setup_and_gather(folder: Path, repeats: int) -> dict[str, float]:
     ``SHARES`` shares) and rank 0's serial setup and gather (module docstring, point 2)."""
     from dataset_scale import record
 
-    from hpcontact.sweep import driver
-    from hpcontact.sweep.columns import join, to_columns
-    from hpcontact.sweep.dataset import FIXED_VARIABLES, dataset_of, write_netcdf
-    from hpcontact.sweep.journal import Entry
+    from hpcontact.sweep.data.columns import join, to_columns
+    from hpcontact.sweep.data.dataset import FIXED_VARIABLES, dataset_of, write_netcdf
+    from hpcontact.sweep.data.journal import Entry
+    from hpcontact.sweep.run.records import Decision, Kept, Options
+    from hpcontact.sweep.run.resume import prepare as resume_prepare
 
     spec = parse_spec(SIX_AXIS, folder / "six_axis.toml", output=folder / "six_axis.nc", check_scenes=False)
-    options = driver.Options(restart=True)
+    options = Options(restart=True)
     total = points(spec)
 
     def share(rank: int):
@@ -270,17 +272,15 @@ def setup_and_gather(folder: Path, repeats: int) -> dict[str, float]:
     spread_setup, shares = best(lambda: [share(r) for r in range(SHARES)], repeats)
     sent = [pickle.dumps(part, protocol=pickle.HIGHEST_PROTOCOL) for part in shares]
 
-    def prepare() -> tuple[list[Task], driver.Decision, dict]:
+    def prepare() -> tuple[list[Task], Decision, Kept]:
         tasks, task_of = join_parts(spec, [pickle.loads(b) for b in sent])  # every rank
-        keep: dict = {}
-        # private: rank 0's journal check and decision has no public name
-        decision = driver.prepare(spec, tasks, task_of, False, options, 1024, keep)  # rank 0
-        keep["lock"].release()
+        decision, kept = resume_prepare(spec, tasks, task_of, False, options, 1024)  # rank 0
+        kept.lock.release()
         decision = pickle.loads(pickle.dumps(decision, protocol=pickle.HIGHEST_PROTOCOL))  # its broadcast
         make_chunks([tasks[i] for i in decision.shared], 1024)  # every rank
-        return tasks, decision, keep
+        return tasks, decision, kept
 
-    serial_setup, (tasks, decision, keep) = best(prepare, repeats)
+    serial_setup, (tasks, decision, kept) = best(prepare, repeats)
     n = len(tasks)
     entries = [
         Entry(
@@ -303,7 +303,7 @@ def setup_and_gather(folder: Path, repeats: int) -> dict[str, float]:
 
     def gather() -> None:
         joined = join([to_columns([], [])] + [pickle.loads(b) for b in sent], n, FIXED_VARIABLES)
-        write_netcdf(dataset_of(spec, keep["task_of"], joined, {"mpi_size": 1024}, derive=False), spec.output)
+        write_netcdf(dataset_of(spec, kept.task_of, joined, {"mpi_size": 1024}, derive=False), spec.output)
 
     serial_gather, _ = best(gather, repeats)
     return {

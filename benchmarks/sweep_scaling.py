@@ -56,9 +56,10 @@ MEAN_SLEEP_S = 0.15
 
 def worker(spec: str, output: str, tasks: str) -> None:
     """One rank of a benchmark run (started by ``run`` under mpiexec)."""
+    from hpcontact.sweep.cost.task_cost import estimated_cost
     from hpcontact.sweep.driver import run_sweep
-    from hpcontact.sweep.spec import load_spec
-    from hpcontact.sweep.tasks import enumerate_tasks, estimated_cost
+    from hpcontact.sweep.space.parse import load_spec
+    from hpcontact.sweep.work.tasks import enumerate_tasks
 
     if tasks == "solve":
         from hpcontact.problems.contact import solve

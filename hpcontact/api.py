@@ -329,7 +329,7 @@ def open_dataset(path: str | Path, **options: Any) -> xr.Dataset:
         and ``normalized_nn`` along ``angle``, ``plan`` as JSON text. Use it in a ``with``
         block, or ``.load()`` it, to close the file.
     """
-    from hpcontact.sweep.dataset import open_dataset as open_sweep
+    from hpcontact.sweep.data.dataset import open_dataset as open_sweep
 
     return open_sweep(path, **options)
 
@@ -377,7 +377,7 @@ def run_sweep(
     spec
         The sweep spec: a TOML file (``"jobs/demo.toml"``) or a dict of the same structure
         (``{"scene": {...}, "numerics": {...}, "axes": {...}, "sweep": {"output": ...}}``),
-        checked by the same parser (``hpcontact.sweep.spec.parse_spec``). A dict's relative
+        checked by the same parser (``hpcontact.sweep.space.parse.parse_spec``). A dict's relative
         mask paths are relative to the working directory, and it needs an output (its
         ``sweep.output`` or ``output=``).
     resume
@@ -412,15 +412,17 @@ def run_sweep(
     ------
     hpcontact.errors.InputError
         The spec is invalid (the message names the key), or the run is refused
-        (``hpcontact.sweep.guard.Refused``: journals of an earlier run without ``resume=True``
+        (``hpcontact.sweep.run.guard.Refused``: journals of an earlier run without ``resume=True``
         or ``restart=True``, stale journals, the lock held, the output unusable); the message
         names the keyword to pass.
-    hpcontact.sweep.driver.Stopped
+    hpcontact.sweep.run.records.Stopped
         The run stopped before writing the data set (journals intact: ``resume=True`` goes on).
     """
-    from hpcontact.sweep.driver import Options, Stopped, execute
-    from hpcontact.sweep.guard import Refused
-    from hpcontact.sweep.schedule import SerialTeam
+    command = _history_text(locals())
+    from hpcontact.sweep.run.guard import Refused
+    from hpcontact.sweep.run.records import Options, Stopped
+    from hpcontact.sweep.run.rounds import execute
+    from hpcontact.sweep.run.schedule import SerialTeam
 
     if isinstance(spec, bytes) or not isinstance(spec, (str, os.PathLike, Mapping)):
         raise InputError(
@@ -452,6 +454,7 @@ def run_sweep(
             stream=stream,
             options=options,
             accuracy=None if isinstance(spec, Mapping) else accuracy,
+            command=command,
         ).path
     except Refused as exc:
         raise Refused(python_message(str(exc))).with_traceback(exc.__traceback__) from None
@@ -466,12 +469,20 @@ def run_sweep(
 
 
 #: The spec path a dict spec is recorded under (journals, the data set's ``spec_path``).
+def _history_text(arguments: Mapping[str, Any]) -> str:
+    """This call of ``run_sweep`` (``arguments``: its parameters) as a data set's history shows
+    it: "hpcontact.run_sweep('jobs/demo.toml', resume=True)"."""
+    from hpcontact.sweep.data.provenance import call_text
+
+    return call_text("hpcontact.run_sweep", run_sweep, arguments)
+
+
 DICT_SPEC_PATH = "<dict>"
 
 
 def _dict_spec(spec: Mapping[str, Any], output: str | None, accuracy: float | None = None) -> Any:
     """The ``Spec`` of a spec given as a dict: its TOML text through ``parse_spec``."""
-    from hpcontact.sweep.spec import parse_spec
+    from hpcontact.sweep.space.parse import parse_spec
 
     _check_nesting(spec)
     sweep = spec.get("sweep")
@@ -517,7 +528,7 @@ def _check_nesting(spec: Mapping[str, Any]) -> None:
 
 def toml_text(spec: Mapping[str, Any]) -> str:
     """A spec given as a dict as TOML text (tables of key = value; nested mappings inline):
-    what ``hpcontact.sweep.spec.parse_spec`` reads. ``None`` and other values TOML cannot
+    what ``hpcontact.sweep.space.parse.parse_spec`` reads. ``None`` and other values TOML cannot
     hold are refused with an ``InputError`` naming the key."""
     lines = [
         f"{_toml_key(key)} = {_toml_value(str(key), value)}"

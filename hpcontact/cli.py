@@ -28,8 +28,8 @@ from hpcontact.fields import CONTACT, Field, cli_fields, cli_help, names
 from hpcontact.numerics.convolution import load_wisdom, pyfftw, save_wisdom, wisdom_path
 from hpcontact.problems.kinds import SLIP, quantity_names, scene_kind
 from hpcontact.scene import DEFAULTS
-from hpcontact.sweep.arguments import add_run_arguments
-from hpcontact.sweep.show import add_show_arguments, show_command
+from hpcontact.sweep.data.show import add_show_arguments, show_command
+from hpcontact.sweep.run.arguments import add_run_arguments
 
 #: The scene fields of ``hpcontact solve`` (``--no-precondition`` for ``precondition``;
 #: ``--accuracy`` goes to the solve beside them) and its partial-slip options, as
@@ -306,9 +306,10 @@ def _cmd_solve(args: argparse.Namespace) -> int:
 def _cmd_run(args: argparse.Namespace) -> int:
     # Imported here: the sweep imports mpi4py.MPI, which initializes MPI — ``hpcontact solve``
     # and ``hpcontact info`` must run where no MPI launcher is set up.
-    from hpcontact.sweep.driver import run_from_arguments
+    from hpcontact.sweep.data.provenance import command_line
+    from hpcontact.sweep.run.command import run_from_arguments
 
-    return run_from_arguments(args)
+    return run_from_arguments(args, command=command_line("hpcontact", args.argv))
 
 
 def _cmd_info(args: argparse.Namespace) -> int:
@@ -356,6 +357,7 @@ def parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = parser().parse_args(argv)
+    args.argv = argv  # as given: a sweep's history records the command (None: this process's)
     command = {"solve": _cmd_solve, "run": _cmd_run, "info": _cmd_info, "show": show_command}[args.command]
     try:
         return command(args)

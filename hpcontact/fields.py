@@ -31,7 +31,7 @@ from hpcontact.errors import InputError, finite_number, integer
 CONTACT = "contact"
 SLIP = "slip"
 KINDS = (CONTACT, SLIP)
-#: What a field may change in a sweep's task (``hpcontact.sweep.tasks``): the kernels (tasks
+#: What a field may change in a sweep's task (``hpcontact.sweep.work.tasks``): the kernels (tasks
 #: differing only in a kernel-neutral field may share them), the grids ``default_grids``
 #: picks, the estimated cost.
 Effect = Literal["kernel", "grid", "cost"]

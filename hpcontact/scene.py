@@ -46,7 +46,7 @@ REFINABLE_QUANTITIES = ("tangential", "normal", "coupled")
 #: not apply). Where a crystal stiffness stops being positive definite (nu near -1 or 0.5 with an
 #: extreme A) the interval's ends are those of the eigenvalue test, exact up to its rounding. A
 #: sweep checks a long axis of such a field by validating its extreme and branch values, and
-#: bisecting only when one is refused (``hpcontact.sweep.spec.scene_runs``), not every value.
+#: bisecting only when one is refused (``hpcontact.sweep.space.enumeration.scene_runs``), not every value.
 INTERVAL_FIELDS: dict[str, tuple[float, ...]] = {
     "nu": (),
     "aspect": (),
@@ -74,7 +74,7 @@ BODY_FIELDS = (*FAMILIES, "material")
 #: orientation fields (``orientation``, ``miller``, ``azimuth``) are read by every crystal, the
 #: library's and the constants' included, and accepted on an isotropic body, where they change
 #: nothing: a sweep over A that contains 1 gives them to every scene (and leaves them out of its
-#: isotropic scenes, ``hpcontact.sweep.spec``).
+#: isotropic scenes, ``hpcontact.sweep.space``).
 UNUSED_FIELDS: dict[str, tuple[str, tuple[str | None, ...], str | None]] = {
     name: (setting, readers, FIXED_BY_CONSTANTS[name] if setting == "body" else why)
     for name, (setting, readers, why) in read_by().items()

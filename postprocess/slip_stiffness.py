@@ -54,7 +54,7 @@ import hpcontact  # noqa: E402
 from hpcontact import analytic  # noqa: E402
 from hpcontact.problems.slip.crystal_pair import pair_from_params  # noqa: E402
 from hpcontact.problems.slip.partial_slip import PathSolver, SlipProblem, solve_slip, validate  # noqa: E402
-from hpcontact.sweep.spec import LABEL_AXES  # noqa: E402
+from hpcontact.sweep.space.axes import LABEL_AXES  # noqa: E402
 from postprocess.common import add_format, save, use_format  # noqa: E402
 
 RATIO_BAND = (0.25, 0.35)  # constant-ratio model k_t = c k_n (seed paper, refs. 5 and 6)

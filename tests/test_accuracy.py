@@ -120,8 +120,8 @@ def test_spread_credits_a_fall_only_when_it_shows_twice() -> None:
 def test_loose_requests_start_at_16_where_that_grid_resolves_the_outline(params, first) -> None:
     """``coverage_n0``: 16 for requests ≥ 1e-3 where 2X/16 is within the outline's smallest bend
     (``Shape.smallest_bend_radius``), 32 otherwise and for every tighter request; the sweep's
-    cost model plans the same first grid as the solve it costs (``tasks.accuracy_plan``)."""
-    from hpcontact.sweep.tasks import accuracy_plan
+    cost model plans the same first grid as the solve it costs (``cost.grids.accuracy_plan``)."""
+    from hpcontact.sweep.cost.grids import accuracy_plan
 
     shape = Scene.from_params(params).shape
     assert acc.coverage_n0(shape, 1e-3) == acc.coverage_n0(shape, 0.5) == first
@@ -283,7 +283,7 @@ def test_the_default_of_one_scene_is_the_default_accuracy() -> None:
     DEFAULT_ACCURACY`` (strategy auto: an ellipse's exact cell, a slender rectangle's strips, whose
     default grids 16 … 256 missed 1e-4 or took coverage cells; issue 42 item 2), and a miss raises
     ``AccuracyNotMet`` for the caller to report; a sweep's task keeps ``default_solve``'s planned
-    grids 16 … 256 on coverage-weighted cells (its cost model, ``sweep.tasks.solved_grids``)."""
+    grids 16 … 256 on coverage-weighted cells (its cost model, ``sweep.cost.grids.solved_grids``)."""
     for params in ({"shape": "ellipse", "aspect": 0.3, "nu": 0.3}, {"shape": "rectangle", "aspect": 1e-7, "nu": 0.3}):
         scene = Scene.from_params(params)
         one = acc.default_scene_solve(scene)

@@ -23,7 +23,7 @@ from hpcontact import analytic, api
 from hpcontact.accuracy import DEFAULT_ACCURACY, AccuracyNotMet
 from hpcontact.cli import main as cli_main
 from hpcontact.errors import AccuracyWarning, InputError
-from hpcontact.sweep.guard import Refused
+from hpcontact.sweep.run.guard import Refused
 
 SOLVE_PARAMETERS = (
     "shape aspect sides shape_angle amplitude seed hurst rms mask nu G anisotropy orientation miller azimuth material "
@@ -328,7 +328,7 @@ def test_moduli_at_the_ends_of_the_range_still_solve():
 
 
 def test_run_sweep_refuses_a_spec_file_too_large_or_not_regular(tmp_path):
-    from hpcontact.sweep.spec import MAX_SPEC_BYTES
+    from hpcontact.sweep.space.parse import MAX_SPEC_BYTES
 
     big = tmp_path / "big.toml"
     big.write_text("# " + "x" * MAX_SPEC_BYTES + "\n")

@@ -173,7 +173,8 @@ def calibration(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A cost-model calibration for this host and version (1e-6 s per cost unit, 100 MiB base):
     without one, a dry run would spend ~30 s calibrating."""
     from hpcontact import __version__
-    from hpcontact.sweep.costmodel import KINDS, Calibration, Rate, save_calibration
+    from hpcontact.sweep.cost.calibration_file import save_calibration
+    from hpcontact.sweep.cost.rates import KINDS, Calibration, Rate
 
     rates = {kind: Rate(rate_s=1e-6, solve_s=0.0) for kind in KINDS}
     calibration = Calibration(socket.gethostname(), __version__, rates, base_bytes=100.0 * 2**20)

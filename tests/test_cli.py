@@ -378,7 +378,7 @@ def test_an_unknown_option_or_command_names_the_closest(capsys, args, suggestion
 
 def test_an_unknown_spec_key_names_the_closest():
     from hpcontact.errors import InputError
-    from hpcontact.sweep.spec import parse_spec
+    from hpcontact.sweep.space.parse import parse_spec
 
     for text, suggestion in (
         ("[numerics]\ntoll = 1e-8\n[axes]\nnu = [0.1]\n", "numerics.toll: .*did you mean tol\\?$"),

@@ -18,7 +18,7 @@ from hpcontact.materials.crystal import isotropic as isotropic_stiffness
 from hpcontact.materials.elastic_constants import anisotropic_material
 from hpcontact.materials.isotropic import NU_RANGE, Isotropic
 from hpcontact.scene import DEFAULTS, QUANTITIES, Scene, validate
-from hpcontact.sweep.spec import load_spec, parse_spec
+from hpcontact.sweep.space.parse import load_spec, parse_spec
 
 pytestmark = pytest.mark.filterwarnings("error")
 

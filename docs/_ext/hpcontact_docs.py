@@ -4,7 +4,7 @@
   from the real parser (``hpcontact.cli.main``), 100 columns wide.
 - ``hpcontact-spec-keys``: the tables and keys a sweep spec accepts (``hpcontact.sweep.spec``).
 - ``hpcontact-dataset-attributes AXES|CONTACT|SLIP``: names, ``long_name`` and units of the
-  data set's coordinates and variables (``hpcontact.sweep.dataset``).
+  data set's coordinates and variables (``hpcontact.sweep.data.dataset``).
 - ``hpcontact-status-codes``: the task status codes of a data set's ``status`` variable.
 - ``hpcontact-jobs``: every shipped job (``jobs/*``) with its leading comment block.
 - ``hpcontact-scripts FOLDER``: every script of ``postprocess/`` or ``benchmarks/`` with the first
@@ -134,7 +134,7 @@ class DatasetAttributesDirective(Directive):
     has_content = False
 
     def run(self) -> list[nodes.Node]:
-        from hpcontact.sweep import dataset
+        from hpcontact.sweep.data import dataset
 
         which = self.arguments[0].upper()
         if which == "AXES":
@@ -157,7 +157,7 @@ class StatusCodesDirective(Directive):
     has_content = False
 
     def run(self) -> list[nodes.Node]:
-        from hpcontact.sweep import dataset
+        from hpcontact.sweep.data import dataset
 
         rows = [(str(code), meaning) for code, meaning in sorted(dataset.STATUS_MEANINGS.items())]
         return [_table(("status", "flag meaning"), rows, literal_columns=(1,))]

@@ -44,7 +44,7 @@ def default_grids(scene: Scene) -> list[tuple[int, int]]:
     ``scene`` gives ``n`` or does not :func:`extrapolate by default <extrapolates_by_default>`.
     It stops earlier when the estimate is met on fewer (never before ``MIN_GRIDS``); the memory
     plan never cuts grids this small. The sweep's cost model sums its tasks' cost over these
-    (``hpcontact.sweep.tasks.solved_grids``)."""
+    (``sweep.cost.grids.solved_grids``)."""
     if not extrapolates_by_default(scene):
         return []
     return grid_sequence(scene.shape, DEFAULT_N0)[:DEFAULT_GRIDS]
@@ -85,7 +85,7 @@ def default_scene_solve(scene: Scene) -> dict[str, Any]:
     ``errors.AccuracyWarning``). Other scenes: :func:`default_solve` (one grid).
 
     A sweep's task keeps :func:`default_solve`'s five fixed grids 16 … 256 (its cost model
-    plans them, ``hpcontact.sweep.tasks.solved_grids``)."""
+    plans them, ``sweep.cost.grids.solved_grids``)."""
     if scene.accuracy is not None or not extrapolates_by_default(scene):
         return default_solve(scene)
     return solve_to_accuracy(scene, DEFAULT_ACCURACY, strategy="auto")

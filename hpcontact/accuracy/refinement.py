@@ -4,7 +4,7 @@ meets the request (:func:`refine`, :func:`solve_to_accuracy`), or the one exact 
 
 The refinement stops when the request is met, when the planned grids run out (``max_cells``
 cells, or the memory budget: :func:`plan_grids` counts this process's peak resident set plus the
-sweep cost model's arrays of the next grid, ``hpcontact.sweep.costmodel``), or when the estimate
+sweep cost model's arrays of the next grid, ``hpcontact.sweep.cost``), or when the estimate
 has not fallen over two refinements (stagnation); the grids also stop where the estimator's
 calibration ends (``calibration``: n = 1024 along the long side for coverage-weighted cells,
 ``COVERAGE_MAX_N``; 2^20 cells for singular cells, ``SINGULAR_MAX_CELLS``; 1024 strips,

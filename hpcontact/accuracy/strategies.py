@@ -375,7 +375,7 @@ def first_grid(
     :func:`coverage_n0` of the request ``accuracy``) otherwise. Singular cells are taken only
     when asked for (``strategy="singular"``): every contact they apply to is an ellipse. The
     request changes only coverage-weighted cells' first grid, never the choice of cells. The
-    sweep's cost model plans the same grids (``hpcontact.sweep.tasks``)."""
+    sweep's cost model plans the same grids (``hpcontact.sweep.work.tasks``)."""
     if strategy in ("auto", EXACT) and galin_ellipse.applies(scene):
         return EXACT, 1, 1
     if strategy == EXACT:

@@ -5,7 +5,7 @@ The solvers' only BLAS calls are vector reductions, and threaded OpenBLAS on a m
 cores are already busy (MPI ranks, FFTW threads) made each of them ~200× slower
 (docs/performance.md §"BLAS threads"). The limit is a context (``limited_blas``) around the
 entry points that solve — ``hpcontact.solve``, ``hpcontact solve`` and a sweep's tasks
-(``hpcontact.sweep.driver.execute``) — and is lifted when they return: importing hpcontact
+(``hpcontact.sweep.run.rounds.execute``) — and is lifted when they return: importing hpcontact
 changes no thread pool and no environment variable of the process that imports it.
 """
 

@@ -31,8 +31,8 @@ This module is the public face of the run; its roles are the modules of ``hpcont
 ``records`` (options, decision, outcome), ``shares`` (the ranks' shares joined), ``resume``
 (rank 0's decision from the journals, ``prepare``), ``rounds`` (``execute``: the MPI rounds),
 ``assembly`` and ``summary`` (rank 0's data set and its summary), ``dry_run`` and ``command``.
-``run_sweep`` and ``main`` are defined here: a data set's history names them as called
-(``dataset.invocation``).
+``run_sweep`` and ``main`` are defined here; each passes the command as its user gave it to
+the data set's history (``provenance.call_text``, ``provenance.command_line``).
 """
 
 from __future__ import annotations
@@ -44,31 +44,14 @@ from pathlib import Path
 from typing import TextIO
 
 from hpcontact.errors import InputError
-from hpcontact.sweep.arguments import EXIT_REFUSED, add_run_arguments
+from hpcontact.sweep.data.provenance import call_text, command_line
+from hpcontact.sweep.run.arguments import EXIT_REFUSED, add_run_arguments
 from hpcontact.sweep.run.command import run_from_arguments
-from hpcontact.sweep.run.dry_run import LISTED_HEAD, LISTED_TAIL, dry_run, listed_tasks
-from hpcontact.sweep.run.records import Decision, Options, Outcome, Stopped, TaskFunction
-from hpcontact.sweep.run.resume import prepare
+from hpcontact.sweep.run.records import Options, TaskFunction
 from hpcontact.sweep.run.rounds import execute
-from hpcontact.sweep.schedule import Team
-from hpcontact.sweep.signals import StopControl
-from hpcontact.sweep.spec import Validator
-
-__all__ = [
-    "LISTED_HEAD",
-    "LISTED_TAIL",
-    "Decision",
-    "Options",
-    "Outcome",
-    "Stopped",
-    "dry_run",
-    "execute",
-    "listed_tasks",
-    "main",
-    "prepare",
-    "run_from_arguments",
-    "run_sweep",
-]
+from hpcontact.sweep.run.schedule import Team
+from hpcontact.sweep.run.signals import StopControl
+from hpcontact.sweep.space.spec import Validator
 
 
 def run_sweep(
@@ -86,6 +69,7 @@ def run_sweep(
 ) -> Path:
     """Run the sweep of ``spec_path`` on ``team`` (default: MPI world, or one process) and return
     the path of the data set written (see ``execute``)."""
+    command = call_text("hpcontact.sweep.driver.run_sweep", run_sweep, locals())
     return execute(
         spec_path,
         output,
@@ -96,6 +80,7 @@ def run_sweep(
         options=options if options is not None else Options(resume=resume),
         stop=stop,
         accuracy=accuracy,
+        command=command,
     ).path
 
 
@@ -110,8 +95,9 @@ def main(
     (``python -m hpcontact.sweep.accuracy_study``)."""
     parser = argparse.ArgumentParser(prog=prog, description=description)
     add_run_arguments(parser)
+    command = command_line(prog if argv is not None else "hpcontact run", argv)
     try:
-        return run_from_arguments(parser.parse_args(argv), task_function, prog)
+        return run_from_arguments(parser.parse_args(argv), task_function, prog, command)
     except InputError as exc:
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return EXIT_REFUSED

@@ -23,7 +23,7 @@ What is checked cannot flake with the machine's load: the data set equals the on
 longer than ``MAX_CLAIM_GAP_S`` between finishing a task and starting its next one (the journals'
 time stamps): a chunk claim that does not progress while rank 0 computes — the failure of
 one-sided counters on multi-node transports this matrix exists for — shows as gaps of whole
-tasks (0.9-2 s and more, ``hpcontact.sweep.schedule``), a working served counter as
+tasks (0.9-2 s and more, ``hpcontact.sweep.run.schedule``), a working served counter as
 milliseconds. Finally the demo on 8 ranks oversubscribing the 2 cores under Open MPI
 ``osc/ucx`` must finish with every rank computing and the same data set.
 
@@ -51,8 +51,8 @@ from pathlib import Path
 
 import xarray as xr
 
-from hpcontact.sweep.journal import decode_lines, journal_files, read_journals
-from hpcontact.sweep.schedule import LAUNCHER_VARIABLES
+from hpcontact.sweep.data.journal import decode_lines, journal_files, read_journals
+from hpcontact.sweep.run.schedule import LAUNCHER_VARIABLES
 
 ROOT = Path(__file__).resolve().parents[2]
 PYTHON = sys.executable
@@ -67,7 +67,7 @@ TAIL_LINES = 15  # lines of a failed command's output shown
 # Printed by rank 0 of the check run: ranks | thread level granted | libmpi mapped | version.
 CHECK = """
 import re
-from hpcontact.sweep.schedule import world
+from hpcontact.sweep.run.schedule import world
 team = world()
 from mpi4py import MPI
 levels = {MPI.THREAD_SINGLE: "single", MPI.THREAD_FUNNELED: "funneled",

@@ -26,7 +26,7 @@ import pytest
 import xarray as xr
 from launcher import kill
 
-from hpcontact.sweep.schedule import Team, world
+from hpcontact.sweep.run.schedule import Team, world
 
 
 @pytest.fixture(scope="session")

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from hpcontact.sweep.schedule import launched_by_mpi
+from hpcontact.sweep.run.schedule import launched_by_mpi
 
 ROOT = Path(__file__).resolve().parents[2]
 MPIEXEC = shutil.which("mpiexec", path=f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}")

@@ -26,8 +26,8 @@ from typing import Any
 from hpcontact.problems.contact import solve
 from hpcontact.scene import Scene
 from hpcontact.sweep.driver import run_sweep
-from hpcontact.sweep.schedule import world
-from hpcontact.sweep.tasks import task_key
+from hpcontact.sweep.run.schedule import world
+from hpcontact.sweep.work.tasks import task_key
 
 
 def synthetic(params: Mapping[str, Any]) -> dict[str, Any]:

@@ -17,9 +17,9 @@ from test_kill_resume import launch, resumed, started
 
 from hpcontact.problems.contact import solve
 from hpcontact.scene import Scene
+from hpcontact.sweep.data.journal import read_journals
 from hpcontact.sweep.driver import run_sweep
-from hpcontact.sweep.journal import read_journals
-from hpcontact.sweep.schedule import SerialTeam
+from hpcontact.sweep.run.schedule import SerialTeam
 
 SPEC = """
 [sweep]

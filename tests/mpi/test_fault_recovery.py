@@ -27,7 +27,7 @@ import pytest
 import xarray as xr
 from launcher import STARTS_ITS_OWN_MPIEXEC, finish, start_run
 
-from hpcontact.sweep.journal import OK, journal_files, read_history
+from hpcontact.sweep.data.journal import OK, journal_files, read_history
 
 SPEC = """
 [sweep]

@@ -37,11 +37,11 @@ import pytest
 import xarray as xr
 from launcher import STARTS_ITS_OWN_MPIEXEC, finish, start_run
 
+from hpcontact.sweep.data.journal import CRASHED, OK, decode_lines, journal_files, read_history
 from hpcontact.sweep.driver import run_sweep
-from hpcontact.sweep.journal import CRASHED, OK, decode_lines, journal_files, read_history
-from hpcontact.sweep.schedule import SerialTeam
-from hpcontact.sweep.spec import parse_spec
-from hpcontact.sweep.tasks import enumerate_tasks
+from hpcontact.sweep.run.schedule import SerialTeam
+from hpcontact.sweep.space.parse import parse_spec
+from hpcontact.sweep.work.tasks import enumerate_tasks
 
 SPEC = """
 [sweep]

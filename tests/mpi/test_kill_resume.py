@@ -18,11 +18,11 @@ from launcher import MPIEXEC, ROOT, STARTS_ITS_OWN_MPIEXEC
 
 from hpcontact.problems.contact import solve
 from hpcontact.scene import Scene
+from hpcontact.sweep.data.journal import read_journals
 from hpcontact.sweep.driver import run_sweep
-from hpcontact.sweep.journal import read_journals
-from hpcontact.sweep.schedule import SerialTeam
-from hpcontact.sweep.spec import load_spec
-from hpcontact.sweep.tasks import enumerate_tasks
+from hpcontact.sweep.run.schedule import SerialTeam
+from hpcontact.sweep.space.parse import load_spec
+from hpcontact.sweep.work.tasks import enumerate_tasks
 
 RUNNER = Path(__file__).with_name("sweep_runner.py")
 SPEC = """

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from hpcontact.sweep.schedule import LAUNCHER_VARIABLES, launched_by_mpi
+from hpcontact.sweep.run.schedule import LAUNCHER_VARIABLES, launched_by_mpi
 
 pytestmark = pytest.mark.skipif(launched_by_mpi(), reason="starts its own processes; run pytest without a launcher")
 

@@ -17,7 +17,7 @@ import xarray as xr
 from launcher import MPIEXEC, ROOT, STARTS_ITS_OWN_MPIEXEC
 from test_kill_resume import RUNNER
 
-from hpcontact.sweep.dataset import open_dataset
+from hpcontact.sweep.data.dataset import open_dataset
 
 SPEC = """
 [sweep]

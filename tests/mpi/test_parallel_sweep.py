@@ -32,9 +32,9 @@ from hpcontact.errors import ConvergenceError
 from hpcontact.numerics.convolution import PLANNER_ENV
 from hpcontact.problems.contact import solve
 from hpcontact.scene import Scene
+from hpcontact.sweep.data.journal import NOT_CONVERGED, OK
 from hpcontact.sweep.driver import run_sweep
-from hpcontact.sweep.journal import NOT_CONVERGED, OK
-from hpcontact.sweep.schedule import SerialTeam, Team
+from hpcontact.sweep.run.schedule import SerialTeam, Team
 
 pytestmark = pytest.mark.mpi
 

@@ -10,15 +10,7 @@ import time
 
 import pytest
 
-from hpcontact.sweep.schedule import (
-    NEXT_CHUNK,
-    SLOTS,
-    MPITeam,
-    Team,
-    claimed_chunks,
-    report_done,
-    totals_done,
-)
+from hpcontact.sweep.run.schedule import NEXT_CHUNK, SLOTS, MPITeam, Team, claimed_chunks, report_done, totals_done
 
 pytestmark = pytest.mark.mpi
 

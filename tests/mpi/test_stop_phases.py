@@ -1,5 +1,5 @@
 """A stop request in every phase of a 2-rank sweep, and a rank that stops for good
-(``mpiexec -n 2 hpcontact run``, ``hpcontact.sweep.signals``):
+(``mpiexec -n 2 hpcontact run``, ``hpcontact.sweep.run.signals``):
 
 * SIGINT to the job's process group — what a terminal's Ctrl-C sends to ``mpiexec`` and the
   ranks — while rank 0 sets up and rank 1 waits for it in a broadcast, while tasks run, and
@@ -35,9 +35,9 @@ import pytest
 import xarray as xr
 from launcher import MPIEXEC, STARTS_ITS_OWN_MPIEXEC
 
+from hpcontact.sweep.data.journal import read_history
 from hpcontact.sweep.driver import run_sweep
-from hpcontact.sweep.journal import read_history
-from hpcontact.sweep.schedule import SerialTeam
+from hpcontact.sweep.run.schedule import SerialTeam
 
 SPEC = """
 [sweep]

@@ -12,7 +12,7 @@ from typing import Any, TextIO
 import pytest
 
 from hpcontact.sweep.driver import run_sweep
-from hpcontact.sweep.schedule import SerialTeam
+from hpcontact.sweep.run.schedule import SerialTeam
 
 
 def _fake_solve(params: Mapping[str, Any]) -> dict[str, Any]:
@@ -78,7 +78,8 @@ def cost_calibration(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A cost-model calibration file for this host and version with round numbers (1e-6 s per
     cost unit for every kind, 100 MiB base), so no test spends seconds calibrating."""
     from hpcontact import __version__
-    from hpcontact.sweep.costmodel import KINDS, Calibration, Rate, save_calibration
+    from hpcontact.sweep.cost.calibration_file import save_calibration
+    from hpcontact.sweep.cost.rates import KINDS, Calibration, Rate
 
     rates = {kind: Rate(rate_s=1e-6, solve_s=0.0) for kind in KINDS}
     calibration = Calibration(socket.gethostname(), __version__, rates, base_bytes=100.0 * 2**20)

@@ -20,7 +20,7 @@ import pytest
 
 import hpcontact
 from hpcontact.analytic import elliptical_punch_normal_stiffness, mindlin_ellipse_stiffness
-from hpcontact.sweep.dataset import ERROR_MET
+from hpcontact.sweep.data.attributes import ERROR_MET
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import independent_reference as ref  # noqa: E402

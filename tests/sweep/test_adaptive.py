@@ -21,15 +21,16 @@ import xarray as xr
 
 from hpcontact.analytic import mindlin_ellipse_stiffness
 from hpcontact.errors import InputError
-from hpcontact.sweep.driver import Options, execute
-from hpcontact.sweep.journal import ERROR, read_journals
+from hpcontact.sweep.data.journal import ERROR, read_journals
 from hpcontact.sweep.maps import refinement
 from hpcontact.sweep.maps.checks import drawn_checks
 from hpcontact.sweep.maps.refinement import Checks, Layout, initial_state, state_points, state_tasks
 from hpcontact.sweep.maps.rounds import dry_run_text
-from hpcontact.sweep.schedule import SerialTeam
-from hpcontact.sweep.spec import parse_spec
-from hpcontact.sweep.tasks import enumerate_part, enumerate_tasks, join_parts
+from hpcontact.sweep.run.records import Options
+from hpcontact.sweep.run.rounds import execute
+from hpcontact.sweep.run.schedule import SerialTeam
+from hpcontact.sweep.space.parse import parse_spec
+from hpcontact.sweep.work.tasks import enumerate_part, enumerate_tasks, join_parts
 
 MINDLIN = """
 [sweep]
@@ -293,7 +294,7 @@ def test_a_commit_during_the_rounds_does_not_make_their_own_journals_stale(sweep
     import itertools
     import os
 
-    from hpcontact.sweep import provenance
+    from hpcontact.sweep.data import provenance
 
     counter = itertools.count()
     monkeypatch.delenv(provenance.REVISION_VARIABLE, raising=False)

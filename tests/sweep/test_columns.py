@@ -1,13 +1,13 @@
-"""Outcomes as columns (``hpcontact.sweep.columns``): any split of the entries joins to the same
+"""Outcomes as columns (``hpcontact.sweep.data.columns``): any split of the entries joins to the same
 per-task arrays, later parts win, provenance counts add up."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from hpcontact.sweep.columns import NOT_COMPUTED, Texts, join, to_columns
-from hpcontact.sweep.journal import ERROR, OK, Entry
-from hpcontact.sweep.provenance import contributors
+from hpcontact.sweep.data.columns import NOT_COMPUTED, Texts, join, to_columns
+from hpcontact.sweep.data.journal import ERROR, OK, Entry
+from hpcontact.sweep.data.provenance import contributors
 
 FIXED = ("status", "message", "wall_time_s")
 

@@ -15,13 +15,13 @@ from hpcontact.problems.slip.crystal_pair import pair_from_params
 from hpcontact.sweep.cost import calibration as calibration_module
 from hpcontact.sweep.cost import calibration_file
 from hpcontact.sweep.cost.engine import omega_nodes, timed_exact
-from hpcontact.sweep.cost.estimate import estimate, grid_label, start_estimate
 from hpcontact.sweep.cost.grids import padded_cells
 from hpcontact.sweep.cost.rates import KINDS, Calibration, Rate, task_array_bytes
-from hpcontact.sweep.cost.replay import Overheads, replay
 from hpcontact.sweep.cost.task_cost import estimated_cost
 from hpcontact.sweep.driver import main
-from hpcontact.sweep.tasks import Task
+from hpcontact.sweep.work.estimate import estimate, grid_label, start_estimate
+from hpcontact.sweep.work.replay import Overheads, replay
+from hpcontact.sweep.work.tasks import Task
 
 SPEC = """
 [sweep]
@@ -329,7 +329,7 @@ def replay_task_by_task(tasks, seconds, ranks, overheads):
 def test_chunks_and_replay_equal_the_task_by_task_model_to_the_last_bit(seed):
     import numpy as np
 
-    from hpcontact.sweep.tasks import make_chunks
+    from hpcontact.sweep.work.tasks import make_chunks
 
     rng = np.random.default_rng(seed)
     sizes = rng.choice([1, 1, 1, 2, 3, 7, 40], size=300)  # groups of one task and larger ones
@@ -353,8 +353,8 @@ def test_estimate_equals_each_task_s_seconds_bytes_and_grid(write_spec):
     """``estimate`` (all tasks at once from their sizings) against ``task_seconds``,
     ``task_bytes`` and ``grid_label`` task by task: the same floats, labels and counts; tasks
     without a sizing (made elsewhere) get theirs from their parameters."""
-    from hpcontact.sweep.spec import parse_spec
-    from hpcontact.sweep.tasks import enumerate_tasks
+    from hpcontact.sweep.space.parse import parse_spec
+    from hpcontact.sweep.work.tasks import enumerate_tasks
 
     spec = parse_spec(
         '[scene]\nquantities = ["tangential", "normal"]\n[axes]\nshape = ["circle", "ellipse", "rectangle"]\n'
@@ -449,8 +449,8 @@ def test_an_accuracy_tasks_memory_is_its_finest_grids_with_its_boundary_cells():
 
 
 def test_the_dry_run_estimates_accuracy_tasks_as_task_by_task_and_labels_their_grids(write_spec, capsys, monkeypatch):
-    from hpcontact.sweep.spec import parse_spec
-    from hpcontact.sweep.tasks import enumerate_tasks
+    from hpcontact.sweep.space.parse import parse_spec
+    from hpcontact.sweep.work.tasks import enumerate_tasks
 
     spec = parse_spec(
         '[scene]\nquantities = ["tangential", "normal"]\n[numerics]\naccuracy = 1e-4\n'

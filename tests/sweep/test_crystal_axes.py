@@ -12,9 +12,10 @@ import pytest
 import xarray as xr
 
 from hpcontact.errors import InputError
-from hpcontact.sweep.journal import OK
-from hpcontact.sweep.spec import parse_spec
-from hpcontact.sweep.tasks import enumerate_tasks, estimated_cost
+from hpcontact.sweep.cost.task_cost import estimated_cost
+from hpcontact.sweep.data.journal import OK
+from hpcontact.sweep.space.parse import parse_spec
+from hpcontact.sweep.work.tasks import enumerate_tasks
 
 ROOT = Path(__file__).resolve().parents[2]
 PSI_111 = 35.26438968275465
@@ -59,7 +60,7 @@ orientation = [0, 90]
 
 def unit(da) -> str:
     """The unit of a variable: UDUNITS ``units``, or for values scaled by a symbolic unit
-    (G, L, a) ``units = "1"`` with that unit in ``scale`` (hpcontact.sweep.dataset)."""
+    (G, L, a) ``units = "1"`` with that unit in ``scale`` (hpcontact.sweep.data.dataset)."""
     return da.attrs.get("scale", da.attrs["units"])
 
 

@@ -26,12 +26,14 @@ import hpcontact
 from hpcontact.accuracy import error_columns
 from hpcontact.quantities import rotated_tensor
 from hpcontact.scene import Scene
-from hpcontact.sweep import tasks as tasks_module
-from hpcontact.sweep.dataset import NOT_COMPUTED, SLIP_ATTRS, VARIABLE_ATTRS, build_dataset, open_dataset, write_netcdf
-from hpcontact.sweep.journal import ERROR, OK, Entry
-from hpcontact.sweep.netcdf import INT_FILL, chunk_shape
-from hpcontact.sweep.spec import parse_spec
-from hpcontact.sweep.tasks import enumerate_tasks
+from hpcontact.sweep.data.attributes import SLIP_ATTRS, VARIABLE_ATTRS
+from hpcontact.sweep.data.columns import NOT_COMPUTED
+from hpcontact.sweep.data.dataset import build_dataset, open_dataset, write_netcdf
+from hpcontact.sweep.data.journal import ERROR, OK, Entry
+from hpcontact.sweep.data.netcdf import INT_FILL, chunk_shape
+from hpcontact.sweep.space.parse import parse_spec
+from hpcontact.sweep.work import tasks as tasks_module
+from hpcontact.sweep.work.tasks import enumerate_tasks
 
 ROOT = Path(__file__).resolve().parents[2]
 CI = os.environ.get("CI", "").strip().lower() in ("1", "true", "yes")
@@ -289,7 +291,7 @@ def test_plain_xarray_reads_K_nn_over_angle_and_the_plan_as_text(fake_solve, tmp
         assert ds.attrs["source"].startswith("hpcontact 0.1.0 (git abc123): rigid flat punch")
         assert ds.attrs["references"].splitlines()[0].startswith("hpcontact 0.1.0: ")
         assert any(line.startswith("Q. Li (2017)") for line in ds.attrs["references"].splitlines())
-        assert ds.attrs["comment"].startswith("Units convention (hpcontact.sweep.units)")
+        assert ds.attrs["comment"].startswith("Units convention (hpcontact.sweep.data.units)")
         assert "(G, a)" in ds.attrs["comment"] and 'units = "1"' in ds.attrs["comment"]
     with netCDF4.Dataset(path) as raw:  # what ncdump shows: the variables and their text
         assert raw["K_nn"].dimensions == ("shape", "aspect", "nu", "angle")
@@ -356,8 +358,10 @@ def test_history_is_the_command_as_given(fake_solve, write_spec, tmp_path, monke
     with xr.open_dataset(tmp_path / "cli.nc") as ds:
         assert ds.attrs["history"].split(": ", 1)[1] == f"hpcontact run {spec} --output {tmp_path / 'cli.nc'}"
     # the console command: sys.argv as the shell passed it, --resume appending a line
+    from hpcontact.sweep.run import command as run_command
+
     monkeypatch.setattr(
-        driver, "run_from_arguments", functools.partial(driver.run_from_arguments, task_function=fake_solve)
+        run_command, "run_from_arguments", functools.partial(run_command.run_from_arguments, task_function=fake_solve)
     )
     monkeypatch.setattr(
         "sys.argv", ["/somewhere/bin/hpcontact", "run", str(spec), "--output", str(tmp_path / "cli.nc"), "--resume"]
@@ -385,7 +389,7 @@ def test_history_is_the_command_as_given(fake_solve, write_spec, tmp_path, monke
 
 def test_dimensional_applies_the_scale(fake_solve):
     cf_units = required("cf_units", "cf-units (UDUNITS)")
-    from hpcontact.sweep.units import dimensional
+    from hpcontact.sweep.data.units import dimensional
 
     _, ds = build(fake_solve)
     K = dimensional(ds.K_xx, G=80e9, a=1e-3)  # a steel-like shear modulus, a 1 mm punch

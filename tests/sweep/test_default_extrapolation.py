@@ -11,9 +11,10 @@ import xarray as xr
 from hpcontact import analytic
 from hpcontact.accuracy import DEFAULT_ACCURACY, DEFAULT_GRIDS, DEFAULT_N0, default_grids
 from hpcontact.scene import Scene
+from hpcontact.sweep.cost.grids import padded_cells, solved_grids
+from hpcontact.sweep.cost.task_cost import EXTRAPOLATION_WORK, estimated_cost
 from hpcontact.sweep.driver import main, run_sweep
-from hpcontact.sweep.schedule import SerialTeam
-from hpcontact.sweep.tasks import EXTRAPOLATION_WORK, estimated_cost, padded_cells, solved_grids
+from hpcontact.sweep.run.schedule import SerialTeam
 
 NU = 0.3
 SPEC = f"""

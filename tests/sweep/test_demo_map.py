@@ -18,7 +18,7 @@ import xarray as xr
 
 from hpcontact.analytic import elliptical_punch_normal_stiffness, mindlin_ellipse_stiffness
 from hpcontact.sweep.driver import run_sweep
-from hpcontact.sweep.schedule import SerialTeam
+from hpcontact.sweep.run.schedule import SerialTeam
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -17,11 +17,13 @@ import pytest
 import xarray as xr
 
 from hpcontact.errors import ConvergenceError, InputError
-from hpcontact.sweep.driver import Options, Stopped, execute, main
-from hpcontact.sweep.guard import Refused
-from hpcontact.sweep.journal import BAD_INPUT, ERROR, NOT_CONVERGED, OK, journal_files, read_history, read_journals
-from hpcontact.sweep.schedule import SerialTeam
-from hpcontact.sweep.signals import StopControl
+from hpcontact.sweep.data.journal import BAD_INPUT, ERROR, NOT_CONVERGED, OK, journal_files, read_history, read_journals
+from hpcontact.sweep.driver import main
+from hpcontact.sweep.run.guard import Refused
+from hpcontact.sweep.run.records import Options, Stopped
+from hpcontact.sweep.run.rounds import execute
+from hpcontact.sweep.run.schedule import SerialTeam
+from hpcontact.sweep.run.signals import StopControl
 
 SPEC = """
 [sweep]
@@ -469,7 +471,7 @@ def test_a_dry_run_prints_its_summary_then_a_sample_of_the_tasks_and_list_all_li
     estimate, wall time), then the first ``LISTED_HEAD`` and the last ``LISTED_TAIL`` tasks with
     one line between them saying how many it left out; ``--list-all`` prints the same summary,
     then every task."""
-    from hpcontact.sweep.driver import LISTED_HEAD, LISTED_TAIL
+    from hpcontact.sweep.run.dry_run import LISTED_HEAD, LISTED_TAIL
 
     assert (LISTED_HEAD, LISTED_TAIL) == (10, 5)
     monkeypatch.setenv("HPCONTACT_MPI", "0")
@@ -491,8 +493,8 @@ def test_a_dry_run_prints_its_summary_then_a_sample_of_the_tasks_and_list_all_li
 
 def test_every_dry_run_follows_one_rule_for_its_sample():
     """Up to ``LISTED_HEAD + LISTED_TAIL`` tasks: every one; one more: the sample, one left out."""
-    from hpcontact.sweep.arguments import add_run_arguments
-    from hpcontact.sweep.driver import listed_tasks
+    from hpcontact.sweep.run.arguments import add_run_arguments
+    from hpcontact.sweep.run.dry_run import listed_tasks
 
     assert list(listed_tasks(0)) == [] and list(listed_tasks(15)) == list(range(15))
     assert list(listed_tasks(16)) == [*range(10), None, *range(11, 16)]
@@ -527,7 +529,7 @@ def test_an_adaptive_dry_run_states_its_first_round_before_the_tasks(write_spec,
     assert main([str(spec), "--dry-run"]) == 0
     lines = capsys.readouterr().out.splitlines()
     assert lines[0].startswith("# adaptive: 45 tasks -> ")
-    assert lines[4].startswith("# adaptive: first round ")  # and the bound (hpcontact.sweep.adaptive.dry_run_text)
+    assert lines[4].startswith("# adaptive: first round ")  # and the bound (hpcontact.sweep.maps.rounds.dry_run_text)
     assert all(line.startswith("#") for line in lines[:5]) and not lines[5].startswith("#")
     assert len(lines) == 5 + 10 + 1 + 5 and lines[15] == "# ... 30 more tasks (10 ... 39; --list-all lists every task)"
     assert main([str(spec), "--dry-run", "--list-all"]) == 0

@@ -35,12 +35,14 @@ import pytest
 import xarray as xr
 
 from hpcontact import __version__
-from hpcontact.sweep import costmodel, netcdf
-from hpcontact.sweep.costmodel import Calibration, Rate
-from hpcontact.sweep.dataset import DamagedFile, open_dataset
-from hpcontact.sweep.driver import Options, main
-from hpcontact.sweep.guard import LOCK_NAME, Refused, RunLock
-from hpcontact.sweep.journal import OK, Entry, Journal, journal_files, read_history, read_journals
+from hpcontact.sweep.cost import calibration_file, rates
+from hpcontact.sweep.cost.rates import Calibration, Rate
+from hpcontact.sweep.data import netcdf
+from hpcontact.sweep.data.dataset import DamagedFile, open_dataset
+from hpcontact.sweep.data.journal import OK, Entry, Journal, journal_files, read_history, read_journals
+from hpcontact.sweep.driver import main
+from hpcontact.sweep.run.guard import LOCK_NAME, Refused, RunLock
+from hpcontact.sweep.run.records import Options
 
 SPEC = """
 [sweep]
@@ -353,12 +355,12 @@ def test_resume_with_malformed_entries_recomputes_them_and_reports_the_lines_dro
 
 
 def _fresh() -> Calibration:
-    return Calibration(socket.gethostname(), __version__, {k: Rate(1e-7, 0.0) for k in costmodel.KINDS}, 1.0)
+    return Calibration(socket.gethostname(), __version__, {k: Rate(1e-7, 0.0) for k in rates.KINDS}, 1.0)
 
 
 def _valid_record() -> dict:
     return {
-        "format": costmodel.FORMAT,
+        "format": calibration_file.FORMAT,
         "host": socket.gethostname(),
         "version": __version__,
         "base_bytes": 1.0,
@@ -373,7 +375,7 @@ def _valid_record() -> dict:
                 "strip_s": 0.0,
                 "exact_s": 0.0,
             }
-            for k in costmodel.KINDS
+            for k in rates.KINDS
         },
     }
 
@@ -405,19 +407,19 @@ def test_a_hostile_cost_cache_is_ignored_with_a_warning_and_replaced(tmp_path, m
     content, why = HOSTILE[name]
     path = tmp_path / "cm.json"
     path.write_bytes(content if isinstance(content, bytes) else content.encode())
-    cached, reason = costmodel.cached_calibration(path)
+    cached, reason = calibration_file.cached_calibration(path)
     assert cached is None and f"cost calibration {path} ignored: " in reason and why in reason, reason
-    monkeypatch.setattr(costmodel, "calibrate", _fresh)
+    monkeypatch.setattr(calibration_file, "calibrate", _fresh)
     with pytest.warns(RuntimeWarning, match="ignored"):
-        assert costmodel.load_calibration(path) == _fresh()
-    assert costmodel.read_calibration(path) == _fresh()  # replaced
+        assert calibration_file.load_calibration(path) == _fresh()
+    assert calibration_file.read_calibration(path) == _fresh()  # replaced
 
 
 def test_a_valid_cache_still_reads(tmp_path):
     path = tmp_path / "cm.json"
     path.write_text(json.dumps(_valid_record(), indent=1))
-    assert costmodel.cached_calibration(path)[0] == Calibration(
-        socket.gethostname(), __version__, {k: Rate(1e-7, 0.0) for k in costmodel.KINDS}, 1.0, 1.0
+    assert calibration_file.cached_calibration(path)[0] == Calibration(
+        socket.gethostname(), __version__, {k: Rate(1e-7, 0.0) for k in rates.KINDS}, 1.0, 1.0
     )
 
 
@@ -425,22 +427,22 @@ def test_a_valid_cache_still_reads(tmp_path):
 def test_an_endless_or_blocking_cost_cache_is_ignored_at_once_and_replaced(tmp_path, kind):
     """In a child process with a timeout: reading /dev/zero to its end, or waiting on a FIFO's
     writer, would hang or exhaust memory."""
-    path = tmp_path / "costmodel.json"
+    path = tmp_path / "calibration.json"
     if kind == "fifo":
         os.mkfifo(path)
     else:
         path.symlink_to("/dev/zero")
     code = (
-        "import sys, warnings; from pathlib import Path; from hpcontact.sweep import costmodel\n"
-        "path = Path(sys.argv[1]); cached, why = costmodel.cached_calibration(path); print(why)\n"
-        "print(costmodel.start_estimate([], 2)[0])\n"
+        "import sys, warnings; from pathlib import Path; from hpcontact.sweep.cost import calibration_file, rates; from hpcontact.sweep.work import estimate\n"
+        "path = Path(sys.argv[1]); cached, why = calibration_file.cached_calibration(path); print(why)\n"
+        "print(estimate.start_estimate([], 2)[0])\n"
         "from hpcontact import __version__; import socket\n"
-        "fresh = costmodel.Calibration(socket.gethostname(), __version__, {k: costmodel.Rate(1e-7, 0.0) for k in "
-        "costmodel.KINDS}, 1.0)\n"
-        "costmodel.calibrate = lambda: fresh\n"
+        "fresh = rates.Calibration(socket.gethostname(), __version__, {k: rates.Rate(1e-7, 0.0) for k in "
+        "rates.KINDS}, 1.0)\n"
+        "calibration_file.calibrate = lambda: fresh\n"
         "with warnings.catch_warnings(record=True) as seen:\n"
-        "    warnings.simplefilter('always'); assert costmodel.load_calibration(path) == fresh\n"
-        "print(seen[0].message); assert costmodel.read_calibration(path) == fresh\n"
+        "    warnings.simplefilter('always'); assert calibration_file.load_calibration(path) == fresh\n"
+        "print(seen[0].message); assert calibration_file.read_calibration(path) == fresh\n"
     )
     env = {**os.environ, "HPCONTACT_COSTMODEL": str(path)}
     done = subprocess.run([sys.executable, "-c", code, str(path)], capture_output=True, text=True, timeout=120, env=env)
@@ -569,7 +571,7 @@ def test_entries_of_a_well_formed_journal_are_unchanged(tmp_path):
 
 @pytest.mark.parametrize("kind", ["folder", "fifo", "device", "large"])
 def test_a_spec_that_is_not_a_regular_file_or_too_large_exits_2_in_one_line(tmp_path, cli, kind):
-    from hpcontact.sweep.spec import MAX_SPEC_BYTES
+    from hpcontact.sweep.space.parse import MAX_SPEC_BYTES
 
     path = {"folder": tmp_path, "fifo": tmp_path / "spec.toml", "device": Path("/dev/zero")}.get(kind)
     if kind == "fifo":
@@ -594,7 +596,7 @@ def test_an_output_the_os_cannot_name_exits_2_naming_the_output(write_spec, tmp_
 
 
 def test_every_shipped_spec_is_still_accepted():
-    from hpcontact.sweep.spec import MAX_SPEC_BYTES, load_spec, parse_spec
+    from hpcontact.sweep.space.parse import MAX_SPEC_BYTES, load_spec, parse_spec
 
     jobs = sorted((Path(__file__).parents[2] / "jobs").glob("*.toml"))
     assert jobs

@@ -1,4 +1,4 @@
-"""May this run use this output? (hpcontact.sweep.guard): usable folders and outputs, names the
+"""May this run use this output? (hpcontact.sweep.run.guard): usable folders and outputs, names the
 OS can take, and the run lock — held, refused, taken over from a dead holder, released. The
 paths that must stay apart are tested in test_guard_paths.py; these tests call the guard alone."""
 
@@ -15,15 +15,8 @@ from types import SimpleNamespace
 import pytest
 
 from hpcontact.errors import InputError
-from hpcontact.sweep.guard import (
-    JOB_VARIABLES,
-    LOCK_NAME,
-    Refused,
-    RunLock,
-    usable_folder,
-    usable_names,
-    usable_output,
-)
+from hpcontact.sweep.data.journal import JOB_VARIABLES
+from hpcontact.sweep.run.guard import LOCK_NAME, Refused, RunLock, usable_folder, usable_names, usable_output
 
 
 @pytest.fixture(autouse=True)

@@ -15,11 +15,11 @@ import pytest
 
 import hpcontact
 from hpcontact import cli
-from hpcontact.sweep import guard
 from hpcontact.sweep.driver import main, run_sweep
-from hpcontact.sweep.guard import Refused
-from hpcontact.sweep.schedule import SerialTeam
-from hpcontact.sweep.spec import load_spec
+from hpcontact.sweep.run import guard
+from hpcontact.sweep.run.guard import Refused
+from hpcontact.sweep.run.schedule import SerialTeam
+from hpcontact.sweep.space.parse import load_spec
 
 SCENE = """[scene]
 shape = "circle"

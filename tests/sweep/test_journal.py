@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hpcontact.sweep.journal import (
+from hpcontact.sweep.data.journal import (
     CRASHED,
     ERROR,
     OK,
@@ -120,7 +120,7 @@ def test_a_task_started_in_two_runs_that_died_is_quarantined(tmp_path):
 
 WRITER = """
 import sys, time
-from hpcontact.sweep.journal import Entry, Journal
+from hpcontact.sweep.data.journal import Entry, Journal
 journal = Journal(sys.argv[1], 0, {})
 for i in range(10**6):
     journal.started(f"{sys.argv[2]}-{i}")

@@ -36,12 +36,18 @@ from hpcontact.geometry import MAX_GRID_CELLS, file_sha256, load_mask, mask_pixe
 from hpcontact.problems import footprint
 from hpcontact.scene import Scene
 from hpcontact.sweep import driver
-from hpcontact.sweep import spec as spec_module
-from hpcontact.sweep import tasks as tasks_module
-from hpcontact.sweep.driver import Options, execute
-from hpcontact.sweep.schedule import SerialTeam, launched_by_mpi
-from hpcontact.sweep.spec import MAX_POINTS, canonical_json, load_spec, parse_spec
-from hpcontact.sweep.tasks import enumerate_tasks, task_key
+from hpcontact.sweep.cost import grids as cost_grids
+from hpcontact.sweep.cost import task_cost
+from hpcontact.sweep.run.dry_run import dry_run
+from hpcontact.sweep.run.records import Options
+from hpcontact.sweep.run.rounds import execute
+from hpcontact.sweep.run.schedule import SerialTeam, launched_by_mpi
+from hpcontact.sweep.space import enumeration
+from hpcontact.sweep.space.axes import MAX_POINTS
+from hpcontact.sweep.space.parse import load_spec, parse_spec
+from hpcontact.sweep.space.spec import canonical_json
+from hpcontact.sweep.work import tasks as tasks_module
+from hpcontact.sweep.work.tasks import enumerate_tasks, task_key
 
 ROOT = Path(__file__).resolve().parents[2]
 MPIEXEC = shutil.which("mpiexec", path=f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}")
@@ -362,11 +368,11 @@ def test_a_dry_run_validates_each_distinct_scene_once(write_spec, monkeypatch, c
     monkeypatch.setattr(Scene, "from_params", classmethod(lambda cls, p: built.append(1) or from_params(cls, p)))
     key = tasks_module.task_key
     monkeypatch.setattr(tasks_module, "task_key", lambda p, text=None: keys.append(1) or key(p, text))
-    monkeypatch.setattr(spec_module, "PROGRESS_POINTS", 200)
-    tasks_module._default_grids.cache_clear()
-    tasks_module._cached_contact_cost.cache_clear()
+    monkeypatch.setattr(enumeration, "PROGRESS_POINTS", 200)
+    cost_grids._default_grids.cache_clear()
+    task_cost._cached_contact_cost.cache_clear()
     path = write_spec('[scene]\nshape = "circle"\n[axes]\naspect = [0.5, 1.0]\nnu = { linspace = [0, 0.5, 500] }\n')
-    assert driver.dry_run(path, stream=io.StringIO()) == 0
+    assert dry_run(path, stream=io.StringIO()) == 0
     assert len(keys) == 500
     assert len(built) == 500 + 1
     progress = [line for line in capsys.readouterr().err.splitlines() if "points checked" in line]

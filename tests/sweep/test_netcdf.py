@@ -1,4 +1,4 @@
-"""The sweep data set on disk (hpcontact.sweep.netcdf): chunks, the stored types, a write that is
+"""The sweep data set on disk (hpcontact.sweep.data.netcdf): chunks, the stored types, a write that is
 atomic and names its output when it fails, checksums that catch a damaged chunk, and the plan
 codes of older files read back as text. What was stored is inspected with netCDF4 and h5py."""
 
@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from hpcontact.sweep import netcdf
-from hpcontact.sweep.netcdf import CHUNK_BYTES, INT_FILL, DamagedFile, chunk_shape, read, verify, write
+from hpcontact.sweep.data import netcdf
+from hpcontact.sweep.data.netcdf import CHUNK_BYTES, INT_FILL, DamagedFile, chunk_shape, read, verify, write
 
 
 @pytest.mark.parametrize(

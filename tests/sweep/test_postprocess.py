@@ -27,7 +27,7 @@ from scipy.interpolate import RegularGridInterpolator
 import hpcontact
 from hpcontact.quantities import rotated_tensor
 from hpcontact.sweep.driver import run_sweep
-from hpcontact.sweep.schedule import SerialTeam
+from hpcontact.sweep.run.schedule import SerialTeam
 
 ROOT = Path(__file__).resolve().parents[2]
 SPEC = """

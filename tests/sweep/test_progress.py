@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import io
 
-from hpcontact.sweep.progress import Progress
+from hpcontact.sweep.run.progress import Progress
 from hpcontact.sweep.run.summary import Summary
 
 

@@ -1,4 +1,4 @@
-"""Where a result came from (hpcontact.sweep.provenance): the revision, the numerics fingerprint,
+"""Where a result came from (hpcontact.sweep.data.provenance): the revision, the numerics fingerprint,
 the resolved scene, and the check that names the first journal entry computed by other code."""
 
 from __future__ import annotations
@@ -14,8 +14,8 @@ import scipy
 
 import hpcontact
 from hpcontact.scene import DEFAULTS
-from hpcontact.sweep.journal import OK, Entry
-from hpcontact.sweep.provenance import (
+from hpcontact.sweep.data.journal import OK, Entry
+from hpcontact.sweep.data.provenance import (
     REVISION_VARIABLE,
     contributors,
     current,

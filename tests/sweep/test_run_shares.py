@@ -11,8 +11,8 @@ from typing import Any
 import pytest
 
 from hpcontact.errors import InputError
+from hpcontact.sweep.run.schedule import SerialTeam
 from hpcontact.sweep.run.shares import Share, SharedError, from_rank_zero, joined
-from hpcontact.sweep.schedule import SerialTeam
 
 
 class RankOne(SerialTeam):

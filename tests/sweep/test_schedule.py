@@ -7,8 +7,8 @@ import threading
 
 import pytest
 
-from hpcontact.sweep import schedule
-from hpcontact.sweep.schedule import (
+from hpcontact.sweep.run import schedule
+from hpcontact.sweep.run.schedule import (
     COST_DONE,
     NEXT_CHUNK,
     SLOTS,

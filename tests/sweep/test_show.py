@@ -1,4 +1,4 @@
-"""``hpcontact show FILE`` (hpcontact.sweep.show): the summary of real sweep data sets — a plain
+"""``hpcontact show FILE`` (hpcontact.sweep.data.show): the summary of real sweep data sets — a plain
 sweep, an adaptive map, one with a failed task — its numbers read back from the data set, the
 same as JSON, and a bad file in one line with exit status 2. Also the citation the docs give
 (docs/index.md, "Cite") against CITATION.cff.
@@ -24,7 +24,7 @@ import xarray as xr
 from hpcontact import __version__, open_dataset
 from hpcontact.analytic import mindlin_ellipse_stiffness
 from hpcontact.cli import main
-from hpcontact.sweep.show import summarize, summary
+from hpcontact.sweep.data.show import summarize, summary
 
 ROOT = Path(__file__).resolve().parents[2]
 

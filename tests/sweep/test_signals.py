@@ -1,4 +1,4 @@
-"""Stopping a sweep on every rank (hpcontact.sweep.signals): the stop file passes a request on,
+"""Stopping a sweep on every rank (hpcontact.sweep.run.signals): the stop file passes a request on,
 a signal becomes a request, SIGUSR2 abandons the task in flight, and heartbeats name a rank that
 made no progress. Two ``StopControl`` objects on one folder stand for two ranks. The grace here
 is long, so the stop thread never ends the pytest process."""
@@ -14,7 +14,7 @@ from collections.abc import Callable
 
 import pytest
 
-from hpcontact.sweep.signals import ALIVE_PREFIX, POLL_S, STOP_NAME, Abandoned, StopControl
+from hpcontact.sweep.run.signals import ALIVE_PREFIX, POLL_S, STOP_NAME, Abandoned, StopControl
 
 LONG = 1e6  # seconds: no forced exit while a test runs
 

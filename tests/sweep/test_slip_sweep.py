@@ -17,12 +17,13 @@ import xarray as xr
 from hpcontact.errors import InputError
 from hpcontact.problems import kinds
 from hpcontact.problems.slip.crystal_pair import pair_from_params
-from hpcontact.sweep.dataset import build_dataset
+from hpcontact.sweep.cost.task_cost import estimated_cost
+from hpcontact.sweep.data.dataset import build_dataset
+from hpcontact.sweep.data.journal import OK, Entry
 from hpcontact.sweep.driver import main, run_sweep
-from hpcontact.sweep.journal import OK, Entry
-from hpcontact.sweep.schedule import SerialTeam
-from hpcontact.sweep.spec import parse_spec
-from hpcontact.sweep.tasks import enumerate_tasks, estimated_cost
+from hpcontact.sweep.run.schedule import SerialTeam
+from hpcontact.sweep.space.parse import parse_spec
+from hpcontact.sweep.work.tasks import enumerate_tasks
 
 ROOT = Path(__file__).resolve().parents[2]
 SPEC = """

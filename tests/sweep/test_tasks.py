@@ -7,8 +7,8 @@ import sys
 import pytest
 
 from hpcontact.sweep.cost.task_cost import estimated_cost
-from hpcontact.sweep.spec import parse_spec
-from hpcontact.sweep.tasks import Task, enumerate_tasks, make_chunks, task_key
+from hpcontact.sweep.space.parse import parse_spec
+from hpcontact.sweep.work.tasks import Task, enumerate_tasks, make_chunks, task_key
 
 
 def spec_of(text: str):
@@ -120,8 +120,8 @@ def point_by_point(spec):
     """The tasks and each point's task as the enumeration of every point computes them: the
     scene of each point (``Spec.scene_params``), distinct by canonical JSON, keyed, costed and
     grouped one by one."""
-    from hpcontact.sweep.spec import canonical_json
-    from hpcontact.sweep.tasks import KERNEL_NEUTRAL_FIELDS
+    from hpcontact.sweep.space.spec import canonical_json
+    from hpcontact.sweep.work.tasks import KERNEL_NEUTRAL_FIELDS
 
     neutral_fields = KERNEL_NEUTRAL_FIELDS[spec.kind]
     rows, row_of, task_of = [], {}, []
@@ -142,8 +142,8 @@ def test_tasks_of_runs_are_those_of_the_points_one_by_one(text, monkeypatch):
     """Keys, parameters (key order too), costs, groups and each point's task: the same in the same
     order, whole, cut into runs at every 257th point (later runs find the scenes of earlier ones
     by value) and in three ranges joined; ``lean`` tasks read the same parameters."""
-    from hpcontact.sweep.spec import scene_runs
-    from hpcontact.sweep.tasks import RunScene, enumerate_part, join_parts, points
+    from hpcontact.sweep.space.enumeration import scene_runs
+    from hpcontact.sweep.work.tasks import RunScene, enumerate_part, join_parts, points
 
     spec = spec_of(text)
     rows, task_of = point_by_point(spec)
@@ -167,7 +167,7 @@ def test_tasks_of_runs_are_those_of_the_points_one_by_one(text, monkeypatch):
 
 def test_a_run_of_new_scenes_keys_each_once_and_costs_its_grids_once(monkeypatch):
     from hpcontact.problems import footprint
-    from hpcontact.sweep import tasks as tasks_module
+    from hpcontact.sweep.work import tasks as tasks_module
 
     keys, costs = [], []
     key, cost = tasks_module.task_key, tasks_module.costed

@@ -1,4 +1,4 @@
-"""The units convention of the data set (hpcontact.sweep.units): a value in units of a scene scale
+"""The units convention of the data set (hpcontact.sweep.data.units): a value in units of a scene scale
 is stored as the dimensionless ratio (units "1", the scale in ``scale``), and ``dimensional``
 multiplies the scale back in. Expected factors and unit strings are worked out by hand."""
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from hpcontact.sweep.units import cf_attributes, comment, convention, dimensional, scale_symbols
+from hpcontact.sweep.data.units import cf_attributes, comment, convention, dimensional, scale_symbols
 
 
 @pytest.mark.parametrize(

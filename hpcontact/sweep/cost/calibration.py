@@ -27,7 +27,7 @@ inflated by whatever else shares the machine while it calibrates (but slowed whe
 the core: ``Calibration.contended``). ``strip_s``
 (contact kind only): one grid of strip cells (``STRIP_CALIBRATION_SCENE``, timed as the others
 but under the sweep's BLAS limit, ``numerics.blas.limited_blas``: its Cholesky factors are the
-only BLAS calls that a thread pool slows) less ``task_s``, over its ``tasks.strip_units``.
+only BLAS calls that a thread pool slows) less ``task_s``, over its ``cost.task_cost.strip_units``.
 """
 
 from __future__ import annotations
@@ -143,7 +143,7 @@ ANISOTROPIC_SLIP_SCENE: dict[str, Any] = {
 
 # One grid of strip cells (``hpcontact.discretizations.strip_cells``, a rectangle b/a = 1e-8 on
 # 512 strips, tangential and normal: ~0.35 s, its far pairs and strips in it; strips serve only
-# slender rectangles): its seconds over its ``tasks.strip_units`` are the contact kind's
+# slender rectangles): its seconds over its ``cost.task_cost.strip_units`` are the contact kind's
 # ``strip_s`` (the dense integrals of an accuracy task's strips: docs/performance.md §"Accuracy
 # tasks"; on the development machine the same ``strip_s`` as the ellipse b/a = 1e-3 on 64 strips
 # it replaced, which ``auto`` no longer gives strips).

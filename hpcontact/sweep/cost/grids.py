@@ -19,7 +19,7 @@ from hpcontact.problems import footprint
 from hpcontact.problems.kinds import CONTACT, kind_of
 from hpcontact.scene import Scene
 from hpcontact.sweep.cost.engine import strip_model_error
-from hpcontact.sweep.spec import canonical_json
+from hpcontact.sweep.space.spec import canonical_json
 
 # Fields that do not change the grids ``accuracy.default_grids`` picks (it reads the shape, the
 # quantities and whether the body is isotropic, not its constants or the solver's settings):

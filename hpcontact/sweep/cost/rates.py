@@ -5,10 +5,10 @@ or ``slip``) takes, on one core of the calibrated host,
 
     seconds = rate_k × cost + solve_k × cost / (S log2 S) + cell_k × S + task_k [+ node_s × ω nodes, slip]
 
-with ``cost = hpcontact.sweep.tasks.estimated_cost(params)`` as the cost units (padded FFT cells
+with ``cost = sweep.cost.task_cost.estimated_cost(params)`` as the cost units (padded FFT cells
 S · log2 S × solves × CG iterations, the iterations as digits of tolerance × the grid's
 iteration factor (1 + 0.3 log2 ρ) log2 S / 18, ρ the contact grid's aspect in cells: ``footprint``; a slip
-scene's solves follow its load path, ``tasks.slip_cost``) and S = ``tasks.padded_cells(params)``
+scene's solves follow its load path, ``tasks.slip_cost``) and S = ``cost.grids.padded_cells(params)``
 (the grid of the turned shape's bounding box, ``footprint.contact_grid``): the first term is the
 FFT work, the second the work per solve-iteration that does not grow with the grid (Python, CG
 bookkeeping, set-up: cost / (S log2 S)). A slip scene with anisotropic bodies (a crystal, an
@@ -25,9 +25,9 @@ version.
 
 **Accuracy tasks.** A task that asks for an accuracy (``[numerics] accuracy``, ``hpcontact run
 --accuracy``) solves a sequence of grids (``accuracy.solve_to_accuracy``, strategy auto): it is
-costed over the grids it is predicted to solve (``tasks.accuracy_plan``: ``accuracy.first_grid``'s
+costed over the grids it is predicted to solve (``cost.grids.accuracy_plan``: ``accuracy.first_grid``'s
 boundary cells, ``accuracy.plan_grids``' grids, four at 1e-3 for coverage-weighted cells and one
-more per decade below, ``tasks.predicted_grid_count``), each grid's work summed into a
+more per decade below, ``cost.grids.predicted_grid_count``), each grid's work summed into a
 ``tasks.Work`` whose terms take the contact kind's coefficients:
 
     seconds = rate_s × fft + solve_s × solves + cell_s × cells + task_s × grids + strip_s × strips
@@ -42,7 +42,7 @@ grid of coverage-weighted cells its one-grid FFT model
 (cost, cost / (S log2 S), S and one task term) times its cells' measured factor, a crystal's
 included (the crystal kind's own fit, on n = 32 and 64, has no FFT term to carry to n = 1024);
 a slender rectangle's strip cells (dense Galerkin integrals, ``hpcontact.discretizations.strip_cells``) their
-``tasks.strip_units`` at ``strip_s``, the seconds of a strip unit on this host; below 1e-3 a
+``cost.task_cost.strip_units`` at ``strip_s``, the seconds of a strip unit on this host; below 1e-3 a
 coverage-weighted task also counts a share of the grid after its last and less a share of its
 last (``tasks.accuracy_work``: the count varies by one about the predicted one). Their memory
 is ``accuracy.grid_bytes`` of the finest predicted grid with its boundary cells (the arrays that
@@ -55,7 +55,7 @@ is ``accuracy.grid_bytes`` of the finest predicted grid with its boundary cells 
 
 ``base`` is this process's peak resident set (``resource.getrusage``) after importing what a
 run imports (the solvers, MPI, xarray); ``padded_cells`` is the padded FFT grid
-(``tasks.padded_cells``). ``fixed_k`` and ``per_cell_k`` are float64 array sizes (no machine
+(``cost.grids.padded_cells``). ``fixed_k`` and ``per_cell_k`` are float64 array sizes (no machine
 dependence), fitted to ``tracemalloc`` peaks of single solves with cold kernel caches
 (``footprint.MEMORY_MODEL``; the fits: docs/performance.md §"Memory per task"):
 
@@ -193,7 +193,7 @@ def calibration_path() -> Path:
 
 def task_array_bytes(params: Mapping[str, Any]) -> float:
     """The arrays of one task of ``params`` (``footprint.array_bytes`` of the finest grid it
-    solves, ``tasks.solved_grids``; a task that asks for an accuracy: ``accuracy.grid_bytes`` of
+    solves, ``cost.grids.solved_grids``; a task that asks for an accuracy: ``accuracy.grid_bytes`` of
     its finest predicted grid with its boundary cells, ``tasks.sizing``)."""
     if asks_accuracy(params):
         return sizing(params).array_bytes

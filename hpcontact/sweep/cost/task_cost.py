@@ -36,7 +36,8 @@ from hpcontact.sweep.cost.grids import (
     padded_cells,
     solved_grids,
 )
-from hpcontact.sweep.spec import PATH_FIELDS, canonical_json
+from hpcontact.sweep.space.axes import PATH_FIELDS
+from hpcontact.sweep.space.spec import canonical_json
 
 # Fields that do not change a scene's estimated cost, by kind (``hpcontact.fields``): a contact
 # scene's cost reads the grid, the solves, the tolerance and whether the body is a crystal, not an

@@ -1,7 +1,7 @@
 """A sweep data set's attributes: CF ``long_name`` and ``units`` of every coordinate and
 variable for the spec's scene kind (contact: scales G, a, L; slip: SI or the input's F and L),
 the status flags, and the global attributes naming the method and its references (the data
-set: ``hpcontact.sweep.dataset``)."""
+set: ``hpcontact.sweep.data.dataset``)."""
 
 from __future__ import annotations
 
@@ -14,10 +14,10 @@ import numpy as np
 from hpcontact import fields
 from hpcontact.materials.elastic_constants import FAMILIES
 from hpcontact.problems.kinds import CONTACT, SLIP
-from hpcontact.sweep.columns import NOT_COMPUTED
-from hpcontact.sweep.journal import BAD_INPUT, CRASHED, ERROR, NOT_CONVERGED, OK
+from hpcontact.sweep.data.columns import NOT_COMPUTED
+from hpcontact.sweep.data.journal import BAD_INPUT, CRASHED, ERROR, NOT_CONVERGED, OK
+from hpcontact.sweep.data.units import cf_attributes
 from hpcontact.sweep.space.spec import Spec
-from hpcontact.sweep.units import cf_attributes
 
 STATUS_MEANINGS = {
     OK: "ok",

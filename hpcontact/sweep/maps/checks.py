@@ -23,8 +23,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from hpcontact.sweep.adaptive_settings import Settings
 from hpcontact.sweep.maps.refinement import Checks, Layout, State, estimate, solve_errors, state_tasks
+from hpcontact.sweep.space.adaptive_settings import Settings
 
 #: A check that shows the estimate short by a ratio r raises the factor by r × this margin.
 CHECK_MARGIN = 1.25

@@ -11,9 +11,9 @@ import xarray as xr
 
 from hpcontact.errors import InputError
 from hpcontact.problems.kinds import KINDS
-from hpcontact.sweep.columns import NOT_COMPUTED
-from hpcontact.sweep.dataset import DIRECTIONAL, TENSOR, derive_directional, directional_errors
-from hpcontact.sweep.journal import OK
+from hpcontact.sweep.data.columns import NOT_COMPUTED
+from hpcontact.sweep.data.dataset import DIRECTIONAL, TENSOR, derive_directional, directional_errors
+from hpcontact.sweep.data.journal import OK
 from hpcontact.sweep.maps.refinement import OFF_DIAGONAL, Checks, Layout, State, estimate, state_tasks
 
 MAP_ERROR_SUFFIX = "_map_error"

@@ -34,9 +34,9 @@ from typing import Any
 
 import numpy as np
 
-from hpcontact.sweep.adaptive_settings import INTERPOLATED_AXES, Settings
-from hpcontact.sweep.dataset import TENSOR
-from hpcontact.sweep.interpolation import Scale, TensorInterpolant, bisection_nodes, coordinate, refined
+from hpcontact.numerics.interpolation import Scale, TensorInterpolant, bisection_nodes, coordinate, refined
+from hpcontact.sweep.data.dataset import TENSOR
+from hpcontact.sweep.space.adaptive_settings import INTERPOLATED_AXES, Settings
 
 #: Stiffnesses the estimate of an off-diagonal entry is relative to (as ``dataset.error_attributes``).
 OFF_DIAGONAL = re.compile(r"^K_(xy|yx|xz|zx|yz|zy)(_coupled)?$")

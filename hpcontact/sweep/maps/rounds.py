@@ -33,12 +33,12 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from hpcontact.sweep import provenance
-from hpcontact.sweep.adaptive_settings import Settings
-from hpcontact.sweep.interpolation import bisection_nodes
+from hpcontact.numerics.interpolation import bisection_nodes
+from hpcontact.sweep.data import provenance
 from hpcontact.sweep.maps.checks import drawn_checks, judged, wants_check
 from hpcontact.sweep.maps.fill import MAP_ERROR_SUFFIX, fill, quantity_fields, refined_names, stiffness_names
 from hpcontact.sweep.maps.refinement import Checks, Layout, State, initial_state, refine, state_tasks
+from hpcontact.sweep.space.adaptive_settings import Settings
 
 RoundFunction = Callable[[Any, "frozenset[int] | None", "Callable[[Any, Any], Any] | None", "frozenset[int]"], Any]
 

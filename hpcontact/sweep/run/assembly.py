@@ -12,9 +12,10 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from hpcontact.sweep import faults, provenance
-from hpcontact.sweep.columns import NOT_COMPUTED, join, to_columns
-from hpcontact.sweep.journal import OK
+from hpcontact.sweep import faults
+from hpcontact.sweep.data import provenance
+from hpcontact.sweep.data.columns import NOT_COMPUTED, join, to_columns
+from hpcontact.sweep.data.journal import OK
 from hpcontact.sweep.run.records import Kept, Options, Outcome, Plan, RankTotals, RoundScope
 from hpcontact.sweep.run.summary import Summary, print_summary, round_sums
 
@@ -23,7 +24,7 @@ def joined_outcomes(plan: Plan, kept: Kept, totals: list[RankTotals]) -> Any:
     """Every task's last outcome as columns (``columns.join``): this run's, from the ranks'
     ``totals``, and those of earlier journals (reused, quarantined, or carried from an adaptive
     round before)."""
-    from hpcontact.sweep.dataset import FIXED_VARIABLES
+    from hpcontact.sweep.data.dataset import FIXED_VARIABLES
 
     history = kept.history
     earlier = [
@@ -50,7 +51,7 @@ def assemble(
     """Rank 0: the data set of the round (``joined_outcomes``), given to an adaptive round's
     ``scope.finish``, with its summary, written as netCDF; the summary printed on ``stream``;
     ``command``: the command as its user gave it, for the history (``dataset.dataset_of``)."""
-    from hpcontact.sweep.dataset import dataset_of, write_netcdf
+    from hpcontact.sweep.data.dataset import dataset_of, write_netcdf
 
     spec = plan.spec
     gather_started = time.perf_counter()

@@ -11,12 +11,12 @@ from pathlib import Path
 from hpcontact.errors import InputError
 from hpcontact.numerics.convolution import load_wisdom, save_wisdom
 from hpcontact.numerics.memory import default_memory_per_rank, parse_memory
-from hpcontact.sweep.arguments import EXIT_FAILED_TASKS, EXIT_OK, EXIT_REFUSED, EXIT_UNEXPECTED
+from hpcontact.sweep.run.arguments import EXIT_FAILED_TASKS, EXIT_OK, EXIT_REFUSED, EXIT_UNEXPECTED
 from hpcontact.sweep.run.dry_run import dry_run
 from hpcontact.sweep.run.records import NO_FLAGS, Options, Stopped, TaskFunction
 from hpcontact.sweep.run.rounds import execute
-from hpcontact.sweep.schedule import LaunchError, world
-from hpcontact.sweep.signals import DEFAULT_GRACE_S, DEFAULT_STALL_S, StopControl
+from hpcontact.sweep.run.schedule import LaunchError, world
+from hpcontact.sweep.run.signals import DEFAULT_GRACE_S, DEFAULT_STALL_S, StopControl
 
 
 def run_command(
@@ -28,11 +28,13 @@ def run_command(
     prog: str = "hpcontact run",
     stall_s: float | None = None,
     accuracy: float | None = None,
+    command: str | None = None,
 ) -> int:
     """``hpcontact run`` on every rank: the exit status (``EXIT_STATUS``). Refusals and bad
     input print one line on stderr from rank 0, prefixed ``prog``; any other error prints its
     traceback and, under MPI, aborts every rank (a rank left waiting in a collective would hang
-    the job). ``task_function`` replaces the scene kind's solver (``python -m hpcontact.sweep.accuracy_study``)."""
+    the job). ``task_function`` replaces the scene kind's solver (``python -m hpcontact.sweep.accuracy_study``);
+    ``command`` is the command as its user typed it, for the data set's history."""
     try:
         team = world()
     except LaunchError as exc:
@@ -43,7 +45,9 @@ def run_command(
     ).install(team.rank)
     try:
         load_wisdom()  # FFTW plans of earlier runs: measured plans in milliseconds
-        outcome = execute(spec, output, task_function, team=team, options=options, stop=stop, accuracy=accuracy)
+        outcome = execute(
+            spec, output, task_function, team=team, options=options, stop=stop, accuracy=accuracy, command=command
+        )
         if not outcome.up_to_date:  # an up-to-date sweep planned nothing new
             _keep_wisdom()  # every rank: save_wisdom merges the ranks' plans into one file
         return EXIT_FAILED_TASKS if outcome.failures else EXIT_OK
@@ -73,9 +77,13 @@ def _keep_wisdom() -> None:
 
 
 def run_from_arguments(
-    args: argparse.Namespace, task_function: TaskFunction | None = None, prog: str = "hpcontact run"
+    args: argparse.Namespace,
+    task_function: TaskFunction | None = None,
+    prog: str = "hpcontact run",
+    command: str | None = None,
 ) -> int:
-    """Run what ``add_run_arguments`` parsed (``task_function``, ``prog``: see ``run_command``)."""
+    """Run what ``add_run_arguments`` parsed (``task_function``, ``prog``, ``command``: see
+    ``run_command``)."""
     memory = (parse_memory(args.mem_per_rank), "--mem-per-rank") if args.mem_per_rank is not None else None
     if args.dry_run:
         return dry_run(
@@ -106,5 +114,5 @@ def run_from_arguments(
         up_to_date=task_function is None,
     )
     return run_command(
-        args.spec, options, args.output, args.grace, task_function, prog, args.stall_timeout, args.accuracy
+        args.spec, options, args.output, args.grace, task_function, prog, args.stall_timeout, args.accuracy, command
     )

@@ -13,12 +13,13 @@ from typing import Any, TextIO
 import numpy as np
 
 from hpcontact.numerics.memory import default_memory_per_rank
-from hpcontact.sweep import costmodel
-from hpcontact.sweep.arguments import EXIT_OK
-from hpcontact.sweep.guard import apart
+from hpcontact.sweep.cost.calibration_file import load_calibration
+from hpcontact.sweep.run.arguments import EXIT_OK
+from hpcontact.sweep.run.guard import apart
 from hpcontact.sweep.run.summary import SHOWN_FAILURES
-from hpcontact.sweep.spec import load_spec
-from hpcontact.sweep.tasks import enumerate_part, join_parts, points, progress_lines
+from hpcontact.sweep.space.parse import load_spec
+from hpcontact.sweep.work.estimate import estimate
+from hpcontact.sweep.work.tasks import enumerate_part, join_parts, points, progress_lines
 
 #: A dry run lists a sample of the tasks, after its summary: the first ``LISTED_HEAD`` and the last
 #: ``LISTED_TAIL``, and a line saying how many it left out between them (``--list-all``: every task;
@@ -50,14 +51,14 @@ def dry_run(
 ) -> int:
     """``hpcontact run SPEC --dry-run``: a line with the title, the number of tasks and the output;
     the summary: the distinct grids and kernel sets, the totals (core-seconds, core-hours, peak
-    memory), the wall time on 1, 64 and 1024 ranks (``costmodel``) and an adaptive spec's first
+    memory), the wall time on 1, 64 and 1024 ranks (``cost``) and an adaptive spec's first
     round and bound; then the tasks with their 0-based indices (the order ``HPCONTACT_FAULTS``
     counts in), relative cost, estimated seconds and peak memory and parameters: a sample
     (``listed_tasks``) unless ``list_all``. A warning on stderr for tasks over ``mem_per_rank`` bytes (default:
     ``numerics.memory.default_memory_per_rank``). With ``as_json``, one JSON object instead,
     every task in its ``tasks_list`` (written as it goes, not built in memory). Nothing is
     computed but the cost model's calibration (once per host and version,
-    ``costmodel.load_calibration``)."""
+    ``cost.calibration_file.load_calibration``)."""
     stream = stream if stream is not None else sys.stdout
     spec = load_spec(
         spec_path, output=output, check_scenes=False, accuracy=accuracy
@@ -67,8 +68,8 @@ def dry_run(
     tasks, task_of = join_parts(spec, [enumerate_part(spec, check=True, progress=progress, lean=True)])
     limit, source = (mem_per_rank, "--mem-per-rank") if mem_per_rank is not None else default_memory_per_rank()
     if calibration is None:
-        calibration = costmodel.load_calibration(stream=sys.stderr)
-    est = costmodel.estimate(tasks, calibration)
+        calibration = load_calibration(stream=sys.stderr)
+    est = estimate(tasks, calibration)
     over = est.over(limit)
     peak_task = int(np.argmax(est.bytes)) if tasks else None  # the first of the largest
     if over:
@@ -140,7 +141,7 @@ def dry_run(
     if calibration.contended():
         print(f"# warning: cost model {calibration.contended()}", file=stream)
     if spec.adaptive is not None:  # all the tasks are the bound; the first round solves fewer
-        from hpcontact.sweep.adaptive import dry_run_text
+        from hpcontact.sweep.maps.rounds import dry_run_text
 
         print(dry_run_text(spec, task_of), file=stream)
     shown = json.JSONEncoder(sort_keys=True).encode  # json.dumps(..., sort_keys=True) without an encoder per line

@@ -10,10 +10,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from hpcontact.sweep.guard import RunLock
-from hpcontact.sweep.journal import History
-from hpcontact.sweep.spec import Spec
-from hpcontact.sweep.tasks import Task
+from hpcontact.sweep.data.journal import History
+from hpcontact.sweep.run.guard import RunLock
+from hpcontact.sweep.space.spec import Spec
+from hpcontact.sweep.work.tasks import Task
 
 TaskFunction = Callable[[Mapping[str, Any]], Mapping[str, Any]]
 

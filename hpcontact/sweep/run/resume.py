@@ -8,10 +8,9 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from hpcontact.sweep import faults, provenance
-from hpcontact.sweep.costmodel import check_memory
-from hpcontact.sweep.guard import Refused, RunLock, apart, usable_folder, usable_output
-from hpcontact.sweep.journal import (
+from hpcontact.sweep import faults
+from hpcontact.sweep.data import provenance
+from hpcontact.sweep.data.journal import (
     OK,
     RETRIED,
     History,
@@ -21,10 +20,12 @@ from hpcontact.sweep.journal import (
     read_history,
     session_name,
 )
+from hpcontact.sweep.run.guard import Refused, RunLock, apart, usable_folder, usable_output
 from hpcontact.sweep.run.records import EVERY_TASK, Decision, Kept, Options, RoundScope
-from hpcontact.sweep.signals import ALIVE_PREFIX, STOP_NAME
-from hpcontact.sweep.spec import Spec
-from hpcontact.sweep.tasks import Task
+from hpcontact.sweep.run.signals import ALIVE_PREFIX, STOP_NAME
+from hpcontact.sweep.space.spec import Spec
+from hpcontact.sweep.work.estimate import check_memory
+from hpcontact.sweep.work.tasks import Task
 
 
 def prepare(

@@ -18,13 +18,13 @@ from hpcontact.errors import ConvergenceError, InputError
 from hpcontact.numerics.blas import limited_blas
 from hpcontact.numerics.convolution import expect_applications
 from hpcontact.problems.footprint import fft_applications
-from hpcontact.sweep import faults, provenance
-from hpcontact.sweep.arguments import EXIT_OK, EXIT_STOPPED, EXIT_UNEXPECTED
-from hpcontact.sweep.columns import to_columns
-from hpcontact.sweep.costmodel import start_estimate
-from hpcontact.sweep.journal import BAD_INPUT, ERROR, NOT_CONVERGED, OK, Entry, Journal, to_json
-from hpcontact.sweep.progress import Progress
+from hpcontact.sweep import faults
+from hpcontact.sweep.data import provenance
+from hpcontact.sweep.data.columns import to_columns
+from hpcontact.sweep.data.journal import BAD_INPUT, ERROR, NOT_CONVERGED, OK, Entry, Journal, to_json
+from hpcontact.sweep.run.arguments import EXIT_OK, EXIT_STOPPED, EXIT_UNEXPECTED
 from hpcontact.sweep.run.assembly import assemble
+from hpcontact.sweep.run.progress import Progress
 from hpcontact.sweep.run.records import (
     EVERY_TASK,
     NO_FLAGS,
@@ -40,11 +40,13 @@ from hpcontact.sweep.run.records import (
     TaskFunction,
 )
 from hpcontact.sweep.run.resume import journal_path, prepare
+from hpcontact.sweep.run.schedule import SLOTS, Team, claimed_chunks, cost_units, report_done, totals_done, world
 from hpcontact.sweep.run.shares import from_rank_zero, joined, share
-from hpcontact.sweep.schedule import SLOTS, Team, claimed_chunks, cost_units, report_done, totals_done, world
-from hpcontact.sweep.signals import Abandoned, StopControl
-from hpcontact.sweep.spec import Spec, Validator, load_spec
-from hpcontact.sweep.tasks import Task, changed_inputs, make_chunks
+from hpcontact.sweep.run.signals import Abandoned, StopControl
+from hpcontact.sweep.space.parse import load_spec
+from hpcontact.sweep.space.spec import Spec, Validator
+from hpcontact.sweep.work.estimate import start_estimate
+from hpcontact.sweep.work.tasks import Task, changed_inputs, make_chunks
 
 
 def run_task(
@@ -89,7 +91,7 @@ class Run:
     ranks' shares, each point's task, whether one may exceed the memory per rank), the task
     function (None: the spec's scene kind's), rank 0's stream, this rank's stop control, the
     run's start (``time.perf_counter``), and the command as its user gave it (the data set's
-    history; None: ``provenance.invocation`` finds it)."""
+    history; None: the spec's ``hpcontact run`` line, ``run.assembly``)."""
 
     team: Team
     spec: Spec
@@ -126,12 +128,12 @@ def execute(
     stdout); ``stop`` is this rank's stop control (default: one without signal handlers, which
     still stops with the other ranks). Spec errors and refusals raise ``InputError``
     (``Refused``) on every rank before any work starts; a stopped run raises ``Stopped`` on
-    every rank. ``spec_path`` may be a ``Spec`` already parsed (``spec.parse_spec`` with
+    every rank. ``spec_path`` may be a ``Spec`` already parsed (``space.parse.parse_spec`` with
     ``check_scenes=False``; ``output`` None): a spec given as a dict (``hpcontact.run_sweep``).
     With ``options.up_to_date``, a sweep whose data set is ``up_to_date`` prints one line and
     returns it (``Outcome.up_to_date``): nothing is run or written. ``command`` is the command
-    as its user gave it, for the data set's history (default: found by
-    ``provenance.invocation``).
+    as its user gave it, for the data set's history (``provenance.call_text`` or
+    ``provenance.command_line``; None: "hpcontact run SPEC").
     """
     team = team if team is not None else world()
     started = time.perf_counter()  # after the imports and MPI start-up
@@ -160,8 +162,8 @@ def execute(
     ) -> Outcome:
         return _round(run, options, RoundScope(select, finish, tally, earlier))
 
-    # rounds of runs over subsets of the tasks (hpcontact.sweep.adaptive)
-    from hpcontact.sweep.adaptive import run_rounds
+    # rounds of runs over subsets of the tasks (hpcontact.sweep.maps)
+    from hpcontact.sweep.maps.rounds import run_rounds
 
     return run_rounds(team, spec, task_of, options, stream, run_round)
 

@@ -8,11 +8,11 @@ from dataclasses import dataclass
 from typing import Any
 
 from hpcontact.errors import InputError
-from hpcontact.sweep.costmodel import check_memory
 from hpcontact.sweep.run.records import Options
-from hpcontact.sweep.schedule import Team
-from hpcontact.sweep.spec import Spec, Validator
-from hpcontact.sweep.tasks import Part, Task, enumerate_part, join_parts, points
+from hpcontact.sweep.run.schedule import Team
+from hpcontact.sweep.space.spec import Spec, Validator
+from hpcontact.sweep.work.estimate import check_memory
+from hpcontact.sweep.work.tasks import Part, Task, enumerate_part, join_parts, points
 
 
 @dataclass(frozen=True)

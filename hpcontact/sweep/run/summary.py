@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
 
-from hpcontact.sweep.progress import clock_text
+from hpcontact.sweep.run.progress import clock_text
 from hpcontact.sweep.run.records import Kept, Plan, RankTotals, RoundScope, RoundTally
 from hpcontact.sweep.run.resume import journal_path
 

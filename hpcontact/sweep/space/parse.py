@@ -99,7 +99,7 @@ from typing import Any
 from hpcontact.errors import InputError, did_you_mean
 from hpcontact.problems.kinds import kind_of
 from hpcontact.scene import ACCURACY_RANGE
-from hpcontact.sweep.adaptive_settings import parse_settings
+from hpcontact.sweep.space.adaptive_settings import parse_settings
 from hpcontact.sweep.space.axes import (
     AXIS_NAMES,
     LABEL_AXES,
@@ -288,7 +288,7 @@ def parse_spec(
         axes=axes,
         kind=kind.name,
     )
-    if "adaptive" in data:  # the solved subset of the grid (hpcontact.sweep.adaptive)
+    if "adaptive" in data:  # the solved subset of the grid (hpcontact.sweep.maps)
         spec = replace(spec, adaptive=parse_settings(adaptive, axes, axes_table, spec.task_axes))
     if check_scenes:
         for _ in scene_runs(spec, validate):

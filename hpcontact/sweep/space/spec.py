@@ -14,7 +14,7 @@ from hpcontact.materials.elastic_constants import FAMILIES as CONSTANT_FAMILIES
 from hpcontact.problems.kinds import CONTACT, KINDS, Kind
 from hpcontact.sweep.space.axes import LABEL_AXES, SHAPE_ONLY_FIELDS, Axis
 
-TABLES = ("sweep", "scene", "numerics", "axes", "adaptive")  # [adaptive]: hpcontact.sweep.adaptive
+TABLES = ("sweep", "scene", "numerics", "axes", "adaptive")  # [adaptive]: hpcontact.sweep.maps
 SWEEP_KEYS = ("title", "output", "journal", "angle_mode", "progress_interval")
 NUMERIC_KEYS = ("n", "n_across", "tol", "accuracy")
 ANGLE_MODES = ("tensor", "rotated")

@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from hpcontact.sweep.dataset import ERROR_STATUS_MEANINGS, STATUS_MEANINGS
+from hpcontact.sweep.data.attributes import ERROR_STATUS_MEANINGS, STATUS_MEANINGS
 
 #: Failures listed with their points and messages (the rest are counted).
 FIRST_FAILURES = 5
@@ -372,7 +372,7 @@ def add_show_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentPars
 def show_command(args: argparse.Namespace) -> int:
     """``hpcontact show``: print the summary of ``args.file``; 2 with one line on stderr when the
     file cannot be summarized."""
-    from hpcontact.sweep.dataset import open_dataset  # as hpcontact.open_dataset, without an upward import
+    from hpcontact.sweep.data.dataset import open_dataset  # as hpcontact.open_dataset, without an upward import
 
     path = args.file
     try:
@@ -386,7 +386,7 @@ def show_command(args: argparse.Namespace) -> int:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m hpcontact.sweep.show FILE [--json]``: ``hpcontact show`` alone."""
+    """``python -m hpcontact.sweep.data.show FILE [--json]``: ``hpcontact show`` alone."""
     parser = add_show_arguments(argparse.ArgumentParser(prog="hpcontact show"))
     return show_command(parser.parse_args(argv))
 

@@ -30,9 +30,9 @@ from hpcontact.sweep.cost.calibration_file import cached_calibration
 from hpcontact.sweep.cost.engine import omega_nodes
 from hpcontact.sweep.cost.grids import asks_accuracy, padded_cells
 from hpcontact.sweep.cost.rates import IMPORTS_BYTES, Calibration, base_memory_bytes, work_seconds
-from hpcontact.sweep.cost.replay import DEFAULT_OVERHEADS, Overheads, replay_chunks
 from hpcontact.sweep.cost.task_cost import Sizing, sizing
-from hpcontact.sweep.tasks import ChunkOrder, Task, chunk_order, paused_gc
+from hpcontact.sweep.work.replay import DEFAULT_OVERHEADS, Overheads, replay_chunks
+from hpcontact.sweep.work.tasks import ChunkOrder, Task, chunk_order, paused_gc
 
 
 @dataclass

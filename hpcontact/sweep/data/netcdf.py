@@ -44,7 +44,7 @@ import pandas as pd
 import xarray as xr
 
 from hpcontact.sweep import faults
-from hpcontact.sweep.journal import sync_folder
+from hpcontact.sweep.data.journal import sync_folder
 
 COUNTS = frozenset({"iterations", "nx", "ny", "contact_cells", "sides", "n", "n_across", "steps", "seed", "threads"})
 INT_FILL = -2147483647  # NC_FILL_INT, netCDF's default fill of int32

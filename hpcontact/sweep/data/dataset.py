@@ -20,7 +20,7 @@ lengths in m, stiffnesses in N/m, areas in m² when the scenes name library mate
 in the force and length units of the input (F, L). The tables below write units that way;
 ``units.cf_attributes`` turns a unit in scene scales (G, a, L, F) into ``units = "1"`` with the
 scale in ``scale``, ``comment`` and ``long_name``, so every unit parses with UDUNITS as what it
-means (the convention: ``hpcontact.sweep.units``, and the data set's global ``comment``).
+means (the convention: ``hpcontact.sweep.data.units``, and the data set's global ``comment``).
 
 A contact spec without ``n`` (neither fixed nor an axis) is solved by ``hpcontact solve``'s
 extrapolated default (``accuracy.default_solve``, ``kinds``) wherever it applies: the data set
@@ -62,9 +62,7 @@ import xarray as xr
 
 from hpcontact import __version__
 from hpcontact.quantities import ERROR_SUFFIX, ESTIMATED, directional_error, directional_stiffness
-from hpcontact.sweep import netcdf
-from hpcontact.sweep.columns import NOT_COMPUTED, Joined, join, task_positions, to_columns
-from hpcontact.sweep.columns import is_number as _is_number
+from hpcontact.sweep.data import netcdf
 from hpcontact.sweep.data.attributes import (
     ERROR_MET,
     ERROR_NOT_MET,
@@ -80,11 +78,12 @@ from hpcontact.sweep.data.attributes import (
     attribute_table,
     error_attributes,
 )
-from hpcontact.sweep.journal import Entry, to_json
-from hpcontact.sweep.provenance import invocation
+from hpcontact.sweep.data.columns import NOT_COMPUTED, Joined, join, task_positions, to_columns
+from hpcontact.sweep.data.columns import is_number as _is_number
+from hpcontact.sweep.data.journal import Entry, to_json
+from hpcontact.sweep.data.units import cf_attributes, convention, scale_symbols
 from hpcontact.sweep.space.axes import LABEL_AXES
 from hpcontact.sweep.space.spec import Spec
-from hpcontact.sweep.units import cf_attributes, convention, scale_symbols
 
 __all__ = [  # the attribute tables are hpcontact.sweep.data.attributes'; importers may take them from here
     "DIRECTIONAL",
@@ -435,14 +434,14 @@ def _attribute_value(value: Any) -> Any:
 
 def _history(spec: Spec, attrs: Mapping[str, Any], given: str | None = None) -> str | None:
     """The CF ``history``: one line per run, "<created>: <command>" (``attrs["created"]`` and
-    the command as given: ``given``, from the entry point that ran the sweep; until every entry
-    point passes it, ``provenance.invocation``; else ``attrs["history"]``); a ``--resume`` run (its
+    the command as given: ``given``, from the entry point that ran the sweep,
+    ``provenance.command_line`` or ``provenance.call_text``; else ``attrs["history"]``); a ``--resume`` run (its
     ``attrs["history"]`` names ``--resume``) appends its line to the history of the data set it
     replaces (``spec.output``), a fresh run starts a new one."""
     command = attrs.get("history")
     if not command:
         return None
-    given = given or invocation() or command
+    given = given or command
     line = f"{attrs['created']}: {given}" if attrs.get("created") else str(given)
     if "--resume" not in str(command).split():
         return line

@@ -23,8 +23,8 @@ from typing import Any
 
 import numpy as np
 
-from hpcontact.sweep.journal import OK, Entry, to_json
-from hpcontact.sweep.provenance import contributors
+from hpcontact.sweep.data.journal import OK, Entry, to_json
+from hpcontact.sweep.data.provenance import contributors
 
 NOT_COMPUTED = -1  # status of a task no journal holds
 

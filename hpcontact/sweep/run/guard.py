@@ -41,8 +41,8 @@ from pathlib import Path
 from typing import Any
 
 from hpcontact.errors import InputError
-from hpcontact.sweep.journal import JOB_VARIABLES, batch_job, journal_files, read_file, sync_folder
-from hpcontact.sweep.spec import LABEL_AXES, PATH_FIELDS
+from hpcontact.sweep.data.journal import JOB_VARIABLES, batch_job, journal_files, read_file, sync_folder
+from hpcontact.sweep.space.axes import LABEL_AXES, PATH_FIELDS
 
 __all__ = [
     "JOB_VARIABLES",

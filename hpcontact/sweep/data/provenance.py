@@ -20,7 +20,7 @@ import platform
 import shlex
 import subprocess
 import sys
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -28,7 +28,7 @@ from typing import Any
 import hpcontact
 from hpcontact import __version__
 from hpcontact.problems.kinds import kind_of
-from hpcontact.sweep.journal import Entry, to_json
+from hpcontact.sweep.data.journal import Entry, to_json
 
 REVISION_VARIABLE = "HPCONTACT_GIT_REVISION"  # overrides the detected revision (installs without .git)
 FIELDS = ("hpcontact_version", "git_revision", "numerics")
@@ -121,39 +121,13 @@ def contributors(entries: Iterable[Entry]) -> str:
     return json.dumps([{**json.loads(text), "tasks": n} for text, n in sorted(counts.items())], sort_keys=True)
 
 
-# The entry points whose call is the command a data set's history records: (module, function) →
-# how it is shown. Python calls as calls, command-line mains as their argv.
-_CALLS = {
-    ("hpcontact.api", "run_sweep"): "hpcontact.run_sweep",
-    ("hpcontact.sweep.driver", "run_sweep"): "hpcontact.sweep.driver.run_sweep",
-}
-_MAINS = {("hpcontact.cli", "main"): "hpcontact", ("hpcontact.sweep.driver", "main"): None}
-
-
-def invocation() -> str | None:
-    """The command that runs the sweep being written, as it was given: the outermost of
-    ``hpcontact.run_sweep(...)`` (its arguments that differ from the defaults:
-    "hpcontact.run_sweep('jobs/demo.toml', resume=True)") and the command-line entry points
-    (``hpcontact run ...``, ``python -m hpcontact.sweep ...``: the process's command line, or
-    the ``argv`` a caller passed to ``main``) on the call stack; None when neither is (a data
-    set built directly). It walks the call stack (``sys._getframe``): the fallback of
-    ``dataset._history`` until the entry points pass the command they were given
-    (``dataset.dataset_of(..., command=...)``)."""
-    found = None
-    frame = sys._getframe(1)
-    while frame is not None:
-        key = (frame.f_globals.get("__name__"), frame.f_code.co_name)
-        if key in _CALLS or key in _MAINS:
-            found = (key, frame)
-        frame = frame.f_back
-    if found is None:
-        return None
-    key, frame = found
-    if key in _CALLS:
-        return _call_text(_CALLS[key], frame.f_globals[key[1]], frame.f_locals)
-    argv = frame.f_locals.get("argv")
+def command_line(program: str, argv: Sequence[str] | None = None) -> str:
+    """A command-line entry point's command as its user typed it, for a data set's history:
+    ``program`` and ``argv`` (``main(argv)`` called with arguments), or, with ``argv`` None, this
+    process's own command line: its arguments ``sys.argv[1:]`` after the program that started it
+    (``python -m <module>`` for a module of this package run as a script, else the script's
+    name, ``hpcontact`` for the console command; ``program`` when neither is known)."""
     args = list(sys.argv[1:] if argv is None else argv)
-    program = _MAINS[key] or (frame.f_locals.get("prog") if argv is not None else None) or "hpcontact run"
     if argv is None and sys.argv and sys.argv[0]:
         program = _program(sys.argv[0], program)
     return " ".join([program, shlex.join(map(str, args))]).strip()
@@ -170,9 +144,11 @@ def _program(argv0: str, default: str) -> str:
     return Path(argv0).name or default
 
 
-def _call_text(name: str, function: Any, values: Mapping[str, Any]) -> str:
-    """``name(arguments)``: the arguments of a call of ``function`` (``values``: its frame's
-    locals) that differ from their defaults, positional ones first; streams left out."""
+def call_text(name: str, function: Any, values: Mapping[str, Any]) -> str:
+    """A Python entry point's call as its user wrote it, for a data set's history:
+    ``name(arguments)``, the arguments of a call of ``function`` (``values``: its parameters,
+    ``locals()`` on entry) that differ from their defaults, positional ones first; streams left
+    out ("hpcontact.run_sweep('jobs/demo.toml', resume=True)")."""
     shown = []
     for parameter in inspect.signature(function).parameters.values():
         if parameter.name not in values or parameter.name == "stream":

@@ -1,11 +1,11 @@
-"""Tensor-product interpolation and its error estimate (hpcontact.sweep.interpolation)."""
+"""Tensor-product interpolation and its error estimate (hpcontact.numerics.interpolation)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from hpcontact.sweep.interpolation import (
+from hpcontact.numerics.interpolation import (
     Scale,
     TensorInterpolant,
     bisection_nodes,

@@ -1,7 +1,7 @@
 """Wall time of a sweep on R ranks, replayed before it runs.
 
 **Wall time on R ranks** (``replay``): a discrete-event model of the scheduler
-(``hpcontact.sweep.schedule``): the tasks are chunked and ordered by the real ``make_chunks`` for R
+(``hpcontact.sweep.run.schedule``): the tasks are chunked and ordered by the real ``make_chunks`` for R
 ranks; every rank computes; a worker's claim of the next chunk waits for the server (FIFO,
 ``Overheads.service_s`` per message) plus the wake-up latency ``wake_s``; rank 0 claims without
 messages; every task pays ``driver_s`` (journal, progress, scheduling) and ``spread_gather_s``
@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from hpcontact.errors import InputError
-from hpcontact.sweep.tasks import ChunkOrder, Task, chunk_bounds, chunk_order
+from hpcontact.sweep.work.tasks import ChunkOrder, Task, chunk_bounds, chunk_order
 
 
 @dataclass(frozen=True)

@@ -9,8 +9,8 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 from hpcontact.errors import InputError
+from hpcontact.numerics.interpolation import bisection_nodes
 from hpcontact.quantities import ESTIMATED, SLIP_ESTIMATED
-from hpcontact.sweep.interpolation import bisection_nodes
 
 #: Task axes an adaptive sweep interpolates (the rest are categorical: one sub-problem per value).
 INTERPOLATED_AXES = frozenset(

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 
-from hpcontact.sweep.signals import STOPPED_STATUS
+from hpcontact.sweep.run.signals import STOPPED_STATUS
 
 EXIT_OK, EXIT_UNEXPECTED, EXIT_REFUSED, EXIT_FAILED_TASKS, EXIT_STOPPED = 0, 1, 2, 3, STOPPED_STATUS
 EXIT_STATUS = """exit status:

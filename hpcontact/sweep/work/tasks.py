@@ -49,36 +49,16 @@ from hpcontact import fields
 from hpcontact.geometry import file_sha256
 from hpcontact.problems import footprint
 from hpcontact.problems.kinds import scene_kind
-from hpcontact.sweep.cost.engine import strip_pairs  # noqa: F401 - moved; importers updated by the coordinator
-from hpcontact.sweep.cost.grids import (
-    _default_grids,  # noqa: F401 - moved; importers updated by the coordinator
-    accuracy_plan,  # noqa: F401 - moved; importers updated by the coordinator
-    padded_cells,  # noqa: F401 - moved; importers updated by the coordinator
-    predicted_grid_count,  # noqa: F401 - moved; importers updated by the coordinator
-    solved_grids,  # noqa: F401 - moved; importers updated by the coordinator
-)
 from hpcontact.sweep.cost.task_cost import (
     COST_BRANCH_FIELDS,
     COST_NEUTRAL_FIELDS,
-    EXTRAPOLATION_WORK,  # noqa: F401 - moved; importers updated by the coordinator
     GRID_ONLY_FIELDS,
-    STRIP_UNIT_SECONDS,  # noqa: F401 - moved; importers updated by the coordinator
     Sizing,
-    _cached_contact_cost,  # noqa: F401 - moved; importers updated by the coordinator
     costed,
-    estimated_cost,  # noqa: F401 - moved; importers updated by the coordinator
-    strip_units,  # noqa: F401 - moved; importers updated by the coordinator
 )
-from hpcontact.sweep.spec import (
-    PATH_FIELDS,
-    Run,
-    Spec,
-    Validator,
-    canonical_json,
-    run_field,
-    scene_runs,
-    text_template,
-)
+from hpcontact.sweep.space.axes import PATH_FIELDS
+from hpcontact.sweep.space.enumeration import Run, run_field, scene_runs, text_template
+from hpcontact.sweep.space.spec import Spec, Validator, canonical_json
 
 # Fields that change neither a scene's kernels nor its grid spacing, by kind (``hpcontact.fields``):
 # a contact scene's outline or solves; a slip scene's loading (lengths are scaled by the Hertz

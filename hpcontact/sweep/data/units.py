@@ -42,10 +42,10 @@ SCALE_MEANINGS: Mapping[str, str] = {
 #: The SI unit of each scale symbol (``dimensional`` with values in SI).
 SI: Mapping[str, str] = {"G": "Pa", "a": "m", "L": "m", "F": "N"}
 CONVENTION = (
-    "Units convention (hpcontact.sweep.units): a quantity in units of a scale of the scene ({symbols}) is stored "
+    "Units convention (hpcontact.sweep.data.units): a quantity in units of a scale of the scene ({symbols}) is stored "
     'as the dimensionless ratio to that scale: units = "1", long_name ending "(in units of <scale>)", a comment '
     'saying so, and the attribute scale = "<scale>" (the symbols with UDUNITS exponents); value times the scale '
-    "is the quantity (hpcontact.sweep.units.dimensional). {meanings}. Every other units attribute is a UDUNITS "
+    "is the quantity (hpcontact.sweep.data.units.dimensional). {meanings}. Every other units attribute is a UDUNITS "
     "unit (SI, degree, GPa)."
 )
 _TOKEN = re.compile(r"^([A-Za-z]+)(-?\d+)?$")
