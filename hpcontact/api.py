@@ -36,6 +36,7 @@ from hpcontact.fields import CONTACT, cli_fields, cli_help, names, recorded
 from hpcontact.numerics.blas import limited_blas
 from hpcontact.numerics.memory import parse_memory
 from hpcontact.problems.kinds import SLIP, scene_kind
+from hpcontact.quantities import in_newtons_per_metre
 from hpcontact.scene import Scene
 
 if TYPE_CHECKING:
@@ -107,6 +108,7 @@ def solve_fields(
             except AccuracyNotMet as exc:  # the default's own target: say so, return what was reached
                 record, missed = exc.record, str(exc)
     record.update(recorded(scene.quantities, vars(scene)))  # also where no Schur complement was formed
+    record = in_newtons_per_metre(record, scene.newtons_per_metre)
     if missed is not None:
         warnings.warn(f"default {missed}", AccuracyWarning, stacklevel=3)
     return record
@@ -139,6 +141,7 @@ def solve(
     quantities: str | Sequence[str] | None = None,
     radius: float | None = None,
     depth: float | None = None,
+    a: float | None = None,
     threads: int | None = None,
     precondition: bool | None = None,
     normal_held: str | None = None,
@@ -240,6 +243,11 @@ def solve(
         below as keywords, e.g. ``radius=0.01, load=100.0, mu=0.3, q_ratio=0.5``).
     radius, depth
         Rigid sphere radius and approach (``indentation``), in a length unit L of your choice.
+    a
+        Contact size: the semi-major extent a in metres, in [1e-12, 1e3] (not for
+        ``indentation``). Every stiffness of the record is then in N/m (K = k G a), which needs
+        the body's modulus in physical units: ``G`` in Pa, or a library crystal or elastic
+        constants in GPa.
     threads
         FFTW threads [1]. BLAS threads: ``$HPCONTACT_BLAS_THREADS`` [1], only while solving.
     precondition
@@ -418,7 +426,7 @@ def run_sweep(
     hpcontact.sweep.run.records.Stopped
         The run stopped before writing the data set (journals intact: ``resume=True`` goes on).
     """
-    command = _history_text(locals())
+    arguments = dict(locals())  # the call as given, for the data set's history (after the checks)
     from hpcontact.sweep.run.guard import Refused
     from hpcontact.sweep.run.records import Options, Stopped
     from hpcontact.sweep.run.rounds import execute
@@ -454,7 +462,7 @@ def run_sweep(
             stream=stream,
             options=options,
             accuracy=None if isinstance(spec, Mapping) else accuracy,
-            command=command,
+            command=_history_text(arguments),
         ).path
     except Refused as exc:
         raise Refused(python_message(str(exc))).with_traceback(exc.__traceback__) from None

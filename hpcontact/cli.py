@@ -27,6 +27,7 @@ from hpcontact.errors import AccuracyWarning, ConvergenceError, InputError, did_
 from hpcontact.fields import CONTACT, Field, cli_fields, cli_help, names
 from hpcontact.numerics.convolution import load_wisdom, pyfftw, save_wisdom, wisdom_path
 from hpcontact.problems.kinds import SLIP, quantity_names, scene_kind
+from hpcontact.quantities import STIFFNESS_KEY
 from hpcontact.scene import DEFAULTS
 from hpcontact.sweep.data.show import add_show_arguments, show_command
 from hpcontact.sweep.run.arguments import add_run_arguments
@@ -167,9 +168,10 @@ def _units(record: Mapping[str, Any], params: Mapping[str, Any]) -> dict[str, st
     quantities = set(quantity_names(params.get("quantities"))) or set(DEFAULTS["quantities"])
     length = "L" if quantities == {"indentation"} else "a"
     units: dict[str, str] = {}
+    stiffness = "N/m" if params.get("a") is not None else f"{stress}·a"  # a in m: Scene.newtons_per_metre
     for key in record:
-        if re.fullmatch(r"(proxy_)?K_[xyz][xyz](_bonded|_coupled)?|K_max|K_min", key):
-            units[key] = f"{stress}·a"
+        if STIFFNESS_KEY.fullmatch(key):
+            units[key] = stiffness
         elif key in ("dx", "dy"):
             units[key] = length
         elif key == "contact_area":

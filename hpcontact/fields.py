@@ -69,6 +69,11 @@ MIN_RADIUS = 1e-30
 MIN_DEPTH = 1e-15
 RADIUS_RANGE = "sphere radius in [1e-30, 1e30]"
 DEPTH_RANGE = "approach d with d/radius in [1e-15, 1)"
+#: The contact size ``a`` in metres (the semi-major extent; stiffnesses K = k G a then come out
+#: in N/m): from an atomic-force tip to a machine foundation, far inside float64 either way.
+MIN_CONTACT_SIZE = 1e-12
+MAX_CONTACT_SIZE = 1e3
+CONTACT_SIZE_RANGE = "contact size a in metres, in [1e-12, 1e3]"
 #: A requested accuracy: the estimated relative error every reported stiffness must reach
 #: (``hpcontact.accuracy.solve_to_accuracy``).
 ACCURACY_RANGE = "a relative error in [1e-9, 1)"
@@ -504,6 +509,24 @@ FIELDS: tuple[Field, ...] = (
         group="scene",
     ),
     Field(
+        "a",
+        float,
+        None,
+        Interval(MIN_CONTACT_SIZE, MAX_CONTACT_SIZE),
+        CONTACT_SIZE_RANGE,
+        read_by=(
+            "quantities",
+            ("tangential", "normal", "compliance", "coupled"),
+            "an indentation's lengths are in the unit of its radius",
+        ),
+        long_name="semi-major extent a of the contact",
+        unit="m",
+        help="contact size: the semi-major extent a in metres; stiffnesses then in N/m (the body's modulus "
+        "in Pa: --G, or a library crystal or elastic constants in GPa)",
+        group="scene",
+        changes=_NONE,
+    ),
+    Field(
         "threads",
         int,
         1,
@@ -865,6 +888,11 @@ def recorded(quantities: tuple[str, ...], values: Mapping[str, Any]) -> dict[str
         for f in FIELDS
         if any(q in f.recorded_by for q in quantities) and values[f.name] != f.default
     }
+
+
+def recorded_names() -> tuple[str, ...]:
+    """The fields a contact record may state (``recorded``), in declaration order."""
+    return tuple(f.name for f in FIELDS if f.recorded_by)
 
 
 def axis_attrs(kind: str = CONTACT) -> dict[str, dict[str, str]]:

@@ -65,6 +65,20 @@ def names_where(test: Callable[[Quantity], bool] = lambda q: True) -> tuple[str,
     return tuple(name for name, q in QUANTITIES.items() if test(q))
 
 
+#: Record keys that hold a stiffness (force per unit displacement): in units of G·a, or in N/m
+#: where the scene gives its contact size (:func:`in_newtons_per_metre`).
+STIFFNESS_KEY = re.compile(r"(proxy_)?K_[xyz][xyz](_bonded|_coupled)?|K_max|K_min")
+
+
+def in_newtons_per_metre(record: Mapping[str, Any], newtons_per_metre: float | None) -> dict[str, Any]:
+    """``record`` with every stiffness (``STIFFNESS_KEY``) times ``newtons_per_metre``, what its
+    unit G·a is in N/m (``Scene.newtons_per_metre``: a in m times G in Pa); unchanged where
+    that is None. Relative errors, ratios, normalized stiffnesses and angles have no unit."""
+    if newtons_per_metre is None:
+        return dict(record)
+    return {k: v * newtons_per_metre if STIFFNESS_KEY.fullmatch(k) and v is not None else v for k, v in record.items()}
+
+
 #: The suffix of a quantity's estimated relative error in a sweep's records and data set
 #: (``K_xx_error``: ``hpcontact.accuracy.error_columns``, docs/reference/dataset.md).
 ERROR_SUFFIX = "_error"

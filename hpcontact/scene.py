@@ -111,6 +111,7 @@ class Scene:
     normal_held: str = "approach"
     radius: float | None = None
     depth: float | None = None
+    a: float | None = None
     params: dict = dataclasses.field(default_factory=dict, compare=False)
 
     @classmethod
@@ -144,6 +145,7 @@ class Scene:
             field("radius").check(p["radius"])
         if depth is not None and not (radius is not None and MIN_DEPTH * radius <= depth < radius):
             raise InputError("depth", DEPTH_RANGE, p["depth"])
+        a = None if p["a"] is None else _contact_size(params, p["a"])
         shape = Shape(
             name=p["shape"],
             aspect=aspect,
@@ -175,8 +177,19 @@ class Scene:
             normal_held=_choice("normal_held", p["normal_held"]),
             radius=radius,
             depth=depth,
+            a=a,
             params=dict(params),
         )
+
+    @property
+    def newtons_per_metre(self) -> float | None:
+        """What one unit of a record's stiffness is in N/m, when the scene gives its contact
+        size ``a`` in metres: K = k G a with G in Pa (an isotropic body's ``G``) or in GPa (a
+        library crystal's or elastic constants', 1e9 Pa), so a × 1e9 or a; None without ``a``
+        (the record stays in units of G·a)."""
+        if self.a is None:
+            return None
+        return self.a * (GPA if _body_in_gpa(self.params) else 1.0)
 
     @property
     def grid_given(self) -> bool:
@@ -198,6 +211,31 @@ class Scene:
             {"n": n, "n_across": n_across} if tol is None else {"n": n, "n_across": n_across, "tol": tol}
         )
         return dataclasses.replace(self, **changes, params=self.fields(**changes))
+
+
+#: Pa per GPa: the stress unit of library crystals and elastic constants.
+GPA = 1e9
+
+
+def _body_in_gpa(params: Mapping[str, Any]) -> bool:
+    """Whether the body's stiffness is given in GPa: a library crystal or elastic constants
+    (``BODY_FIELDS``), not nu, G and A."""
+    return any(params.get(name) is not None for name in BODY_FIELDS)
+
+
+def _contact_size(params: Mapping[str, Any], value: Any) -> float:
+    """The contact size ``a`` in metres, for a body whose modulus has a unit: G given (in Pa)
+    or a body in GPa (``_body_in_gpa``). Without either, G is the unit 1 of the results and a
+    size in metres would give a stiffness in no unit."""
+    a = field("a").check(value)
+    if params.get("G") is None and not _body_in_gpa(params):
+        raise InputError(
+            "a",
+            "a contact size in metres with the body's modulus: G in Pa, or a library crystal or elastic "
+            "constants (material, cubic, orthotropic, voigt) in GPa",
+            value,
+        )
+    return a
 
 
 def usable_cpus() -> int:

@@ -363,3 +363,14 @@ def test_a_field_the_scene_does_not_read_is_refused_as_on_the_command_line(capsy
     assert str(caught.value) == message
     assert cli_main(["solve", "--material", "Cu", "--nu", "0.1", "--n", "8"]) == 2
     assert capsys.readouterr().err == f"hpcontact: error: {message}\n"
+
+
+def test_contact_size_gives_newtons_per_metre_against_mindlin():
+    """A bonded circle of radius a = 1 mm on a body of G = 26 GPa, nu = 0.3: Mindlin's closed form
+    K = 8 G a / (2 - nu) in N/m (Johnson 1985 §7.2), met within the record's estimated error; the
+    same scene without ``a`` is that stiffness in units of G·a."""
+    G, nu, a = 26e9, 0.3, 1e-3
+    record = hpcontact.solve(shape="circle", nu=nu, G=G, a=a)
+    mindlin = 8.0 * G * a / (2.0 - nu)
+    assert abs(record["K_xx"] / mindlin - 1.0) <= 2.0 * record["estimated_error"] + 1e-12
+    assert record["K_xx"] == hpcontact.solve(shape="circle", nu=nu, G=G)["K_xx"] * a

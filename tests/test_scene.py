@@ -407,3 +407,19 @@ def test_every_shipped_job_passes_the_scene_validation(tmp_path):
     assert len(jobs) >= 10
     for path in jobs:
         assert load_spec(path, output=tmp_path / f"{path.stem}.nc").axes, path.name
+
+
+def test_contact_size_in_metres_needs_a_modulus_with_a_unit():
+    """``a`` (metres) turns the record's unit G·a into N/m: a × G for G in Pa, a × 1e9 for a body
+    in GPa; without a modulus in a unit, or beside an indentation, it is refused."""
+    assert Scene.from_params({"shape": "circle", "a": 2e-3, "G": 26e9}).newtons_per_metre == 2e-3
+    assert Scene.from_params({"shape": "circle", "a": 2e-3, "material": "Cu"}).newtons_per_metre == 2e-3 * 1e9
+    assert Scene.from_params({"shape": "circle", "G": 26e9}).newtons_per_metre is None
+    with pytest.raises(InputError, match="G in Pa"):
+        Scene.from_params({"shape": "circle", "a": 2e-3})
+    with pytest.raises(InputError, match=r"in \[1e-12, 1e3\]"):
+        Scene.from_params({"shape": "circle", "a": 0.0, "G": 1.0})
+    with pytest.raises(InputError, match="not used with quantities"):
+        Scene.from_params(
+            {"shape": "circle", "a": 1e-3, "G": 1.0, "quantities": "indentation", "radius": 1.0, "depth": 0.01}
+        )

@@ -104,7 +104,8 @@ def solve_contact_fields(fields: Mapping[str, Any]) -> dict[str, Any]:
     """:func:`default_solve` of the contact scene of ``fields`` (a sweep's task, a journal's
     entry: the edge where fields become a ``Scene``), its per-quantity estimates as numbers
     (:func:`error_columns`)."""
-    return error_columns(default_solve(Scene.from_params(fields)))
+    scene = Scene.from_params(fields)
+    return error_columns(q.in_newtons_per_metre(default_solve(scene), scene.newtons_per_metre))
 
 
 def error_columns(record: Mapping[str, Any]) -> dict[str, Any]:

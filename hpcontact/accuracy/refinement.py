@@ -20,6 +20,7 @@ import time
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from hpcontact import fields
 from hpcontact import quantities as q
 from hpcontact.accuracy.extrapolation import MIN_GRIDS, TENSOR_KEYS, exact_errors, extrapolate
 from hpcontact.accuracy.grid_plan import GridPlan, plan_grids
@@ -31,6 +32,8 @@ from hpcontact.numerics.convolution import clear_cache
 from hpcontact.numerics.memory import resident_bytes
 from hpcontact.scene import Scene
 
+#: The grid of the finest level, which an extrapolated record states as its own.
+FINEST_GRID_KEYS = ("nx", "ny", "dx", "dy", "contact_cells", "contact_area")
 STAGNATION_LEVELS = 2  # no fall of the estimate over this many refinements: the extrapolants stagnate
 
 
@@ -190,9 +193,7 @@ def solve_to_accuracy(
         else plan.limit
     )
     finest = levels[-1]
-    record: dict[str, Any] = {
-        k: finest[k] for k in ("nx", "ny", "dx", "dy", "contact_cells", "contact_area", "normal_held") if k in finest
-    }
+    record: dict[str, Any] = {k: finest[k] for k in (*FINEST_GRID_KEYS, *fields.recorded_names()) if k in finest}
     record.update(values)
     worst = max(relative.values())
     record.update(q.derived_quantities(values, scene.material, noise=worst))

@@ -686,3 +686,17 @@ def test_error_bars_are_linked_from_every_stiffness_and_propagated_to_K_nn(fake_
         assert back["error_status"].dtype == np.int32
         assert back["K_nn"].attrs["ancillary_variables"] == "K_nn_error error_status"
         np.testing.assert_array_equal(back["K_nn_error"].values, ds["K_nn_error"].values)
+
+
+def test_a_contact_size_stores_stiffnesses_in_newtons_per_metre(tmp_path):
+    """A spec with the contact size ``a`` (m) stores every stiffness in N/m (CF "N m-1", no scale
+    symbol left): the same sweep without it, in GPa·a for a library crystal, times a × 1e9."""
+    spec = {"scene": {"shape": "ellipse", "material": "Cu"}, "numerics": {"n": 8}, "axes": {"aspect": [0.5, 1.0]}}
+    sized = {**spec, "scene": {**spec["scene"], "a": 2e-3}}
+    plain = hpcontact.run_sweep(spec, output=tmp_path / "plain.nc", stream=io.StringIO())
+    newtons = hpcontact.run_sweep(sized, output=tmp_path / "sized.nc", stream=io.StringIO())
+    with hpcontact.open_dataset(plain) as ds, hpcontact.open_dataset(newtons) as dn:
+        for name in ("K_xx", "K_yy", "K_max"):
+            assert dn[name].attrs["units"] == "N m-1" and "scale" not in dn[name].attrs
+            np.testing.assert_array_equal(dn[name].values, ds[name].values * (2e-3 * 1e9))
+        assert ds.K_xx.attrs["units"] != "N m-1" and dn.attrs["stiffness_units"].startswith("N/m")

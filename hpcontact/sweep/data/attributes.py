@@ -204,9 +204,16 @@ def attribute_table(spec: Spec) -> dict[str, dict[str, Any]]:
 
 def _contact_attribute_table(spec: Spec) -> dict[str, dict[str, Any]]:
     """Contact attributes (``AXIS_ATTRS``, ``VARIABLE_ATTRS``): stresses in G, or GPa when the
-    scenes name library crystals; an indentation's grid in L."""
+    scenes name library crystals; stiffnesses in N/m when the spec gives the contact size ``a``
+    in metres (``Scene.newtons_per_metre``); an indentation's grid in L."""
     gpa = _names_crystals(spec)
-    table = {name: _with_stress_unit(attrs, gpa) for name, attrs in {**AXIS_ATTRS, **VARIABLE_ATTRS}.items()}
+    newtons = spec.fixed.get("a") is not None
+    table = {
+        name: {**attrs, "units": "N m-1"}
+        if newtons and attrs.get("units") == STIFFNESS
+        else _with_stress_unit(attrs, gpa)
+        for name, attrs in {**AXIS_ATTRS, **VARIABLE_ATTRS}.items()
+    }
     if _indentation_only(spec):  # the record's grid is the sphere's
         for name in ("dx", "dy"):
             table[name]["units"] = "L"
@@ -309,8 +316,14 @@ def _contact_units(spec: Spec) -> dict[str, str]:
         if gpa
         else "G (shear modulus; (C11 - C12)/2 for a cubic crystal from nu and A)"
     )
+    a = spec.fixed.get("a")
+    stiffness = (
+        f"N/m (the contact size a = {a} m given)"
+        if a is not None
+        else f"forces per unit displacement in units of {'GPa' if gpa else 'G'} a (a semi-major extent of the punch = 1)"
+    )
     return {
-        "stiffness_units": f"forces per unit displacement in units of {'GPa' if gpa else 'G'} a (a semi-major extent of the punch = 1)",
+        "stiffness_units": stiffness,
         "stress_units": stress,
         "length_units": "a: semi-major extent of the punch (= 1 on the grid; for a mask, half the long side of the contact); "
         "L: unit of the sphere's radius and depth",

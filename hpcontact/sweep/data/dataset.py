@@ -8,7 +8,7 @@ as JSON text), plus ``status`` (0 ok; ``flag_values``/``flag_meanings``), ``mess
 serves (points that share a scene share its record). A record key
 that names a coordinate (a slip record's ``load`` on a ``load`` axis, say) is left out where it
 equals the coordinate at every point, and kept as ``record_<key>`` where it does not (a label
-table overrode the field). ``material``, ``normal_held`` and ``pair`` axes are string coordinates. A field that
+table overrode the field). String fields (``material``, ...: ``fields.of_type(str)``) and label axes (``pair``) are string coordinates. A field that
 label tables set (``radius2`` of a ``pair`` table, ``sides`` of a ``shape`` table) is a
 coordinate along the label axes that set it (the table's value, else the fixed one, else NaN or
 ""), not a scalar: a fixed value a table overrides is never reported for every point. Attributes
@@ -60,7 +60,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from hpcontact import __version__
+from hpcontact import __version__, fields
 from hpcontact.quantities import ERROR_SUFFIX, ESTIMATED, directional_error, directional_stiffness
 from hpcontact.sweep.data import netcdf
 from hpcontact.sweep.data.attributes import (
@@ -212,7 +212,7 @@ def _label_coordinates(spec: Spec) -> dict[str, tuple[tuple[str, ...], np.ndarra
     label_axes = [a for a in spec.task_axes if a.name in LABEL_AXES]
     axis_names = {a.name for a in spec.axes}
     out: dict[str, tuple[tuple[str, ...], np.ndarray]] = {}
-    for name in dict.fromkeys(k for a in label_axes for fields in a.fields for k in fields):
+    for name in dict.fromkeys(k for a in label_axes for table in a.fields for k in table):
         if name in axis_names:
             continue  # the axis coordinate stands (a shape table's shape)
         setting = [a for a in label_axes if any(name in fields for fields in a.fields)]
@@ -270,7 +270,7 @@ def _equals_coordinate(array: np.ndarray, grid: np.ndarray | None) -> bool:
 
 
 def _coordinate(name: str, values: tuple) -> np.ndarray:
-    if name in LABEL_AXES or name in ("material", "normal_held"):
+    if name in LABEL_AXES or name in fields.of_type(str):
         return np.array(values, dtype=object)
     if name == "n":
         return np.array(values, dtype=np.int32)
