@@ -35,7 +35,7 @@ from hpcontact.errors import AccuracyWarning, InputError, did_you_mean
 from hpcontact.fields import CONTACT, cli_fields, cli_help, names, recorded
 from hpcontact.numerics.blas import limited_blas
 from hpcontact.numerics.memory import parse_memory
-from hpcontact.problems.kinds import SLIP, scene_kind
+from hpcontact.problems.kinds import SLIP, kind_of
 from hpcontact.quantities import in_newtons_per_metre
 from hpcontact.scene import Scene
 
@@ -79,39 +79,51 @@ def solve_fields(
     """
     fields = {k: os.fspath(v) if isinstance(v, os.PathLike) else v for k, v in params.items() if v is not None}
     extra = {k: v for k, v in (slip or {}).items() if v is not None}
-    kind = scene_kind(fields)
-    if kind == SLIP:  # the same dispatch as a sweep's (hpcontact.problems.kinds)
-        fields.pop("shape", None)
-        fields.update(extra)
-    elif extra:
-        field = next(iter(extra))
-        raise InputError(name(field), f"only with {name('quantities')} slip", extra[field])
+    kind = kind_of(fields)  # the same dispatch as a sweep's (hpcontact.problems.kinds)
     if memory is not None and accuracy is None:
         raise InputError(name("memory"), f"only with {name('accuracy')}", memory)
-    if accuracy is not None and kind == SLIP:
+    if accuracy is not None and kind.accuracy_refused:
         raise InputError(
-            name("accuracy"),
-            f"not with {name('quantities')} slip (a slip scene is solved on its grid, n cells across the contact)",
-            accuracy,
+            name("accuracy"), f"not with {name('quantities')} {kind.name} ({kind.accuracy_refused})", accuracy
         )
+    with limited_blas():
+        return _SOLVERS[kind.name](fields, extra, accuracy, memory, name)
+
+
+def _solve_slip(
+    fields: dict[str, Any], extra: Mapping[str, Any], accuracy: float | None, memory: Any, name: Callable[[str], str]
+) -> dict[str, Any]:
+    """A slip scene: its own fields beside the common ones (no outline), on its grid."""
+    fields.pop("shape", None)
+    return dict(task_function(SLIP)({**fields, **extra}))
+
+
+def _solve_contact(
+    fields: dict[str, Any], extra: Mapping[str, Any], accuracy: float | None, memory: Any, name: Callable[[str], str]
+) -> dict[str, Any]:
+    """A contact scene: ``solve_to_accuracy`` with ``accuracy``, else ``default_scene_solve``;
+    its record in N/m where it gives its size (``Scene.newtons_per_metre``)."""
+    if extra:
+        field = next(iter(extra))
+        raise InputError(name(field), f"only with {name('quantities')} slip", extra[field])
     budget = None if memory is None else parse_memory(memory, name("memory"))
     missed = None
-    with limited_blas():
-        if kind == SLIP:
-            return dict(task_function(kind)(fields))
-        scene = Scene.from_params(fields)
-        if accuracy is not None:
-            record = solve_to_accuracy(scene, accuracy, memory_budget=budget, strategy="auto")
-        else:
-            try:  # without n: as accuracy=DEFAULT_ACCURACY where that applies
-                record = default_scene_solve(scene)
-            except AccuracyNotMet as exc:  # the default's own target: say so, return what was reached
-                record, missed = exc.record, str(exc)
+    scene = Scene.from_params(fields)
+    if accuracy is not None:
+        record = solve_to_accuracy(scene, accuracy, memory_budget=budget, strategy="auto")
+    else:
+        try:  # without n: as accuracy=DEFAULT_ACCURACY where that applies
+            record = default_scene_solve(scene)
+        except AccuracyNotMet as exc:  # the default's own target: say so, return what was reached
+            record, missed = exc.record, str(exc)
     record.update(recorded(scene.quantities, vars(scene)))  # also where no Schur complement was formed
     record = in_newtons_per_metre(record, scene.newtons_per_metre)
     if missed is not None:
-        warnings.warn(f"default {missed}", AccuracyWarning, stacklevel=3)
+        warnings.warn(f"default {missed}", AccuracyWarning, stacklevel=4)
     return record
+
+
+_SOLVERS = {CONTACT: _solve_contact, SLIP: _solve_slip}
 
 
 def solve(

@@ -162,8 +162,12 @@ def _stress_unit(params: Mapping[str, Any]) -> str:
 
 def _units(record: Mapping[str, Any], params: Mapping[str, Any]) -> dict[str, str]:
     """The unit of each value of a record, as the text output shows it ("" for pure numbers)."""
-    if scene_kind(params) == SLIP:
-        return _slip_units(record, params)
+    return {CONTACT: _contact_units, SLIP: _slip_units}[scene_kind(params)](record, params)
+
+
+def _contact_units(record: Mapping[str, Any], params: Mapping[str, Any]) -> dict[str, str]:
+    """Units of a contact record: stresses in G (or GPa), lengths in a (or L for an indentation),
+    stiffnesses in N/m where the scene gives its size ``a`` in metres."""
     stress = _stress_unit(params)
     quantities = set(quantity_names(params.get("quantities"))) or set(DEFAULTS["quantities"])
     length = "L" if quantities == {"indentation"} else "a"
