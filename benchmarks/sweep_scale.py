@@ -185,7 +185,7 @@ def run_small_sweeps(folder: Path) -> tuple[dict[str, Distribution], dict[str, f
 
 PROBE = r"""
 import time
-from hpcontact.sweep import schedule
+from hpcontact.sweep.run import schedule
 from hpcontact.sweep.run.schedule import SLOTS, MPITeam, world
 team = world()
 counter = team.counter(SLOTS)  # as the driver runs it: rank 0 serves from a thread

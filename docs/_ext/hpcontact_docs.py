@@ -105,24 +105,24 @@ class SpecKeysDirective(Directive):
     has_content = False
 
     def run(self) -> list[nodes.Node]:
-        from hpcontact.sweep import spec
+        from hpcontact.sweep.space import axes, spec
 
         rows = [
             ("[sweep]", ", ".join(spec.SWEEP_KEYS)),
             ("[scene]", "any field of hpcontact solve (its option names, - written _), except the [numerics] keys"),
             ("[numerics]", ", ".join(spec.NUMERIC_KEYS)),
-            ("[axes]", ", ".join(spec.AXIS_NAMES)),
+            ("[axes]", ", ".join(axes.AXIS_NAMES)),
         ]
         tables = _table(("table", "keys"), rows)
         kinds = [
-            ("label axes (values may be tables with a label)", ", ".join(spec.LABEL_AXES)),
+            ("label axes (values may be tables with a label)", ", ".join(axes.LABEL_AXES)),
             ("angle_mode", ", ".join(spec.ANGLE_MODES)),
-            ("float fields", ", ".join(sorted(spec.FLOAT_FIELDS))),
-            ("integer fields", ", ".join(sorted(spec.INT_FIELDS))),
-            ("string fields", ", ".join(sorted(spec.STRING_FIELDS))),
-            ('radii that may be inf or "flat"', ", ".join(sorted(spec.FLAT_FIELDS))),
-            ("paths (relative to the spec's folder)", ", ".join(sorted(spec.PATH_FIELDS))),
-            ("most points in a spec", f"{spec.MAX_POINTS:.0e}".replace("e+0", "e")),
+            ("float fields", ", ".join(sorted(axes.FLOAT_FIELDS))),
+            ("integer fields", ", ".join(sorted(axes.INT_FIELDS))),
+            ("string fields", ", ".join(sorted(axes.STRING_FIELDS))),
+            ('radii that may be inf or "flat"', ", ".join(sorted(axes.FLAT_FIELDS))),
+            ("paths (relative to the spec's folder)", ", ".join(sorted(axes.PATH_FIELDS))),
+            ("most points in a spec", f"{axes.MAX_POINTS:.0e}".replace("e+0", "e")),
         ]
         return [tables, _table(("rule", "keys"), kinds, literal_columns=())]
 
@@ -134,18 +134,18 @@ class DatasetAttributesDirective(Directive):
     has_content = False
 
     def run(self) -> list[nodes.Node]:
-        from hpcontact.sweep.data import dataset
+        from hpcontact.sweep.data import attributes
 
         which = self.arguments[0].upper()
         if which == "AXES":
-            rows = [(k, v.get("long_name", ""), v.get("units", "")) for k, v in dataset.AXIS_ATTRS.items()]
+            rows = [(k, v.get("long_name", ""), v.get("units", "")) for k, v in attributes.AXIS_ATTRS.items()]
         elif which == "CONTACT":
             rows = [
                 (k, v.get("long_name", ""), v.get("units", "") if "flag_values" not in v else "flags")
-                for k, v in dataset.VARIABLE_ATTRS.items()
+                for k, v in attributes.VARIABLE_ATTRS.items()
             ]
         elif which == "SLIP":
-            rows = [(k, name, unit) for k, (name, unit) in dataset.SLIP_ATTRS.items()]
+            rows = [(k, name, unit) for k, (name, unit) in attributes.SLIP_ATTRS.items()]
         else:
             raise self.error(f"hpcontact-dataset-attributes: AXES, CONTACT or SLIP, not {self.arguments[0]!r}")
         return [_table(("name", "long_name", "units (scene scales)"), rows)]
@@ -157,9 +157,9 @@ class StatusCodesDirective(Directive):
     has_content = False
 
     def run(self) -> list[nodes.Node]:
-        from hpcontact.sweep.data import dataset
+        from hpcontact.sweep.data import attributes
 
-        rows = [(str(code), meaning) for code, meaning in sorted(dataset.STATUS_MEANINGS.items())]
+        rows = [(str(code), meaning) for code, meaning in sorted(attributes.STATUS_MEANINGS.items())]
         return [_table(("status", "flag meaning"), rows, literal_columns=(1,))]
 
 
