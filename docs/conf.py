@@ -6,7 +6,7 @@ Build (from the repository root, on a fresh clone)::
 
 Markdown pages are read by myst-parser; the Python reference comes from the docstrings
 (autodoc, numpy style through napoleon); the command-line reference and the spec keys are
-generated at build time from the parser and from ``hpcontact.sweep.spec`` (``_ext/hpcontact_docs.py``).
+generated at build time from the parser and from ``hpcontact.sweep.space`` (``_ext/hpcontact_docs.py``).
 """
 
 from __future__ import annotations

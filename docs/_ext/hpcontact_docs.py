@@ -2,7 +2,7 @@
 
 - ``hpcontact-help [SUBCOMMAND]``: the ``--help`` text of ``hpcontact`` (or of a subcommand),
   from the real parser (``hpcontact.cli.main``), 100 columns wide.
-- ``hpcontact-spec-keys``: the tables and keys a sweep spec accepts (``hpcontact.sweep.spec``).
+- ``hpcontact-spec-keys``: the tables and keys a sweep spec accepts (``hpcontact.sweep.space``).
 - ``hpcontact-dataset-attributes AXES|CONTACT|SLIP``: names, ``long_name`` and units of the
   data set's coordinates and variables (``hpcontact.sweep.data.dataset``).
 - ``hpcontact-status-codes``: the task status codes of a data set's ``status`` variable.
