@@ -32,7 +32,6 @@ from hpcontact.sweep.data.dataset import build_dataset, open_dataset, write_netc
 from hpcontact.sweep.data.journal import ERROR, OK, Entry
 from hpcontact.sweep.data.netcdf import INT_FILL, chunk_shape
 from hpcontact.sweep.space.parse import parse_spec
-from hpcontact.sweep.work import tasks as tasks_module
 from hpcontact.sweep.work.tasks import enumerate_tasks
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -407,20 +406,18 @@ def test_dimensional_applies_the_scale(fake_solve):
 @pytest.fixture(scope="module")
 def job_datasets() -> list[tuple[str, xr.Dataset]]:
     """The data set of every shipped job, built from synthetic records that hold every key the
-    job's scene kind can record (each 1.0): every variable the job can write. (Task costs do
-    not enter a data set: not estimated here, a slip pair's costs a kernel setup each.)"""
+    job's scene kind can record (each 1.0): every variable the job can write. The tasks are
+    enumerated, and costed, as a run enumerates them."""
     out = []
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(tasks_module, "estimated_cost", lambda params: 1.0)
-        for path in sorted((ROOT / "jobs").glob("*.toml")):
-            spec = parse_spec(path.read_text(), path=path, validate=lambda params: None)
-            if spec.kind == "slip":
-                names = [name for name, (_, unit) in SLIP_ATTRS.items() if unit]
-            else:
-                names = [name for name, attrs in VARIABLE_ATTRS.items() if "units" in attrs]
-            record = {name: 1.0 for name in names if name != "wall_time_s"}
-            entries, where = entries_of(spec, lambda params: dict(record, plan={"solves": 1}))
-            out.append((path.name, build_dataset(spec, where, entries, {})))
+    for path in sorted((ROOT / "jobs").glob("*.toml")):
+        spec = parse_spec(path.read_text(), path=path, validate=lambda params: None)
+        if spec.kind == "slip":
+            names = [name for name, (_, unit) in SLIP_ATTRS.items() if unit]
+        else:
+            names = [name for name, attrs in VARIABLE_ATTRS.items() if "units" in attrs]
+        record = {name: 1.0 for name in names if name != "wall_time_s"}
+        entries, where = entries_of(spec, lambda params: dict(record, plan={"solves": 1}))
+        out.append((path.name, build_dataset(spec, where, entries, {})))
     return out
 
 

@@ -41,7 +41,7 @@ def git_revision() -> str | None:
     forced = os.environ.get(REVISION_VARIABLE)
     if forced:
         return forced
-    root = Path(__file__).resolve().parents[2]
+    root = Path(hpcontact.__file__).resolve().parents[1]  # the checkout that holds the package
     if not (root / ".git").exists():
         return None
     try:
