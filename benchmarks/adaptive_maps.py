@@ -12,7 +12,7 @@ error over the 861 points of K_a/K_b, K_xx = K_a and K_yy = K_b, the fraction of
 
 * ``--real``: the adaptive sweep with the real solver (every rank: ``run_sweep`` on the MPI
   world; minutes on 2 cores, the solves cost 0.3-9 s each).
-* always: the same sweep on the closed-form stand-in of tests/sweep/test_adaptive.py (Mindlin
+* always: the same sweep on the closed-form stand-in of tests/sweep/maps/test_adaptive.py (Mindlin
   perturbed by <= 5e-5, ``<name>_error`` = 1e-4; seconds), and the smallest *uniform* sub-grid
   (every s_a-th b/a and s_nu-th nu, ends included, the same cubic interpolation in log b/a and
   nu) whose worst true error of the exact closed form (optimistic for uniform: no solve error)

@@ -41,7 +41,7 @@ from hpcontact.sweep.space.adaptive_settings import INTERPOLATED_AXES, Settings
 #: Stiffnesses the estimate of an off-diagonal entry is relative to (as ``dataset.error_attributes``).
 OFF_DIAGONAL = re.compile(r"^K_(xy|yx|xz|zx|yz|zy)(_coupled)?$")
 #: Factor on the interpolation estimate (the next Newton term): measured on Mindlin's map
-#: (tests/sweep/test_adaptive.py), 1 under-estimates at ~7 % of the points, 1.5 at none. The
+#: (tests/sweep/maps/test_adaptive.py), 1 under-estimates at ~7 % of the points, 1.5 at none. The
 #: check rounds raise it per sub-problem where random solves show it short (``hpcontact.sweep.maps.checks``).
 SAFETY = 1.5
 

@@ -34,7 +34,7 @@ from hpcontact.sweep.data.netcdf import INT_FILL, chunk_shape
 from hpcontact.sweep.space.parse import parse_spec
 from hpcontact.sweep.work.tasks import enumerate_tasks
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 CI = os.environ.get("CI", "").strip().lower() in ("1", "true", "yes")
 
 

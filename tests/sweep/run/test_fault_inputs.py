@@ -598,7 +598,7 @@ def test_an_output_the_os_cannot_name_exits_2_naming_the_output(write_spec, tmp_
 def test_every_shipped_spec_is_still_accepted():
     from hpcontact.sweep.space.parse import MAX_SPEC_BYTES, load_spec, parse_spec
 
-    jobs = sorted((Path(__file__).parents[2] / "jobs").glob("*.toml"))
+    jobs = sorted((Path(__file__).parents[3] / "jobs").glob("*.toml"))
     assert jobs
     for job in jobs:
         assert job.stat().st_size < MAX_SPEC_BYTES

@@ -49,7 +49,7 @@ from hpcontact.sweep.space.spec import canonical_json
 from hpcontact.sweep.work import tasks as tasks_module
 from hpcontact.sweep.work.tasks import enumerate_tasks, task_key
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 MPIEXEC = shutil.which("mpiexec", path=f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}")
 #: The issue's bound on the peak resident memory of a refusal (the CLI's imports take ~90 MB).
 PEAK_BYTES = 500 * 10**6

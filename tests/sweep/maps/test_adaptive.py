@@ -210,7 +210,7 @@ def test_a_failed_solve_is_recorded_and_the_map_around_it_still_meets_tolerance(
 
 
 def test_a_finished_adaptive_sweep_run_again_is_up_to_date(sweep, write_spec, tmp_path):
-    """As a finished plain sweep (tests/sweep/test_driver.py): run again as `hpcontact run` runs
+    """As a finished plain sweep (tests/sweep/run/test_driver.py): run again as `hpcontact run` runs
     it, nothing is solved and the file is left as it is; it needed --resume before."""
     spec = write_spec(MINDLIN)
     path = sweep(spec, mindlin)

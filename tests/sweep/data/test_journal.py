@@ -131,7 +131,7 @@ for i in range(10**6):
 
 
 def test_a_writer_killed_mid_append_leaves_a_readable_journal(tmp_path):
-    root = Path(__file__).resolve().parents[2]
+    root = Path(__file__).resolve().parents[3]
     env = {**os.environ, "PYTHONPATH": f"{root}{os.pathsep}{os.environ.get('PYTHONPATH', '')}"}
     for attempt in range(3):
         path = tmp_path / f"rank0000{attempt}-k.jsonl"

@@ -17,7 +17,7 @@ from hpcontact.discretizations import galin_ellipse
 from hpcontact.scene import Scene
 from hpcontact.sweep.accuracy_study import run_study
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 QUANTITIES = ("K_xx", "K_yy", "K_a_over_K_b", "K_zz")
 CRYSTAL = {"shape": "ellipse", "aspect": 0.3, "anisotropy": 3.0, "orientation": 60.0}
 TURNED = {"shape": "ellipse", "aspect": 0.5, "shape_angle": 40.0}

@@ -26,7 +26,7 @@ from hpcontact.analytic import mindlin_ellipse_stiffness
 from hpcontact.cli import main
 from hpcontact.sweep.data.show import summarize, summary
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 PLAIN = """
 [sweep]
