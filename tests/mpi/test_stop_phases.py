@@ -26,14 +26,14 @@ import io
 import os
 import signal
 import subprocess
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 import xarray as xr
-from launcher import MPIEXEC, STARTS_ITS_OWN_MPIEXEC
+from launcher import STARTS_ITS_OWN_MPIEXEC, descendants, start_run
+from launcher import finish as finish_run
 
 from hpcontact.sweep.data.journal import read_history
 from hpcontact.sweep.driver import run_sweep
@@ -76,65 +76,13 @@ def reference(tmp_path_factory) -> Path:
 
 
 def start(folder: Path, *options: str, env: dict[str, str] | None = None) -> subprocess.Popen:
-    (folder / "spec.toml").write_text(SPEC)
-    environment = {
-        k: v for k, v in os.environ.items() if k not in ("HPCONTACT_MPI", "HPCONTACT_FAULTS", "HPCONTACT_SLOW_PHASE")
-    }
-    environment.update(OMP_NUM_THREADS="1", HPCONTACT_WISDOM=str(folder / "wisdom"), **(env or {}))
-    return subprocess.Popen(
-        [
-            MPIEXEC,
-            "-n",
-            "2",
-            sys.executable,
-            "-m",
-            "hpcontact.cli",
-            "run",
-            "spec.toml",
-            "--grace",
-            str(GRACE_S),
-            *options,
-        ],
-        cwd=folder,
-        env=environment,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        start_new_session=True,
-    )
+    """``hpcontact run`` of ``SPEC`` on 2 ranks with these tests' grace (``launcher.start_run``)."""
+    return start_run(folder, SPEC, "--grace", str(GRACE_S), *options, env=env)
 
 
-def descendants(pid: int) -> list[int]:
-    """Every process below ``pid`` (Hydra starts each rank in a session of its own, so the
-    launcher's process group does not hold them)."""
-    children: dict[int, list[int]] = {}
-    for entry in Path("/proc").iterdir():
-        if entry.name.isdigit():
-            try:
-                parent = int((entry / "stat").read_text().rsplit(")", 1)[1].split()[1])
-            except (OSError, IndexError, ValueError):
-                continue
-            children.setdefault(parent, []).append(int(entry.name))
-    found, todo = [], [pid]
-    while todo:
-        for child in children.get(todo.pop(), []):
-            found.append(child)
-            todo.append(child)
-    return found
-
-
-def finish(proc: subprocess.Popen, timeout: float = STOP_TIMEOUT_S) -> tuple[int, str, str]:
-    try:
-        out, err = proc.communicate(timeout=timeout)
-    finally:
-        if proc.poll() is None:
-            for pid in descendants(proc.pid):
-                try:
-                    os.kill(pid, signal.SIGKILL)
-                except ProcessLookupError:
-                    pass
-            os.killpg(proc.pid, signal.SIGKILL)
-    return proc.returncode, out, err
+def finish(proc: subprocess.Popen) -> tuple[int, str, str]:
+    """``launcher.finish`` within ``STOP_TIMEOUT_S``."""
+    return finish_run(proc, STOP_TIMEOUT_S)
 
 
 def rank_pids(proc: subprocess.Popen) -> list[int]:
