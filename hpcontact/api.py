@@ -30,11 +30,18 @@ from typing import TYPE_CHECKING, Any, TextIO
 
 import numpy as np
 
-from hpcontact.accuracy import AccuracyNotMet, default_scene_solve, solve_to_accuracy, task_function
+from hpcontact.accuracy import (
+    AccuracyNotMet,
+    default_scene_solve,
+    extrapolates_by_default,
+    solve_to_accuracy,
+    task_function,
+)
 from hpcontact.errors import AccuracyWarning, InputError, did_you_mean
 from hpcontact.fields import CONTACT, cli_fields, cli_help, names, recorded
 from hpcontact.numerics.blas import limited_blas
-from hpcontact.numerics.memory import parse_memory
+from hpcontact.numerics.memory import check_fits, default_memory_per_rank, memory_budget, parse_memory, resident_bytes
+from hpcontact.problems import footprint
 from hpcontact.problems.kinds import SLIP, kind_of
 from hpcontact.quantities import in_newtons_per_metre
 from hpcontact.scene import Scene
@@ -69,9 +76,12 @@ def solve_fields(
     missing: the engine's default), ``slip`` the slip scene's own fields (``SLIP_KEYWORDS``,
     only with ``quantities="slip"``). A slip scene goes to the slip solver
     (``accuracy.task_function``); a contact scene with ``accuracy`` to ``solve_to_accuracy``
-    (strategy "auto", within the ``memory`` budget: "2G" or bytes; default this machine's
-    memory per core), else to ``default_scene_solve`` (without ``n``: as ``accuracy=1e-4``
-    where that applies, the exact cell of circles and ellipses; with ``n``: that grid). A
+    (strategy "auto", its grids within the ``memory`` budget: "2G" or bytes; default this
+    machine's memory per core), else to ``default_scene_solve`` (without ``n``: as
+    ``accuracy=1e-4`` where that applies, the exact cell of circles and ellipses; with ``n``:
+    that grid). A one-grid solve is refused (``InputError``, field ``n``, or ``memory`` when
+    given) before anything is allocated when the cost model's estimate of its peak (this
+    process's resident set + ``footprint.array_bytes``) exceeds the budget. A
     default that misses its 1e-4 returns its record (``accuracy_met`` False) with an
     ``errors.AccuracyWarning`` naming the requested and estimated error and what stopped it; an
     ``accuracy`` asked for and missed raises ``AccuracyNotMet``. BLAS is limited while it runs
@@ -80,8 +90,10 @@ def solve_fields(
     fields = {k: os.fspath(v) if isinstance(v, os.PathLike) else v for k, v in params.items() if v is not None}
     extra = {k: v for k, v in (slip or {}).items() if v is not None}
     kind = kind_of(fields)  # the same dispatch as a sweep's (hpcontact.problems.kinds)
-    if memory is not None and accuracy is None:
-        raise InputError(name("memory"), f"only with {name('accuracy')}", memory)
+    if memory is not None and kind.name == SLIP:
+        raise InputError(
+            name("memory"), f"not with {name('quantities')} {SLIP} (the budget of a contact solve)", memory
+        )
     if accuracy is not None and kind.accuracy_refused:
         raise InputError(
             name("accuracy"), f"not with {name('quantities')} {kind.name} ({kind.accuracy_refused})", accuracy
@@ -101,8 +113,9 @@ def _solve_slip(
 def _solve_contact(
     fields: dict[str, Any], extra: Mapping[str, Any], accuracy: float | None, memory: Any, name: Callable[[str], str]
 ) -> dict[str, Any]:
-    """A contact scene: ``solve_to_accuracy`` with ``accuracy``, else ``default_scene_solve``;
-    its record in N/m where it gives its size (``Scene.newtons_per_metre``)."""
+    """A contact scene: ``solve_to_accuracy`` with ``accuracy``, else ``default_scene_solve``
+    (a one-grid solve first checked against the memory budget, ``check_one_grid``); its
+    record in N/m where it gives its size (``Scene.newtons_per_metre``)."""
     if extra:
         field = next(iter(extra))
         raise InputError(name(field), f"only with {name('quantities')} slip", extra[field])
@@ -112,6 +125,8 @@ def _solve_contact(
     if accuracy is not None:
         record = solve_to_accuracy(scene, accuracy, memory_budget=budget, strategy="auto")
     else:
+        if not extrapolates_by_default(scene):  # one grid: refused before it is allocated
+            check_one_grid(scene, memory, name)
         try:  # without n: as accuracy=DEFAULT_ACCURACY where that applies
             record = default_scene_solve(scene)
         except AccuracyNotMet as exc:  # the default's own target: say so, return what was reached
@@ -121,6 +136,20 @@ def _solve_contact(
     if missed is not None:
         warnings.warn(f"default {missed}", AccuracyWarning, stacklevel=4)
     return record
+
+
+def check_one_grid(scene: Scene, memory: str | float | None, name: Callable[[str], str] = keyword) -> None:
+    """``InputError`` (field ``memory`` when given, else ``n``) when the one-grid solve of
+    ``scene`` would not fit the budget (``memory``, else this machine's memory per core): the
+    cost model's peak of a one-grid task, this process's resident set so far +
+    ``footprint.array_bytes`` (what ``sweep.cost.rates.task_array_bytes`` gives a task with
+    ``n``), checked before the grid's arrays exist."""
+    field = name("memory") if memory is not None else name("n")
+    budget = memory_budget(memory, field)
+    nx, ny = footprint.contact_grid(scene.params)
+    need = resident_bytes() + footprint.array_bytes(scene.params)
+    what = f"a grid ({nx} × {ny} cells here) that fits: a smaller {name('n')} or a larger {name('memory')}"
+    check_fits(need, budget, field, memory if memory is not None else scene.params.get("n"), what)
 
 
 _SOLVERS = {CONTACT: _solve_contact, SLIP: _solve_slip}
@@ -274,8 +303,11 @@ def solve(
         stiffness is ≤ this (in [1e-9, 1)), exactly as ``hpcontact solve --accuracy``
         (``hpcontact.accuracy.solve_to_accuracy``, strategy "auto"); ``n`` is then ignored.
     memory
-        Memory budget of ``accuracy`` (``"2G"``, ``"512M"`` or bytes) [this machine's memory
-        per core].
+        Memory budget of a contact solve (``"2G"``, ``"512M"`` or bytes) [this machine's memory
+        per core]: with ``accuracy`` its grids are planned within it; a one-grid solve (``n``
+        given, or a scene the default solves on one grid) whose estimated peak exceeds it is
+        refused before anything is allocated (``InputError``, field ``memory``, or ``n``
+        without it). Not for ``quantities="slip"``.
     {slip_parameters}
 
     Returns
@@ -411,8 +443,9 @@ def run_sweep(
         Reuse journal entries of another version or revision; run quarantined tasks again;
         take the output's lock from a run known to be dead (``hpcontact run --help``).
     mem_per_rank
-        Refuse a spec with a task whose estimated memory exceeds this (``"4G"`` or bytes);
-        default: not checked.
+        Refuse a spec with a task whose estimated memory exceeds this (``"4G"`` or bytes)
+        before any task starts; default: this machine's memory per core, as ``hpcontact run``
+        (``numerics.memory.default_memory_per_rank``).
     accuracy
         Solve every scene to this estimated relative error (``hpcontact run --accuracy``),
         replacing the spec's ``[numerics]`` accuracy, n and n_across.
@@ -453,7 +486,11 @@ def run_sweep(
         raise InputError(
             "restart", "not with resume=True (resume continues from the journals, restart discards them)", True
         )
-    memory = None if mem_per_rank is None else (parse_memory(mem_per_rank, "mem_per_rank"), "mem_per_rank")
+    memory = (
+        default_memory_per_rank()
+        if mem_per_rank is None
+        else (parse_memory(mem_per_rank, "mem_per_rank"), "mem_per_rank")
+    )
     options = Options(
         resume=resume,
         restart=restart,

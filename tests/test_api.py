@@ -102,8 +102,8 @@ def test_a_default_that_misses_its_accuracy_warns(monkeypatch):
 def test_solve_refuses_unknown_keywords_and_misplaced_fields():
     with pytest.raises(TypeError, match="'aspekt'; did you mean 'aspect'"):
         hpcontact.solve(aspekt=0.3)
-    with pytest.raises(InputError, match="^memory = '2G': only with accuracy$"):
-        hpcontact.solve(n=8, memory="2G")
+    with pytest.raises(InputError, match="^memory = '2G': not with quantities slip"):
+        hpcontact.solve(quantities="slip", radius=1.0, load=1.0, mu=0.3, q_ratio=0.5, memory="2G")
     with pytest.raises(InputError, match="^load = 1.0: only with quantities slip$"):
         hpcontact.solve(n=8, load=1.0)
     with pytest.raises(InputError, match="^accuracy = 0.001: not with quantities slip"):

@@ -410,8 +410,10 @@ def test_text_output_names_units(capsys):
 
 
 def test_memory_and_slip_options_are_refused_where_unused(capsys):
-    code, out, err = _exit_code(capsys, *SMALL, "--memory", "2G")
-    assert code == 2 and err.strip() == "hpcontact: error: --memory = '2G': only with --accuracy"
+    code, out, err = _exit_code(capsys, *SMALL, "--memory", "1K")  # a one-grid solve's budget: this one far too small
+    assert code == 2 and err.strip().startswith(
+        "hpcontact: error: --memory = '1K': a grid (16 × 16 cells here) that fits"
+    )
     code, out, err = _exit_code(capsys, *SMALL, "--load", "3")
     assert code == 2 and err.strip() == "hpcontact: error: --load = 3.0: only with --quantities slip"
     code, out, err = _exit_code(

@@ -1,8 +1,10 @@
 """Memory of this process and of the machine: budgets per rank, sizes as users write them.
 
-Shared by the accuracy study (which grids fit) and the sweep (``--mem-per-rank``, the dry run):
-the budget one rank may use (from SLURM's variables, else physical memory ÷ cores), the peak
-resident set so far, and sizes such as ``4G`` in binary units as SLURM's ``--mem``.
+Shared by the accuracy study (which grids fit), one solve (``hpcontact solve --memory``: a grid
+refused before it is allocated) and the sweep (``--mem-per-rank``, the dry run): the budget one
+rank may use (from SLURM's variables, else physical memory ÷ cores), the peak resident set so
+far, sizes such as ``4G`` in binary units as SLURM's ``--mem``, and the one refusal of an
+estimate over its budget (``check_fits``).
 """
 
 from __future__ import annotations
@@ -64,3 +66,24 @@ def resident_bytes() -> float:
     """Peak resident bytes of this process so far (ru_maxrss is in KiB on Linux, bytes on macOS)."""
     scale = 1 if sys.platform == "darwin" else 1024
     return float(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * scale)
+
+
+def memory_budget(memory: str | float | None, field_name: str) -> tuple[int, str]:
+    """Bytes a solve may use and where that number comes from: ``memory`` (``"2G"`` or bytes,
+    ``parse_memory``; its source ``field_name``) when given, else ``default_memory_per_rank``."""
+    if memory is None:
+        return default_memory_per_rank()
+    return parse_memory(memory, field_name), field_name
+
+
+def check_fits(need: float, budget: tuple[int, str], field_name: str, value: object, what: str) -> None:
+    """``InputError`` naming ``field_name`` (= ``value``) when the estimated peak ``need`` bytes
+    exceed ``budget`` (bytes, its source): one line saying what would fit (``what``), the
+    estimate and the limit, raised before anything is allocated."""
+    limit, source = budget
+    if need > limit:
+        raise InputError(
+            field_name,
+            f"{what}: estimated peak memory {need / MIB:.0f} MiB over the limit {limit / MIB:.0f} MiB ({source})",
+            value,
+        )
