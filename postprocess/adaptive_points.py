@@ -38,28 +38,39 @@ def main() -> None:
     if "solved" not in ds:
         common.refuse(f"{args.dataset}: not an adaptive sweep (no 'solved' variable)")
     name = args.quantity or ("K_a_over_K_b" if "K_a_over_K_b" in ds else str(next(iter(ds.data_vars))))
+    common.require_values(ds, [name], args.dataset)
     axes = [d for d in ds["solved"].dims if d in NUMERIC and ds.sizes[d] > 1]
-    pairs = list(itertools.combinations(axes, 2)) or [(axes[0], None)]
+    if not axes:
+        common.refuse(f"{args.dataset}: no numeric axis with two values or more in 'solved' (nothing to map)")
+    pairs = list(itertools.combinations(axes, 2)) or [(axes[0], None)]  # a 1-D map: its curve
     fig, grid = plt.subplots(len(pairs), 2, figsize=(9.0, 3.6 * len(pairs)), squeeze=False)
     for row, (x, y) in zip(grid, pairs):
         rest = {d: 0 for d in ds["solved"].dims if d not in (x, y)}
+        shown = [d for d in (x, y) if d is not None]
         value = ds[name].isel(rest)
         error = ds[f"{name}_map_error"].isel(rest) if f"{name}_map_error" in ds else None
-        solved = ds["solved"].isel(rest).values.astype(bool)
-        X, Y = np.meshgrid(ds[x].values, ds[y].values, indexing="ij")
-        panels = [(row[0], value.transpose(x, y).values, name, None)]
+        solved = ds["solved"].isel(rest).transpose(*shown).values.astype(bool)
+        panels = [(row[0], value.transpose(*shown).values, name, None)]
         if error is not None:
             floor = max(float(np.nanmin(error.values[error.values > 0], initial=1e-12)), 1e-12)
-            panels.append((row[1], np.maximum(error.transpose(x, y).values, floor), f"{name}_map_error", LogNorm()))
+            panels.append((row[1], np.maximum(error.transpose(*shown).values, floor), f"{name}_map_error", LogNorm()))
         for ax, data, title, norm in panels:
-            mesh = ax.pcolormesh(X, Y, data, shading="nearest", norm=norm)
-            fig.colorbar(mesh, ax=ax)
-            ax.plot(X[~solved.reshape(X.shape)], Y[~solved.reshape(X.shape)], ".", color="0.6", ms=2)
-            ax.plot(X[solved.reshape(X.shape)], Y[solved.reshape(X.shape)], "k.", ms=5)
+            if y is None:  # the values along the one axis, solved points black, interpolated grey
+                X, Y = ds[x].values, data
+                ax.plot(X, Y, "-", color="0.6", lw=0.8)
+                ax.set_ylabel(title)
+                if norm is not None:
+                    ax.set_yscale("log")
+            else:
+                X, Y = np.meshgrid(ds[x].values, ds[y].values, indexing="ij")
+                mesh = ax.pcolormesh(X, Y, data, shading="nearest", norm=norm)
+                fig.colorbar(mesh, ax=ax)
+                ax.set_ylabel(common.label(ds[y]))
+            ax.plot(X[~solved], Y[~solved], ".", color="0.6", ms=2)
+            ax.plot(X[solved], Y[solved], "k.", ms=5)
             if x == "aspect":
                 ax.set_xscale("log")
             ax.set_xlabel(common.label(ds[x]))
-            ax.set_ylabel(common.label(ds[y]))
             fixed = ", ".join(f"{d} = {ds[d].values[0]:g}" for d in rest if np.issubdtype(ds[d].dtype, np.number))
             ax.set_title(f"{title}{f' ({fixed})' if fixed else ''}", fontsize=8)
     fig.suptitle(

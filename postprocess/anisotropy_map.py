@@ -39,8 +39,10 @@ from common import (
     label,
     open_dataset,
     panels,
+    parameter_values,
     point_marks,
     refuse,
+    require_values,
     save,
     scalar_notes,
     select_rest,
@@ -71,7 +73,7 @@ def shape_name(ds, shape: str) -> str:
 def curves(ds, names, outdir) -> None:
     """K_a/K_b versus b/a per shape, one colour per nu, Mindlin's ellipse as lines."""
     fig, axes = panels(len(names))
-    nus = ds["nu"].values if "nu" in ds[RATIO].dims else np.atleast_1d(ds["nu"].values)
+    nus = parameter_values(ds, "nu")  # swept, or the scene's one value
     if len(nus) > CURVES:  # a dense map: CURVES of its nu values, evenly spread, the ends included
         nus = nus[np.unique(np.linspace(0, len(nus) - 1, CURVES).round().astype(int))]
     size = 3.5 if ds.sizes["aspect"] <= COARSE else 1.5
@@ -136,6 +138,7 @@ def main() -> None:
         ds = open_dataset(args.dataset)
         if RATIO not in ds or "aspect" not in ds[RATIO].dims:
             refuse(f"{args.dataset}: needs {RATIO} with an aspect axis (a tangential sweep over b/a)")
+        require_values(ds, [RATIO], args.dataset)
         names = [s for s in (args.shapes or shapes(ds)) if depends_on_aspect(ds, s)]
         flat = [s for s in (args.shapes or shapes(ds)) if s not in names]
         if flat:

@@ -28,6 +28,7 @@ import argparse
 import re
 import sys
 import textwrap
+import tomllib
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -43,6 +44,7 @@ import numpy as np  # noqa: E402
 import xarray as xr  # noqa: E402
 
 import hpcontact  # noqa: E402
+from hpcontact import fields  # noqa: E402
 
 SYMBOLS = {"nu": "ν", "aspect": "b/a", "angle": "θ", "anisotropy": "A", "orientation": "ψ", "n": "n", "tol": "tol"}
 
@@ -72,7 +74,10 @@ def arguments(description: str, extra: Iterable[tuple[str, dict]] = ()) -> argpa
     for flag, options in extra:
         parser.add_argument(flag, **options)
     args = parser.parse_args()
-    args.outdir.mkdir(parents=True, exist_ok=True)
+    try:
+        args.outdir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        refuse(f"{args.outdir}: cannot make the figure folder ({exc.strerror or type(exc).__name__})")
     use_format(args.format)
     return args
 
@@ -99,6 +104,25 @@ def open_dataset(path: Path) -> xr.Dataset:
     if "status" not in loaded and not any(str(v).startswith(("K_", "load")) for v in loaded.data_vars):
         refuse(f"{path}: not a sweep data set (no status, stiffness or load: written by hpcontact run?)")
     return loaded
+
+
+def require_values(ds: xr.Dataset, names: Iterable[str], path: Path) -> None:
+    """``refuse`` a data set in which a variable a script draws (``names``, those it has) holds
+    no finite value (every task failed): its figure would be empty, and no figure is drawn."""
+    for name in names:
+        if name in ds and not np.isfinite(np.asarray(ds[name].values, dtype=float)).any():
+            refuse(f"{path}: {name} has no finite value (every task failed?): nothing to draw")
+
+
+def parameter_values(ds: xr.Dataset, name: str) -> np.ndarray:
+    """The values of the scene parameter ``name`` (nu, say) in the data set, whatever its role:
+    the axis's values where it is swept, else its scalar coordinate, else the value the spec's
+    [scene] fixed (the data set's ``spec`` attribute), else the engine's default
+    (``hpcontact.fields``)."""
+    if name in ds.coords:
+        return np.atleast_1d(ds[name].values)
+    scene = tomllib.loads(ds.attrs.get("spec", "")).get("scene", {})
+    return np.atleast_1d(scene.get(name, fields.field(name).default))
 
 
 def label(da: xr.DataArray, name: str | None = None) -> str:
@@ -180,13 +204,20 @@ def panels(count: int, polar: bool = False, size: float = 3.6, columns: int = 3)
     return fig, flat[:count]
 
 
+UNSAFE = re.compile(r"[/\\\x00]")  # characters a file name cannot hold: replaced by "_" (``save``)
+
+
 def save(fig: plt.Figure, outdir: Path, name: str, dpi: int = DPI) -> Path:
     """Write ``fig`` as ``outdir/name`` in the chosen format (``use_format``: the name's suffix
     becomes .png, .pdf or .svg; PNGs at ``dpi``), its titles fitted (``fit_titles``), and close
     it; the file is reported to ``freshness.wrote`` for the output folder's stamp."""
-    path = outdir / Path(name).with_suffix("." + plt.rcParams["savefig.format"])
+    safe = UNSAFE.sub("_", name)  # a shape label may hold a "/" (and make the name a path)
+    path = outdir / Path(safe).with_suffix("." + plt.rcParams["savefig.format"])
     fit_titles(fig)
-    fig.savefig(path, dpi=dpi)
+    try:
+        fig.savefig(path, dpi=dpi)
+    except OSError as exc:
+        refuse(f"{path}: cannot write the figure ({exc.strerror or type(exc).__name__})")
     plt.close(fig)
     freshness.wrote(path)
     print(f"wrote {path}")

@@ -34,6 +34,7 @@ from common import (
     open_dataset,
     panels,
     refuse,
+    require_values,
     save,
     scalar_notes,
     select_rest,
@@ -132,6 +133,7 @@ def main() -> None:
     with freshness.stamp(__file__, args.outdir, [args.dataset]):
         ds = open_dataset(args.dataset)
         da = stiffness(ds)
+        require_values(ds, [str(da.name)], args.dataset)
         names = args.shapes or shapes(ds)
         polar(ds, da, names, args.aspect, args.outdir)
         cartesian(ds, da, names, args.aspect, args.outdir)

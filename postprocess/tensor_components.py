@@ -40,6 +40,7 @@ from common import (
     open_dataset,
     panels,
     refuse,
+    require_values,
     save,
     scalar_notes,
     select_rest,
@@ -131,6 +132,7 @@ def main() -> None:
         ds = open_dataset(args.dataset)
         if not set(COMPONENTS) <= set(ds.data_vars) or "angle" not in ds.dims:
             refuse(f"{args.dataset}: needs K_xx, K_xy, K_yx, K_yy and an angle axis")
+        require_values(ds, COMPONENTS, args.dataset)
         choose = {"aspect": args.aspect}
         if "nu" in ds.dims:
             choose["nu"] = args.nu if args.nu is not None else float(ds["nu"].max())
