@@ -39,7 +39,8 @@ from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import TextIO
 
@@ -47,7 +48,7 @@ from hpcontact.errors import InputError
 from hpcontact.sweep.data.provenance import call_text, command_line
 from hpcontact.sweep.run.arguments import EXIT_REFUSED, add_run_arguments
 from hpcontact.sweep.run.command import run_from_arguments
-from hpcontact.sweep.run.records import Options, TaskFunction
+from hpcontact.sweep.run.records import Options, TaskFunction, runner_name
 from hpcontact.sweep.run.rounds import execute
 from hpcontact.sweep.run.schedule import Team
 from hpcontact.sweep.run.signals import StopControl
@@ -68,7 +69,8 @@ def run_sweep(
     accuracy: float | None = None,
 ) -> Path:
     """Run the sweep of ``spec_path`` on ``team`` (default: MPI world, or one process) and return
-    the path of the data set written (see ``execute``)."""
+    the path of the data set written (see ``execute``); its journal entries name ``task_function``
+    as their runner (``Options.runner``), so a resume reuses only what it computed."""
     command = call_text("hpcontact.sweep.driver.run_sweep", run_sweep, locals())
     return execute(
         spec_path,
@@ -77,7 +79,7 @@ def run_sweep(
         team=team,
         validate=validate,
         stream=stream,
-        options=options if options is not None else Options(resume=resume),
+        options=replace(options if options is not None else Options(resume=resume), runner=runner_name(task_function)),
         stop=stop,
         accuracy=accuracy,
         command=command,
@@ -89,15 +91,20 @@ def main(
     prog: str = "hpcontact run",
     description: str = "Run a parameter sweep (under mpiexec or alone).",
     task_function: TaskFunction | None = None,
+    default_output: Callable[[str], str | None] | None = None,
 ) -> int:
     """``python -m hpcontact.sweep SPEC [options]`` (see ``add_run_arguments``); another
     ``task_function`` makes another command with the same options and exit statuses
-    (``python -m hpcontact.sweep.accuracy_study``)."""
+    (``python -m hpcontact.sweep.accuracy_study``), and ``default_output(SPEC)`` its output
+    when ``--output`` is not given (None: the spec's)."""
     parser = argparse.ArgumentParser(prog=prog, description=description)
     add_run_arguments(parser)
     command = command_line(prog if argv is not None else "hpcontact run", argv)
+    args = parser.parse_args(argv)
     try:
-        return run_from_arguments(parser.parse_args(argv), task_function, prog, command)
+        if args.output is None and default_output is not None:
+            args.output = default_output(args.spec)
+        return run_from_arguments(args, task_function, prog, command)
     except InputError as exc:
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return EXIT_REFUSED

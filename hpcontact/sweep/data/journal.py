@@ -12,7 +12,7 @@ is skipped is counted (``History.dropped``), never fatal: those tasks are comput
 the run says how many lines it dropped in one line. Events:
 
 * ``run``: the first line, the writer's provenance (session, rank, host, pid, batch job id,
-  package version, git revision, numerics fingerprint, spec path);
+  package version, git revision, numerics fingerprint, runner, spec path);
 * ``started``: a task is about to run (written before it runs, not synced: it survives the death
   of the process, which is what it is for; a task started in runs that died while running it is
   quarantined, see ``History.crashed``);
@@ -65,7 +65,8 @@ class Entry:
     (or CRASHED, made by ``History.crashed_entry``) and its ``message``; ``record`` is what the
     task function returned; ``finished`` a Unix time; ``rank`` and ``host`` where it ran;
     ``resolved`` the scene with every default filled in and ``provenance`` the package version,
-    git revision and numerics fingerprint of the code that computed it (``provenance``)."""
+    git revision and numerics fingerprint of the code that computed it (``provenance``) and the
+    task function that did (``runner``: ``run.resume.current``; absent in older journals)."""
 
     key: str
     params: Mapping[str, Any]

@@ -4,6 +4,7 @@ the outcome."""
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Callable, Mapping
 from collections.abc import Set as AbstractSet
 from dataclasses import dataclass
@@ -16,6 +17,19 @@ from hpcontact.sweep.space.spec import Spec
 from hpcontact.sweep.work.tasks import Task
 
 TaskFunction = Callable[[Mapping[str, Any]], Mapping[str, Any]]
+
+
+def runner_name(function: TaskFunction | None) -> str | None:
+    """The identity of a task function as journals record it (``Options.runner``): its
+    ``__module__.__qualname__`` ("hpcontact.sweep.accuracy_study.cold_solve"), the module named
+    as imported even when it runs as ``__main__`` (``python -m``), so that both ways of starting
+    one runner give one name; None for None, the spec's scene kind's own solver."""
+    if function is None:
+        return None
+    module = getattr(function, "__module__", None) or "?"
+    if module == "__main__":
+        module = getattr(getattr(sys.modules.get("__main__"), "__spec__", None), "name", None) or module
+    return f"{module}.{getattr(function, '__qualname__', type(function).__qualname__)}"
 
 
 class Stopped(Exception):
@@ -40,6 +54,7 @@ class Options:
     up_to_date: bool = (
         False  # journals without resume/restart: a data set that is ``up_to_date`` is left as is, not refused
     )
+    runner: str | None = None  # the task function's ``runner_name``; None: the spec's scene kind's own solver
 
 
 NO_FLAGS = Options()  # ``hpcontact run`` without flags
@@ -115,8 +130,8 @@ class Decision:
 class Kept:
     """What rank 0's preparation keeps on rank 0 for the round (``resume.prepare``): each
     point's task, the output's lock, the journals' history, the keys of the tasks reused from
-    it, quarantined (crashed) and carried (an adaptive round's earlier failures), and the lock's
-    note (a broken lock), if any."""
+    it, quarantined (crashed) and carried (an adaptive round's earlier failures), and the
+    preparation's note, if any (a broken lock; entries of another runner, not reused)."""
 
     task_of: Any
     lock: RunLock

@@ -1,6 +1,14 @@
 """The resume policy of a run (rank 0): which tasks of the journals of earlier runs are reused,
 run again, quarantined or run alone, whether a data set is already up to date, and the lock
-held while the run writes (see ``hpcontact.sweep.driver``)."""
+held while the run writes (see ``hpcontact.sweep.driver``).
+
+An entry is reused only if this run's runner computed it: its provenance names the task function
+(``RUNNER``, ``records.runner_name``), beside the code's version, revision and fingerprint. The
+accuracy study (cold kernel caches, one grid) and ``hpcontact run`` (the scene kind's own solver,
+extrapolated over grids) give different numbers and timings for the same scene, so an entry of
+another runner is run again, and the run says how many in one line; the code fields, by
+contrast, refuse the run (stale journals, ``--accept-stale``). An entry without a runner (journals
+written before runners were recorded) was computed by the scene kind's own solver."""
 
 from __future__ import annotations
 
@@ -8,11 +16,13 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from hpcontact import accuracy
 from hpcontact.sweep import faults
 from hpcontact.sweep.data import provenance
 from hpcontact.sweep.data.journal import (
     OK,
     RETRIED,
+    Entry,
     History,
     clear_journals,
     journal_files,
@@ -21,11 +31,27 @@ from hpcontact.sweep.data.journal import (
     session_name,
 )
 from hpcontact.sweep.run.guard import Refused, RunLock, apart, usable_folder, usable_output
-from hpcontact.sweep.run.records import EVERY_TASK, Decision, Kept, Options, RoundScope
+from hpcontact.sweep.run.records import EVERY_TASK, Decision, Kept, Options, RoundScope, runner_name
 from hpcontact.sweep.run.signals import ALIVE_PREFIX, STOP_NAME
 from hpcontact.sweep.space.spec import Spec
 from hpcontact.sweep.work.estimate import check_memory
 from hpcontact.sweep.work.tasks import Task
+
+RUNNER = "runner"  # the provenance field naming the task function that computed an entry
+
+
+def current(spec: Spec, options: Options) -> dict[str, Any]:
+    """This run's provenance: the code's (``provenance.current``) and its runner, the task
+    function of ``options`` or else the spec's scene kind's own solver; every entry the run
+    journals carries it."""
+    own = runner_name(accuracy.task_function(spec.kind))
+    return {**provenance.current(), RUNNER: options.runner or own}
+
+
+def runner_of(entry: Entry, spec: Spec) -> str:
+    """The runner that computed ``entry`` (see the module docstring): its provenance's, or the
+    spec's scene kind's own solver for an entry that names none."""
+    return entry.provenance.get(RUNNER) or runner_name(accuracy.task_function(spec.kind))
 
 
 def prepare(
@@ -54,7 +80,7 @@ def prepare(
         history = read_history(spec.journal)
         faults.slow_phase("setup")
         if history.files and not (options.resume or options.restart):
-            now = provenance.current()
+            now = current(spec, options)
             if options.up_to_date and up_to_date(spec, tasks, history, now):
                 reused = {t.key for t in tasks if t.key in history.entries}  # an adaptive map's: a subset
                 return (
@@ -73,8 +99,9 @@ def prepare(
                 f"{spec.journal} holds HDF5 journals of an earlier hpcontact (rank*.h5), which carry no "
                 f"provenance and cannot be reused; pass --restart to discard them"
             )
-        now = provenance.current()
-        isolated, shared, reused, crashed = _decide(spec, tasks, history, options, now)
+        now = current(spec, options)
+        isolated, shared, reused, crashed, foreign = _decide(spec, tasks, history, options, now)
+        note = "; ".join(filter(None, (note, foreign))) or None
         carried: set[str] = set()
         if scope.select is not None:  # an adaptive round: its tasks alone
             isolated = [i for i in isolated if i in scope.select]
@@ -98,8 +125,8 @@ def up_to_date(spec: Spec, tasks: list[Task], history: History, now: Mapping[str
     """Whether the data set of ``spec`` is the one a run would write now, so that a run without
     ``resume`` or ``restart`` has nothing to do (``Options.up_to_date``; the README's command run
     twice): the data set exists; every task of the spec is in the journals, its last outcome ok,
-    for the same resolved scene and computed by this code (version, git revision, numerics: what
-    ``resume`` would reuse), so none would run; no journal line was dropped and no HDF5 journal
+    for the same resolved scene and computed by this code (version, git revision, numerics) and
+    runner (``now``: ``current``): what ``resume`` would reuse, so none would run; no journal line was dropped and no HDF5 journal
     of an earlier hpcontact is there; the data set was written from this very spec (its ``spec``
     attribute), holds as many tasks, none failed, and no journal changed after it was written (a
     later run that stopped before writing its own). An adaptive map (``spec.adaptive``) solves a
@@ -113,7 +140,10 @@ def up_to_date(spec: Spec, tasks: list[Task], history: History, now: Mapping[str
     journaled = [t for t in tasks if t.key in history.entries] if adaptive else tasks
     entries = [history.entries.get(task.key) for task in journaled]
     if not entries or any(
-        e is None or e.status != OK or e.resolved != provenance.resolved_scene(t.params)
+        e is None
+        or e.status != OK
+        or e.resolved != provenance.resolved_scene(t.params)
+        or runner_of(e, spec) != now[RUNNER]
         for e, t in zip(entries, journaled)
     ):
         return False
@@ -143,11 +173,12 @@ def up_to_date(spec: Spec, tasks: list[Task], history: History, now: Mapping[str
 
 def _decide(
     spec: Spec, tasks: list[Task], history: History, options: Options, now: Mapping[str, Any]
-) -> tuple[list[int], list[int], set[str], set[str]]:
-    """Suspects to isolate and the rest to share (positions), the reused keys, and the
-    quarantined keys."""
+) -> tuple[list[int], list[int], set[str], set[str], str | None]:
+    """Suspects to isolate and the rest to share (positions), the reused keys, the quarantined
+    keys, and the line that says how many entries another runner computed (run again), if any."""
     keys = {t.key for t in tasks}
     reused = []
+    foreign: dict[str, int] = {}  # entries that would be reused but for their runner, per runner
     for task in tasks:
         entry = history.entries.get(task.key)
         if (
@@ -155,7 +186,11 @@ def _decide(
             and entry.status not in RETRIED
             and entry.resolved == provenance.resolved_scene(task.params)
         ):
-            reused.append(entry)
+            runner = runner_of(entry, spec)
+            if runner == now[RUNNER]:
+                reused.append(entry)
+            else:
+                foreign[runner] = foreign.get(runner, 0) + 1
     if not options.accept_stale:
         mismatch = provenance.first_mismatch(reused, now)
         if mismatch is not None:
@@ -169,7 +204,17 @@ def _decide(
     todo = [i for i, t in enumerate(tasks) if t.key not in done and t.key not in crashed]
     isolated = [i for i in todo if tasks[i].key in suspects]
     shared = [i for i in todo if tasks[i].key not in suspects]
-    return isolated, shared, done, crashed
+    return isolated, shared, done, crashed, _foreign_note(foreign)
+
+
+def _foreign_note(foreign: Mapping[str, int]) -> str | None:
+    """ "2 journal entries were computed by hpcontact.sweep.accuracy_study.cold_solve, not
+    reused" (one clause per runner, most entries first); None when ``foreign`` is empty."""
+    clauses = [
+        f"{n} journal {'entry was' if n == 1 else 'entries were'} computed by {runner}"
+        for runner, n in sorted(foreign.items(), key=lambda item: (-item[1], item[0]))
+    ]
+    return f"{', '.join(clauses)}, not reused" if clauses else None
 
 
 def journal_path(spec: Spec, rank: int, session: str) -> Path:
