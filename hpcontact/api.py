@@ -114,7 +114,7 @@ def _solve_contact(
     fields: dict[str, Any], extra: Mapping[str, Any], accuracy: float | None, memory: Any, name: Callable[[str], str]
 ) -> dict[str, Any]:
     """A contact scene: ``solve_to_accuracy`` with ``accuracy``, else ``default_scene_solve``
-    (a one-grid solve first checked against the memory budget, ``check_one_grid``); its
+    (a one-grid solve first checked against the memory budget, ``_check_one_grid``); its
     record in N/m where it gives its size (``Scene.newtons_per_metre``)."""
     if extra:
         field = next(iter(extra))
@@ -126,7 +126,7 @@ def _solve_contact(
         record = solve_to_accuracy(scene, accuracy, memory_budget=budget, strategy="auto")
     else:
         if not extrapolates_by_default(scene):  # one grid: refused before it is allocated
-            check_one_grid(scene, memory, name)
+            _check_one_grid(scene, memory, name)
         try:  # without n: as accuracy=DEFAULT_ACCURACY where that applies
             record = default_scene_solve(scene)
         except AccuracyNotMet as exc:  # the default's own target: say so, return what was reached
@@ -138,7 +138,7 @@ def _solve_contact(
     return record
 
 
-def check_one_grid(scene: Scene, memory: str | float | None, name: Callable[[str], str] = keyword) -> None:
+def _check_one_grid(scene: Scene, memory: str | float | None, name: Callable[[str], str] = keyword) -> None:
     """``InputError`` (field ``memory`` when given, else ``n``) when the one-grid solve of
     ``scene`` would not fit the budget (``memory``, else this machine's memory per core): the
     cost model's peak of a one-grid task, this process's resident set so far +
