@@ -54,7 +54,10 @@ class Options:
     up_to_date: bool = (
         False  # journals without resume/restart: a data set that is ``up_to_date`` is left as is, not refused
     )
-    runner: str | None = None  # the task function's ``runner_name``; None: the spec's scene kind's own solver
+    # the runner journal entries name (``runner_name`` of the task function; None: the spec's scene
+    # kind's own solver): set by ``command.run_command`` from its task function, by a Python caller
+    # whose task function computes other results than the kind's own solver
+    runner: str | None = None
 
 
 NO_FLAGS = Options()  # ``hpcontact run`` without flags

@@ -15,7 +15,7 @@ from hpcontact import accuracy
 from hpcontact.sweep.accuracy_study import run_study, study_output
 from hpcontact.sweep.data.journal import encode_line, journal_files, read_history, scan_file
 from hpcontact.sweep.driver import main, run_sweep
-from hpcontact.sweep.run.records import runner_name
+from hpcontact.sweep.run.records import Options, runner_name
 from hpcontact.sweep.run.resume import RUNNER
 from hpcontact.sweep.run.schedule import SerialTeam
 from hpcontact.sweep.space.parse import load_spec
@@ -124,9 +124,10 @@ def doubled(params: Mapping[str, Any]) -> dict[str, Any]:
     return {k: 2 * v if isinstance(v, float) else v for k, v in record.items()}
 
 
-def test_a_custom_task_function_is_a_runner_of_its_own(spec, tmp_path):
+def test_a_custom_task_function_named_in_the_options_is_a_runner_of_its_own(spec, tmp_path):
     stream = io.StringIO()
-    run_sweep(spec, task_function=doubled, team=SerialTeam(), stream=stream)
+    options = Options(runner=runner_name(doubled))
+    run_sweep(spec, task_function=doubled, team=SerialTeam(), stream=stream, options=options)
     assert runners(tmp_path / "st.nc.journal") == {runner_name(doubled)}
     run_sweep(spec, resume=True, team=SerialTeam(), stream=stream)
     assert f"2 journal entries were computed by {runner_name(doubled)}, not reused" in stream.getvalue()
