@@ -467,7 +467,7 @@ FIELDS: tuple[Field, ...] = (
         str,
         None,
         kinds=(),
-        help="memory budget of --accuracy, e.g. 2G (default: this machine's memory per core)",
+        help="memory budget of a contact solve, e.g. 2G (default: this machine's memory per core)",
         group="numerics",
         metavar="SIZE",
     ),
