@@ -134,17 +134,6 @@ def test_a_figure_folder_that_cannot_be_made_is_refused(tmp_path):
     refused(script("polar.py", sweep(tmp_path / "s.nc", ["ellipse"]), tmp_path / "fig"), "fig", "figure folder")
 
 
-@pytest.mark.skipif(os.geteuid() == 0, reason="root writes into a read-only folder")
-def test_a_read_only_figure_folder_is_refused(tmp_path):
-    """A folder the figures cannot be written into: one line naming the figure, exit 2."""
-    (tmp_path / "fig").mkdir()
-    (tmp_path / "fig").chmod(0o555)
-    try:
-        refused(script("polar.py", sweep(tmp_path / "s.nc", ["ellipse"]), tmp_path / "fig"), "cannot write the figure")
-    finally:
-        (tmp_path / "fig").chmod(0o755)
-
-
 def test_a_figure_that_cannot_be_written_is_refused(common, tmp_path, monkeypatch):
     """``save`` on a write that fails (a read-only folder, a full disk): one line, exit 2 (as
     root, whom permissions do not stop, the failure is made by the figure)."""
