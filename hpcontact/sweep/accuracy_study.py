@@ -25,6 +25,7 @@ from hpcontact.problems.contact import solve
 from hpcontact.scene import Scene
 from hpcontact.sweep.cost.engine import clear_kernel_caches
 from hpcontact.sweep.driver import main
+from hpcontact.sweep.run.records import runner_name
 from hpcontact.sweep.space.parse import load_spec
 
 OUTPUT_SUFFIX = ".study.nc"  # the study's default output: <stem>.study.nc beside hpcontact run's <stem>.nc
@@ -66,6 +67,7 @@ def run_study(argv: Sequence[str] | None = None) -> int:
         argv,
         prog="python -m hpcontact.sweep.accuracy_study",
         task_function=cold_solve,
+        runner=runner_name(cold_solve),
         default_output=study_output,
         description="Run an accuracy-versus-cost sweep, every scene timed with cold kernel caches.",
     )

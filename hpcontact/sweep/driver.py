@@ -92,11 +92,13 @@ def main(
     description: str = "Run a parameter sweep (under mpiexec or alone).",
     task_function: TaskFunction | None = None,
     default_output: Callable[[str], str | None] | None = None,
+    runner: str | None = None,
 ) -> int:
     """``python -m hpcontact.sweep SPEC [options]`` (see ``add_run_arguments``); another
     ``task_function`` makes another command with the same options and exit statuses
-    (``python -m hpcontact.sweep.accuracy_study``), and ``default_output(SPEC)`` its output
-    when ``--output`` is not given (None: the spec's)."""
+    (``python -m hpcontact.sweep.accuracy_study``), ``runner`` the name its journal entries give
+    their results (``Options.runner``) and ``default_output(SPEC)`` its output when ``--output``
+    is not given (None: the spec's)."""
     parser = argparse.ArgumentParser(prog=prog, description=description)
     add_run_arguments(parser)
     command = command_line(prog if argv is not None else "hpcontact run", argv)
@@ -104,7 +106,7 @@ def main(
     try:
         if args.output is None and default_output is not None:
             args.output = default_output(args.spec)
-        return run_from_arguments(args, task_function, prog, command)
+        return run_from_arguments(args, task_function, prog, command, runner)
     except InputError as exc:
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return EXIT_REFUSED

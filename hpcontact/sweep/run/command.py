@@ -6,7 +6,6 @@ from __future__ import annotations
 import argparse
 import sys
 import traceback
-from dataclasses import replace
 from pathlib import Path
 
 from hpcontact.errors import InputError
@@ -14,7 +13,7 @@ from hpcontact.numerics.convolution import load_wisdom, save_wisdom
 from hpcontact.numerics.memory import default_memory_per_rank, parse_memory
 from hpcontact.sweep.run.arguments import EXIT_FAILED_TASKS, EXIT_OK, EXIT_REFUSED, EXIT_UNEXPECTED
 from hpcontact.sweep.run.dry_run import dry_run
-from hpcontact.sweep.run.records import NO_FLAGS, Options, Stopped, TaskFunction, runner_name
+from hpcontact.sweep.run.records import NO_FLAGS, Options, Stopped, TaskFunction
 from hpcontact.sweep.run.rounds import execute
 from hpcontact.sweep.run.schedule import LaunchError, world
 from hpcontact.sweep.run.signals import DEFAULT_GRACE_S, DEFAULT_STALL_S, StopControl
@@ -34,9 +33,8 @@ def run_command(
     """``hpcontact run`` on every rank: the exit status (``EXIT_STATUS``). Refusals and bad
     input print one line on stderr from rank 0, prefixed ``prog``; any other error prints its
     traceback and, under MPI, aborts every rank (a rank left waiting in a collective would hang
-    the job). ``task_function`` replaces the scene kind's solver (``python -m hpcontact.sweep.accuracy_study``)
-    and is the runner its journal entries name (``Options.runner``); ``command`` is the command
-    as its user typed it, for the data set's history."""
+    the job). ``task_function`` replaces the scene kind's solver (``python -m hpcontact.sweep.accuracy_study``);
+    ``command`` is the command as its user typed it, for the data set's history."""
     try:
         team = world()
     except LaunchError as exc:
@@ -47,7 +45,6 @@ def run_command(
     ).install(team.rank)
     try:
         load_wisdom()  # FFTW plans of earlier runs: measured plans in milliseconds
-        options = replace(options, runner=runner_name(task_function))
         outcome = execute(
             spec, output, task_function, team=team, options=options, stop=stop, accuracy=accuracy, command=command
         )
@@ -84,9 +81,10 @@ def run_from_arguments(
     task_function: TaskFunction | None = None,
     prog: str = "hpcontact run",
     command: str | None = None,
+    runner: str | None = None,
 ) -> int:
     """Run what ``add_run_arguments`` parsed (``task_function``, ``prog``, ``command``: see
-    ``run_command``)."""
+    ``run_command``; ``runner``: see ``Options.runner``)."""
     memory = (parse_memory(args.mem_per_rank), "--mem-per-rank") if args.mem_per_rank is not None else None
     if args.dry_run:
         return dry_run(
@@ -115,6 +113,7 @@ def run_from_arguments(
         break_lock=args.break_lock,
         mem_per_rank=memory if memory is not None else default_memory_per_rank(),
         up_to_date=task_function is None,
+        runner=runner,
     )
     return run_command(
         args.spec, options, args.output, args.grace, task_function, prog, args.stall_timeout, args.accuracy, command

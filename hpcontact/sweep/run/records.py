@@ -54,9 +54,9 @@ class Options:
     up_to_date: bool = (
         False  # journals without resume/restart: a data set that is ``up_to_date`` is left as is, not refused
     )
-    # the runner journal entries name (``runner_name`` of the task function; None: the spec's scene
-    # kind's own solver): set by ``command.run_command`` from its task function, by a Python caller
-    # whose task function computes other results than the kind's own solver
+    # the runner journal entries name (``runner_name`` of a task function; None: the spec's scene
+    # kind's own solver): set where a task function computes other results than the kind's own
+    # solver (the accuracy study), not for a wrapper of it (one that counts calls, a stand-in)
     runner: str | None = None
 
 
