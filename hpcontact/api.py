@@ -90,10 +90,6 @@ def solve_fields(
     fields = {k: os.fspath(v) if isinstance(v, os.PathLike) else v for k, v in params.items() if v is not None}
     extra = {k: v for k, v in (slip or {}).items() if v is not None}
     kind = kind_of(fields)  # the same dispatch as a sweep's (hpcontact.problems.kinds)
-    if memory is not None and kind.name == SLIP:
-        raise InputError(
-            name("memory"), f"not with {name('quantities')} {SLIP} (the budget of a contact solve)", memory
-        )
     if accuracy is not None and kind.accuracy_refused:
         raise InputError(
             name("accuracy"), f"not with {name('quantities')} {kind.name} ({kind.accuracy_refused})", accuracy
@@ -105,7 +101,12 @@ def solve_fields(
 def _solve_slip(
     fields: dict[str, Any], extra: Mapping[str, Any], accuracy: float | None, memory: Any, name: Callable[[str], str]
 ) -> dict[str, Any]:
-    """A slip scene: its own fields beside the common ones (no outline), on its grid."""
+    """A slip scene: its own fields beside the common ones (no outline), on its grid (no
+    memory budget: ``memory`` is a contact solve's)."""
+    if memory is not None:
+        raise InputError(
+            name("memory"), f"not with {name('quantities')} {SLIP} (the budget of a contact solve)", memory
+        )
     fields.pop("shape", None)
     return dict(task_function(SLIP)({**fields, **extra}))
 
