@@ -300,11 +300,11 @@ def test_the_default_of_one_scene_is_the_default_accuracy() -> None:
 
 
 def test_command_line_accuracy_and_memory(capsys) -> None:
-    """``--memory`` goes with ``--accuracy`` only (exit 2 naming it); a budget too small for
-    four grids is bad input (exit 2)."""
+    """``--memory`` is the budget of a contact solve: too small for its one grid, or for four
+    grids of ``--accuracy``, it is bad input (exit 2 naming it)."""
     from hpcontact.cli import main
 
-    assert main(["solve", "--memory", "1G"]) == 2
+    assert main(["solve", "--n", "64", "--memory", "1K"]) == 2
     assert "--memory" in capsys.readouterr().err
     assert main(["solve", "--shape", "rectangle", "--aspect", "1", "--accuracy", "1e-3", "--memory", "1M"]) == 2
     assert "memory" in capsys.readouterr().err
