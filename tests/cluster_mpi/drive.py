@@ -213,7 +213,10 @@ def tail(output: str) -> str:
 
 def load_comparison() -> Callable[[xr.Dataset, xr.Dataset], None]:
     """``_assert_same_results`` of the MPI tests (one comparison for tests and this script)."""
-    spec = importlib.util.spec_from_file_location("mpi_conftest", ROOT / "tests" / "mpi" / "conftest.py")
+    folder = ROOT / "tests" / "mpi"
+    if str(folder) not in sys.path:  # the conftest imports its folder's launcher, as pytest lets it
+        sys.path.insert(0, str(folder))
+    spec = importlib.util.spec_from_file_location("mpi_conftest", folder / "conftest.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module._assert_same_results
