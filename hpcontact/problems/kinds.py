@@ -16,7 +16,8 @@ A sweep runs one kind of scene, named by its [scene] ``quantities``:
 Each kind is one ``Kind`` record in ``KINDS`` (``kind_of(params)`` finds a scene's): its
 validator and the data that answer what the sweep asks of a kind (which record keys carry
 estimated errors, whether an accuracy or an angle mode applies, whether ignored fields are
-dropped, which fields leave the kernels alone, how a scene's defaults resolve). Upper floors that
+dropped, how a scene's defaults resolve; which fields leave its kernels, grids or cost alone is
+``hpcontact.fields.names(kind, neutral_to=...)``). Upper floors that
 need a function per kind keep a mapping keyed by ``Kind.name`` (``hpcontact.accuracy.task_function``:
 the solver; the command line's units), a lookup rather than a comparison.
 """
@@ -29,7 +30,6 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from hpcontact import fields
 from hpcontact.fields import CONTACT, SLIP
 from hpcontact.problems.slip.partial_slip import validate as validate_slip
 from hpcontact.problems.slip.problem import GRID_MARGIN as SLIP_GRID_MARGIN
@@ -54,9 +54,7 @@ class Kind:
     does not (None: it does; else ``angle`` is a scene field solved per value);
     ``reduces_fields`` whether fields the scene ignores (geometry its shape ignores, material
     fields its body ignores) are left out of its parameters, so equal scenes compare equal;
-    ``kernel_neutral_fields`` the fields that change neither its kernels nor its grid spacing
-    (tasks differing only in these may share kernels; ``hpcontact.fields``: the fields of the
-    kind that do not change the kernel); ``memory_group`` the calibration and
+    ``memory_group`` the calibration and
     memory group of every scene of the kind (``problems.footprint.MEMORY_MODEL``; None: by the
     scene's body); ``planned`` whether ``hpcontact.plan.plan_for`` lays out its solves;
     ``grid_margin``, for a scene solved on n × n cells around its Hertz contact, the half-width
@@ -70,7 +68,6 @@ class Kind:
     accuracy_refused: str | None
     angle_mode_refused: str | None
     reduces_fields: bool
-    kernel_neutral_fields: tuple[str, ...]
     memory_group: str | None
     planned: bool
     grid_margin: float | None
@@ -101,7 +98,6 @@ KINDS: Mapping[str, Kind] = {
         accuracy_refused=None,
         angle_mode_refused=None,
         reduces_fields=True,
-        kernel_neutral_fields=fields.names(CONTACT, neutral_to="kernel"),
         memory_group=None,
         planned=True,
         grid_margin=None,
@@ -115,7 +111,6 @@ KINDS: Mapping[str, Kind] = {
         accuracy_refused="a slip scene is solved on its grid, n cells across the contact",
         angle_mode_refused="angle is the load direction, solved per value",
         reduces_fields=False,
-        kernel_neutral_fields=fields.names(SLIP, neutral_to="kernel"),
         memory_group=SLIP,
         planned=False,
         grid_margin=SLIP_GRID_MARGIN,

@@ -75,13 +75,11 @@ def test_accuracy_and_angle_mode_apply_to_contact_scenes_only():
     assert "load direction" in slip.angle_mode_refused
 
 
-def test_what_the_sweep_reduces_shares_and_plans():
+def test_what_the_sweep_reduces_and_plans():
     contact, slip = KINDS[CONTACT], KINDS[SLIP]
     assert contact.reduces_fields and not slip.reduces_fields
     assert contact.planned and not slip.planned
     assert contact.memory_group is None and slip.memory_group == SLIP
-    assert "shape" in contact.kernel_neutral_fields and "nu" not in contact.kernel_neutral_fields
-    assert "load" in slip.kernel_neutral_fields and "radius" not in slip.kernel_neutral_fields
 
 
 def test_a_scene_resolves_with_its_kinds_defaults():

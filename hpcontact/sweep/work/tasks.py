@@ -60,13 +60,6 @@ from hpcontact.sweep.space.axes import PATH_FIELDS
 from hpcontact.sweep.space.enumeration import Run, run_field, scene_runs, text_template
 from hpcontact.sweep.space.spec import Spec, Validator, canonical_json
 
-# Fields that change neither a scene's kernels nor its grid spacing, by kind (``hpcontact.fields``):
-# a contact scene's outline or solves; a slip scene's loading (lengths are scaled by the Hertz
-# radius, so its grid depends on n and b/a only, its kernel on nu_eq). Tasks differing only in
-# these may share kernels (a contact scene's when their bounding boxes match).
-KERNEL_NEUTRAL_FIELDS: Mapping[str, frozenset[str]] = {
-    kind: frozenset(fields.names(kind, neutral_to="kernel")) for kind in fields.KINDS
-}
 # A chunk costs at most 1/(CHUNKS_PER_RANK · ranks) of the whole sweep.
 CHUNKS_PER_RANK = 4
 
@@ -295,7 +288,9 @@ class _Table:
     def __init__(self, spec: Spec, lean: bool = False) -> None:
         self.lean = lean
         self.field = run_field(spec)
-        self.ignored = KERNEL_NEUTRAL_FIELDS[spec.kind]
+        # fields that change neither a scene's kernels nor its grid spacing (a contact scene's
+        # outline or solves; a slip scene's loading): tasks differing only in these share kernels
+        self.ignored = frozenset(fields.names(spec.kind, neutral_to="kernel"))
         self.rows: list[Task] = []
         self.texts: dict[str, int] = {}
         self.families: dict[tuple[str, str], _Family] = {}

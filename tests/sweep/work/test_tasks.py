@@ -120,10 +120,10 @@ def point_by_point(spec):
     """The tasks and each point's task as the enumeration of every point computes them: the
     scene of each point (``Spec.scene_params``), distinct by canonical JSON, keyed, costed and
     grouped one by one."""
+    from hpcontact import fields
     from hpcontact.sweep.space.spec import canonical_json
-    from hpcontact.sweep.work.tasks import KERNEL_NEUTRAL_FIELDS
 
-    neutral_fields = KERNEL_NEUTRAL_FIELDS[spec.kind]
+    neutral_fields = frozenset(fields.names(spec.kind, neutral_to="kernel"))
     rows, row_of, task_of = [], {}, []
     for index in spec.points():
         params = spec.scene_params(index)
