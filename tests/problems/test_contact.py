@@ -10,6 +10,9 @@ beside them. Measured 2026-11-23 on the 2-core development machine.
 
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -17,6 +20,9 @@ from hpcontact import analytic
 from hpcontact.problems.contact import solve
 from hpcontact.quantities import directional_stiffness
 from hpcontact.scene import Scene
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import independent_reference as ref  # noqa: E402
 
 pytestmark = pytest.mark.filterwarnings("error")
 
@@ -182,17 +188,19 @@ def test_sphere_on_cube_and_octahedral_faces_gives_circular_contact(miller: str,
 
 def test_sphere_on_110_converges_to_willis_ellipse() -> None:
     """A = 3, nu = 0.3, normal [110]: elliptical contact; b/a and load converge to Willis' (1966)
-    semi-analytical solution (analytic.willis_sphere_contact: a 1-D integral of H_zz(φ), no
-    grid, no cells, no contact solver).
+    semi-analytical solution, computed independently of hpcontact: ``willis_contact`` of
+    tests/independent_reference.py (its own C_ijkl, rotation to normal [110] with x = [1̄10], Stroh's
+    H_zz, a Gauss rule in φ; no grid, no cells, no contact solver). Load and b/a do not depend on
+    the in-plane axes, so the engine's frame for miller 1 1 0 need not be the reference's. The
+    reference agrees with the engine's own Willis (``analytic.willis_sphere_contact`` on the
+    Barnett–Lothe H_zz) to 2.2e-16, and its φ rule is converged (16 × 48 nodes against 8 × 32:
+    2.2e-16; tests/problems/test_crystal_indentation.py checks it over the README's table).
 
     Measured (d/R = 1e-4, so the sphere is a paraboloid to 1e-4·1e-4): load error 5.08e-4,
     7.53e-5, 2.25e-5 at n = 32, 64, 128 (observed orders 2.75, 1.74); b/a error 8.0e-5, 5.9e-5,
     1.35e-5. Bounds: the README's 5.1e-4, 7.5e-5, 2.3e-5 + half a unit of their last digit;
     b/a 1.4e-5 at n = 128 (it was 5e-5).
     """
-    from hpcontact.kernels.anisotropic import kernel_for
-    from hpcontact.scene import Scene
-
     params = {
         "quantities": "indentation",
         "radius": 1.0,
@@ -201,8 +209,8 @@ def test_sphere_on_110_converges_to_willis_ellipse() -> None:
         "nu": 0.3,
         "miller": "1 1 0",
     }
-    material = Scene.from_params(params).material
-    willis = analytic.willis_sphere_contact(lambda phi: kernel_for(material).fourier(phi)[..., 2, 2].real, 1.0, 1e-4)
+    # Lengths in units of R, stresses in G = (C11 − C12)/2 = 1: the engine's units for (nu, A).
+    willis = ref.willis_contact(ref.rotate(ref.cubic_from_nu_A(0.3, 3.0), ref.orientation_frame(0.0)), 1.0, 1e-4)
     assert willis["b_over_a"] < 0.95  # really elliptical
     load_errors = []
     for n in (32, 64, 128):
