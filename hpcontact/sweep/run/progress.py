@@ -8,7 +8,12 @@ done into the cost model's seconds of the tasks that hold them in hand-out order
 tasks are that order's first ones, give or take those in flight). Relative cost alone is not
 seconds: on the main job at accuracy 1e-3 a crystal star's cost is 20× a thin crystal
 rectangle's where its seconds are 11×, and an ETA by cost said 40 s with 1 min 47 s to go.
-Without a calibration the ETA is by cost units.
+The wall seconds per estimated second measured so far correct the calibration's scale (a
+calibration made under load, a prior scaled by a probe: ``cost.calibration_file.run_calibration``),
+and the last chunks, fewer than the ranks, are counted on the ranks still at work
+(``Progress.busy_ranks``). On replayed runs every ETA after a fifth of the tasks is within 2x of
+the time left (``tests/sweep/run/test_progress_eta.py``), where an ETA by task count is 2-7x
+high. Without estimated seconds the ETA is by cost units.
 """
 
 from __future__ import annotations
@@ -37,7 +42,8 @@ class Progress:
 
     ``total`` counts every task of the sweep, ``reused`` those already in journals; ``units`` are
     the cost units of the tasks the ranks report, in the order they are handed out, and
-    ``seconds`` their estimated seconds (None without a calibration: the ETA is then by units).
+    ``seconds`` their estimated seconds (None without a calibration: the ETA is then by units);
+    ``ranks`` run them, in chunks of ``chunk_lengths`` tasks (in hand-out order; None: one chunk).
     """
 
     def __init__(
@@ -48,12 +54,17 @@ class Progress:
         seconds: Sequence[float] | None,
         interval: float,
         stream: TextIO,
+        ranks: int = 1,
+        chunk_lengths: Sequence[int] | None = None,
     ) -> None:
         self.total = total
         self.reused = reused
         self._units_done = np.concatenate(([0.0], np.cumsum(np.asarray(units, dtype=np.float64))))
         weights = units if seconds is None else seconds
         self._seconds_done = np.concatenate(([0.0], np.cumsum(np.asarray(weights, dtype=np.float64))))
+        self.ranks = ranks
+        lengths = [len(units)] if chunk_lengths is None else list(chunk_lengths)
+        self._chunk_ends = self._units_done[np.cumsum(lengths, dtype=np.int64)] if lengths else np.zeros(0)
         self.interval = interval
         self.stream = stream
         self.started = time.perf_counter()
@@ -75,11 +86,29 @@ class Progress:
             return 1.0
         return min(1.0, float(np.interp(units_done, self._units_done, self._seconds_done)) / total)
 
+    def busy_ranks(self, units_done: float) -> int:
+        """The ranks still at work when ``units_done`` cost units are finished: one per chunk not
+        finished (the chunks whose end in hand-out order lies beyond ``units_done``), at most
+        ``ranks``, at least one."""
+        unfinished = int(np.count_nonzero(self._chunk_ends > units_done))
+        return max(1, min(self.ranks, unfinished))
+
+    def eta(self, units_done: float, elapsed: float) -> float | None:
+        """Seconds left after ``elapsed`` seconds with ``units_done`` cost units finished: the
+        estimated seconds left times the measured wall seconds per estimated second so far,
+        elapsed × (1 − f) / f with f = ``fraction``, on the ranks still at work
+        (× ranks / ``busy_ranks``: the last chunks run on fewer ranks than the run has);
+        None before any task finished."""
+        fraction = self.fraction(units_done)
+        if fraction <= 0.0:
+            return None
+        return elapsed * (1.0 - fraction) / fraction * self.ranks / self.busy_ranks(units_done)
+
     def line(self, done: int, units_done: float, elapsed: float) -> str:
         """One progress line after ``elapsed`` seconds, ``done`` tasks of ``units_done`` run so far."""
         rate = done / elapsed if elapsed > 0.0 else 0.0
-        fraction = self.fraction(units_done)
-        eta_text = clock_text(elapsed * (1.0 - fraction) / fraction) if fraction > 0.0 else "?"
+        eta = self.eta(units_done, elapsed)
+        eta_text = "?" if eta is None else clock_text(eta)
         finished = self.reused + done
         return (
             f"hpcontact: {finished}/{self.total} tasks ({100.0 * finished / max(self.total, 1):.0f}%), "
