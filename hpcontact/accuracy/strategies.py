@@ -255,66 +255,63 @@ def _no_model_error(scene: Scene) -> float:
 class Strategy:
     """One kind of boundary cells refined over a grid sequence (``covered_solve(scene, name)``).
 
-    ``refuses(scene)``: why the cells do not apply to ``scene`` (None: they may be tried; strategy
-    ``auto`` takes the first of ``AUTO`` that does not refuse); ``start(scene, n0, n_across0,
-    accuracy)``: the first grid (n₀, n_across₀) from the ``n0``, ``n_across0`` asked for (None:
-    the cells' default) and the request; ``grids(shape, n₀, n_across₀)``: the sequence from that
-    grid, unbounded (:func:`hpcontact.accuracy.grid_plan.plan_grids` cuts it); ``calibrated(shape)``:
+    ``start(scene, n0, n_across0, accuracy)``: the first grid (n₀, n_across₀) from the ``n0``,
+    ``n_across0`` asked for (None: the cells' default) and the request; ``calibrated(shape)``:
     whether the estimator was calibrated on a grid (n, n_across), ``calibration_range()`` that
     range in words; ``grid_bytes(scene, n, n_across)``: the peak bytes of one solve
-    (``hpcontact.accuracy.memory``); ``model_error(scene)``: a relative bound on what the cells
-    leave whatever the grids, added to every estimate; ``expansions`` and ``safety``: the
-    estimator's candidates and factor (None: ``extrapolation.EXPANSIONS`` and ``SAFETY``)."""
+    (``hpcontact.accuracy.memory``). The rest hold for square-celled grids unless a record says
+    otherwise: ``refuses(scene)``: why the cells do not apply to ``scene`` (None: they may be
+    tried; strategy ``auto`` takes the first of ``AUTO`` that does not refuse); ``grids(shape,
+    n₀, n_across₀)``: the sequence from that grid, unbounded
+    (:func:`hpcontact.accuracy.grid_plan.plan_grids` cuts it); ``model_error(scene)``: a relative
+    bound on what the cells leave whatever the grids, added to every estimate; ``expansions``
+    and ``safety``: the estimator's candidates and factor (None: ``extrapolation.EXPANSIONS`` and
+    ``SAFETY``); ``strips``: whether a grid is n strips, one across (the sweep's cost model
+    costs such a grid by its strip pairs, ``hpcontact.sweep.cost.task_cost.strip_units``, and
+    predicts its count by the strips' own bound, ``hpcontact.sweep.cost.grids``)."""
 
     name: str
-    refuses: Callable[[Scene], str | None]
     start: Callable[[Scene, int | None, int | None, float | None], tuple[int, int | None]]
-    grids: Callable[[Shape, int, int | None], Grids]
     calibrated: Callable[[Shape], Callable[[int, int], bool]]
     calibration_range: Callable[[], str]
     grid_bytes: Callable[[Scene, int, int], float]
-    model_error: Callable[[Scene], float]
-    expansions: tuple[tuple[float, ...], ...] | None
-    safety: float | None
+    refuses: Callable[[Scene], str | None] = _any_scene
+    grids: Callable[[Shape, int, int | None], Grids] = _square_grids
+    model_error: Callable[[Scene], float] = _no_model_error
+    expansions: tuple[tuple[float, ...], ...] | None = None
+    safety: float | None = None
+    strips: bool = False
 
 
 STRATEGIES: Mapping[str, Strategy] = {
     "coverage": Strategy(
         name="coverage",
-        refuses=_any_scene,
         start=lambda scene, n0, na0, accuracy: (n0 or coverage_n0(scene.shape, accuracy), na0),
-        grids=_square_grids,
         calibrated=_coverage_calibrated,
         calibration_range=_coverage_range,
         grid_bytes=memory.coverage_bytes,
         model_error=_coverage_model_error,
-        expansions=None,
-        safety=None,
     ),
     "singular": Strategy(
         name="singular",
-        refuses=_any_scene,
         start=lambda scene, n0, na0, accuracy: (n0 or N0, na0),
-        grids=_square_grids,
         calibrated=_singular_calibrated,
         calibration_range=_singular_range,
         grid_bytes=memory.singular_bytes,
-        model_error=_no_model_error,
         expansions=SINGULAR_EXPANSIONS,
         safety=SINGULAR_SAFETY,
     ),
     "strip": Strategy(
         name="strip",
-        refuses=_strip_refuses,
         start=lambda scene, n0, na0, accuracy: (n0 or strip_n0(scene.shape), 1),
-        grids=_strip_grids,
-        calibrated=_strip_calibrated,
         # the words coverage-weighted cells' limit has always had in AccuracyNotMet's message
         calibration_range=_coverage_range,
+        calibrated=_strip_calibrated,
         grid_bytes=memory.strip_bytes,
+        refuses=_strip_refuses,
+        grids=_strip_grids,
         model_error=lambda scene: strip_cells.model_error(scene.shape),
-        expansions=None,
-        safety=None,
+        strips=True,
     ),
 }
 #: The one exact cell of an elliptical contact (``hpcontact.discretizations.galin_ellipse``): no

@@ -2,9 +2,8 @@
 
 The sweep knows nothing of kernels or discretizations but through this module:
 
-* ``strip_pairs``, ``strip_model_error``: the near and far pairs of strip cells and their own
-  error bound (``hpcontact.discretizations.strip_cells``), for ``cost.task_cost.strip_units``
-  and the strip plan of ``cost.grids.accuracy_plan``;
+* ``strip_pairs``: the near and far pairs of strip cells
+  (``hpcontact.discretizations.strip_cells``), for ``cost.task_cost.strip_units``;
 * ``omega_nodes``: the Barnett–Lothe ω nodes of a slip scene's anisotropic bodies
   (``hpcontact.kernels.anisotropic.surface_green_nodes``), a term of a slip task's seconds
   (``cost.rates``);
@@ -27,7 +26,6 @@ import numpy as np
 
 from hpcontact.discretizations import galin_ellipse, strip_cells
 from hpcontact.discretizations.boundary_cells import covered_solve
-from hpcontact.geometry import Shape
 from hpcontact.kernels import isotropic
 from hpcontact.kernels.anisotropic import as_voigt, surface_green_nodes
 from hpcontact.kernels.anisotropic import clear_cache as clear_kernels  # convolution has a clear_cache too
@@ -116,12 +114,6 @@ def _strip_pairs(shape: str, aspect: float, n: int) -> tuple[int, int]:
         )
     )
     return near, int(i.size) - near
-
-
-def strip_model_error(shape: Shape) -> float:
-    """The error bound of strip cells on ``shape`` (``strip_cells.model_error``): a strip plan
-    stops where it is not below the request."""
-    return strip_cells.model_error(shape)
 
 
 def clear_kernel_caches() -> None:

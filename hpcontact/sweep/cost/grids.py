@@ -14,11 +14,20 @@ from collections.abc import Mapping
 from typing import Any, NamedTuple
 
 from hpcontact import fields
-from hpcontact.accuracy import DEFAULT_ACCURACY, MAX_CELLS, MIN_GRIDS, default_grids, first_grid, grid_bytes, plan_grids
+from hpcontact.accuracy import (
+    DEFAULT_ACCURACY,
+    MAX_CELLS,
+    MIN_GRIDS,
+    STRATEGIES,
+    default_grids,
+    first_grid,
+    grid_bytes,
+    plan_grids,
+)
+from hpcontact.accuracy.strategies import EXACT, Strategy
 from hpcontact.problems import footprint
 from hpcontact.problems.kinds import CONTACT, kind_of
 from hpcontact.scene import Scene
-from hpcontact.sweep.cost.engine import strip_model_error
 from hpcontact.sweep.space.spec import canonical_json
 
 # Fields that do not change the grids ``accuracy.default_grids`` picks (it reads the shape, the
@@ -30,15 +39,17 @@ DEFAULT_TOL = 1e-8
 # A task that asks for an accuracy (``accuracy.default_solve`` of a scene with ``accuracy``:
 # ``solve_to_accuracy(scene, accuracy, strategy="auto")``) is costed over the grids it is
 # predicted to solve (``accuracy_levels``), each a one-grid scene tagged with its boundary cells
-# under ``BOUNDARY_TAG`` ("galin", "coverage" or "strip": never a scene field, ``level_fields``
-# drops it). An ellipse or circle takes its one exact cell (galin: no grid, one task term); the
-# singular cells and the ellipses' strips that ``auto`` took before are no longer reached by it.
+# under ``BOUNDARY_TAG`` (``accuracy.strategies.EXACT``, "galin", or the name of a record of
+# ``accuracy.STRATEGIES``: never a scene field, ``level_fields`` drops it). An ellipse or circle
+# takes its one exact cell (galin: no grid, one task term); the singular cells and the ellipses'
+# strips that ``auto`` took before are no longer reached by it.
 # The evidence behind the constants: docs/performance.md §"Accuracy tasks".
 BOUNDARY_TAG = "boundary"
 # Where the sequence stops (``predicted_grid_count``): coverage-weighted cells met every request
 # of 1e-3 on ``MIN_GRIDS`` grids (20 scene types of the demo, isotropic and cubic) and took one
-# more grid per full decade below it (the most frequent count at 1e-4 and 1e-5); strips met every request down to
-# ``STRIP_FOUR_GRIDS_TO`` on four grids (or stop there on their own bound, ``strip_cells.model_error``).
+# more grid per full decade below it (the most frequent count at 1e-4 and 1e-5); strips
+# (``Strategy.strips``) met every request down to ``STRIP_FOUR_GRIDS_TO`` on four grids (or stop
+# there on their own bound, ``Strategy.model_error``).
 COVERAGE_FOUR_GRIDS_TO = 1e-3
 STRIP_FOUR_GRIDS_TO = 1e-7
 
@@ -93,6 +104,16 @@ class AccuracyPlan(NamedTuple):
     next_grid: tuple[int, int] | None
     finest_bytes: float
 
+    @property
+    def exact(self) -> bool:
+        """Whether the plan is the one exact cell of an elliptical contact (no grid sequence)."""
+        return self.strategy == EXACT
+
+    @property
+    def cells(self) -> Strategy:
+        """The record of the plan's boundary cells (``accuracy.STRATEGIES``); not of an exact one."""
+        return STRATEGIES[self.strategy]
+
 
 def predicted_grid_count(strategy: str, accuracy: float, planned: int, model_error: float = 0.0) -> int:
     """How many of its ``planned`` grids ``solve_to_accuracy`` is predicted to solve at
@@ -100,8 +121,9 @@ def predicted_grid_count(strategy: str, accuracy: float, planned: int, model_err
     cells ``MIN_GRIDS`` at requests ≥ ``COVERAGE_FOUR_GRIDS_TO`` (1e-3) and one more per full
     decade below (1e-4: 5, 1e-5: 6); strips ``MIN_GRIDS`` down to
     ``STRIP_FOUR_GRIDS_TO`` or where their own bound ``model_error`` is not below the request
-    (``solve_to_accuracy`` stops there), every planned grid below. Never more than planned."""
-    if strategy == "strip":
+    (``solve_to_accuracy`` stops there), every planned grid below (``Strategy.strips``). Never
+    more than planned."""
+    if STRATEGIES[strategy].strips:
         count = MIN_GRIDS if accuracy >= STRIP_FOUR_GRIDS_TO or model_error >= accuracy else planned
     else:  # the 1e-9 keeps 1e-4 at one decade whatever the rounding of the quotient
         count = MIN_GRIDS + max(0, math.floor(math.log10(COVERAGE_FOUR_GRIDS_TO / accuracy) + 1e-9))
@@ -125,11 +147,10 @@ def _accuracy_plan(text: str) -> AccuracyPlan:
     scene = Scene.from_params(json.loads(text))
     accuracy = float(scene.accuracy)
     strategy, n0, n_across0 = first_grid(scene, "auto", accuracy=accuracy)
-    if strategy == "galin":  # one exact cell: the kernel's tables, no grid
+    if strategy == EXACT:  # one exact cell: the kernel's tables, no grid
         return AccuracyPlan(strategy, ((1, 1),), 1, None, footprint.tables_bytes(scene.params))
     plan = plan_grids(scene, n0, n_across0, MAX_CELLS, math.inf, strategy)
-    model = strip_model_error(scene.shape) if strategy == "strip" else 0.0
-    count = predicted_grid_count(strategy, accuracy, len(plan.grids), model)
+    count = predicted_grid_count(strategy, accuracy, len(plan.grids), STRATEGIES[strategy].model_error(scene))
     grids = tuple(plan.grids[:count]) or (plan.next_grid,)
     following = tuple(plan.grids[count]) if count < len(plan.grids) else None
     return AccuracyPlan(strategy, grids, len(plan.grids), following, grid_bytes(scene, *grids[-1], strategy))
@@ -143,7 +164,7 @@ def accuracy_levels(params: Mapping[str, Any]) -> list[dict[str, Any]]:
     plan = accuracy_plan(params)
     tol = max(min(float(params.get("tol", DEFAULT_TOL)), float(params["accuracy"]) * 1e-2), 1e-14)
     fields = {k: v for k, v in params.items() if k not in ("accuracy", BOUNDARY_TAG)}
-    if plan.strategy == "galin":  # one exact cell, on no grid: the scene's own n stays (unused)
+    if plan.exact:  # one exact cell, on no grid: the scene's own n stays (unused)
         return [{**fields, BOUNDARY_TAG: plan.strategy}]
     return [{**fields, "n": n, "n_across": na, "tol": tol, BOUNDARY_TAG: plan.strategy} for n, na in plan.grids]
 

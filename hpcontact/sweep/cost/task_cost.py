@@ -20,7 +20,8 @@ from collections.abc import Callable, Mapping
 from typing import Any, NamedTuple
 
 from hpcontact import fields
-from hpcontact.accuracy import MIN_GRIDS
+from hpcontact.accuracy import MIN_GRIDS, STRATEGIES
+from hpcontact.accuracy.strategies import EXACT
 from hpcontact.problems import footprint
 from hpcontact.problems.footprint import iteration_factor, task_kind
 from hpcontact.problems.kinds import CONTACT, SLIP, quantity_names, scene_kind
@@ -167,10 +168,10 @@ def level_work(level: Mapping[str, Any]) -> Work:
     task term) times its cells' factor (``COVERAGE_WORK`` × (1 + ``COVERAGE_ASPECT_WORK`` log2 ρ),
     ``CRYSTAL_COVERAGE_WORK`` for a crystal), plus, for an outline that is not an ellipse, circle
     or rectangle, its clipping: ``OUTLINE_COVERAGE_WORK`` per cell along both sides (n + n_across)."""
-    boundary = level.get(BOUNDARY_TAG, "coverage")
-    if boundary == "galin":  # a contour integral over the kernel's Fourier series: one task term
+    boundary = level.get(BOUNDARY_TAG)  # None: coverage-weighted cells (default_solve's grids)
+    if boundary == EXACT:  # a contour integral over the kernel's Fourier series: one task term
         return Work(0.0, 0.0, 0.0, 1.0, 0.0, 1.0 if task_kind(level) == "crystal" else 0.0)
-    if boundary == "strip":
+    if boundary is not None and STRATEGIES[boundary].strips:
         return Work(0.0, 0.0, 0.0, 1.0, strip_units(level), 0.0)
     cost = _contact_cost(level)
     cells = footprint.padded_cells(level)
@@ -193,7 +194,7 @@ def accuracy_work(params: Mapping[str, Any]) -> Work:
     §"Accuracy tasks")."""
     plan, levels = accuracy_plan(params), accuracy_levels(params)
     parts = [(1.0, level_work(level)) for level in levels]
-    if plan.strategy == "coverage" and float(params["accuracy"]) < COVERAGE_FOUR_GRIDS_TO:
+    if not plan.exact and not plan.cells.strips and float(params["accuracy"]) < COVERAGE_FOUR_GRIDS_TO:
         if plan.next_grid is not None:
             n, na = plan.next_grid
             parts.append((ONE_MORE_SHARE, level_work({**levels[-1], "n": n, "n_across": na})))
@@ -256,10 +257,10 @@ def sizing(params: Mapping[str, Any]) -> Sizing:
         plan = accuracy_plan(params)
         n, na = plan.grids[-1]
         kind = task_kind(params)
-        if plan.strategy == "galin":
+        if plan.exact:
             label, cells = f"{kind} accuracy: one exact cell (galin)", 0.0
         else:
-            where = f"{n} strips" if plan.strategy == "strip" else f"{n} x {na}"
+            where = f"{n} strips" if plan.cells.strips else f"{n} x {na}"
             label, cells = f"{kind} accuracy: {plan.strategy} cells to {where}", footprint.padded_cells(finest)
         size = Sizing(kind, cells, plan.finest_bytes, accuracy_work(params), label)
     else:
