@@ -249,11 +249,21 @@ def test_thin_asymptote_error_is_order_gamma2_lambda():
 
 
 def test_thin_ratio_reported_value():
+    """The reported K_a/K_b of the Mindlin ellipse at b/a = 1e-8, nu = 0.5 (0.538846) against
+    (K − nu D)/(K − nu B) in mpmath at 60 digits (docs/design.md "Mindlin ellipse"): within
+    ``REL_CLOSED_FORM``, this file's bound for the float64 closed forms (a few flops on scipy's
+    special functions). Between the thin limit 1 − nu and 1, as it must be."""
     r = an.mindlin_ellipse_stiffness_ratio(1e-8, 0.5)
     print(
         f"Mindlin ellipse K_a/K_b at b/a = 1e-8, nu = 0.5: {r:.6f} "
         "(Li 2017: 0.5390 for a rectangle; thin limit 1 - nu = 0.5)"
     )
+    with mp.workdps(60):
+        m = 1 - _mpf(1e-8) ** 2
+        K, E = mp.ellipk(m), mp.ellipe(m)
+        D = (K - E) / m
+        exact = (K - _mpf(0.5) * D) / (K - _mpf(0.5) * (K - D))
+        assert _rel(r, exact) < REL_CLOSED_FORM
     assert 0.5 < r < 1.0
 
 
