@@ -186,6 +186,7 @@ def solve(
     a: float | None = None,
     threads: int | None = None,
     precondition: bool | None = None,
+    device: str | None = None,
     normal_held: str | None = None,
     accuracy: float | None = None,
     memory: str | int | None = None,
@@ -294,6 +295,11 @@ def solve(
         FFTW threads [1]. BLAS threads: ``$HPCONTACT_BLAS_THREADS`` [1], only while solving.
     precondition
         Fourier-preconditioned CG [True]; False for plain CG.
+    device
+        Where the contact solves run: ``"cpu"`` [default] (numpy, pyFFTW) or ``"gpu"`` (CuPy,
+        cuFFT; the optional extra ``gpu``), one GPU per process (its rank on the node modulo the
+        visible devices). Results agree to round-off. A GPU without CuPy or without a CUDA device
+        raises ``InputError`` saying which.
     normal_held
         What ``tangential`` holds in the normal direction: ``"approach"`` (u_z = 0) [default]
         or ``"load"`` (F_z = 0, Cattaneo–Mindlin: the Schur complement K_tt − K_tz K_zz⁻¹ K_zt

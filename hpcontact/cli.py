@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import platform
 import re
 import signal
 import sys
@@ -318,8 +319,34 @@ def _cmd_run(args: argparse.Namespace) -> int:
     return run_from_arguments(args, command=command_line("hpcontact", args.argv))
 
 
+def cpu_model() -> str:
+    """The CPU's model name (Linux: /proc/cpuinfo), else what ``platform`` knows."""
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8", errors="replace") as fh:
+            for line in fh:
+                if line.lower().startswith(("model name", "cpu model", "hardware")):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine() or "unknown"
+
+
 def _cmd_info(args: argparse.Namespace) -> int:
-    info = {"hpcontact": __version__, "numpy": numpy.__version__, "pyfftw": pyfftw.__version__}
+    """What a support ticket needs: versions (hpcontact, numpy, scipy, pyFFTW, mpi4py and the MPI
+    library), the CPU and its cores, the devices a solve can use (CuPy and its GPUs, if any), FFTW
+    wisdom's file."""
+    import scipy
+
+    from hpcontact.numerics.backend import gpu_description
+    from hpcontact.scene import usable_cpus
+
+    info = {
+        "hpcontact": __version__,
+        "python": platform.python_version(),
+        "numpy": numpy.__version__,
+        "scipy": scipy.__version__,
+        "pyfftw": pyfftw.__version__,
+    }
     try:  # imported here: importing mpi4py.MPI initializes MPI
         import mpi4py
         from mpi4py import MPI
@@ -328,9 +355,15 @@ def _cmd_info(args: argparse.Namespace) -> int:
         info["mpi_library"] = MPI.Get_library_version().splitlines()[0].strip()
     except ImportError as exc:  # mpi4py is a dependency, but report rather than crash
         info["mpi4py"] = f"unavailable ({exc})"
+    info["cpu"] = cpu_model()
+    info["cores"] = f"{os.cpu_count()} ({usable_cpus()} usable by this process)"
+    devices, *details = gpu_description()
+    info["devices"] = devices
     info["fftw_wisdom"] = str(wisdom_path())
     for key, value in info.items():
         print(f"{key:>12s}  {value}")
+    for line in details:
+        print(f"{'':>12s}  {line}")
     return 0
 
 

@@ -77,6 +77,10 @@ CONTACT_SIZE_RANGE = "contact size a in metres, in [1e-12, 1e3]"
 #: A requested accuracy: the estimated relative error every reported stiffness must reach
 #: (``hpcontact.accuracy.solve_to_accuracy``).
 ACCURACY_RANGE = "a relative error in [1e-9, 1)"
+#: Where a contact solve runs (``hpcontact.numerics.backend``): numpy with pyFFTW on the CPU, or
+#: CuPy with cuFFT on an NVIDIA GPU. Results agree to round-off (tests/gpu), so the field is neutral to
+#: kernels and grids, not to cost.
+DEVICES = ("cpu", "gpu")
 #: What the ``tangential`` stiffness holds fixed in the normal direction (``hpcontact.plan``,
 #: ``hpcontact.quantities.load_held_stiffness``): the normal approach (u_z = 0, the default:
 #: Li 2017 and the existing data sets) or the normal load (F_z = 0, Mindlin 1949 / Cattaneo's
@@ -549,6 +553,17 @@ FIELDS: tuple[Field, ...] = (
         option="--no-precondition",
         group="numerics",
         changes=_NONE,
+    ),
+    Field(
+        "device",
+        str,
+        "cpu",
+        choices=DEVICES,
+        long_name="device of the contact solves: cpu (numpy, pyFFTW) or gpu (CuPy, cuFFT)",
+        help="where the contact solves run: {choices}{default} (gpu: CuPy and a CUDA device; one per rank)",
+        group="numerics",
+        changes=_changes("cost"),
+        text="cpu or gpu: where the contact solves run",
     ),
     Field(
         "normal_held",

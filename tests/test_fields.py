@@ -215,13 +215,16 @@ OLD_SLIP_VALIDATOR_FIELDS = (
 ).split()
 
 
-#: Fields added after the schema replaced the tables above: the contact size (issue 38's field
-#: added end to end), which changes no kernel, grid or cost, only the unit of a record.
-NEW_FIELDS = {"a"}
+#: Fields added after the schema replaced the tables above, with what each changes in a task: the
+#: contact size (issue 38's field added end to end) no kernel, grid or cost, only the unit of a
+#: record; the device (issue 41) the cost alone (its results agree with the CPU's to round-off).
+NEW_FIELDS = {"a": set(), "device": {"cost"}}
+#: Their defaults: a contact size is optional; solves run on the CPU unless asked otherwise.
+NEW_DEFAULTS = {"a": None, "device": "cpu"}
 
 
 def _old(names) -> set[str]:
-    return set(names) - NEW_FIELDS
+    return set(names) - set(NEW_FIELDS)
 
 
 def test_task_neutral_tables_are_the_old_ones():
@@ -229,8 +232,9 @@ def test_task_neutral_tables_are_the_old_ones():
     assert _old(fields.names(CONTACT, neutral_to="grid")) == OLD_GRID_NEUTRAL_FIELDS
     assert _old(fields.names(CONTACT, neutral_to="cost")) == OLD_COST_NEUTRAL_FIELDS
     assert set(fields.names(SLIP, neutral_to="kernel")) == OLD_SLIP_KERNEL_NEUTRAL_FIELDS
-    for effect in ("kernel", "grid", "cost"):
-        assert NEW_FIELDS <= set(fields.names(CONTACT, neutral_to=effect))
+    for name, changes in NEW_FIELDS.items():
+        for effect in ("kernel", "grid", "cost"):
+            assert (name in fields.names(CONTACT, neutral_to=effect)) == (effect not in changes), (name, effect)
 
 
 def test_contact_defaults_are_the_old_ones_in_their_order():
@@ -238,15 +242,16 @@ def test_contact_defaults_are_the_old_ones_in_their_order():
     assert old == OLD_DEFAULTS
     assert list(old) == list(OLD_DEFAULTS)
     assert _old(fields.names(CONTACT)) == set(OLD_DEFAULTS)
-    assert all(fields.defaults(CONTACT)[name] is None for name in NEW_FIELDS)  # optional
+    assert {name: fields.defaults(CONTACT)[name] for name in NEW_FIELDS} == NEW_DEFAULTS
 
 
 def test_spec_type_tables_are_the_old_ones():
-    assert fields.of_type(float) - NEW_FIELDS == OLD_FLOAT_FIELDS
+    assert fields.of_type(float) - set(NEW_FIELDS) == OLD_FLOAT_FIELDS
     assert fields.of_type(int) == OLD_INT_FIELDS
     assert fields.flat_fields() == OLD_FLAT_FIELDS
     assert fields.path_fields() == OLD_PATH_FIELDS
-    assert fields.string_texts() == OLD_STRING_FIELDS
+    assert {k: v for k, v in fields.string_texts().items() if k not in NEW_FIELDS} == OLD_STRING_FIELDS
+    assert fields.string_texts()["device"] == "cpu or gpu: where the contact solves run"
     shape_only = {name: set(readers) for name, (_, readers, why) in fields.read_by("shape").items() if why is None}
     assert shape_only == OLD_SHAPE_ONLY_FIELDS
 

@@ -8,12 +8,18 @@ and by reciprocity K_ab(−r) = K_ba(r) that is the cell-exact average (K_ab + K
 diagonal block is already even (``"Re xx"`` is ``"xx"``). For an isotropic body Re H differs from
 H only in the coupling blocks, which vanish: (K_xz + K_zx)/2 = 0.
 
+The kernels and their spectra are made on the host (numpy) and cached there; an engine on
+another array namespace (``xp``: CuPy on a GPU, ``hpcontact.numerics.backend``) copies each spectrum
+to it once, when an operator is made (``ArrayConvolutionOperator``), and its operators then take
+and return arrays of ``xp``.
+
 Units: displacement per traction (length/stress), as the kernels.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from types import ModuleType
 
 import numpy as np
 
@@ -22,7 +28,14 @@ from hpcontact.kernels.anisotropic import anisotropic_offset_blocks, kernel_for
 from hpcontact.kernels.isotropic import isotropic_block, isotropic_surface_green
 from hpcontact.materials.crystal import Crystal
 from hpcontact.materials.isotropic import Isotropic
-from hpcontact.numerics.convolution import COMPONENT_INDEX, ConvolutionOperator, cached_spectrum, padded_shape
+from hpcontact.numerics.backend import is_numpy
+from hpcontact.numerics.convolution import (
+    COMPONENT_INDEX,
+    ArrayConvolutionOperator,
+    ConvolutionOperator,
+    cached_spectrum,
+    padded_shape,
+)
 
 #: Green's functions a solve can use: H of one body, or Re H (two identical bodies, per body).
 GREENS = ("H", "Re H")
@@ -43,12 +56,21 @@ def _pair(block: str) -> str:
 
 
 class Engine:
-    """Kernel spectra and operators of one (material, grid), built only as the plan asks."""
+    """Kernel spectra and operators of one (material, grid), built only as the plan asks; the
+    operators act on arrays of ``xp`` (numpy: pyFFTW's ``ConvolutionOperator``; another namespace:
+    ``ArrayConvolutionOperator``)."""
 
-    def __init__(self, material: Isotropic | Crystal, grid: Grid, kernels: tuple[str, ...], threads: int = 1) -> None:
-        self.material, self.grid, self.threads = material, grid, threads
+    def __init__(
+        self,
+        material: Isotropic | Crystal,
+        grid: Grid,
+        kernels: tuple[str, ...],
+        threads: int = 1,
+        xp: ModuleType = np,
+    ) -> None:
+        self.material, self.grid, self.threads, self.xp = material, grid, threads, xp
         self.kernels = kernels
-        self._operators: dict[tuple[str, str], ConvolutionOperator] = {}
+        self._operators: dict[tuple[str, str], ConvolutionOperator | ArrayConvolutionOperator] = {}
         self.fft_shape = padded_shape(grid.nx, grid.ny)
         self._crystal_blocks: dict[str, np.ndarray] | None = None
 
@@ -100,7 +122,7 @@ class Engine:
         key = (m.key, g.nx, g.ny, g.dx, g.dy, block)
         return cached_spectrum(key, lambda: self.centred_block(block), self.fft_shape)
 
-    def operator(self, components: str, green: str = "H") -> ConvolutionOperator:
+    def operator(self, components: str, green: str = "H") -> ConvolutionOperator | ArrayConvolutionOperator:
         """The convolution operator on ``components`` with every planned block of ``green`` among them."""
         if (components, green) not in self._operators:
             spectra = {}
@@ -110,7 +132,10 @@ class Engine:
                         spectra[a + b] = self.spectrum(block_name(a, b, green))
                     except KeyError:
                         continue
-            self._operators[(components, green)] = ConvolutionOperator(
-                self.grid.nx, self.grid.ny, components, spectra, threads=self.threads
+            nx, ny = self.grid.nx, self.grid.ny
+            self._operators[(components, green)] = (
+                ConvolutionOperator(nx, ny, components, spectra, threads=self.threads)
+                if is_numpy(self.xp)
+                else ArrayConvolutionOperator(nx, ny, components, spectra, self.xp)
             )
         return self._operators[(components, green)]

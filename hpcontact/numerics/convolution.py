@@ -27,11 +27,13 @@ from collections import OrderedDict
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 import scipy.fft
 
 from hpcontact.errors import InputError
+from hpcontact.numerics.backend import Array, to_device
 
 
 def _import_pyfftw_without_dask():
@@ -361,6 +363,22 @@ def transforms_for(c: int, nx: int, shape: tuple[int, int], threads: int, effort
         return transforms
 
 
+def block_table(
+    components: str, spectra: Mapping[str, np.ndarray], shape: tuple[int, int]
+) -> list[list[np.ndarray | None]]:
+    """The blocks of ``spectra`` as a table over ``components``: entry [i][j] the spectrum of block
+    (components[i], components[j]) or None where it is absent (zero). A block outside the components
+    or a spectrum not of the rfft2 shape of the padded ``shape`` is refused (ValueError)."""
+    for block in spectra:
+        if block[0] not in components or block[1] not in components:
+            raise ValueError(f"block {block!r} does not act within components {components!r}")
+    expected = (shape[0], shape[1] // 2 + 1)
+    for spectrum in spectra.values():
+        if spectrum.shape != expected:
+            raise ValueError(f"spectrum of shape {spectrum.shape}; expected {expected} for this grid")
+    return [[spectra.get(a + b) for b in components] for a in components]
+
+
 class ConvolutionOperator:
     """u = K * t for ``components`` (e.g. "z", "xy", "xyz") on an nx × ny grid, non-periodic.
 
@@ -392,10 +410,7 @@ class ConvolutionOperator:
         self.nx, self.ny, self.components = nx, ny, components
         self.shape = padded_shape(nx, ny)
         c = len(components)
-        self.pairs = [[spectra.get(a + b) for b in components] for a in components]  # pairs[i][j]: block (i, j) or None
-        for block in spectra:
-            if block[0] not in components or block[1] not in components:
-                raise ValueError(f"block {block!r} does not act within components {components!r}")
+        self.pairs = block_table(components, spectra, self.shape)  # pairs[i][j]: block (i, j) or None
         n1, n2 = self.shape
         half = n2 // 2 + 1
         # Products with real spectra (even-even and odd-odd kernels) are taken on the float64
@@ -410,8 +425,6 @@ class ConvolutionOperator:
                 if spectrum is None:
                     factors.append(None)
                     continue
-                if spectrum.shape != (n1, half):
-                    raise ValueError(f"spectrum of shape {spectrum.shape}; expected {(n1, half)} for this grid")
                 if np.iscomplexobj(spectrum):
                     factors.append((False, np.asarray(spectrum, dtype=np.complex128)))
                 else:
@@ -488,3 +501,47 @@ class ConvolutionOperator:
         """One forward and one inverse transform of all components: the floor of ``apply``."""
         self.transforms.forward()
         self.transforms.inverse()
+
+
+class ArrayConvolutionOperator:
+    """u = K * t as ``ConvolutionOperator``, on the arrays of an array-API namespace ``xp`` (CuPy on
+    a GPU: its FFTs are cuFFT's; array-api-strict in the tests), through ``xp.fft`` alone.
+
+    The same non-periodic convolution (zero padding to ``padded_shape``, kernel spectra, crop) with
+    full 2-D transforms: no pruned passes, no shared plans (cuFFT caches its own). ``spectra`` are
+    host (numpy) spectra as ``kernel_spectrum`` makes them; each is copied to ``xp`` once, here
+    (``backend.to_device``). ``apply`` takes and returns arrays of ``xp``, (c, nx, ny), and copies
+    nothing to or from the host.
+    """
+
+    def __init__(self, nx: int, ny: int, components: str, spectra: Mapping[str, np.ndarray], xp: ModuleType) -> None:
+        self.nx, self.ny, self.components, self.xp = nx, ny, components, xp
+        self.shape = padded_shape(nx, ny)
+        on_device: dict[int, Array] = {}  # one device copy per host spectrum (xy = yx shares)
+        for row in block_table(components, spectra, self.shape):
+            for spectrum in row:
+                if spectrum is not None and id(spectrum) not in on_device:
+                    on_device[id(spectrum)] = to_device(spectrum, xp)
+        self._factors = [
+            [None if s is None else on_device[id(s)] for s in row]
+            for row in block_table(components, spectra, self.shape)
+        ]
+        self._padded = xp.zeros((len(components),) + self.shape, dtype=xp.float64)
+        self.applications = 0
+
+    def apply(self, traction: Array) -> Array:
+        """Displacements (c, nx, ny) of tractions (c, nx, ny) on the grid (non-periodic), in ``xp``."""
+        xp, nx, ny = self.xp, self.nx, self.ny
+        self._padded[:, :nx, :ny] = traction
+        spectra = xp.fft.rfftn(self._padded, axes=(1, 2))
+        products = []
+        for row in self._factors:
+            total = None
+            for j, factor in enumerate(row):
+                if factor is not None:
+                    term = factor * spectra[j, ...]
+                    total = term if total is None else total + term
+            products.append(xp.zeros_like(spectra[0, ...]) if total is None else total)
+        u = xp.fft.irfftn(xp.stack(products), s=self.shape, axes=(1, 2))
+        self.applications += 1
+        return u[:, :nx, :ny]

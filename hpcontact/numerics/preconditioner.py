@@ -18,16 +18,22 @@ transient arrays of the periodic grid per application. Not pyFFTW (the operator'
 ``Transforms``), though faster: its rounding differs from pocketfft's, and CG carries a
 difference of 1e-16 per application to up to ~6e-9 relative in the stiffness at tolerance 1e-8
 (docs/performance.md §"Fourier preconditioner").
+
+On another array namespace ``xp`` (CuPy on a GPU; ``hpcontact.numerics.backend``) the symbol is
+built on the host as above and copied to ``xp`` once; ``apply`` then runs ``xp.fft`` (cuFFT) and
+the standard's element-wise products on ``xp``'s arrays, with no copy to or from the host.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from types import ModuleType
 
 import numpy as np
 import scipy.fft
 
 from hpcontact.geometry import Grid
+from hpcontact.numerics.backend import Array, is_numpy, to_device
 
 TABLE_ANGLES = 1024
 COMPONENT_INDEX = {"x": 0, "y": 1, "z": 2}
@@ -48,10 +54,17 @@ def preconditioner_length(n: int, length: float, other_length: float) -> int:
 class FourierPreconditioner:
     """z = M⁻¹ r for residuals r of shape (c, nx, ny) on ``components`` ("x", "xy", "z", "xyz").
 
-    ``surface_green(phi)`` returns H at in-plane directions φ (radians) as (..., 3, 3).
+    ``surface_green(phi)`` returns H at in-plane directions φ (radians) as (..., 3, 3). Residuals
+    and results are arrays of the namespace ``xp`` (numpy by default).
     """
 
-    def __init__(self, grid: Grid, surface_green: Callable[[np.ndarray], np.ndarray], components: str) -> None:
+    def __init__(
+        self,
+        grid: Grid,
+        surface_green: Callable[[np.ndarray], np.ndarray],
+        components: str,
+        xp: ModuleType = np,
+    ) -> None:
         lx, ly = grid.nx * grid.dx, grid.ny * grid.dy
         self.shape = (preconditioner_length(grid.nx, lx, ly), preconditioner_length(grid.ny, ly, lx))
         self.grid_shape = (grid.nx, grid.ny)
@@ -68,17 +81,30 @@ class FourierPreconditioner:
         symbol = np.moveaxis(inverse_table[nearest % TABLE_ANGLES], (-2, -1), (0, 1)) * k
         if np.max(np.abs(symbol.imag)) == 0.0:
             symbol = symbol.real
-        self.symbol = np.ascontiguousarray(symbol)
-        self._padded = np.zeros((len(components),) + self.shape)  # zero outside the grid's cells
+        self.xp = xp
+        self.symbol = to_device(np.ascontiguousarray(symbol), xp)
+        self._padded = xp.zeros((len(components),) + self.shape, dtype=xp.float64)  # zero outside the grid's cells
 
-    def apply(self, residual: np.ndarray) -> np.ndarray:
+    def apply(self, residual: Array) -> Array:
         """M⁻¹ r for a residual (c, nx, ny); a new array (c, nx, ny) (a view of a fresh one)."""
         nx, ny = self.grid_shape
         self._padded[:, :nx, :ny] = residual
-        spectra = scipy.fft.rfft2(self._padded, axes=(1, 2))
-        if spectra.shape[0] == 1:
-            out = np.multiply(spectra, self.symbol[0], out=spectra)
-        else:
-            out = np.einsum("ij...,j...->i...", self.symbol, spectra)
-        result = scipy.fft.irfft2(out, s=self.shape, axes=(1, 2), overwrite_x=True)
+        if is_numpy(self.xp):
+            spectra = scipy.fft.rfft2(self._padded, axes=(1, 2))
+            if spectra.shape[0] == 1:
+                out = np.multiply(spectra, self.symbol[0], out=spectra)
+            else:  # einsum: faster than the sums below on numpy, and the CPU path's rounding
+                out = np.einsum("ij...,j...->i...", self.symbol, spectra)
+            result = scipy.fft.irfft2(out, s=self.shape, axes=(1, 2), overwrite_x=True)
+            return result[:, :nx, :ny]
+        xp, c = self.xp, self.symbol.shape[0]
+        spectra = xp.fft.rfftn(self._padded, axes=(1, 2))
+        mixed = [
+            sum(
+                (self.symbol[i, j, ...] * spectra[j, ...] for j in range(1, c)),
+                self.symbol[i, 0, ...] * spectra[0, ...],
+            )
+            for i in range(c)
+        ]
+        result = xp.fft.irfftn(xp.stack(mixed), s=self.shape, axes=(1, 2))
         return result[:, :nx, :ny]

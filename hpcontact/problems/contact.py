@@ -2,6 +2,11 @@
 
 ``solve(params)`` returns the JSON record of docs/design.md §4.1. Forces are in units of G·a² per unit
 of traction and stiffnesses in units of G·a (a = semi-major extent = 1 on the grid).
+
+The iterations run on the scene's device (``device``: numpy on the CPU, CuPy on a GPU;
+``hpcontact.numerics.backend``). The grid, mask, kernels and records are the host's: each solve
+copies its right-hand side and mask to the device once (``to_device``) and its traction back once
+(``to_host``); resultants and the record are computed on the host from that copy.
 """
 
 from __future__ import annotations
@@ -9,6 +14,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Mapping
+from types import ModuleType
 from typing import Any
 
 import numpy as np
@@ -18,6 +24,7 @@ from hpcontact.errors import InputError
 from hpcontact.geometry import Grid, crop_to_support, grid_for, load_mask, mask_grid, rasterize, self_affine_surface
 from hpcontact.kernels.engine import Engine
 from hpcontact.materials.isotropic import Isotropic
+from hpcontact.numerics.backend import array_namespace, to_device, to_host
 from hpcontact.numerics.conjugate_gradient import Solution, conjugate_gradient, polonsky_keer
 from hpcontact.numerics.convolution import COMPONENT_INDEX
 from hpcontact.numerics.preconditioner import FourierPreconditioner
@@ -46,6 +53,11 @@ def discretize(scene: Scene) -> tuple[Grid, np.ndarray]:
     return cropped_grid, cropped
 
 
+def scene_namespace(scene: Scene) -> ModuleType:
+    """The array namespace of the scene's ``device`` (InputError naming what a GPU lacks)."""
+    return array_namespace(scene.params.get("device") or "cpu")
+
+
 def rough_patch(scene: Scene, grid: Grid) -> np.ndarray:
     """Contact patch of a seeded self-affine rough disc (radius 1) pressed on a rigid flat.
 
@@ -57,25 +69,33 @@ def rough_patch(scene: Scene, grid: Grid) -> np.ndarray:
     x, y = grid.centres()
     inside = x * x + y * y <= 1.0
     separation = np.where(inside, h.max() - h, 1e3 * shape.rms) - shape.rms
-    engine = Engine(scene.material, grid, ("zz",), scene.threads)
-    p = polonsky_keer(engine.operator("z").apply, separation, tol=max(scene.tol, 1e-8)).traction[0]
-    return p > 0.0
+    xp = scene_namespace(scene)
+    engine = Engine(scene.material, grid, ("zz",), scene.threads, xp=xp)
+    solution = polonsky_keer(engine.operator("z").apply, to_device(separation, xp), tol=max(scene.tol, 1e-8))
+    return to_host(solution.traction)[0] > 0.0
 
 
 def _preconditioner(scene: Scene, engine: Engine, solve: Solve):
     if not scene.precondition:
         return None
-    return FourierPreconditioner(engine.grid, engine.green_function(solve.green), solve.components).apply
+    return FourierPreconditioner(engine.grid, engine.green_function(solve.green), solve.components, xp=engine.xp).apply
 
 
 def _run_solve(scene: Scene, engine: Engine, mask: np.ndarray, solve: Solve) -> tuple[np.ndarray, Solution]:
-    """A bonded (or frictionless, for z alone) punch displaced by 1 along ``solve.load``."""
+    """A bonded (or frictionless, for z alone) punch displaced by 1 along ``solve.load``; the
+    solution's traction on the host."""
     op = engine.operator(solve.components, solve.green)
     rhs = np.zeros((len(solve.components),) + mask.shape)
     rhs[solve.components.index(solve.load)] = 1.0
+    xp = engine.xp
     solution = conjugate_gradient(
-        op.apply, rhs, mask, tol=scene.tol, precondition=_preconditioner(scene, engine, solve)
+        op.apply,
+        to_device(rhs, xp),
+        to_device(mask, xp),
+        tol=scene.tol,
+        precondition=_preconditioner(scene, engine, solve),
     )
+    solution.traction = to_host(solution.traction)
     force = np.zeros(3)
     resultants = q.resultant(solution.traction, engine.grid.cell_area)
     for c, value in zip(solve.components, resultants):
@@ -93,7 +113,7 @@ def solve(scene: Scene) -> dict[str, Any]:
     if punch:
         grid, mask = discretize(scene)
         plan = make_plan(scene, mask, grid)
-        engine = Engine(scene.material, grid, plan.kernels, scene.threads)
+        engine = Engine(scene.material, grid, plan.kernels, scene.threads, xp=scene_namespace(scene))
         record.update(_grid_fields(grid))
         record["contact_cells"] = int(mask.sum())
         if scene.shape.name == "mask":  # the data set then says which length a is
@@ -138,10 +158,10 @@ def _compliance_proxy(engine: Engine, mask: np.ndarray) -> dict[str, float]:
         if op.components == "xy":
             t = np.zeros((2,) + mask.shape)
             t[j] = mask
-            u = op.apply(t)
+            u = to_host(op.apply(to_device(t, engine.xp)))
             mean[:, j] = [u[0][mask].mean(), u[1][mask].mean()]
         else:
-            mean[j, j] = op.apply(mask[None].astype(float))[0][mask].mean()
+            mean[j, j] = to_host(op.apply(to_device(mask[None].astype(float), engine.xp)))[0][mask].mean()
     K = q.compliance_proxy(mean, np.array([area, area]))
     return {f"proxy_K_{a}{b}": float(K[i, j]) for i, a in enumerate("xy") for j, b in enumerate("xy")}
 
@@ -162,8 +182,10 @@ def _indentation(scene: Scene) -> tuple[dict[str, float], Solution, Grid]:
     x, y = grid.centres()
     r2 = np.minimum(x * x + y * y, R * R)
     gap = r2 / (R + np.sqrt(R * R - r2)) - d  # = R − sqrt(R² − r²) without cancellation (d/R ≥ 1e-15)
-    engine = Engine(scene.material, grid, ("zz",), scene.threads)
-    solution = polonsky_keer(engine.operator("z").apply, gap, tol=scene.tol)
+    xp = scene_namespace(scene)
+    engine = Engine(scene.material, grid, ("zz",), scene.threads, xp=xp)
+    solution = polonsky_keer(engine.operator("z").apply, to_device(gap, xp), tol=scene.tol)
+    solution.traction = to_host(solution.traction)
     p = solution.traction[0]
     contact = p > 0.0
     if contact[0, :].any() or contact[-1, :].any() or contact[:, 0].any() or contact[:, -1].any():
