@@ -10,7 +10,6 @@ import math
 import os
 from pathlib import Path
 
-import h5py
 import netCDF4
 import numpy as np
 import pytest
@@ -125,32 +124,22 @@ def test_the_old_file_stays_whole_when_a_new_write_fails(tmp_path, monkeypatch):
     assert path.read_bytes() == before and os.listdir(tmp_path) == ["out.nc"]
 
 
-def _flip_one_byte(path: Path, variable: str) -> None:
-    with h5py.File(path, "r") as h5:
-        info = h5[variable].id.get_chunk_info(0)
-    with open(path, "r+b") as fh:
-        fh.seek(info.byte_offset + info.size // 2)
-        byte = fh.read(1)[0]
-        fh.seek(info.byte_offset + info.size // 2)
-        fh.write(bytes([byte ^ 0xFF]))
-
-
-def test_verify_passes_a_whole_file_and_names_the_variable_of_a_damaged_chunk(tmp_path):
+def test_verify_passes_a_whole_file_and_names_the_variable_of_a_damaged_chunk(tmp_path, damage):
     path = write(_data_set(), tmp_path / "out.nc")
     verify(path)
-    _flip_one_byte(path, "iterations")
+    damage(path, "iterations")
     with pytest.raises(DamagedFile) as caught:
         verify(path)
     assert caught.value.variable == "iterations" and caught.value.filename == str(path)
     assert str(caught.value).startswith(f"{path}: variable iterations is damaged (")
 
 
-def test_verify_reads_a_large_variable_a_few_chunks_at_a_time(tmp_path, monkeypatch):
+def test_verify_reads_a_large_variable_a_few_chunks_at_a_time(tmp_path, monkeypatch, damage):
     monkeypatch.setattr(netcdf, "VERIFY_BYTES", 64)  # 8 values: each row of 2 read on its own
     ds = xr.Dataset({"v": (("i", "j"), np.arange(40.0).reshape(20, 2))})
     path = write(ds, tmp_path / "big.nc")
     verify(path)
-    _flip_one_byte(path, "v")
+    damage(path, "v")
     with pytest.raises(DamagedFile, match="variable v is damaged"):
         verify(path)
 

@@ -16,7 +16,6 @@ import subprocess
 import sys
 from pathlib import Path
 
-import h5py
 import numpy as np
 import pytest
 import xarray as xr
@@ -178,17 +177,6 @@ def test_json_is_the_same_summary_in_one_object(plain, capsys):
         assert result["provenance"]["mpi_size"] == 1
 
 
-def _flip(path: Path, variable: str) -> None:
-    """Flip one byte inside the first stored chunk of ``variable`` (its checksum then fails)."""
-    with h5py.File(path, "r") as h5:
-        info = h5[variable].id.get_chunk_info(0)
-    with open(path, "r+b") as fh:
-        fh.seek(info.byte_offset + info.size // 2)
-        byte = fh.read(1)[0]
-        fh.seek(info.byte_offset + info.size // 2)
-        fh.write(bytes([byte ^ 0x5A]))
-
-
 @pytest.mark.parametrize(
     ("case", "reason"),
     [
@@ -199,7 +187,7 @@ def _flip(path: Path, variable: str) -> None:
         ("damaged", "variable K_xx is damaged"),
     ],
 )
-def test_a_bad_file_is_one_line_naming_it_and_exit_2(sweep, case, reason, tmp_path, write_spec, capsys):
+def test_a_bad_file_is_one_line_naming_it_and_exit_2(sweep, case, reason, tmp_path, write_spec, capsys, damage):
     path = tmp_path / "results.nc"
     if case == "text":
         path.write_text("K_xx = 1.0\n", encoding="utf-8")
@@ -209,7 +197,7 @@ def test_a_bad_file_is_one_line_naming_it_and_exit_2(sweep, case, reason, tmp_pa
         path.mkdir()
     elif case == "damaged":
         path = sweep(write_spec(PLAIN), mindlin)
-        _flip(path, "K_xx")
+        damage(path, "K_xx")
     code, out, err = show(capsys, path)
     assert code == 2 and out == ""
     assert len(err.splitlines()) == 1 and err.startswith(f"hpcontact show: {path}: {reason}"), err
