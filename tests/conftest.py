@@ -3,11 +3,14 @@
 CI (``CI`` set to 1, true or yes: ``.ci/run`` exports ``CI=true`` itself, so the gate does not
 depend on the CI service setting it) a skipped test fails the run.
 
-The only skips allowed there split the MPI tests between the two pytest invocations of
-``.ci/run``: plain ``pytest tests`` runs the tests that start their own ``mpiexec`` and skips the
-ones that need to be 2 ranks; ``mpiexec -n 2 pytest tests/mpi`` the other way round. Any other
-skip — a checker or an optional package missing — would leave a claim unchecked in CI, so the
-session ends with a failure naming each skipped test.
+The only skips allowed there (``allowed_skip``) split the MPI tests between the two pytest
+invocations of ``.ci/run`` — plain ``pytest tests`` runs the tests that start their own ``mpiexec``
+and skips the ones that need to be 2 ranks; ``mpiexec -n 2 pytest tests/mpi`` the other way round —
+and skip the tests marked ``gpu`` (tests/gpu) where CuPy or a CUDA device is missing: CI's machine
+has no GPU; a machine that has one runs them (benchmarks/README.md). Any other skip — a checker or
+an optional package missing, a ``gpu`` test skipped for another reason, an unmarked test skipped
+with the GPU's reason — would leave a claim unchecked in CI, so the session ends with a failure
+naming each skipped test.
 
 The suite runs on pytest-xdist workers, a test file each (``-n auto --dist loadfile`` in the
 README's command); the files of tests/mpi go first: their tests start processes and mostly wait
@@ -22,10 +25,14 @@ from pathlib import Path
 
 import pytest
 
+from hpcontact.numerics.backend import cuda_devices
 from hpcontact.numerics.blas import limited_blas
 
 #: Skip reasons of the launcher split (tests/mpi): each test runs in the other invocation.
 LAUNCHER_SPLIT = ("needs 2 ranks", "run pytest without a launcher")
+#: The skip reason of a ``gpu``-marked test on a machine without a GPU (``pytest_runtest_setup``).
+NO_GPU = "needs CuPy and a CUDA device"
+GPU_SKIP = ("skipped", "gpu marker, no GPU")
 
 
 @pytest.fixture(autouse=True)
@@ -40,6 +47,26 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     items.sort(key=lambda item: mpi not in item.path.parents)
 
 
+def pytest_runtest_setup(item: pytest.Item) -> None:
+    """A test marked ``gpu`` is skipped, with ``NO_GPU`` and what is missing, without a GPU; its
+    report then carries ``GPU_SKIP`` in its user properties (they travel with xdist's reports)."""
+    if item.get_closest_marker("gpu") is not None:
+        _, count, why = cuda_devices()
+        if count == 0:
+            item.user_properties.append(GPU_SKIP)
+            pytest.skip(f"{NO_GPU}: {why}")
+
+
+def allowed_skip(report: pytest.TestReport) -> bool:
+    """Whether CI allows this skip: the launcher split, or a ``gpu``-marked test that
+    ``pytest_runtest_setup`` skipped for the want of a GPU (a test skipping itself with the same
+    words is not allowed)."""
+    text = str(report.longrepr)
+    return any(reason in text for reason in LAUNCHER_SPLIT) or (
+        any(tuple(entry) == GPU_SKIP for entry in report.user_properties) and NO_GPU in text
+    )
+
+
 def _in_ci() -> bool:
     return os.environ.get("CI", "").strip().lower() in ("1", "true", "yes")
 
@@ -52,7 +79,7 @@ def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
     if reporter is None:
         return
     skipped = [report for report in reporter.stats.get("skipped", []) if not getattr(report, "wasxfail", None)]
-    unexpected = [report for report in skipped if not any(reason in str(report.longrepr) for reason in LAUNCHER_SPLIT)]
+    unexpected = [report for report in skipped if not allowed_skip(report)]
     if unexpected:
         reporter.write_line("")
         for report in unexpected:

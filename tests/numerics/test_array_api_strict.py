@@ -26,24 +26,27 @@ Bounds, from analysis:
 from __future__ import annotations
 
 import math
+import sys
+from pathlib import Path
 
 import array_api_strict as xps
 import numpy as np
 import pytest
 
-from hpcontact.geometry import Grid
-from hpcontact.kernels.engine import Engine
 from hpcontact.kernels.isotropic import isotropic_block
 from hpcontact.materials.isotropic import Isotropic
 from hpcontact.numerics.backend import dot, namespace, norm, to_device, to_host
-from hpcontact.numerics.conjugate_gradient import polonsky_keer
 from hpcontact.numerics.convolution import ArrayConvolutionOperator, ConvolutionOperator, kernel_spectrum, padded_shape
-from hpcontact.plan import make_plan
-from hpcontact.problems.contact import _run_solve, discretize
-from hpcontact.scene import Scene
 
-U = 2.0**-53
-REQUIRED = 1e-12  # the issue's agreement of the device path with the CPU path
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from device_agreement import (  # noqa: E402
+    REQUIRED,
+    SCENES,
+    U,
+    check_contact_solves,
+    check_polonsky_keer,
+    scene_params,
+)
 
 
 def test_the_backend_helpers_stay_in_the_standard():
@@ -79,76 +82,14 @@ def test_convolution_on_strict_arrays_is_the_pyfftw_one(components, nu):
     assert difference <= REQUIRED * np.linalg.norm(reference)
 
 
-def _dense(apply, shape, mask):
-    """The matrix of the operator restricted to the mask's unknowns (columns: unit tractions),
-    its condition number σ_max/σ_min, and the unknowns' flat indices."""
-    cells = np.flatnonzero(np.broadcast_to(mask, shape))
-    columns = []
-    for index in cells:
-        t = np.zeros(math.prod(shape))
-        t[index] = 1.0
-        columns.append(apply(t.reshape(shape)).reshape(-1)[cells])
-    A = np.array(columns).T
-    singular = np.linalg.svd(A, compute_uv=False)
-    return A, singular[0] / singular[-1], cells
+@pytest.mark.parametrize("name", sorted(SCENES))
+def test_the_contact_solves_on_strict_arrays_are_the_numpy_ones(name, tmp_path):
+    assert check_contact_solves(scene_params(name, tmp_path), xps) >= 1
 
 
-def _residual(A, x, b):
-    """‖A x − b‖/‖b‖ in extended precision (its own rounding negligible beside float64's)."""
-    A, x, b = (np.asarray(v, dtype=np.longdouble) for v in (A, x, b))
-    return float(np.linalg.norm(A @ x - b) / np.linalg.norm(b))
-
-
-@pytest.mark.parametrize(
-    "params",
-    [
-        {"shape": "ellipse", "aspect": 0.6, "n": 16, "nu": 0.3, "quantities": "tangential,normal"},
-        {"shape": "star", "n": 14, "nu": 0.45, "quantities": "tangential"},
-    ],
-)
-@pytest.mark.parametrize("precondition", [True, False])
-def test_the_contact_solve_on_strict_arrays_is_the_numpy_one(params, precondition):
-    scene = Scene.from_params({**params, "tol": 1e-14, "precondition": precondition})
-    grid, mask = discretize(scene)
-    plan = make_plan(scene, mask, grid)
-    host = Engine(scene.material, grid, plan.kernels)
-    strict = Engine(scene.material, grid, plan.kernels, xp=xps)
-    for solve in plan.solves:
-        force, solution = _run_solve(scene, host, mask, solve)
-        force_strict, solution_strict = _run_solve(scene, strict, mask, solve)
-        assert isinstance(solution_strict.traction, np.ndarray)  # copied back once, at the boundary
-        c = len(solve.components)
-        op = host.operator(solve.components, solve.green)
-        A, kappa, cells = _dense(op.apply, (c,) + mask.shape, mask)
-        b = np.zeros((c,) + mask.shape)
-        b[solve.components.index(solve.load)] = 1.0
-        b = b.reshape(-1)[cells]
-        x1, x2 = solution.traction.reshape(-1)[cells], solution_strict.traction.reshape(-1)[cells]
-        bound = kappa * (_residual(A, x1, b) + _residual(A, x2, b))
-        assert bound <= REQUIRED, kappa
-        difference = np.linalg.norm(x1 - x2)
-        assert difference <= bound * np.linalg.norm(x1)
-        m, area = len(cells), grid.cell_area
-        force_bound = area * (math.sqrt(m) * difference + m * U * np.sum(np.abs(x1)))
-        assert np.all(np.abs(force - force_strict) <= force_bound)
-        assert np.max(np.abs(force - force_strict)) <= REQUIRED * np.max(np.abs(force))
+def test_plain_cg_on_strict_arrays_is_the_numpy_one(tmp_path):
+    assert check_contact_solves({**scene_params("star", tmp_path), "precondition": False}, xps) >= 1
 
 
 def test_polonsky_keer_on_strict_arrays_is_the_numpy_one():
-    n, R, d = 24, 1.0, 0.01
-    half = 1.5 * math.sqrt(R * d)
-    grid = Grid(n, n, 2 * half / n, 2 * half / n)
-    x, y = grid.centres()
-    gap = (x * x + y * y) / (2 * R) - d
-    host = Engine(Isotropic(nu=0.3), grid, ("zz",))
-    strict = Engine(Isotropic(nu=0.3), grid, ("zz",), xp=xps)
-    p1 = polonsky_keer(host.operator("z").apply, gap, tol=1e-14).traction[0]
-    p2 = to_host(polonsky_keer(strict.operator("z").apply, xps.asarray(gap), tol=1e-14).traction)[0]
-    contact = p1 > 0.0
-    assert np.array_equal(contact, p2 > 0.0) and contact.sum() > 20
-    # on the contact, A_c p = −h_c; the difference of two pressures is A_c⁻¹ of their gap residuals
-    A, kappa, cells = _dense(host.operator("z").apply, (1, n, n), contact[None])
-    h = gap.reshape(-1)[cells]
-    bound = kappa * sum(_residual(A, p.reshape(-1)[cells], -h) for p in (p1, p2))
-    assert bound <= REQUIRED, kappa
-    assert np.linalg.norm(p1 - p2) / np.linalg.norm(p1) <= bound
+    check_polonsky_keer(xps)
