@@ -17,6 +17,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from launcher import CLEARED
 
 from hpcontact.sweep.run.schedule import LAUNCHER_VARIABLES, launched_by_mpi
 
@@ -38,9 +39,10 @@ MPI_PREFIXES = ("PMI_", "PMIX_", "OMPI_", "MPI_", "MV2_", "HYDRA_", "PRTE_", "PA
 
 
 def _plain_environment(**slurm: str) -> dict[str, str]:
-    """This process's environment without launcher variables, plus ``slurm``."""
-    env = {k: v for k, v in os.environ.items() if k not in LAUNCHER_VARIABLES and not k.startswith(MPI_PREFIXES)}
-    env.pop("HPCONTACT_MPI", None)
+    """This process's environment without launcher variables and what no launched run inherits
+    (``launcher.CLEARED``), plus ``slurm``."""
+    cleared = {*LAUNCHER_VARIABLES, *CLEARED}
+    env = {k: v for k, v in os.environ.items() if k not in cleared and not k.startswith(MPI_PREFIXES)}
     env.update(OMP_NUM_THREADS="1", **slurm)
     return env
 
