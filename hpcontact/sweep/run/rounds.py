@@ -1,6 +1,15 @@
 """The MPI rounds of a run: every rank's share joined into the tasks, rank 0's decision
-(``resume.prepare``) broadcast, the tasks run in chunks from the shared counter and journaled,
-and rank 0's data set (``assembly.assemble``); see ``hpcontact.sweep.driver``."""
+(``resume.prepare``) broadcast, the tasks run in claims from the shared counter and journaled,
+and rank 0's data set (``assembly.assemble``); see ``hpcontact.sweep.driver``.
+
+A rank takes several consecutive chunks (``tasks.make_chunks``) with one request to the counter
+when its chunks are cheap against the request's round trip (``schedule.claimed_chunks``,
+``replay.claim_size``): exact cells (one task, one kernel group, one chunk each) no longer pay a
+round trip a task. Claims change only which rank runs a task and when: every task is journaled
+and recorded as it would be alone.
+
+While the other ranks take the first claims, rank 0 first imports what its data set needs
+(``_prepare_assembly``), which it would otherwise do at the round's end while they wait."""
 
 from __future__ import annotations
 
@@ -12,6 +21,8 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, TextIO
+
+import numpy as np
 
 from hpcontact import accuracy
 from hpcontact.errors import ConvergenceError, InputError
@@ -240,6 +251,15 @@ def _announce(
     )
 
 
+def _prepare_assembly() -> None:
+    """Rank 0: import the data set's modules and let xarray import its duck-array modules (it
+    does at its first variable: dask, ~0.6 s on the development machine), as the data set at the
+    round's end would, but while the other ranks compute."""
+    from hpcontact.sweep.data.dataset import xr
+
+    xr.Variable(("point",), np.zeros(1))
+
+
 def _run(run: Run, plan: Plan, kept: Kept | None, scope: RoundScope, options: Options, round_started: float) -> Outcome:
     """Every rank: the work of ``plan``, then rank 0 assembles the data set (see ``execute``)
     from what it ``kept`` (None on the other ranks); the set-up runs from ``round_started``,
@@ -300,8 +320,10 @@ def _run(run: Run, plan: Plan, kept: Kept | None, scope: RoundScope, options: Op
                     if stop.stopping:
                         break
                     run_one(task)
+            if team.rank == 0 and team.size > 1:
+                _prepare_assembly()
             claim = time.perf_counter()
-            for chunk in claimed_chunks(chunks, counter):
+            for chunk in claimed_chunks(chunks, counter, team.size):
                 schedule_s += time.perf_counter() - claim
                 if stop.stopping:
                     break

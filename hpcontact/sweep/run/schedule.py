@@ -44,10 +44,12 @@ import sys
 import threading
 import time
 import traceback
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import Any, Protocol
 
 import numpy as np
+
+from hpcontact.sweep.work.replay import claim_size
 
 # Environment variables through which a launcher hands MPI process management to a process:
 # MPICH/Hydra, Intel MPI, MVAPICH and Slurm's pmi/pmi2 (PMI_*), PMIx (Slurm --mpi=pmix, prrte,
@@ -412,14 +414,32 @@ COST_DONE = 2
 SLOTS = 3
 
 
-def claimed_chunks(chunks: Sequence[tuple[Any, ...]], counter: Counter) -> Iterator[tuple[Any, ...]]:
-    """The chunks this rank takes, one at a time, until none is left (every rank calls it; a
-    rank may stop early, e.g. on a signal, and then calls ``counter.close``)."""
+def claimed_chunks(
+    chunks: Sequence[tuple[Any, ...]],
+    counter: Counter,
+    ranks: int | None = None,
+    clock: Callable[[], float] = time.perf_counter,
+) -> Iterator[tuple[Any, ...]]:
+    """The chunks this rank takes, until none is left (every rank calls it; a rank may stop
+    early, e.g. on a signal, and then calls ``counter.close``). With ``ranks`` (the team's
+    size), each request takes the next ``replay.claim_size`` chunks, from this rank's mean round
+    trip and chunk seconds so far on ``clock`` (the time from a claim's answer to the next
+    request, divided by its chunks); without, one chunk a request."""
+    asked = taken = 0
+    waited = busy = 0.0
+    take = 1
     while True:
-        index = counter.fetch_add(NEXT_CHUNK, 1)
+        before = clock()
+        index = counter.fetch_add(NEXT_CHUNK, take)
+        after = clock()
         if index >= len(chunks):
             return
-        yield chunks[index]
+        got = chunks[index : index + take]
+        yield from got
+        if ranks is not None:
+            asked, taken = asked + 1, taken + len(got)
+            waited, busy = waited + after - before, busy + clock() - after
+            take = claim_size(waited / asked, busy / taken, len(chunks) - index - len(got), ranks)
 
 
 def cost_units(cost: float) -> int:

@@ -2,10 +2,10 @@
 
 **Wall time on R ranks** (``replay``): a discrete-event model of the scheduler
 (``hpcontact.sweep.run.schedule``): the tasks are chunked and ordered by the real ``make_chunks`` for R
-ranks; every rank computes; a worker's claim of the next chunk waits for the server (FIFO,
-``Overheads.service_s`` per message) plus the wake-up latency ``wake_s``; rank 0 claims without
-messages; every task pays ``driver_s`` (journal, progress, scheduling) and ``spread_gather_s``
-(its outcome turned into columns by the rank that ran it); before any rank computes, every rank
+ranks; every rank computes; a worker's claim of the next chunks (``claim_size``) waits for the
+server (FIFO, ``Overheads.service_s`` per message) plus the wake-up latency ``wake_s``; rank 0
+claims without messages; every task pays ``driver_s`` (journal, progress, scheduling) and
+``spread_gather_s`` (its outcome turned into columns by the rank that ran it); before any rank computes, every rank
 enumerates and validates 1/R of the parameter space (``spread_setup_s`` per task, divided by R)
 and rank 0 alone joins the shares, decides what to run and broadcasts the plan (``setup_s`` per
 task); at the end rank 0 alone joins the ranks' columns and writes the data set (``gather_s``
@@ -13,11 +13,32 @@ per task) while the others wait. Wall time = makespan; efficiency = Σ task seco
 makespan).
 ``benchmarks/sweep_scale.py`` measures the overheads and replays real task costs with this model.
 
+**Claims** (``claim_size``). One request to rank 0's counter costs a worker a round trip
+(``wake_s + service_s`` when the server is free, ~2.5 ms on the development machine; 5.5 ms a
+task on a loaded 16-core node, issue 40). A chunk of one cheap task (an exact-cell solve of
+10-65 ms is its own kernel group: one task, one chunk) would pay it every task, so a rank asks
+for k consecutive chunks at once (``schedule.claimed_chunks``): enough that its mean round trip
+so far is at most ``CLAIM_OVERHEAD_SHARE`` (2 %) of k of its chunks' mean measured seconds, and
+at most the remaining chunks / (``CHUNKS_PER_RANK`` R), the bound of guided self-scheduling
+(Polychronopoulos and Kuck, IEEE Trans. Comput. C-36, 1987): claims shrink as the work runs out
+and the last ones are single chunks (the tail as without claims). The first claim is one
+chunk (nothing measured yet); rank 0 claims without messages, one chunk at a time. Measured, not
+estimated: the rule needs no cost model and follows the machine's load. The replay applies the
+same rule to its own round trips and chunk seconds.
+
+**Adaptive rounds** (``replay_rounds``): an adaptive map runs synchronized rounds
+(``hpcontact.sweep.maps.rounds``): every rank enumerates its share of the whole grid once, then
+each round's tasks run as one replayed sweep (without setup or gather of their own), and between
+rounds rank 0 alone decides the next round (journals, the data set of every journaled task, the
+refinement: ``between_s``, measured) while every other rank waits. Makespan = setup + Σ rounds
+(their makespan + ``between_s``); efficiency = Σ task seconds / (R × makespan).
+
 """
 
 from __future__ import annotations
 
 import heapq
+import math
 import statistics
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -25,7 +46,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from hpcontact.errors import InputError
-from hpcontact.sweep.work.tasks import ChunkOrder, Task, chunk_bounds, chunk_order
+from hpcontact.sweep.work.tasks import CHUNKS_PER_RANK, ChunkOrder, Task, chunk_bounds, chunk_order
 
 
 @dataclass(frozen=True)
@@ -48,6 +69,19 @@ class Overheads:
 
 # The overheads measured on the development machine (``Overheads``' defaults): the default of every replay.
 DEFAULT_OVERHEADS = Overheads()
+# A claim's round trip may cost at most this share of the seconds of the chunks it takes (``claim_size``).
+CLAIM_OVERHEAD_SHARE = 0.02
+
+
+def claim_size(round_trip_s: float, chunk_s: float, remaining: int, ranks: int) -> int:
+    """How many chunks a rank asks for with its next request (module docstring): ceil(round trip
+    / (CLAIM_OVERHEAD_SHARE × chunk seconds)), at most ``remaining`` // (CHUNKS_PER_RANK ×
+    ``ranks``), at least 1; 1 while nothing is measured (``round_trip_s`` or ``chunk_s`` not
+    positive: a first claim, or rank 0's own)."""
+    if round_trip_s <= 0.0 or chunk_s <= 0.0:
+        return 1
+    wanted = math.ceil(round_trip_s / (CLAIM_OVERHEAD_SHARE * chunk_s))
+    return max(1, min(wanted, remaining // (CHUNKS_PER_RANK * ranks)))
 
 
 def replay(
@@ -63,53 +97,126 @@ def replay(
     return replay_chunks(chunk_order(tasks), times, ranks, overheads)
 
 
+def _chunk_sums(values: np.ndarray, starts: np.ndarray, stops: np.ndarray) -> np.ndarray:
+    """Each chunk's sum of ``values`` (in chunk order), summed in order as ``make_chunks``' tuples are."""
+    sums = np.empty(len(starts), dtype=np.float64)
+    single = stops - starts == 1
+    sums[single] = values[starts[single]]
+    for k in np.flatnonzero(~single).tolist():
+        sums[k] = sum(values[starts[k] : stops[k]].tolist())
+    return sums
+
+
 def replay_chunks(chunks: ChunkOrder, seconds: np.ndarray, ranks: int, overheads: Overheads) -> dict[str, float]:
     """``replay`` of the tasks in ``chunks`` (``tasks.chunk_order``) with ``seconds`` in task
     order: the chunks ``make_chunks`` makes for ``ranks`` (``tasks.chunk_bounds``), each chunk's
-    work summed in its order as ``make_chunks``' tuples would be, then taken by the ranks."""
+    work summed in its order as ``make_chunks``' tuples would be, then taken by the ranks in
+    claims (``claim_size``, from each rank's own round trips and chunk seconds so far)."""
     if ranks < 1:
         raise InputError("ranks", "an integer >= 1", ranks)
     starts, stops = chunk_bounds(chunks, ranks)
     per_task = overheads.driver_s + overheads.spread_gather_s
-    work = seconds[chunks.order] + per_task  # each task's seconds and overheads, in chunk order
-    single = stops - starts == 1
-    chunk_seconds = np.empty(len(starts), dtype=np.float64)
-    chunk_seconds[single] = work[starts[single]]
-    for k in np.flatnonzero(~single).tolist():
-        chunk_seconds[k] = sum(work[starts[k] : stops[k]].tolist())
+    work = _chunk_sums(seconds[chunks.order] + per_task, starts, stops)  # with the per-task overheads
     n = len(seconds)
     setup = overheads.setup_s * n + overheads.spread_setup_s * n / ranks
-    claim_wait = 0.0
+    claim_wait, claims = 0.0, 0
     if ranks == 1:  # rank 0 alone: each chunk starts when the last one ends
         last = setup
-        for chunk in chunk_seconds.tolist():
+        for chunk in work.tolist():
             last = last + chunk
-        finish = [last]
+        finish, claims = [last], len(work)
     else:
         free = [(setup, r) for r in range(ranks)]  # every rank starts after the setup
         heapq.heapify(free)
         server_free = setup
         finish = [setup] * ranks
+        # each rank's claims, round trips and chunks so far, and where its last claim ended
+        asked, waited, taken, busy, seen = [0] * ranks, [0.0] * ranks, [0] * ranks, [0.0] * ranks, [0] * ranks
+        chunk_list, count, at = work.tolist(), len(work), 0
         service_s, wake_s, replace_first = overheads.service_s, overheads.wake_s, heapq.heapreplace
-        for chunk in chunk_seconds.tolist():
+        while at < count:
             t, rank = free[0]
             if rank == 0:
-                start = t
+                start, k = t, 1
             else:
+                k = (
+                    claim_size(waited[rank] / asked[rank], busy[rank] / taken[rank], count - seen[rank], ranks)
+                    if asked[rank]
+                    else 1
+                )
                 served = (t if t > server_free else server_free) + service_s  # max(t, server_free)
                 server_free = served
                 start = served + wake_s
                 claim_wait += start - t
-            end = finish[rank] = start + chunk
+                asked[rank] += 1
+                waited[rank] += start - t
+            got = chunk_list[at : at + k]
+            at += len(got)
+            seen[rank] = at
+            end = start
+            for chunk in got:
+                end = end + chunk
+            taken[rank] += len(got)
+            busy[rank] += end - start
+            finish[rank] = end
+            claims += 1
             replace_first(free, (end, rank))
         last = max(finish)
     makespan = last + overheads.gather_s * n
     work_total = float(sum(seconds.tolist()))
     return {
         "chunks": len(starts),
+        "claims_taken": claims,
         "makespan_s": makespan,
         "efficiency": work_total / (ranks * makespan) if makespan > 0 else 1.0,
         "tail": (last - statistics.fmean(finish)) / makespan if makespan > 0 else 0.0,
         "claims": claim_wait / (ranks * makespan) if makespan > 0 else 0.0,
         "setup_gather": (setup + overheads.gather_s * n) / makespan if makespan > 0 else 0.0,
+    }
+
+
+def replay_rounds(
+    rounds: Sequence[tuple[ChunkOrder, np.ndarray]],
+    ranks: int,
+    between_s: Sequence[float],
+    tasks: int,
+    overheads: Overheads = DEFAULT_OVERHEADS,
+) -> dict[str, float]:
+    """Discrete-event model of an adaptive map's synchronized rounds (module docstring): each
+    round's tasks (``tasks.chunk_order`` of them and their one-core seconds in task order) run
+    as one ``replay_chunks`` without setup or gather, then rank 0 alone spends the round's
+    ``between_s`` (journals, data set, refinement; after the last round: the data set written)
+    while the other ranks wait; before the first round every rank enumerates its share of the
+    whole grid's ``tasks`` and rank 0 joins them (``spread_setup_s``, ``setup_s`` per task, as
+    ``replay_chunks``). Makespan, efficiency, and the shares of the makespan lost between
+    rounds and to the rounds' own tails and claims."""
+    if ranks < 1:
+        raise InputError("ranks", "an integer >= 1", ranks)
+    if len(between_s) != len(rounds):
+        raise InputError("between_s", f"one time per round ({len(rounds)})", len(between_s))
+    within = Overheads(
+        driver_s=overheads.driver_s,
+        service_s=overheads.service_s,
+        wake_s=overheads.wake_s,
+        setup_s=0.0,
+        gather_s=0.0,
+        spread_setup_s=0.0,
+        spread_gather_s=overheads.spread_gather_s,
+    )
+    setup = overheads.setup_s * tasks + overheads.spread_setup_s * tasks / ranks
+    makespan, work, lost_tail, lost_claims = setup, 0.0, 0.0, 0.0
+    for (chunks, seconds), between in zip(rounds, between_s):
+        one = replay_chunks(chunks, seconds, ranks, within)
+        makespan += one["makespan_s"] + between
+        work += float(sum(seconds.tolist()))
+        lost_tail += one["tail"] * one["makespan_s"]
+        lost_claims += one["claims"] * one["makespan_s"]
+    return {
+        "rounds": len(rounds),
+        "makespan_s": makespan,
+        "efficiency": work / (ranks * makespan) if makespan > 0 else 1.0,
+        "between": float(sum(between_s)) / makespan if makespan > 0 else 0.0,
+        "tail": lost_tail / makespan if makespan > 0 else 0.0,
+        "claims": lost_claims / makespan if makespan > 0 else 0.0,
+        "setup": setup / makespan if makespan > 0 else 0.0,
     }
