@@ -5,6 +5,7 @@ absolute (the spec's format: ``hpcontact.sweep.space.parse``)."""
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -141,14 +142,33 @@ def normalize(key: str, name: str, value: Any) -> Any:
     return value
 
 
+#: What an axis may be (its refusal's words).
+AXIS_FORMS = "a list of values or a table {linspace = [start, stop, num]} / {logspace = ...}"
+
+
+def axis_length(name: str, raw: Any) -> int:
+    """The number of values of the axis ``name`` whose description (a value of a spec's
+    ``[axes]``) is ``raw``, counted without making them: a list's length (a tuple's or a 1-D
+    array's in a spec given as a dict), a ``linspace``/``logspace`` table's ``num``, checked as
+    ``parse_axis`` checks it; ``InputError`` naming the key for anything else."""
+    key = f"axes.{name}"
+    if isinstance(raw, Mapping):
+        return _generator(key, raw)[3]
+    if isinstance(raw, (list, tuple)) or (isinstance(raw, np.ndarray) and raw.ndim == 1):
+        return len(raw)
+    raise InputError(key, AXIS_FORMS, _shown(raw))
+
+
 def parse_axis(name: str, raw: Any) -> Axis:
+    """The axis ``name`` of the spec's ``[axes]`` value ``raw`` (TOML's types: a list, or a table
+    of one generator), its values checked and normalized (``normalize``)."""
     key = f"axes.{name}"
     if isinstance(raw, dict):
         values = _generated(key, raw)
     elif isinstance(raw, list):
         values = list(raw)
     else:
-        raise InputError(key, "a list of values or a table {linspace = [start, stop, num]} / {logspace = ...}", raw)
+        raise InputError(key, AXIS_FORMS, raw)
     if not values:
         raise InputError(key, "at least one value (the axis is empty)")
     if name in LABEL_AXES:
@@ -167,27 +187,42 @@ def parse_axis(name: str, raw: Any) -> Axis:
     return Axis(name=name, values=coords, fields=fields)
 
 
-def _generated(key: str, raw: dict) -> list[float]:
+def _generator(key: str, raw: Mapping[str, Any]) -> tuple[str, float, float, int]:
+    """The generator of an axis table ``raw``: (``"linspace"`` or ``"logspace"``, start, stop,
+    num), checked: finite numbers, an integer 1 <= num <= ``MAX_POINTS``."""
     if len(raw) != 1 or next(iter(raw)) not in ("linspace", "logspace"):
-        raise InputError(key, "a table with one key: linspace or logspace", raw)
+        raise InputError(key, "a table with one key: linspace or logspace", _shown(raw))
     kind, args = next(iter(raw.items()))
     ok = (
-        isinstance(args, list)
+        isinstance(args, (list, tuple, np.ndarray))
         and len(args) == 3
-        and all(isinstance(a, (int, float)) and not isinstance(a, bool) and math.isfinite(a) for a in args)
-        and isinstance(args[2], int)
+        and all(isinstance(a, numbers.Real) and not isinstance(a, (bool, np.bool_)) and math.isfinite(a) for a in args)
+        and isinstance(args[2], numbers.Integral)
     )
     if not ok:
-        raise InputError(f"{key}.{kind}", "[start, stop, num] with finite numbers and an integer num", args)
-    start, stop, num = args
+        raise InputError(f"{key}.{kind}", "[start, stop, num] with finite numbers and an integer num", _shown(args))
+    start, stop, num = float(args[0]), float(args[1]), int(args[2])
     if num < 1:
-        raise InputError(f"{key}.{kind}", "num >= 1 (the axis is empty)", args)
+        raise InputError(f"{key}.{kind}", "num >= 1 (the axis is empty)", _shown(args))
     if num > MAX_POINTS:
-        raise InputError(f"{key}.{kind}", f"num <= {MAX_POINTS} (the most points a spec may have)", args)
+        raise InputError(f"{key}.{kind}", f"num <= {MAX_POINTS} (the most points a spec may have)", _shown(args))
+    return kind, start, stop, num
+
+
+def _shown(value: Any) -> Any:
+    """``value`` as a refusal shows it: a sequence of more than 8 items by its type and length
+    (its text could be gigabytes)."""
+    if isinstance(value, (list, tuple, np.ndarray)) and len(value) > 8:
+        return f"<{type(value).__name__} of {len(value)} values>"
+    return list(value) if isinstance(value, np.ndarray) else value
+
+
+def _generated(key: str, raw: dict) -> list[float]:
+    kind, start, stop, num = _generator(key, raw)
     make = np.linspace if kind == "linspace" else np.logspace
     # 15 significant digits drop the generator's last-bit error (0.30000000000000004 -> 0.3,
     # 9.999999999999999e-05 -> 1e-4) so that labels select exactly: ds.sel(nu=0.3)
-    return list(map(float, map("{:.15g}".format, make(float(start), float(stop), num, dtype=np.float64).tolist())))
+    return list(map(float, map("{:.15g}".format, make(start, stop, num, dtype=np.float64).tolist())))
 
 
 def _label_values(key: str, name: str, values: list) -> tuple[tuple[str, ...], tuple[Mapping[str, Any], ...]]:

@@ -87,14 +87,19 @@ value (``angle_mode`` is for punch tensors and is refused). Radii of body 2 and 
 
 from __future__ import annotations
 
+import json
 import math
+import numbers
 import os
+import re
 import stat
 import tomllib
 from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from hpcontact.errors import InputError, did_you_mean
 from hpcontact.problems.kinds import kind_of
@@ -106,6 +111,7 @@ from hpcontact.sweep.space.axes import (
     MAX_POINTS,
     PATH_FIELDS,
     Axis,
+    axis_length,
     normalize,
     parse_axis,
     with_paths,
@@ -193,6 +199,143 @@ def parse_spec(
         raise InputError("spec", f"valid TOML ({exc})", str(path)) from None
     except RecursionError:  # arrays or inline tables nested thousands deep
         raise InputError("spec", "TOML nested at most a few hundred levels deep", str(path)) from None
+    return spec_of_tables(data, text, path, output, validate, check_scenes, accuracy)
+
+
+#: The spec path a spec given as a dict is recorded under (journals, the data set's ``spec_path``).
+DICT_SPEC_PATH = "<dict>"
+#: The deepest nesting of a spec given as a dict (tables, inline tables, lists): a spec uses 3
+#: or 4 levels ([axes] → label table → list of tables → fields); deeper is a mistake, and far
+#: deeper (thousands) would exhaust Python's recursion before anything could name it.
+MAX_SPEC_DEPTH = 64
+
+
+def parse_spec_dict(
+    spec: Mapping[str, Any],
+    path: str | Path = DICT_SPEC_PATH,
+    output: str | Path | None = None,
+    validate: Validator | None = None,
+    check_scenes: bool = True,
+    accuracy: float | None = None,
+) -> Spec:
+    """A spec given as a dict of its tables (``hpcontact.run_sweep``), checked as its TOML file
+    would be (``parse_spec``) but read directly: its points are counted from its axes'
+    descriptions first (``check_points``: nothing is expanded or copied before), then its values
+    are taken as TOML's types (``plain_tables``); its ``text``, the data set's record of the
+    spec, is the TOML that states it (``toml_text``), written, never read back."""
+    axes = spec.get("axes") if isinstance(spec, Mapping) else None
+    if isinstance(axes, Mapping):
+        check_points(axes)
+    tables = plain_tables(spec)
+    return spec_of_tables(tables, toml_text(tables), path, output, validate, check_scenes, accuracy)
+
+
+def check_points(axes: Mapping[str, Any]) -> None:
+    """``InputError`` naming ``axes`` when the product of the lengths of the axes described by
+    ``axes`` (a spec's ``[axes]`` table) exceeds ``MAX_POINTS``; each length is read from the
+    description (``axes.axis_length``), so no axis is made first."""
+    lengths = [axis_length(str(name), raw) for name, raw in axes.items()]
+    total = math.prod(lengths)
+    if total > MAX_POINTS:
+        raise InputError(
+            "axes",
+            f"at most {MAX_POINTS} points, the product of the axes' lengths (this spec has "
+            f"{' x '.join(map(str, lengths))} = {total}); split it or coarsen an axis",
+        )
+
+
+TOML_VALUE = "a TOML value: a string, number, boolean, list or table (leave a key out for the default)"
+
+
+def plain_tables(spec: Mapping[str, Any]) -> dict[str, Any]:
+    """A spec given as a dict in TOML's types, as ``tomllib`` would return its TOML text: string
+    keys, bools (numpy's too), ints (any ``numbers.Integral``), floats (any other
+    ``numbers.Real``), strings (``os.PathLike`` as its path), lists (tuples, numpy arrays) and
+    dicts (any ``Mapping``). Anything else (None, another object), a key that is not a string,
+    nesting deeper than ``MAX_SPEC_DEPTH`` and a value that contains itself are refused with an
+    ``InputError`` naming the key."""
+    return _plain(spec, "", 0, ())
+
+
+def _plain(value: Any, where: str, depth: int, ancestors: tuple[int, ...]) -> Any:
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, numbers.Integral):
+        return int(value)
+    if isinstance(value, numbers.Real):
+        return float(value)
+    if isinstance(value, (str, os.PathLike)):
+        return os.fspath(value)
+    if isinstance(value, np.ndarray):
+        return _plain(value.tolist(), where, depth, ancestors)
+    if not isinstance(value, (Mapping, list, tuple)):
+        raise InputError(where or "spec", TOML_VALUE, value)
+    if id(value) in ancestors:
+        raise InputError(where or "spec", "a spec without cycles: this value contains itself")
+    if depth >= MAX_SPEC_DEPTH:
+        raise InputError(
+            f"{where[:200]}..." if len(where) > 200 else where,
+            f"a spec nested at most {MAX_SPEC_DEPTH} levels deep (tables, lists)",
+        )
+    inner = (*ancestors, id(value))
+    if isinstance(value, Mapping):
+        for key in value:
+            if not isinstance(key, str):
+                raise InputError("spec", "string keys (a spec as a dict has the structure of its TOML file)", key)
+        return {k: _plain(v, f"{where}.{k}" if where else k, depth + 1, inner) for k, v in value.items()}
+    if all(type(v) is float for v in value):  # a long axis of floats: already TOML's (a copy)
+        return list(value)
+    return [_plain(v, where, depth + 1, inner) for v in value]
+
+
+def toml_text(tables: Mapping[str, Any]) -> str:
+    """The TOML text of a spec given as a dict: its tables of ``key = value`` (nested mappings
+    inline), in TOML's types (``plain_tables``, which refuses what TOML cannot hold), so that
+    ``tomllib`` reads back ``plain_tables(tables)``."""
+    tables = plain_tables(tables)
+    lines = [f"{_toml_key(k)} = {_toml_value(v)}" for k, v in tables.items() if not isinstance(v, dict)]
+    for table, values in tables.items():
+        if isinstance(values, dict):
+            lines.append(f"[{_toml_key(table)}]")
+            lines += [f"{_toml_key(k)} = {_toml_value(v)}" for k, v in values.items()]
+    return "\n".join(lines) + "\n"
+
+
+def _toml_key(key: str) -> str:
+    return key if re.fullmatch(r"[A-Za-z0-9_-]+", key) else _toml_string(key)
+
+
+def _toml_string(text: str) -> str:
+    return json.dumps(text, ensure_ascii=False).replace("\x7f", "\\u007f")
+
+
+def _toml_value(value: Any) -> str:
+    """One value of ``plain_tables``'s types as TOML."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        return repr(value) if math.isfinite(value) else "nan" if math.isnan(value) else "inf" if value > 0 else "-inf"
+    if isinstance(value, str):
+        return _toml_string(value)
+    if isinstance(value, dict):
+        items = ", ".join(f"{_toml_key(k)} = {_toml_value(v)}" for k, v in value.items())
+        return f"{{ {items} }}" if items else "{}"
+    return "[" + ", ".join(map(_toml_value, value)) + "]"
+
+
+def spec_of_tables(
+    data: Mapping[str, Any],
+    text: str,
+    path: str | Path = "<string>",
+    output: str | Path | None = None,
+    validate: Validator | None = None,
+    check_scenes: bool = True,
+    accuracy: float | None = None,
+) -> Spec:
+    """The ``Spec`` of the tables ``data`` (TOML's types: ``tomllib``'s or ``plain_tables``'s)
+    whose text is ``text`` (``parse_spec``, ``parse_spec_dict``)."""
     _known_keys("", data, TABLES)
     tables = {}
     for name in TABLES:
@@ -204,6 +347,7 @@ def parse_spec(
     _known_keys("sweep.", sweep, SWEEP_KEYS)
     _known_keys("numerics.", numerics, NUMERIC_KEYS)
     _known_keys("axes.", axes_table, AXIS_NAMES)
+    check_points(axes_table)  # counted before any axis is made
     for key in NUMERIC_KEYS:
         if key in scene:
             raise InputError(f"scene.{key}", "a numerical setting: put it in [numerics]", scene[key])
@@ -225,13 +369,6 @@ def parse_spec(
         else a
         for a in axes
     )
-    total = math.prod(len(a) for a in axes)
-    if total > MAX_POINTS:
-        raise InputError(
-            "axes",
-            f"at most {MAX_POINTS} points, the product of the axes' lengths (this spec has "
-            f"{' x '.join(str(len(a)) for a in axes)} = {total}); split it or coarsen an axis",
-        )
     for axis in axes:
         section = "numerics" if axis.name in numerics else "scene"
         if axis.name in fixed:
