@@ -1,8 +1,16 @@
 """The cost model's calibration cached in a file, like FFTW wisdom: saved, read, checked, loaded.
 
-The calibration takes tens of seconds and is cached in ``costmodel-HOST.json`` beside the wisdom file
-($HPCONTACT_COSTMODEL overrides), keyed by host and package version: a file of another host or
-version, or one that cannot be read as a calibration, is ignored with a warning and replaced.
+The calibration takes 12-30 s (12.0 s alone on the 2-core development machine, 28 s beside
+other work) and is cached beside the wisdom file in ``costmodel-CPU-Nc.json``, one file per node
+type (CPU model and core count, ``rates.node_type``), not per host: the nodes of one type share
+it where they share a home folder. A cache of another node type or package version, or one that
+cannot be read as a calibration, is ignored with a warning and replaced. A file its user names
+($HPCONTACT_COSTMODEL, ``hpcontact run --costmodel FILE``) is used as it is, whoever made it,
+and the lines that use it say whose it is (``Calibration.whose``) and if its CPU is another.
+
+``run_calibration`` is what a run's start line uses: the cached or named calibration, else the
+shipped prior scaled by a probe of this machine (``cost.prior``, under a second), never a
+calibration a run would wait for.
 """
 
 from __future__ import annotations
@@ -11,7 +19,6 @@ import json
 import math
 import os
 import re
-import socket
 import stat
 import warnings
 from collections.abc import Mapping
@@ -21,11 +28,18 @@ from typing import Any
 
 from hpcontact import __version__
 from hpcontact.sweep.cost.calibration import calibrate
-from hpcontact.sweep.cost.rates import KINDS, Calibration, Rate, calibration_path
+from hpcontact.sweep.cost.rates import (
+    KINDS,
+    Calibration,
+    Rate,
+    calibration_path,
+    named_calibration_path,
+    node_type,
+)
 
 # version of the calibration file's layout (2: node_s, Barnett–Lothe; 3: cell_s, kernels; 4: task_s; 5: strip_s;
-# 6: exact_s; 7: every solve under the sweep's BLAS limit, older files' rates 2-3x high)
-FORMAT = 7
+# 6: exact_s; 7: every solve under the sweep's BLAS limit, older files' rates 2-3x high; 8: cpu, cores, date)
+FORMAT = 8
 CALIBRATION_BYTES = 2**20  # a calibration file is ~2 kB: one larger than 1 MiB is not one (nor read further)
 CALIBRATION_DEPTH = 8  # a calibration nests 3 deep ({"rates": {kind: {...}}}): deeper JSON is not one
 _JSON_STRING = re.compile(rb'"(?:[^"\\]|\\.)*"')
@@ -85,18 +99,27 @@ def _number(record: Mapping[str, Any], name: str, where: str = "") -> float:
 
 def read_calibration(path: Path) -> Calibration:
     """The calibration in ``path``; ``ValueError`` if it is not one (not a regular file, larger
-    than ``CALIBRATION_BYTES``, JSON nested deeper than ``CALIBRATION_DEPTH``, wrong format,
-    missing, non-numeric or non-finite numbers, a negative rate)."""
+    than ``CALIBRATION_BYTES``, JSON nested deeper than ``CALIBRATION_DEPTH``, or not a
+    ``calibration_from_record``)."""
     data = _calibration_bytes(Path(path))
     if _json_depth(data) > CALIBRATION_DEPTH:
         raise ValueError(f"JSON nested deeper than {CALIBRATION_DEPTH}")
-    record = json.loads(data.decode("utf-8"))
+    return calibration_from_record(json.loads(data.decode("utf-8")))
+
+
+def calibration_from_record(record: Any) -> Calibration:
+    """The calibration a file's JSON ``record`` holds; ``ValueError`` if it is not one (wrong
+    format, missing, non-numeric or non-finite numbers, a negative rate, no host, version, CPU,
+    core count or date)."""
     if not isinstance(record, dict) or record.get("format") != FORMAT:
         raise ValueError("not a calibration file of this format")
     if not isinstance(record.get("rates"), dict) or not all(
-        isinstance(record.get(k), str) for k in ("host", "version")
+        isinstance(record.get(k), str) for k in ("host", "version", "cpu", "date")
     ):
-        raise ValueError("rates, host and version missing")
+        raise ValueError("rates, cpu, date, host and version missing")
+    cores = record.get("cores")
+    if isinstance(cores, bool) or not isinstance(cores, int) or cores < 1:
+        raise ValueError("cores must be an integer >= 1")
     rates = {}
     for kind in KINDS:
         entry = record["rates"].get(kind)
@@ -117,43 +140,60 @@ def read_calibration(path: Path) -> Calibration:
         raise ValueError("base_bytes must be finite and >= 0")
     seconds = _number(record, "seconds") if "seconds" in record else 0.0
     others = _number(record, "others") if record.get("others") is not None else None
-    return Calibration(record["host"], record["version"], rates, base, seconds, others)
+    return Calibration(
+        record["host"], record["version"], rates, base, seconds, others, record["cpu"], cores, record["date"]
+    )
 
 
 def cached_calibration(path: Path | None = None) -> tuple[Calibration | None, str]:
-    """The cached calibration when it was measured on this host by this package version, else
-    None and why not (no file, a corrupt one, another host or version)."""
+    """The calibration a run uses without calibrating, and a note; or None and why not.
 
-    path = calibration_path() if path is None else Path(path)
-    host = socket.gethostname()
+    A file its user named (``path``, $HPCONTACT_COSTMODEL) is used whoever made it, the note
+    saying whose it is and, when its CPU or core count is not this machine's, that too. The
+    cache of this node type (``rates.calibration_path``) is used when its CPU model, core count
+    and package version are this machine's and this package's (the host does not matter);
+    else None, and why (no file, a corrupt one, another node type or version)."""
+    named = Path(path) if path is not None else named_calibration_path()
+    path = named if named is not None else calibration_path()
     if not path.exists():
         return None, f"no calibration cached in {path}"
     try:
         cached = read_calibration(path)
     except (OSError, ValueError, KeyError, TypeError) as exc:
         return None, f"cost calibration {path} ignored: {exc}"
-    if cached.host != host or cached.version != __version__:
+    cpu, cores = node_type()
+    if named is None and ((cached.cpu, cached.cores) != (cpu, cores) or cached.version != __version__):
         return None, (
-            f"cost calibration {path} ignored: measured on {cached.host} by hpcontact {cached.version}, "
-            f"not {host} / {__version__}"
+            f"cost calibration {path} ignored: measured on {cached.cpu}, {cached.cores} cores by hpcontact "
+            f"{cached.version}, not {cpu}, {cores} cores / {__version__}"
         )
-    return cached, ""
+    return cached, described(cached)
+
+
+def described(calibration: Calibration) -> str:
+    """Whose cost model an estimate uses, in words (``Calibration.whose``), and, when its CPU
+    or core count is not this machine's, that too."""
+    cpu, cores = node_type()
+    if (calibration.cpu, calibration.cores) == (cpu, cores):
+        return f"cost model of {calibration.whose()}"
+    return f"cost model of {calibration.whose()}; not this {cpu}, {cores} cores: estimates may be off"
 
 
 def load_calibration(path: Path | None = None, stream: Any = None) -> Calibration:
-    """This machine's calibration: the cached one when it was measured here by this version,
-    else a new one (saved for next time; ``stream`` is told). A corrupt or foreign file is
-    ignored with a ``RuntimeWarning`` and replaced."""
-    path = calibration_path() if path is None else Path(path)
+    """This machine's calibration: ``cached_calibration``'s when there is one, else a new one
+    (saved for next time; ``stream`` is told). A corrupt file, or a cache of another node
+    type or version, is ignored with a ``RuntimeWarning`` and replaced."""
     cached, why = cached_calibration(path)
     if cached is not None:
         return cached
+    path = path if path is not None else calibration_path()
     if path.exists():
         warnings.warn(why, RuntimeWarning, stacklevel=2)
     if stream is not None:
+        cpu, cores = node_type()
         print(
-            f"hpcontact: calibrating the cost model on {socket.gethostname()} (once per host and version; cached in "
-            f"{path})",
+            f"hpcontact: calibrating the cost model on this {cpu} with {cores} cores (12-30 s, once per node type "
+            f"and version; cached in {path})",
             file=stream,
             flush=True,
         )
@@ -163,3 +203,17 @@ def load_calibration(path: Path | None = None, stream: Any = None) -> Calibratio
     except OSError as exc:
         warnings.warn(f"cost calibration not saved to {path}: {exc}", RuntimeWarning, stacklevel=2)
     return calibration
+
+
+def run_calibration() -> tuple[Calibration, str]:
+    """The calibration a run's start line uses and where it came from, in words: the cached or
+    named one (``cached_calibration``), else the shipped prior scaled by a probe of this
+    machine (``prior.probed_prior``, under a second; never a full calibration, which a run's
+    ranks would wait 12-30 s for)."""
+    cached, note = cached_calibration()
+    if cached is not None:
+        return cached, note
+    from hpcontact.sweep.cost.prior import probed_prior
+
+    probed, origin = probed_prior()
+    return probed, f"{origin}; no calibration of this node type yet: {note}; --dry-run calibrates, 12-30 s"

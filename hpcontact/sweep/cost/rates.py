@@ -20,8 +20,8 @@ Rodríguez-Tembleque et al. 2011, E1/E2 = 25-800), twice when both the coupled a
 decoupled path are solved (each builds its preconditioner from them), and independent of the
 grid and the load steps: the third term.
 
-``cost.calibration`` measures the coefficients; ``cost.calibration_file`` keeps them per host and
-version.
+``cost.calibration`` measures the coefficients; ``cost.calibration_file`` keeps them per node type
+(CPU model and core count, ``node_type``) and version.
 
 **Accuracy tasks.** A task that asks for an accuracy (``[numerics] accuracy``, ``hpcontact run
 --accuracy``) solves a sequence of grids (``accuracy.solve_to_accuracy``, strategy auto): it is
@@ -73,11 +73,13 @@ fit alone cannot run; the cache evicts before it).
 
 from __future__ import annotations
 
+import datetime
 import math
 import os
-import socket
+import platform
+import re
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -97,6 +99,10 @@ KINDS = ("contact", "crystal", "crystal_indentation", "slip")
 #: a core, one other busy process during the ~20 s calibration made the main job's dry run
 #: 226.5 core-seconds against 68.9 calibrated alone (2026-11-26 13:32, its task time 58.6 s).
 CONTENDED_FROM = 0.5
+#: How much faster than a contended calibration estimates tasks may run on an idle machine: the
+#: main job's dry run above, 226.5 / 68.9 core-seconds (the calibration's CPU seconds, measured on
+#: a core shared with a busy neighbour, are high; never low: ``Calibration.contended``).
+CONTENDED_RATES = 226.5 / 68.9
 
 # What importing a run's modules (hpcontact.solve, xarray, the slip solver, mpi4py.MPI) can add
 # to a process that has not yet: 3x the 80 MiB they added (docs/performance.md §"Base memory of a rank").
@@ -139,10 +145,38 @@ def solve_units(params: Mapping[str, Any], cost: float) -> float:
     return cost / (cells * math.log2(cells))
 
 
+def cpu_model() -> str:
+    """This machine's CPU model as the kernel names it (the first ``model name``, ``cpu model``
+    or ``Hardware`` line of /proc/cpuinfo, spaces collapsed; else ``platform.processor()`` or
+    ``platform.machine()``)."""
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8", errors="replace") as fh:
+            for line in fh:
+                if line.lower().startswith(("model name", "cpu model", "hardware")) and ":" in line:
+                    return " ".join(line.split(":", 1)[1].split())
+    except OSError:
+        pass
+    return platform.processor() or platform.machine() or "unknown CPU"
+
+
+def node_type() -> tuple[str, int]:
+    """What a calibration is matched by (``calibration_file.cached_calibration``): the CPU
+    model and the machine's logical core count (``os.cpu_count``), not the host name, so that
+    nodes of one type share a calibration."""
+    return cpu_model(), os.cpu_count() or 1
+
+
+def _today() -> str:
+    """Now, UTC, to the minute (a calibration's ``date``)."""
+    return datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
+
+
 @dataclass(frozen=True)
 class Calibration:
     """This machine's seconds per kind and the base memory of a run, with where they were
-    measured (``host``, package ``version``) and how long the calibration took."""
+    measured (``host``, its ``cpu`` model and ``cores``: by default this machine's,
+    ``node_type``), by which package ``version``, when (``date``, UTC) and how long the
+    calibration took."""
 
     host: str
     version: str
@@ -150,16 +184,27 @@ class Calibration:
     base_bytes: float
     seconds: float = 0.0
     others: float | None = None  # other processes running beside it (``other_running``; None: unknown)
+    cpu: str = field(default_factory=cpu_model)
+    cores: int = field(default_factory=lambda: node_type()[1])
+    date: str = field(default_factory=_today)
+
+    def whose(self) -> str:
+        """Where and when it was measured, for the lines that use it: "host (CPU, N cores),
+        date, hpcontact version"."""
+        return f"{self.host} ({self.cpu}, {self.cores} cores), {self.date}, hpcontact {self.version}"
 
     def contended(self) -> str:
         """ "" when the calibration ran alone, else what a reader of an estimate must know: other
-        processes ran beside it (``CONTENDED_FROM``), so its seconds, and every estimate, are
-        likely high."""
+        processes ran beside it (``CONTENDED_FROM``). Its CPU seconds were measured on cores it
+        shared, which makes them high: on an idle machine tasks run faster than it estimates
+        (``CONTENDED_RATES``). A run that itself shares its cores takes longer in wall time than
+        any estimate says, whatever the calibration (``load_note``)."""
         if self.others is None or self.others < CONTENDED_FROM:
             return ""
         return (
-            f"calibrated while ~{self.others:.1f} other process(es) ran: estimates may be 2-4x high where cores "
-            f"are shared or hyper-threaded; remove {calibration_path()} and rerun on an idle machine"
+            f"calibrated while ~{self.others:.1f} other process(es) ran: its seconds are likely high (on an idle "
+            f"machine tasks run up to {CONTENDED_RATES:.1f}x faster than it estimates); for a calibration made "
+            f"alone remove {calibration_path()} and rerun --dry-run on an idle machine"
         )
 
     def task_seconds(self, params: Mapping[str, Any], cost: float | None = None) -> float:
@@ -184,11 +229,37 @@ class Calibration:
         return self.base_bytes + task_array_bytes(params)
 
 
-def calibration_path() -> Path:
-    """$HPCONTACT_COSTMODEL, else ``costmodel-HOST.json`` beside the FFTW wisdom file."""
+def load_note(ranks: int, others: float | None, cores: int) -> str:
+    """ "" when the ``ranks`` of a run and the ``others`` processes running beside them
+    (``calibration.other_running``; None: unknown) fit on the machine's ``cores``, else what a
+    reader of its estimate must know: the estimate is the time of each task on a core of its
+    own, and time-shared cores stretch the wall time by up to (ranks + others) / cores (the
+    issue 42 run: estimated 196 core-seconds, 464 s on 2 cores beside a load of 3-6)."""
+    if others is None or ranks + others <= cores:
+        return ""
+    return (
+        f"~{others:.0f} other process(es) share the {cores} core(s) with its {ranks} rank(s) now: the run may take "
+        f"up to {(ranks + others) / cores:.1f}x the estimated wall time"
+    )
 
+
+def named_calibration_path() -> Path | None:
+    """The calibration file its user named ($HPCONTACT_COSTMODEL; ``hpcontact run --costmodel
+    FILE`` sets it), else None."""
     env = os.environ.get("HPCONTACT_COSTMODEL")
-    return Path(env) if env else wisdom_path().with_name(f"costmodel-{socket.gethostname()}.json")
+    return Path(env) if env else None
+
+
+def calibration_path() -> Path:
+    """The file named (``named_calibration_path``), else the cache of this node type beside the
+    FFTW wisdom file: ``costmodel-CPU-Nc.json`` (the CPU model in letters, digits and dashes,
+    N its cores, ``node_type``), shared by every node of the type where the home folder is."""
+    named = named_calibration_path()
+    if named is not None:
+        return named
+    cpu, cores = node_type()
+    slug = re.sub(r"[^A-Za-z0-9]+", "-", cpu.replace("(R)", "").replace("(TM)", "")).strip("-").lower()
+    return wisdom_path().with_name(f"costmodel-{slug[:60] or 'cpu'}-{cores}c.json")
 
 
 def task_array_bytes(params: Mapping[str, Any]) -> float:

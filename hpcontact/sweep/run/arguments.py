@@ -77,6 +77,14 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
         "and the number left out)",
     )
     parser.add_argument(
+        "--costmodel",
+        metavar="FILE",
+        help="the cost model's calibration to estimate with (as $HPCONTACT_COSTMODEL; a file another node "
+        "of the type wrote, e.g. ~/.cache/hpcontact/costmodel-*.json): used whoever made it, the estimate "
+        "saying whose it is (default: the cache of this CPU model and core count, else the shipped prior "
+        "scaled by a probe of this machine; --dry-run calibrates, 12-30 s)",
+    )
+    parser.add_argument(
         "--mem-per-rank",
         metavar="SIZE",
         help="memory one rank may use (4G, 512M, bytes): a run refuses a spec with a task that needs "

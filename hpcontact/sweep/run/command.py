@@ -4,6 +4,7 @@ wisdom kept for the next run."""
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import traceback
 from pathlib import Path
@@ -11,6 +12,7 @@ from pathlib import Path
 from hpcontact.errors import InputError
 from hpcontact.numerics.convolution import load_wisdom, save_wisdom
 from hpcontact.numerics.memory import default_memory_per_rank, parse_memory
+from hpcontact.sweep.cost.calibration_file import read_calibration
 from hpcontact.sweep.run.arguments import EXIT_FAILED_TASKS, EXIT_OK, EXIT_REFUSED, EXIT_UNEXPECTED
 from hpcontact.sweep.run.dry_run import dry_run
 from hpcontact.sweep.run.records import NO_FLAGS, Options, Stopped, TaskFunction
@@ -76,6 +78,17 @@ def _keep_wisdom() -> None:
         print(f"hpcontact: FFTW wisdom not saved ({exc})", file=sys.stderr)
 
 
+def use_costmodel(path: str) -> None:
+    """``--costmodel FILE``: the calibration the run and the dry run estimate with, as
+    $HPCONTACT_COSTMODEL names it (set here, for this process: each rank parses the command
+    line); a file that cannot be read as a calibration is refused (exit 2) with why."""
+    try:
+        read_calibration(Path(path))
+    except (OSError, ValueError, UnicodeDecodeError) as exc:
+        raise InputError("--costmodel", f"a cost-model calibration file ({exc})", path) from None
+    os.environ["HPCONTACT_COSTMODEL"] = str(Path(path).absolute())
+
+
 def run_from_arguments(
     args: argparse.Namespace,
     task_function: TaskFunction | None = None,
@@ -86,6 +99,8 @@ def run_from_arguments(
     """Run what ``add_run_arguments`` parsed (``task_function``, ``prog``, ``command``: see
     ``run_command``; ``runner``: see ``Options.runner``)."""
     memory = (parse_memory(args.mem_per_rank), "--mem-per-rank") if args.mem_per_rank is not None else None
+    if args.costmodel is not None:
+        use_costmodel(args.costmodel)
     if args.dry_run:
         return dry_run(
             args.spec,

@@ -13,7 +13,7 @@ from typing import Any, TextIO
 import numpy as np
 
 from hpcontact.numerics.memory import default_memory_per_rank
-from hpcontact.sweep.cost.calibration_file import load_calibration
+from hpcontact.sweep.cost.calibration_file import described, load_calibration
 from hpcontact.sweep.run.arguments import EXIT_OK
 from hpcontact.sweep.run.guard import apart
 from hpcontact.sweep.run.summary import SHOWN_FAILURES
@@ -96,7 +96,13 @@ def dry_run(
                 "mem_per_rank_bytes": limit,
                 "mem_per_rank_source": source,
                 "tasks_over_memory": over,
-                "calibration": {"host": calibration.host, "version": calibration.version},
+                "calibration": {
+                    "host": calibration.host,
+                    "version": calibration.version,
+                    "cpu": calibration.cpu,
+                    "cores": calibration.cores,
+                    "date": calibration.date,
+                },
             }
         )
         # the object json.dumps writes with "tasks_list" last, one entry per task, written in blocks
@@ -135,7 +141,7 @@ def dry_run(
         f"{r} rank(s) {_wall_text(w)} (efficiency {est.efficiency[r]:.2f})" for r, w in est.wall_s.items()
     )
     print(
-        f"# wall time: {walls}; cost model calibrated on {calibration.host} by hpcontact {calibration.version}",
+        f"# wall time: {walls}; {described(calibration)}",
         file=stream,
     )
     if calibration.contended():

@@ -133,15 +133,21 @@ def test_calibration_cache_round_trips_and_is_used_without_calibrating(tmp_path,
     ],
 )
 def test_a_corrupt_or_foreign_cache_is_ignored_with_a_warning_and_replaced(tmp_path, monkeypatch, content):
-    path = tmp_path / "cm.json"
+    """The cache of this node type (no file named): a corrupt one, or one of another CPU (a
+    foreign host alone is no reason: nodes of one type share it), is recalibrated."""
+    monkeypatch.delenv("HPCONTACT_COSTMODEL")
+    monkeypatch.setenv("HPCONTACT_WISDOM", str(tmp_path / "fftw_wisdom"))
+    path = calibration_file.calibration_path()
     fresh = Calibration(socket.gethostname(), __version__, {k: Rate(1e-7, 0.0) for k in KINDS}, 1.0)
     if content == "FOREIGN":
-        calibration_file.save_calibration(Calibration("another-host", __version__, fresh.rates, 1.0), path)
+        foreign = Calibration("another-host", __version__, fresh.rates, 1.0, cpu="Another CPU")
+        calibration_file.save_calibration(foreign, path)
     else:
+        path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(content)
     monkeypatch.setattr(calibration_file, "calibrate", lambda: fresh)
     with pytest.warns(RuntimeWarning, match="cost calibration .* ignored"):
-        assert calibration_file.load_calibration(path) == fresh
+        assert calibration_file.load_calibration() == fresh
     assert calibration_file.read_calibration(path) == fresh  # replaced
 
 
@@ -556,7 +562,7 @@ def test_a_calibration_made_beside_other_processes_says_so(tmp_path, monkeypatch
     path = calibration_file.save_calibration(calibration, tmp_path / "cm.json")
     assert calibration_file.read_calibration(path).others == 1.0
     monkeypatch.setenv("HPCONTACT_COSTMODEL", str(path))
-    assert "estimates may be 2-4x high" in start_estimate([], 2)[0]
+    assert "its seconds are likely high" in start_estimate([], 2)[0]
     record = json.loads(path.read_text())
     del record["others"]
     path.write_text(json.dumps(record))

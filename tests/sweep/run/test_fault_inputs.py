@@ -363,6 +363,9 @@ def _valid_record() -> dict:
         "format": calibration_file.FORMAT,
         "host": socket.gethostname(),
         "version": __version__,
+        "cpu": rates.node_type()[0],
+        "cores": rates.node_type()[1],
+        "date": "2026-11-28 12:00 UTC",
         "base_bytes": 1.0,
         "seconds": 1.0,
         "rates": {
@@ -419,7 +422,12 @@ def test_a_valid_cache_still_reads(tmp_path):
     path = tmp_path / "cm.json"
     path.write_text(json.dumps(_valid_record(), indent=1))
     assert calibration_file.cached_calibration(path)[0] == Calibration(
-        socket.gethostname(), __version__, {k: Rate(1e-7, 0.0) for k in rates.KINDS}, 1.0, 1.0
+        socket.gethostname(),
+        __version__,
+        {k: Rate(1e-7, 0.0) for k in rates.KINDS},
+        1.0,
+        1.0,
+        date="2026-11-28 12:00 UTC",
     )
 
 

@@ -1,0 +1,146 @@
+"""The shipped prior of the cost model: a calibration of the development machine, scaled to this
+machine by a probe that takes under a second, for a run's start line where no calibration of the
+node type is cached yet (``calibration_file.run_calibration``).
+
+The probe times three small solves of the calibration (``PROBE_SCENES``: the 16 × 16 contact
+task, the 64 × 64 contact scene and the 32 × 32 crystal scene, each as ``calibration._timed``
+times them: CPU seconds, warm FFT plans, cold kernels, the least of two) here; the prior's own
+model gives their seconds on the machine it was calibrated on (``Calibration.task_seconds``).
+Every rate of the prior is multiplied by
+
+    scale = (∏_i t_here,i / t_prior,i)^(1/3)
+
+(the geometric mean of the three ratios): one factor for the whole model, so the prior's
+proportions between kinds and grid sizes are assumed to carry over. They do not exactly (cache
+sizes, vector units): the run's ETA corrects the scale as tasks finish (``run.progress``), and
+``hpcontact run SPEC --dry-run`` makes the full calibration (12-30 s) that later runs use.
+
+``python -m hpcontact.sweep.cost.prior`` calibrates this machine and prints the record to paste
+as ``PRIOR`` (the development machine's below, made with ~0.25 other processes running beside it).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import socket
+import time
+from collections.abc import Mapping
+from typing import Any
+
+from hpcontact import __version__
+from hpcontact.numerics.blas import limited_blas
+from hpcontact.sweep.cost.calibration import (
+    CALIBRATION_SCENES,
+    TINY_CONTACT_SCENE,
+    _timed,
+    calibrate,
+    other_running,
+)
+from hpcontact.sweep.cost.rates import Calibration, Rate, base_memory_bytes
+
+PROBE_SCENES: dict[str, Mapping[str, Any]] = {
+    "tiny_contact": TINY_CONTACT_SCENE,
+    "contact_64": CALIBRATION_SCENES["contact"][0],
+    "crystal_32": CALIBRATION_SCENES["crystal"][0],
+}
+
+# The development machine's calibration (``python -m hpcontact.sweep.cost.prior``; 12.0 s).
+PRIOR: dict[str, Any] = {
+    "base_bytes": 153473024.0,
+    "cores": 2,
+    "cpu": "Intel(R) Xeon(R) Processor",
+    "date": "2026-11-28 22:17 UTC",
+    "format": 8,
+    "host": "vm",
+    "others": 0.25,
+    "rates": {
+        "contact": {
+            "cell_s": 1.2832548384232737e-07,
+            "exact_s": 0.044145693999999125,
+            "node_s": 0.0,
+            "rate_s": 2.5599427891853263e-09,
+            "solve_s": 0.0001948757991026672,
+            "strip_s": 1.4240059514885767e-09,
+            "task_s": 0.003480835000000404,
+        },
+        "crystal": {
+            "cell_s": 0.0,
+            "exact_s": 0.0,
+            "node_s": 0.0,
+            "rate_s": 2.1714279372970704e-09,
+            "solve_s": 0.0004220449073593095,
+            "strip_s": 0.0,
+            "task_s": 0.0,
+        },
+        "crystal_indentation": {
+            "cell_s": 0.0,
+            "exact_s": 0.0,
+            "node_s": 0.0,
+            "rate_s": 2.510782621514329e-09,
+            "solve_s": 0.0,
+            "strip_s": 0.0,
+            "task_s": 0.0,
+        },
+        "slip": {
+            "cell_s": 0.0,
+            "exact_s": 0.0,
+            "node_s": 0.0017163326217501467,
+            "rate_s": 1.2163576374549859e-08,
+            "solve_s": 0.0005602826884919698,
+            "strip_s": 0.0,
+            "task_s": 0.0,
+        },
+    },
+    "seconds": 12.025638148003054,
+    "version": "0.1.0",
+}
+
+
+def probe() -> dict[str, float]:
+    """CPU seconds of each of ``PROBE_SCENES`` on this machine, under the sweep's BLAS limit."""
+    with limited_blas():
+        return {name: _timed(scene) for name, scene in PROBE_SCENES.items()}
+
+
+def prior_calibration() -> Calibration:
+    """The shipped prior as a ``Calibration`` (checked as a calibration file is)."""
+    from hpcontact.sweep.cost.calibration_file import calibration_from_record
+
+    return calibration_from_record(PRIOR)
+
+
+def scale_of(here: Mapping[str, float], prior: Calibration) -> float:
+    """The geometric mean over the probe scenes of ``here[s]``, the seconds measured, over the
+    ``prior``'s seconds of the scene (module docstring)."""
+    logs = [math.log(here[name] / prior.task_seconds(scene)) for name, scene in PROBE_SCENES.items()]
+    return math.exp(sum(logs) / len(logs))
+
+
+def probed_prior() -> tuple[Calibration, str]:
+    """The prior scaled to this machine by ``probe`` (module docstring), and where it came from
+    in words (the prior's ``whose``, the scale and the probe's wall time)."""
+    started = time.perf_counter()
+    others = other_running()
+    here = probe()
+    prior = prior_calibration()
+    scale = scale_of(here, prior)
+    rates = {
+        kind: Rate(**{name: value * scale for name, value in dataclasses.asdict(rate).items()})
+        for kind, rate in prior.rates.items()
+    }
+    probed = Calibration(
+        socket.gethostname(), __version__, rates, base_memory_bytes(), time.perf_counter() - started, others
+    )
+    origin = (
+        f"shipped prior of {prior.whose()} scaled x{scale:.2f} by a {probed.seconds:.1f} s probe of this "
+        f"{probed.cpu}, {probed.cores} cores"
+    )
+    return probed, origin
+
+
+if __name__ == "__main__":
+    from hpcontact.sweep.cost.calibration_file import FORMAT
+
+    print(json.dumps({"format": FORMAT, **dataclasses.asdict(calibrate())}, indent=4, sort_keys=True))
