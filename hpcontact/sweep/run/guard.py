@@ -140,7 +140,8 @@ def _inputs(spec: Any) -> list[tuple[str, Path]]:
 
 
 def _named(spec: Any) -> tuple[str, str]:
-    """The output and the journal folder of ``spec`` as a refusal names them: path and origin."""
+    """The output and the journal folder of ``spec`` as a refusal names them: path and origin
+    (the spec's text read again: made only for a refusal)."""
     try:
         sweep = tomllib.loads(spec.text).get("sweep", {})
     except (tomllib.TOMLDecodeError, AttributeError):
@@ -176,8 +177,8 @@ def usable_names(spec: Any) -> None:
     component with room for its temporary file, ``NAME_EXTRA``). The one check of these names,
     made before any other look at them (``apart``)."""
     for path, what in ((Path(spec.output), 0), (Path(spec.journal), 1)):
-        named = _named(spec)[what]
         if "\0" in str(path):
+            named = _named(spec)[what]
             shown = named.replace(str(path), repr(str(path)), 1)  # the NUL shown as \x00
             raise Refused(f"{shown} contains a NUL character: name a path without one")
         limit = _name_max(path.absolute().parent)
@@ -187,7 +188,7 @@ def usable_names(spec: Any) -> None:
             if size > limit:
                 room = f" ({extra} bytes kept for its temporary file)" if extra else ""
                 raise Refused(
-                    f"{named} has a name component of {len(os.fsencode(part))} bytes, over the "
+                    f"{_named(spec)[what]} has a name component of {len(os.fsencode(part))} bytes, over the "
                     f"{limit - extra} this file system allows{room}: name a shorter path"
                 )
 
