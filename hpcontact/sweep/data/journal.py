@@ -17,7 +17,11 @@ the run says how many lines it dropped in one line. Events:
   of the process, which is what it is for; a task started in runs that died while running it is
   quarantined, see ``History.crashed``);
 * ``finished``: the task's outcome (``Entry``), with its fully resolved scene and provenance;
-* ``interrupted``: the task was abandoned after a stop request (a signal), not a crash.
+* ``interrupted``: the task was abandoned after a stop request (a signal), not a crash;
+* ``stalled``: the rank ``rank`` of the file's run made no progress for the stall timeout
+  (``run.signals``) and the run stopped without it: the task it had started is not one its
+  process died running (``History.suspects``). Written by the rank that found the stall, in a
+  file of its own (``record_stall``).
 
 Durability: a line reaches the page cache at once (it survives the death of the process); it
 reaches the disk (``fsync``) at the first outcome ``SYNC_INTERVAL_S`` after the last sync, after
@@ -229,6 +233,11 @@ class Journal:
         self._write(encode_line({"event": "interrupted", "key": key, "reason": reason, "time": time.time()}))
         self.sync()
 
+    def stalled(self, rank: int) -> None:
+        """Record that rank ``rank`` of this run stalled (``record_stall``), and sync."""
+        self._write(encode_line({"event": "stalled", "rank": rank, "time": time.time()}))
+        self.sync()
+
     def sync(self) -> None:
         """Push everything written so far to the disk (``fsync``)."""
         if self._fd is not None:
@@ -303,6 +312,7 @@ REQUIRED: Mapping[str, Mapping[str, Any]] = {
         "finished": _finite,
     },
     "interrupted": {"key": _text},
+    "stalled": {"rank": _integer},
 }
 OPTIONAL: Mapping[str, Mapping[str, Any]] = {
     "run": {"rank": _integer, "host": _text, "session": _text, "pid": _integer},
@@ -361,12 +371,13 @@ def _entry(event: Mapping[str, Any], header: Mapping[str, Any]) -> Entry:
 class History:
     """What the journals of one output hold: the last outcome of each task (``entries``, by
     finish time; the files keep every earlier one), the starts that never got an outcome
-    (``unfinished``), the headers of the runs, the number of files and the number of lines
+    (``unfinished``), the ranks that stalled in a run (``stalled``: ``record_stall``), the headers of the runs, the number of files and the number of lines
     dropped (damaged, incomplete or malformed: ``scan_file``; never fatal, their tasks are
     simply computed again)."""
 
     entries: dict[str, Entry] = field(default_factory=dict)
     unfinished: dict[str, list[Start]] = field(default_factory=dict)
+    stalled: set[tuple[str, int]] = field(default_factory=set)  # (session, rank) of the ranks that stalled
     headers: list[dict[str, Any]] = field(default_factory=list)
     files: int = 0
     dropped: int = 0
@@ -379,11 +390,16 @@ class History:
         return f"{self.dropped} journal {lines} dropped (damaged or incomplete) in {folder}"
 
     def suspects(self) -> dict[str, list[Start]]:
-        """Per task, the runs that died while running it after its last outcome."""
+        """Per task, the runs that died while running it after its last outcome (not those
+        whose rank stalled: ``stalled``)."""
         out: dict[str, list[Start]] = {}
         for key, starts in self.unfinished.items():
             last = self.entries.get(key)
-            later = [s for s in starts if last is None or s.time > last.finished]
+            later = [
+                s
+                for s in starts
+                if (last is None or s.time > last.finished) and (s.session, s.rank) not in self.stalled
+            ]
             if later:
                 out[key] = sorted(later, key=lambda s: s.time)
         return out
@@ -438,6 +454,8 @@ def read_history(folder: Path) -> History:
             kind, key = event.get("event"), event.get("key")
             if kind == "started":
                 open_starts[key] = float(event["time"])
+            elif kind == "stalled":
+                history.stalled.add((session, int(event["rank"])))
             elif kind in ("finished", "interrupted"):
                 open_starts.pop(key, None)
                 if kind == "finished":
@@ -448,6 +466,14 @@ def read_history(folder: Path) -> History:
         for key, started in open_starts.items():
             history.unfinished.setdefault(key, []).append(Start(key, session, rank, host, started))
     return history
+
+
+def record_stall(folder: Path, rank: int, session: str, stalled: int) -> None:
+    """Record, from ``rank``, that rank ``stalled`` of the run ``session`` stalled (a ``stalled``
+    event in a journal file of its own, ``rank{rank:05d}-{session}-stalled.jsonl``: one writer
+    per file), synced."""
+    with Journal(Path(folder) / f"rank{rank:05d}-{session}-stalled.jsonl", rank, {"session": session}) as journal:
+        journal.stalled(stalled)
 
 
 def read_journals(folder: Path) -> dict[str, Entry]:

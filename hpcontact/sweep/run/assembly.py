@@ -20,17 +20,21 @@ from hpcontact.sweep.run.records import Kept, Options, Outcome, Plan, RankTotals
 from hpcontact.sweep.run.summary import Summary, print_summary, round_sums
 
 
-def joined_outcomes(plan: Plan, kept: Kept, totals: list[RankTotals]) -> Any:
-    """Every task's last outcome as columns (``columns.join``): this run's, from the ranks'
-    ``totals``, and those of earlier journals (reused, quarantined, or carried from an adaptive
-    round before)."""
+def joined_outcomes(plan: Plan, kept: Kept, totals: list[RankTotals], scope: RoundScope) -> Any:
+    """The last outcome of every task of ``scope`` as columns (``columns.join``): this run's,
+    from the ranks' ``totals``, and those of earlier journals (reused, quarantined, or carried
+    from an adaptive round before). An adaptive round's scope is the tasks of its rounds so far
+    (``select`` and ``earlier``): an entry the journals hold for another point of the grid (a
+    finer map's) is no solve of this data set, nor counted among its contributors."""
     from hpcontact.sweep.data.dataset import FIXED_VARIABLES
 
     history = kept.history
+    covered = None if scope.select is None else scope.select | scope.earlier
     earlier = [
         (history.crashed_entry(t.key, t.params) if t.key in kept.crashed else history.entries[t.key], i)
         for i, t in enumerate(plan.tasks)
-        if t.key in kept.crashed or t.key in kept.reused or t.key in kept.carried
+        if (t.key in kept.crashed or t.key in kept.reused or t.key in kept.carried)
+        and (covered is None or i in covered)
     ]
     parts = [to_columns([e for e, _ in earlier], [i for _, i in earlier])] + [t.columns for t in totals]
     return join(parts, len(plan.tasks), FIXED_VARIABLES)
@@ -55,7 +59,7 @@ def assemble(
 
     spec = plan.spec
     gather_started = time.perf_counter()
-    joined = joined_outcomes(plan, kept, totals)
+    joined = joined_outcomes(plan, kept, totals, scope)
     failed = [int(i) for i in np.flatnonzero((joined.status != OK) & (joined.status != NOT_COMPUTED))]
     dataset = dataset_of(
         spec,
@@ -74,7 +78,7 @@ def assemble(
         derive=False,  # write_netcdf stores K_nn and normalized_nn (it derives them once, there)
         command=command,
     )
-    sums = round_sums(plan, kept, scope, totals, setup_s)
+    sums = round_sums(plan, scope, totals, setup_s)
     if scope.finish is not None:  # an adaptive round (adaptive.run_rounds)
         dataset = scope.finish(dataset, joined)
         if dataset is None:  # not the last round: nothing to write

@@ -121,7 +121,7 @@ class Decision:
 
     isolated: list[int]  # suspects, run by rank 0 alone
     shared: list[int]  # the rest of the work, in chunks for every rank
-    reused: int
+    reused: int  # the round's tasks from journals (an adaptive round's own, not its earlier rounds')
     crashed: int
     session: str
     provenance: dict[str, Any]

@@ -103,6 +103,7 @@ def prepare(
         isolated, shared, reused, crashed, foreign = _decide(spec, tasks, history, options, now)
         note = "; ".join(filter(None, (note, foreign))) or None
         carried: set[str] = set()
+        counted = len(reused)  # the round's tasks from journals
         if scope.select is not None:  # an adaptive round: its tasks alone
             isolated = [i for i in isolated if i in scope.select]
             shared = [i for i in shared if i in scope.select]
@@ -112,11 +113,12 @@ def prepare(
                 for i in scope.earlier
                 if tasks[i].key in history.entries and tasks[i].key not in reused and tasks[i].key not in crashed
             }
+            counted = sum(1 for i in scope.select if tasks[i].key in reused)  # not the other rounds'
     except BaseException:
         lock.release()
         raise
     return (
-        Decision(isolated, shared, len(reused), len(crashed), session_name(), now, injected),
+        Decision(isolated, shared, counted, len(crashed), session_name(), now, injected),
         Kept(task_of, lock, history, reused, crashed, note, carried),
     )
 

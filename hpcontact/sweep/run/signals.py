@@ -47,6 +47,8 @@ import time
 from pathlib import Path
 from types import FrameType
 
+from hpcontact.sweep.data.journal import record_stall
+
 STOP_NAME = "STOP"
 SIGNALS = (signal.SIGTERM, signal.SIGUSR1, signal.SIGINT)
 #: The phases of a run, as the stop thread sees them (module docstring).
@@ -83,6 +85,7 @@ class StopControl:
         self._beats = 0
         self._seen: dict[Path, tuple[bytes, float]] = {}  # rank 0: heartbeat file -> (content, when it last changed)
         self._next_beat = 0.0
+        self._session: str | None = None  # the run's, where stalls are recorded (``watch``)
         self.reason: str | None = None
         self.failed = False  # stopped by an error (a full disk), not by a signal
         self.running = False  # the main thread is inside a task function
@@ -116,10 +119,13 @@ class StopControl:
         self._start()
         return self
 
-    def watch(self, folder: Path, rank: int, ranks: int = 1) -> None:
+    def watch(self, folder: Path, rank: int, ranks: int = 1, session: str | None = None) -> None:
         """Poll for the stop file in ``folder`` (after rank 0 removed an old one) and keep the
-        heartbeats of ``ranks`` ranks there: the tasks' phase begins."""
-        self.rank, self.ranks = rank, ranks
+        heartbeats of ``ranks`` ranks there: the tasks' phase begins. ``session`` names the run
+        (``journal.session_name``): a stall found in it is recorded in the journals
+        (``journal.record_stall``), so that the task the stalled rank had started is not taken
+        for one its process died running (None: not recorded)."""
+        self.rank, self.ranks, self._session = rank, ranks, session
         self._file = Path(folder) / STOP_NAME
         self.enter("tasks")
         if self.reason is not None:
@@ -216,10 +222,12 @@ class StopControl:
                 self._read_file()
             stalled = self._heartbeat()
             if stalled is not None:
+                other, why = stalled
                 if self.phase == "tasks" and self.reason is None:
-                    self.request(stalled, failed=True)  # the live ranks stop as after any request
+                    self._record_stall(other)
+                    self.request(why, failed=True)  # the live ranks stop as after any request
                 elif self._wakeup is not None:
-                    self.reason, self.failed = stalled, True
+                    self.reason, self.failed = why, True
                     self._exit_now()  # a collective with the stalled rank would never return
             if self.reason is None or self._wakeup is None:
                 continue  # nothing asked, or not installed (a library call): no abandoning, no forced exit
@@ -236,9 +244,19 @@ class StopControl:
                 # rank 0 writes the data set the others wait for its word (or for its heartbeat to stop).
                 self._exit_now()
 
-    def _heartbeat(self) -> str | None:
+    def _record_stall(self, other: int) -> None:
+        """Record in the journal folder that rank ``other`` stalled in this run (``watch``'s
+        session; best effort: a full disk stops the run anyway)."""
+        if self._session is None or self._file is None:
+            return
+        try:
+            record_stall(self._file.parent, self.rank, self._session, other)
+        except OSError:
+            pass
+
+    def _heartbeat(self) -> tuple[int, str] | None:
         """Write this rank's heartbeat and look at the ranks it waits for: rank 0 at every other,
-        the others at rank 0 (module docstring). The stall found, if any."""
+        the others at rank 0 (module docstring). The stall found, if any: the rank and why."""
         now = time.monotonic()
         if self._file is None or self.stall_s == 0.0 or self.ranks < 2 or now < self._next_beat:
             return None
@@ -259,7 +277,7 @@ class StopControl:
             if seen is None or seen[0] != content:
                 self._seen[path] = (content, now)
             elif now - seen[1] >= self.stall_s:
-                return f"rank {other} made no progress for {now - seen[1]:.0f} s (--stall-timeout)"
+                return other, f"rank {other} made no progress for {now - seen[1]:.0f} s (--stall-timeout)"
         return None
 
     def _exit_now(self) -> None:

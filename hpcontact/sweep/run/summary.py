@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from hpcontact.sweep.run.progress import clock_text
-from hpcontact.sweep.run.records import Kept, Plan, RankTotals, RoundScope, RoundTally
+from hpcontact.sweep.run.records import Plan, RankTotals, RoundScope, RoundTally
 from hpcontact.sweep.run.resume import journal_path
 
 SHOWN_FAILURES = 5  # failed tasks the summary names (and tasks over memory a dry run names)
@@ -105,7 +105,7 @@ class Summary:
         return "\n".join(lines)
 
 
-def round_sums(plan: Plan, kept: Kept, scope: RoundScope, totals: list[RankTotals], setup_s: float) -> RoundTally:
+def round_sums(plan: Plan, scope: RoundScope, totals: list[RankTotals], setup_s: float) -> RoundTally:
     """The summary's sums of this round (tasks run and reused, task, set-up, scheduling and
     journal seconds); an adaptive round's are added to ``scope.tally`` and it is returned: the
     summary counts the run's rounds so far."""
@@ -120,9 +120,7 @@ def round_sums(plan: Plan, kept: Kept, scope: RoundScope, totals: list[RankTotal
     tally = scope.tally
     if tally is None:
         return sums
-    selected = scope.select if scope.select is not None else range(len(plan.tasks))
-    reused = sum(1 for i in selected if plan.tasks[i].key in kept.reused)  # this round's, from journals
-    tally.add(sums.run, reused, sums.task_s, sums.setup_s, sums.schedule_s, sums.journal_s)
+    tally.add(sums.run, sums.reused, sums.task_s, sums.setup_s, sums.schedule_s, sums.journal_s)
     return tally
 
 
