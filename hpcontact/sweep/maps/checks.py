@@ -23,7 +23,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from hpcontact.sweep.maps.refinement import Checks, Layout, State, estimate, solve_errors, state_tasks
+from hpcontact.sweep.maps.refinement import Checks, Layout, Leaf, State, estimate, solve_errors, state_tasks
 from hpcontact.sweep.space.adaptive_settings import Settings
 
 #: A check that shows the estimate short by a ratio r raises the factor by r × this margin.
@@ -91,14 +91,14 @@ def judged(
     safety = list(checks.factors(len(state)))
     conservative = list(checks.conservative or (False for _ in state))
     raised = False
-    for s, (cat, nodes) in enumerate(state):
+    for s, (cat, leaves) in enumerate(state):
         here = layout.take(full, cat)
         if not here.any():
             continue
-        worst = _worst_miss(layout, cat, nodes, names, fields, here, safety[s], conservative[s])
+        worst = _worst_miss(layout, cat, leaves, names, fields, here, safety[s], conservative[s])
         if worst > 1.0 and not conservative[s]:
             conservative[s], raised = True, True
-            worst = _worst_miss(layout, cat, nodes, names, fields, here, safety[s], True)
+            worst = _worst_miss(layout, cat, leaves, names, fields, here, safety[s], True)
         if worst > 1.0:
             safety[s] *= min(worst * CHECK_MARGIN, MAX_RAISE)
             raised = True
@@ -115,7 +115,7 @@ def judged(
 def _worst_miss(
     layout: Layout,
     cat: Sequence[int],
-    nodes: Sequence[Sequence[int]],
+    leaves: Sequence[Leaf],
     names: Sequence[str],
     fields: Mapping[str, np.ndarray],
     here: np.ndarray,
@@ -124,7 +124,7 @@ def _worst_miss(
 ) -> float:
     """The worst ratio of miss to interpolation estimate at the check points ``here`` of the
     sub-problem ``cat`` (``judged``); 0 where every check holds."""
-    est = estimate(layout, cat, nodes, names, fields, safety, conservative)
+    est = estimate(layout, cat, leaves, names, fields, safety, conservative)
     actual = np.stack([layout.take(fields[n], cat)[here] for n in names], axis=-1)
     own = solve_errors(layout, fields, names, cat)[here]
     with np.errstate(invalid="ignore", divide="ignore"):

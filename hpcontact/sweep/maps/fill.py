@@ -14,7 +14,7 @@ from hpcontact.problems.kinds import KINDS
 from hpcontact.sweep.data.columns import NOT_COMPUTED
 from hpcontact.sweep.data.dataset import DIRECTIONAL, TENSOR, derive_directional, directional_errors
 from hpcontact.sweep.data.journal import OK
-from hpcontact.sweep.maps.refinement import OFF_DIAGONAL, Checks, Layout, State, estimate, state_tasks
+from hpcontact.sweep.maps.refinement import OFF_DIAGONAL, Checks, Layout, State, estimate, node_mask, state_tasks
 
 MAP_ERROR_SUFFIX = "_map_error"
 INTERPOLATED_MESSAGE = "interpolated (adaptive map)"
@@ -75,8 +75,8 @@ def fill(
     values = {n: a.copy() for n, a in fields.items()}
     maps = {n: np.full(layout.shape, np.nan) for n in names}
     worst_status = ds["error_status"].values.copy() if "error_status" in ds else None
-    for s, (cat, nodes) in enumerate(state):
-        est = estimate(layout, cat, nodes, names, fields, checks.factor(s), checks.cautious(s))
+    for s, (cat, leaves) in enumerate(state):
+        est = estimate(layout, cat, leaves, names, fields, checks.factor(s), checks.cautious(s))
         mask = layout.take(solved, cat)
         for q, name in enumerate(names):
             current = layout.take(values[name], cat)
@@ -92,7 +92,7 @@ def fill(
                 current = layout.take(values[f"{name}_error"], cat)
                 layout.put(values[f"{name}_error"], cat, np.where(mask, current, est.solve[..., q]))
         if worst_status is not None:
-            node_status = layout.take(ds["error_status"].values, cat, nodes)
+            node_status = layout.take(ds["error_status"].values, cat)[node_mask(layout, leaves)]
             current = layout.take(worst_status, cat)
             layout.put(worst_status, cat, np.where(mask, current, node_status.max()))
     out = ds.copy()

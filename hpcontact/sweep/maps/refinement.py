@@ -8,20 +8,35 @@ always solved). Every other task axis (shape, material, pair, n, tol, accuracy) 
 *categorical*: each combination of their values is its own sub-problem with its own nodes,
 never interpolated across. A derived axis (``angle`` in tensor mode) stays derived.
 
-Nodes. In each sub-problem the solved points are the tensor product of one increasing index
-list per numeric axis (``interpolation.TensorInterpolant``: local cubic Lagrange along each
-axis, an error estimate per axis). The first round takes the first nested-bisection level with
-``initial`` nodes along each axis (every 2^k-th index, ends included:
-``interpolation.bisection_nodes``). After each round, rank 0 estimates the relative error at
-every grid point from the solved points: ``map error = Σ_d e_d + s``, ``e_d`` the estimate of
-axis ``d`` relative to the quantity's own size (``|q|``; the off-diagonal K_xy, K_yx, … relative
-to the largest diagonal entry, as their ``<name>_error``), ``s`` the solve's own estimated
-relative error ``<name>_error`` interpolated from the nodes (0 where a solve has none). Where the
-map error of a quantity exceeds its tolerance ``t``, each axis ``d`` whose share
-``e_d > max(t − s, t/4) / D`` (``D`` numeric axes) has the node interval around the point split
-at its midpoint. The new nodes' points are the next round, broadcast to every rank; the
-refinement ends when no interval is split, or at ``max_solves`` (the splits with the largest
-estimates first, as many as fit), or when every point is solved.
+Leaves. Each sub-problem's grid (its numeric axes, in index space) is tiled by the boxes of the
+leaves of a k-d tree; neighbouring boxes share their face (the grid points on it belong to
+both). A leaf is one increasing index list per numeric axis, its first and last entries the
+box's ends; its nodes, the points solved, are their tensor product, and it interpolates its own
+box only (``interpolation.TensorInterpolant``: local cubic Lagrange along each axis, an error
+estimate per axis). The first round has one leaf per sub-problem: the first nested-bisection
+level with ``initial`` nodes along each axis (every 2^k-th index, ends included:
+``interpolation.bisection_nodes``).
+
+Estimate. After each round, rank 0 estimates the relative error at every grid point from the
+solved points: ``map error = Σ_d e_d + s``, ``e_d`` the estimate of axis ``d`` of the point's
+leaf relative to the quantity's own size (``|q|``; the off-diagonal K_xy, K_yx, … relative to the
+largest diagonal entry, as their ``<name>_error``), ``s`` the solve's own estimated relative error
+``<name>_error`` interpolated from the leaf's nodes (0 where a solve has none). A point on a face
+takes the value and estimate of the leaf whose map error is smallest there (a node of any leaf:
+its solve's own error).
+
+Refinement. Where the map error of a quantity exceeds its tolerance ``t``, each axis ``d`` whose
+share ``e_d > max(t − s, t/4) / D`` (``D`` numeric axes) has the node interval of the point's leaf
+around the point split at its midpoint, inside that leaf only: the new nodes are the midpoint
+index × the leaf's nodes along the other axes, not a hyperplane of the whole grid. A leaf that
+then has ``2 LEAF_NODES − 1`` or more nodes along an axis is cut at its middle node along the axis
+with the most nodes (again until none has), into two leaves of at least ``LEAF_NODES`` nodes
+along it, sharing the cut's face: no new node, but later splits in one half leave the other as
+it is, so the map grows nodes where its estimate is large and stays coarse elsewhere. The new
+nodes' points are the next round, broadcast to every rank; the refinement ends when no interval
+is split, or at ``max_solves`` (the splits with the largest estimates first, as many as fit),
+or when every point is solved. The state (``State``: each sub-problem's leaves) is a function of
+the values at its nodes alone, so a resumed sweep rebuilds it round by round from its journals.
 """
 
 from __future__ import annotations
@@ -30,7 +45,7 @@ import math
 import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -46,7 +61,26 @@ OFF_DIAGONAL = re.compile(r"^K_(xy|yx|xz|zx|yz|zy)(_coupled)?$")
 SAFETY = 1.5
 
 
-State = tuple[tuple[tuple[int, ...], tuple[tuple[int, ...], ...]], ...]  # (categorical index, nodes per axis)
+#: Fewest nodes along an axis that cutting a leaf leaves in each half: one more than the cubic's
+#: stencil, so each half's estimate (one order higher, ``interpolation.estimate_weights``) has
+#: its own node to add and its middle interval a centred stencil.
+LEAF_NODES = 5
+
+#: Nodes a cut leaves each half beyond its face (of the other half's): the interval at the face
+#: keeps a centred cubic stencil, as it had before the cut.
+HALO = 1
+
+
+class Leaf(NamedTuple):
+    """A leaf of a sub-problem's k-d tree: ``nodes``, one increasing index list per numeric axis
+    (their tensor product is solved), and ``box``, the first and last index per axis of the
+    points it interpolates (its nodes may reach ``HALO`` nodes beyond a cut face)."""
+
+    nodes: tuple[tuple[int, ...], ...]
+    box: tuple[tuple[int, int], ...]
+
+
+State = tuple[tuple[tuple[int, ...], tuple[Leaf, ...]], ...]  # (categorical index, the leaves tiling it)
 
 
 @dataclass(frozen=True)
@@ -91,11 +125,25 @@ class Layout:
 
 
 def initial_state(layout: Layout, settings: Settings) -> State:
-    """The first round's nodes: in every sub-problem, the first bisection level with
+    """The first round's nodes: in every sub-problem one leaf, the first bisection level with
     ``settings.initial`` nodes along each numeric axis."""
     nodes = tuple(tuple(bisection_nodes(layout.shape[p], settings.initial)) for p in layout.numeric)
+    leaf = Leaf(nodes, tuple((n[0], n[-1]) for n in nodes))
     cats = np.ndindex(*(layout.shape[p] for p in layout.categorical))
-    return tuple((tuple(int(c) for c in cat), nodes) for cat in cats)
+    return tuple((tuple(int(c) for c in cat), (leaf,)) for cat in cats)
+
+
+def box(leaf: Leaf) -> tuple[slice, ...]:
+    """The index box of ``leaf`` in its sub-problem's grid (numeric axes in order)."""
+    return tuple(slice(lo, hi + 1) for lo, hi in leaf.box)
+
+
+def node_mask(layout: Layout, leaves: Sequence[Leaf]) -> np.ndarray:
+    """Whether each point of a sub-problem's grid (numeric axes) is a node of one of ``leaves``."""
+    mask = np.zeros(tuple(len(x) for x in layout.xs), dtype=bool)
+    for leaf in leaves:
+        mask[np.ix_(*leaf.nodes)] = True
+    return mask
 
 
 @dataclass(frozen=True)
@@ -135,7 +183,7 @@ def state_points(layout: Layout, state: State, checks: Checks | None = None) -> 
     """The flat (C order over the task axes) indices of every node point of ``state`` and
     every check point of ``checks``, sorted."""
     flat = np.arange(math.prod(layout.shape)).reshape(layout.shape)
-    parts = [layout.take(flat, cat, nodes).ravel() for cat, nodes in state]
+    parts = [layout.take(flat, cat, leaf.nodes).ravel() for cat, leaves in state for leaf in leaves]
     if checks is not None and checks.points:
         parts.append(np.asarray(checks.points, dtype=np.intp))
     return np.unique(np.concatenate(parts)) if parts else np.empty(0, dtype=np.intp)
@@ -149,12 +197,14 @@ def state_tasks(layout: Layout, state: State, task_of: np.ndarray, checks: Check
 @dataclass
 class Estimate:
     """A sub-problem's interpolated quantities on its full grid (numeric axes first, then the
-    quantities), the relative error estimate of each axis and the interpolated solve error."""
+    quantities), the relative error estimate of each axis, the interpolated solve error, the
+    size the errors are relative to and, at each point, the position of the leaf they come from."""
 
     values: np.ndarray
     axes: list[np.ndarray]
     solve: np.ndarray
     scale: np.ndarray
+    owner: np.ndarray
 
     @property
     def interpolation(self) -> np.ndarray:
@@ -282,34 +332,56 @@ def solve_errors(
 def estimate(
     layout: Layout,
     cat: Sequence[int],
-    nodes: Sequence[Sequence[int]],
+    leaves: Sequence[Leaf],
     names: Sequence[str],
     fields: Mapping[str, np.ndarray],
     safety: float = SAFETY,
     conservative: bool = False,
 ) -> Estimate:
-    """The ``Estimate`` of the sub-problem ``cat`` from the values at ``nodes`` of the
-    quantities ``names`` (``fields``: name → array over the task axes; ``<name>_error``, when
-    there, the solve's relative error); ``safety`` the factor on the interpolation estimate,
-    ``conservative`` its kind (``TensorInterpolant.estimates``). The principal stiffnesses
-    come from the interpolated tensor where ``fields`` has it and they may cross
-    (``_crosses``, ``principal_from_tensor``)."""
+    """The ``Estimate`` of the sub-problem ``cat`` from the values at the nodes of its
+    ``leaves`` of the quantities ``names`` (``fields``: name → array over the task axes;
+    ``<name>_error``, when there, the solve's relative error); ``safety`` the factor on the
+    interpolation estimate, ``conservative`` its kind (``TensorInterpolant.estimates``). Each
+    leaf interpolates its own box; a point on a face shared by several takes the leaf whose
+    largest map error over the quantities is smallest there (the first where all are NaN). The
+    principal stiffnesses come from the interpolated tensor where ``fields`` has it and they
+    may cross (``_crosses``, on every node of the sub-problem; ``principal_from_tensor``)."""
     derive = any(n in PRINCIPAL for n in names) and all(t in fields for t in TENSOR)
     work = list(names) + [t for t in TENSOR if derive and t not in names]
-    interpolant = TensorInterpolant([layout.xs[j] for j in range(len(layout.numeric))], nodes)
-    data = np.stack([layout.take(fields[n], cat, nodes) for n in work], axis=-1)
-    full = interpolant.values(data)
-    scale = _relative_scale(work, full)
-    estimates = interpolant.estimates(data, full, conservative)
-    axes = [safety * e / scale for e in estimates]
-    errors = solve_errors(layout, fields, work, cat, nodes)
-    if derive and _crosses(data, errors, work):
-        principal_from_tensor(full, axes, work)
-        scale = _relative_scale(work, full)
     kept = slice(0, len(names))
-    return Estimate(
-        full[..., kept], [e[..., kept] for e in axes], np.abs(interpolant.values(errors))[..., kept], scale[..., kept]
-    )
+    grid = tuple(len(x) for x in layout.xs)
+    if derive:
+        mask = node_mask(layout, leaves)
+        data = np.stack([layout.take(fields[n], cat)[mask] for n in work], axis=-1)
+        derive = _crosses(data, solve_errors(layout, fields, work, cat)[mask], work)
+    values = np.full((*grid, len(names)), np.nan)
+    axes = [np.full((*grid, len(names)), np.nan) for _ in grid]
+    solve, scale = np.full((*grid, len(names)), np.nan), np.ones((*grid, len(names)))
+    owner, best = np.full(grid, -1, dtype=np.intp), np.full(grid, np.inf)
+    for position, leaf in enumerate(leaves):
+        region = box(leaf)
+        local = [tuple(i - n[0] for i in n) for n in leaf.nodes]
+        inner = tuple(slice(lo - n[0], hi - n[0] + 1) for (lo, hi), n in zip(leaf.box, leaf.nodes))
+        interpolant = TensorInterpolant([x[n[0] : n[-1] + 1] for x, n in zip(layout.xs, leaf.nodes)], local)
+        data = np.stack([layout.take(fields[n], cat, leaf.nodes) for n in work], axis=-1)
+        full = interpolant.values(data)[inner]
+        relative = _relative_scale(work, full)
+        leaf_axes = [safety * e[inner] / relative for e in interpolant.estimates(data, None, conservative)]
+        if derive:
+            principal_from_tensor(full, leaf_axes, work)
+            relative = _relative_scale(work, full)
+        leaf_solve = np.abs(interpolant.values(solve_errors(layout, fields, work, cat, leaf.nodes)))[inner]
+        error = (sum(leaf_axes, np.zeros_like(leaf_solve)) + leaf_solve)[..., kept]
+        worst = np.where(np.isnan(error), np.inf, error).max(axis=-1)
+        better = (worst < best[region]) | (owner[region] < 0)
+        best[region] = np.where(better, worst, best[region])
+        owner[region] = np.where(better, position, owner[region])
+        chosen = better[..., None]
+        for target, source in ((values, full), (solve, leaf_solve), (scale, relative)):
+            target[region] = np.where(chosen, source[..., kept], target[region])
+        for target, source in zip(axes, leaf_axes):
+            target[region] = np.where(chosen, source[..., kept], target[region])
+    return Estimate(values, axes, solve, scale, owner)
 
 
 def refine(
@@ -329,44 +401,91 @@ def refine(
         return None
     tol = np.array([settings.tolerance(n) for n in names])
     dims = max(sum(1 for x in layout.xs if len(x) > 1), 1)
-    candidates = []  # (score, sub-problem position, axis, interval)
-    for s, (cat, nodes) in enumerate(state):
-        est = estimate(layout, cat, nodes, names, fields, checks.factor(s), checks.cautious(s))
+    candidates = []  # (score, sub-problem position, leaf position, axis, interval)
+    for s, (cat, leaves) in enumerate(state):
+        est = estimate(layout, cat, leaves, names, fields, checks.factor(s), checks.cautious(s))
         with np.errstate(invalid="ignore"):
             over = est.map_error > tol
             share = np.maximum(tol - est.solve, tol / 4.0) / dims
-            for d, e in enumerate(est.axes):
-                ratio = np.where(over, e / share, 0.0)
-                ratio = np.nan_to_num(ratio, nan=0.0).max(axis=-1)  # the worst quantity
-                for m, (i, j) in enumerate(zip(nodes[d][:-1], nodes[d][1:])):
-                    if j - i < 2:
+            ratios = [np.nan_to_num(np.where(over, e / share, 0.0), nan=0.0).max(axis=-1) for e in est.axes]
+            excess = np.nan_to_num(np.where(over, est.map_error / tol, 0.0), nan=0.0).max(axis=-1)
+        for position, leaf in enumerate(leaves):
+            region = box(leaf)
+            mine = est.owner[region] == position
+            inside = [_between_nodes(leaf, d) for d in range(len(leaf.box))]
+            leaf_ratios = [np.where(mine, r[region], 0.0) for r in ratios]
+            # a point over its tolerance whose large shares are all along axes where it sits on a
+            # node (the error comes from a line through a failed node) splits its other axes
+            split = np.any([(r > 1.0) & between for r, between in zip(leaf_ratios, inside)], axis=0)
+            stuck = (excess[region] > 1.0) & mine & ~split
+            for d, (nodes, (lo, hi)) in enumerate(zip(leaf.nodes, leaf.box)):
+                ratio = np.where(stuck & inside[d], np.fmax(leaf_ratios[d], excess[region]), leaf_ratios[d])
+                for m, (i, j) in enumerate(zip(nodes[:-1], nodes[1:])):
+                    if j - i < 2 or i < lo or j > hi:
                         continue
-                    inside = np.take(ratio, range(i + 1, j), axis=d)
-                    worst = float(inside.max())
+                    worst = float(np.take(ratio, range(i + 1 - lo, j - lo), axis=d).max())
                     if worst > 1.0:
-                        candidates.append((worst, s, d, m))
+                        candidates.append((worst, s, position, d, m))
     if not candidates:
         return None
+    flat = np.arange(math.prod(layout.shape)).reshape(layout.shape)
+    task_of = np.asarray(task_of).ravel()
+    taken = set(state_tasks(layout, state, task_of, checks).tolist())
+    marks: dict[tuple[int, int], dict[int, set[int]]] = {}  # (sub-problem, leaf) -> axis -> intervals
+    for _, s, position, d, m in sorted(candidates, key=lambda c: (-c[0], *c[1:])):
+        trial = {a: set(ms) for a, ms in marks.get((s, position), {}).items()}
+        trial.setdefault(d, set()).add(m)
+        cat, leaves = state[s]
+        added = set(task_of[layout.take(flat, cat, _split(leaves[position], trial).nodes).ravel()].tolist()) - taken
+        if settings.max_solves is not None and len(taken) + len(added) > settings.max_solves:
+            continue
+        marks[(s, position)] = trial
+        taken |= added
+    if not marks:
+        return None
+    out = []
+    for s, (cat, leaves) in enumerate(state):
+        grown: list[Leaf] = []
+        for position, leaf in enumerate(leaves):
+            grown.extend(_cut(_split(leaf, marks.get((s, position), {}))))
+        out.append((cat, tuple(grown)))
+    return tuple(out)
 
-    def split(chosen: Sequence[tuple[float, int, int, int]]) -> State:
-        marks: dict[tuple[int, int], set[int]] = {}
-        for _, s, d, m in chosen:
-            marks.setdefault((s, d), set()).add(m)
-        out = []
-        for s, (cat, nodes) in enumerate(state):
-            new = tuple(
-                tuple(refined(n, [m in marks.get((s, d), ()) for m in range(len(n) - 1)])) if (s, d) in marks else n
-                for d, n in enumerate(nodes)
-            )
-            out.append((cat, new))
-        return tuple(out)
 
-    proposed = split(candidates)
-    if settings.max_solves is None or len(state_tasks(layout, proposed, task_of, checks)) <= settings.max_solves:
-        return proposed
-    chosen: list[tuple[float, int, int, int]] = []
-    for candidate in sorted(candidates, key=lambda c: (-c[0], c[1], c[2], c[3])):
-        trial = split([*chosen, candidate])
-        if len(state_tasks(layout, trial, task_of, checks)) <= settings.max_solves:
-            chosen.append(candidate)
-    return split(chosen) if chosen else None
+def _between_nodes(leaf: Leaf, axis: int) -> np.ndarray:
+    """Whether each point of ``leaf``'s box lies strictly between two nodes along ``axis``
+    (broadcast over the box's other axes)."""
+    lo, hi = leaf.box[axis]
+    between = ~np.isin(np.arange(lo, hi + 1), leaf.nodes[axis])
+    shape = [1] * len(leaf.box)
+    shape[axis] = len(between)
+    return between.reshape(shape)
+
+
+def _split(leaf: Leaf, marks: Mapping[int, set[int]]) -> Leaf:
+    """``leaf`` with the midpoints of the intervals ``marks[d]`` of each axis ``d`` added."""
+    nodes = tuple(
+        tuple(refined(n, [m in marks[d] for m in range(len(n) - 1)])) if d in marks else n
+        for d, n in enumerate(leaf.nodes)
+    )
+    return Leaf(nodes, leaf.box)
+
+
+def _cut(leaf: Leaf) -> list[Leaf]:
+    """``leaf`` cut at the middle of its nodes inside its box along the axis with the most of
+    them, while that axis has at least ``2 LEAF_NODES − 1``: two leaves whose boxes share the
+    cut's face, each keeping ``HALO`` of the other's nodes beyond it (no node is added)."""
+    inside = [[k for k, i in enumerate(n) if lo <= i <= hi] for n, (lo, hi) in zip(leaf.nodes, leaf.box)]
+    d = max(range(len(leaf.box)), key=lambda a: (len(inside[a]), -a))
+    if len(inside[d]) < 2 * LEAF_NODES - 1:
+        return [leaf]
+    k = inside[d][len(inside[d]) // 2]
+    nodes, (lo, hi) = leaf.nodes[d], leaf.box[d]
+    halves = ((nodes[: k + 1 + HALO], (lo, nodes[k])), (nodes[max(k - HALO, 0) :], (nodes[k], hi)))
+    return [
+        piece
+        for half, span in halves
+        for piece in _cut(
+            Leaf((*leaf.nodes[:d], half, *leaf.nodes[d + 1 :]), (*leaf.box[:d], span, *leaf.box[d + 1 :]))
+        )
+    ]

@@ -92,20 +92,13 @@ def _rounds(team: Any, spec: Any, task_of: np.ndarray, options: Any, stream: Tex
         def finish(
             ds: Any, joined: Any, state: State = state, checks: Checks = checks, this_round: int = this_round
         ) -> Any:
-            names = refined_names(ds, spec)
             stored = stiffness_names(ds, spec.kind)
-            if checks.pending:
-                checks = judged(layout, state, checks, quantity_fields(ds, stored), stored)
-            following = refine(layout, spec.adaptive, state, quantity_fields(ds, stored), names, task_of, checks)
-            if following is None and wants_check(spec.adaptive, checks):
-                drawn = drawn_checks(layout, spec.adaptive, state, checks, task_of)
-                if drawn.pending:
-                    decided["next"] = (state, drawn)
-                    return None
-            decided["next"] = None if following is None else (following, checks)
-            if following is not None:
+            fields = quantity_fields(ds, stored)
+            step = next_step(layout, spec.adaptive, state, checks, fields, refined_names(ds, spec), stored, task_of)
+            decided["next"] = step if isinstance(step, tuple) else None
+            if isinstance(step, tuple):
                 return None
-            out = fill(ds, spec, layout, state, task_of, this_round, checks)
+            out = fill(ds, spec, layout, state, task_of, this_round, step)
             decided["line"] = outcome_line(out, spec)
             return out
 
@@ -124,6 +117,33 @@ def _rounds(team: Any, spec: Any, task_of: np.ndarray, options: Any, stream: Tex
                 print(decided["line"], file=stream, flush=True)
             return outcome
         state, checks = following
+
+
+def next_step(
+    layout: Layout,
+    settings: Settings,
+    state: State,
+    checks: Checks,
+    fields: dict[str, np.ndarray],
+    names: list[str],
+    stored: list[str],
+    task_of: np.ndarray,
+) -> tuple[State, Checks] | Checks:
+    """Rank 0's decision after a round, from the values ``fields`` of the stored stiffnesses
+    ``stored`` at the points solved so far (``names``: those refined on): the pending check
+    points judged (``checks.judged``), then the next round's state and checks, or a check
+    round's (``checks.drawn_checks``) when the refinement has ended; or, when the map is
+    finished, its final checks alone."""
+    if checks.pending:
+        checks = judged(layout, state, checks, fields, stored)
+    following = refine(layout, settings, state, fields, names, task_of, checks)
+    if following is not None:
+        return following, checks
+    if wants_check(settings, checks):
+        drawn = drawn_checks(layout, settings, state, checks, task_of)
+        if drawn.pending:
+            return state, drawn
+    return checks
 
 
 def _shown(value: Any) -> str:
