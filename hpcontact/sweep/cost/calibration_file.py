@@ -216,4 +216,4 @@ def run_calibration() -> tuple[Calibration, str]:
     from hpcontact.sweep.cost.prior import probed_prior
 
     probed, origin = probed_prior()
-    return probed, f"{origin}; no calibration of this node type yet: {note}; --dry-run calibrates, 12-30 s"
+    return probed, f"{origin} ({note}; --dry-run calibrates, 12-30 s)"

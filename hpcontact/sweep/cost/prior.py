@@ -38,7 +38,7 @@ from hpcontact.sweep.cost.calibration import (
     calibrate,
     other_running,
 )
-from hpcontact.sweep.cost.rates import Calibration, Rate, base_memory_bytes
+from hpcontact.sweep.cost.rates import CONTENDED_FROM, Calibration, Rate, base_memory_bytes
 
 PROBE_SCENES: dict[str, Mapping[str, Any]] = {
     "tiny_contact": TINY_CONTACT_SCENE,
@@ -120,7 +120,10 @@ def scale_of(here: Mapping[str, float], prior: Calibration) -> float:
 
 def probed_prior() -> tuple[Calibration, str]:
     """The prior scaled to this machine by ``probe`` (module docstring), and where it came from
-    in words (the prior's ``whose``, the scale and the probe's wall time)."""
+    in words (the prior's ``whose``, the scale, the probe's wall time and, from
+    ``CONTENDED_FROM`` other processes running beside it, that its scale is likely high: CPU
+    seconds on shared cores are; the probe is no calibration file, so the ``Calibration`` it
+    returns carries no count of its own)."""
     started = time.perf_counter()
     others = other_running()
     here = probe()
@@ -130,13 +133,10 @@ def probed_prior() -> tuple[Calibration, str]:
         kind: Rate(**{name: value * scale for name, value in dataclasses.asdict(rate).items()})
         for kind, rate in prior.rates.items()
     }
-    probed = Calibration(
-        socket.gethostname(), __version__, rates, base_memory_bytes(), time.perf_counter() - started, others
-    )
-    origin = (
-        f"shipped prior of {prior.whose()} scaled x{scale:.2f} by a {probed.seconds:.1f} s probe of this "
-        f"{probed.cpu}, {probed.cores} cores"
-    )
+    probed = Calibration(socket.gethostname(), __version__, rates, base_memory_bytes(), time.perf_counter() - started)
+    origin = f"shipped prior of {prior.whose()} scaled x{scale:.2f} by a {probed.seconds:.1f} s probe of this machine"
+    if others is not None and others >= CONTENDED_FROM:  # as a contended calibration (Calibration.contended)
+        origin += f", probed beside ~{others:.1f} other process(es): likely high on an idle machine"
     return probed, origin
 
 

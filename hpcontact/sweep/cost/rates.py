@@ -229,17 +229,18 @@ class Calibration:
         return self.base_bytes + task_array_bytes(params)
 
 
-def load_note(ranks: int, others: float | None, cores: int) -> str:
-    """ "" when the ``ranks`` of a run and the ``others`` processes running beside them
-    (``calibration.other_running``; None: unknown) fit on the machine's ``cores``, else what a
-    reader of its estimate must know: the estimate is the time of each task on a core of its
-    own, and time-shared cores stretch the wall time by up to (ranks + others) / cores (the
-    issue 42 run: estimated 196 core-seconds, 464 s on 2 cores beside a load of 3-6)."""
-    if others is None or ranks + others <= cores:
+def load_note(running: float | None, cores: int) -> str:
+    """ "" when the processes ``running`` on this machine now (running or runnable, a run's own
+    ranks among them: ``calibration.other_running`` + 1 for the caller; None: unknown) fit on its
+    ``cores``, else what a reader of an estimate must know: the estimate is the time of each
+    task on a core of its own, and time-shared cores stretch the wall time by up to
+    running / cores (the issue 42 run: estimated 196 core-seconds, 464 s on 2 cores beside a
+    load of 3-6)."""
+    if running is None or running <= cores:
         return ""
     return (
-        f"~{others:.0f} other process(es) share the {cores} core(s) with its {ranks} rank(s) now: the run may take "
-        f"up to {(ranks + others) / cores:.1f}x the estimated wall time"
+        f"~{running:.0f} processes share this machine's {cores} core(s) now, this run's among them: it may take "
+        f"up to {running / cores:.1f}x the estimated wall time"
     )
 
 

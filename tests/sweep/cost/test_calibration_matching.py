@@ -128,9 +128,8 @@ def test_the_probe_scale_is_the_geometric_mean_of_its_ratios():
 
 
 def test_the_load_note_says_the_run_is_slower_where_cores_are_shared():
-    assert load_note(2, 0.0, 2) == "" and load_note(1, 1.0, 2) == "" and load_note(2, None, 2) == ""
-    note = load_note(2, 4.0, 2)
-    assert "may take up to 3.0x the estimated wall time" in note
+    assert load_note(2.0, 2) == "" and load_note(1.0, 2) == "" and load_note(None, 2) == ""
+    assert "may take up to 3.0x the estimated wall time" in load_note(6.0, 2)
 
 
 def test_a_contended_calibration_says_its_estimates_are_high_not_low():
@@ -155,3 +154,14 @@ def test_costmodel_names_the_file_the_run_uses(tmp_path, write_spec, monkeypatch
     assert main([str(spec), "--dry-run", "--costmodel", str(missing)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("hpcontact run: error: --costmodel = ") and "calibration file" in err[0]
+
+
+def test_a_probe_beside_other_work_says_its_scale_is_likely_high(node_cache, monkeypatch):
+    shipped = prior.prior_calibration()
+    monkeypatch.setattr(prior, "probe", lambda: {n: shipped.task_seconds(s) for n, s in prior.PROBE_SCENES.items()})
+    monkeypatch.setattr(prior, "other_running", lambda: 3.0)
+    calibration, origin = calibration_file.run_calibration()
+    assert "scaled x1.00" in origin and "probed beside ~3.0 other process(es): likely high" in origin
+    assert calibration.contended() == ""  # no calibration file to remove and redo
+    monkeypatch.setattr(prior, "other_running", lambda: 0.0)
+    assert "probed beside" not in calibration_file.run_calibration()[1]
