@@ -93,6 +93,7 @@ def simulate(text: str, fields: Fields, names: list[str]) -> dict[str, Any]:
     return {
         "values": values,
         "errors": errors,
+        "solved": solved,
         "solves": len(np.unique(np.asarray(task_of)[solved])),
         "rounds": rounds,
         "checks": len(checks.points),
@@ -313,7 +314,7 @@ def compare(label: str, text: str, fields: Fields, names: list[str], truth: Fiel
     row["uniform"] = smallest_uniform(result, fields, names, truth, tolerance)
     row["sparse grid"] = sparse_grid(result["layout"], fields, truth, tolerance)
     if libraries:
-        row["python-adaptive"] = python_adaptive(result["layout"], truth, tolerance, 25, 5000, 120.0)
+        row["python-adaptive"] = python_adaptive(result["layout"], truth, tolerance, 25, 5000, 60.0)
     return row
 
 
