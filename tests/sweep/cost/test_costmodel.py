@@ -37,50 +37,6 @@ aspect = [1.0, 0.5]
 nu = [0.0, 0.3]
 """
 TASKS = 2 + 2 * 2  # the circle ignores the aspect
-NO_OVERHEADS = Overheads(
-    driver_s=0.0, service_s=0.0, wake_s=0.0, setup_s=0.0, gather_s=0.0, spread_setup_s=0.0, spread_gather_s=0.0
-)
-
-
-def toy(seconds: list[float]) -> tuple[list[Task], dict[str, float]]:
-    """Tasks costed as their seconds, each its own kernel group."""
-    tasks = [Task(key=f"t{i}", params={}, cost=s, group=f"g{i}") for i, s in enumerate(seconds)]
-    return tasks, {t.key: s for t, s in zip(tasks, seconds)}
-
-
-def test_four_equal_tasks_on_two_ranks_take_two_tasks_time():
-    tasks, seconds = toy([1.0] * 4)
-    r = replay(tasks, seconds, 2, NO_OVERHEADS)
-    assert r["chunks"] == 4 and r["makespan_s"] == 2.0 and r["efficiency"] == 1.0
-    assert replay(tasks, seconds, 1, NO_OVERHEADS)["makespan_s"] == 4.0
-
-
-def test_replay_with_overheads_matches_a_hand_computation():
-    tasks, seconds = toy([1.0] * 4)
-    o = Overheads(
-        driver_s=0.1, service_s=0.01, wake_s=0.02, setup_s=0.05, gather_s=0.025, spread_setup_s=0.0, spread_gather_s=0.0
-    )
-    # setup 4 x 0.05 = 0.2. Rank 0 takes chunk 1 at 0.2, ends 1.3. Rank 1 is served at 0.21,
-    # starts 0.23, ends 1.33. Rank 0 claims at 1.3 (no message), ends 2.4; rank 1 is served at
-    # 1.34, starts 1.36, ends 2.46. Gather 4 x 0.025 = 0.1: makespan 2.56.
-    r = replay(tasks, seconds, 2, o)
-    assert r["makespan_s"] == pytest.approx(2.56, rel=1e-12)  # float sums of the numbers above
-    assert r["efficiency"] == pytest.approx(4.0 / (2 * 2.56), rel=1e-12)
-    assert r["claims"] == pytest.approx((0.03 + 0.03) / (2 * 2.56), rel=1e-12)
-
-
-def test_spread_setup_is_divided_over_the_ranks_and_spread_gather_paid_per_task():
-    tasks, seconds = toy([1.0] * 4)
-    o = replace(NO_OVERHEADS, spread_setup_s=0.4, spread_gather_s=0.05)
-    # setup 4 x 0.4 / 2 ranks = 0.8; each rank runs 2 tasks of 1 + 0.05 s: makespan 0.8 + 2.1 = 2.9
-    assert replay(tasks, seconds, 2, o)["makespan_s"] == pytest.approx(2.9, rel=1e-12)  # float sums
-    assert replay(tasks, seconds, 1, o)["makespan_s"] == pytest.approx(1.6 + 4.2, rel=1e-12)
-
-
-def test_longest_first_order_bounds_the_tail():
-    # 3, 2, 2, 1 on 2 ranks, largest first: rank 0 takes 3, rank 1 takes 2 then 2, rank 0 takes 1 → 4.
-    tasks, seconds = toy([1.0, 2.0, 3.0, 2.0])
-    assert replay(tasks, seconds, 2, NO_OVERHEADS)["makespan_s"] == 4.0
 
 
 def test_task_estimate_is_rate_times_cost_plus_per_solve_and_memory_grows_with_the_grid():
