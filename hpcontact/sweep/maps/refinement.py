@@ -10,12 +10,12 @@ never interpolated across. A derived axis (``angle`` in tensor mode) stays deriv
 
 Leaves. Each sub-problem's grid (its numeric axes, in index space) is tiled by the boxes of the
 leaves of a k-d tree; neighbouring boxes share their face (the grid points on it belong to
-both). A leaf is one increasing index list per numeric axis, its first and last entries the
-box's ends; its nodes, the points solved, are their tensor product, and it interpolates its own
-box only (``interpolation.TensorInterpolant``: local cubic Lagrange along each axis, an error
-estimate per axis). The first round has one leaf per sub-problem: the first nested-bisection
-level with ``initial`` nodes along each axis (every 2^k-th index, ends included:
-``interpolation.bisection_nodes``).
+both). A leaf (``Leaf``) is one increasing index list per numeric axis and its box; its nodes,
+the points solved, are their tensor product, and it interpolates its own box only
+(``interpolation.TensorInterpolant`` over the span of its nodes: local cubic Lagrange along each
+axis, an error estimate per axis). The first round has one leaf per sub-problem, its box the
+whole grid: the first nested-bisection level with ``initial`` nodes along each axis (every
+2^k-th index, ends included: ``interpolation.bisection_nodes``).
 
 Estimate. After each round, rank 0 estimates the relative error at every grid point from the
 solved points: ``map error = Σ_d e_d + s``, ``e_d`` the estimate of axis ``d`` of the point's
@@ -29,13 +29,15 @@ Refinement. Where the map error of a quantity exceeds its tolerance ``t``, each 
 share ``e_d > max(t − s, t/4) / D`` (``D`` numeric axes) has the node interval of the point's leaf
 around the point split at its midpoint, inside that leaf only: the new nodes are the midpoint
 index × the leaf's nodes along the other axes, not a hyperplane of the whole grid. A leaf that
-then has ``2 LEAF_NODES − 1`` or more nodes along an axis is cut at its middle node along the axis
-with the most nodes (again until none has), into two leaves of at least ``LEAF_NODES`` nodes
-along it, sharing the cut's face: no new node, but later splits in one half leave the other as
-it is, so the map grows nodes where its estimate is large and stays coarse elsewhere. The new
-nodes' points are the next round, broadcast to every rank; the refinement ends when no interval
-is split, or at ``max_solves`` (the splits with the largest estimates first, as many as fit),
-or when every point is solved. The state (``State``: each sub-problem's leaves) is a function of
+then has ``2 LEAF_NODES − 1`` or more nodes inside its box along an axis is cut at the middle
+one along the axis with the most, again until none has: two leaves whose boxes share the cut's
+face, each keeping ``HALO`` node(s) of the other beyond it, so the intervals at the face keep
+the centred stencil they had (without it the one-sided stencils there refined the faces: 486
+instead of 222 solves on jobs/demo_map.toml). A cut adds no node, but later splits in one half
+leave the other as it is (but for its ``HALO`` line), so the map grows nodes where its estimate
+is large and stays coarse elsewhere. The new nodes' points are the next round, broadcast to
+every rank; the refinement ends when no interval is split, or at ``max_solves`` (the splits with
+the largest estimates first, as many as fit), or when every point is solved. The state (``State``: each sub-problem's leaves) is a function of
 the values at its nodes alone, so a resumed sweep rebuilds it round by round from its journals.
 """
 
