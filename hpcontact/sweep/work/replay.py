@@ -22,7 +22,9 @@ so far is at most ``CLAIM_OVERHEAD_SHARE`` (2 %) of k of its chunks' mean measur
 at most the remaining chunks / (``CHUNKS_PER_RANK`` R), the bound of guided self-scheduling
 (Polychronopoulos and Kuck, IEEE Trans. Comput. C-36, 1987): claims shrink as the work runs out
 and the last ones are single chunks (the tail as without claims). The first claim is one
-chunk (nothing measured yet); rank 0 claims without messages, one chunk at a time. Measured, not
+chunk (nothing measured yet); rank 0 claims without messages (its round trip, a lock's
+microseconds, asks for one chunk at a time but for chunks of microseconds; the replay gives it
+one). Measured, not
 estimated: the rule needs no cost model and follows the machine's load. The replay applies the
 same rule to its own round trips and chunk seconds.
 

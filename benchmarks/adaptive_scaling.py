@@ -1,0 +1,292 @@
+"""Adaptive rounds on many ranks: the main job's dense map measured on 2 ranks, before and after
+claims (issue 40 item 5), and the 4-D crystal map's rounds replayed on 16 … 1024 ranks.
+
+    mpiexec is started by the script:  python benchmarks/adaptive_scaling.py [--repeats 2] [--keep DIR]
+
+Measured (2 ranks, ``mpiexec -n 2``): ``jobs/demo_map.toml`` with the real solver, alternately
+
+* ``before``: one chunk a request (``schedule.claim_size`` replaced by 1) and rank 0 importing
+  the data set's modules at the first round's end (``rounds._prepare_assembly`` skipped), as
+  the scheduler was before claims (the round's input-file check over its own tasks, as now);
+* ``after``: the scheduler as it is.
+
+For each run: the wall time of the sweep, its parallel efficiency (Σ task time / (2 × wall)),
+and from the journals (one file per rank and round) the rounds' task counts, the time between
+rounds (last task of a round finished → first task of the next started: rank 0 alone, the other
+rank waiting) and the driver's time per task. The replay (``replay.replay_rounds``) of the same
+rounds, with each task's measured seconds and the measured times between rounds, is printed
+beside the measured wall time: the model checked against the run it stands for.
+
+Replayed (16, 64, 256, 1024 ranks): ``jobs/adaptive_orientation_map.toml`` (139 725 distinct
+scenes; 13 464 solves of ~65 ms in four rounds on a 16-core node, issue 40). Its rounds come from
+the job's own refinement run on 2 ranks with a **stand-in** task function (``stand_in``: a smooth
+analytic K_a/K_b of b/a, nu, A and ψ in a real record's fields; no solve, so its rounds and
+solves are the stand-in's, not the crystal's); the times between its rounds and its set-up are
+measured in that run (the data set of 146 475 points and the refinement are what rank 0 does
+alone, whatever the task function); every task is replayed at 65 ms (the issue's measurement),
+each its own chunk (exact cells: one kernel set a task), with the driver's time per task of the
+``after`` runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import shutil
+import sys
+import tempfile
+import time
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import harness
+import numpy as np
+import xarray as xr
+
+ROOT = Path(__file__).resolve().parent.parent
+DEMO_MAP = ROOT / "jobs" / "demo_map.toml"
+CRYSTAL_MAP = ROOT / "jobs" / "adaptive_orientation_map.toml"
+CRYSTAL_TASK_S = 0.065  # s, one exact-cell crystal solve on the 16-core node of issue 40
+RANKS = (2, 16, 64, 256, 1024)
+
+_TEMPLATE: dict[str, Any] = {}
+
+
+def stand_in(params: Mapping[str, Any]) -> dict[str, Any]:
+    """A record with a real crystal solve's fields (one solve per process, its template) and
+    smooth stiffnesses instead of a solve: K_yy = 8 / (2 - nu), K_a/K_b = (1 - nu (1 - √(b/a)) /
+    (2 - nu)) (1 + 0.1 (A - 1) sin²(2ψ)) (Mindlin's circle and slender limits, a cubic
+    modulation), K_zz = 4 / (1 - nu) (√(b/a))^0.5."""
+    if not _TEMPLATE:
+        from hpcontact import accuracy
+
+        sample = {"shape": "ellipse", "quantities": ["tangential", "normal"], "accuracy": 1e-6, "aspect": 0.5}
+        _TEMPLATE.update(accuracy.task_function("contact")({**sample, "nu": 0.3, "anisotropy": 2.0}))
+    b, nu = float(params["aspect"]), float(params["nu"])
+    anisotropy, psi = float(params.get("anisotropy", 1.0)), math.radians(float(params.get("orientation", 0.0)))
+    k_yy = 8.0 / (2.0 - nu)
+    ratio = (1.0 - nu * (1.0 - math.sqrt(b)) / (2.0 - nu)) * (1.0 + 0.1 * (anisotropy - 1.0) * math.sin(2 * psi) ** 2)
+    k_xx, k_zz = k_yy * ratio, 4.0 / (1.0 - nu) * b**0.25
+    record = dict(_TEMPLATE)
+    record.update(
+        K_xx=k_xx,
+        K_yy=k_yy,
+        K_zz=k_zz,
+        K_min=min(k_xx, k_yy),
+        K_max=max(k_xx, k_yy),
+        K_a_over_K_b=ratio,
+        K_min_over_K_max=min(ratio, 1.0 / ratio),
+        wall_time_s=0.0,
+    )
+    return record
+
+
+def worker(spec: str, output: str, variant: str, task: str, times: str) -> None:
+    """One rank of a benchmark run (under mpiexec): the sweep of ``spec`` into ``output`` as
+    ``variant`` (before / after), with the real solver or the ``stand_in``. Rank 0 writes to
+    ``times`` the run's start and end and, for each round, when it began and ended taking
+    claims (``time.time`` and this process's CPU seconds, ``time.process_time``)."""
+    from hpcontact.sweep.driver import run_sweep
+    from hpcontact.sweep.run import rounds, schedule
+
+    if variant == "before":
+        schedule.claim_size = lambda *args: 1
+        rounds._prepare_assembly = lambda: None
+    marks: list[tuple[float, float]] = []
+    claimed = rounds.claimed_chunks
+
+    def recorded(*args: Any, **kwargs: Any) -> Any:
+        marks.append((time.time(), time.process_time()))
+        yield from claimed(*args, **kwargs)
+        marks.append((time.time(), time.process_time()))
+
+    rounds.claimed_chunks = recorded
+    started = (time.time(), time.process_time())
+    with open(os.devnull, "w", encoding="utf-8") as sink:
+        run_sweep(spec, output=output, task_function=stand_in if task == "stand-in" else None, stream=sink)
+    if int(os.environ.get("OMPI_COMM_WORLD_RANK", os.environ.get("PMI_RANK", "0"))) == 0:
+        ended = (time.time(), time.process_time())
+        Path(times).write_text(json.dumps({"start": started, "end": ended, "marks": marks}), encoding="utf-8")
+
+
+def run(spec: Path, output: Path, variant: str, task: str) -> dict[str, Any]:
+    """The sweep on 2 ranks: its data set's attributes, start and end, and its rounds."""
+    mpiexec = shutil.which("mpiexec", path=f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}")
+    if mpiexec is None:
+        raise SystemExit("mpiexec not found")
+    times = output.with_suffix(".times.json")
+    for stale in (output, Path(f"{output}.journal")):
+        shutil.rmtree(stale, ignore_errors=True) if stale.is_dir() else stale.unlink(missing_ok=True)
+    arguments = (str(spec), str(output), variant, task, str(times))
+    harness.run_child(
+        [mpiexec, "-n", "2", *harness.child_command(__file__, "worker", *arguments)], threads=1, check=True
+    )
+    with xr.open_dataset(output) as ds:
+        attrs = dict(ds.attrs)
+    return {
+        "attrs": attrs,
+        **json.loads(times.read_text(encoding="utf-8")),
+        "rounds": timeline(Path(f"{output}.journal")),
+    }
+
+
+def timeline(folder: Path) -> list[dict[str, Any]]:
+    """The rounds of a run from its journals (one file per rank and round): each round's tasks
+    (key → measured seconds), its first task's start and its last task's end (``time.time``),
+    and how many of its tasks rank 0 ran."""
+    from hpcontact.sweep.data.journal import journal_files
+
+    sessions: dict[str, dict[str, Any]] = {}
+    for path in journal_files(folder):
+        started: dict[str, float] = {}
+        for line in path.read_text(encoding="utf-8").splitlines():
+            event = json.loads(line.split(" ", 1)[1])
+            if event.get("event") == "run":
+                round_ = sessions.setdefault(
+                    event["session"], {"tasks": {}, "start": math.inf, "end": -math.inf, "rank0": 0}
+                )
+                rank = event["rank"]
+            elif event.get("event") == "started":
+                started[event["key"]] = event["time"]
+                round_["start"] = min(round_["start"], event["time"])
+            elif event.get("event") == "finished":
+                round_["tasks"][event["key"]] = event["wall_time_s"]
+                round_["rank0"] += rank == 0
+                round_["end"] = max(round_["end"], event["finished"])
+    return sorted((r for r in sessions.values() if r["tasks"]), key=lambda r: r["start"])
+
+
+def between(measured: dict[str, Any]) -> tuple[float, list[float], float, list[float]]:
+    """The set-up (run start → first task) and the time after each round (its last task → the
+    next round's first task; after the last: → the data set written), in wall seconds; and the
+    same intervals in rank 0's CPU seconds (from its start, from the end of its claims of each
+    round, to its first claim of the next: what rank 0 alone computes, whatever the load)."""
+    rounds, (start, start_cpu), (end, end_cpu) = measured["rounds"], measured["start"], measured["end"]
+    ends = [r["start"] for r in rounds[1:]] + [end]
+    marks = measured["marks"]
+    firsts, lasts = marks[0::2], marks[1::2]
+    cpu = [b[1] - a[1] for a, b in zip(lasts, [*firsts[1:], (end, end_cpu)])]
+    return rounds[0]["start"] - start, [b - r["end"] for r, b in zip(rounds, ends)], firsts[0][1] - start_cpu, cpu
+
+
+def driver_cpu(measured: dict[str, Any]) -> float:
+    """Rank 0's CPU seconds per task while it takes claims (its tasks, journal, counter and
+    server thread): with the ``stand_in``, whose tasks compute next to nothing, the driver's
+    own time per task, whatever the load."""
+    marks = measured["marks"]
+    busy = sum(b[1] - a[1] for a, b in zip(marks[0::2], marks[1::2]))
+    return busy / max(sum(r["rank0"] for r in measured["rounds"]), 1)
+
+
+def replayed(
+    rounds: list[dict[str, float]], ranks: int, gaps: list[float], setup: float, tasks: int, overheads: Any
+) -> Any:
+    """``replay_rounds`` of ``rounds`` (key → seconds; each task its own chunk) on ``ranks``."""
+    from dataclasses import replace
+
+    from hpcontact.sweep.work.replay import replay_rounds
+    from hpcontact.sweep.work.tasks import Task, chunk_order
+
+    orders = []
+    for tasks_of in rounds:
+        keys = list(tasks_of)
+        orders.append((chunk_order([Task(k, {}, tasks_of[k], k) for k in keys]), np.array([tasks_of[k] for k in keys])))
+    # the measured set-up: enumeration spread over the ranks (2 measured), rank 0's join and decision not
+    spread = max(setup - overheads.setup_s * tasks, 0.0) * 2 / tasks
+    return replay_rounds(orders, ranks, gaps, tasks, replace(overheads, spread_setup_s=spread))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=2, help="runs of each variant of the demo map (alternating)")
+    parser.add_argument("--no-crystal", action="store_true", help="skip the 4-D map's stand-in run and replay")
+    parser.add_argument("--keep", type=Path, help="keep data sets and journals in this folder")
+    args = parser.parse_args()
+    from hpcontact.sweep.work import replay as replay_module
+    from hpcontact.sweep.work.replay import DEFAULT_OVERHEADS, Overheads
+
+    folder = args.keep or Path(tempfile.mkdtemp(prefix="hpcontact-adaptive-scaling-"))
+    folder.mkdir(parents=True, exist_ok=True)
+    print(f"adaptive_scaling: {harness.machine_line(1)}")
+    print("jobs/demo_map.toml on 2 ranks, the real solver (measured):")
+    print(
+        f"{'variant':>7} {'wall s':>7} {'task s':>7} {'effic.':>7} {'rounds':>6} {'solves':>6} {'between s':>9} "
+        f"{'(CPU s)':>9} {'setup s':>7} {'driver ms/task':>14} {'replayed wall s':>15}"
+    )
+    driver_ms: list[float] = []
+    try:
+        for _ in range(args.repeats):
+            for variant in ("before", "after"):
+                measured = run(DEMO_MAP, folder / f"demo_map-{variant}.nc", variant, "solver")
+                attrs, rounds = measured["attrs"], measured["rounds"]
+                setup, gaps, setup_cpu, gaps_cpu = between(measured)
+                count = int(attrs["sweep_tasks_run"])
+                driver = (attrs["sweep_schedule_time_s"] + attrs["sweep_journal_time_s"]) / count
+                if variant == "after":
+                    driver_ms.append(driver)
+                overheads = Overheads(**{**DEFAULT_OVERHEADS.__dict__, "driver_s": driver, "spread_gather_s": 0.0})
+                model = replayed([r["tasks"] for r in rounds], 2, gaps, setup, 1365, overheads)
+                print(
+                    f"{variant:>7} {attrs['sweep_wall_time_s']:7.2f} {attrs['sweep_task_time_s']:7.2f} "
+                    f"{attrs['sweep_parallel_efficiency']:7.3f} {len(rounds):6d} {count:6d} {sum(gaps):9.2f} {sum(gaps_cpu):9.2f} "
+                    f"{setup:7.2f} {1e3 * driver:14.2f} {model['makespan_s']:15.2f}",
+                    flush=True,
+                )
+        if args.no_crystal:
+            return
+        measured = run(CRYSTAL_MAP, folder / "crystal-stand-in.nc", "after", "stand-in")
+        setup, gaps, setup_cpu, gaps_cpu = between(measured)
+        rounds = [{k: CRYSTAL_TASK_S for k in r["tasks"]} for r in measured["rounds"]]
+        print(
+            f"\njobs/adaptive_orientation_map.toml, rounds of the stand-in refinement on 2 ranks: "
+            f"{' + '.join(str(len(r)) for r in rounds)} = {sum(len(r) for r in rounds)} solves; set-up {setup:.1f} s "
+            f"({setup_cpu:.1f} CPU s), between rounds {', '.join(f'{g:.2f}' for g in gaps)} s "
+            f"({', '.join(f'{g:.2f}' for g in gaps_cpu)} CPU s; rank 0 alone, measured)"
+        )
+        driver = float(np.median(driver_ms)) if driver_ms else DEFAULT_OVERHEADS.driver_s
+        cpu_driver = driver_cpu(measured)
+        print(
+            f"replayed at {CRYSTAL_TASK_S * 1e3:.0f} ms a solve; the driver's time a task, set-up and the time between "
+            f"rounds as measured (wall; driver {1e3 * driver:.2f} ms a task, the demo map's) and as rank 0's CPU "
+            f"seconds (an idle machine; driver {1e3 * cpu_driver:.2f} ms a task, the stand-in's):"
+        )
+        print(
+            f"{'ranks':>6} {'claims':>6} {'between':>7} {'wall s':>8} {'effic.':>7} {'between':>8} {'tail':>6} "
+            f"{'claims':>7} {'setup':>6}"
+        )
+        for variant, clock in (("before", "wall"), ("after", "wall"), ("before", "CPU"), ("after", "CPU")):
+            times = (setup, gaps) if clock == "wall" else (setup_cpu, gaps_cpu)
+            per_task = driver if clock == "wall" else cpu_driver
+            overheads = Overheads(**{**DEFAULT_OVERHEADS.__dict__, "driver_s": per_task, "spread_gather_s": 0.0})
+            share = replay_module.CLAIM_OVERHEAD_SHARE
+            replay_module.CLAIM_OVERHEAD_SHARE = math.inf if variant == "before" else share  # inf: one chunk a claim
+            try:
+                for ranks in RANKS:
+                    r = replayed(rounds, ranks, times[1], times[0], 139725, overheads)
+                    print(
+                        f"{ranks:6d} {variant:>6} {clock:>7} {r['makespan_s']:8.2f} {r['efficiency']:7.3f} {r['between']:8.3f} "
+                        f"{r['tail']:6.3f} {r['claims']:7.3f} {r['setup']:6.3f}",
+                        flush=True,
+                    )
+            finally:
+                replay_module.CLAIM_OVERHEAD_SHARE = share
+        print("16 ranks, what rank 0's time alone would have to be (CPU variant, after):")
+        overheads = Overheads(**{**DEFAULT_OVERHEADS.__dict__, "driver_s": cpu_driver, "spread_gather_s": 0.0})
+        for label, setup_s, gap_s in (
+            ("as measured", setup_cpu, gaps_cpu),
+            ("0.5 s between rounds", setup_cpu, [0.5] * len(gaps_cpu)),
+            ("0.25 s between rounds, set-up 1 s", 1.0, [0.25] * len(gaps_cpu)),
+            ("nothing between rounds, no enumeration", 0.0, [0.0] * len(gaps_cpu)),
+        ):
+            r = replayed(rounds, 16, gap_s, setup_s, 139725, overheads)
+            print(f"  {label:40s} efficiency {r['efficiency']:.3f} (set-up {r['setup']:.3f} of the makespan)")
+    finally:
+        if args.keep is None:
+            shutil.rmtree(folder, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    harness.entry(main)
