@@ -11,8 +11,9 @@ window; only shared-memory windows on one node worked — exactly the case clust
 Why not ``mpi4py.futures.MPICommExecutor``. It dedicates rank 0 to serving (half of a 2-rank
 job idle) and funnels every result through it.
 
-The choice. Rank 0 runs a server thread that answers requests (``fetch_add``: the next chunk
-index; ``add``: progress counts, no answer, sent at most once a second per worker) with ``Iprobe`` + ``Recv``, sleeping 0.5–4 ms
+The choice. Rank 0 runs a server thread that answers requests (``fetch_add``: the index of
+the next claim's first chunk, a claim being one chunk or, when the chunks are cheap against the
+request, several: ``claimed_chunks``; ``add``: progress counts, no answer, sent at most once a second per worker) with ``Iprobe`` + ``Recv``, sleeping 0.5–4 ms
 between empty polls; its main thread computes chunks like every other rank and takes its own
 chunk indices from the same counter under a lock, without MPI. Point-to-point messages progress
 on every transport as soon as the server thread polls, so a worker waits at most ``IDLE_POLL_S`` plus
