@@ -53,12 +53,20 @@ PATH_FIELDS = fields.path_fields()
 SHAPE_ONLY_FIELDS: Mapping[str, frozenset[str]] = {
     name: frozenset(shapes) for name, (_, shapes, why) in fields.read_by("shape").items() if why is None
 }
-#: Points of a spec at most (the product of its axes' lengths, the data set's size): enumerating
-#: a point costs ~1-10 µs along a long last axis (``scene_runs``; ~10-30 µs point by point) and
-#: its task ~0.5 kB (``benchmarks/dry_run_points.py``: a dry run of 10^6 points in seconds), so
-#: 10^7 points take minutes and gigabytes; a larger spec is refused before anything is
-#: enumerated (split it, or coarsen an axis).
+#: Points of a spec at most (the product of its axes' lengths, the data set's size), refused
+#: before any axis is made (``parse.check_points``). Measured end to end (``hpcontact.run_sweep``
+#: of a dict spec, a stand-in task function, 2026-11-28 on the 2-core VM at load average ~10):
+#: 10**7 points of which 10 need a solve (a tensor-mode angle axis of 10**6) in 50 s wall and
+#: 0.53 GiB peak RSS, a data set of 30 MiB.
 MAX_POINTS = 10**7
+#: Points of the task axes at most (each needs a solve: every axis but ``angle`` in tensor mode).
+#: Each task is held by every rank from the set-up on (its parameters, key and cost: ~0.5 kB)
+#: and journaled, so tasks, not points, bound a run's memory and its driver time. Measured as
+#: ``MAX_POINTS``: 10**5 tasks end to end in 310 s wall (2.9 ms of driver time per task) and
+#: 0.69 GiB peak RSS; the set-up of 10**6 tasks (to the first task) in 542 s wall (154 CPU-s)
+#: and 1.25 GiB (the rest of such a run was not measured: ~50 min of driver time at that load).
+#: 10**7 tasks did not hold (issue 43: MemoryError after 3 min and 6.6 GB while setting up).
+MAX_TASK_POINTS = 10**6
 
 
 @dataclass(frozen=True)

@@ -109,6 +109,7 @@ from hpcontact.sweep.space.axes import (
     AXIS_NAMES,
     LABEL_AXES,
     MAX_POINTS,
+    MAX_TASK_POINTS,
     PATH_FIELDS,
     Axis,
     axis_length,
@@ -396,6 +397,7 @@ def spec_of_tables(
             raise InputError("sweep.angle_mode", f"one of {', '.join(ANGLE_MODES)}", angle_mode)
         if angle_mode == "rotated" and not any(a.name == "angle" for a in axes):
             raise InputError("sweep.angle_mode", "'rotated' needs an angle axis in [axes]", angle_mode)
+    _check_task_points(axes, angle_mode)
     interval = sweep.get("progress_interval", 10.0)
     if isinstance(interval, bool) or not isinstance(interval, (int, float)) or not interval > 0:
         raise InputError("sweep.progress_interval", "a number of seconds > 0", interval)
@@ -431,6 +433,21 @@ def spec_of_tables(
         for _ in scene_runs(spec, validate):
             pass
     return spec
+
+
+def _check_task_points(axes: tuple[Axis, ...], angle_mode: str) -> None:
+    """``InputError`` naming ``axes`` when the points that each need a solve (the product of the
+    lengths of every axis but ``angle`` in tensor mode: ``Spec.task_axes``) exceed
+    ``MAX_TASK_POINTS``."""
+    lengths = [len(a) for a in axes if not (angle_mode == "tensor" and a.name == "angle")]
+    total = math.prod(lengths)
+    if total > MAX_TASK_POINTS:
+        raise InputError(
+            "axes",
+            f"at most {MAX_TASK_POINTS} points that each need a solve, the product of the lengths of the "
+            f"axes but a tensor's angle (this spec has {' x '.join(map(str, lengths))} = {total}); split it "
+            f"or coarsen an axis",
+        )
 
 
 def _refuse_grid_with_accuracy(fixed: Mapping[str, Any], axes: tuple[Axis, ...], key: str) -> None:

@@ -22,7 +22,7 @@ import pytest
 
 from hpcontact.errors import InputError
 from hpcontact.sweep.space import parse
-from hpcontact.sweep.space.axes import MAX_POINTS, axis_length
+from hpcontact.sweep.space.axes import MAX_POINTS, MAX_TASK_POINTS, axis_length
 from hpcontact.sweep.space.parse import parse_spec, parse_spec_dict, toml_text
 
 REFUSAL_SECONDS = 1.0
@@ -167,3 +167,21 @@ def test_a_dict_spec_nested_too_deep_or_containing_itself_is_refused_naming_wher
     shared = [0.1, 0.2]  # the same list twice is no cycle
     spec = parse_spec_dict({"numerics": {"n": 8}, "axes": {"nu": shared, "aspect": shared}}, validate=accept)
     assert spec.axis("nu").values == spec.axis("aspect").values == (0.1, 0.2)
+
+
+def test_points_that_each_need_a_solve_are_bounded_apart_from_the_angles_of_a_tensor():
+    """10**7 points of which 10 need a solve (tensor-mode angles) run end to end (MAX_POINTS'
+    measurement); 10**7 points that each need a solve did not (the fault round: MemoryError
+    after 3 min and 6.6 GB), so points of the task axes are bounded by MAX_TASK_POINTS."""
+    tensor = parse_spec(
+        f"[numerics]\nn = 8\n[axes]\nnu = {{ linspace = [0, 0.45, 10] }}\n"
+        f"angle = {{ linspace = [0, 180, {MAX_POINTS // 10}] }}\n",
+        validate=accept,
+        check_scenes=False,
+    )
+    assert math.prod(len(a) for a in tensor.axes) == MAX_POINTS and len(tensor.task_axes) == 1
+    rotated = f'[sweep]\nangle_mode = "rotated"\n[numerics]\nn = 8\n[axes]\nangle = {{ linspace = [0, 180, {MAX_TASK_POINTS + 1}] }}\n'
+    with pytest.raises(InputError) as info:
+        parse_spec(rotated, validate=accept, check_scenes=False)
+    assert info.value.field == "axes" and f"at most {MAX_TASK_POINTS} points that each need a solve" in str(info.value)
+    assert f"= {MAX_TASK_POINTS + 1}" in str(info.value)
