@@ -248,7 +248,7 @@ def _quoted(pattern: str, pages: tuple[str, ...]) -> list[tuple[str, re.Match[st
 
 
 DRY_RUN_SPECS = ("jobs/demo.toml", "jobs/demo_map.toml")
-DEMO_PAGES = ("README.md", "docs/tutorials/sweep.md", "docs/howto/accuracy.md")
+DEMO_PAGES = ("README.md", "docs/tutorials/sweep.md", "docs/performance.md")
 DEMO_MAP_PAGES = ("README.md", "docs/tutorials/sweep.md")
 
 
