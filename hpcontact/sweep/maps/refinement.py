@@ -37,8 +37,9 @@ instead of 222 solves on jobs/demo_map.toml). A cut adds no node, but later spli
 leave the other as it is (but for its ``HALO`` line), so the map grows nodes where its estimate
 is large and stays coarse elsewhere. The new nodes' points are the next round, broadcast to
 every rank; the refinement ends when no interval is split, or at ``max_solves`` (the splits with
-the largest estimates first, as many as fit), or when every point is solved. The state (``State``: each sub-problem's leaves) is a function of
-the values at its nodes alone, so a resumed sweep rebuilds it round by round from its journals.
+the largest estimates first, as many as fit), or when every point is solved. The state
+(``State``: each sub-problem's leaves) is a function of the values at its nodes alone, so a
+resumed sweep rebuilds it round by round from its journals.
 """
 
 from __future__ import annotations
