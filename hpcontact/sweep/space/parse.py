@@ -361,6 +361,9 @@ def spec_of_tables(
         fixed["accuracy"] = normalize("--accuracy", "accuracy", accuracy)
         if not 1e-9 <= fixed["accuracy"] < 1.0:
             raise InputError("--accuracy", ACCURACY_RANGE, accuracy)
+    kind = kind_of(fixed)
+    tensor = kind.angle_mode_refused is None and sweep.get("angle_mode", "tensor") == "tensor"
+    _check_task_points(axes_table, tensor)  # counted before any axis is made, as the points
     axes = tuple(parse_axis(name, value) for name, value in axes_table.items())
     base = Path(path).parent.absolute()
     fixed = with_paths(fixed, base)
@@ -376,7 +379,6 @@ def spec_of_tables(
             raise InputError(f"axes.{axis.name}", f"an axis or a fixed [{section}] field, not both")
 
     _refuse_grid_with_accuracy(fixed, axes, "--accuracy" if accuracy is not None else "numerics.accuracy")
-    kind = kind_of(fixed)
     if not kind.accuracy_applies and ("accuracy" in fixed or any(a.name == "accuracy" for a in axes)):
         raise InputError(
             "--accuracy" if accuracy is not None else "numerics.accuracy",
@@ -397,7 +399,6 @@ def spec_of_tables(
             raise InputError("sweep.angle_mode", f"one of {', '.join(ANGLE_MODES)}", angle_mode)
         if angle_mode == "rotated" and not any(a.name == "angle" for a in axes):
             raise InputError("sweep.angle_mode", "'rotated' needs an angle axis in [axes]", angle_mode)
-    _check_task_points(axes, angle_mode)
     interval = sweep.get("progress_interval", 10.0)
     if isinstance(interval, bool) or not isinstance(interval, (int, float)) or not interval > 0:
         raise InputError("sweep.progress_interval", "a number of seconds > 0", interval)
@@ -435,11 +436,12 @@ def spec_of_tables(
     return spec
 
 
-def _check_task_points(axes: tuple[Axis, ...], angle_mode: str) -> None:
+def _check_task_points(axes: Mapping[str, Any], tensor: bool) -> None:
     """``InputError`` naming ``axes`` when the points that each need a solve (the product of the
-    lengths of every axis but ``angle`` in tensor mode: ``Spec.task_axes``) exceed
-    ``MAX_TASK_POINTS``."""
-    lengths = [len(a) for a in axes if not (angle_mode == "tensor" and a.name == "angle")]
+    lengths of the axes described by the ``[axes]`` table ``axes``, but ``angle`` where
+    ``tensor``: the angles of a tensor need no solve, ``Spec.task_axes``) exceed
+    ``MAX_TASK_POINTS``; lengths read from the descriptions (``axes.axis_length``)."""
+    lengths = [axis_length(name, raw) for name, raw in axes.items() if not (tensor and name == "angle")]
     total = math.prod(lengths)
     if total > MAX_TASK_POINTS:
         raise InputError(
