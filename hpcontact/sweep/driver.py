@@ -40,6 +40,7 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import TextIO
 
@@ -47,7 +48,7 @@ from hpcontact.errors import InputError
 from hpcontact.sweep.data.provenance import call_text, command_line
 from hpcontact.sweep.run.arguments import EXIT_REFUSED, add_run_arguments
 from hpcontact.sweep.run.command import run_from_arguments
-from hpcontact.sweep.run.records import Options, TaskFunction
+from hpcontact.sweep.run.records import Options, TaskFunction, runner_name
 from hpcontact.sweep.run.rounds import execute
 from hpcontact.sweep.run.schedule import Team
 from hpcontact.sweep.run.signals import StopControl
@@ -69,9 +70,14 @@ def run_sweep(
 ) -> Path:
     """Run the sweep of ``spec_path`` on ``team`` (default: MPI world, or one process) and return
     the path of the data set written (see ``execute``). Its journal entries name the runner of
-    ``options`` (``Options.runner``, ``records.runner_name`` of a task function; default: the
-    spec's scene kind's own solver), and a resume reuses only the entries of that runner."""
+    ``options`` (``Options.runner``; default: ``records.runner_name`` of ``task_function``, its
+    module and qualified name, or the spec's scene kind's own solver), and a resume reuses only
+    the entries of that runner: two task functions are one runner only where the caller names
+    them so."""
     command = call_text("hpcontact.sweep.driver.run_sweep", run_sweep, locals())
+    options = options if options is not None else Options(resume=resume)
+    if options.runner is None:
+        options = replace(options, runner=runner_name(task_function))
     return execute(
         spec_path,
         output,
@@ -79,7 +85,7 @@ def run_sweep(
         team=team,
         validate=validate,
         stream=stream,
-        options=options if options is not None else Options(resume=resume),
+        options=options,
         stop=stop,
         accuracy=accuracy,
         command=command,

@@ -4,6 +4,7 @@ work (spec, lock, journals without a flag, stale journals, unusable output), sto
 from __future__ import annotations
 
 import argparse
+import functools
 import io
 import json
 import os
@@ -11,6 +12,7 @@ import socket
 import subprocess
 import sys
 import time
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -20,7 +22,7 @@ from hpcontact.errors import ConvergenceError, InputError
 from hpcontact.sweep.data.journal import BAD_INPUT, ERROR, NOT_CONVERGED, OK, journal_files, read_history, read_journals
 from hpcontact.sweep.driver import main
 from hpcontact.sweep.run.guard import Refused
-from hpcontact.sweep.run.records import Options, Stopped
+from hpcontact.sweep.run.records import Options, Stopped, runner_name
 from hpcontact.sweep.run.rounds import execute
 from hpcontact.sweep.run.schedule import SerialTeam
 from hpcontact.sweep.run.signals import StopControl
@@ -47,6 +49,10 @@ class Interrupted(BaseException):
 
 
 def counting(function, calls):
+    """``function``, its calls counted: the same runner (``functools.wraps``: its name), so
+    that a resume with it reuses ``function``'s journal entries."""
+
+    @functools.wraps(function)
     def task(params):
         calls.append(params)
         return function(params)
@@ -115,6 +121,7 @@ def test_resume_after_an_interruption_recomputes_nothing_and_loses_nothing(sweep
 
     calls = []
 
+    @functools.wraps(fake_solve)  # fake_solve's runner: a resume with fake_solve reuses its entries
     def dies_at_seventh(params):
         if len(calls) == 6:
             raise Interrupted
@@ -206,6 +213,7 @@ def test_stale_journals_are_refused_unless_accepted_and_provenance_lists_every_c
 
     calls = []
 
+    @functools.wraps(fake_solve)  # fake_solve's runner: a resume with fake_solve reuses its entries
     def dies_at_fourth(params):
         if len(calls) == 3:
             raise Interrupted
@@ -291,6 +299,7 @@ def test_a_stop_request_abandons_the_task_after_the_grace_and_resume_completes(s
     stop = StopControl(grace_s=0.3).install()
     calls, woke = [], []
 
+    @functools.wraps(fake_solve)  # fake_solve's runner: a resume with fake_solve reuses its entries
     def stops_then_hangs(params):
         calls.append(params)
         if len(calls) == 4:
@@ -371,7 +380,8 @@ def test_a_finished_sweep_run_again_is_up_to_date_and_touches_nothing(sweep, wri
     data, mtime = path.read_bytes(), path.stat().st_mtime_ns
     journals = {p: p.stat().st_mtime_ns for p in journal_files(tmp_path / "out.nc.journal")}
     calls, stream = [], io.StringIO()
-    outcome = execute(spec, None, counting(fake_solve, calls), team=SerialTeam(), stream=stream, options=UP_TO_DATE)
+    same_runner = replace(UP_TO_DATE, runner=runner_name(fake_solve))  # as run_sweep names it
+    outcome = execute(spec, None, counting(fake_solve, calls), team=SerialTeam(), stream=stream, options=same_runner)
     assert outcome.up_to_date and outcome.path == path and outcome.failures == 0 and calls == []
     assert stream.getvalue() == f"hpcontact: {path} is up to date ({TASKS} tasks from journals); nothing to do\n"
     assert path.read_bytes() == data and path.stat().st_mtime_ns == mtime
@@ -546,3 +556,38 @@ def test_a_dry_run_as_json_lists_every_task_and_list_all_needs_a_dry_run(write_s
     assert len({t["key"] for t in out["tasks_list"]}) == 3000
     assert main([str(spec), "--list-all"]) == 2
     assert "--list-all" in capsys.readouterr().err
+
+
+def test_a_custom_task_function_is_a_runner_of_its_own_without_being_named(sweep, write_spec, fake_solve, tmp_path):
+    """Issue 43 item 1: ``run_sweep`` names the runner of any task function
+    (``records.runner_name``) where the caller names none, so a resume with another never reuses
+    its entries; with the same one it reuses them all."""
+
+    def halved(params):  # other results than fake_solve's
+        return {k: v / 2 if isinstance(v, float) else v for k, v in fake_solve(params).items()}
+
+    spec = write_spec(SPEC)
+    sweep(spec, task_function=halved)
+    assert {e.provenance["runner"] for e in read_history(tmp_path / "out.nc.journal").entries.values()} == {
+        runner_name(halved)
+    }
+    calls, stream = [], io.StringIO()
+    sweep(spec, resume=True, task_function=counting(fake_solve, calls), stream=stream)
+    assert len(calls) == TASKS
+    assert f"{TASKS} journal entries were computed by {runner_name(halved)}, not reused" in stream.getvalue()
+    again = []
+    sweep(spec, resume=True, task_function=counting(fake_solve, again))
+    assert again == []  # fake_solve's own entries: all reused
+
+
+def test_main_names_the_runner_of_its_task_function(write_spec, fake_solve, tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("HPCONTACT_MPI", "0")
+    spec = write_spec(SPEC)
+    assert main([str(spec)], task_function=fake_solve) == 0
+    capsys.readouterr()
+
+    def other(params):
+        return fake_solve(params)
+
+    assert main([str(spec), "--resume"], task_function=other) == 0
+    assert f"{TASKS} journal entries were computed by {runner_name(fake_solve)}, not reused" in capsys.readouterr().out

@@ -18,6 +18,7 @@
 from __future__ import annotations
 
 import errno
+import functools
 import io
 import json
 import os
@@ -60,6 +61,7 @@ TASKS = 3 + 2 * 3  # the circle ignores the aspect
 
 
 def counting(function, calls):
+    @functools.wraps(function)  # ``function``'s runner: a resume with it reuses ``function``'s entries
     def task(params):
         calls.append(params)
         return function(params)
@@ -207,6 +209,7 @@ def test_a_requeued_run_takes_over_an_empty_lock_and_completes(sweep, write_spec
     spec = write_spec(SPEC)
     calls = []
 
+    @functools.wraps(fake_solve)  # fake_solve's runner, as the resume's
     def dies(params):
         if len(calls) == 4:
             raise KeyboardInterrupt  # the node crashes: no outcome, lock left behind
