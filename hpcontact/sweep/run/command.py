@@ -15,7 +15,7 @@ from hpcontact.numerics.memory import default_memory_per_rank, parse_memory
 from hpcontact.sweep.cost.calibration_file import read_calibration
 from hpcontact.sweep.run.arguments import EXIT_FAILED_TASKS, EXIT_OK, EXIT_REFUSED, EXIT_UNEXPECTED
 from hpcontact.sweep.run.dry_run import dry_run
-from hpcontact.sweep.run.records import NO_FLAGS, Options, Stopped, TaskFunction
+from hpcontact.sweep.run.records import NO_FLAGS, Options, Stopped, TaskFunction, runner_name
 from hpcontact.sweep.run.rounds import execute
 from hpcontact.sweep.run.schedule import LaunchError, world
 from hpcontact.sweep.run.signals import DEFAULT_GRACE_S, DEFAULT_STALL_S, StopControl
@@ -78,14 +78,18 @@ def _keep_wisdom() -> None:
         print(f"hpcontact: FFTW wisdom not saved ({exc})", file=sys.stderr)
 
 
-def use_costmodel(path: str) -> None:
+def use_costmodel(path: str, dry_run: bool) -> None:
     """``--costmodel FILE``: the calibration the run and the dry run estimate with, as
     $HPCONTACT_COSTMODEL names it (set here, for this process: each rank parses the command
-    line); a file that cannot be read as a calibration is refused (exit 2) with why."""
-    try:
-        read_calibration(Path(path))
-    except (OSError, ValueError, UnicodeDecodeError) as exc:
-        raise InputError("--costmodel", f"a cost-model calibration file ({exc})", path) from None
+    line). A file that cannot be read as a calibration is refused (exit 2) with why; a missing
+    one is where a dry run calibrates into, and refused for a run."""
+    if not (dry_run and not os.path.lexists(path)):
+        try:
+            read_calibration(Path(path))
+        except (OSError, ValueError, UnicodeDecodeError) as exc:
+            why = exc.strerror if isinstance(exc, OSError) and exc.strerror else exc
+            hint = "; hpcontact run SPEC --dry-run --costmodel FILE calibrates into it" if not dry_run else ""
+            raise InputError("--costmodel", f"a cost-model calibration file ({why}{hint})", path) from None
     os.environ["HPCONTACT_COSTMODEL"] = str(Path(path).absolute())
 
 
@@ -97,10 +101,11 @@ def run_from_arguments(
     runner: str | None = None,
 ) -> int:
     """Run what ``add_run_arguments`` parsed (``task_function``, ``prog``, ``command``: see
-    ``run_command``; ``runner``: see ``Options.runner``)."""
+    ``run_command``; ``runner``: see ``Options.runner``, default ``records.runner_name`` of
+    ``task_function``, so that a resume never reuses another task function's entries)."""
     memory = (parse_memory(args.mem_per_rank), "--mem-per-rank") if args.mem_per_rank is not None else None
     if args.costmodel is not None:
-        use_costmodel(args.costmodel)
+        use_costmodel(args.costmodel, args.dry_run)
     if args.dry_run:
         return dry_run(
             args.spec,
@@ -128,7 +133,7 @@ def run_from_arguments(
         break_lock=args.break_lock,
         mem_per_rank=memory if memory is not None else default_memory_per_rank(),
         up_to_date=task_function is None,
-        runner=runner,
+        runner=runner if runner is not None else runner_name(task_function),
     )
     return run_command(
         args.spec, options, args.output, args.grace, task_function, prog, args.stall_timeout, args.accuracy, command

@@ -151,9 +151,18 @@ def test_costmodel_names_the_file_the_run_uses(tmp_path, write_spec, monkeypatch
     out = capsys.readouterr().out
     assert "cost model of node042 (Another CPU, 64 cores), 2026-11-28 12:00 UTC" in out
     missing = tmp_path / "missing.json"
-    assert main([str(spec), "--dry-run", "--costmodel", str(missing)]) == 2
+    assert main([str(spec), "--costmodel", str(missing)]) == 2  # a run: the file must be there
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and err[0].startswith("hpcontact run: error: --costmodel = ") and "calibration file" in err[0]
+    assert (
+        len(err) == 1 and err[0].startswith("hpcontact run: error: --costmodel = ") and "calibrates into it" in err[0]
+    )
+    (tmp_path / "not.json").write_text("{}")
+    assert main([str(spec), "--dry-run", "--costmodel", str(tmp_path / "not.json")]) == 2
+    assert "not a calibration file" in capsys.readouterr().err
+    fresh = calibration_of("here")
+    monkeypatch.setattr(calibration_file, "calibrate", lambda: fresh)
+    assert main([str(spec), "--dry-run", "--costmodel", str(missing)]) == 0  # a dry run calibrates into it
+    assert calibration_file.read_calibration(missing) == fresh
 
 
 def test_a_probe_beside_other_work_says_its_scale_is_likely_high(node_cache, monkeypatch):
