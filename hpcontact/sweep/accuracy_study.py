@@ -6,7 +6,7 @@
 Its results differ from ``hpcontact run``'s for the same scene (one grid with cold caches, not
 the default extrapolated solve), so the two never share an output by default: for a spec that
 names no ``[sweep].output``, where ``hpcontact run`` writes ``<stem>.nc`` (journals in
-``<stem>.nc.journal``) the study writes ``<stem>.study.nc`` (journals in
+``<stem>.nc.journal``) the study writes ``<stem>.study.nc`` beside the spec (journals in
 ``<stem>.study.nc.journal``); ``--output``, or the spec's own ``[sweep].output`` (as
 ``jobs/accuracy_cost.toml`` names ``results/accuracy_cost.nc``), is used as given. Where both do
 write to one place, each journal entry names the runner that computed it and a ``--resume`` of
@@ -44,16 +44,17 @@ def cold_solve(params: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def study_output(spec_path: str | Path) -> str | None:
-    """The study's output when ``--output`` is not given: ``<stem>.study.nc`` for a spec that
-    names no ``[sweep].output`` (see the module docstring); None, the spec's own output, for one
-    that names it, or for a spec that does not load (the run refuses it, naming what is wrong)."""
+    """The study's output when ``--output`` is not given: ``<stem>.study.nc`` beside the spec
+    for a spec that names no ``[sweep].output`` (see the module docstring; never the working
+    folder unless the spec lies there); None, the spec's own output, for one that names it, or
+    for a spec that does not load (the run refuses it, naming what is wrong)."""
     try:
         spec = load_spec(spec_path, check_scenes=False)
     except InputError:
         return None
     if "output" in tomllib.loads(spec.text).get("sweep", {}):
         return None
-    return f"{Path(spec_path).stem}{OUTPUT_SUFFIX}"
+    return str(Path(spec_path).with_name(f"{Path(spec_path).stem}{OUTPUT_SUFFIX}"))
 
 
 def run_study(argv: Sequence[str] | None = None) -> int:

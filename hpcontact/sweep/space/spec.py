@@ -3,9 +3,11 @@ each point of its task axes; the canonical JSON that is a scene's identity."""
 
 from __future__ import annotations
 
+import hashlib
 import itertools
 import json
-from collections.abc import Callable, Mapping
+import re
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -27,6 +29,36 @@ ORIENTATION_FIELDS = ("orientation", "miller", "azimuth")
 ISOTROPIC_CONSTANTS = ("nu", "G", "anisotropy")
 
 Validator = Callable[[Mapping[str, Any]], None]
+
+#: The spec path a spec given as a dict is recorded under (journals, the data set's ``spec_path``).
+DICT_SPEC_PATH = "<dict>"
+#: Where a spec given as a dict that names no output writes, relative to the working folder
+#: (``default_output``; git-ignored in a clone of hpcontact).
+DICT_OUTPUT_FOLDER = Path("results")
+
+
+def default_title(path: str | Path, axes: Sequence[Axis]) -> str:
+    """A spec's title when its ``[sweep]`` names none: its file's stem; for a spec given as a
+    dict (``DICT_SPEC_PATH``), one built from its axes: "sweep over shape × nu (2 × 3 points)"
+    ("one scene" without axes)."""
+    if str(path) != DICT_SPEC_PATH:
+        return Path(path).stem
+    if not axes:
+        return "one scene"
+    names = " × ".join(a.name for a in axes)
+    return f"sweep over {names} ({' × '.join(str(len(a)) for a in axes)} points)"
+
+
+def default_output(path: str | Path, title: str, text: str) -> Path:
+    """Where a spec that names no ``[sweep] output`` writes: beside its file,
+    ``FOLDER/STEM.nc`` (never the working folder unless the spec lies there); a spec given as a
+    dict (``DICT_SPEC_PATH``, whose ``text`` is its TOML): ``DICT_OUTPUT_FOLDER/SLUG-HASH.nc``,
+    SLUG its ``title`` in letters, digits and dashes, HASH the first 8 hex digits of the SHA-256
+    of its text, so the same dict finds its output (and its journals: ``resume``) again."""
+    if str(path) != DICT_SPEC_PATH:
+        return Path(path).with_name(f"{Path(path).stem}.nc")
+    slug = re.sub(r"[^A-Za-z0-9]+", "-", title).strip("-").lower()[:48] or "sweep"
+    return DICT_OUTPUT_FOLDER / f"{slug}-{hashlib.sha256(text.encode()).hexdigest()[:8]}.nc"
 
 
 @dataclass(frozen=True)

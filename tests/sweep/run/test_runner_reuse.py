@@ -68,7 +68,7 @@ def test_a_spec_that_names_its_output_keeps_it_for_the_study(tmp_path):
     assert study_output(named) is None  # the spec's own [sweep].output
     plain = tmp_path / "plain.toml"
     plain.write_text(SPEC)
-    assert study_output(plain) == "plain.study.nc"
+    assert study_output(plain) == str(tmp_path / "plain.study.nc")  # beside the spec, not the working folder
     assert study_output(tmp_path / "missing.toml") is None  # the run refuses it, naming the spec
 
 

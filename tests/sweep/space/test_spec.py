@@ -376,3 +376,27 @@ def test_the_command_line_accuracy_replaces_the_spec_grid_and_accuracy():
     with pytest.raises(InputError) as info:
         parse_spec("[axes]\nn = [32, 64]\n", accuracy=1e-3)
     assert info.value.field == "--accuracy" and "axes.n" in str(info.value)
+
+
+def test_a_spec_without_an_output_writes_beside_its_file_not_in_the_working_folder():
+    """Issue 42 item 6 (``spec.default_output``): a spec file's default output is beside it."""
+    from hpcontact.sweep.space.spec import default_output
+
+    assert default_output("jobs/acc.toml", "acc", "") == Path("jobs/acc.nc")
+    assert default_output("/data/specs/acc.toml", "acc", "") == Path("/data/specs/acc.nc")
+    assert default_output("acc.toml", "acc", "") == Path("acc.nc")  # a spec in the working folder: there
+
+
+def test_a_dict_spec_gets_a_title_from_its_axes_and_an_output_of_its_own():
+    """Issue 42 item 6: a dict spec without a title is named by its axes (not ``<dict>``); without
+    an output it writes in ``results/``, a file per spec (its text's hash), the same for the same
+    spec (a resume finds its journals)."""
+    from hpcontact.sweep.space.spec import DICT_OUTPUT_FOLDER, DICT_SPEC_PATH, default_output, default_title
+
+    axes = parse('[scene]\nshape = "ellipse"\n[axes]\naspect = [0.5, 1]\nnu = [0, 0.25, 0.5]\n').axes
+    title = default_title(DICT_SPEC_PATH, axes)
+    assert title == "sweep over aspect × nu (2 × 3 points)"
+    assert default_title(DICT_SPEC_PATH, ()) == "one scene" and default_title("jobs/acc.toml", axes) == "acc"
+    first, again, other = (default_output(DICT_SPEC_PATH, title, text) for text in ("a = 1", "a = 1", "a = 2"))
+    assert first == again != other and first.parent == DICT_OUTPUT_FOLDER
+    assert first.name.startswith("sweep-over-aspect-nu-2-3-points-") and first.suffix == ".nc"
