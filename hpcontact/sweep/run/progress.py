@@ -12,8 +12,8 @@ The wall seconds per estimated second measured so far correct the calibration's 
 calibration made under load, a prior scaled by a probe: ``cost.calibration_file.run_calibration``),
 and the last chunks, fewer than the ranks, are counted on the ranks still at work
 (``Progress.busy_ranks``). On replayed runs every ETA after a fifth of the tasks is within 2x of
-the time left (``tests/sweep/run/test_progress_eta.py``), where an ETA by task count is 2-7x
-high. Without estimated seconds the ETA is by cost units.
+the time left (``tests/sweep/run/test_progress_eta.py``), where an ETA by task count is more than 2x
+off. Without estimated seconds the ETA is by cost units.
 """
 
 from __future__ import annotations
