@@ -1,31 +1,28 @@
 """Local refinement of adaptive maps (issue 40 item 4): solves against uniform sub-grids and libraries.
 
-    python benchmarks/local_refinement.py [--crystal-points 200] [--python-adaptive] [--sparse-grid]
+    python benchmarks/local_refinement.py [--libraries] [--no-crystal] [--cache FILE] [--output FILE]
 
 The adaptive map's decisions (``maps.rounds.next_step``: refinement, check rounds) are driven
-here in memory, on functions whose value at every grid point is known, so the truth is exact
-at every point and no sweep machinery (journals, data sets) is timed:
+here in memory, on maps whose value at every grid point is known, so every method is judged at
+every grid point and no sweep machinery (journals, data sets) is timed:
 
 * **Mindlin**: the closed-form stand-in of tests/sweep/maps/test_adaptive.py (Mindlin's bonded
   ellipse, perturbed by <= 5e-5, ``<name>_error`` = 1e-4) over its 41 × 21 map, tolerance 1e-3,
-  every stored stiffness refined.
-* **smooth 2-D**: the same closed form over b/a logspace(0, −3, 25) × nu linspace(0, 0.5, 21)
-  (525 points), tolerance 1e-3: the share of the points solved.
-* **crystal**: the bonded ellipse on a cubic crystal, solved for real (``solve_to_accuracy`` on
-  one exact cell, accuracy 1e-6) at every point of a reduced 4-D grid (``CRYSTAL_AXES``: the
-  ranges of jobs/adaptive_orientation_map.toml, fewer values), K_a/K_b refined at 1e-3. The
-  truth at every point is that solve (cached in ``--cache``), so the adaptive map, the uniform
-  sub-grids and the libraries are all judged at every grid point.
+  every stored stiffness refined; the truth is the closed form.
+* **smooth 2-D**: the same over b/a logspace(0, −3, 25) × nu linspace(0, 0.5, 21) (525 points):
+  the share of the points solved.
+* **crystal**: the bonded ellipse on a cubic crystal at nu 0.25 over a reduced 3-D grid
+  (``CRYSTAL_SPEC``: every second b/a, A and ψ of jobs/adaptive_orientation_map.toml), every
+  scene solved for real (one exact cell, accuracy 1e-6; minutes, cached in ``--cache``) and
+  taken as the truth; K_a/K_b refined at 1e-3.
 
-For each: solves, worst true relative error, honesty (the share of points whose map error is at
-least the true error), and the smallest uniform sub-grid (every k_d-th index per axis, the last
-included; the same cubic tensor interpolant) whose worst true error is at most the tolerance
-(and at most the adaptive map's worst true error). ``--python-adaptive`` runs python-adaptive's
-``LearnerND`` (and ``Learner2D`` on the 2-D maps) on the same function (the grid values,
-multilinear between grid points), ``--sparse-grid`` a dimension-adaptive sparse grid
-(Tasmanian's local polynomial grid with its surplus refinement): points until their
-interpolant's worst error at the grid points is at most the tolerance. Neither is a
-dependency of hpcontact (``pip install adaptive Tasmanian`` into the environment).
+For each: the adaptive map's solves (check points included), worst true relative error and
+honesty (the share of points whose map error is at least the true error); the smallest uniform
+sub-grid (every k_d-th index per axis, the last included; the same cubic tensor interpolant)
+that meets the tolerance by the truth and by the adaptive map's own estimate; a
+dimension-adaptive sparse grid (``sparse_grid``: this file's own combination technique on the
+same nested nodes, stopped by the truth); with ``--libraries``, python-adaptive's learners
+(``pip install adaptive`` into the environment; not a dependency of hpcontact).
 """
 
 from __future__ import annotations
@@ -278,7 +275,7 @@ def python_adaptive(layout: Layout, truth: Fields, target: float, chunk: int, li
     keep = [d for d, x in enumerate(layout.xs) if len(x) > 1]
     xs = [layout.xs[d] for d in keep]
     exact = np.stack([v.reshape([len(x) for x in xs]) for v in truth.values()], axis=-1)
-    spline = RegularGridInterpolator(xs, exact, method="cubic")
+    spline = RegularGridInterpolator(xs, exact, method="cubic", bounds_error=False, fill_value=None)
     grid = np.stack(np.meshgrid(*xs, indexing="ij"), axis=-1).reshape(-1, len(xs))
     flat = exact.reshape(-1, exact.shape[-1])
     bounds = [(float(x.min()), float(x.max())) for x in xs]
