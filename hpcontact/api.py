@@ -18,17 +18,12 @@ discretization, BLAS limited while it runs (``numerics.blas``).
 
 from __future__ import annotations
 
-import json
-import math
-import numbers
 import os
 import re
 import warnings
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
-
-import numpy as np
 
 from hpcontact.accuracy import (
     AccuracyNotMet,
@@ -541,102 +536,15 @@ def _history_text(arguments: Mapping[str, Any]) -> str:
     return call_text("hpcontact.run_sweep", run_sweep, arguments)
 
 
-DICT_SPEC_PATH = "<dict>"
-
-
 def _dict_spec(spec: Mapping[str, Any], output: str | None, accuracy: float | None = None) -> Any:
-    """The ``Spec`` of a spec given as a dict: its TOML text through ``parse_spec``."""
-    from hpcontact.sweep.space.parse import parse_spec
+    """The ``Spec`` of a spec given as a dict, read directly (``parse.parse_spec_dict``: its points
+    counted before anything is expanded, no TOML round trip)."""
+    from hpcontact.sweep.space.parse import parse_spec_dict
 
-    _check_nesting(spec)
     sweep = spec.get("sweep")
     if output is None and not (isinstance(sweep, Mapping) and sweep.get("output") is not None):
         raise InputError(
             "output",
             "a data set path ending in .nc: a spec given as a dict names it in its sweep table (output) or by output=",
         )
-    return parse_spec(toml_text(spec), path=DICT_SPEC_PATH, output=output, check_scenes=False, accuracy=accuracy)
-
-
-#: The deepest nesting of a spec given as a dict (tables, inline tables, lists): a spec uses 3
-#: or 4 levels ([axes] → label table → list of tables → fields); deeper is a mistake, and far
-#: deeper (thousands) would exhaust Python's recursion before anything could name it.
-MAX_SPEC_DEPTH = 64
-
-
-def _check_nesting(spec: Mapping[str, Any]) -> None:
-    """``InputError`` naming the key path where a dict spec nests deeper than
-    ``MAX_SPEC_DEPTH`` or contains itself (a mapping or list among its own ancestors). Walks
-    without recursion, so no depth of nesting can exhaust the stack first."""
-    stack: list[tuple[Any, str, tuple[int, ...]]] = [(spec, "", ())]
-    while stack:
-        value, where, ancestors = stack.pop()
-        if isinstance(value, Mapping):
-            children = [(v, f"{where}.{k}" if where else str(k)) for k, v in value.items()]
-        elif isinstance(value, (list, tuple)):
-            children = [(v, f"{where}[{i}]") for i, v in enumerate(value)]
-        else:
-            continue
-        if id(value) in ancestors:
-            raise InputError(where or "spec", "a spec without cycles: this value contains itself")
-        if len(ancestors) >= MAX_SPEC_DEPTH:
-            raise InputError(
-                f"{where[:200]}..." if len(where) > 200 else where,
-                f"a spec nested at most {MAX_SPEC_DEPTH} levels deep (tables, lists)",
-            )
-        inner = (*ancestors, id(value))
-        stack += [
-            (child, path, inner) for child, path in reversed(children) if isinstance(child, (Mapping, list, tuple))
-        ]
-
-
-def toml_text(spec: Mapping[str, Any]) -> str:
-    """A spec given as a dict as TOML text (tables of key = value; nested mappings inline):
-    what ``hpcontact.sweep.space.parse.parse_spec`` reads. ``None`` and other values TOML cannot
-    hold are refused with an ``InputError`` naming the key."""
-    lines = [
-        f"{_toml_key(key)} = {_toml_value(str(key), value)}"
-        for key, value in spec.items()
-        if not isinstance(value, Mapping)
-    ]
-    for table, values in spec.items():
-        if isinstance(values, Mapping):
-            lines.append(f"[{_toml_key(table)}]")
-            lines += [f"{_toml_key(key)} = {_toml_value(f'{table}.{key}', value)}" for key, value in values.items()]
-    return "\n".join(lines) + "\n"
-
-
-def _toml_key(key: Any) -> str:
-    if not isinstance(key, str):
-        raise InputError("spec", "string keys (a spec as a dict has the structure of its TOML file)", key)
-    return key if re.fullmatch(r"[A-Za-z0-9_-]+", key) else _toml_string(key)
-
-
-def _toml_string(text: str) -> str:
-    return json.dumps(text, ensure_ascii=False).replace("\x7f", "\\u007f")
-
-
-def _toml_value(where: str, value: Any) -> str:
-    if isinstance(value, (bool, np.bool_)):
-        return "true" if value else "false"
-    if isinstance(value, numbers.Integral):
-        return str(int(value))
-    if isinstance(value, numbers.Real):
-        number = float(value)
-        return (
-            ("nan" if math.isnan(number) else "inf" if number > 0 else "-inf")
-            if not math.isfinite(number)
-            else repr(number)
-        )
-    if isinstance(value, (str, os.PathLike)):
-        return _toml_string(os.fspath(value))
-    if isinstance(value, Mapping):
-        items = ", ".join(f"{_toml_key(k)} = {_toml_value(f'{where}.{k}', v)}" for k, v in value.items())
-        return f"{{ {items} }}" if items else "{}"
-    if isinstance(value, np.ndarray):
-        value = value.tolist()
-    if isinstance(value, (list, tuple)):
-        return "[" + ", ".join(_toml_value(where, v) for v in value) + "]"
-    raise InputError(
-        where, "a TOML value: a string, number, boolean, list or table (leave a key out for the default)", value
-    )
+    return parse_spec_dict(spec, output=output, check_scenes=False, accuracy=accuracy)

@@ -24,6 +24,7 @@ from hpcontact.accuracy import DEFAULT_ACCURACY, AccuracyNotMet
 from hpcontact.cli import main as cli_main
 from hpcontact.errors import AccuracyWarning, InputError
 from hpcontact.sweep.run.guard import Refused
+from hpcontact.sweep.space.parse import toml_text
 
 SOLVE_PARAMETERS = (
     "shape aspect sides shape_angle amplitude seed hurst rms mask nu G anisotropy orientation miller azimuth material "
@@ -221,7 +222,7 @@ def test_run_sweep_from_a_dict_twice_and_its_refusals_name_keywords(tmp_path):
 
 def test_run_sweep_from_a_path_takes_keywords(tmp_path):
     spec = tmp_path / "spec.toml"
-    spec.write_text(api.toml_text({**SPEC, "sweep": {"output": str(tmp_path / "file.nc")}}), encoding="utf-8")
+    spec.write_text(toml_text({**SPEC, "sweep": {"output": str(tmp_path / "file.nc")}}), encoding="utf-8")
     assert hpcontact.run_sweep(spec, stream=io.StringIO()) == tmp_path / "file.nc"
     assert hpcontact.run_sweep(str(spec), restart=True, stream=io.StringIO()) == tmp_path / "file.nc"
     with pytest.raises(TypeError):
@@ -249,7 +250,7 @@ def test_toml_text_round_trips():
             "weird key": [float("inf"), -float("inf")],
         },
     }
-    parsed = tomllib.loads(api.toml_text(spec))
+    parsed = tomllib.loads(toml_text(spec))
     assert parsed["sweep"] == spec["sweep"] and parsed["numerics"] == {"n": 64, "tol": 1e-10}
     assert parsed["scene"] == {"quantities": ["tangential", "normal"], "precondition": False, "G": 2.5}
     assert parsed["axes"]["shape"] == spec["axes"]["shape"] and parsed["axes"]["aspect"] == {"logspace": [0, -8, 5]}
