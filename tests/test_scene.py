@@ -423,3 +423,21 @@ def test_contact_size_in_metres_needs_a_modulus_with_a_unit():
         Scene.from_params(
             {"shape": "circle", "a": 1e-3, "G": 1.0, "quantities": "indentation", "radius": 1.0, "depth": 0.01}
         )
+
+
+def test_a_scene_is_a_value_keyed_by_its_fields():
+    """``Scene.key`` is the canonical JSON of the fields (any order, floats to the last bit);
+    ``Scene.from_key`` builds the same scene from it, once per key, and refuses a bad one as
+    ``from_params`` does."""
+    fields = {"shape": "ellipse", "aspect": 0.1 + 0.2, "nu": 0.25, "quantities": ["tangential", "normal"]}
+    scene = Scene.from_params(fields)
+    assert scene.key() == Scene.from_params(dict(reversed(list(fields.items())))).key()
+    assert (
+        scene.key() == '{"aspect":0.30000000000000004,"nu":0.25,"quantities":["tangential","normal"],"shape":"ellipse"}'
+    )
+    again = Scene.from_key(scene.key())
+    assert again == scene and again.key() == scene.key() and again.shape.aspect == 0.1 + 0.2
+    assert Scene.from_key(scene.key()) is again
+    assert Scene.from_params({**fields, "nu": 0.3}).key() != scene.key()
+    with pytest.raises(InputError, match="nu"):
+        Scene.from_key('{"nu":0.7,"shape":"circle"}')

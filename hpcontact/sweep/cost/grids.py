@@ -8,7 +8,6 @@ tagged with its boundary cells (``accuracy_plan``, ``accuracy_levels``). The cos
 from __future__ import annotations
 
 import functools
-import json
 import math
 from collections.abc import Mapping
 from typing import Any, NamedTuple
@@ -27,8 +26,7 @@ from hpcontact.accuracy import (
 from hpcontact.accuracy.strategies import EXACT, Strategy
 from hpcontact.problems import footprint
 from hpcontact.problems.kinds import CONTACT, kind_of
-from hpcontact.scene import Scene
-from hpcontact.sweep.space.spec import canonical_json
+from hpcontact.scene import Scene, canonical_json
 
 # Fields that do not change the grids ``accuracy.default_grids`` picks (it reads the shape, the
 # quantities and whether the body is isotropic, not its constants or the solver's settings):
@@ -81,7 +79,7 @@ def solved_grids(params: Mapping[str, Any]) -> list[Mapping[str, Any]]:
 def _default_grids(text: str) -> tuple[tuple[int, int], ...]:
     """(n, n_across) of every grid ``accuracy.default_solve`` solves the scene ``text``
     (canonical JSON, ``GRID_NEUTRAL_FIELDS`` left out) on; () when it solves one grid."""
-    return tuple(default_grids(Scene.from_params(json.loads(text))))
+    return tuple(default_grids(Scene.from_key(text)))
 
 
 def asks_accuracy(params: Mapping[str, Any]) -> bool:
@@ -144,7 +142,7 @@ def accuracy_plan(params: Mapping[str, Any]) -> AccuracyPlan:
 @functools.lru_cache(maxsize=4096)
 def _accuracy_plan(text: str) -> AccuracyPlan:
     """``accuracy_plan`` of the scene ``text`` (canonical JSON, ``GRID_NEUTRAL_FIELDS`` left out)."""
-    scene = Scene.from_params(json.loads(text))
+    scene = Scene.from_key(text)
     accuracy = float(scene.accuracy)
     strategy, n0, n_across0 = first_grid(scene, "auto", accuracy=accuracy)
     if strategy == EXACT:  # one exact cell: the kernel's tables, no grid

@@ -26,6 +26,7 @@ from hpcontact.problems import footprint
 from hpcontact.problems.footprint import iteration_factor, task_kind
 from hpcontact.problems.kinds import CONTACT, SLIP, quantity_names, scene_kind
 from hpcontact.problems.slip.crystal_pair import pair_from_params
+from hpcontact.scene import canonical_json
 from hpcontact.sweep.cost.engine import strip_pairs
 from hpcontact.sweep.cost.grids import (
     BOUNDARY_TAG,
@@ -38,7 +39,6 @@ from hpcontact.sweep.cost.grids import (
     solved_grids,
 )
 from hpcontact.sweep.space.axes import PATH_FIELDS
-from hpcontact.sweep.space.spec import canonical_json
 
 # Fields that do not change a scene's estimated cost, by kind (``hpcontact.fields``): a contact
 # scene's cost reads the grid, the solves, the tolerance and whether the body is a crystal, not an

@@ -49,6 +49,7 @@ from hpcontact import fields
 from hpcontact.geometry import file_sha256
 from hpcontact.problems import footprint
 from hpcontact.problems.kinds import scene_kind
+from hpcontact.scene import canonical_json
 from hpcontact.sweep.cost.task_cost import (
     COST_BRANCH_FIELDS,
     COST_NEUTRAL_FIELDS,
@@ -58,7 +59,7 @@ from hpcontact.sweep.cost.task_cost import (
 )
 from hpcontact.sweep.space.axes import PATH_FIELDS
 from hpcontact.sweep.space.enumeration import Run, run_field, scene_runs, text_template
-from hpcontact.sweep.space.spec import Spec, Validator, canonical_json
+from hpcontact.sweep.space.spec import Spec, Validator
 
 # A chunk costs at most 1/(CHUNKS_PER_RANK · ranks) of the whole sweep.
 CHUNKS_PER_RANK = 4
