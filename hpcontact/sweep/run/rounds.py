@@ -158,8 +158,15 @@ def execute(
             else load_spec(spec_path, output=output, validate=validate, check_scenes=False, accuracy=accuracy)
         ),
     )
-    mine = pickle.dumps(share(spec, team.rank, team.size, validate, options), protocol=pickle.HIGHEST_PROTOCOL)
-    tasks, task_of, over = joined(spec, [pickle.loads(b) for b in team.bcast(team.gather(mine))])
+    # every rank needs every task (chunks are claimed from one shared counter); one process keeps
+    # its share as it is, without a pickled copy of its whole task list
+    mine = share(spec, team.rank, team.size, validate, options)
+    shares = (
+        [mine]
+        if team.size == 1
+        else [pickle.loads(b) for b in team.bcast(team.gather(pickle.dumps(mine, protocol=pickle.HIGHEST_PROTOCOL)))]
+    )
+    tasks, task_of, over = joined(spec, shares)
     run = Run(team, spec, tasks, task_of, over, task_function, stream, stop, started, command)
     if spec.adaptive is None:
         return _round(run, options, EVERY_TASK)
@@ -281,7 +288,7 @@ def _run(run: Run, plan: Plan, kept: Kept | None, scope: RoundScope, options: Op
     task_s = schedule_s = journal_s = 0.0
     ran = 0
     failure: str | None = None
-    stop.watch(spec.journal, team.rank, team.size)
+    stop.watch(spec.journal, team.rank, team.size, session=decision.session)
     counter = team.counter(SLOTS)
     journal = Journal(
         journal_path(spec, team.rank, decision.session),
