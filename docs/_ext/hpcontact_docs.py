@@ -123,6 +123,7 @@ class SpecKeysDirective(Directive):
             ('radii that may be inf or "flat"', ", ".join(sorted(axes.FLAT_FIELDS))),
             ("paths (relative to the spec's folder)", ", ".join(sorted(axes.PATH_FIELDS))),
             ("most points in a spec", f"{axes.MAX_POINTS:.0e}".replace("e+0", "e")),
+            ("most points that each need a solve", f"{axes.MAX_TASK_POINTS:.0e}".replace("e+0", "e")),
         ]
         return [tables, _table(("rule", "keys"), kinds, literal_columns=())]
 
