@@ -10,6 +10,7 @@ is benchmarks/adaptive_maps.py (minutes: too slow for this suite).
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import io
 import math
@@ -26,7 +27,7 @@ from hpcontact.sweep.maps import refinement
 from hpcontact.sweep.maps.checks import drawn_checks
 from hpcontact.sweep.maps.refinement import Checks, Layout, initial_state, state_points, state_tasks
 from hpcontact.sweep.maps.rounds import dry_run_text
-from hpcontact.sweep.run.records import Options
+from hpcontact.sweep.run.records import Options, runner_name
 from hpcontact.sweep.run.rounds import execute
 from hpcontact.sweep.run.schedule import SerialTeam
 from hpcontact.sweep.space.parse import parse_spec
@@ -73,6 +74,10 @@ def mindlin(params):
 
 
 def counting(calls):
+    """``mindlin``, its calls listed: the same runner (``functools.wraps``: its name), so a resume
+    or an up-to-date check with it reuses the journals of a run with ``mindlin``."""
+
+    @functools.wraps(mindlin)
     def task(params):
         calls.append(dict(params))
         return mindlin(params)
@@ -161,6 +166,7 @@ def test_an_interrupted_adaptive_sweep_resumes_without_solving_twice(sweep, writ
     first_round = 25
     calls: list = []
 
+    @functools.wraps(mindlin)
     def dies(params):
         if len(calls) == first_round + 3:  # in the second round
             raise Interrupted
@@ -216,7 +222,8 @@ def test_a_finished_adaptive_sweep_run_again_is_up_to_date(sweep, write_spec, tm
     path = sweep(spec, mindlin)
     data, solves = path.read_bytes(), xr.open_dataset(path).attrs["sweep_solves"]
     calls, stream = [], io.StringIO()
-    outcome = execute(spec, None, counting(calls), team=SerialTeam(), stream=stream, options=Options(up_to_date=True))
+    same_runner = Options(up_to_date=True, runner=runner_name(mindlin))  # as run_sweep names it
+    outcome = execute(spec, None, counting(calls), team=SerialTeam(), stream=stream, options=same_runner)
     assert outcome.up_to_date and calls == [] and path.read_bytes() == data
     assert stream.getvalue().endswith(
         f"hpcontact: {path} is up to date ({solves} tasks from journals); nothing to do\n"
