@@ -49,12 +49,13 @@ def default_title(path: str | Path, axes: Sequence[Axis]) -> str:
     return f"sweep over {names} ({' × '.join(str(len(a)) for a in axes)} points)"
 
 
-def default_output(path: str | Path, title: str, text: str) -> Path:
+def default_output(path: str | Path, title: str = "", text: str = "") -> Path:
     """Where a spec that names no ``[sweep] output`` writes: beside its file,
     ``FOLDER/STEM.nc`` (never the working folder unless the spec lies there); a spec given as a
     dict (``DICT_SPEC_PATH``, whose ``text`` is its TOML): ``DICT_OUTPUT_FOLDER/SLUG-HASH.nc``,
     SLUG its ``title`` in letters, digits and dashes, HASH the first 8 hex digits of the SHA-256
-    of its text, so the same dict finds its output (and its journals: ``resume``) again."""
+    of its text, so the same dict finds its output (and its journals: ``resume``) again
+    (``title`` and ``text`` are read for a dict only)."""
     if str(path) != DICT_SPEC_PATH:
         return Path(path).with_name(f"{Path(path).stem}.nc")
     slug = re.sub(r"[^A-Za-z0-9]+", "-", title).strip("-").lower()[:48] or "sweep"
