@@ -22,11 +22,12 @@ as ``PRIOR`` (the development machine's below, made with ~0.25 other processes r
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import math
 import socket
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any
 
 from hpcontact import __version__
@@ -104,6 +105,14 @@ def probe() -> dict[str, float]:
         return {name: _timed(scene) for name, scene in PROBE_SCENES.items()}
 
 
+@functools.cache
+def _probed(measure: Callable[[], dict[str, float]]) -> tuple[dict[str, float], float]:
+    """What ``measure`` (``probe``) measures and its wall seconds, once per process (an adaptive
+    map's rounds, ``hpcontact.run_sweep`` called again: the machine is the same)."""
+    started = time.perf_counter()
+    return measure(), time.perf_counter() - started
+
+
 def prior_calibration() -> Calibration:
     """The shipped prior as a ``Calibration`` (checked as a calibration file is)."""
     from hpcontact.sweep.cost.calibration_file import calibration_from_record
@@ -124,17 +133,16 @@ def probed_prior() -> tuple[Calibration, str]:
     ``CONTENDED_FROM`` other processes running beside it, that its scale is likely high: CPU
     seconds on shared cores are; the probe is no calibration file, so the ``Calibration`` it
     returns carries no count of its own)."""
-    started = time.perf_counter()
     others = other_running()
-    here = probe()
+    here, probe_s = _probed(probe)
     prior = prior_calibration()
     scale = scale_of(here, prior)
     rates = {
         kind: Rate(**{name: value * scale for name, value in dataclasses.asdict(rate).items()})
         for kind, rate in prior.rates.items()
     }
-    probed = Calibration(socket.gethostname(), __version__, rates, base_memory_bytes(), time.perf_counter() - started)
-    origin = f"shipped prior of {prior.whose()} scaled x{scale:.2f} by a {probed.seconds:.1f} s probe of this machine"
+    probed = Calibration(socket.gethostname(), __version__, rates, base_memory_bytes(), probe_s)
+    origin = f"shipped prior of {prior.whose()} scaled x{scale:.2f} by a {probe_s:.1f} s probe of this machine"
     if others is not None and others >= CONTENDED_FROM:  # as a contended calibration (Calibration.contended)
         origin += f", probed beside ~{others:.1f} other process(es): likely high on an idle machine"
     return probed, origin
