@@ -252,8 +252,9 @@ def chunks_task_by_task(tasks, ranks):
 
 
 def replay_task_by_task(tasks, seconds, ranks, overheads):
-    """``replay`` as an event loop over the chunks of ``chunks_task_by_task``."""
+    """``replay`` as an event loop over the chunks of ``chunks_task_by_task``, taken in claims."""
     import heapq
+    import math
     import statistics
 
     chunks = chunks_task_by_task(list(tasks), ranks)
@@ -264,21 +265,40 @@ def replay_task_by_task(tasks, seconds, ranks, overheads):
     free = [(setup, r) for r in range(ranks)]
     heapq.heapify(free)
     server, wait, finish = setup, 0.0, [setup] * ranks
-    for w in work:
+    # a worker's claims: k chunks from its mean wait and chunk seconds so far (replay.claim_size's rule)
+    # claims, waited, chunks and busy seconds so far, and where its last claim ended (what it knows is left)
+    history = {r: [0, 0.0, 0, 0.0, 0] for r in range(ranks)}
+    at = taken = 0
+    while at < len(work):
+        taken += 1
         t, rank = heapq.heappop(free)
-        if rank == 0:
+        claims, waited, chunks_done, busy, seen = history[rank]
+        k = 1
+        if rank == 0 or ranks == 1:
             start = t
         else:
+            if claims and waited > 0 and busy > 0:
+                wanted = math.ceil((waited / claims) / (0.02 * (busy / chunks_done)))
+                k = int(max(1, min(wanted, (len(work) - seen) // (4 * ranks))))
             server = max(t, server) + overheads.service_s
             start = server + overheads.wake_s
             wait += start - t
-        finish[rank] = start + w
+            waited += start - t
+            claims += 1
+        end = start
+        for w in work[at : at + k]:
+            end += w
+        chunks_done += len(work[at : at + k])
+        at += k
+        history[rank] = [claims, waited, chunks_done, busy + end - start, at]
+        finish[rank] = end
         heapq.heappush(free, (finish[rank], rank))
     last = max(finish)
     makespan = last + overheads.gather_s * n
     total = float(sum(seconds[t.key] for t in tasks))
     return {
         "chunks": len(chunks),
+        "claims_taken": taken,
         "makespan_s": makespan,
         "efficiency": total / (ranks * makespan),
         "tail": (last - statistics.fmean(finish)) / makespan,
