@@ -122,6 +122,7 @@ class Scene:
     accuracy: float | None = None
     threads: int = 1
     precondition: bool = True
+    device: str = "cpu"
     normal_held: str = "approach"
     radius: float | None = None
     depth: float | None = None
@@ -188,6 +189,7 @@ class Scene:
             accuracy=accuracy,
             threads=threads,
             precondition=_boolean("precondition", p["precondition"]),
+            device=_choice("device", p["device"]),
             normal_held=_choice("normal_held", p["normal_held"]),
             radius=radius,
             depth=depth,

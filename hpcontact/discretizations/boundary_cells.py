@@ -57,6 +57,7 @@ from hpcontact.errors import InputError
 from hpcontact.geometry import Grid, Shape, crop_to_support, grid_for, load_mask, mask_grid
 from hpcontact.kernels.engine import Engine
 from hpcontact.materials.isotropic import Isotropic
+from hpcontact.numerics.backend import array_namespace, to_device, to_host
 from hpcontact.numerics.conjugate_gradient import conjugate_gradient
 from hpcontact.numerics.convolution import COMPONENT_INDEX
 from hpcontact.numerics.preconditioner import FourierPreconditioner
@@ -295,26 +296,31 @@ def _coverage_forces(scene: Scene) -> _Solved:
         f = 0.5 * (f + f.T)
     else:
         plan = _with_all_solves(plan, scene)
-    engine = Engine(scene.material, grid, plan.kernels, scene.threads)
+    xp = array_namespace(scene.device)  # the iterations on the scene's device; forces come back to the host
+    engine = Engine(scene.material, grid, plan.kernels, scene.threads, xp=xp)
     phi = np.where(mask, (1.0 - f) / np.where(mask, f, 1.0), 0.0)  # D_ii / A_ii
     scale = np.where(mask, 1.0 / np.sqrt(1.0 + phi), 0.0)
     forces: dict[str, np.ndarray] = {}
     iterations, residual = 0, 0.0
     for s in plan.solves:
         op = engine.operator(s.components, s.green)
-        damping = np.stack([_self_compliance(engine, c) * phi for c in s.components])
-        weights = np.stack([scale] * len(s.components))
+        damping = to_device(np.stack([_self_compliance(engine, c) * phi for c in s.components]), xp)
+        weights = to_device(np.stack([scale] * len(s.components)), xp)
         rhs = np.zeros((len(s.components),) + mask.shape)
         rhs[s.components.index(s.load)] = 1.0
         precondition = None
         if scene.precondition:
-            fourier = FourierPreconditioner(grid, engine.green_function(s.green), s.components).apply
+            fourier = FourierPreconditioner(grid, engine.green_function(s.green), s.components, xp=xp).apply
             precondition = lambda r, fourier=fourier, w=weights: w * fourier(w * r)
         solution = conjugate_gradient(
-            lambda t, op=op, d=damping: op.apply(t) + d * t, rhs, mask, tol=scene.tol, precondition=precondition
+            lambda t, op=op, d=damping: op.apply(t) + d * t,
+            to_device(rhs, xp),
+            to_device(mask, xp),
+            tol=scene.tol,
+            precondition=precondition,
         )
         force = np.zeros(3)
-        for c, value in zip(s.components, q.resultant(solution.traction, grid.cell_area)):
+        for c, value in zip(s.components, q.resultant(to_host(solution.traction), grid.cell_area)):
             force[COMPONENT_INDEX[c]] = value
         forces[s.name] = force
         iterations += solution.iterations

@@ -55,7 +55,7 @@ def discretize(scene: Scene) -> tuple[Grid, np.ndarray]:
 
 def scene_namespace(scene: Scene) -> ModuleType:
     """The array namespace of the scene's ``device`` (InputError naming what a GPU lacks)."""
-    return array_namespace(scene.params.get("device") or "cpu")
+    return array_namespace(scene.device)
 
 
 def rough_patch(scene: Scene, grid: Grid) -> np.ndarray:
