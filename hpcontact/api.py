@@ -432,8 +432,10 @@ def run_sweep(
         The sweep spec: a TOML file (``"jobs/demo.toml"``) or a dict of the same structure
         (``{"scene": {...}, "numerics": {...}, "axes": {...}, "sweep": {"output": ...}}``),
         checked by the same parser (``hpcontact.sweep.space.parse.parse_spec``). A dict's relative
-        mask paths are relative to the working directory, and it needs an output (its
-        ``sweep.output`` or ``output=``).
+        mask paths are relative to the working directory; without an output (its
+        ``sweep.output`` or ``output=``) it writes ``results/TITLE-HASH.nc`` in the working
+        directory (``hpcontact.sweep.space.spec.default_output``), and without a title it is
+        named by its axes (``default_title``).
     resume
         Continue from the journals of an earlier run: reuse its finished tasks, run failed
         ones again.
@@ -453,6 +455,9 @@ def run_sweep(
         replacing the spec's ``[numerics]`` accuracy, n and n_across.
     task_function
         Replaces the solver of one scene (fields → record); default: the spec's scene kind's.
+        Its journal entries name it (module and qualified name), so a ``resume`` with another
+        task function runs them again; a wrapper made with ``functools.wraps`` keeps the name
+        of what it wraps.
     stream
         Receives the progress lines and the summary (default stdout).
 
@@ -475,7 +480,7 @@ def run_sweep(
     """
     arguments = dict(locals())  # the call as given, for the data set's history (after the checks)
     from hpcontact.sweep.run.guard import Refused
-    from hpcontact.sweep.run.records import Options, Stopped
+    from hpcontact.sweep.run.records import Options, Stopped, runner_name
     from hpcontact.sweep.run.rounds import execute
     from hpcontact.sweep.run.schedule import SerialTeam
 
@@ -501,6 +506,7 @@ def run_sweep(
         break_lock=break_lock,
         mem_per_rank=memory,
         up_to_date=task_function is None,
+        runner=runner_name(task_function),  # a resume never reuses another task function's entries
     )
     target = None if output is None else os.fspath(output)
     try:
@@ -541,10 +547,4 @@ def _dict_spec(spec: Mapping[str, Any], output: str | None, accuracy: float | No
     counted before anything is expanded, no TOML round trip)."""
     from hpcontact.sweep.space.parse import parse_spec_dict
 
-    sweep = spec.get("sweep")
-    if output is None and not (isinstance(sweep, Mapping) and sweep.get("output") is not None):
-        raise InputError(
-            "output",
-            "a data set path ending in .nc: a spec given as a dict names it in its sweep table (output) or by output=",
-        )
     return parse_spec_dict(spec, output=output, check_scenes=False, accuracy=accuracy)

@@ -43,6 +43,7 @@ from typing import Any
 from hpcontact.errors import InputError
 from hpcontact.sweep.data.journal import JOB_VARIABLES, batch_job, journal_files, read_file, sync_folder
 from hpcontact.sweep.space.axes import LABEL_AXES, PATH_FIELDS
+from hpcontact.sweep.space.spec import default_output
 
 __all__ = [
     "JOB_VARIABLES",
@@ -147,8 +148,8 @@ def _named(spec: Any) -> tuple[str, str]:
     except (tomllib.TOMLDecodeError, AttributeError):
         sweep = {}
     output, journal = Path(spec.output), Path(spec.journal)
-    if "output" not in sweep and output == Path(f"{Path(spec.path).stem}.nc"):
-        output_name = f"the output {output} (the spec's name with .nc: set sweep.output or pass --output)"
+    if "output" not in sweep and output == default_output(spec.path):
+        output_name = f"the output {output} (the spec's name with .nc, beside it: set sweep.output or pass --output)"
     else:
         output_name = f"the output {output} (sweep.output or --output)"
     origin = "sweep.journal" if "journal" in sweep else "the output's name + .journal"

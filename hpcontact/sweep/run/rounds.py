@@ -241,7 +241,7 @@ def _announce(
         f"{f' ({decision.reused} from journals)' if decision.reused else ''}"
         f"{f', {len(plan.isolated)} alone on rank 0 (their last run died)' if plan.isolated else ''}"
         f"{f', {decision.crashed} quarantined (--retry-crashed runs them)' if decision.crashed else ''}"
-        f", {len(chunks)} chunks on {run.team.size} rank(s)",
+        f", {len(chunks)} chunks on {run.team.size} rank(s); writes {spec.output}",
         file=stream,
         flush=True,
     )
@@ -249,14 +249,16 @@ def _announce(
     if scope.tally is None or scope.tally.begun == 1:  # an adaptive map's later rounds: said once, in its first
         print(line, file=stream, flush=True)
     handed = [t for chunk in chunks for t in chunk]  # what the ranks report, in hand-out order
-    estimated = None if seconds is None else dict(zip((t.key for t in todo), seconds.tolist()))
+    estimated = dict(zip((t.key for t in todo), seconds.tolist()))
     return Progress(
         len(run.tasks),
         decision.reused,
         [cost_units(t.cost) for t in handed],
-        None if estimated is None else [estimated[t.key] for t in handed],
+        [estimated[t.key] for t in handed],
         spec.progress_interval,
         stream,
+        run.team.size,
+        [len(chunk) for chunk in chunks],
     )
 
 

@@ -4,7 +4,7 @@ A spec has four tables (docs/design.md §1, §4.2; every key is optional except 
 
     [sweep]                          # how the sweep runs
     title = "Li 2017, Fig. 7"
-    output = "results/aspect.nc"     # relative to the working directory; --output overrides
+    output = "results/aspect.nc"     # relative to the working directory; --output overrides (default: beside the spec)
     journal = "results/aspect.nc.journal"   # per-rank HDF5 journals (default: output + ".journal")
     angle_mode = "tensor"            # "tensor": K_nn(angle) from the tensor, no solve per angle;
                                      # "rotated": Li's check, one solve per angle, shape_angle −= angle
@@ -118,7 +118,18 @@ from hpcontact.sweep.space.axes import (
     with_paths,
 )
 from hpcontact.sweep.space.enumeration import scene_runs
-from hpcontact.sweep.space.spec import ANGLE_FIELD, ANGLE_MODES, NUMERIC_KEYS, SWEEP_KEYS, TABLES, Spec, Validator
+from hpcontact.sweep.space.spec import (
+    ANGLE_FIELD,
+    ANGLE_MODES,
+    DICT_SPEC_PATH,
+    NUMERIC_KEYS,
+    SWEEP_KEYS,
+    TABLES,
+    Spec,
+    Validator,
+    default_output,
+    default_title,
+)
 
 #: The largest spec file read (bytes): the shipped specs are a few kB, and an explicit axis of
 #: 10**6 values (a tenth of ``MAX_POINTS``) is ~10 MB of TOML; a larger file, or one that is not
@@ -203,8 +214,6 @@ def parse_spec(
     return spec_of_tables(data, text, path, output, validate, check_scenes, accuracy)
 
 
-#: The spec path a spec given as a dict is recorded under (journals, the data set's ``spec_path``).
-DICT_SPEC_PATH = "<dict>"
 #: The deepest nesting of a spec given as a dict (tables, inline tables, lists): a spec uses 3
 #: or 4 levels ([axes] → label table → list of tables → fields); deeper is a mistake, and far
 #: deeper (thousands) would exhaust Python's recursion before anything could name it.
@@ -402,13 +411,15 @@ def spec_of_tables(
     interval = sweep.get("progress_interval", 10.0)
     if isinstance(interval, bool) or not isinstance(interval, (int, float)) or not interval > 0:
         raise InputError("sweep.progress_interval", "a number of seconds > 0", interval)
-    title = sweep.get("title", Path(path).stem)
+    title = sweep.get("title", default_title(path, axes))
     if not isinstance(title, str):
         raise InputError("sweep.title", "a string", title)
     out = (
         Path(output)
         if output is not None
-        else Path(_string("sweep.output", sweep.get("output", f"{Path(path).stem}.nc")))
+        else Path(_string("sweep.output", sweep["output"]))
+        if "output" in sweep
+        else default_output(path, title, text)
     )
     if out.suffix != ".nc":
         raise InputError("output" if output is not None else "sweep.output", "a path ending in .nc", str(out))

@@ -8,8 +8,9 @@ each number of ranks replayed (``tasks.chunk_bounds``): a dry run of 10^6 tasks 
 seconds (``benchmarks/dry_run_points.py``).
 
 ``hpcontact run`` prints the estimate of the tasks it will compute before it starts
-(``start_estimate``), from the cached calibration only: without one it says so rather than make
-every rank wait for a calibration.
+(``start_estimate``), from the cached or named calibration, else from the shipped prior scaled
+by a probe of this machine (``cost.calibration_file.run_calibration``): never without an
+estimate, never waiting for a calibration.
 
 ``check_memory`` refuses a run whose largest task would not fit in ``--mem-per-rank``.
 """
@@ -26,10 +27,18 @@ import numpy as np
 from hpcontact.errors import InputError
 from hpcontact.numerics.memory import MIB, resident_bytes
 from hpcontact.problems.footprint import task_kind
-from hpcontact.sweep.cost.calibration_file import cached_calibration
+from hpcontact.sweep.cost.calibration import other_running
+from hpcontact.sweep.cost.calibration_file import run_calibration
 from hpcontact.sweep.cost.engine import omega_nodes
 from hpcontact.sweep.cost.grids import asks_accuracy, padded_cells
-from hpcontact.sweep.cost.rates import IMPORTS_BYTES, Calibration, base_memory_bytes, work_seconds
+from hpcontact.sweep.cost.rates import (
+    IMPORTS_BYTES,
+    Calibration,
+    base_memory_bytes,
+    load_note,
+    node_type,
+    work_seconds,
+)
 from hpcontact.sweep.cost.task_cost import Sizing, sizing
 from hpcontact.sweep.work.replay import DEFAULT_OVERHEADS, Overheads, replay_chunks
 from hpcontact.sweep.work.tasks import ChunkOrder, Task, chunk_order, paused_gc
@@ -184,21 +193,23 @@ def check_memory(tasks: Sequence[Task], limit: float, source: str) -> None:
         )
 
 
-def start_estimate(tasks: Sequence[Task], ranks: int) -> tuple[str, np.ndarray | None]:
+def start_estimate(tasks: Sequence[Task], ranks: int) -> tuple[str, np.ndarray]:
     """The line ``hpcontact run`` prints on rank 0 before work starts — the estimated core-seconds
-    of ``tasks`` (those this run computes) and the replayed wall time on ``ranks`` ranks — and
-    each task's estimated seconds (for the progress lines' ETA), from the cached calibration. It
-    never calibrates (that takes ~30 s, which a run must not wait for): without a usable cache
-    the line says so and how to get one, and the seconds are None."""
-    calibration, why = cached_calibration()
-    if calibration is None:
-        return f"hpcontact: no cost estimate ({why}; hpcontact run SPEC --dry-run calibrates once, ~30 s)", None
+    of ``tasks`` (those this run computes) and the replayed wall time on ``ranks`` ranks, and
+    whose cost model they come from — and each task's estimated seconds (for the progress lines'
+    ETA). The cost model is ``calibration_file.run_calibration``'s: the cached or named
+    calibration, else the shipped prior scaled by a probe of this machine (0.4-0.5 CPU-seconds),
+    never a calibration a run would wait for. It warns where the calibration shared its cores
+    (``Calibration.contended``: its seconds are high) and where the run shares them now
+    (``rates.load_note``: the run will take longer)."""
+    calibration, origin = run_calibration()
     tasks = list(tasks)
     seconds = task_arrays(tasks, calibration)[0]
     wall = replay_chunks(chunk_order(tasks), seconds, ranks, DEFAULT_OVERHEADS)["makespan_s"] if tasks else 0.0
-    warning = f"; {calibration.contended()}" if calibration.contended() else ""
+    others = other_running()
+    notes = (calibration.contended(), load_note(None if others is None else others + 1.0, node_type()[1]))
     line = (
         f"hpcontact: estimated {sum(seconds.tolist()):.4g} core-seconds, {wall:.3g} s on {ranks} rank(s) "
-        f"(cost model of {calibration.host}; --dry-run for each task{warning})"
+        f"({origin}; --dry-run for each task{''.join(f'; {note}' for note in notes if note)})"
     )
     return line, seconds

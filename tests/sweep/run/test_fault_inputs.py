@@ -460,7 +460,8 @@ def test_an_endless_or_blocking_cost_cache_is_ignored_at_once_and_replaced(tmp_p
     assert done.returncode == 0, done.stdout + done.stderr
     why, start, warning = done.stdout.splitlines()
     assert why == f"cost calibration {path} ignored: not a regular file"
-    assert start.startswith(f"hpcontact: no cost estimate (cost calibration {path} ignored: not a regular file")
+    assert start.startswith("hpcontact: estimated 0 core-seconds") and "(shipped prior of " in start
+    assert f"(cost calibration {path} ignored: not a regular file;" in start
     assert warning == why and path.is_file() and not path.is_symlink()  # replaced by a file
 
 

@@ -68,7 +68,7 @@ def test_a_spec_is_not_its_own_output(here, capsys):
     spec = here / "foo.nc"
     spec.write_text(SCENE)
     assert refusals(spec, capsys) == (
-        f"the output foo.nc (the spec's name with .nc: set sweep.output or pass --output) is the spec {spec}: "
+        f"the output {spec} (the spec's name with .nc, beside it: set sweep.output or pass --output) is the spec {spec}: "
         f"the data set would replace it; name another output"
     )
     assert spec.read_text() == SCENE
