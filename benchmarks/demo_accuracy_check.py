@@ -97,9 +97,8 @@ from hpcontact.kernels import anisotropic
 from hpcontact.numerics import convolution
 from hpcontact.numerics.blas import limited_blas
 from hpcontact.problems.contact import solve
-from hpcontact.scene import Scene
+from hpcontact.scene import Scene, canonical_json
 from hpcontact.sweep.space.parse import load_spec
-from hpcontact.sweep.space.spec import canonical_json
 from hpcontact.sweep.work.tasks import enumerate_tasks
 
 SPEC = harness.ROOT / "jobs" / "demo.toml"

@@ -319,18 +319,6 @@ def _cmd_run(args: argparse.Namespace) -> int:
     return run_from_arguments(args, command=command_line("hpcontact", args.argv))
 
 
-def cpu_model() -> str:
-    """The CPU's model name (Linux: /proc/cpuinfo), else what ``platform`` knows."""
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8", errors="replace") as fh:
-            for line in fh:
-                if line.lower().startswith(("model name", "cpu model", "hardware")):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine() or "unknown"
-
-
 def _cmd_info(args: argparse.Namespace) -> int:
     """What a support ticket needs: versions (hpcontact, numpy, scipy, pyFFTW, mpi4py and the MPI
     library), the CPU and its cores, the devices a solve can use (CuPy and its GPUs, if any), FFTW
@@ -339,6 +327,7 @@ def _cmd_info(args: argparse.Namespace) -> int:
 
     from hpcontact.numerics.backend import gpu_description
     from hpcontact.scene import usable_cpus
+    from hpcontact.sweep.cost.rates import cpu_model
 
     info = {
         "hpcontact": __version__,
@@ -355,7 +344,7 @@ def _cmd_info(args: argparse.Namespace) -> int:
         info["mpi_library"] = MPI.Get_library_version().splitlines()[0].strip()
     except ImportError as exc:  # mpi4py is a dependency, but report rather than crash
         info["mpi4py"] = f"unavailable ({exc})"
-    info["cpu"] = cpu_model()
+    info["cpu"] = cpu_model()  # as calibrations are matched by it
     info["cores"] = f"{os.cpu_count()} ({usable_cpus()} usable by this process)"
     devices, *details = gpu_description()
     info["devices"] = devices

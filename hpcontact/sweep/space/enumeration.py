@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from hpcontact.errors import InputError, did_you_mean
+from hpcontact.scene import canonical_json
 from hpcontact.sweep.space.axes import LABEL_AXES
 from hpcontact.sweep.space.spec import (
     ANGLE_FIELD,
@@ -19,7 +20,6 @@ from hpcontact.sweep.space.spec import (
     REDUCTION_BRANCHES,
     Spec,
     Validator,
-    canonical_json,
     drop_ignored_material_fields,
 )
 

@@ -34,7 +34,7 @@ from hpcontact import cli, geometry
 from hpcontact.errors import InputError
 from hpcontact.geometry import MAX_GRID_CELLS, file_sha256, load_mask, mask_pixels
 from hpcontact.problems import footprint
-from hpcontact.scene import Scene
+from hpcontact.scene import Scene, canonical_json
 from hpcontact.sweep import driver
 from hpcontact.sweep.cost import grids as cost_grids
 from hpcontact.sweep.cost import task_cost
@@ -45,7 +45,6 @@ from hpcontact.sweep.run.schedule import SerialTeam, launched_by_mpi
 from hpcontact.sweep.space import enumeration
 from hpcontact.sweep.space.axes import MAX_POINTS
 from hpcontact.sweep.space.parse import load_spec, parse_spec
-from hpcontact.sweep.space.spec import canonical_json
 from hpcontact.sweep.work import tasks as tasks_module
 from hpcontact.sweep.work.tasks import enumerate_tasks, task_key
 

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from hpcontact.errors import InputError
+from hpcontact.scene import canonical_json
 from hpcontact.sweep.space import enumeration
 from hpcontact.sweep.space.parse import load_spec, parse_spec
-from hpcontact.sweep.space.spec import canonical_json
 
 
 def accept(params):

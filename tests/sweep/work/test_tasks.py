@@ -121,7 +121,7 @@ def point_by_point(spec):
     scene of each point (``Spec.scene_params``), distinct by canonical JSON, keyed, costed and
     grouped one by one."""
     from hpcontact import fields
-    from hpcontact.sweep.space.spec import canonical_json
+    from hpcontact.scene import canonical_json
 
     neutral_fields = frozenset(fields.names(spec.kind, neutral_to="kernel"))
     rows, row_of, task_of = [], {}, []
