@@ -1,9 +1,9 @@
 """What the tests that start their own ``mpiexec -n 2`` share: the launcher that belongs to this
 Python (the venv's ``mpiexec`` from the ``mpich`` wheel before the PATH's), the marks that skip
 them where they cannot run — under a launcher (``mpiexec -n 2 pytest tests/mpi``, where the other
-half of tests/mpi runs) or without any ``mpiexec`` — and ``mpiexec -n 2 hpcontact run`` itself:
-started in a folder (``start_run``), waited for (``finish``) and killed with every rank
-(``kill``).
+half of tests/mpi runs) or without any ``mpiexec`` — and ``mpiexec -n 2 python ...`` itself
+(``start``; ``hpcontact run``: ``start_run``): started in a folder, waited for (``finish``) and
+killed with every rank (``kill``).
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import shutil
 import signal
 import subprocess
 import sys
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import pytest
@@ -43,6 +43,33 @@ CLEARED = (
 )
 
 
+def start(
+    folder: Path,
+    arguments: Sequence[str],
+    env: Mapping[str, str] | None = None,
+    procs: list[subprocess.Popen] | None = None,
+    stderr: int = subprocess.PIPE,
+) -> subprocess.Popen:
+    """``mpiexec -n 2 python ARGUMENTS`` in ``folder``: in a session of its own, one OpenMP
+    thread, FFTW wisdom in ``folder/wisdom``, pytest's environment less ``CLEARED`` plus ``env``;
+    its stderr to ``stderr`` (``subprocess.STDOUT``: with its stdout). Appended to ``procs`` when
+    given (the ``launched`` fixture kills what is left of it)."""
+    environment = {k: v for k, v in os.environ.items() if k not in CLEARED}
+    environment.update(OMP_NUM_THREADS="1", HPCONTACT_WISDOM=str(folder / "wisdom"), **(env or {}))
+    proc = subprocess.Popen(
+        [MPIEXEC, "-n", "2", sys.executable, *arguments],
+        cwd=folder,
+        env=environment,
+        stdout=subprocess.PIPE,
+        stderr=stderr,
+        text=True,
+        start_new_session=True,
+    )
+    if procs is not None:
+        procs.append(proc)
+    return proc
+
+
 def start_run(
     folder: Path,
     spec: str | bytes,
@@ -50,25 +77,10 @@ def start_run(
     env: Mapping[str, str] | None = None,
     procs: list[subprocess.Popen] | None = None,
 ) -> subprocess.Popen:
-    """``mpiexec -n 2 hpcontact run spec.toml OPTIONS`` in ``folder``, ``spec`` written there
-    first; in a session of its own, one OpenMP thread, FFTW wisdom in ``folder/wisdom``, pytest's
-    environment less ``CLEARED`` plus ``env``. Appended to ``procs`` when given (the ``launched``
-    fixture kills what is left of it)."""
+    """``mpiexec -n 2 hpcontact run spec.toml OPTIONS`` in ``folder`` (``start``), ``spec``
+    written there first."""
     (folder / "spec.toml").write_bytes(spec if isinstance(spec, bytes) else spec.encode())
-    environment = {k: v for k, v in os.environ.items() if k not in CLEARED}
-    environment.update(OMP_NUM_THREADS="1", HPCONTACT_WISDOM=str(folder / "wisdom"), **(env or {}))
-    proc = subprocess.Popen(
-        [MPIEXEC, "-n", "2", sys.executable, "-m", "hpcontact.cli", "run", "spec.toml", *options],
-        cwd=folder,
-        env=environment,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        start_new_session=True,
-    )
-    if procs is not None:
-        procs.append(proc)
-    return proc
+    return start(folder, ["-m", "hpcontact.cli", "run", "spec.toml", *options], env=env, procs=procs)
 
 
 def finish(proc: subprocess.Popen, timeout: float = 120.0) -> tuple[int, str, str]:

@@ -9,12 +9,11 @@ import io
 import os
 import signal
 import subprocess
-import sys
 import time
 from pathlib import Path
 
 import xarray as xr
-from launcher import MPIEXEC, ROOT, STARTS_ITS_OWN_MPIEXEC
+from launcher import ROOT, STARTS_ITS_OWN_MPIEXEC, start
 
 from hpcontact.problems.contact import solve
 from hpcontact.scene import Scene
@@ -45,27 +44,13 @@ pytestmark = STARTS_ITS_OWN_MPIEXEC
 
 
 def launch(spec: Path, output: Path, log: Path, *extra: str) -> subprocess.Popen:
+    """``sweep_runner.py`` on 2 ranks (``launcher.start``) in the spec's folder, each rank's
+    started tasks logged in ``log``; stderr with stdout. The checkout first on the path, and one
+    git revision, so that a commit by someone else between the runs is not a stale journal."""
     log.mkdir()
-    env = {k: v for k, v in os.environ.items() if k != "HPCONTACT_MPI"}
-    env.update(PYTHONPATH=f"{ROOT}{os.pathsep}{env.get('PYTHONPATH', '')}", OMP_NUM_THREADS="1")
-    env["HPCONTACT_GIT_REVISION"] = "test"  # a commit by someone else between the runs is not a stale journal
-    command = [
-        MPIEXEC,
-        "-n",
-        "2",
-        sys.executable,
-        str(RUNNER),
-        str(spec),
-        "--output",
-        str(output),
-        "--log",
-        str(log),
-        "--parent",
-        str(os.getpid()),
-    ]
-    return subprocess.Popen(
-        [*command, *extra], env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True
-    )
+    env = {"PYTHONPATH": f"{ROOT}{os.pathsep}{os.environ.get('PYTHONPATH', '')}", "HPCONTACT_GIT_REVISION": "test"}
+    arguments = [str(RUNNER), str(spec), "--output", str(output), "--log", str(log), "--parent", str(os.getpid())]
+    return start(spec.parent, [*arguments, *extra], env=env, stderr=subprocess.STDOUT)
 
 
 def started(log: Path, rank: int) -> list[tuple[int, str]]:
