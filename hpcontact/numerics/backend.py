@@ -122,12 +122,19 @@ def cuda_devices() -> tuple[ModuleType | None, int, str]:
     return cupy, count, ""
 
 
-def gpu_namespace() -> ModuleType:
-    """CuPy, on this rank's GPU (``gpu_for_rank``); ``InputError`` on the ``device`` field saying
-    which is missing: CuPy, or a CUDA device it can see."""
+def require_gpu() -> tuple[ModuleType, int]:
+    """CuPy and the number of CUDA devices it sees; ``InputError`` on the ``device`` field saying
+    which is missing: CuPy, or a CUDA device (a spec asking for "gpu" is refused by it before its
+    first task, a solve before it allocates)."""
     cupy, count, why = cuda_devices()
     if cupy is None or count == 0:
         raise InputError("device", f"'gpu' needs CuPy and a CUDA device: {why}; use 'cpu'", "gpu")
+    return cupy, count
+
+
+def gpu_namespace() -> ModuleType:
+    """CuPy, on this rank's GPU (``gpu_for_rank``; ``require_gpu`` names what is missing)."""
+    cupy, count = require_gpu()
     cupy.cuda.Device(gpu_for_rank(local_rank(), count)).use()
     return cupy
 

@@ -102,6 +102,7 @@ from typing import Any
 import numpy as np
 
 from hpcontact.errors import InputError, did_you_mean
+from hpcontact.numerics.backend import require_gpu
 from hpcontact.problems.kinds import kind_of
 from hpcontact.scene import ACCURACY_RANGE
 from hpcontact.sweep.space.adaptive_settings import parse_settings
@@ -371,6 +372,8 @@ def spec_of_tables(
         if not 1e-9 <= fixed["accuracy"] < 1.0:
             raise InputError("--accuracy", ACCURACY_RANGE, accuracy)
     kind = kind_of(fixed)
+    if fixed.get("device") == "gpu":
+        require_gpu()  # where CuPy or a CUDA device is missing, refused before anything runs
     tensor = kind.angle_mode_refused is None and sweep.get("angle_mode", "tensor") == "tensor"
     _check_task_points(axes_table, tensor)  # counted before any axis is made, as the points
     axes = tuple(parse_axis(name, value) for name, value in axes_table.items())
