@@ -123,6 +123,36 @@ def to_columns(entries: Sequence[Entry], positions: Sequence[int]) -> Columns:
     )
 
 
+class ColumnsOnce:
+    """Columns of a growing set of entries, each turned into columns once (rank 0's journal
+    entries of an adaptive map's earlier rounds, which every round joins again): ``parts``
+    gives columns whose ``join`` is that of ``to_columns`` of all the entries at once (the join
+    of any split is the same, module docstring), built only for the entries not given before.
+    An entry given before that is now another (not the same object, nor equal) or left out
+    makes them all built again."""
+
+    def __init__(self) -> None:
+        self._given: dict[int, Entry] = {}  # position → entry
+        self._parts: list[Columns] = []
+
+    def parts(self, entries: Sequence[Entry], positions: Sequence[int]) -> list[Columns]:
+        """Columns of ``entries`` at ``positions`` (``to_columns``), in parts."""
+        given = self._given
+        fresh = [(e, int(at)) for e, at in zip(entries, positions) if not _same(given.get(int(at)), e)]
+        if len(entries) - len(fresh) != len(given) or any(at in given for _, at in fresh):
+            given, self._parts = {}, []  # an entry changed or dropped: all of them again
+            fresh = [(e, int(at)) for e, at in zip(entries, positions)]
+        if fresh or not self._parts:
+            self._parts.append(to_columns([e for e, _ in fresh], [at for _, at in fresh]))
+            given.update((at, e) for e, at in fresh)
+        self._given = given
+        return list(self._parts)
+
+
+def _same(old: Entry | None, new: Entry) -> bool:
+    return old is not None and (old is new or old == new)
+
+
 def join(parts: Sequence[Columns], tasks: int, excluded: Iterable[str] = ()) -> Joined:
     """Per-task arrays of ``tasks`` tasks from ``parts`` (later parts win); record keys in
     ``excluded`` (the names of the fixed variables) are left out."""

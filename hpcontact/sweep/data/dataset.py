@@ -121,7 +121,7 @@ def build_dataset(
 ) -> xr.Dataset:
     """The data set of ``spec`` from the journal ``entries``; ``where`` maps each point of the
     task axes to its task key (``tasks.enumerate_tasks``); ``attrs`` are global attributes,
-    ``command`` the command as its user gave it (``_history``)."""
+    ``command`` the command as its user gave it (``history_attribute``)."""
     keys, task_of = task_positions(where, tuple(len(a) for a in spec.task_axes))
     found = [(entries[key], at) for at, key in enumerate(keys) if key in entries]
     parts = [to_columns([e for e, _ in found], [at for _, at in found])] if found else []
@@ -418,7 +418,7 @@ def _global_attrs(
         if not (_is_number(value) or isinstance(value, str)):
             out[f"scene_{name}"] = json.dumps(value)
     out.update({k: _attribute_value(v) for k, v in attrs.items() if v is not None})
-    out["history"] = _history(spec, attrs, command)
+    out["history"] = history_attribute(spec, attrs, command)
     return {k: v for k, v in out.items() if v is not None}
 
 
@@ -432,7 +432,7 @@ def _attribute_value(value: Any) -> Any:
     return value
 
 
-def _history(spec: Spec, attrs: Mapping[str, Any], given: str | None = None) -> str | None:
+def history_attribute(spec: Spec, attrs: Mapping[str, Any], given: str | None = None) -> str | None:
     """The CF ``history``: one line per run, "<created>: <command>" (``attrs["created"]`` and
     the command as given: ``given``, from the entry point that ran the sweep,
     ``provenance.command_line`` or ``provenance.call_text``; else ``attrs["history"]``); a ``--resume`` run (its

@@ -433,39 +433,108 @@ class History:
 def read_history(folder: Path) -> History:
     """Every journal in ``folder`` (see ``History``). A file that cannot be read is reported on
     stderr and skipped: its tasks are simply computed again."""
-    history = History()
-    for path in journal_files(folder):
-        try:
-            header, events, dropped = scan_file(path)
-        except OSError as exc:
-            print(f"hpcontact: skipping unreadable journal {path}: {exc}", file=sys.stderr)
-            continue
-        history.files += 1
-        history.dropped += dropped
-        if header:
-            history.headers.append(header)
-        rank, host, session = (
-            int(header.get("rank", -1)),
-            str(header.get("host", "?")),
-            str(header.get("session", path.stem)),
-        )
-        open_starts: dict[str, float] = {}
+    return HistoryReader(folder).read()
+
+
+@dataclass
+class _FileState:
+    """What ``HistoryReader`` has read of one journal file: up to ``offset`` (bytes, the end of
+    its last complete line) of the file ``identity`` (device, inode); its header (``scan_file``:
+    the first well-formed event, if a ``run`` one; ``seen``: whether one was read), its last
+    outcome per task, open starts, stalled ranks and the complete lines dropped."""
+
+    identity: tuple[int, int]
+    offset: int = 0
+    seen: bool = False
+    header: dict[str, Any] = field(default_factory=dict)
+    entries: dict[str, Entry] = field(default_factory=dict)
+    open_starts: dict[str, float] = field(default_factory=dict)
+    stalled: set[tuple[str, int]] = field(default_factory=set)
+    dropped: int = 0
+
+    def add(self, events: list[dict[str, Any]], name: str) -> None:
+        """Take the next well-formed ``events`` of the file ``name`` (its stem: the session when
+        the header names none), in file order."""
+        if events and not self.seen:
+            self.seen = True
+            if events[0].get("event") == "run":
+                self.header, events = events[0], events[1:]
+        session = str(self.header.get("session", name))
         for event in events:
             kind, key = event.get("event"), event.get("key")
             if kind == "started":
-                open_starts[key] = float(event["time"])
+                self.open_starts[key] = float(event["time"])
             elif kind == "stalled":
-                history.stalled.add((session, int(event["rank"])))
+                self.stalled.add((session, int(event["rank"])))
             elif kind in ("finished", "interrupted"):
-                open_starts.pop(key, None)
+                self.open_starts.pop(key, None)
                 if kind == "finished":
-                    entry = _entry(event, header)
-                    old = history.entries.get(key)
+                    entry = _entry(event, self.header)
+                    old = self.entries.get(key)
                     if old is None or entry.finished >= old.finished:
-                        history.entries[key] = entry
-        for key, started in open_starts.items():
-            history.unfinished.setdefault(key, []).append(Start(key, session, rank, host, started))
-    return history
+                        self.entries[key] = entry
+
+
+class HistoryReader:
+    """The ``History`` of the journals in a folder, read again as often as needed (rank 0 before
+    each round of an adaptive map): each ``read`` parses only what was appended to each file
+    since the last (the journals are append-only: a file that shrank or was replaced, another
+    inode, is read again from its start; one that is gone is forgotten), and gives what
+    ``read_history`` of the whole folder gives. An ``Entry`` read once is the same object in
+    every later ``History`` until a later outcome of its task replaces it."""
+
+    def __init__(self, folder: Path) -> None:
+        self.folder = Path(folder)
+        self._files: dict[Path, _FileState] = {}
+
+    def read(self) -> History:
+        """The history of the journals as they are now (``read_history``)."""
+        history = History()
+        states: list[tuple[Path, _FileState, int]] = []  # with the lines dropped at a torn tail
+        for path in journal_files(self.folder):
+            try:
+                state, torn = self._update(path)
+            except OSError as exc:
+                print(f"hpcontact: skipping unreadable journal {path}: {exc}", file=sys.stderr)
+                self._files.pop(path, None)
+                continue
+            states.append((path, state, torn))
+        self._files = {path: state for path, state, _ in states}
+        for path, state, torn in states:
+            history.files += 1
+            history.dropped += state.dropped + torn
+            header = state.header
+            if header:
+                history.headers.append(header)
+            history.stalled |= state.stalled
+            for key, entry in state.entries.items():  # the last outcome: by finish time, ties to the later file
+                old = history.entries.get(key)
+                if old is None or entry.finished >= old.finished:
+                    history.entries[key] = entry
+            rank, host = int(header.get("rank", -1)), str(header.get("host", "?"))
+            session = str(header.get("session", path.stem))
+            for key, started in state.open_starts.items():
+                history.unfinished.setdefault(key, []).append(Start(key, session, rank, host, started))
+        return history
+
+    def _update(self, path: Path) -> tuple[_FileState, int]:
+        """The state of ``path`` with what was appended since the last read, and 1 if the file
+        ends in an incomplete line (a torn tail: dropped now, read again once it is complete)."""
+        with open(path, "rb") as handle:
+            status = os.fstat(handle.fileno())
+            identity = (status.st_dev, status.st_ino)
+            state = self._files.get(path)
+            if state is None or state.identity != identity or status.st_size < state.offset:
+                state = _FileState(identity)
+            handle.seek(state.offset)
+            data = handle.read()
+        complete = data.rfind(b"\n") + 1
+        decoded, dropped = scan_lines(data[:complete])
+        events = [e for e in decoded if well_formed(e)]
+        state.dropped += dropped + len(decoded) - len(events)
+        state.offset += complete
+        state.add(events, path.stem)
+        return state, int(complete < len(data))
 
 
 def record_stall(folder: Path, rank: int, session: str, stalled: int) -> None:

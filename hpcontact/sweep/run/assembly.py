@@ -14,9 +14,10 @@ import numpy as np
 
 from hpcontact.sweep import faults
 from hpcontact.sweep.data import provenance
-from hpcontact.sweep.data.columns import NOT_COMPUTED, join, to_columns
+from hpcontact.sweep.data.columns import NOT_COMPUTED, join
 from hpcontact.sweep.data.journal import OK
 from hpcontact.sweep.run.records import Kept, Options, Outcome, Plan, RankTotals, RoundScope
+from hpcontact.sweep.run.resume import round_memory
 from hpcontact.sweep.run.summary import Summary, print_summary, round_sums
 
 
@@ -25,7 +26,9 @@ def joined_outcomes(plan: Plan, kept: Kept, totals: list[RankTotals], scope: Rou
     from the ranks' ``totals``, and those of earlier journals (reused, quarantined, or carried
     from an adaptive round before). An adaptive round's scope is the tasks of its rounds so far
     (``select`` and ``earlier``): an entry the journals hold for another point of the grid (a
-    finer map's) is no solve of this data set, nor counted among its contributors."""
+    finer map's) is no solve of this data set, nor counted among its contributors. The earlier
+    entries are turned into columns once in an adaptive run (``resume.RoundMemory``): each
+    round adds its new ones."""
     from hpcontact.sweep.data.dataset import FIXED_VARIABLES
 
     history = kept.history
@@ -36,7 +39,8 @@ def joined_outcomes(plan: Plan, kept: Kept, totals: list[RankTotals], scope: Rou
         if (t.key in kept.crashed or t.key in kept.reused or t.key in kept.carried)
         and (covered is None or i in covered)
     ]
-    parts = [to_columns([e for e, _ in earlier], [i for _, i in earlier])] + [t.columns for t in totals]
+    columns = round_memory(scope).earlier_columns.parts([e for e, _ in earlier], [i for _, i in earlier])
+    parts = columns + [t.columns for t in totals]
     return join(parts, len(plan.tasks), FIXED_VARIABLES)
 
 
@@ -54,12 +58,19 @@ def assemble(
 ) -> Outcome:
     """Rank 0: the data set of the round (``joined_outcomes``), given to an adaptive round's
     ``scope.finish``, with its summary, written as netCDF; the summary printed on ``stream``;
-    ``command``: the command as its user gave it, for the history (``dataset.dataset_of``)."""
-    from hpcontact.sweep.data.dataset import dataset_of, write_netcdf
+    ``command``: the command as its user gave it, for the history (``dataset.history_attribute``):
+    that of the run as its user started it (an adaptive run's first round's ``options``; its
+    later rounds run as resumes), made only for the data set that is written."""
+    from hpcontact.sweep.data.dataset import dataset_of, history_attribute, write_netcdf
 
     spec = plan.spec
     gather_started = time.perf_counter()
     joined = joined_outcomes(plan, kept, totals, scope)
+    first = round_memory(scope).first_options or options
+    run = {
+        "created": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+        "history": f"hpcontact run {spec.path}{' --resume' if first.resume else ''}",
+    }
     failed = [int(i) for i in np.flatnonzero((joined.status != OK) & (joined.status != NOT_COMPUTED))]
     dataset = dataset_of(
         spec,
@@ -70,9 +81,8 @@ def assemble(
             "git_revision": plan.decision.provenance["git_revision"],
             "numerics": json.dumps(provenance.numerics(), sort_keys=True),
             "sweep_contributors": joined.provenance,
-            "created": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+            "created": run["created"],
             "mpi_size": ranks,
-            "history": f"hpcontact run {spec.path}{' --resume' if options.resume else ''}",
             "sweep_journal_sync_time_s": sum(t.sync_s for t in totals),
         },
         derive=False,  # write_netcdf stores K_nn and normalized_nn (it derives them once, there)
@@ -83,6 +93,7 @@ def assemble(
         dataset = scope.finish(dataset, joined)
         if dataset is None:  # not the last round: nothing to write
             return Outcome(Path(spec.output), len(failed))
+    dataset.attrs["history"] = history_attribute(spec, run, command)
     now = time.perf_counter()
     summary = Summary.of(plan, sums, len(failed), ranks, now - started, now - gather_started)
     dataset.attrs.update(summary.attrs())

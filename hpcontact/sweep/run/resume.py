@@ -12,22 +12,25 @@ written before runners were recorded) was computed by the scene kind's own solve
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import weakref
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from hpcontact import accuracy
 from hpcontact.sweep import faults
 from hpcontact.sweep.data import provenance
+from hpcontact.sweep.data.columns import ColumnsOnce
 from hpcontact.sweep.data.journal import (
     OK,
     RETRIED,
     Entry,
     History,
+    HistoryReader,
     clear_journals,
     journal_files,
     legacy_journals,
-    read_history,
     session_name,
 )
 from hpcontact.sweep.run.guard import Refused, RunLock, apart, usable_folder, usable_output
@@ -54,6 +57,45 @@ def runner_of(entry: Entry, spec: Spec) -> str:
     return entry.provenance.get(RUNNER) or runner_name(accuracy.task_function(spec.kind))
 
 
+@dataclass
+class RoundMemory:
+    """What rank 0 keeps from one round of an adaptive map to the next (issue 40 item 5: rank 0
+    alone between rounds, every other rank waiting, re-read every journal and rebuilt the
+    columns of every earlier round, each round): the journals' reader (``HistoryReader``: each
+    round parses what was appended since the last), each journaled task's verdict (``_decide``:
+    its entry, and its runner if its outcome and scene let it be reused, else None), the
+    earlier rounds' columns (``columns.ColumnsOnce``) and the first round's options (a later
+    round runs as a resume; the data set's history is the run's as its user started it)."""
+
+    reader: HistoryReader | None = None
+    verdicts: dict[str, tuple[Entry, str | None]] = field(default_factory=dict)
+    earlier_columns: ColumnsOnce = field(default_factory=ColumnsOnce)
+    first_options: Options | None = None
+
+    def history(self, folder: Path) -> History:
+        """The history of the journals in ``folder`` (``journal.read_history``), read
+        incrementally from the last round's."""
+        if self.reader is None or self.reader.folder != Path(folder):
+            self.reader = HistoryReader(folder)
+        return self.reader.read()
+
+
+_MEMORIES: dict[int, RoundMemory] = {}  # by the id of an adaptive run's RoundTally, while it lives
+
+
+def round_memory(scope: RoundScope) -> RoundMemory:
+    """Rank 0's ``RoundMemory`` of the run ``scope`` is a round of: one for every round of an
+    adaptive run (its ``scope.tally``, the one object its rounds share; dropped with it), a
+    fresh one for a plain run's one round."""
+    if scope.tally is None:
+        return RoundMemory()
+    key = id(scope.tally)
+    if key not in _MEMORIES:
+        _MEMORIES[key] = RoundMemory()
+        weakref.finalize(scope.tally, _MEMORIES.pop, key, None)
+    return _MEMORIES[key]
+
+
 def prepare(
     spec: Spec,
     tasks: list[Task],
@@ -64,7 +106,11 @@ def prepare(
     scope: RoundScope = EVERY_TASK,
 ) -> tuple[Decision, Kept]:
     """Rank 0's preparation of a round of ``scope`` (see ``hpcontact.sweep.driver``): the
-    decision every rank follows and what stays on rank 0 (``Kept``)."""
+    decision every rank follows and what stays on rank 0 (``Kept``). An adaptive round decides
+    over its own tasks and its earlier rounds' (``scope.select``, ``scope.earlier``), not the
+    whole grid: the entries it would reuse are those checked against stale code, and counted
+    when another runner computed them; the journals are read from where the last round left
+    them (``RoundMemory``)."""
     apart(spec)  # the output is not the spec, a mask or the journal folder (a dry run checks the same)
     if over:
         check_memory(tasks, *options.mem_per_rank)
@@ -77,7 +123,10 @@ def prepare(
         (spec.journal / STOP_NAME).unlink(missing_ok=True)
         for beat in spec.journal.glob(f"{ALIVE_PREFIX}*"):  # an earlier run's heartbeats
             beat.unlink(missing_ok=True)
-        history = read_history(spec.journal)
+        memory = round_memory(scope)
+        if memory.first_options is None:
+            memory.first_options = options
+        history = memory.history(spec.journal)
         faults.slow_phase("setup")
         if history.files and not (options.resume or options.restart):
             now = current(spec, options)
@@ -100,7 +149,8 @@ def prepare(
                 f"provenance and cannot be reused; pass --restart to discard them"
             )
         now = current(spec, options)
-        isolated, shared, reused, crashed, foreign = _decide(spec, tasks, history, options, now)
+        covered = None if scope.select is None else sorted(scope.select | scope.earlier)
+        isolated, shared, reused, crashed, foreign = _decide(spec, tasks, covered, history, options, now, memory)
         note = "; ".join(filter(None, (note, foreign))) or None
         carried: set[str] = set()
         counted = len(reused)  # the round's tasks from journals
@@ -174,25 +224,37 @@ def up_to_date(spec: Spec, tasks: list[Task], history: History, now: Mapping[str
 
 
 def _decide(
-    spec: Spec, tasks: list[Task], history: History, options: Options, now: Mapping[str, Any]
+    spec: Spec,
+    tasks: list[Task],
+    covered: Iterable[int] | None,
+    history: History,
+    options: Options,
+    now: Mapping[str, Any],
+    memory: RoundMemory,
 ) -> tuple[list[int], list[int], set[str], set[str], str | None]:
-    """Suspects to isolate and the rest to share (positions), the reused keys, the quarantined
-    keys, and the line that says how many entries another runner computed (run again), if any."""
-    keys = {t.key for t in tasks}
+    """Over the tasks at ``covered`` (positions, in order; None: every task): suspects to isolate
+    and the rest to share (positions), the reused keys, the quarantined keys, and the line that
+    says how many entries another runner computed (run again), if any. Each journaled task's
+    verdict is kept in ``memory`` while its entry is the same object (an adaptive map's earlier
+    rounds are not resolved again each round)."""
+    positions = range(len(tasks)) if covered is None else covered
     reused = []
     foreign: dict[str, int] = {}  # entries that would be reused but for their runner, per runner
-    for task in tasks:
+    for i in positions:
+        task = tasks[i]
         entry = history.entries.get(task.key)
-        if (
-            entry is not None
-            and entry.status not in RETRIED
-            and entry.resolved == provenance.resolved_scene(task.params)
-        ):
-            runner = runner_of(entry, spec)
-            if runner == now[RUNNER]:
-                reused.append(entry)
-            else:
-                foreign[runner] = foreign.get(runner, 0) + 1
+        if entry is None:
+            continue
+        known = memory.verdicts.get(task.key)
+        if known is None or known[0] is not entry:
+            usable = entry.status not in RETRIED and entry.resolved == provenance.resolved_scene(task.params)
+            known = (entry, runner_of(entry, spec) if usable else None)
+            memory.verdicts[task.key] = known
+        runner = known[1]
+        if runner == now[RUNNER]:
+            reused.append(entry)
+        elif runner is not None:
+            foreign[runner] = foreign.get(runner, 0) + 1
     if not options.accept_stale:
         mismatch = provenance.first_mismatch(reused, now)
         if mismatch is not None:
@@ -201,9 +263,10 @@ def _decide(
                 f"results or --restart to discard them"
             )
     done = {e.key for e in reused}
-    suspects = {k: s for k, s in history.suspects().items() if k in keys and k not in done}
+    suspected = history.suspects()
+    suspects = {tasks[i].key for i in positions if tasks[i].key in suspected and tasks[i].key not in done}
     crashed = set() if options.retry_crashed else {k for k in history.crashed() if k in suspects}
-    todo = [i for i, t in enumerate(tasks) if t.key not in done and t.key not in crashed]
+    todo = [i for i in positions if tasks[i].key not in done and tasks[i].key not in crashed]
     isolated = [i for i in todo if tasks[i].key in suspects]
     shared = [i for i in todo if tasks[i].key not in suspects]
     return isolated, shared, done, crashed, _foreign_note(foreign)
