@@ -10,16 +10,23 @@ Both run on the arrays they are given, of any array-API namespace (numpy on the 
 GPU: ``hpcontact.numerics.backend``), and call only the standard's functions and
 ``backend.dot``/``backend.norm``: no copy to or from the host inside an iteration but the scalars
 the iteration decides by (pᵀAp, rᵀz, ‖r‖, the step τ), read by ``float``.
+
+``conjugate_gradient_batch`` runs CG on a stack of independent systems that share a grid shape
+(the leading axis: the scene), one operator application for all of them per iteration (a batched
+FFT on a GPU): per-scene step lengths and stopping, one small vector copied to the host per
+iteration.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
+import numpy as np
+
 from hpcontact.errors import ConvergenceError
-from hpcontact.numerics.backend import Array, copy, dot, namespace, norm
+from hpcontact.numerics.backend import Array, copy, dot, namespace, norm, to_device, to_host
 
 Operator = Callable[[Array], Array]
 
@@ -192,3 +199,136 @@ def contact_residuals(u: Array, h: Array, p: Array, load: float | None, cell_are
     penetration = max(0.0, float(-xp.min(g[outside]))) / scale if bool(xp.any(outside)) else 0.0
     load_error = 0.0 if load is None else abs(float(xp.sum(p)) * cell_area - load) / load
     return gap, penetration, load_error
+
+
+@dataclass
+class BatchSolution:
+    """The solutions of a batch of B scenes: tractions (B, c, nx, ny) in the namespace of the
+    solve's arrays, and per scene the iterations used and the final relative residual ‖r‖/‖b‖."""
+
+    traction: Array
+    iterations: list[int]
+    residuals: list[float]
+
+    def scene(self, index: int) -> Solution:
+        """Scene ``index``'s solution, as ``conjugate_gradient`` returns one."""
+        return Solution(self.traction[index, ...], self.iterations[index], self.residuals[index])
+
+
+def conjugate_gradient_batch(
+    apply: Operator,
+    rhs: Array,
+    mask: Array,
+    tol: float | Sequence[float] = 1e-10,
+    maxiter: int | Sequence[int] | None = None,
+    precondition: Operator | None = None,
+) -> BatchSolution:
+    """``conjugate_gradient`` on B independent systems P_k A_k P_k t_k = P_k b_k at once (k the
+    leading axis of every array: the scene).
+
+    ``rhs`` is (B, c, nx, ny), ``mask`` (B, nx, ny) or (B, c, nx, ny); ``apply`` and
+    ``precondition`` map a stack (B, c, nx, ny) to a stack, scene k by A_k and M_k⁻¹ (e.g. one
+    batched FFT over the last two axes with per-scene spectra). Each scene runs Hestenes & Stiefel's
+    recurrence with its own step lengths α_k = r_kᵀz_k / p_kᵀA_k p_k and β_k = r_kᵀz_k (new) / r_kᵀz_k,
+    and stops by the single-scene rule, ‖r_k‖₂ ≤ tol_k ‖b_k‖₂ (``tol`` one value or one per
+    scene; ``maxiter`` likewise, by default the single-scene default of each scene's mask). A scene
+    that has converged stops changing (its α and β are frozen at 0 and 1 and its direction kept)
+    while the others iterate; its iterations and residual are those of the iteration it converged
+    at. The per-scene scalars are computed on the arrays' device; the one copy to the host per
+    iteration is the vector (pᵀAp, ‖r‖/‖b‖) of the B scenes, by which the loop decides. A scene whose
+    curvature pᵀAp ≤ 0, whose residual is not finite or that reaches its ``maxiter`` raises
+    ``ConvergenceError`` naming it (the batch fails as a whole).
+    """
+    if rhs.ndim != 4:
+        raise ValueError("rhs must have shape (scenes, components, nx, ny)")
+    xp = namespace(rhs)
+    scenes = rhs.shape[0]
+    weight = xp.astype(mask, xp.float64)
+    if weight.ndim == 3:
+        weight = xp.expand_dims(weight, axis=1)
+    b = rhs * weight
+    b_norm = _scene_norms(b)
+    b_norm_host = to_host(b_norm)
+    if not bool(np.all(np.isfinite(b_norm_host))):
+        raise ValueError(f"prescribed displacement is not finite in scenes {np.flatnonzero(~np.isfinite(b_norm_host))}")
+    if maxiter is None:  # the single-scene default of each scene's mask
+        cells = to_host(xp.sum(weight, axis=(1, 2, 3))) / weight.shape[1]
+        limits = [max(200, 10 * int(math.sqrt(float(m))) + 50) for m in cells]
+    else:
+        limits = _per_scene(maxiter, scenes, "maxiter")
+    tolerances = _per_scene(tol, scenes, "tol")
+    tol_device = to_device(np.asarray(tolerances, dtype=np.float64), xp)
+    iterations = [0] * scenes
+    residuals = [0.0] * scenes
+    active_host = b_norm_host > 0.0  # a scene with b = 0 has t = 0: converged before the first iteration
+    active = to_device(active_host, xp)
+    scale = to_device(np.where(active_host, 1.0 / np.where(active_host, b_norm_host, 1.0), 0.0), xp)
+    x = xp.zeros_like(b)
+    r = copy(b)
+
+    def preconditioned(residual_: Array) -> Array:
+        return precondition(residual_) * weight if precondition else residual_
+
+    def per_scene(values: Array) -> Array:  # (B,) → (B, 1, 1, 1), to scale each scene's field
+        return xp.reshape(values, (scenes, 1, 1, 1))
+
+    z = preconditioned(r)
+    p = copy(z)
+    rz = _scene_dots(r, z)
+    for iteration in range(1, max(limits, default=0) + 1):
+        if not bool(active_host.any()):
+            break
+        q = apply(p)
+        q *= weight
+        curvature = _scene_dots(p, q)
+        alpha = xp.where(active, rz / xp.where(active, curvature, 1.0), 0.0)
+        x += per_scene(alpha) * p
+        r -= per_scene(alpha) * q
+        residual = _scene_norms(r) * scale
+        still = active & ~(residual <= tol_device)
+        z = preconditioned(r)
+        rz_new = _scene_dots(r, z)
+        beta = xp.where(still, rz_new / xp.where(still, rz, 1.0), 1.0)
+        p = xp.where(per_scene(still), p * per_scene(beta) + z, p)
+        rz = xp.where(still, rz_new, rz)
+        curvature_host, residual_host = to_host(xp.stack([curvature, residual]))  # the iteration's one copy
+        for k in np.flatnonzero(active_host):
+            if not curvature_host[k] > 0.0:
+                raise ConvergenceError(
+                    f"scene {k}: operator is not positive definite on the mask", iteration, residuals[k]
+                )
+            if not math.isfinite(residual_host[k]):
+                raise ConvergenceError(
+                    f"scene {k}: non-finite residual in conjugate gradients", iteration, residual_host[k]
+                )
+            iterations[k], residuals[k] = iteration, float(residual_host[k])
+            if residual_host[k] <= tolerances[k]:
+                active_host[k] = False
+            elif iteration >= limits[k]:
+                raise ConvergenceError(
+                    f"scene {k}: conjugate gradients did not reach tol={tolerances[k]:g}", iteration, residuals[k]
+                )
+        active = still
+    return BatchSolution(x, iterations, residuals)
+
+
+def _scene_dots(a: Array, b: Array) -> Array:
+    """Σ a·b over each scene of two stacks (B, ...) of one shape: a (B,) array on their device."""
+    xp = namespace(a)
+    return xp.vecdot(xp.reshape(a, (a.shape[0], -1)), xp.reshape(b, (b.shape[0], -1)))
+
+
+def _scene_norms(a: Array) -> Array:
+    """‖a_k‖₂ of each scene of a stack (B, ...): a (B,) array on its device."""
+    xp = namespace(a)
+    return xp.linalg.vector_norm(xp.reshape(a, (a.shape[0], -1)), axis=1)
+
+
+def _per_scene(value: float | int | Sequence | None, scenes: int, name: str) -> list:
+    """``value`` repeated for each of ``scenes`` scenes, or the sequence itself when it has one per scene."""
+    if value is None or isinstance(value, (int, float)):
+        return [value] * scenes
+    values = list(value)
+    if len(values) != scenes:
+        raise ValueError(f"{name} has {len(values)} values for {scenes} scenes")
+    return values

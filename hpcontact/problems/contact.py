@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping, Sequence
 from types import ModuleType
 from typing import Any
 
@@ -22,11 +22,16 @@ import numpy as np
 from hpcontact import quantities as q
 from hpcontact.errors import InputError
 from hpcontact.geometry import Grid, crop_to_support, grid_for, load_mask, mask_grid, rasterize, self_affine_surface
-from hpcontact.kernels.engine import Engine
+from hpcontact.kernels.engine import Engine, block_name
 from hpcontact.materials.isotropic import Isotropic
-from hpcontact.numerics.backend import array_namespace, to_device, to_host
-from hpcontact.numerics.conjugate_gradient import Solution, conjugate_gradient, polonsky_keer
-from hpcontact.numerics.convolution import COMPONENT_INDEX
+from hpcontact.numerics.backend import Array, array_namespace, to_device, to_host
+from hpcontact.numerics.conjugate_gradient import (
+    Solution,
+    conjugate_gradient,
+    conjugate_gradient_batch,
+    polonsky_keer,
+)
+from hpcontact.numerics.convolution import COMPONENT_INDEX, block_table
 from hpcontact.numerics.preconditioner import FourierPreconditioner
 from hpcontact.plan import Solve, make_plan
 from hpcontact.scene import Scene
@@ -75,10 +80,18 @@ def rough_patch(scene: Scene, grid: Grid) -> np.ndarray:
     return to_host(solution.traction)[0] > 0.0
 
 
-def _preconditioner(scene: Scene, engine: Engine, solve: Solve):
+def _preconditioner_of(scene: Scene, engine: Engine, solve: Solve) -> FourierPreconditioner | None:
     if not scene.precondition:
         return None
-    return FourierPreconditioner(engine.grid, engine.green_function(solve.green), solve.components, xp=engine.xp).apply
+    return FourierPreconditioner(engine.grid, engine.green_function(solve.green), solve.components, xp=engine.xp)
+
+
+def _force(traction: np.ndarray, components: str, grid: Grid) -> np.ndarray:
+    """The resultant force (x, y, z) of a host traction (c, nx, ny) on ``components``."""
+    force = np.zeros(3)
+    for c, value in zip(components, q.resultant(traction, grid.cell_area)):
+        force[COMPONENT_INDEX[c]] = value
+    return force
 
 
 def _run_solve(scene: Scene, engine: Engine, mask: np.ndarray, solve: Solve) -> tuple[np.ndarray, Solution]:
@@ -88,64 +101,219 @@ def _run_solve(scene: Scene, engine: Engine, mask: np.ndarray, solve: Solve) -> 
     rhs = np.zeros((len(solve.components),) + mask.shape)
     rhs[solve.components.index(solve.load)] = 1.0
     xp = engine.xp
+    preconditioner = _preconditioner_of(scene, engine, solve)
     solution = conjugate_gradient(
         op.apply,
         to_device(rhs, xp),
         to_device(mask, xp),
         tol=scene.tol,
-        precondition=_preconditioner(scene, engine, solve),
+        precondition=None if preconditioner is None else preconditioner.apply,
     )
     solution.traction = to_host(solution.traction)
-    force = np.zeros(3)
-    resultants = q.resultant(solution.traction, engine.grid.cell_area)
-    for c, value in zip(solve.components, resultants):
-        force[COMPONENT_INDEX[c]] = value
-    return force, solution
+    return _force(solution.traction, solve.components, engine.grid), solution
+
+
+def _operator_spectra(engine: Engine, components: str, green: str) -> dict[str, np.ndarray]:
+    """The host spectra of ``engine.operator(components, green)``: every planned block of ``green``
+    among ``components`` (absent blocks are zero)."""
+    spectra = {}
+    for a in components:
+        for b in components:
+            try:
+                spectra[a + b] = engine.spectrum(block_name(a, b, green))
+            except KeyError:
+                continue
+    return spectra
+
+
+class FourierProductStack:
+    """y_k = crop(F⁻¹ Σ_j S_k,ij F pad(t_k,j)) for a stack of B scenes (k) of c components (i, j)
+    on one grid (nx, ny): the batched form of a convolution operator (S the kernel spectra, the
+    grid zero-padded to ``padded_shape``; docs/design.md §2.2) and of the Fourier preconditioner
+    (S its symbol |k| H⁻¹ on its periodic grid). F is ``xp.fft``'s real 2-D transform over the
+    last two axes of the whole stack (B, c, N1, N2): one batched transform each way per
+    application (cuFFT through CuPy on a GPU).
+
+    ``tables[k][i][j]`` is scene k's block (i, j): an array of ``xp`` of the rfft2 shape of
+    ``shape``, or None (zero). A block that is the same array in every scene is kept once and
+    broadcast over the stack; else the scenes' blocks are stacked (complex if any is). Units: those
+    of S times those of t.
+    """
+
+    def __init__(
+        self,
+        tables: Sequence[Sequence[Sequence[Array | None]]],
+        grid_shape: tuple[int, int],
+        shape: tuple[int, int],
+        xp: ModuleType,
+    ) -> None:
+        self.xp, self.grid_shape, self.shape = xp, grid_shape, shape
+        scenes, c = len(tables), len(tables[0])
+        self.blocks: list[list[Array | None]] = []
+        for i in range(c):
+            row: list[Array | None] = []
+            for j in range(c):
+                entries = [table[i][j] for table in tables]
+                present = [e for e in entries if e is not None]
+                if not present:
+                    row.append(None)
+                elif len(present) == scenes and all(e is present[0] for e in present):
+                    row.append(xp.expand_dims(present[0], axis=0))
+                else:
+                    complex_ = any(xp.isdtype(e.dtype, "complex floating") for e in present)
+                    dtype = xp.complex128 if complex_ else xp.float64
+                    zero = xp.zeros(present[0].shape, dtype=dtype)
+                    row.append(xp.stack([zero if e is None else xp.astype(e, dtype) for e in entries]))
+            self.blocks.append(row)
+        self._padded = xp.zeros((scenes, c) + shape, dtype=xp.float64)  # zero outside the grid's cells
+
+    def apply(self, stack: Array) -> Array:
+        """The products of a stack (B, c, nx, ny) of ``xp``: a stack (B, c, nx, ny)."""
+        xp, (nx, ny) = self.xp, self.grid_shape
+        self._padded[:, :, :nx, :ny] = stack
+        spectra = xp.fft.rfftn(self._padded, axes=(2, 3))
+        rows = []
+        for row in self.blocks:
+            total = None
+            for j, block in enumerate(row):
+                if block is not None:
+                    term = block * spectra[:, j, ...]
+                    total = term if total is None else total + term
+            rows.append(xp.zeros_like(spectra[:, 0, ...]) if total is None else total)
+        return xp.fft.irfftn(xp.stack(rows, axis=1), s=self.shape, axes=(2, 3))[:, :, :nx, :ny]
+
+
+def _run_solve_batch(solves: Sequence[PunchSolve]) -> list[tuple[np.ndarray, Solution]]:
+    """``_run_solve`` of each of ``solves``, those of one device, components, grid shape and
+    preconditioner grid as one ``conjugate_gradient_batch`` (a ``FourierProductStack`` of their
+    spectra and one of their preconditioners' symbols); results in the order of ``solves``."""
+    preconditioners = [_preconditioner_of(scene, engine, s) for scene, engine, _, s in solves]
+    groups: dict[tuple, list[int]] = {}
+    for index, ((_, engine, mask, s), pre) in enumerate(zip(solves, preconditioners)):
+        key = (id(engine.xp), s.components, mask.shape, None if pre is None else pre.shape)
+        groups.setdefault(key, []).append(index)
+    results: list[tuple[np.ndarray, Solution] | None] = [None] * len(solves)
+    for members in groups.values():
+        scenes, engines, masks, plan_solves = zip(*(solves[m] for m in members))
+        engine, s = engines[0], plan_solves[0]
+        xp, shape, c = engine.xp, masks[0].shape, len(s.components)
+        on_device: dict[int, Array] = {}  # one device copy per host spectrum (scenes on one grid share theirs)
+        tables = []
+        for e, s_ in zip(engines, plan_solves):
+            table = block_table(s_.components, _operator_spectra(e, s_.components, s_.green), e.fft_shape)
+            for row in table:
+                for spectrum in row:
+                    if spectrum is not None and id(spectrum) not in on_device:
+                        on_device[id(spectrum)] = to_device(spectrum, xp)
+            tables.append([[None if x is None else on_device[id(x)] for x in row] for row in table])
+        operator = FourierProductStack(tables, shape, engine.fft_shape, xp)
+        pres = [preconditioners[m] for m in members]
+        precondition = None
+        if pres[0] is not None:
+            symbols = [[[p.symbol[i, j, ...] for j in range(c)] for i in range(c)] for p in pres]
+            precondition = FourierProductStack(symbols, shape, pres[0].shape, xp).apply
+        rhs = np.zeros((len(members), c) + shape)
+        for k, s_ in enumerate(plan_solves):
+            rhs[k, s_.components.index(s_.load)] = 1.0
+        batch = conjugate_gradient_batch(
+            operator.apply,
+            to_device(rhs, xp),
+            to_device(np.stack(masks), xp),
+            tol=[scene.tol for scene in scenes],
+            precondition=precondition,
+        )
+        tractions = to_host(batch.traction)
+        for k, m in enumerate(members):
+            solution = Solution(tractions[k], batch.iterations[k], batch.residuals[k])
+            results[m] = (_force(solution.traction, plan_solves[k].components, engines[k].grid), solution)
+    return results
 
 
 def solve(scene: Scene) -> dict[str, Any]:
     """Solve one scene on its grid; the record of docs/design.md §4.1 (keys that apply to the
     quantities asked). Build the scene from fields with ``Scene.from_params``."""
+    return _solve_scenes([scene], lambda jobs: [_run_solve(*job) for job in jobs])[0]
+
+
+def solve_batch(scenes: Sequence[Scene]) -> list[dict[str, Any]]:
+    """Solve several scenes, their punch solves batched: one record per scene, in order, each
+    ``solve``'s record of that scene up to rounding.
+
+    The linear solves of all scenes that share a device, traction components, grid shape (nx, ny)
+    and preconditioner grid are one ``conjugate_gradient_batch`` (``_run_solve_batch``): one
+    batched FFT per operator application over their stacked tractions, with each scene's kernel
+    spectra. Scenes of different grids are batched by grid, so any scenes may be given; a batch
+    pays when its scenes share a grid (a sweep's points at one n and shape). The rest of a scene
+    (discretization, kernels, the compliance proxy, indentation by Polonsky–Keer, the record) is
+    ``solve``'s, one scene at a time. ``wall_time_s`` is a scene's own time plus an equal share of
+    its batch's. A scene that fails its solve (``ConvergenceError``) fails the batch: the error
+    names the scene's index in its group.
+    """
+    return _solve_scenes(list(scenes), _run_solve_batch)
+
+
+#: One linear solve of a scene: (scene, engine, mask, solve), the arguments of ``_run_solve``.
+PunchSolve = tuple[Scene, Engine, np.ndarray, Solve]
+
+
+def _solve_scenes(
+    scenes: list[Scene], run_solves: Callable[[list[PunchSolve]], list[tuple[np.ndarray, Solution]]]
+) -> list[dict[str, Any]]:
+    """The records of ``scenes``, their punch solves run by ``run_solves`` (all scenes' at once:
+    one result per solve, in order)."""
+    setups, solves, own_time = [], [], []
+    for scene in scenes:
+        started = time.perf_counter()
+        punch = [q_ for q_ in scene.quantities if q_ != "indentation"]
+        if punch:
+            grid, mask = discretize(scene)
+            plan = make_plan(scene, mask, grid)
+            engine = Engine(scene.material, grid, plan.kernels, scene.threads, xp=scene_namespace(scene))
+            solves += [(scene, engine, mask, s) for s in plan.solves if s.name != "indentation_polonsky_keer"]
+            setups.append((plan, grid, mask, engine))
+        else:
+            setups.append((make_plan(scene, np.ones((1, 1), dtype=bool), Grid(1, 1, 1.0, 1.0)), None, None, None))
+        own_time.append(time.perf_counter() - started)
     started = time.perf_counter()
-    record: dict[str, Any] = {}
-    iterations, residual = 0, 0.0
-    punch = [q_ for q_ in scene.quantities if q_ != "indentation"]
-    if punch:
-        grid, mask = discretize(scene)
-        plan = make_plan(scene, mask, grid)
-        engine = Engine(scene.material, grid, plan.kernels, scene.threads, xp=scene_namespace(scene))
-        record.update(_grid_fields(grid))
-        record["contact_cells"] = int(mask.sum())
-        if scene.shape.name == "mask":  # the data set then says which length a is
-            record["length_unit"] = MASK_LENGTH_UNIT
-        forces: dict[str, np.ndarray] = {}
-        for s in plan.solves:
-            if s.name == "indentation_polonsky_keer":
-                continue
-            force, solution = _run_solve(scene, engine, mask, s)
-            forces[s.name] = force
+    results = iter(run_solves(solves))
+    shared_time = (time.perf_counter() - started) / max(len(scenes), 1)
+    records = []
+    for scene, (plan, grid, mask, engine), own in zip(scenes, setups, own_time):
+        started = time.perf_counter()
+        record: dict[str, Any] = {}
+        iterations, residual = 0, 0.0
+        if engine is not None:
+            record.update(_grid_fields(grid))
+            record["contact_cells"] = int(mask.sum())
+            if scene.shape.name == "mask":  # the data set then says which length a is
+                record["length_unit"] = MASK_LENGTH_UNIT
+            forces: dict[str, np.ndarray] = {}
+            for s in plan.solves:
+                if s.name == "indentation_polonsky_keer":
+                    continue
+                force, solution = next(results)
+                forces[s.name] = force
+                iterations += solution.iterations
+                residual = max(residual, solution.residual)
+            record.update(q.stiffness_record(forces, scene.quantities, scene.material, noise=scene.tol))
+            if "compliance" in scene.quantities:
+                record.update(_compliance_proxy(engine, mask))
+        if "indentation" in scene.quantities:
+            indentation, solution, sphere_grid = _indentation(scene)
+            if engine is not None:  # nx ny dx dy contact_cells describe the punch's grid
+                indentation.pop("contact_cells")
+            else:
+                record.update(_grid_fields(sphere_grid))
+            record.update(indentation)
             iterations += solution.iterations
             residual = max(residual, solution.residual)
-        record.update(q.stiffness_record(forces, scene.quantities, scene.material, noise=scene.tol))
-        if "compliance" in scene.quantities:
-            record.update(_compliance_proxy(engine, mask))
-    else:
-        plan = make_plan(scene, np.ones((1, 1), dtype=bool), Grid(1, 1, 1.0, 1.0))
-    if "indentation" in scene.quantities:
-        indentation, solution, sphere_grid = _indentation(scene)
-        if punch:  # nx ny dx dy contact_cells describe the punch's grid
-            indentation.pop("contact_cells")
-        else:
-            record.update(_grid_fields(sphere_grid))
-        record.update(indentation)
-        iterations += solution.iterations
-        residual = max(residual, solution.residual)
-    record["iterations"] = iterations
-    record["residual"] = residual
-    record["plan"] = plan.as_dict()
-    record["wall_time_s"] = time.perf_counter() - started
-    _check_finite(record)
-    return record
+        record["iterations"] = iterations
+        record["residual"] = residual
+        record["plan"] = plan.as_dict()
+        record["wall_time_s"] = own + shared_time + time.perf_counter() - started
+        _check_finite(record)
+        records.append(record)
+    return records
 
 
 def _compliance_proxy(engine: Engine, mask: np.ndarray) -> dict[str, float]:
