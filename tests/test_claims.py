@@ -14,7 +14,7 @@ For every row of every table in docs/claims.md:
   as the README's), every excerpt quoted in “…” in the figure appears in that page (spaces,
   ``*`` and backticks ignored), and the status is one of the page's words: ``test``,
   ``test (bound)``, ``benchmark, dated (… YYYY-MM-DD …)`` or ``untested``; a test row names a
-  test, a benchmark row a command or file.
+  test, a benchmark row a command (``hpcontact …``, ``python -m MODULE``) or a file.
 
 And for the deterministic figures a fast command reproduces, the number every page quotes
 equals what the command prints: the task and point counts of the two main jobs' dry runs (~2.5 s
@@ -159,7 +159,9 @@ def test_every_claim_names_its_page_section_excerpts_and_status(row: Row) -> Non
     if status.startswith("test"):
         assert any(_node_ids(reproduced)) or "tests/" in reproduced, f"{row}: a test row names no test"
     if status.startswith("benchmark"):
-        assert PATH.search(reproduced) or "hpcontact " in reproduced, f"{row}: a benchmark row names no command"
+        assert PATH.search(reproduced) or MODULE.search(reproduced) or "hpcontact " in reproduced, (
+            f"{row}: a benchmark row names no command"
+        )
 
 
 # The figures that commands reproduce: the dry runs of the main jobs and the records of
