@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from types import ModuleType
 from typing import Any
 
@@ -26,6 +27,7 @@ from hpcontact.kernels.engine import Engine, block_name
 from hpcontact.materials.isotropic import Isotropic
 from hpcontact.numerics.backend import Array, array_namespace, to_device, to_host
 from hpcontact.numerics.conjugate_gradient import (
+    BatchSolution,
     Solution,
     conjugate_gradient,
     conjugate_gradient_batch,
@@ -183,49 +185,74 @@ class FourierProductStack:
         return xp.fft.irfftn(xp.stack(rows, axis=1), s=self.shape, axes=(2, 3))[:, :, :nx, :ny]
 
 
+@dataclass
+class BatchSystem:
+    """The linear solves of one batch as ``conjugate_gradient_batch`` takes them: the stacked
+    operator and preconditioner (``FourierProductStack``), right-hand sides (B, c, nx, ny) and masks
+    (B, nx, ny) on the device, and each scene's tolerance."""
+
+    apply: Callable[[Array], Array]
+    precondition: Callable[[Array], Array] | None
+    rhs: Array
+    mask: Array
+    tol: list[float]
+
+    def solve(self) -> BatchSolution:
+        return conjugate_gradient_batch(self.apply, self.rhs, self.mask, tol=self.tol, precondition=self.precondition)
+
+
+def batch_key(solve_: PunchSolve, preconditioner: FourierPreconditioner | None) -> tuple:
+    """What the solves of one batch share: device, traction components, grid shape (nx, ny) (so the
+    padded shape) and the preconditioner's grid."""
+    _, engine, mask, s = solve_
+    return (id(engine.xp), s.components, mask.shape, None if preconditioner is None else preconditioner.shape)
+
+
+def batch_system(solves: Sequence[PunchSolve], preconditioners: Sequence[FourierPreconditioner | None]) -> BatchSystem:
+    """The ``BatchSystem`` of ``solves`` (one ``batch_key``; ``_preconditioner_of`` each): the
+    spectra and symbols copied to the device once, a spectrum shared by all scenes kept once."""
+    if len({batch_key(s, p) for s, p in zip(solves, preconditioners)}) != 1:
+        raise ValueError("the solves of a batch share device, components, grid shape and preconditioner grid")
+    scenes, engines, masks, plan_solves = zip(*solves)
+    engine, s = engines[0], plan_solves[0]
+    xp, shape, c = engine.xp, masks[0].shape, len(s.components)
+    on_device: dict[int, Array] = {}  # one device copy per host spectrum (scenes on one grid share theirs)
+    tables = []
+    for e, s_ in zip(engines, plan_solves):
+        table = block_table(s_.components, _operator_spectra(e, s_.components, s_.green), e.fft_shape)
+        for row in table:
+            for spectrum in row:
+                if spectrum is not None and id(spectrum) not in on_device:
+                    on_device[id(spectrum)] = to_device(spectrum, xp)
+        tables.append([[None if x is None else on_device[id(x)] for x in row] for row in table])
+    operator = FourierProductStack(tables, shape, engine.fft_shape, xp)
+    precondition = None
+    if preconditioners[0] is not None:
+        symbols = [[[p.symbol[i, j, ...] for j in range(c)] for i in range(c)] for p in preconditioners]
+        precondition = FourierProductStack(symbols, shape, preconditioners[0].shape, xp).apply
+    rhs = np.zeros((len(solves), c) + shape)
+    for k, s_ in enumerate(plan_solves):
+        rhs[k, s_.components.index(s_.load)] = 1.0
+    return BatchSystem(
+        operator.apply, precondition, to_device(rhs, xp), to_device(np.stack(masks), xp), [sc.tol for sc in scenes]
+    )
+
+
 def _run_solve_batch(solves: Sequence[PunchSolve]) -> list[tuple[np.ndarray, Solution]]:
-    """``_run_solve`` of each of ``solves``, those of one device, components, grid shape and
-    preconditioner grid as one ``conjugate_gradient_batch`` (a ``FourierProductStack`` of their
-    spectra and one of their preconditioners' symbols); results in the order of ``solves``."""
+    """``_run_solve`` of each of ``solves``, those of one ``batch_key`` as one batch
+    (``batch_system``); results in the order of ``solves``."""
     preconditioners = [_preconditioner_of(scene, engine, s) for scene, engine, _, s in solves]
     groups: dict[tuple, list[int]] = {}
-    for index, ((_, engine, mask, s), pre) in enumerate(zip(solves, preconditioners)):
-        key = (id(engine.xp), s.components, mask.shape, None if pre is None else pre.shape)
-        groups.setdefault(key, []).append(index)
+    for index, (solve_, pre) in enumerate(zip(solves, preconditioners)):
+        groups.setdefault(batch_key(solve_, pre), []).append(index)
     results: list[tuple[np.ndarray, Solution] | None] = [None] * len(solves)
     for members in groups.values():
-        scenes, engines, masks, plan_solves = zip(*(solves[m] for m in members))
-        engine, s = engines[0], plan_solves[0]
-        xp, shape, c = engine.xp, masks[0].shape, len(s.components)
-        on_device: dict[int, Array] = {}  # one device copy per host spectrum (scenes on one grid share theirs)
-        tables = []
-        for e, s_ in zip(engines, plan_solves):
-            table = block_table(s_.components, _operator_spectra(e, s_.components, s_.green), e.fft_shape)
-            for row in table:
-                for spectrum in row:
-                    if spectrum is not None and id(spectrum) not in on_device:
-                        on_device[id(spectrum)] = to_device(spectrum, xp)
-            tables.append([[None if x is None else on_device[id(x)] for x in row] for row in table])
-        operator = FourierProductStack(tables, shape, engine.fft_shape, xp)
-        pres = [preconditioners[m] for m in members]
-        precondition = None
-        if pres[0] is not None:
-            symbols = [[[p.symbol[i, j, ...] for j in range(c)] for i in range(c)] for p in pres]
-            precondition = FourierProductStack(symbols, shape, pres[0].shape, xp).apply
-        rhs = np.zeros((len(members), c) + shape)
-        for k, s_ in enumerate(plan_solves):
-            rhs[k, s_.components.index(s_.load)] = 1.0
-        batch = conjugate_gradient_batch(
-            operator.apply,
-            to_device(rhs, xp),
-            to_device(np.stack(masks), xp),
-            tol=[scene.tol for scene in scenes],
-            precondition=precondition,
-        )
+        batch = batch_system([solves[m] for m in members], [preconditioners[m] for m in members]).solve()
         tractions = to_host(batch.traction)
         for k, m in enumerate(members):
+            _, engine, _, s = solves[m]
             solution = Solution(tractions[k], batch.iterations[k], batch.residuals[k])
-            results[m] = (_force(solution.traction, plan_solves[k].components, engines[k].grid), solution)
+            results[m] = (_force(solution.traction, s.components, engine.grid), solution)
     return results
 
 

@@ -159,3 +159,15 @@ def test_indentation_and_compliance_are_solved_as_one_at_a_time(monkeypatch):
         reference = solve(scene)
         compared = [key for key in ("load", "max_pressure", "proxy_K_xx", "proxy_K_yy") if key in reference]
         assert compared and all(record[key] == reference[key] for key in compared), compared
+
+
+def test_a_batch_system_is_of_one_grid_and_components():
+    jobs = []
+    for n in (16, 20):
+        scene = Scene.from_params({"shape": "circle", "n": n, "nu": 0.3, "quantities": "normal"})
+        grid, mask = discretize(scene)
+        plan = make_plan(scene, mask, grid)
+        jobs.append((scene, Engine(scene.material, grid, plan.kernels), mask, plan.solves[0]))
+    preconditioners = [contact._preconditioner_of(scene, engine, s) for scene, engine, _, s in jobs]
+    with pytest.raises(ValueError, match="share device, components, grid shape"):
+        contact.batch_system(jobs, preconditioners)
