@@ -394,7 +394,7 @@ def main() -> None:
 
         crystal(world(), Path(args.crystal_output), args.points, args.seed, args.reuse)
         return
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "sweep"))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "sweep" / "maps"))
     from test_adaptive import mindlin  # the stand-in of the unit test
 
     from hpcontact.sweep.run.schedule import SerialTeam, world
