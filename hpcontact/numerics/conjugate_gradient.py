@@ -326,7 +326,7 @@ def _scene_norms(a: Array) -> Array:
 
 def _per_scene(value: float | int | Sequence | None, scenes: int, name: str) -> list:
     """``value`` repeated for each of ``scenes`` scenes, or the sequence itself when it has one per scene."""
-    if value is None or isinstance(value, (int, float)):
+    if value is None or np.ndim(value) == 0:
         return [value] * scenes
     values = list(value)
     if len(values) != scenes:
