@@ -122,16 +122,22 @@ class Engine:
         key = (m.key, g.nx, g.ny, g.dx, g.dy, block)
         return cached_spectrum(key, lambda: self.centred_block(block), self.fft_shape)
 
+    def spectra(self, components: str, green: str = "H") -> dict[str, np.ndarray]:
+        """The host spectra of ``operator(components, green)``: every planned block of ``green``
+        among ``components``, by block name ("xx", "xz", …; absent blocks are zero)."""
+        spectra = {}
+        for a in components:
+            for b in components:
+                try:
+                    spectra[a + b] = self.spectrum(block_name(a, b, green))
+                except KeyError:
+                    continue
+        return spectra
+
     def operator(self, components: str, green: str = "H") -> ConvolutionOperator | ArrayConvolutionOperator:
         """The convolution operator on ``components`` with every planned block of ``green`` among them."""
         if (components, green) not in self._operators:
-            spectra = {}
-            for a in components:
-                for b in components:
-                    try:
-                        spectra[a + b] = self.spectrum(block_name(a, b, green))
-                    except KeyError:
-                        continue
+            spectra = self.spectra(components, green)
             nx, ny = self.grid.nx, self.grid.ny
             self._operators[(components, green)] = (
                 ConvolutionOperator(nx, ny, components, spectra, threads=self.threads)

@@ -24,7 +24,7 @@ import time
 import warnings
 import weakref
 from collections import OrderedDict
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
@@ -545,3 +545,60 @@ class ArrayConvolutionOperator:
         u = xp.fft.irfftn(xp.stack(products), s=self.shape, axes=(1, 2))
         self.applications += 1
         return u[:, :nx, :ny]
+
+
+class FourierProductStack:
+    """y_k = crop(F⁻¹ Σ_j S_k,ij F pad(t_k,j)) for a stack of B scenes (k) of c components (i, j)
+    on one grid (nx, ny): the batched form of a convolution operator (S the kernel spectra, the
+    grid zero-padded to ``padded_shape``; docs/design.md §2.2) and of the Fourier preconditioner
+    (S its symbol |k| H⁻¹ on its periodic grid). F is ``xp.fft``'s real 2-D transform over the
+    last two axes of the whole stack (B, c, N1, N2): one batched transform each way per
+    application (cuFFT through CuPy on a GPU).
+
+    ``tables[k][i][j]`` is scene k's block (i, j): an array of ``xp`` of the rfft2 shape of
+    ``shape``, or None (zero). A block that is the same array in every scene is kept once and
+    broadcast over the stack; else the scenes' blocks are stacked (complex if any is). Units: those
+    of S times those of t.
+    """
+
+    def __init__(
+        self,
+        tables: Sequence[Sequence[Sequence[Array | None]]],
+        grid_shape: tuple[int, int],
+        shape: tuple[int, int],
+        xp: ModuleType,
+    ) -> None:
+        self.xp, self.grid_shape, self.shape = xp, grid_shape, shape
+        scenes, c = len(tables), len(tables[0])
+        self.blocks: list[list[Array | None]] = []
+        for i in range(c):
+            row: list[Array | None] = []
+            for j in range(c):
+                entries = [table[i][j] for table in tables]
+                present = [e for e in entries if e is not None]
+                if not present:
+                    row.append(None)
+                elif len(present) == scenes and all(e is present[0] for e in present):
+                    row.append(xp.expand_dims(present[0], axis=0))
+                else:
+                    complex_ = any(xp.isdtype(e.dtype, "complex floating") for e in present)
+                    dtype = xp.complex128 if complex_ else xp.float64
+                    zero = xp.zeros(present[0].shape, dtype=dtype)
+                    row.append(xp.stack([zero if e is None else xp.astype(e, dtype) for e in entries]))
+            self.blocks.append(row)
+        self._padded = xp.zeros((scenes, c) + shape, dtype=xp.float64)  # zero outside the grid's cells
+
+    def apply(self, stack: Array) -> Array:
+        """The products of a stack (B, c, nx, ny) of ``xp``: a stack (B, c, nx, ny)."""
+        xp, (nx, ny) = self.xp, self.grid_shape
+        self._padded[:, :, :nx, :ny] = stack
+        spectra = xp.fft.rfftn(self._padded, axes=(2, 3))
+        rows = []
+        for row in self.blocks:
+            total = None
+            for j, block in enumerate(row):
+                if block is not None:
+                    term = block * spectra[:, j, ...]
+                    total = term if total is None else total + term
+            rows.append(xp.zeros_like(spectra[:, 0, ...]) if total is None else total)
+        return xp.fft.irfftn(xp.stack(rows, axis=1), s=self.shape, axes=(2, 3))[:, :, :nx, :ny]

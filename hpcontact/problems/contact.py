@@ -23,7 +23,7 @@ import numpy as np
 from hpcontact import quantities as q
 from hpcontact.errors import InputError
 from hpcontact.geometry import Grid, crop_to_support, grid_for, load_mask, mask_grid, rasterize, self_affine_surface
-from hpcontact.kernels.engine import Engine, block_name
+from hpcontact.kernels.engine import Engine
 from hpcontact.materials.isotropic import Isotropic
 from hpcontact.numerics.backend import Array, array_namespace, to_device, to_host
 from hpcontact.numerics.conjugate_gradient import (
@@ -33,7 +33,7 @@ from hpcontact.numerics.conjugate_gradient import (
     conjugate_gradient_batch,
     polonsky_keer,
 )
-from hpcontact.numerics.convolution import COMPONENT_INDEX, block_table
+from hpcontact.numerics.convolution import COMPONENT_INDEX, FourierProductStack, block_table
 from hpcontact.numerics.preconditioner import FourierPreconditioner
 from hpcontact.plan import Solve, make_plan
 from hpcontact.scene import Scene
@@ -115,76 +115,6 @@ def _run_solve(scene: Scene, engine: Engine, mask: np.ndarray, solve: Solve) -> 
     return _force(solution.traction, solve.components, engine.grid), solution
 
 
-def _operator_spectra(engine: Engine, components: str, green: str) -> dict[str, np.ndarray]:
-    """The host spectra of ``engine.operator(components, green)``: every planned block of ``green``
-    among ``components`` (absent blocks are zero)."""
-    spectra = {}
-    for a in components:
-        for b in components:
-            try:
-                spectra[a + b] = engine.spectrum(block_name(a, b, green))
-            except KeyError:
-                continue
-    return spectra
-
-
-class FourierProductStack:
-    """y_k = crop(F⁻¹ Σ_j S_k,ij F pad(t_k,j)) for a stack of B scenes (k) of c components (i, j)
-    on one grid (nx, ny): the batched form of a convolution operator (S the kernel spectra, the
-    grid zero-padded to ``padded_shape``; docs/design.md §2.2) and of the Fourier preconditioner
-    (S its symbol |k| H⁻¹ on its periodic grid). F is ``xp.fft``'s real 2-D transform over the
-    last two axes of the whole stack (B, c, N1, N2): one batched transform each way per
-    application (cuFFT through CuPy on a GPU).
-
-    ``tables[k][i][j]`` is scene k's block (i, j): an array of ``xp`` of the rfft2 shape of
-    ``shape``, or None (zero). A block that is the same array in every scene is kept once and
-    broadcast over the stack; else the scenes' blocks are stacked (complex if any is). Units: those
-    of S times those of t.
-    """
-
-    def __init__(
-        self,
-        tables: Sequence[Sequence[Sequence[Array | None]]],
-        grid_shape: tuple[int, int],
-        shape: tuple[int, int],
-        xp: ModuleType,
-    ) -> None:
-        self.xp, self.grid_shape, self.shape = xp, grid_shape, shape
-        scenes, c = len(tables), len(tables[0])
-        self.blocks: list[list[Array | None]] = []
-        for i in range(c):
-            row: list[Array | None] = []
-            for j in range(c):
-                entries = [table[i][j] for table in tables]
-                present = [e for e in entries if e is not None]
-                if not present:
-                    row.append(None)
-                elif len(present) == scenes and all(e is present[0] for e in present):
-                    row.append(xp.expand_dims(present[0], axis=0))
-                else:
-                    complex_ = any(xp.isdtype(e.dtype, "complex floating") for e in present)
-                    dtype = xp.complex128 if complex_ else xp.float64
-                    zero = xp.zeros(present[0].shape, dtype=dtype)
-                    row.append(xp.stack([zero if e is None else xp.astype(e, dtype) for e in entries]))
-            self.blocks.append(row)
-        self._padded = xp.zeros((scenes, c) + shape, dtype=xp.float64)  # zero outside the grid's cells
-
-    def apply(self, stack: Array) -> Array:
-        """The products of a stack (B, c, nx, ny) of ``xp``: a stack (B, c, nx, ny)."""
-        xp, (nx, ny) = self.xp, self.grid_shape
-        self._padded[:, :, :nx, :ny] = stack
-        spectra = xp.fft.rfftn(self._padded, axes=(2, 3))
-        rows = []
-        for row in self.blocks:
-            total = None
-            for j, block in enumerate(row):
-                if block is not None:
-                    term = block * spectra[:, j, ...]
-                    total = term if total is None else total + term
-            rows.append(xp.zeros_like(spectra[:, 0, ...]) if total is None else total)
-        return xp.fft.irfftn(xp.stack(rows, axis=1), s=self.shape, axes=(2, 3))[:, :, :nx, :ny]
-
-
 @dataclass
 class BatchSystem:
     """The linear solves of one batch as ``conjugate_gradient_batch`` takes them: the stacked
@@ -219,7 +149,7 @@ def batch_system(solves: Sequence[PunchSolve], preconditioners: Sequence[Fourier
     on_device: dict[int, Array] = {}  # one device copy per host spectrum (scenes on one grid share theirs)
     tables = []
     for e, s_ in zip(engines, plan_solves):
-        table = block_table(s_.components, _operator_spectra(e, s_.components, s_.green), e.fft_shape)
+        table = block_table(s_.components, e.spectra(s_.components, s_.green), e.fft_shape)
         for row in table:
             for spectrum in row:
                 if spectrum is not None and id(spectrum) not in on_device:

@@ -1,6 +1,6 @@
 """Batched scenes (``problems.contact.solve_batch``, issue 41 item 2) against one scene at a time.
 
-The batched path (``_run_solve_batch``: ``FourierProductStack``, one batched ``xp.fft`` per
+The batched path (``_run_solve_batch``: ``numerics.convolution.FourierProductStack``, one batched ``xp.fft`` per
 application with each scene's spectra and preconditioner symbol, ``conjugate_gradient_batch``) is
 compared with the single-scene path (pyFFTW's ``ConvolutionOperator``, pocketfft's preconditioner,
 ``conjugate_gradient``), on numpy and on array-api-strict, by the bound of
