@@ -127,13 +127,21 @@ class ColumnsOnce:
     """Columns of a growing set of entries, each turned into columns once (rank 0's journal
     entries of an adaptive map's earlier rounds, which every round joins again): ``parts``
     gives columns whose ``join`` is that of ``to_columns`` of all the entries at once (the join
-    of any split is the same, module docstring), built only for the entries not given before.
-    An entry given before that is now another (not the same object, nor equal) or left out
-    makes them all built again."""
+    of any split is the same, module docstring), built only for the entries not given before,
+    and not at all for those of the columns the ranks built as they ran them (``ran``). An
+    entry given before that is now another (not the same object, nor equal) or left out makes
+    them all built again."""
 
     def __init__(self) -> None:
         self._given: dict[int, Entry] = {}  # position → entry
         self._parts: list[Columns] = []
+        self._ran: list[Columns] = []
+
+    def ran(self, columns: Columns) -> None:
+        """The columns a rank built of the entries it ran and journaled (``to_columns``): taken
+        at the next ``parts`` for those entries, if the entries it is given there have the same
+        status and measured seconds at every position (the ones the rank wrote)."""
+        self._ran.append(columns)
 
     def parts(self, entries: Sequence[Entry], positions: Sequence[int]) -> list[Columns]:
         """Columns of ``entries`` at ``positions`` (``to_columns``), in parts."""
@@ -142,11 +150,28 @@ class ColumnsOnce:
         if len(entries) - len(fresh) != len(given) or any(at in given for _, at in fresh):
             given, self._parts = {}, []  # an entry changed or dropped: all of them again
             fresh = [(e, int(at)) for e, at in zip(entries, positions)]
+        ran, self._ran = self._ran, []
+        if ran and fresh:
+            new = {at: e for e, at in fresh}
+            for columns in ran:
+                those = [new.get(int(at)) for at in columns.position]
+                if all(e is not None for e in those) and _written(columns, those):
+                    self._parts.append(columns)
+                    given.update(zip(columns.position.tolist(), those))
+            fresh = [(e, at) for e, at in fresh if at not in given]
         if fresh or not self._parts:
             self._parts.append(to_columns([e for e, _ in fresh], [at for _, at in fresh]))
             given.update((at, e) for e, at in fresh)
         self._given = given
         return list(self._parts)
+
+
+def _written(columns: Columns, entries: Sequence[Entry]) -> bool:
+    """Whether ``entries`` are those ``columns`` were built of: the same status and measured
+    seconds (to the bit) at every position."""
+    return np.array_equal(columns.status, [e.status for e in entries]) and np.array_equal(
+        columns.wall_time_s.view(np.int64), np.array([e.wall_time_s for e in entries], dtype=np.float64).view(np.int64)
+    )
 
 
 def _same(old: Entry | None, new: Entry) -> bool:

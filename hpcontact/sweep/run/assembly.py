@@ -27,8 +27,8 @@ def joined_outcomes(plan: Plan, kept: Kept, totals: list[RankTotals], scope: Rou
     from an adaptive round before). An adaptive round's scope is the tasks of its rounds so far
     (``select`` and ``earlier``): an entry the journals hold for another point of the grid (a
     finer map's) is no solve of this data set, nor counted among its contributors. The earlier
-    entries are turned into columns once in an adaptive run (``resume.RoundMemory``): each
-    round adds its new ones."""
+    entries are turned into columns once in an adaptive run (``resume.RoundMemory``): the
+    ranks' columns of a round stand for its entries in the rounds after it."""
     from hpcontact.sweep.data.dataset import FIXED_VARIABLES
 
     history = kept.history
@@ -39,8 +39,10 @@ def joined_outcomes(plan: Plan, kept: Kept, totals: list[RankTotals], scope: Rou
         if (t.key in kept.crashed or t.key in kept.reused or t.key in kept.carried)
         and (covered is None or i in covered)
     ]
-    columns = round_memory(scope).earlier_columns.parts([e for e, _ in earlier], [i for _, i in earlier])
-    parts = columns + [t.columns for t in totals]
+    once = round_memory(scope).earlier_columns
+    parts = once.parts([e for e, _ in earlier], [i for _, i in earlier]) + [t.columns for t in totals]
+    for t in totals:  # the next round finds these entries in the journals: their columns are built
+        once.ran(t.columns)
     return join(parts, len(plan.tasks), FIXED_VARIABLES)
 
 

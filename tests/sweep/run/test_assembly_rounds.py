@@ -5,6 +5,7 @@ round after round, and when one changes or is left out."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -63,3 +64,25 @@ def test_the_parts_join_as_all_the_entries_at_once():
     # the same entries again (equal, not the same objects): nothing new, nothing built
     again = once.parts([entry(e.params["at"], e.status, **e.record) for e in entries[1:]], positions[1:])
     assert [p.position.tolist() for p in again] == [p.position.tolist() for p in parts]
+
+
+def test_the_ranks_columns_stand_for_the_entries_they_wrote():
+    """A round's ranks built the columns of the entries they ran: the next round takes them for
+    those entries (nothing built again), but not for entries that are other ones (another
+    outcome of the task, read from the journals), which it builds."""
+    once = ColumnsOnce()
+    first = [entry(1, K=1.0), entry(4, K=2.0, plan={"solves": 2})]
+    once.parts(first, [1, 4])
+    ran = [entry(6, K=3.0, plan="x"), entry(8, ERROR)]
+    once.ran(to_columns(ran, [6, 8]))
+    entries, positions = [first[0], first[1], *ran], [1, 4, 6, 8]
+    parts = once.parts(entries, positions)
+    assert len(parts) == 2  # the first round's and the ranks': nothing built
+    assert_same_join(parts, entries, positions)
+    other = entry(10, K=5.0)
+    once.ran(to_columns([other], [10]))
+    journaled = replace(other, wall_time_s=7.0)  # not the outcome the rank wrote
+    entries, positions = [*entries, journaled], [*positions, 10]
+    parts = once.parts(entries, positions)
+    assert len(parts) == 3 and parts[-1].wall_time_s.tolist() == [7.0]
+    assert_same_join(parts, entries, positions)
