@@ -8,8 +8,9 @@ when its chunks are cheap against the request's round trip (``schedule.claimed_c
 round trip a task. Claims change only which rank runs a task and when: every task is journaled
 and recorded as it would be alone.
 
-While the other ranks take the first claims, rank 0 first imports what its data set needs
-(``_prepare_assembly``), which it would otherwise do at the round's end while they wait."""
+After its first claim, while the other ranks take theirs, rank 0 imports what its data set needs
+(``_prepare_assembly``), which it would otherwise do at the round's end while they wait (before
+its first claim, it would leave a small sweep's every task to the others)."""
 
 from __future__ import annotations
 
@@ -331,8 +332,7 @@ def _run(run: Run, plan: Plan, kept: Kept | None, scope: RoundScope, options: Op
                     if stop.stopping:
                         break
                     run_one(task)
-            if team.rank == 0 and team.size > 1:
-                _prepare_assembly()
+            prepared = not (team.rank == 0 and team.size > 1)
             claim = time.perf_counter()
             for chunk in claimed_chunks(chunks, counter, team.size):
                 schedule_s += time.perf_counter() - claim
@@ -347,6 +347,9 @@ def _run(run: Run, plan: Plan, kept: Kept | None, scope: RoundScope, options: Op
                     schedule_s += time.perf_counter() - mark
                     if progress is not None and progress.due():
                         progress.report(*totals_done(counter))
+                if not prepared:  # after its first claim: rank 0 computes on a small sweep too
+                    _prepare_assembly()
+                    prepared = True
                 claim = time.perf_counter()
             schedule_s += time.perf_counter() - claim
         finally:
