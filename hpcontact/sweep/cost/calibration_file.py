@@ -8,9 +8,9 @@ cannot be read as a calibration, is ignored with a warning and replaced. A file 
 ($HPCONTACT_COSTMODEL, ``hpcontact run --costmodel FILE``) is used as it is, whoever made it,
 and the lines that use it say whose it is (``Calibration.whose``) and if its CPU is another.
 
-``run_calibration`` is what a run's start line uses: the cached or named calibration, else the
-shipped prior scaled by a probe of this machine (``cost.prior``, under a second), never a
-calibration a run would wait for.
+What a run's start line uses when nothing is cached is ``cost.prior.run_calibration``: the
+shipped prior scaled by a probe of this machine (under a second), never a calibration a run would
+wait for.
 """
 
 from __future__ import annotations
@@ -203,17 +203,3 @@ def load_calibration(path: Path | None = None, stream: Any = None) -> Calibratio
     except OSError as exc:
         warnings.warn(f"cost calibration not saved to {path}: {exc}", RuntimeWarning, stacklevel=2)
     return calibration
-
-
-def run_calibration() -> tuple[Calibration, str]:
-    """The calibration a run's start line uses and where it came from, in words: the cached or
-    named one (``cached_calibration``), else the shipped prior scaled by a probe of this
-    machine (``prior.probed_prior``, under a second; never a full calibration, which a run's
-    ranks would wait 12-30 s for)."""
-    cached, note = cached_calibration()
-    if cached is not None:
-        return cached, note
-    from hpcontact.sweep.cost.prior import probed_prior
-
-    probed, origin = probed_prior()
-    return probed, f"{origin} ({note}; --dry-run calibrates, 12-30 s)"

@@ -1,6 +1,6 @@
 """The shipped prior of the cost model: a calibration of the development machine, scaled to this
 machine by a probe that takes under a second, for a run's start line where no calibration of the
-node type is cached yet (``calibration_file.run_calibration``).
+node type is cached yet (``run_calibration``).
 
 The probe times three small solves of the calibration (``PROBE_SCENES``: the 16 × 16 contact
 task, the 64 × 64 contact scene and the 32 × 32 crystal scene, each as ``calibration._timed``
@@ -32,6 +32,7 @@ from typing import Any
 
 from hpcontact import __version__
 from hpcontact.numerics.blas import limited_blas
+from hpcontact.sweep.cost import calibration_file
 from hpcontact.sweep.cost.calibration import (
     CALIBRATION_SCENES,
     TINY_CONTACT_SCENE,
@@ -115,9 +116,7 @@ def _probed(measure: Callable[[], dict[str, float]]) -> tuple[dict[str, float], 
 
 def prior_calibration() -> Calibration:
     """The shipped prior as a ``Calibration`` (checked as a calibration file is)."""
-    from hpcontact.sweep.cost.calibration_file import calibration_from_record
-
-    return calibration_from_record(PRIOR)
+    return calibration_file.calibration_from_record(PRIOR)
 
 
 def scale_of(here: Mapping[str, float], prior: Calibration) -> float:
@@ -148,7 +147,17 @@ def probed_prior() -> tuple[Calibration, str]:
     return probed, origin
 
 
-if __name__ == "__main__":
-    from hpcontact.sweep.cost.calibration_file import FORMAT
+def run_calibration() -> tuple[Calibration, str]:
+    """The calibration a run's start line uses and where it came from, in words: the cached or
+    named one (``calibration_file.cached_calibration``), else the shipped prior scaled by a probe
+    of this machine (``probed_prior``, under a second; never a full calibration, which a run's
+    ranks would wait 12-30 s for)."""
+    cached, note = calibration_file.cached_calibration()
+    if cached is not None:
+        return cached, note
+    probed, origin = probed_prior()
+    return probed, f"{origin} ({note}; --dry-run calibrates, 12-30 s)"
 
-    print(json.dumps({"format": FORMAT, **dataclasses.asdict(calibrate())}, indent=4, sort_keys=True))
+
+if __name__ == "__main__":
+    print(json.dumps({"format": calibration_file.FORMAT, **dataclasses.asdict(calibrate())}, indent=4, sort_keys=True))

@@ -9,7 +9,7 @@ tasks are that order's first ones, give or take those in flight). Relative cost 
 seconds: on the main job at accuracy 1e-3 a crystal star's cost is 20× a thin crystal
 rectangle's where its seconds are 11×, and an ETA by cost said 40 s with 1 min 47 s to go.
 The wall seconds per estimated second measured so far correct the calibration's scale (a
-calibration made under load, a prior scaled by a probe: ``cost.calibration_file.run_calibration``),
+calibration made under load, a prior scaled by a probe: ``cost.prior.run_calibration``),
 and the last chunks, fewer than the ranks, are counted on the ranks still at work
 (``Progress.busy_ranks``). On replayed runs every ETA after a fifth of the tasks is within 2x of
 the time left (``tests/sweep/run/test_progress_eta.py``), where an ETA by task count is more than 2x

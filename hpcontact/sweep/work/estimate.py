@@ -9,7 +9,7 @@ seconds (``benchmarks/dry_run_points.py``).
 
 ``hpcontact run`` prints the estimate of the tasks it will compute before it starts
 (``start_estimate``), from the cached or named calibration, else from the shipped prior scaled
-by a probe of this machine (``cost.calibration_file.run_calibration``): never without an
+by a probe of this machine (``cost.prior.run_calibration``): never without an
 estimate, never waiting for a calibration.
 
 ``check_memory`` refuses a run whose largest task would not fit in ``--mem-per-rank``.
@@ -28,9 +28,9 @@ from hpcontact.errors import InputError
 from hpcontact.numerics.memory import MIB, resident_bytes
 from hpcontact.problems.footprint import task_kind
 from hpcontact.sweep.cost.calibration import other_running
-from hpcontact.sweep.cost.calibration_file import run_calibration
 from hpcontact.sweep.cost.engine import omega_nodes
 from hpcontact.sweep.cost.grids import asks_accuracy, padded_cells
+from hpcontact.sweep.cost.prior import run_calibration
 from hpcontact.sweep.cost.rates import (
     IMPORTS_BYTES,
     Calibration,
@@ -197,7 +197,7 @@ def start_estimate(tasks: Sequence[Task], ranks: int) -> tuple[str, np.ndarray]:
     """The line ``hpcontact run`` prints on rank 0 before work starts — the estimated core-seconds
     of ``tasks`` (those this run computes) and the replayed wall time on ``ranks`` ranks, and
     whose cost model they come from — and each task's estimated seconds (for the progress lines'
-    ETA). The cost model is ``calibration_file.run_calibration``'s: the cached or named
+    ETA). The cost model is ``prior.run_calibration``'s: the cached or named
     calibration, else the shipped prior scaled by a probe of this machine (0.4-0.5 CPU-seconds),
     never a calibration a run would wait for. It warns where the calibration shared its cores
     (``Calibration.contended``: its seconds are high) and where the run shares them now

@@ -112,7 +112,7 @@ def test_a_new_machine_gets_the_prior_scaled_by_its_probe_and_never_waits_for_a_
     monkeypatch.setattr(
         prior, "probe", lambda: {name: 2.5 * shipped.task_seconds(s) for name, s in prior.PROBE_SCENES.items()}
     )
-    calibration, origin = calibration_file.run_calibration()
+    calibration, origin = prior.run_calibration()
     for kind in KINDS:
         for name, value in dataclasses.asdict(calibration.rates[kind]).items():
             assert value == pytest.approx(2.5 * getattr(shipped.rates[kind], name), rel=1e-12)
@@ -169,8 +169,8 @@ def test_a_probe_beside_other_work_says_its_scale_is_likely_high(node_cache, mon
     shipped = prior.prior_calibration()
     monkeypatch.setattr(prior, "probe", lambda: {n: shipped.task_seconds(s) for n, s in prior.PROBE_SCENES.items()})
     monkeypatch.setattr(prior, "other_running", lambda: 3.0)
-    calibration, origin = calibration_file.run_calibration()
+    calibration, origin = prior.run_calibration()
     assert "scaled x1.00" in origin and "probed beside ~3.0 other process(es): likely high" in origin
     assert calibration.contended() == ""  # no calibration file to remove and redo
     monkeypatch.setattr(prior, "other_running", lambda: 0.0)
-    assert "probed beside" not in calibration_file.run_calibration()[1]
+    assert "probed beside" not in prior.run_calibration()[1]
