@@ -11,35 +11,11 @@ import time
 
 import pytest
 import xarray as xr
+from mindlin_map import MAP, mindlin
 
-from hpcontact.analytic import mindlin_ellipse_stiffness
 from hpcontact.sweep.data.journal import Journal, read_history
 from hpcontact.sweep.run.records import Options
 from hpcontact.sweep.run.signals import ALIVE_PREFIX, POLL_S, STOP_NAME, StopControl
-
-MAP = """
-[sweep]
-title = "map"
-progress_interval = 100.0
-[scene]
-shape = "ellipse"
-quantities = ["tangential"]
-[numerics]
-accuracy = 1e-4
-[axes]
-aspect = { logspace = [0, -4, 17] }
-nu = { linspace = [0, 0.5, 9] }
-[adaptive]
-tolerance = 1e-3
-"""
-
-
-def mindlin(params):
-    """Mindlin's ellipse (hpcontact.analytic) as a solve to accuracy 1e-4 reports it."""
-    ka, kb = (float(k) for k in mindlin_ellipse_stiffness(1.0, float(params["aspect"]), 1.0, float(params["nu"])))
-    record = {"K_xx": ka, "K_yy": kb, "K_xy": 0.0, "K_yx": 0.0, "estimated_error": 1e-4, "accuracy_met": "true"}
-    record.update({f"{name}_error": 1e-4 for name in ("K_xx", "K_yy", "K_xy", "K_yx")})
-    return record
 
 
 def contributed(ds: xr.Dataset) -> int:
