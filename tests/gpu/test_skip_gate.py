@@ -4,10 +4,24 @@ Runs everywhere (not marked ``gpu``)."""
 
 from __future__ import annotations
 
+import importlib.util
+from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
-from conftest import GPU_SKIP, LAUNCHER_SPLIT, NO_GPU, allowed_skip
+
+
+def _gate():
+    """tests/conftest.py, loaded by its path: the module name ``conftest`` is whichever conftest
+    pytest imported last (tests/sweep/data has one too)."""
+    spec = importlib.util.spec_from_file_location("root_conftest", Path(__file__).resolve().parents[1] / "conftest.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+gate = _gate()
+GPU_SKIP, LAUNCHER_SPLIT, NO_GPU, allowed_skip = gate.GPU_SKIP, gate.LAUNCHER_SPLIT, gate.NO_GPU, gate.allowed_skip
 
 
 def _report(reason: str, properties=()) -> SimpleNamespace:
@@ -34,9 +48,9 @@ def test_any_other_skip_fails_ci(reason, properties):
 
 
 def test_a_gpu_marked_test_is_skipped_with_the_gate_s_mark_exactly_without_a_gpu():
-    from conftest import pytest_runtest_setup
-
     from hpcontact.numerics.backend import cuda_devices
+
+    pytest_runtest_setup = gate.pytest_runtest_setup
 
     item = SimpleNamespace(user_properties=[], get_closest_marker=lambda name: object() if name == "gpu" else None)
     if cuda_devices()[1]:  # a GPU here: the test runs

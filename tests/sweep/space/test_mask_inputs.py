@@ -31,6 +31,7 @@ import pytest
 import xarray as xr
 
 from hpcontact import cli, geometry
+from hpcontact import scene as scene_module
 from hpcontact.errors import InputError
 from hpcontact.geometry import MAX_GRID_CELLS, file_sha256, load_mask, mask_pixels
 from hpcontact.problems import footprint
@@ -370,6 +371,7 @@ def test_a_dry_run_validates_each_distinct_scene_once(write_spec, monkeypatch, c
     monkeypatch.setattr(enumeration, "PROGRESS_POINTS", 200)
     cost_grids._default_grids.cache_clear()
     task_cost._cached_contact_cost.cache_clear()
+    scene_module._scene_of_key.cache_clear()  # Scene.from_key's cache: an earlier test may hold the outline's scene
     path = write_spec('[scene]\nshape = "circle"\n[axes]\naspect = [0.5, 1.0]\nnu = { linspace = [0, 0.5, 500] }\n')
     assert dry_run(path, stream=io.StringIO()) == 0
     assert len(keys) == 500
