@@ -8,9 +8,9 @@ when its chunks are cheap against the request's round trip (``schedule.claimed_c
 round trip a task. Claims change only which rank runs a task and when: every task is journaled
 and recorded as it would be alone.
 
-After its first claim, while the other ranks take theirs, rank 0 imports what its data set needs
-(``_prepare_assembly``), which it would otherwise do at the round's end while they wait (before
-its first claim, it would leave a small sweep's every task to the others)."""
+Rank 0 imports what its data set needs at the round's end (xarray's duck-array modules, ~0.6 s
+once per process): done before its first claim it left a small sweep's every task to the other
+ranks, done between two of its tasks it stalled its claims past the cluster check's bound."""
 
 from __future__ import annotations
 
@@ -22,8 +22,6 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, TextIO
-
-import numpy as np
 
 from hpcontact import accuracy
 from hpcontact.errors import ConvergenceError, InputError
@@ -263,15 +261,6 @@ def _announce(
     )
 
 
-def _prepare_assembly() -> None:
-    """Rank 0: import the data set's modules and let xarray import its duck-array modules (it
-    does at its first variable: dask, ~0.6 s on the development machine), as the data set at the
-    round's end would, but while the other ranks compute."""
-    from hpcontact.sweep.data.dataset import xr
-
-    xr.Variable(("point",), np.zeros(1))
-
-
 def _run(run: Run, plan: Plan, kept: Kept | None, scope: RoundScope, options: Options, round_started: float) -> Outcome:
     """Every rank: the work of ``plan``, then rank 0 assembles the data set (see ``execute``)
     from what it ``kept`` (None on the other ranks); the set-up runs from ``round_started``,
@@ -332,7 +321,6 @@ def _run(run: Run, plan: Plan, kept: Kept | None, scope: RoundScope, options: Op
                     if stop.stopping:
                         break
                     run_one(task)
-            prepared = not (team.rank == 0 and team.size > 1)
             claim = time.perf_counter()
             for chunk in claimed_chunks(chunks, counter, team.size):
                 schedule_s += time.perf_counter() - claim
@@ -347,9 +335,6 @@ def _run(run: Run, plan: Plan, kept: Kept | None, scope: RoundScope, options: Op
                     schedule_s += time.perf_counter() - mark
                     if progress is not None and progress.due():
                         progress.report(*totals_done(counter))
-                if not prepared:  # after its first claim: rank 0 computes on a small sweep too
-                    _prepare_assembly()
-                    prepared = True
                 claim = time.perf_counter()
             schedule_s += time.perf_counter() - claim
         finally:
