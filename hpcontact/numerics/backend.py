@@ -79,6 +79,17 @@ def norm(a: Array) -> float:
     return float(xp.linalg.vector_norm(a))
 
 
+def add_scaled(target: Array, alpha: float, source: Array, scratch: np.ndarray | None = None) -> None:
+    """target += alpha · source, in place. On numpy with a ``scratch`` array of the shape (the CPU
+    path's CG: two of these per iteration) the product goes through it (``out=``), so no temporary
+    is allocated per call; elsewhere the standard's ``alpha * source``. The same arithmetic either
+    way: the results are bitwise equal."""
+    if scratch is not None:
+        target += np.multiply(alpha, source, out=scratch)
+    else:
+        target += alpha * source
+
+
 def copy(a: Array) -> Array:
     """A new array equal to ``a`` in its own namespace."""
     return namespace(a).asarray(a, copy=True)

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from hpcontact.errors import ConvergenceError
-from hpcontact.numerics.backend import Array, copy, dot, namespace, norm, to_device, to_host
+from hpcontact.numerics.backend import Array, add_scaled, copy, dot, is_numpy, namespace, norm, to_device, to_host
 
 Operator = Callable[[Array], Array]
 
@@ -69,6 +69,7 @@ def conjugate_gradient(
         return Solution(x, 0, 0.0)
     maxiter = maxiter if maxiter is not None else max(200, 10 * int(math.sqrt(float(xp.sum(weight)))) + 50)
     r = copy(b)
+    step = np.empty_like(b) if is_numpy(xp) else None  # scratch for the x and r updates (add_scaled)
 
     def preconditioned(residual_: Array) -> Array:
         return precondition(residual_) * weight if precondition else residual_
@@ -84,8 +85,8 @@ def conjugate_gradient(
         if not curvature > 0.0:
             raise ConvergenceError("operator is not positive definite on the mask", iteration, residual)
         alpha = rz / curvature
-        x += alpha * p
-        r -= alpha * q
+        add_scaled(x, alpha, p, step)
+        add_scaled(r, -alpha, q, step)
         residual = norm(r) / b_norm
         if not math.isfinite(residual):
             raise ConvergenceError("non-finite residual in conjugate gradients", iteration, residual)
