@@ -522,29 +522,17 @@ class ArrayConvolutionOperator:
             for spectrum in row:
                 if spectrum is not None and id(spectrum) not in on_device:
                     on_device[id(spectrum)] = to_device(spectrum, xp)
-        self._factors = [
+        factors = [
             [None if s is None else on_device[id(s)] for s in row]
             for row in block_table(components, spectra, self.shape)
         ]
-        self._padded = xp.zeros((len(components),) + self.shape, dtype=xp.float64)
+        self._product = FourierProductStack([factors], (nx, ny), self.shape, xp)  # a stack of one scene
         self.applications = 0
 
     def apply(self, traction: Array) -> Array:
         """Displacements (c, nx, ny) of tractions (c, nx, ny) on the grid (non-periodic), in ``xp``."""
-        xp, nx, ny = self.xp, self.nx, self.ny
-        self._padded[:, :nx, :ny] = traction
-        spectra = xp.fft.rfftn(self._padded, axes=(1, 2))
-        products = []
-        for row in self._factors:
-            total = None
-            for j, factor in enumerate(row):
-                if factor is not None:
-                    term = factor * spectra[j, ...]
-                    total = term if total is None else total + term
-            products.append(xp.zeros_like(spectra[0, ...]) if total is None else total)
-        u = xp.fft.irfftn(xp.stack(products), s=self.shape, axes=(1, 2))
         self.applications += 1
-        return u[:, :nx, :ny]
+        return self._product.apply(self.xp.expand_dims(traction, axis=0))[0, ...]
 
 
 class FourierProductStack:

@@ -34,9 +34,9 @@ import scipy.fft
 
 from hpcontact.geometry import Grid
 from hpcontact.numerics.backend import Array, is_numpy, to_device
+from hpcontact.numerics.convolution import COMPONENT_INDEX, FourierProductStack
 
 TABLE_ANGLES = 1024
-COMPONENT_INDEX = {"x": 0, "y": 1, "z": 2}
 
 
 def preconditioner_length(n: int, length: float, other_length: float) -> int:
@@ -83,13 +83,18 @@ class FourierPreconditioner:
             symbol = symbol.real
         self.xp = xp
         self.symbol = to_device(np.ascontiguousarray(symbol), xp)
-        self._padded = xp.zeros((len(components),) + self.shape, dtype=xp.float64)  # zero outside the grid's cells
+        if is_numpy(xp):  # pocketfft through scipy, the CPU path's transforms and rounding
+            self._padded = np.zeros((len(components),) + self.shape)  # zero outside the grid's cells
+        else:  # the symbol's blocks as one scene's products (xp.fft: cuFFT on a GPU)
+            c = len(components)
+            blocks = [[[self.symbol[i, j, ...] for j in range(c)] for i in range(c)]]
+            self._product = FourierProductStack(blocks, self.grid_shape, self.shape, xp)
 
     def apply(self, residual: Array) -> Array:
         """M⁻¹ r for a residual (c, nx, ny); a new array (c, nx, ny) (a view of a fresh one)."""
         nx, ny = self.grid_shape
-        self._padded[:, :nx, :ny] = residual
         if is_numpy(self.xp):
+            self._padded[:, :nx, :ny] = residual
             spectra = scipy.fft.rfft2(self._padded, axes=(1, 2))
             if spectra.shape[0] == 1:
                 out = np.multiply(spectra, self.symbol[0], out=spectra)
@@ -97,14 +102,4 @@ class FourierPreconditioner:
                 out = np.einsum("ij...,j...->i...", self.symbol, spectra)
             result = scipy.fft.irfft2(out, s=self.shape, axes=(1, 2), overwrite_x=True)
             return result[:, :nx, :ny]
-        xp, c = self.xp, self.symbol.shape[0]
-        spectra = xp.fft.rfftn(self._padded, axes=(1, 2))
-        mixed = [
-            sum(
-                (self.symbol[i, j, ...] * spectra[j, ...] for j in range(1, c)),
-                self.symbol[i, 0, ...] * spectra[0, ...],
-            )
-            for i in range(c)
-        ]
-        result = xp.fft.irfftn(xp.stack(mixed), s=self.shape, axes=(1, 2))
-        return result[:, :nx, :ny]
+        return self._product.apply(self.xp.expand_dims(residual, axis=0))[0, ...]
