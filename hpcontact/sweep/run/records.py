@@ -7,11 +7,12 @@ from __future__ import annotations
 import sys
 from collections.abc import Callable, Mapping
 from collections.abc import Set as AbstractSet
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from hpcontact.sweep.data.journal import History
+from hpcontact.sweep.data.columns import ColumnsOnce
+from hpcontact.sweep.data.journal import Entry, History, HistoryReader
 from hpcontact.sweep.run.guard import RunLock
 from hpcontact.sweep.space.spec import Spec
 from hpcontact.sweep.work.tasks import Task
@@ -98,6 +99,29 @@ class RoundTally:
         self.journal_s += journal_s
 
 
+@dataclass
+class RoundMemory:
+    """What rank 0 keeps from one round of an adaptive map to the next (issue 40 item 5: rank 0
+    alone between rounds, every other rank waiting, re-read every journal and rebuilt the
+    columns of every earlier round, each round): the journals' reader (``HistoryReader``: each
+    round parses what was appended since the last), each journaled task's verdict (``_decide``:
+    its entry, and its runner if its outcome and scene let it be reused, else None), the
+    earlier rounds' columns (``columns.ColumnsOnce``) and the first round's options (a later
+    round runs as a resume; the data set's history is the run's as its user started it)."""
+
+    reader: HistoryReader | None = None
+    verdicts: dict[str, tuple[Entry, str | None]] = field(default_factory=dict)
+    earlier_columns: ColumnsOnce = field(default_factory=ColumnsOnce)
+    first_options: Options | None = None
+
+    def history(self, folder: Path) -> History:
+        """The history of the journals in ``folder`` (``journal.read_history``), read
+        incrementally from the last round's."""
+        if self.reader is None or self.reader.folder != Path(folder):
+            self.reader = HistoryReader(folder)
+        return self.reader.read()
+
+
 @dataclass(frozen=True)
 class RoundScope:
     """What one round of a run covers: a plain run is one round of every task (the defaults);
@@ -110,6 +134,7 @@ class RoundScope:
     finish: Callable[[Any, Any], Any] | None = None
     tally: RoundTally | None = None
     earlier: frozenset[int] = frozenset()
+    memory: RoundMemory | None = None  # rank 0's, shared by an adaptive run's rounds
 
 
 EVERY_TASK = RoundScope()  # a plain run's one round

@@ -12,29 +12,25 @@ written before runners were recorded) was computed by the scene kind's own solve
 
 from __future__ import annotations
 
-import weakref
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from hpcontact import accuracy
 from hpcontact.sweep import faults
 from hpcontact.sweep.data import provenance
-from hpcontact.sweep.data.columns import ColumnsOnce
 from hpcontact.sweep.data.journal import (
     OK,
     RETRIED,
     Entry,
     History,
-    HistoryReader,
     clear_journals,
     journal_files,
     legacy_journals,
     session_name,
 )
 from hpcontact.sweep.run.guard import Refused, RunLock, apart, usable_folder, usable_output
-from hpcontact.sweep.run.records import EVERY_TASK, Decision, Kept, Options, RoundScope, runner_name
+from hpcontact.sweep.run.records import EVERY_TASK, Decision, Kept, Options, RoundMemory, RoundScope, runner_name
 from hpcontact.sweep.run.signals import ALIVE_PREFIX, STOP_NAME
 from hpcontact.sweep.space.spec import Spec
 from hpcontact.sweep.work.estimate import check_memory
@@ -57,43 +53,10 @@ def runner_of(entry: Entry, spec: Spec) -> str:
     return entry.provenance.get(RUNNER) or runner_name(accuracy.task_function(spec.kind))
 
 
-@dataclass
-class RoundMemory:
-    """What rank 0 keeps from one round of an adaptive map to the next (issue 40 item 5: rank 0
-    alone between rounds, every other rank waiting, re-read every journal and rebuilt the
-    columns of every earlier round, each round): the journals' reader (``HistoryReader``: each
-    round parses what was appended since the last), each journaled task's verdict (``_decide``:
-    its entry, and its runner if its outcome and scene let it be reused, else None), the
-    earlier rounds' columns (``columns.ColumnsOnce``) and the first round's options (a later
-    round runs as a resume; the data set's history is the run's as its user started it)."""
-
-    reader: HistoryReader | None = None
-    verdicts: dict[str, tuple[Entry, str | None]] = field(default_factory=dict)
-    earlier_columns: ColumnsOnce = field(default_factory=ColumnsOnce)
-    first_options: Options | None = None
-
-    def history(self, folder: Path) -> History:
-        """The history of the journals in ``folder`` (``journal.read_history``), read
-        incrementally from the last round's."""
-        if self.reader is None or self.reader.folder != Path(folder):
-            self.reader = HistoryReader(folder)
-        return self.reader.read()
-
-
-_MEMORIES: dict[int, RoundMemory] = {}  # by the id of an adaptive run's RoundTally, while it lives
-
-
 def round_memory(scope: RoundScope) -> RoundMemory:
-    """Rank 0's ``RoundMemory`` of the run ``scope`` is a round of: one for every round of an
-    adaptive run (its ``scope.tally``, the one object its rounds share; dropped with it), a
-    fresh one for a plain run's one round."""
-    if scope.tally is None:
-        return RoundMemory()
-    key = id(scope.tally)
-    if key not in _MEMORIES:
-        _MEMORIES[key] = RoundMemory()
-        weakref.finalize(scope.tally, _MEMORIES.pop, key, None)
-    return _MEMORIES[key]
+    """Rank 0's ``RoundMemory`` of the run ``scope`` is a round of: the one its adaptive run's
+    rounds share (``scope.memory``), a fresh one for a plain run's one round."""
+    return scope.memory if scope.memory is not None else RoundMemory()
 
 
 def prepare(

@@ -44,6 +44,7 @@ from hpcontact.sweep.run.records import (
     Outcome,
     Plan,
     RankTotals,
+    RoundMemory,
     RoundScope,
     RoundTally,
     Stopped,
@@ -169,7 +170,7 @@ def execute(
     run = Run(team, spec, tasks, task_of, over, task_function, stream, stop, started, command)
     if spec.adaptive is None:
         return _round(run, options, EVERY_TASK)
-    tally = RoundTally()
+    tally, memory = RoundTally(), RoundMemory()
 
     def run_round(
         options: Options,
@@ -177,7 +178,7 @@ def execute(
         finish: Callable | None = None,
         earlier: frozenset[int] = frozenset(),
     ) -> Outcome:
-        return _round(run, options, RoundScope(select, finish, tally, earlier))
+        return _round(run, options, RoundScope(select, finish, tally, earlier, memory))
 
     # rounds of runs over subsets of the tasks (hpcontact.sweep.maps)
     from hpcontact.sweep.maps.rounds import run_rounds
