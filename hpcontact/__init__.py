@@ -15,5 +15,6 @@ FFTW threads are set separately (``threads``).
 __version__ = "0.1.0"
 
 from hpcontact.api import open_dataset, run_sweep, solve  # noqa: E402  (after __version__: the sweep reads it)
+from hpcontact.errors import InputError  # noqa: E402  (what every front end raises for bad input)
 
-__all__ = ["__version__", "open_dataset", "run_sweep", "solve"]
+__all__ = ["InputError", "__version__", "open_dataset", "run_sweep", "solve"]

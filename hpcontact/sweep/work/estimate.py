@@ -173,15 +173,18 @@ def check_memory(tasks: Sequence[Task], limit: float, source: str) -> None:
     """``InputError`` (field --mem-per-rank) when a task's estimated peak memory exceeds
     ``limit`` bytes; the base memory is this process's (no calibration needed). Importing what
     a run imports to measure it costs rank 0 ~1 s while every rank waits, so that is done only
-    for a task within IMPORTS_BYTES of the limit."""
+    for a task within IMPORTS_BYTES of the limit; a task whose arrays exceed the limit already
+    beside what this process holds now is refused without it (the need stated is then that
+    lower bound)."""
     if not tasks:
         return
     which, sizes = _sizings(tasks)
     arrays = np.array([s.array_bytes for s in sizes], dtype=np.float64)[which]  # task_array_bytes of each
     worst = int(np.argmax(arrays))
-    if resident_bytes() + IMPORTS_BYTES + float(arrays[worst]) <= limit:
+    resident = resident_bytes()
+    if resident + IMPORTS_BYTES + float(arrays[worst]) <= limit:
         return
-    base = base_memory_bytes()
+    base = resident if resident + float(arrays[worst]) > limit else base_memory_bytes()
     need = base + float(arrays[worst])
     if need > limit:
         over = int(np.count_nonzero(base + arrays > limit))
