@@ -87,3 +87,17 @@ def check_fits(need: float, budget: tuple[int, str], field_name: str, value: obj
             f"{what}: estimated peak memory {need / MIB:.0f} MiB over the limit {limit / MIB:.0f} MiB ({source})",
             value,
         )
+
+
+def gpu_memory() -> tuple[int, int, str]:
+    """This rank's GPU (``numerics.backend.gpu_namespace``: ``InputError`` naming what a GPU lacks):
+    bytes free for arrays now (CUDA's free device memory, ``cudaMemGetInfo``, plus the blocks
+    CuPy's memory pool holds free for reuse), its total memory, and its name with its ordinal."""
+    from hpcontact.numerics.backend import gpu_namespace
+
+    cupy = gpu_namespace()
+    free, total = cupy.cuda.runtime.memGetInfo()
+    ordinal = cupy.cuda.Device().id
+    name = cupy.cuda.runtime.getDeviceProperties(ordinal)["name"]
+    name = name.decode() if isinstance(name, bytes) else str(name)
+    return int(free) + int(cupy.get_default_memory_pool().free_bytes()), int(total), f"GPU {ordinal} ({name})"

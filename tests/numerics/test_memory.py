@@ -20,3 +20,35 @@ def test_memory_sizes_and_the_batch_systems_share():
     node = {"SLURM_MEM_PER_NODE": "64000", "SLURM_TASKS_PER_NODE": "16(x4)"}
     assert memory.default_memory_per_rank(node) == (4000 * 2**20, "SLURM_MEM_PER_NODE / tasks per node")
     assert memory.default_memory_per_rank({})[1] == "physical memory / cores"
+
+
+def stub_cupy(free: int, total: int, pool_free: int):
+    """A stand-in for CuPy with the calls ``memory.gpu_memory`` makes (no GPU here): the device
+    the rank chose (``Device(i).use()``) is the current one (``Device().id``)."""
+    from types import SimpleNamespace
+
+    class Device:
+        current = 0
+
+        def __init__(self, ordinal: int | None = None) -> None:
+            self.id = Device.current if ordinal is None else ordinal
+
+        def use(self) -> None:
+            Device.current = self.id
+
+    runtime = SimpleNamespace(memGetInfo=lambda: (free, total), getDeviceProperties=lambda i: {"name": b"Stub H"})
+    pool = SimpleNamespace(free_bytes=lambda: pool_free)
+    return SimpleNamespace(cuda=SimpleNamespace(Device=Device, runtime=runtime), get_default_memory_pool=lambda: pool)
+
+
+def test_gpu_memory_is_the_free_device_memory_and_the_pools_free_blocks(monkeypatch):
+    from hpcontact.numerics import backend
+
+    monkeypatch.setattr(backend, "cuda_devices", lambda: (stub_cupy(3 * 2**30, 8 * 2**30, 2**20), 2, ""))
+    monkeypatch.setenv("SLURM_LOCALID", "3")  # the rank's GPU: 3 mod 2
+    for name in backend.LOCAL_RANK_VARIABLES[:-2]:
+        monkeypatch.delenv(name, raising=False)
+    assert memory.gpu_memory() == (3 * 2**30 + 2**20, 8 * 2**30, "GPU 1 (Stub H)")
+    monkeypatch.setattr(backend, "cuda_devices", lambda: (None, 0, "CuPy is not installed"))
+    with pytest.raises(InputError, match="device.*CuPy is not installed"):
+        memory.gpu_memory()

@@ -1,0 +1,152 @@
+"""A rank's claimed tasks as batches of scenes (issue 41 item 2): which tasks go together, how many
+fit in the device's memory, and the entries of a batch, each as the task alone would have made it.
+
+**Which tasks batch.** A task of the default contact solver (``accuracy.defaults.solve_contact_fields``)
+whose scene ``problems.contact.solve`` solves on its one grid (``n`` given, no ``accuracy``: the
+path ``default_solve`` takes) can be solved with others by ``problems.contact.solve_batch``, which
+groups their punch solves exactly by ``contact.batch_key`` (device, components, grid shape,
+preconditioner grid). The plan here puts together the tasks of one ``batch_group``: one device,
+one contact grid before cropping (``footprint.contact_grid``), one set of quantities and one
+preconditioner choice, the fields that decide ``batch_key`` before any scene is rasterized. Every
+other task (an accuracy task's grid sequence, a slip scene, another task function) runs alone.
+
+**How many.** A batch of B scenes holds B scenes' arrays at once: B × ``footprint.array_bytes``
+(the memory model of one solve, bytes fitted to host peaks, docs/performance.md §"Memory per
+task"; the same arrays on a GPU, not measured there). A batch takes as many scenes of one group as
+fit in ``batch_memory(device)``: on a GPU ``BATCH_MEMORY_FRACTION`` of the device's free memory
+(``numerics.memory.gpu_memory``), and never more than the rank's host budget left
+(the scenes' kernels and masks are built on the host first). On the CPU one scene per batch:
+benchmarks/batched_scenes.py measured a batch 2-3.7x slower per scene there, so a CPU rank keeps
+one scene per task unless ``memory`` is given (the tests force the batched path on the CPU so).
+
+**Entries.** ``run_batch`` solves a batch with ``solve_batch`` and makes one ``journal.Entry`` per
+task with the fields ``rounds.run_task`` gives a task run alone (its record through the same JSON
+round trip, status OK, the batch's wall time shared equally). If the batch raises (a scene that
+fails its solve or its input), each of its tasks is run alone by ``run_alone`` (``run_task``): the
+failing scene is recorded with the error it gives alone and the others are solved again, one at
+a time. Journals, resume and per-scene records are those of tasks run one at a time.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+from hpcontact import quantities as q
+from hpcontact.accuracy.defaults import error_columns, extrapolates_by_default, solve_contact_fields
+from hpcontact.numerics.memory import default_memory_per_rank, gpu_memory, resident_bytes
+from hpcontact.problems.contact import solve_batch
+from hpcontact.problems.footprint import array_bytes, contact_grid
+from hpcontact.problems.kinds import CONTACT, kind_of
+from hpcontact.scene import Scene
+from hpcontact.sweep.data.journal import OK, Entry, to_json
+from hpcontact.sweep.work.tasks import Task
+
+#: The share of a GPU's free memory one batch may fill: the bytes per scene are the host's memory
+#: model (``footprint.array_bytes``), not measured on a GPU; the rest is left to cuFFT's plans and
+#: work areas and to what the model misses.
+BATCH_MEMORY_FRACTION = 0.5
+
+
+def batch_group(params: Mapping[str, Any], task_function: Callable | None) -> tuple | None:
+    """The group of the task ``params`` among tasks that ``run_batch`` solves together (module
+    docstring), or None when it runs alone: another task function than the default contact
+    solver's, a slip scene, a scene that asks for an accuracy or gets the extrapolated default
+    (a grid sequence, ``accuracy.defaults.default_solve``)."""
+    if task_function is not solve_contact_fields or kind_of(params).name != CONTACT:
+        return None
+    scene = Scene.from_params(params)
+    if scene.accuracy is not None or extrapolates_by_default(scene):
+        return None
+    return (scene.device, contact_grid(params), tuple(scene.quantities), scene.precondition)
+
+
+def batch_memory(device: str) -> int:
+    """Bytes one batch of scenes may hold on ``device``: on a GPU ``BATCH_MEMORY_FRACTION`` of its
+    free memory (``numerics.memory.gpu_memory``), at most the rank's host budget less this process's peak
+    resident set; on the CPU 0 (one scene per batch, module docstring)."""
+    if device == "cpu":
+        return 0
+    free = gpu_memory()[0]
+    host = default_memory_per_rank()[0] - resident_bytes()
+    return int(max(0.0, min(BATCH_MEMORY_FRACTION * free, host)))
+
+
+def plan_batches(
+    tasks: Sequence[Task],
+    task_function: Callable | None,
+    memory: int | None = None,
+    alone: Callable[[Task], bool] | None = None,
+) -> list[tuple[Task, ...]]:
+    """``tasks`` (a rank's claimed chunk) cut into batches: the tasks of one ``batch_group``, in
+    their order, as many to a batch as their ``footprint.array_bytes`` sum fits in ``memory``
+    bytes (None: ``batch_memory`` of their device; at least one task a batch); a task without a
+    group, or for which ``alone`` is true (a task with an injected fault), is a batch of its own.
+    Batches in the order of their first task; every task in exactly one."""
+    open_batch: dict[tuple, list[Task]] = {}
+    room: dict[tuple, float] = {}
+    batches: list[list[Task]] = []
+    for task in tasks:
+        group = None if alone is not None and alone(task) else batch_group(task.params, task_function)
+        if group is None:
+            batches.append([task])
+            continue
+        need = array_bytes(task.params)
+        if group not in room:
+            room[group] = float(batch_memory(group[0]) if memory is None else memory)
+        batch = open_batch.get(group)
+        if batch is None or need * (len(batch) + 1) > room[group]:  # one group: one grid, one size a scene
+            batch = open_batch[group] = []
+            batches.append(batch)
+        batch.append(task)
+    return [tuple(batch) for batch in batches]
+
+
+def solve_contact_batch(fields: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    """``solve_contact_fields`` of each of ``fields`` (tasks of ``batch_group`` not None), their
+    punch solves batched by ``problems.contact.solve_batch``: each record that of the task alone
+    up to rounding (tests/problems/test_contact_batch.py bounds it), in order."""
+    scenes = [Scene.from_params(f) for f in fields]
+    if any(s.accuracy is not None or extrapolates_by_default(s) for s in scenes):
+        raise ValueError("only scenes solved on one grid batch (no accuracy, not the extrapolated default)")
+    return [
+        error_columns(q.in_newtons_per_metre(record, scene.newtons_per_metre))
+        for scene, record in zip(scenes, solve_batch(scenes))
+    ]
+
+
+def run_batch(batch: Sequence[Task], rank: int, run_alone: Callable[[Task], Entry], stop: Any = None) -> list[Entry]:
+    """The entries of ``batch`` (``plan_batches``), in order: one task by ``run_alone`` (the rank's
+    ``run_task``); several by ``solve_contact_batch``, each entry with the fields ``run_task`` gives
+    (the record through the journal's JSON, status OK, an equal share of the batch's wall time,
+    this ``rank``), or, if the batch raises an ``Exception``, each task by ``run_alone`` (module
+    docstring). ``stop`` (``signals.StopControl``) is marked running while the batch solves, so a
+    stop request's grace covers it; ``Abandoned`` and other BaseExceptions propagate."""
+    if len(batch) == 1:
+        return [run_alone(batch[0])]
+    started = time.perf_counter()
+    try:
+        if stop is not None:
+            stop.running = True
+        records = [json.loads(to_json(r)) for r in solve_contact_batch([dict(t.params) for t in batch])]
+    except Exception:  # noqa: BLE001 - each task alone: the failing one recorded as alone, the others solved
+        return [run_alone(task) for task in batch]
+    finally:
+        if stop is not None:
+            stop.running = False
+    share, finished = (time.perf_counter() - started) / len(batch), time.time()
+    return [
+        Entry(
+            key=task.key,
+            params=task.params,
+            status=OK,
+            message="",
+            record=record,
+            wall_time_s=share,
+            finished=finished,
+            rank=rank,
+        )
+        for task, record in zip(batch, records)
+    ]
