@@ -40,7 +40,7 @@ from hpcontact.numerics.memory import default_memory_per_rank, gpu_memory, resid
 from hpcontact.problems.contact import solve_batch
 from hpcontact.problems.footprint import array_bytes, contact_grid
 from hpcontact.problems.kinds import CONTACT, kind_of
-from hpcontact.scene import Scene
+from hpcontact.scene import DEFAULTS, Scene
 from hpcontact.sweep.data.journal import OK, Entry, to_json
 from hpcontact.sweep.work.tasks import Task
 
@@ -86,10 +86,16 @@ def plan_batches(
     group, or for which ``alone`` is true (a task with an injected fault), is a batch of its own.
     Batches in the order of their first task; every task in exactly one."""
     open_batch: dict[tuple, list[Task]] = {}
-    room: dict[tuple, float] = {}
+    room: dict[tuple, float] = {}  # bytes a batch of the group may hold, and its open batch's
+    held: dict[tuple, float] = {}
     batches: list[list[Task]] = []
     for task in tasks:
-        group = None if alone is not None and alone(task) else batch_group(task.params, task_function)
+        group = None
+        # a CPU task's batch is itself unless memory is given: no scene made (~0.3 ms a task)
+        if (memory is not None or task.params.get("device", DEFAULTS["device"]) != "cpu") and not (
+            alone is not None and alone(task)
+        ):
+            group = batch_group(task.params, task_function)
         if group is None:
             batches.append([task])
             continue
@@ -97,10 +103,12 @@ def plan_batches(
         if group not in room:
             room[group] = float(batch_memory(group[0]) if memory is None else memory)
         batch = open_batch.get(group)
-        if batch is None or need * (len(batch) + 1) > room[group]:  # one group: one grid, one size a scene
+        if batch is None or held[group] + need > room[group]:
             batch = open_batch[group] = []
+            held[group] = 0.0
             batches.append(batch)
         batch.append(task)
+        held[group] += need
     return [tuple(batch) for batch in batches]
 
 
