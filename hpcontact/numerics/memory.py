@@ -14,6 +14,7 @@ import os
 import resource
 import sys
 from collections.abc import Mapping
+from typing import NamedTuple
 
 from hpcontact.errors import InputError
 
@@ -89,10 +90,24 @@ def check_fits(need: float, budget: tuple[int, str], field_name: str, value: obj
         )
 
 
-def gpu_memory() -> tuple[int, int, str]:
+class GpuMemory(NamedTuple):
+    """This rank's GPU: bytes free for arrays now, its total bytes, its CUDA ordinal and name."""
+
+    free: int
+    total: int
+    ordinal: int
+    name: str
+
+    @property
+    def label(self) -> str:
+        """How lines name it: "GPU 0 (NVIDIA H200, 140 GiB)"."""
+        return f"GPU {self.ordinal} ({self.name}, {self.total / 2**30:.0f} GiB)"
+
+
+def gpu_memory() -> GpuMemory:
     """This rank's GPU (``numerics.backend.gpu_namespace``: ``InputError`` naming what a GPU lacks):
     bytes free for arrays now (CUDA's free device memory, ``cudaMemGetInfo``, plus the blocks
-    CuPy's memory pool holds free for reuse), its total memory, and its name with its ordinal."""
+    CuPy's memory pool holds free for reuse), its total memory, its ordinal and name."""
     from hpcontact.numerics.backend import gpu_namespace
 
     cupy = gpu_namespace()
@@ -100,4 +115,4 @@ def gpu_memory() -> tuple[int, int, str]:
     ordinal = cupy.cuda.Device().id
     name = cupy.cuda.runtime.getDeviceProperties(ordinal)["name"]
     name = name.decode() if isinstance(name, bytes) else str(name)
-    return int(free) + int(cupy.get_default_memory_pool().free_bytes()), int(total), f"GPU {ordinal} ({name})"
+    return GpuMemory(int(free) + int(cupy.get_default_memory_pool().free_bytes()), int(total), int(ordinal), name)

@@ -48,7 +48,8 @@ def test_gpu_memory_is_the_free_device_memory_and_the_pools_free_blocks(monkeypa
     monkeypatch.setenv("SLURM_LOCALID", "3")  # the rank's GPU: 3 mod 2
     for name in backend.LOCAL_RANK_VARIABLES[:-2]:
         monkeypatch.delenv(name, raising=False)
-    assert memory.gpu_memory() == (3 * 2**30 + 2**20, 8 * 2**30, "GPU 1 (Stub H)")
+    gpu = memory.gpu_memory()
+    assert gpu == (3 * 2**30 + 2**20, 8 * 2**30, 1, "Stub H") and gpu.label == "GPU 1 (Stub H, 8 GiB)"
     monkeypatch.setattr(backend, "cuda_devices", lambda: (None, 0, "CuPy is not installed"))
     with pytest.raises(InputError, match="device.*CuPy is not installed"):
         memory.gpu_memory()

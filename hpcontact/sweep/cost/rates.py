@@ -84,7 +84,7 @@ from pathlib import Path
 from typing import Any
 
 from hpcontact.numerics.convolution import wisdom_path
-from hpcontact.numerics.memory import MIB, resident_bytes
+from hpcontact.numerics.memory import MIB, GpuMemory, resident_bytes
 from hpcontact.problems import footprint
 from hpcontact.problems.footprint import task_kind
 from hpcontact.sweep.cost.engine import omega_nodes
@@ -261,6 +261,14 @@ def calibration_path() -> Path:
     cpu, cores = node_type()
     slug = re.sub(r"[^A-Za-z0-9]+", "-", cpu.replace("(R)", "").replace("(TM)", "")).strip("-").lower()
     return wisdom_path().with_name(f"costmodel-{slug[:60] or 'cpu'}-{cores}c.json")
+
+
+def gpu_calibration_path(gpu: GpuMemory) -> Path:
+    """The cost model of tasks on the GPU ``gpu`` (``numerics.memory.GpuMemory``): ``costmodel-gpu-NAME-MEMg.json``
+    beside the CPU ones (``calibration_path``), NAME its name in letters, digits and dashes, MEM its
+    memory in whole GiB: one file per kind of GPU, whatever the CPU beside it."""
+    slug = re.sub(r"[^A-Za-z0-9]+", "-", gpu.name).strip("-").lower()
+    return wisdom_path().with_name(f"costmodel-gpu-{slug[:60] or 'gpu'}-{gpu.total / 2**30:.0f}g.json")
 
 
 def task_array_bytes(params: Mapping[str, Any]) -> float:

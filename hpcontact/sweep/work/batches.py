@@ -69,7 +69,7 @@ def batch_memory(device: str) -> int:
     resident set; on the CPU 0 (one scene per batch, module docstring)."""
     if device == "cpu":
         return 0
-    free = gpu_memory()[0]
+    free = gpu_memory().free
     host = default_memory_per_rank()[0] - resident_bytes()
     return int(max(0.0, min(BATCH_MEMORY_FRACTION * free, host)))
 

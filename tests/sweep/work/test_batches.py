@@ -13,6 +13,7 @@ import functools
 import pytest
 
 from hpcontact.accuracy.defaults import solve_contact_fields
+from hpcontact.numerics import memory
 from hpcontact.problems.footprint import array_bytes
 from hpcontact.sweep.data.journal import BAD_INPUT, OK
 from hpcontact.sweep.run.rounds import run_task
@@ -152,7 +153,7 @@ def test_the_stop_control_covers_the_batch_and_a_stop_propagates():
 
 
 def test_a_gpu_batch_fits_half_the_free_device_memory_and_the_hosts_budget(monkeypatch):
-    monkeypatch.setattr(batches, "gpu_memory", lambda: (8 * 2**30, 16 * 2**30, "GPU 0 (stub)"))
+    monkeypatch.setattr(batches, "gpu_memory", lambda: memory.GpuMemory(8 * 2**30, 16 * 2**30, 0, "stub"))
     monkeypatch.setattr(batches, "resident_bytes", lambda: 2**30)
     monkeypatch.setattr(batches, "default_memory_per_rank", lambda: (64 * 2**30, "stub"))
     assert batch_memory("gpu") == 4 * 2**30  # BATCH_MEMORY_FRACTION of the free 8 GiB
