@@ -35,6 +35,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy.linalg import lapack, lu_factor, lu_solve
 from scipy.optimize import brentq
 
 #: (C11, C12, C44) in GPa of the README's indentation table: the values hpcontact.materials.crystal
@@ -366,3 +367,118 @@ def galin_ellipse_stiffness(C, aspect: float, tol: float = 1e-13, order: int = 1
         "panels": q["panels"],
         "nodes": q["nodes"],
     }
+
+
+# --------------------------------------------------------------------------------------------
+# A dense (non-FFT) collocation BEM of a bonded patch of a pair of isotropic half-spaces
+# --------------------------------------------------------------------------------------------
+def _cell_primitives(u: np.ndarray, v: np.ndarray) -> dict[str, np.ndarray]:
+    """F with ∂²F/∂u∂v = the kernel, for the kernels of Boussinesq and Cerruti (r² = u² + v²):
+    1/r: u asinh(v/|u|) + v asinh(u/|v|) (= u ln(v + r) + v ln(u + r) up to u ln|u| + v ln|v|);
+    u²/r³: v asinh(u/|v|); v²/r³: u asinh(v/|u|); uv/r³: −r;
+    u/r²: u atan(v/u) + (v/2) ln r²; v/r²: the same with u, v swapped (each checked by
+    differentiation; terms depending on u or v alone cancel in a rectangle's four corners).
+    Corners never lie on u = 0 or v = 0 here (collocation at cell centres)."""
+    r2 = u * u + v * v
+    au, av = u * np.arcsinh(v / np.abs(u)), v * np.arcsinh(u / np.abs(v))
+    return {
+        "1": au + av,
+        "xx": av,
+        "yy": au,
+        "xy": -np.sqrt(r2),
+        "x": u * np.arctan(v / u) + 0.5 * v * np.log(r2),
+        "y": v * np.arctan(u / v) + 0.5 * u * np.log(r2),
+    }
+
+
+def cell_integrals(X: np.ndarray, Y: np.ndarray, dx: float, dy: float) -> dict[str, np.ndarray]:
+    """∫∫ k(X − x', Y − y') dx' dy' over the cell |x'| ≤ dx/2, |y'| ≤ dy/2 for the kernels of
+    :func:`_cell_primitives` (X, Y: field point relative to the cell centre): the primitive's
+    four-corner difference."""
+    hx, hy = 0.5 * dx, 0.5 * dy
+    corners = [(X + hx, Y + hy, 1.0), (X - hx, Y + hy, -1.0), (X + hx, Y - hy, -1.0), (X - hx, Y - hy, 1.0)]
+    total: dict[str, np.ndarray] = {}
+    for u, v, sign in corners:
+        for name, value in _cell_primitives(u, v).items():
+            total[name] = total.get(name, 0.0) + sign * value
+    return total
+
+
+def pair_constants(E1: float, nu1: float, E2: float | None = None, nu2: float | None = None) -> dict[str, float]:
+    """The compliances of the relative surface displacement of two isotropic half-spaces pressed
+    together (body 2 rigid when E2 is None), Johnson (1985) §3.2, §3.6, §5.1:
+    N = Σ (1 − νᵢ)/Gᵢ (normal and the 1/r part of the tangential kernel), T = Σ νᵢ/Gᵢ (the x²/r³
+    part), and Dundurs' β = [(1 − 2ν₁)/G₁ − (1 − 2ν₂)/G₂] / (2N) (the normal–tangential
+    coupling, of size β N/(2π) · x/r²). Units: 1/(unit of E)."""
+    G1 = E1 / (2.0 * (1.0 + nu1))
+    N, T, C = (1.0 - nu1) / G1, nu1 / G1, (1.0 - 2.0 * nu1) / G1
+    if E2 is not None:
+        G2 = E2 / (2.0 * (1.0 + nu2))
+        N, T, C = N + (1.0 - nu2) / G2, T + nu2 / G2, C - (1.0 - 2.0 * nu2) / G2
+    return {"N": N, "T": T, "beta": C / (2.0 * N)}
+
+
+def dense_compliance(mask: np.ndarray, dx: float, dy: float, N: float, T: float, beta: float) -> np.ndarray:
+    """The collocation matrix (3m × 3m, m = cells of ``mask``; unknowns t_x, t_y, p cell by
+    cell, piecewise constant; displacements at the cell centres) of the relative surface
+    displacement, built entry by entry from the closed-form cell integrals (no FFT):
+
+        u_x = (1/2π) ∫ [(N/r + T x²/r³) t_x + T xy/r³ t_y] − (β N/2π) ∫ x/r² p,
+        u_z = (1/2π) ∫ N/r p + (β N/2π) ∫ (x t_x + y t_y)/r²,
+
+    and u_y likewise (x ↔ y); x the field point minus the source point. The coupling kernels
+    are odd, with opposite signs in the two blocks, so the matrix is symmetric (Betti's
+    reciprocity); which block carries the minus sign is a convention of the body's z axis and
+    does not change any stiffness (every one is even in β)."""
+    i, j = np.nonzero(mask)
+    di, dj = i[:, None] - i[None, :], j[:, None] - j[None, :]  # field cell minus source cell
+    oi, oj = np.arange(-mask.shape[0] + 1, mask.shape[0]), np.arange(-mask.shape[1] + 1, mask.shape[1])
+    table = cell_integrals(oi[:, None] * dx, oj[None, :] * dy, dx, dy)  # each offset once
+    c = {name: value[di + mask.shape[0] - 1, dj + mask.shape[1] - 1] for name, value in table.items()}
+    s = 1.0 / (2.0 * math.pi)
+    A_xx, A_yy, A_xy = s * (N * c["1"] + T * c["xx"]), s * (N * c["1"] + T * c["yy"]), s * T * c["xy"]
+    B_x, B_y = s * beta * N * c["x"], s * beta * N * c["y"]
+    return np.block([[A_xx, A_xy, -B_x], [A_xy, A_yy, -B_y], [B_x, B_y, s * N * c["1"]]])
+
+
+def dense_bonded_stiffness(
+    mask: np.ndarray, dx: float, dy: float, N: float, T: float, beta: float, coupled: bool = True
+) -> dict:
+    """Stiffnesses of a rigid bonded patch (the cells of ``mask``) by dense LU solves of
+    :func:`dense_compliance` for unit rigid displacements δ_x, δ_y, d (K_ij = cell area × the
+    sum of component i of solution j):
+
+    - ``tangential`` (2 × 2): tangential tractions only (p = 0: Goodman's decoupled contact);
+    - ``coupled`` (2 × 2, when ``coupled``): all three components, then the approach condensed
+      out at zero normal force change, K_tt − K_tz K_zz⁻¹ K_zt;
+    - ``K_zz``: the frictionless punch (normal block alone).
+
+    Also ``symmetry`` (max |M − Mᵀ|/max |M|: 0 up to rounding), ``unknowns`` (of the largest
+    system) and ``condition`` (LAPACK's 1-norm condition estimate, dgecon, of the largest
+    system: the κ of the round-off bounds)."""
+    M = dense_compliance(mask, dx, dy, N, T, beta)
+    m = int(mask.sum())
+    area = dx * dy
+    condition = 0.0
+
+    def stiffness(block: np.ndarray, comps: int) -> np.ndarray:
+        nonlocal condition
+        lu, piv = lu_factor(block)
+        rcond, info = lapack.dgecon(lu, float(np.abs(block).sum(axis=0).max()), norm="1")
+        if info != 0 or not rcond > 0.0:
+            raise ArithmeticError(f"dgecon failed (info {info}, rcond {rcond})")
+        condition = max(condition, 1.0 / rcond)
+        rhs = np.kron(np.eye(comps), np.ones((m, 1)))
+        return area * rhs.T @ lu_solve((lu, piv), rhs)
+
+    out = {
+        "tangential": stiffness(M[: 2 * m, : 2 * m], 2),
+        "K_zz": float(stiffness(M[2 * m :, 2 * m :], 1)[0, 0]),
+        "symmetry": float(np.max(np.abs(M - M.T)) / np.max(np.abs(M))),
+        "unknowns": (3 if coupled else 2) * m,
+    }
+    if coupled:
+        K3 = stiffness(M, 3)
+        out["coupled"] = K3[:2, :2] - np.outer(K3[:2, 2], K3[2, :2]) / K3[2, 2]
+    out["condition"] = condition
+    return out

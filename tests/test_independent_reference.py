@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from scipy.integrate import quad
+from scipy.integrate import dblquad, quad
 
 from hpcontact import analytic as an
 
@@ -201,3 +201,23 @@ def test_rule_is_converged_for_a_thin_ellipse(name: str) -> None:
     assert np.max(np.abs(finer - J)) <= 1e-12 * scale
     longer = ref.galin_ellipse_rule(C, 1e-3, 2 * q["panels"], v_max=q["v_max"] + 5.0)
     assert np.max(np.abs(longer - finer)) <= 1e-14 * scale
+
+
+@pytest.mark.parametrize("X, Y", [(1.0, 0.0), (2.0, 1.0), (-1.0, 3.0), (0.0, -2.0)])
+def test_cell_integrals_against_adaptive_quadrature(X: float, Y: float) -> None:
+    """The closed-form cell integrals of the dense BEM (``cell_integrals``) against scipy's
+    dblquad of the kernels over a unit cell, field points one or more cells away (smooth
+    integrands: dblquad's default 1.49e-8 tolerances; measured ≤ 6e-16 relative)."""
+    kernels = {
+        "1": lambda u, v: 1.0 / math.hypot(u, v),
+        "xx": lambda u, v: u * u / math.hypot(u, v) ** 3,
+        "yy": lambda u, v: v * v / math.hypot(u, v) ** 3,
+        "xy": lambda u, v: u * v / math.hypot(u, v) ** 3,
+        "x": lambda u, v: u / (u * u + v * v),
+        "y": lambda u, v: v / (u * u + v * v),
+    }
+    closed = ref.cell_integrals(np.array(X), np.array(Y), 1.0, 1.0)
+    scale = abs(ref.cell_integrals(np.array(X), np.array(Y), 1.0, 1.0)["1"])
+    for name, k in kernels.items():
+        value = dblquad(lambda v, u: k(X - u, Y - v), -0.5, 0.5, -0.5, 0.5)[0]
+        assert abs(float(closed[name]) - value) <= 1e-8 * scale, name
