@@ -32,8 +32,11 @@ same rule to its own round trips and chunk seconds.
 (``hpcontact.sweep.maps.rounds``): every rank enumerates its share of the whole grid once, then
 each round's tasks run as one replayed sweep (without setup or gather of their own), and between
 rounds rank 0 alone decides the next round (journals, the data set of every journaled task, the
-refinement: ``between_s``, measured) while every other rank waits. Makespan = setup + Σ rounds
-(their makespan + ``between_s``); efficiency = Σ task seconds / (R × makespan).
+refinement: ``between_s``, measured) while every other rank waits. Work between rounds that
+the ranks would share (``spread_between_s``: its seconds on one rank, e.g. the refinement's
+per-leaf estimate split over the ranks) costs its seconds / R. Makespan = setup + Σ rounds
+(their makespan + ``between_s`` + ``spread_between_s`` / R); efficiency = Σ task seconds / (R ×
+makespan).
 
 """
 
@@ -183,6 +186,7 @@ def replay_rounds(
     between_s: Sequence[float],
     tasks: int,
     overheads: Overheads = DEFAULT_OVERHEADS,
+    spread_between_s: Sequence[float] | None = None,
 ) -> dict[str, float]:
     """Discrete-event model of an adaptive map's synchronized rounds (module docstring): each
     round's tasks (``tasks.chunk_order`` of them and their one-core seconds in task order) run
@@ -190,12 +194,17 @@ def replay_rounds(
     ``between_s`` (journals, data set, refinement; after the last round: the data set written)
     while the other ranks wait; before the first round every rank enumerates its share of the
     whole grid's ``tasks`` and rank 0 joins them (``spread_setup_s``, ``setup_s`` per task, as
-    ``replay_chunks``). Makespan, efficiency, and the shares of the makespan lost between
-    rounds and to the rounds' own tails and claims."""
+    ``replay_chunks``); ``spread_between_s`` (None: none), per round, seconds of work after it
+    that one rank would take and the ``ranks`` share evenly (their seconds / ``ranks``, every
+    rank busy, none waiting on them). Makespan, efficiency, and the shares of the makespan lost
+    between rounds (rank 0 alone and the shared work) and to the rounds' own tails and claims."""
     if ranks < 1:
         raise InputError("ranks", "an integer >= 1", ranks)
     if len(between_s) != len(rounds):
         raise InputError("between_s", f"one time per round ({len(rounds)})", len(between_s))
+    spread = [0.0] * len(rounds) if spread_between_s is None else list(spread_between_s)
+    if len(spread) != len(rounds):
+        raise InputError("spread_between_s", f"one time per round ({len(rounds)})", len(spread))
     within = Overheads(
         driver_s=overheads.driver_s,
         service_s=overheads.service_s,
@@ -207,9 +216,10 @@ def replay_rounds(
     )
     setup = overheads.setup_s * tasks + overheads.spread_setup_s * tasks / ranks
     makespan, work, lost_tail, lost_claims = setup, 0.0, 0.0, 0.0
-    for (chunks, seconds), between in zip(rounds, between_s):
+    between_total = float(sum(between_s)) + float(sum(spread)) / ranks
+    for (chunks, seconds), between, shared in zip(rounds, between_s, spread):
         one = replay_chunks(chunks, seconds, ranks, within)
-        makespan += one["makespan_s"] + between
+        makespan += one["makespan_s"] + between + shared / ranks
         work += float(sum(seconds.tolist()))
         lost_tail += one["tail"] * one["makespan_s"]
         lost_claims += one["claims"] * one["makespan_s"]
@@ -217,7 +227,7 @@ def replay_rounds(
         "rounds": len(rounds),
         "makespan_s": makespan,
         "efficiency": work / (ranks * makespan) if makespan > 0 else 1.0,
-        "between": float(sum(between_s)) / makespan if makespan > 0 else 0.0,
+        "between": between_total / makespan if makespan > 0 else 0.0,
         "tail": lost_tail / makespan if makespan > 0 else 0.0,
         "claims": lost_claims / makespan if makespan > 0 else 0.0,
         "setup": setup / makespan if makespan > 0 else 0.0,

@@ -78,6 +78,25 @@ def test_synchronized_rounds_add_their_makespans_and_rank_0s_time_between():
     assert replay_rounds(rounds, 1, [0.5, 0.25], 8, o)["makespan_s"] == 1.0 + 2.0 + 4.0 + 0.5 + 2.0 + 0.25
 
 
+def test_work_between_rounds_shared_by_the_ranks_costs_its_seconds_over_the_ranks():
+    """The rounds of the test above without set-up, rank 0 alone 0.5 and 0.25 s, and 3 s and
+    1 s of work after them that the ranks share: on 2 ranks 1.5 s and 0.5 s more, makespan
+    2 + 0.5 + 1.5 + 2 + 0.25 + 0.5 = 6.75 s; on 4 ranks 0.75 and 0.25 s (rounds of 1 and 2 s:
+    four tasks of 1 s on 4 ranks), 1 + 0.5 + 0.75 + 2 + 0.25 + 0.25 = 4.75 s; none shared
+    (None) is zeros."""
+    first, _ = toy([1.0] * 4)
+    second, _ = toy([2.0])
+    rounds = [(chunk_order(first), np.array([1.0] * 4)), (chunk_order(second), np.array([2.0]))]
+    two = replay_rounds(rounds, 2, [0.5, 0.25], 8, NONE, [3.0, 1.0])
+    assert two["makespan_s"] == 6.75 and two["between"] == (0.75 + 2.0) / 6.75
+    assert replay_rounds(rounds, 4, [0.5, 0.25], 8, NONE, [3.0, 1.0])["makespan_s"] == 4.75
+    assert replay_rounds(rounds, 2, [0.5, 0.25], 8, NONE, None) == replay_rounds(
+        rounds, 2, [0.5, 0.25], 8, NONE, [0.0, 0.0]
+    )
+    with pytest.raises(InputError, match="spread_between_s"):
+        replay_rounds(rounds, 2, [0.5, 0.25], 8, NONE, [1.0])
+
+
 def test_rounds_need_one_time_between_each():
     tasks, _ = toy([1.0])
     with pytest.raises(InputError, match="between_s"):
