@@ -12,7 +12,8 @@ the library holds these values) without hpcontact.analytic:
     stick radius c = a (1 − Q/μP)^⅓.
 
 The normal–tangential coupling of a dissimilar pair (Dundurs' β) has no closed form for the
-stuck sphere; its README figure is checked by a convergence study over grids and by the
+stuck sphere; its README figure is checked on one grid against an independent dense BEM of the
+same discrete problem (tests/independent_reference.py), by a convergence study over grids and by the
 perturbation argument that fixes its sign and size: with the normal pressure held, a stuck
 contact's tangential compliance with coupling is the Schur complement A − B D⁻¹ Bᵀ of the
 decoupled one A, B ∝ β, so the coupled contact is stiffer by c β² + O(β⁴), c > 0.
