@@ -3,10 +3,16 @@ sweep's ``--mem-per-rank`` share."""
 
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
 import pytest
 
 from hpcontact.errors import InputError
 from hpcontact.numerics import memory
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "gpu"))
+from stub_cupy import stub_cupy, use_stub_gpu  # noqa: E402
 
 
 def test_memory_sizes_and_the_batch_systems_share():
@@ -22,29 +28,10 @@ def test_memory_sizes_and_the_batch_systems_share():
     assert memory.default_memory_per_rank({})[1] == "physical memory / cores"
 
 
-def stub_cupy(free: int, total: int, pool_free: int):
-    """A stand-in for CuPy with the calls ``memory.gpu_memory`` makes (no GPU here): the device
-    the rank chose (``Device(i).use()``) is the current one (``Device().id``)."""
-    from types import SimpleNamespace
-
-    class Device:
-        current = 0
-
-        def __init__(self, ordinal: int | None = None) -> None:
-            self.id = Device.current if ordinal is None else ordinal
-
-        def use(self) -> None:
-            Device.current = self.id
-
-    runtime = SimpleNamespace(memGetInfo=lambda: (free, total), getDeviceProperties=lambda i: {"name": b"Stub H"})
-    pool = SimpleNamespace(free_bytes=lambda: pool_free)
-    return SimpleNamespace(cuda=SimpleNamespace(Device=Device, runtime=runtime), get_default_memory_pool=lambda: pool)
-
-
 def test_gpu_memory_is_the_free_device_memory_and_the_pools_free_blocks(monkeypatch):
     from hpcontact.numerics import backend
 
-    monkeypatch.setattr(backend, "cuda_devices", lambda: (stub_cupy(3 * 2**30, 8 * 2**30, 2**20), 2, ""))
+    use_stub_gpu(monkeypatch, stub_cupy(3 * 2**30, 8 * 2**30, 2**20), devices=2)
     monkeypatch.setenv("SLURM_LOCALID", "3")  # the rank's GPU: 3 mod 2
     for name in backend.LOCAL_RANK_VARIABLES[:-2]:
         monkeypatch.delenv(name, raising=False)

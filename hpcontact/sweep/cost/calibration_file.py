@@ -27,12 +27,14 @@ from pathlib import Path
 from typing import Any
 
 from hpcontact import __version__
+from hpcontact.numerics.memory import GpuMemory
 from hpcontact.sweep.cost.calibration import calibrate
 from hpcontact.sweep.cost.rates import (
     KINDS,
     Calibration,
     Rate,
     calibration_path,
+    gpu_calibration_path,
     named_calibration_path,
     node_type,
 )
@@ -168,6 +170,22 @@ def cached_calibration(path: Path | None = None) -> tuple[Calibration | None, st
             f"{cached.version}, not {cpu}, {cores} cores / {__version__}"
         )
     return cached, described(cached)
+
+
+def gpu_calibration(gpu: GpuMemory) -> tuple[Calibration | None, str]:
+    """The cost model of tasks on the GPU ``gpu`` (``rates.gpu_calibration_path``, made by this
+    package's version) and whose it is, in words; or None and, in words, that there is no
+    calibration for this GPU (none is made here: GPU seconds are never derived from a CPU's)."""
+    path = gpu_calibration_path(gpu)
+    if not path.exists():
+        return None, f"no calibration for this GPU ({gpu.label}; none in {path})"
+    try:
+        cached = read_calibration(path)
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        return None, f"no calibration for this GPU ({gpu.label}; {path} ignored: {exc})"
+    if cached.version != __version__:
+        return None, f"no calibration for this GPU ({gpu.label}; {path} is hpcontact {cached.version}'s)"
+    return cached, f"cost model of {gpu.label} on {cached.host}, {cached.date}, hpcontact {cached.version}"
 
 
 def described(calibration: Calibration) -> str:

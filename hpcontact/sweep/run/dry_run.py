@@ -18,7 +18,7 @@ from hpcontact.sweep.run.arguments import EXIT_OK
 from hpcontact.sweep.run.guard import apart
 from hpcontact.sweep.run.summary import SHOWN_FAILURES
 from hpcontact.sweep.space.parse import load_spec
-from hpcontact.sweep.work.estimate import estimate
+from hpcontact.sweep.work.estimate import Estimate, estimate, gpu_batches
 from hpcontact.sweep.work.tasks import enumerate_part, join_parts, points, progress_lines
 
 #: A dry run lists a sample of the tasks, after its summary: the first ``LISTED_HEAD`` and the last
@@ -103,6 +103,8 @@ def dry_run(
                     "cores": calibration.cores,
                     "date": calibration.date,
                 },
+                "tasks_not_estimated": est.not_estimated,
+                **_gpu_json(est),
             }
         )
         # the object json.dumps writes with "tasks_list" last, one entry per task, written in blocks
@@ -111,7 +113,7 @@ def dry_run(
             stream.write(
                 ", ".join(
                     f'{{"index": {i}, "key": {_json_text(t.key)}, "cost": {_json_number(t.cost)}, '
-                    f'"estimated_seconds": {_json_number(s)}, "estimated_peak_memory_bytes": {_json_number(b)}}}'
+                    f'"estimated_seconds": {_json_seconds(s)}, "estimated_peak_memory_bytes": {_json_number(b)}}}'
                     for i, t, s, b in zip(
                         range(begin, begin + 10_000),
                         tasks[begin : begin + 10_000],
@@ -132,18 +134,23 @@ def dry_run(
     counts = est.grids()  # once: a label per task
     grids = "; ".join(f"{label}: {count} tasks" for label, count in counts.items())
     print(f"# {len(counts)} grid(s) ({grids}); {est.kernel_sets()} kernel set(s)", file=stream)
+    left_out = f" ({est.not_estimated} GPU task(s) not estimated)" if est.not_estimated else ""
     print(
-        f"# estimated: {est.total_seconds:.4g} core-seconds = {est.total_seconds / 3600.0:.3g} core-hours; peak memory "
-        f"{est.peak_bytes / 2**20:.0f} MiB (task {peak_task}); limit {limit / 2**20:.0f} MiB per rank ({source})",
+        f"# estimated: {est.total_seconds:.4g} core-seconds = {est.total_seconds / 3600.0:.3g} core-hours{left_out}; "
+        f"peak memory {est.peak_bytes / 2**20:.0f} MiB (task {peak_task}); limit {limit / 2**20:.0f} MiB per rank "
+        f"({source})",
         file=stream,
     )
     walls = ", ".join(
         f"{r} rank(s) {_wall_text(w)} (efficiency {est.efficiency[r]:.2f})" for r, w in est.wall_s.items()
     )
+    cpu_tasks = "" if est.on_gpu is None else " (CPU tasks)"
     print(
-        f"# wall time: {walls}; {described(calibration)}",
+        f"# wall time: {walls or 'not estimated while a task has no seconds'}; {described(calibration)}{cpu_tasks}",
         file=stream,
     )
+    for line in _gpu_lines(est):
+        print(line, file=stream)
     if calibration.contended():
         print(f"# warning: cost model {calibration.contended()}", file=stream)
     if spec.adaptive is not None:  # all the tasks are the bound; the first round solves fewer
@@ -159,12 +166,58 @@ def dry_run(
                 f"# ... {left_out} more tasks ({LISTED_HEAD} ... {len(tasks) - LISTED_TAIL - 1}; "
                 f"--list-all lists every task)\n"
                 if i is None
-                else f"{i:6d}  {tasks[i].key[:12]}  {tasks[i].cost:10.3g}  {float(est.seconds[i]):9.3g}  "
+                else f"{i:6d}  {tasks[i].key[:12]}  {tasks[i].cost:10.3g}  {_seconds_text(float(est.seconds[i]))}  "
                 f"{float(est.bytes[i]) / 2**20:7.0f}  {shown(dict(tasks[i].params))}\n"
                 for i in listed[begin : begin + 10_000]
             )
         )
     return EXIT_OK
+
+
+def _gpu_lines(est: Estimate) -> list[str]:
+    """The text dry run's lines on GPU tasks: on which GPU, whose cost model (or that there is none
+    for this GPU), and per grid a scene's device memory and the scenes of one batch."""
+    if est.gpu is None or est.on_gpu is None:
+        return []
+    gpu = est.gpu.gpu
+    lines = [
+        f"# GPU tasks: {int(est.on_gpu.sum())} on {gpu.label}, {gpu.free / 2**30:.1f} GiB free here; {est.gpu.note}"
+        + ("" if est.gpu.calibration is not None else ": their seconds are not estimated")
+    ]
+    lines += [
+        f"# GPU batch: {label}: {nbytes / 2**20:.0f} MiB a scene on the device, up to {scenes} scene(s) a batch"
+        for label, nbytes, scenes in gpu_batches(est)
+    ]
+    return lines
+
+
+def _gpu_json(est: Estimate) -> dict[str, Any]:
+    """The JSON dry run's keys on GPU tasks (``_gpu_lines``), none without GPU tasks."""
+    if est.gpu is None or est.on_gpu is None:
+        return {}
+    gpu = est.gpu.gpu
+    return {
+        "gpu": {
+            "tasks": int(est.on_gpu.sum()),
+            "device": gpu.label,
+            "free_bytes": gpu.free,
+            "total_bytes": gpu.total,
+            "cost_model": est.gpu.note,
+            "calibrated": est.gpu.calibration is not None,
+            "batches": [{"grid": g, "scene_bytes": b, "scenes_per_batch": n} for g, b, n in gpu_batches(est)],
+        }
+    }
+
+
+def _seconds_text(seconds: float) -> str:
+    """A task's estimated seconds in the listing; a task without an estimate (a GPU task without
+    its GPU's calibration) says so."""
+    return f"{seconds:9.3g}" if not math.isnan(seconds) else "     none"
+
+
+def _json_seconds(seconds: float) -> str:
+    """A task's estimated seconds in the JSON listing: null for a task without an estimate."""
+    return "null" if math.isnan(seconds) else _json_number(seconds)
 
 
 def _json_text(text: str) -> str:

@@ -12,7 +12,15 @@ seconds (``benchmarks/dry_run_points.py``).
 by a probe of this machine (``cost.prior.run_calibration``): never without an
 estimate, never waiting for a calibration.
 
-``check_memory`` refuses a run whose largest task would not fit in ``--mem-per-rank``.
+``check_memory`` refuses a run whose largest task would not fit in ``--mem-per-rank``, and one
+whose largest GPU task would not fit in its GPU's free memory.
+
+**GPU tasks** (``device = "gpu"``) are estimated with the cost model of the GPU this process sees
+(``GpuCosts``: ``cost.calibration_file.gpu_calibration``, a file per kind of GPU), never with a
+CPU's: without one their seconds are not estimated (NaN in ``Estimate.seconds``, left out of the
+totals and said so; no wall time is replayed). Their memory is the host's as a CPU task's (each
+scene is built on the host) and, on the device, ``footprint.array_bytes`` a scene, times the
+scenes of a batch (``gpu_batches``: ``sweep.work.batches``).
 """
 
 from __future__ import annotations
@@ -25,9 +33,10 @@ from typing import Any
 import numpy as np
 
 from hpcontact.errors import InputError
-from hpcontact.numerics.memory import MIB, resident_bytes
+from hpcontact.numerics.memory import MIB, GpuMemory, gpu_memory, resident_bytes
 from hpcontact.problems.footprint import task_kind
 from hpcontact.sweep.cost.calibration import other_running
+from hpcontact.sweep.cost.calibration_file import gpu_calibration
 from hpcontact.sweep.cost.engine import omega_nodes
 from hpcontact.sweep.cost.grids import asks_accuracy, padded_cells
 from hpcontact.sweep.cost.prior import run_calibration
@@ -60,10 +69,19 @@ class Estimate:
     sizing_of: np.ndarray | None = None
     sizings: list[Sizing] = field(default_factory=list)
     chunks: ChunkOrder | None = None  # the tasks in chunk order (``tasks.chunk_order``), when replayed
+    on_gpu: np.ndarray | None = None  # which tasks run on a GPU (``device_of``); None: none
+    gpu: GpuCosts | None = None  # what the GPU tasks are estimated with, when there are any
+
+    @property
+    def not_estimated(self) -> int:
+        """Tasks whose seconds are not estimated (GPU tasks without a calibration for their GPU)."""
+        return int(np.count_nonzero(np.isnan(self.seconds)))
 
     @property
     def total_seconds(self) -> float:
-        return float(sum(np.asarray(self.seconds, dtype=np.float64).tolist()))  # in task order, as sum() adds
+        """Seconds of the estimated tasks (``not_estimated`` says how many are left out)."""
+        seconds = np.asarray(self.seconds, dtype=np.float64)
+        return float(sum(seconds[~np.isnan(seconds)].tolist()))  # in task order, as sum() adds
 
     @property
     def peak_bytes(self) -> float:
@@ -88,6 +106,49 @@ class Estimate:
     def over(self, limit: float) -> list[int]:
         """Indices of the tasks whose memory exceeds ``limit`` bytes."""
         return np.flatnonzero(np.asarray(self.bytes, dtype=np.float64) > limit).tolist()
+
+
+@dataclass(frozen=True)
+class GpuCosts:
+    """What a sweep's GPU tasks are estimated with: this process's GPU (``numerics.memory.gpu_memory``),
+    its cost model (``cost.calibration_file.gpu_calibration``; None: no calibration for this GPU,
+    their seconds are not estimated) and, in words, whose it is or that there is none."""
+
+    gpu: GpuMemory
+    calibration: Calibration | None
+    note: str
+
+    @classmethod
+    def here(cls) -> GpuCosts:
+        """Those of the GPU this process sees (``InputError`` on ``device`` where it sees none)."""
+        gpu = gpu_memory()
+        return cls(gpu, *gpu_calibration(gpu))
+
+
+def device_of(tasks: Sequence[Task]) -> np.ndarray | None:
+    """Which of ``tasks`` ask for a GPU (``device = "gpu"``); None when none does."""
+    on_gpu = np.fromiter((t.params.get("device") == "gpu" for t in tasks), dtype=bool, count=len(tasks))
+    return on_gpu if on_gpu.any() else None
+
+
+def gpu_batches(est: Estimate) -> list[tuple[str, float, int]]:
+    """The GPU tasks' grids (``sizing_label``, first-appearance order): the device bytes of one
+    scene (``footprint.array_bytes``) and how many scenes one batch holds on this GPU
+    (``sweep.work.batches.batch_memory``; 1 for a task that asks for an accuracy: its grid
+    sequence is solved alone)."""
+    if est.on_gpu is None:
+        return []
+    from hpcontact.sweep.work.batches import batch_memory  # the solvers' modules: only for GPU tasks
+
+    if est.sizing_of is None:
+        est.sizing_of, est.sizings = _sizings(est.tasks)
+    room = batch_memory("gpu")
+    out: dict[str, tuple[float, int]] = {}
+    for k in dict.fromkeys(est.sizing_of[est.on_gpu].tolist()):
+        size = est.sizings[k]
+        scenes = 1 if size.work is not None else max(1, int(room // size.array_bytes))
+        out.setdefault(sizing_label(size), (size.array_bytes, scenes))
+    return [(label, nbytes, scenes) for label, (nbytes, scenes) in out.items()]
 
 
 def grid_label(params: Mapping[str, Any]) -> str:
@@ -155,15 +216,26 @@ def estimate(
     calibration: Calibration,
     ranks: Sequence[int] = (1, 64, 1024),
     overheads: Overheads = DEFAULT_OVERHEADS,
+    gpu: GpuCosts | None = None,
 ) -> Estimate:
-    """Seconds and bytes of every task (``task_arrays``), and the replayed wall time on each of
-    ``ranks`` (the tasks put in chunk order once, ``tasks.chunk_order``)."""
+    """Seconds and bytes of every task (``task_arrays``; GPU tasks' seconds by ``gpu``, default
+    ``GpuCosts.here()``, NaN without its calibration), and the replayed wall time on each of
+    ``ranks`` (the tasks put in chunk order once, ``tasks.chunk_order``; none while a task has
+    no seconds)."""
     tasks = tasks if isinstance(tasks, list) else list(tasks)
     with paused_gc():
         seconds, nbytes, which, sizes = task_arrays(tasks, calibration)
-        result = Estimate(tasks, seconds, nbytes, sizing_of=which, sizings=sizes)
+        on_gpu = device_of(tasks)
+        if on_gpu is not None:
+            gpu = gpu if gpu is not None else GpuCosts.here()
+            seconds[on_gpu] = (
+                np.nan
+                if gpu.calibration is None
+                else task_arrays([t for t, g in zip(tasks, on_gpu.tolist()) if g], gpu.calibration)[0]
+            )
+        result = Estimate(tasks, seconds, nbytes, sizing_of=which, sizings=sizes, on_gpu=on_gpu, gpu=gpu)
         chunks = result.chunks = chunk_order(tasks) if tasks else None
-        for r in ranks:
+        for r in ranks if not result.not_estimated else ():  # no wall time of tasks without seconds
             replayed = replay_chunks(chunks, seconds, r, overheads) if tasks else {"makespan_s": 0.0, "efficiency": 1.0}
             result.wall_s[r], result.efficiency[r] = replayed["makespan_s"], replayed["efficiency"]
     return result
@@ -175,11 +247,15 @@ def check_memory(tasks: Sequence[Task], limit: float, source: str) -> None:
     a run imports to measure it costs rank 0 ~1 s while every rank waits, so that is done only
     for a task within IMPORTS_BYTES of the limit; a task whose arrays exceed the limit already
     beside what this process holds now is refused without it (the need stated is then that
-    lower bound)."""
+    lower bound). A GPU task's arrays must also fit, alone, in the free memory of the GPU this
+    process sees (``_check_gpu_memory``)."""
     if not tasks:
         return
     which, sizes = _sizings(tasks)
     arrays = np.array([s.array_bytes for s in sizes], dtype=np.float64)[which]  # task_array_bytes of each
+    on_gpu = device_of(tasks)
+    if on_gpu is not None:
+        _check_gpu_memory(arrays, on_gpu)
     worst = int(np.argmax(arrays))
     resident = resident_bytes()
     if resident + IMPORTS_BYTES + float(arrays[worst]) <= limit:
@@ -196,6 +272,22 @@ def check_memory(tasks: Sequence[Task], limit: float, source: str) -> None:
         )
 
 
+def _check_gpu_memory(arrays: np.ndarray, on_gpu: np.ndarray) -> None:
+    """``InputError`` (field device) when the largest GPU task's arrays (``arrays``, bytes per task;
+    ``on_gpu`` says which tasks) exceed the free memory of this process's GPU: a batch holds at
+    least one scene."""
+    gpu = gpu_memory()
+    need = float(np.max(arrays[on_gpu]))
+    if need > gpu.free:
+        over = int(np.count_nonzero(arrays[on_gpu] > gpu.free))
+        raise InputError(
+            "device",
+            f"the largest GPU task's estimated device memory {need / MIB:.0f} MiB over the free {gpu.free / MIB:.0f} "
+            f"MiB of {gpu.label} ({over} GPU task(s) over it; see hpcontact run SPEC --dry-run)",
+            "gpu",
+        )
+
+
 def start_estimate(tasks: Sequence[Task], ranks: int) -> tuple[str, np.ndarray]:
     """The line ``hpcontact run`` prints on rank 0 before work starts — the estimated core-seconds
     of ``tasks`` (those this run computes) and the replayed wall time on ``ranks`` ranks, and
@@ -204,10 +296,25 @@ def start_estimate(tasks: Sequence[Task], ranks: int) -> tuple[str, np.ndarray]:
     calibration, else the shipped prior scaled by a probe of this machine (0.4-0.5 CPU-seconds),
     never a calibration a run would wait for. It warns where the calibration shared its cores
     (``Calibration.contended``: its seconds are high) and where the run shares them now
-    (``rates.load_note``: the run will take longer)."""
+    (``rates.load_note``: the run will take longer). GPU tasks take their GPU's cost model
+    (``GpuCosts``); without one the line says so and states the CPU tasks' seconds alone, and
+    the seconds returned for the GPU tasks are their CPU estimates, weights of the ETA only
+    (which scales them by the measured wall seconds per estimated second)."""
     calibration, origin = run_calibration()
     tasks = list(tasks)
     seconds = task_arrays(tasks, calibration)[0]
+    on_gpu = device_of(tasks)
+    if on_gpu is not None:
+        gpu = GpuCosts.here()
+        if gpu.calibration is None:  # their CPU seconds stay the progress ETA's weights; none is printed
+            shown = seconds[~on_gpu]
+            line = (
+                f"hpcontact: {int(on_gpu.sum())} GPU task(s) not estimated: {gpu.note}; the {len(shown)} CPU task(s): "
+                f"estimated {sum(shown.tolist()):.4g} core-seconds ({origin})"
+            )
+            return line, seconds
+        seconds[on_gpu] = task_arrays([t for t, g in zip(tasks, on_gpu.tolist()) if g], gpu.calibration)[0]
+        origin = f"{origin}; GPU tasks: {gpu.note}"
     wall = replay_chunks(chunk_order(tasks), seconds, ranks, DEFAULT_OVERHEADS)["makespan_s"] if tasks else 0.0
     others = other_running()
     notes = (calibration.contended(), load_note(None if others is None else others + 1.0, node_type()[1]))
