@@ -36,7 +36,7 @@ import math
 import socket
 import statistics
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -172,24 +172,38 @@ EXACT_CALIBRATION_SCENE: dict[str, Any] = {
 }
 
 
-def _timed(params: Mapping[str, Any], repeats: int = 2) -> float:
-    """CPU seconds of a solve of ``params`` (``_timed_solve``)."""
-    return _timed_solve(params, repeats)[0]
+#: What a calibration times with, per device: CPU seconds of the process on the CPU (module
+#: docstring), wall seconds on a GPU (the host thread waits for the device; its CPU seconds would
+#: count its spinning or nothing, not the device's work).
+CLOCKS: dict[str, Callable[[], float]] = {"cpu": time.process_time, "gpu": time.perf_counter}
 
 
-def _timed_solve(params: Mapping[str, Any], repeats: int = 2) -> tuple[float, int]:
-    """CPU seconds of a solve of ``params`` with warm FFT plans (an untimed solve first) and a
-    cold kernel cache: the time on a core of its own, whatever else shares the machine; the
-    least of ``repeats`` timings (the others carry interference); and its CG iterations."""
+def scene_clock(params: Mapping[str, Any]) -> Callable[[], float]:
+    """The clock a calibration scene is timed with: its device's (``CLOCKS``)."""
+    return CLOCKS[params.get("device", "cpu")]
+
+
+def _timed(params: Mapping[str, Any], repeats: int = 2, clock: Callable[[], float] = time.process_time) -> float:
+    """Seconds of a solve of ``params`` on ``clock`` (``_timed_solve``)."""
+    return _timed_solve(params, repeats, clock)[0]
+
+
+def _timed_solve(
+    params: Mapping[str, Any], repeats: int = 2, clock: Callable[[], float] = time.process_time
+) -> tuple[float, int]:
+    """Seconds on ``clock`` (CPU seconds by default) of a solve of ``params`` with warm FFT plans
+    (an untimed solve first) and a cold kernel cache: the time on a core of its own, whatever else
+    shares the machine; the least of ``repeats`` timings (the others carry interference); and its
+    CG iterations."""
 
     function = task_function(scene_kind(params))
     record = function(dict(params))
     best = math.inf
     for _ in range(repeats):
         clear_cache()
-        started = time.process_time()
+        started = clock()
         function(dict(params))
-        best = min(best, time.process_time() - started)
+        best = min(best, clock() - started)
     return best, int(record.get("iterations", 0))
 
 
@@ -219,9 +233,10 @@ def _fit_with_kernels(pair: Sequence[Mapping[str, Any]]) -> Rate:
     rest is fitted as usual, all of them less ``task_s``."""
     small, large = pair
     loose = {**large, "tol": 1e-2}
-    task_s = _timed(TINY_CONTACT_SCENE)
-    t_small = max(0.0, _timed(small) - task_s)
-    (t_large, it_large), (t_loose, it_loose) = (_timed_solve(p) for p in (large, loose))
+    clock = scene_clock(small)
+    task_s = _timed(on_device(TINY_CONTACT_SCENE, small.get("device", "cpu")), clock=clock)
+    t_small = max(0.0, _timed(small, clock=clock) - task_s)
+    (t_large, it_large), (t_loose, it_loose) = (_timed_solve(p, clock=clock) for p in (large, loose))
     t_large, t_loose = max(0.0, t_large - task_s), max(0.0, t_loose - task_s)
     per_iteration = (t_large - t_loose) / max(1, it_large - it_loose)
     cell_s = max(0.0, t_loose - per_iteration * it_loose) / padded_cells(large)
@@ -239,26 +254,44 @@ def other_running() -> float | None:
     return max(0.0, running - 1.0)
 
 
-def calibrate(scenes: Mapping[str, Sequence[Mapping[str, Any]]] = CALIBRATION_SCENES) -> Calibration:
+def on_device(params: Mapping[str, Any], device: str) -> dict[str, Any]:
+    """The calibration scene ``params`` with its solves on ``device``: a contact scene's
+    ``device`` field; a slip scene as it is (slip scenes are solved on the CPU)."""
+    return dict(params) if device == "cpu" or scene_kind(params) != "contact" else {**params, "device": device}
+
+
+def calibrate(
+    scenes: Mapping[str, Sequence[Mapping[str, Any]]] = CALIBRATION_SCENES, device: str = "cpu"
+) -> Calibration:
     """Measure ``Rate`` per kind on this machine (module docstring) and the base memory, every
     solve under the BLAS limit a sweep's tasks run under (``numerics.blas.limited_blas``:
     without it OpenBLAS's threads made the calibration's CPU seconds 2-3x those of the same
-    solves in a task, and every estimate as high; docs/performance.md §"Sweep cost model")."""
+    solves in a task, and every estimate as high; docs/performance.md §"Sweep cost model").
+    With ``device`` "gpu" the contact scenes are solved on this rank's GPU one at a time and
+    timed in wall seconds (``CLOCKS``), the slip scenes on the CPU as a sweep solves them:
+    the cost model of a GPU (``calibration_file.calibrate_gpu``)."""
 
     started = time.perf_counter()
+    scenes = {kind: [on_device(p, device) for p in pair] for kind, pair in scenes.items()}
     others = [other_running()]
     base = base_memory_bytes()
     with limited_blas():
-        rates = {kind: fit_rate(pair, [_timed(p) for p in pair]) for kind, pair in scenes.items() if kind != "contact"}
+        rates = {
+            kind: fit_rate(pair, [_timed(p, clock=scene_clock(p)) for p in pair])
+            for kind, pair in scenes.items()
+            if kind != "contact"
+        }
         others.append(other_running())
         contact = _fit_with_kernels(scenes["contact"])
         others.append(other_running())
-        strips = max(0.0, timed_strips(STRIP_CALIBRATION_SCENE) - contact.task_s)
-        exact = timed_exact(EXACT_CALIBRATION_SCENE)
-        rates["contact"] = replace(contact, strip_s=strips / strip_units(STRIP_CALIBRATION_SCENE), exact_s=exact)
+        strip_scene = on_device(STRIP_CALIBRATION_SCENE, device)
+        exact_scene = on_device(EXACT_CALIBRATION_SCENE, device)
+        strips = max(0.0, timed_strips(strip_scene, clock=scene_clock(strip_scene)) - contact.task_s)
+        exact = timed_exact(exact_scene, clock=scene_clock(exact_scene))
+        rates["contact"] = replace(contact, strip_s=strips / strip_units(strip_scene), exact_s=exact)
         slip, scene = rates["slip"], ANISOTROPIC_SLIP_SCENE
         cost = estimated_cost(scene)
-        rest = _timed(scene) - slip.rate_s * cost - slip.solve_s * solve_units(scene, cost)
+        rest = _timed(scene, clock=scene_clock(scene)) - slip.rate_s * cost - slip.solve_s * solve_units(scene, cost)
         rates["slip"] = Rate(slip.rate_s, slip.solve_s, max(0.0, rest) / omega_nodes(scene))
     others.append(other_running())
     known = [n for n in others if n is not None]

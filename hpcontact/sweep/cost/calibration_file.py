@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from hpcontact import __version__
-from hpcontact.numerics.memory import GpuMemory
+from hpcontact.numerics.memory import GpuMemory, gpu_memory
 from hpcontact.sweep.cost.calibration import calibrate
 from hpcontact.sweep.cost.rates import (
     KINDS,
@@ -178,7 +178,7 @@ def gpu_calibration(gpu: GpuMemory) -> tuple[Calibration | None, str]:
     calibration for this GPU (none is made here: GPU seconds are never derived from a CPU's)."""
     path = gpu_calibration_path(gpu)
     if not path.exists():
-        return None, f"no calibration for this GPU ({gpu.label}; none in {path})"
+        return None, f"no calibration for this GPU ({gpu.label}; none in {path}: calibrate_gpu() makes it)"
     try:
         cached = read_calibration(path)
     except (OSError, ValueError, KeyError, TypeError) as exc:
@@ -186,6 +186,18 @@ def gpu_calibration(gpu: GpuMemory) -> tuple[Calibration | None, str]:
     if cached.version != __version__:
         return None, f"no calibration for this GPU ({gpu.label}; {path} is hpcontact {cached.version}'s)"
     return cached, f"cost model of {gpu.label} on {cached.host}, {cached.date}, hpcontact {cached.version}"
+
+
+def calibrate_gpu(stream: Any = None) -> Path:
+    """Calibrate the cost model on this rank's GPU (``calibration.calibrate`` with device "gpu":
+    wall seconds of each calibration scene solved alone on it; a batch's scenes take less each,
+    not measured yet) and save it where ``gpu_calibration`` reads it (``rates.gpu_calibration_path``);
+    ``stream`` is told. ``InputError`` on ``device`` where there is no GPU."""
+    gpu = gpu_memory()
+    path = gpu_calibration_path(gpu)
+    if stream is not None:
+        print(f"hpcontact: calibrating the cost model on {gpu.label} (saved in {path})", file=stream, flush=True)
+    return save_calibration(calibrate(device="gpu"), path)
 
 
 def described(calibration: Calibration) -> str:

@@ -19,7 +19,7 @@ from __future__ import annotations
 import functools
 import math
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
@@ -60,35 +60,35 @@ def _omega_nodes(voigt: bytes) -> int:
     return surface_green_nodes(stiffness, np.linspace(0.0, 2.0 * math.pi, 32, endpoint=False))
 
 
-def timed_strips(params: Mapping[str, Any], repeats: int = 2) -> float:
-    """CPU seconds of one grid of strip cells of ``params`` (``boundary_cells.covered_solve``,
-    strategy strip), as ``cost.calibration`` times a task: an untimed solve first, the least of
-    ``repeats`` timings; BLAS limited as in a sweep's tasks."""
+def timed_strips(params: Mapping[str, Any], repeats: int = 2, clock: Callable[[], float] = time.process_time) -> float:
+    """Seconds on ``clock`` (CPU seconds by default) of one grid of strip cells of ``params``
+    (``boundary_cells.covered_solve``, strategy strip), as ``cost.calibration`` times a task: an
+    untimed solve first, the least of ``repeats`` timings; BLAS limited as in a sweep's tasks."""
     scene = Scene.from_params(dict(params))
     best = math.inf
     with limited_blas():  # as a sweep's tasks run: threaded BLAS made these Cholesky factors 3x slower
         covered_solve(scene, "strip")
         for _ in range(repeats):
-            started = time.process_time()
+            started = clock()
             covered_solve(scene, "strip")
-            best = min(best, time.process_time() - started)
+            best = min(best, clock() - started)
     return best
 
 
-def timed_exact(params: Mapping[str, Any], repeats: int = 2) -> float:
-    """CPU seconds that the crystal ellipse ``params`` takes on its exact cell beyond its warm
-    solve: the build of its kernel's Fourier series, the kernel cache emptied before each of
+def timed_exact(params: Mapping[str, Any], repeats: int = 2, clock: Callable[[], float] = time.process_time) -> float:
+    """Seconds on ``clock`` (CPU seconds by default) that the crystal ellipse ``params`` takes on its
+    exact cell beyond its warm solve: the build of its kernel's Fourier series, the kernel cache emptied before each of
     ``repeats`` timings (the least counts)."""
     scene = Scene.from_params(dict(params))
     best = math.inf
     for _ in range(repeats):
         clear_kernels()
-        started = time.process_time()
+        started = clock()
         galin_ellipse.solve(scene)
-        cold = time.process_time() - started
-        started = time.process_time()
+        cold = clock() - started
+        started = clock()
         galin_ellipse.solve(scene)
-        best = min(best, cold - (time.process_time() - started))
+        best = min(best, cold - (clock() - started))
     return max(0.0, best)
 
 

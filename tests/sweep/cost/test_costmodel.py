@@ -495,10 +495,10 @@ def test_the_calibration_measures_strips_and_its_file_keeps_them(tmp_path, monke
     (tmp_path / "cm.json").write_text(json.dumps(old))
     assert calibration_file.cached_calibration(tmp_path / "cm.json")[0] is None
     # strip_s: the strip scene's seconds, less the task term, over its strip units
-    monkeypatch.setattr(calibration_module, "_timed", lambda params, repeats=2: 0.01)
-    monkeypatch.setattr(calibration_module, "_timed_solve", lambda params, repeats=2: (0.02, 10))
-    monkeypatch.setattr(calibration_module, "timed_strips", lambda params, repeats=2: 0.51)
-    monkeypatch.setattr(calibration_module, "timed_exact", lambda params, repeats=2: 0.08)
+    monkeypatch.setattr(calibration_module, "_timed", lambda params, repeats=2, clock=None: 0.01)
+    monkeypatch.setattr(calibration_module, "_timed_solve", lambda params, repeats=2, clock=None: (0.02, 10))
+    monkeypatch.setattr(calibration_module, "timed_strips", lambda params, repeats=2, clock=None: 0.51)
+    monkeypatch.setattr(calibration_module, "timed_exact", lambda params, repeats=2, clock=None: 0.08)
     monkeypatch.setattr(calibration_module, "omega_nodes", lambda params: 64)
     calibration = calibration_module.calibrate()
     contact = calibration.rates["contact"]
@@ -507,6 +507,34 @@ def test_the_calibration_measures_strips_and_its_file_keeps_them(tmp_path, monke
     )
     assert all(calibration.rates[k].strip_s == 0.0 for k in KINDS if k != "contact")
     assert contact.exact_s == 0.08 and all(calibration.rates[k].exact_s == 0.0 for k in KINDS if k != "contact")
+
+
+def test_a_gpu_calibration_solves_the_contact_scenes_on_the_gpu_in_wall_seconds(monkeypatch):
+    """``calibrate(device="gpu")``: every contact scene (the crystals', the strips' and the exact
+    cell's included) with device gpu and timed on the wall clock; the slip scenes as they are, on
+    the CPU's clock (slip scenes are solved on the CPU)."""
+    import time
+
+    timed = []
+
+    def record(seconds):
+        def timer(params, repeats=2, clock=time.process_time):
+            timed.append((params.get("device", "cpu"), params.get("quantities") == "slip", clock))
+            return seconds
+
+        return timer
+
+    monkeypatch.setattr(calibration_module, "_timed", record(0.01))
+    monkeypatch.setattr(calibration_module, "_timed_solve", lambda *a, **k: (record(0.02)(*a, **k), 10))
+    monkeypatch.setattr(calibration_module, "timed_strips", record(0.5))
+    monkeypatch.setattr(calibration_module, "timed_exact", record(0.08))
+    monkeypatch.setattr(calibration_module, "omega_nodes", lambda params: 64)
+    monkeypatch.setattr(calibration_module, "base_memory_bytes", lambda: 1.0)
+    calibration_module.calibrate(device="gpu")
+    assert len(timed) == 2 + 2 + 2 + 1 + 3 + 1 + 1 + 1  # crystal, indentation, slip; tiny, contact x 3; strips, exact
+    for device, slip, clock in timed:
+        assert (device, clock) == (("cpu", time.process_time) if slip else ("gpu", time.perf_counter))
+    assert sum(slip for _, slip, _ in timed) == 3
 
 
 def test_the_exact_cell_calibration_times_the_kernel_build_not_a_cached_kernel():
@@ -526,10 +554,10 @@ def test_a_calibration_made_beside_other_processes_says_so(tmp_path, monkeypatch
     count survives the file; a file without it (written before) reads as unknown: no warning."""
     samples = iter([1.0, 2.0, 1.0, 0.0])
     monkeypatch.setattr(calibration_module, "other_running", lambda: next(samples))
-    monkeypatch.setattr(calibration_module, "_timed", lambda params, repeats=2: 0.01)
-    monkeypatch.setattr(calibration_module, "_timed_solve", lambda params, repeats=2: (0.02, 10))
-    monkeypatch.setattr(calibration_module, "timed_strips", lambda params, repeats=2: 0.5)
-    monkeypatch.setattr(calibration_module, "timed_exact", lambda params, repeats=2: 0.08)
+    monkeypatch.setattr(calibration_module, "_timed", lambda params, repeats=2, clock=None: 0.01)
+    monkeypatch.setattr(calibration_module, "_timed_solve", lambda params, repeats=2, clock=None: (0.02, 10))
+    monkeypatch.setattr(calibration_module, "timed_strips", lambda params, repeats=2, clock=None: 0.5)
+    monkeypatch.setattr(calibration_module, "timed_exact", lambda params, repeats=2, clock=None: 0.08)
     monkeypatch.setattr(calibration_module, "omega_nodes", lambda params: 64)
     assert calibration_module.calibrate().others == 1.0  # the mean of its four samples
     rates = {kind: Rate(rate_s=1e-7, solve_s=0.1) for kind in KINDS}
@@ -579,13 +607,13 @@ def test_the_calibration_times_its_solves_under_the_sweeps_blas_limit(monkeypatc
 
     seen = []
 
-    def timed(params, repeats=2):
+    def timed(params, repeats=2, clock=None):
         seen.append(blas_threads())
         return 0.01
 
     monkeypatch.delenv("HPCONTACT_BLAS_THREADS", raising=False)
     monkeypatch.setattr(calibration_module, "_timed", timed)
-    monkeypatch.setattr(calibration_module, "_timed_solve", lambda params, repeats=2: (timed(params), 10))
+    monkeypatch.setattr(calibration_module, "_timed_solve", lambda params, repeats=2, clock=None: (timed(params), 10))
     monkeypatch.setattr(calibration_module, "timed_strips", timed)
     monkeypatch.setattr(calibration_module, "timed_exact", timed)
     monkeypatch.setattr(calibration_module, "omega_nodes", lambda params: 64)
