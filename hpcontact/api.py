@@ -81,6 +81,11 @@ def solve_fields(
     ``errors.AccuracyWarning`` naming the requested and estimated error and what stopped it; an
     ``accuracy`` asked for and missed raises ``AccuracyNotMet``. BLAS is limited while it runs
     (``numerics.blas``). ``name`` spells a field in a message (``--memory`` on the command line).
+
+    The record's ``units`` maps each number's key to its unit (``sweep.data.attributes.record_units``,
+    as a sweep's data set names it): "G a" (GPa a for a body given in GPa, "N m-1" with the
+    contact size ``a`` in m), "1" for ratios and counts, "degree", "s", a slip scene's F and L or
+    SI units.
     """
     fields = {k: os.fspath(v) if isinstance(v, os.PathLike) else v for k, v in params.items() if v is not None}
     extra = {k: v for k, v in (slip or {}).items() if v is not None}
@@ -90,7 +95,12 @@ def solve_fields(
             name("accuracy"), f"not with {name('quantities')} {kind.name} ({kind.accuracy_refused})", accuracy
         )
     with limited_blas():
-        return _SOLVERS[kind.name](fields, extra, accuracy, memory, name)
+        record = _SOLVERS[kind.name](fields, extra, accuracy, memory, name)
+    # imported here: the data set's tables load the sweep's modules, which a bare import hpcontact need not
+    from hpcontact.sweep.data.attributes import record_units
+
+    record["units"] = record_units(record, {**fields, **extra})
+    return record
 
 
 def _solve_slip(
@@ -315,11 +325,15 @@ def solve(
     Returns
     -------
     dict
-        The record: stiffnesses ``K_ij`` in units of G·a (GPa·a for a crystal given in GPa),
-        principal values and angle, ratios, grid, iterations, residual, ``wall_time_s`` and
-        the ``plan``; with ``accuracy`` (or the extrapolated default) also
+        The record: stiffnesses ``K_ij`` in units of G·a (GPa·a for a crystal given in GPa,
+        N/m with ``a``), principal values and angle, ratios, grid, iterations, residual,
+        ``wall_time_s`` and the ``plan``; with ``accuracy`` (or the extrapolated default) also
         ``estimated_error``, ``grids`` and ``levels``. Slip scenes: the record of
-        ``hpcontact.problems.slip.partial_slip.solve_slip``.
+        ``hpcontact.problems.slip.partial_slip.solve_slip``. Its ``units`` maps each number's
+        key to its unit: ``{"K_xx": "G a", "K_a_over_K_b": "1", "principal_angle_deg":
+        "degree", "wall_time_s": "s", ...}`` ("GPa a" for a body given in GPa, "N m-1" with
+        ``a``; UDUNITS strings, or products of the scene's scales G, a, L, F, which are
+        parameters rather than units: ``hpcontact.sweep.data.units``).
 
     Raises
     ------

@@ -27,10 +27,8 @@ from hpcontact.api import solve_fields
 from hpcontact.errors import AccuracyWarning, ConvergenceError, InputError, did_you_mean
 from hpcontact.fields import CONTACT, Field, cli_fields, cli_help, names
 from hpcontact.numerics.convolution import load_wisdom, pyfftw, save_wisdom, wisdom_path
-from hpcontact.problems.kinds import SLIP, quantity_names, scene_kind
-from hpcontact.quantities import STIFFNESS_KEY
-from hpcontact.scene import DEFAULTS
 from hpcontact.sweep.data.show import add_show_arguments, show_command
+from hpcontact.sweep.data.units import factors
 from hpcontact.sweep.run.arguments import add_run_arguments
 
 #: The scene fields of ``hpcontact solve`` (``--no-precondition`` for ``precondition``;
@@ -154,77 +152,26 @@ def _params(args: argparse.Namespace) -> dict[str, Any]:
     return {name: getattr(args, name) for name in FIELDS if getattr(args, name) is not None}
 
 
-def _stress_unit(params: Mapping[str, Any]) -> str:
-    """GPa when the material comes with its constants in GPa (a library crystal, cubic,
-    orthotropic, Voigt), else G."""
-    named = any(params.get(k) is not None for k in ("material", "cubic", "orthotropic", "voigt"))
-    return "GPa" if named else "G"
+#: Exponents as the text output writes them (a² rather than UDUNITS' a2).
+_SUPERSCRIPTS = str.maketrans("0123456789-", "⁰¹²³⁴⁵⁶⁷⁸⁹⁻")
 
 
-def _units(record: Mapping[str, Any], params: Mapping[str, Any]) -> dict[str, str]:
-    """The unit of each value of a record, as the text output shows it ("" for pure numbers)."""
-    return {CONTACT: _contact_units, SLIP: _slip_units}[scene_kind(params)](record, params)
-
-
-def _contact_units(record: Mapping[str, Any], params: Mapping[str, Any]) -> dict[str, str]:
-    """Units of a contact record: stresses in G (or GPa), lengths in a (or L for an indentation),
-    stiffnesses in N/m where the scene gives its size ``a`` in metres."""
-    stress = _stress_unit(params)
-    quantities = set(quantity_names(params.get("quantities"))) or set(DEFAULTS["quantities"])
-    length = "L" if quantities == {"indentation"} else "a"
-    units: dict[str, str] = {}
-    stiffness = "N/m" if params.get("a") is not None else f"{stress}·a"  # a in m: Scene.newtons_per_metre
-    for key in record:
-        if STIFFNESS_KEY.fullmatch(key):
-            units[key] = stiffness
-        elif key in ("dx", "dy"):
-            units[key] = length
-        elif key == "contact_area":
-            units[key] = "L²" if "indentation" in quantities else "a²"
-        elif key == "load":
-            units[key] = f"{stress}·L²"
-        elif key == "max_pressure":
-            units[key] = stress
-        elif key.endswith("_deg"):
-            units[key] = "deg"
-        elif key.endswith("_s"):
-            units[key] = "s"
-        elif key.endswith("_bytes"):
-            units[key] = "bytes"
-    return units
-
-
-def _slip_units(record: Mapping[str, Any], params: Mapping[str, Any]) -> dict[str, str]:
-    """Units of a slip record: N and m when a body is named or given by constants in GPa, else
-    the input's force and length units F and L."""
-    named = any(
-        isinstance(params.get(k), str) and params[k].strip().lower() != "rigid" for k in ("material", "material2")
+def _shown_unit(unit: str) -> str:
+    """A record's unit (``record["units"]``, UDUNITS syntax) as the text output writes it: "G a"
+    → "G·a", "N m-1" → "N/m", "G L2" → "G·L²", "degree" → "deg"; "1" (ratios, counts) → ""."""
+    if unit == "1":
+        return ""
+    if unit == "degree":
+        return "deg"
+    over = [(symbol, power) for symbol, power in factors(unit) if power < 0]
+    shown = "·".join(
+        symbol + (str(power).translate(_SUPERSCRIPTS) if power != 1 else "")
+        for symbol, power in factors(unit)
+        if power > 0
     )
-    constants = any(
-        params.get(f"{family}{suffix}") is not None
-        for family in ("cubic", "orthotropic", "voigt")
-        for suffix in ("", "2")
+    return shown + "".join(
+        f"/{symbol}" + (str(-power).translate(_SUPERSCRIPTS) if power != -1 else "") for symbol, power in over
     )
-    force, length = ("N", "m") if named or constants else ("F", "L")
-    units: dict[str, str] = {}
-    for key in record:
-        if "ratio" in key or "effect" in key or key in ("dundurs_beta", "coupling_size", "iterations", "residual"):
-            continue
-        if "stiffness" in key:
-            units[key] = f"{force}/{length}"
-        elif key.endswith("_area"):
-            units[key] = f"{length}²"
-        elif key.endswith("_force") or key == "load":
-            units[key] = force
-        elif (
-            key.endswith(("_displacement", "_radius")) or key in ("hertz_a", "hertz_b", "dx", "dy") or "centroid" in key
-        ):
-            units[key] = length
-        elif key.endswith("_deg"):
-            units[key] = "deg"
-        elif key.endswith("_s"):
-            units[key] = "s"
-    return units
 
 
 def _shown(value: Any) -> str:
@@ -247,13 +194,16 @@ def _diagnostic(key: str, value: Any) -> bool:
     return key in DIAGNOSTICS or nested
 
 
-def _print_record(record: dict[str, Any], params: Mapping[str, Any] | None = None, verbose: bool = False) -> None:
-    """The record as text, one value per line with its unit (``_units``), then what the unit
-    symbols mean. Raw diagnostics (``_diagnostic``: ``levels``) only when ``verbose``, one
-    line per item."""
-    units = _units(record, params or {})
+def _print_record(record: dict[str, Any], verbose: bool = False) -> None:
+    """The record as text, one value per line with its unit (the record's ``units``, as
+    ``_shown_unit`` writes it), then what the unit symbols mean. Raw diagnostics
+    (``_diagnostic``: ``levels``) only when ``verbose``, one line per item."""
+    units = {key: _shown_unit(unit) for key, unit in record.get("units", {}).items()}
+    units = {key: unit for key, unit in units.items() if unit}
     for key, value in record.items():
-        unit = f"  {units[key]}" if key in units else ""
+        if key == "units":
+            continue
+        unit = f"  {units[key]}" if units.get(key) else ""
         if _diagnostic(key, value):
             if verbose and not value:
                 print(f"{key:>22s}  -")
@@ -300,7 +250,7 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(record))
     else:
-        _print_record(record, {**params, **{k: v for k, v in slip.items() if v is not None}}, verbose=args.verbose)
+        _print_record(record, verbose=args.verbose)
     try:
         save_wisdom()
     except OSError as exc:  # a read-only home is no reason to fail a finished solve

@@ -72,11 +72,15 @@ STIFFNESS_KEY = re.compile(r"(proxy_)?K_[xyz][xyz](_bonded|_coupled)?|K_max|K_mi
 
 def in_newtons_per_metre(record: Mapping[str, Any], newtons_per_metre: float | None) -> dict[str, Any]:
     """``record`` with every stiffness (``STIFFNESS_KEY``) times ``newtons_per_metre``, what its
-    unit G·a is in N/m (``Scene.newtons_per_metre``: a in m times G in Pa); unchanged where
-    that is None. Relative errors, ratios, normalized stiffnesses and angles have no unit."""
+    unit G·a is in N/m (``Scene.newtons_per_metre``: a in m times G in Pa), those of its per-grid
+    ``levels`` too; unchanged where that is None. Relative errors, ratios, normalized
+    stiffnesses and angles have no unit."""
     if newtons_per_metre is None:
         return dict(record)
-    return {k: v * newtons_per_metre if STIFFNESS_KEY.fullmatch(k) and v is not None else v for k, v in record.items()}
+    out = {k: v * newtons_per_metre if STIFFNESS_KEY.fullmatch(k) and v is not None else v for k, v in record.items()}
+    if isinstance(out.get("levels"), list):
+        out["levels"] = [in_newtons_per_metre(level, newtons_per_metre) for level in out["levels"]]
+    return out
 
 
 #: The suffix of a quantity's estimated relative error in a sweep's records and data set

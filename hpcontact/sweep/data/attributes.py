@@ -5,6 +5,7 @@ set: ``hpcontact.sweep.data.dataset``)."""
 
 from __future__ import annotations
 
+import dataclasses
 import re
 from collections.abc import Callable, Mapping
 from typing import Any
@@ -13,7 +14,9 @@ import numpy as np
 
 from hpcontact import fields
 from hpcontact.materials.elastic_constants import FAMILIES
-from hpcontact.problems.kinds import CONTACT, SLIP
+from hpcontact.problems.kinds import CONTACT, SLIP, quantity_names, scene_kind
+from hpcontact.quantities import ERROR_SUFFIX
+from hpcontact.scene import BODY_FIELDS, DEFAULTS
 from hpcontact.sweep.data.columns import NOT_COMPUTED
 from hpcontact.sweep.data.journal import BAD_INPUT, CRASHED, ERROR, NOT_CONVERGED, OK
 from hpcontact.sweep.data.units import cf_attributes
@@ -132,6 +135,8 @@ SLIP_ATTRS: Mapping[str, tuple[str, str]] = {
     "stiffness_ratio": ("k_t / k_t(Q = 0)", "1"),
     "force_ratio": ("Q/(mu P) reached", "1"),
     "stick_radius": ("sqrt(stick_area / pi)", "L"),
+    "stick_centroid_x": ("x of the stick zone's centroid", "L"),
+    "stick_centroid_y": ("y of the stick zone's centroid", "L"),
     "hertz_a": ("semi-major axis of the Hertz contact ellipse", "L"),
     "hertz_b": ("semi-minor axis of the Hertz contact ellipse", "L"),
     "contact_angle_deg": ("major axis of the Hertz ellipse from x", "degree"),
@@ -202,29 +207,92 @@ def attribute_table(spec: Spec) -> dict[str, dict[str, Any]]:
     return ATTRIBUTE_TABLES[spec.kind](spec)
 
 
+@dataclasses.dataclass(frozen=True)
+class ContactUnits:
+    """How the engine units of ``VARIABLE_ATTRS`` and ``AXIS_ATTRS`` read for contact scenes: the
+    one place that decides it, for a solve's record (:func:`record_units`) and a sweep's data set
+    (:func:`attribute_table`) alike.
+
+    ``gpa``: the body's constants are in GPa (a library crystal, cubic, orthotropic or Voigt
+    constants, ``scene.BODY_FIELDS``): stresses in GPa, stiffnesses in GPa a, not in units of G.
+    ``newtons``: the contact size ``a`` is given in metres: stiffnesses (G a) in N m-1, the value
+    times ``Scene.newtons_per_metre`` (``quantities.in_newtons_per_metre``). ``sphere_grid``: every
+    scene asks for an indentation alone, so the grid's ``dx``, ``dy`` are the sphere's, in L.
+    ``sphere_area``: an indentation is asked, so ``contact_area`` is the sphere's (L2), else the
+    punch's (a2)."""
+
+    gpa: bool = False
+    newtons: bool = False
+    sphere_grid: bool = False
+    sphere_area: bool = False
+
+    @classmethod
+    def of_fields(cls, tables: list[Mapping[str, Any]], quantities: set[str]) -> ContactUnits:
+        """The units of scenes whose fields are among ``tables`` (a scene's, or a spec's fixed
+        fields and axis points) and whose quantities are ``quantities``."""
+        return cls(
+            gpa=any(t.get(name) is not None for t in tables for name in BODY_FIELDS),
+            newtons=any(t.get("a") is not None for t in tables),
+            sphere_grid=quantities == {"indentation"},
+            sphere_area="indentation" in quantities,
+        )
+
+    def unit(self, name: str, unit: str) -> str:
+        """The unit of the value ``name`` whose engine unit (its table's) is ``unit``."""
+        if unit == STIFFNESS and self.newtons:
+            return "N m-1"
+        if name in ("dx", "dy") and self.sphere_grid:
+            return "L"
+        if name == "contact_area" and not self.sphere_area:
+            return "a2"
+        if self.gpa and unit.split(" ")[0] == "G":
+            return "GPa" + unit[1:]
+        return unit
+
+
 def _contact_attribute_table(spec: Spec) -> dict[str, dict[str, Any]]:
-    """Contact attributes (``AXIS_ATTRS``, ``VARIABLE_ATTRS``): stresses in G, or GPa when the
-    scenes name library crystals; stiffnesses in N/m when the spec gives the contact size ``a``
-    in metres (``Scene.newtons_per_metre``); an indentation's grid in L."""
-    gpa = _names_crystals(spec)
-    newtons = spec.fixed.get("a") is not None
-    table = {
-        name: {**attrs, "units": "N m-1"}
-        if newtons and attrs.get("units") == STIFFNESS
-        else _with_stress_unit(attrs, gpa)
-        for name, attrs in {**AXIS_ATTRS, **VARIABLE_ATTRS}.items()
-    }
-    if _indentation_only(spec):  # the record's grid is the sphere's
-        for name in ("dx", "dy"):
-            table[name]["units"] = "L"
+    """Contact attributes (``AXIS_ATTRS``, ``VARIABLE_ATTRS``) in the units of the spec's scenes
+    (``ContactUnits``: stresses in G or GPa, stiffnesses in N/m when the spec gives the contact
+    size ``a`` in metres, an indentation's grid in L), scaled quantities as CF ratios
+    (``units.cf_attributes``). Coordinates keep their units: they are the fields as given."""
+    units = _spec_units(spec)
+    table = {name: dict(attrs) for name, attrs in AXIS_ATTRS.items()}
+    for name, attrs in VARIABLE_ATTRS.items():
+        unit = attrs.get("units")
+        table[name] = {**attrs, "units": units.unit(name, unit)} if unit else dict(attrs)
     return {name: cf_attributes(attrs) for name, attrs in table.items()}
+
+
+def _spec_units(spec: Spec) -> ContactUnits:
+    """The ``ContactUnits`` of a contact spec's scenes."""
+    quantities = {q for value in _spec_values(spec, "quantities") for q in quantity_names(value)}
+    return ContactUnits.of_fields(_spec_tables(spec), quantities or set(DEFAULTS["quantities"]))
+
+
+def _spec_tables(spec: Spec) -> list[Mapping[str, Any]]:
+    """The spec's fixed fields and the fields of every point of its axes."""
+    return [spec.fixed] + [fields for axis in spec.axes for fields in axis.fields]
+
+
+def _spec_values(spec: Spec, name: str) -> list[Any]:
+    """The values the spec gives the field ``name`` (fixed or along an axis; none: [])."""
+    return [t[name] for t in _spec_tables(spec) if t.get(name) is not None]
+
+
+def slip_unit(unit: str, si: bool) -> str:
+    """A slip quantity's unit (``SLIP_ATTRS``: in the input's force and length units F and L)
+    in N and m (moduli in Pa) when ``si``: the scenes name library materials or give constants
+    in GPa (``names_materials``)."""
+    if not si:
+        return unit
+    return re.sub(r"\b([FL])(?=-?\d*\b)", lambda m: SI_UNITS[m.group(1)], unit).replace("N m-2", "Pa")
 
 
 def _slip_attribute_table(spec: Spec) -> dict[str, dict[str, Any]]:
     """Slip attributes (``SLIP_ATTRS``) in SI units when the scenes name library materials,
-    else in the input's force and length units F and L; the kind-neutral ones from the
-    contact tables (status, message, wall time, grid counts, tol)."""
-    units = SI_UNITS if names_materials(spec) else {"F": "F", "L": "L"}
+    else in the input's force and length units F and L (``slip_unit``); the kind-neutral ones
+    from the contact tables (status, message, wall time, grid counts, tol)."""
+    si = names_materials(spec)
     table = {
         name: dict(VARIABLE_ATTRS.get(name, AXIS_ATTRS.get(name, {})))
         for name in ("status", "message", "wall_time_s", "nx", "ny", "tol", "plan", "threads", "quantities")
@@ -232,9 +300,62 @@ def _slip_attribute_table(spec: Spec) -> dict[str, dict[str, Any]]:
     for name, (long_name, unit) in SLIP_ATTRS.items():
         attrs: dict[str, Any] = {"long_name": long_name}
         if unit:
-            attrs["units"] = re.sub(r"\b([FL])(?=-?\d*\b)", lambda m: units[m.group(1)], unit).replace("N m-2", "Pa")
+            attrs["units"] = slip_unit(unit, si)
         table[name] = cf_attributes(attrs)
     return table
+
+
+#: Engine units of a solve's record values that a sweep's data set does not store as they are
+#: (``hpcontact.accuracy.solve_to_accuracy``: per-quantity mappings of relative errors and orders,
+#: the memory plan).
+RECORD_UNITS: Mapping[str, str] = {
+    "estimated_errors": "1",
+    "convergence_order": "1",
+    "model_error": "1",
+    "memory_budget_bytes": "byte",
+    "estimated_peak_bytes": "byte",
+}
+
+
+def record_units(record: Mapping[str, Any], params: Mapping[str, Any]) -> dict[str, str]:
+    """The unit of each number in ``record``, the record of the scene of fields ``params``: as
+    the data set's ``units`` of the same name reads before a scale becomes a CF ratio
+    (``ContactUnits``, ``slip_unit``): a UDUNITS unit ("N m-1", "m2", "Pa", "degree", "s",
+    "byte", "1" for ratios and counts) or a product of the scene's scales, which are parameters,
+    not units ("G a", "GPa a", "G L2", "F L-1"; ``units.SCALE_MEANINGS``). A mapping of numbers
+    (``estimated_errors``) has its values' unit; text, flags and the per-grid ``levels`` (in the
+    units of the keys they repeat) have none."""
+    if scene_kind(params) == SLIP:
+        si = materials_named([params])
+
+        def unit_of(name: str) -> str | None:
+            unit = SLIP_ATTRS[name][1] if name in SLIP_ATTRS else VARIABLE_ATTRS.get(name, {}).get("units")
+            return slip_unit(unit, si) if unit else None
+    else:
+        quantities = set(quantity_names(params.get("quantities"))) or set(DEFAULTS["quantities"])
+        units = ContactUnits.of_fields([params], quantities)
+
+        def unit_of(name: str) -> str | None:
+            stem = name.removesuffix(ERROR_SUFFIX)
+            if name != stem and stem in VARIABLE_ATTRS:
+                return error_attributes(stem)["units"]
+            attrs = VARIABLE_ATTRS.get(name) or AXIS_ATTRS.get(name) or {}
+            unit = attrs.get("units", RECORD_UNITS.get(name))
+            return units.unit(name, unit) if unit else None
+
+    return {
+        name: unit
+        for name, value in record.items()
+        if _numbers(value) and (unit := unit_of(name)) is not None and unit != ""
+    }
+
+
+def _numbers(value: Any) -> bool:
+    """Whether a record value is a number (or None: a number not defined here) or a mapping of
+    them: what has a unit."""
+    if isinstance(value, Mapping):
+        return all(_numbers(v) for v in value.values())
+    return value is None or (isinstance(value, (int, float)) and not isinstance(value, bool))
 
 
 ATTRIBUTE_TABLES: Mapping[str, Callable[[Spec], dict[str, dict[str, Any]]]] = {
@@ -245,8 +366,13 @@ ATTRIBUTE_TABLES: Mapping[str, Callable[[Spec], dict[str, dict[str, Any]]]] = {
 
 def names_materials(spec: Spec) -> bool:
     """Whether a slip sweep gives an elastic body by library name or by elastic constants (GPa):
-    moduli then have units, and the sweep's inputs and results are SI."""
-    tables = [spec.fixed] + [fields for axis in spec.axes for fields in axis.fields]
+    moduli then have units, and the sweep's inputs and results are SI (``materials_named``)."""
+    return materials_named(_spec_tables(spec))
+
+
+def materials_named(tables: list[Mapping[str, Any]]) -> bool:
+    """Whether slip fields (a scene's, or a spec's fixed fields and axis points) give an elastic
+    body by library name or by elastic constants (GPa): its quantities are then SI."""
     named = any(
         isinstance(t.get(key), str) and t[key].strip().lower() != "rigid"
         for t in tables
@@ -256,28 +382,6 @@ def names_materials(spec: Spec) -> bool:
         t.get(f"{family}{suffix}") is not None for t in tables for family in FAMILIES for suffix in ("", "2")
     )
     return named or constants
-
-
-def _names_crystals(spec: Spec) -> bool:
-    """Whether the (contact) scenes name library crystals (stresses in GPa, not in units of G)."""
-    return spec.fixed.get("material") is not None or spec.axis("material") is not None
-
-
-def _indentation_only(spec: Spec) -> bool:
-    """Whether every scene asks for indentation alone (the record's grid is the sphere's)."""
-    quantities = spec.fixed.get("quantities")
-    if isinstance(quantities, str):
-        quantities = quantities.split(",")
-    return quantities is not None and {str(q).strip() for q in quantities} == {"indentation"}
-
-
-def _with_stress_unit(attrs: Mapping[str, Any], gpa: bool) -> dict[str, Any]:
-    """``attrs`` with the stress unit G replaced by GPa for library crystals."""
-    out = dict(attrs)
-    units = out.get("units")
-    if gpa and isinstance(units, str) and units.split(" ")[0] == "G":
-        out["units"] = "GPa" + units[1:]
-    return out
 
 
 SOFTWARE = (
@@ -310,7 +414,7 @@ REFERENCES = {
 
 def _contact_units(spec: Spec) -> dict[str, str]:
     """The global unit attributes of a contact sweep: stresses in G or GPa, lengths in a or L."""
-    gpa = _names_crystals(spec)
+    gpa = _spec_units(spec).gpa
     stress = (
         "GPa (library crystal constants)"
         if gpa

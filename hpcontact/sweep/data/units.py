@@ -53,11 +53,12 @@ _TOKEN = re.compile(r"^([A-Za-z]+)(-?\d+)?$")
 
 def scale_symbols(unit: str) -> set[str]:
     """The scale symbols (``SCALE_SYMBOLS``) in a unit string such as ``"G L2"`` or ``"F L-1"``."""
-    return {symbol for symbol, _ in _factors(unit) if symbol in SCALE_SYMBOLS}
+    return {symbol for symbol, _ in factors(unit) if symbol in SCALE_SYMBOLS}
 
 
-def _factors(unit: str) -> list[tuple[str, int]]:
-    """``"G L2"`` → [("G", 1), ("L", 2)]: the symbols of a product of powers and their exponents."""
+def factors(unit: str) -> list[tuple[str, int]]:
+    """``"G L2"`` → [("G", 1), ("L", 2)], ``"N m-1"`` → [("N", 1), ("m", -1)]: the symbols of a
+    product of powers (UDUNITS syntax) and their exponents."""
     out = []
     for token in unit.split():
         match = _TOKEN.match(token)
@@ -106,18 +107,18 @@ def dimensional(da: Any, units: str | None = None, **scales: float) -> Any:
     scale = da.attrs.get("scale")
     if not scale:
         return da
-    factors = _factors(scale)
-    missing = sorted({s for s, _ in factors} - set(scales))
+    powers = factors(scale)
+    missing = sorted({s for s, _ in powers} - set(scales))
     if missing:
         raise ValueError(f"{da.name}: in units of {scale}: give {', '.join(missing)} (e.g. {missing[0]}=1.0)")
     factor = 1.0
-    for symbol, power in factors:
+    for symbol, power in powers:
         factor *= float(scales[symbol]) ** power
     out = da * factor
     attrs = {k: v for k, v in da.attrs.items() if k not in ("scale", "comment")}
     suffix = f" (in units of {scale})"
     if attrs.get("long_name", "").endswith(suffix):
         attrs["long_name"] = attrs["long_name"][: -len(suffix)]
-    attrs["units"] = units or " ".join(SI[s] + ("" if p == 1 else str(p)) for s, p in factors)
+    attrs["units"] = units or " ".join(SI[s] + ("" if p == 1 else str(p)) for s, p in powers)
     out.attrs = attrs
     return out
