@@ -36,6 +36,7 @@ from typing import Any
 
 from hpcontact import quantities as q
 from hpcontact.accuracy.defaults import error_columns, extrapolates_by_default, solve_contact_fields
+from hpcontact.errors import InputError
 from hpcontact.numerics.memory import default_memory_per_rank, gpu_memory, resident_bytes
 from hpcontact.problems.contact import solve_batch
 from hpcontact.problems.footprint import array_bytes, contact_grid
@@ -54,10 +55,13 @@ def batch_group(params: Mapping[str, Any], task_function: Callable | None) -> tu
     """The group of the task ``params`` among tasks that ``run_batch`` solves together (module
     docstring), or None when it runs alone: another task function than the default contact
     solver's, a slip scene, a scene that asks for an accuracy or gets the extrapolated default
-    (a grid sequence, ``accuracy.defaults.default_solve``)."""
+    (a grid sequence, ``accuracy.defaults.default_solve``), a scene its checks refuse."""
     if task_function is not solve_contact_fields or kind_of(params).name != CONTACT:
         return None
-    scene = Scene.from_params(params)
+    try:
+        scene = Scene.from_params(params)
+    except InputError:  # alone: run_task records the refusal as the task's entry
+        return None
     if scene.accuracy is not None or extrapolates_by_default(scene):
         return None
     return (scene.device, contact_grid(params), tuple(scene.quantities), scene.precondition)

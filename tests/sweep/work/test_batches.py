@@ -87,6 +87,7 @@ def test_tasks_without_a_group_and_faulted_ones_run_alone():
     for task in tasks[:3]:
         assert batch_group(task.params, solve_contact_fields) is None
     assert batch_group(CIRCLES[0], lambda params: {}) is None  # another task function
+    assert batch_group({**CIRCLES[0], "aspect": 0.5}, solve_contact_fields) is None  # refused: run_task records it
     assert batch_group(CIRCLES[0], solve_contact_fields) != batch_group(
         {**CIRCLES[0], "precondition": False}, solve_contact_fields
     )
