@@ -24,7 +24,13 @@ task with the fields ``rounds.run_task`` gives a task run alone (its record thro
 round trip, status OK, the batch's wall time shared equally). If the batch raises (a scene that
 fails its solve or its input), each of its tasks is run alone by ``run_alone`` (``run_task``): the
 failing scene is recorded with the error it gives alone and the others are solved again, one at
-a time. Journals, resume and per-scene records are those of tasks run one at a time.
+a time. Journals, resume and per-scene records are those of tasks run one at a time; a rank
+marks every task of a batch started before the batch solves, so a process that dies in a batch
+leaves all of them quarantined, and ``--retry-crashed`` runs them alone on rank 0.
+
+**Where.** A rank batches within the tasks it is handed at once (``plan_batches`` of a claimed
+chunk: ``sweep.run.rounds``); chunks hold one kernel group each, so today's batches are the tasks
+of one group that share a grid.
 """
 
 from __future__ import annotations
