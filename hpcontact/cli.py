@@ -10,6 +10,7 @@ and examples.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import platform
@@ -23,6 +24,7 @@ from typing import Any
 import numpy
 
 from hpcontact import __version__
+from hpcontact.accuracy.refinement import LevelProgress, reporting_levels
 from hpcontact.api import solve_fields
 from hpcontact.errors import AccuracyWarning, ConvergenceError, InputError, did_you_mean
 from hpcontact.fields import CONTACT, Field, cli_fields, cli_help, names
@@ -240,7 +242,9 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     load_wisdom()  # FFTW plans measured by earlier runs come back in milliseconds
     params = _params(args)
     slip = {name: getattr(args, name) for name in SLIP_OPTIONS}
-    with warnings.catch_warnings(record=True) as caught:  # a missed default accuracy: one line, exit 1
+    # a refinement past a few seconds: a line per grid on a terminal's stderr (a log or a pipe gets the result only)
+    levels = reporting_levels(LevelProgress()) if sys.stderr.isatty() else contextlib.nullcontext()
+    with warnings.catch_warnings(record=True) as caught, levels:  # a missed default accuracy: one line, exit 1
         warnings.simplefilter("always", AccuracyWarning)
         record = solve_fields(params, slip, accuracy=args.accuracy, memory=args.memory, name=_option)
     missed = [str(w.message) for w in caught if issubclass(w.category, AccuracyWarning)]

@@ -10,15 +10,22 @@ calibration ends (``calibration``: n = 1024 along the long side for coverage-wei
 ``COVERAGE_MAX_N``; 2^20 cells for singular cells, ``SINGULAR_MAX_CELLS``; 1024 strips,
 ``STRIP_MAX_N``; masks unlimited); the
 record says which (``stopped_by``).
+
+A long refinement can say how it goes: inside ``with reporting_levels(LevelProgress()):`` (what
+``hpcontact solve`` does) every finished grid level is reported, one line on stderr each once the
+solve has run ``PROGRESS_AFTER_S`` seconds.
 """
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import dataclasses
 import math
+import sys
 import time
-from collections.abc import Mapping, Sequence
-from typing import Any
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from typing import Any, TextIO
 
 from hpcontact import fields
 from hpcontact import quantities as q
@@ -35,6 +42,65 @@ from hpcontact.scene import Scene
 #: The grid of the finest level, which an extrapolated record states as its own.
 FINEST_GRID_KEYS = ("nx", "ny", "dx", "dy", "contact_cells", "contact_area")
 STAGNATION_LEVELS = 2  # no fall of the estimate over this many refinements: the extrapolants stagnate
+
+
+#: Seconds a solve to an accuracy runs before ``LevelProgress`` reports its grid levels (a faster
+#: solve prints nothing).
+PROGRESS_AFTER_S = 3.0
+
+#: Called by :func:`refine` after each grid level: ``report(level, planned, (n, n_across),
+#: estimate, accuracy)``, ``estimate`` None before ``MIN_GRIDS`` levels.
+LevelReport = Callable[[int, int, tuple[int, int], float | None, float], None]
+_LEVEL_REPORT: contextvars.ContextVar[LevelReport | None] = contextvars.ContextVar("level_report", default=None)
+
+
+@contextlib.contextmanager
+def reporting_levels(report: LevelReport) -> Iterator[None]:
+    """Within this block, :func:`refine` (every ``solve_to_accuracy`` and the extrapolated
+    default solve) calls ``report`` after each grid level it solves."""
+    token = _LEVEL_REPORT.set(report)
+    try:
+        yield
+    finally:
+        _LEVEL_REPORT.reset(token)
+
+
+class LevelProgress:
+    """A ``LevelReport`` that writes one line per finished grid level on ``stream`` (default
+    stderr) once ``after_s`` seconds (default ``PROGRESS_AFTER_S``) have passed since it was made,
+    none before:
+
+        hpcontact: grid 4 of at most 7 (n = 256, n_across = 240): estimated error 2.1e-06, target 1e-06; 12.4 s
+
+    ``clock`` gives seconds (``time.perf_counter``; a test's fake)."""
+
+    def __init__(
+        self,
+        stream: TextIO | None = None,
+        after_s: float | None = None,
+        clock: Callable[[], float] = time.perf_counter,
+    ) -> None:
+        self.stream = stream
+        self.after_s = PROGRESS_AFTER_S if after_s is None else after_s
+        self.clock = clock
+        self.started = clock()
+
+    def __call__(
+        self, level: int, planned: int, grid: tuple[int, int], estimate: float | None, accuracy: float
+    ) -> None:
+        elapsed = self.clock() - self.started
+        if elapsed < self.after_s:
+            return
+        shown = (
+            f"estimated error {estimate:.2g}, target {accuracy:g}"
+            if estimate is not None
+            else f"no estimate before {MIN_GRIDS} grids, target {accuracy:g}"
+        )
+        print(
+            f"hpcontact: grid {level} of at most {planned} (n = {grid[0]}, n_across = {grid[1]}): {shown}; {elapsed:.1f} s",
+            file=self.stream or sys.stderr,
+            flush=True,
+        )
 
 
 def stagnates(history: Sequence[float], levels: int = STAGNATION_LEVELS) -> bool:
@@ -70,18 +136,23 @@ def refine(
     ``solve_to_accuracy`` and of the replays of ``benchmarks/accuracy_sharpness.py``;
     ``expansions`` and ``safety`` as :func:`estimate`; ``model_error``, a relative bound on what
     the discretization itself leaves whatever the grid (strip cells' profile), is added to every
-    estimate."""
+    estimate. Each level is reported to the ``LevelReport`` of :func:`reporting_levels`, if any."""
+    report = _LEVEL_REPORT.get()
     levels: list[dict[str, Any]] = []
     history: list[float] = []
     found: tuple[dict[str, float], dict[str, float], dict[str, float], dict[str, list[float]]] = ({}, {}, {}, {})
     for n, na in grids:
         levels.append(solve_level(n, na))
         if len(levels) < MIN_GRIDS:
+            if report is not None:
+                report(len(levels), len(grids), (n, na), None, accuracy)
             continue
         found = extrapolate(levels, expansions, safety)
         if model_error:
             found = (found[0], {k: v + model_error for k, v in found[1].items()}, found[2], found[3])
         history.append(max(found[1].values()))
+        if report is not None:
+            report(len(levels), len(grids), (n, na), history[-1], accuracy)
         if history[-1] <= accuracy:
             return Refinement(levels, *found, stopped_by="met")
         if stagnates(history):
