@@ -481,11 +481,24 @@ class HistoryReader:
     since the last (the journals are append-only: a file that shrank or was replaced, another
     inode, is read again from its start; one that is gone is forgotten), and gives what
     ``read_history`` of the whole folder gives. An ``Entry`` read once is the same object in
-    every later ``History`` until a later outcome of its task replaces it."""
+    every later ``History`` until a later outcome of its task replaces it. ``advance`` parses
+    what was appended so far without making a ``History`` (rank 0 during a round, while the
+    other ranks compute: the read after the round parses only the rest); a ``read`` gives the
+    same ``History`` however often ``advance`` ran before it."""
 
     def __init__(self, folder: Path) -> None:
         self.folder = Path(folder)
         self._files: dict[Path, _FileState] = {}
+
+    def advance(self) -> None:
+        """Parse the complete lines appended to the journals since the last ``advance`` or
+        ``read`` (an incomplete last line is left for later: a rank may be writing it). A file
+        that cannot be read is left to the next ``read``, which reports it."""
+        for path in journal_files(self.folder):
+            try:
+                self._files[path] = self._update(path)[0]
+            except OSError:
+                continue
 
     def read(self) -> History:
         """The history of the journals as they are now (``read_history``)."""

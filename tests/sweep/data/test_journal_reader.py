@@ -77,3 +77,46 @@ def test_each_read_gives_the_whole_folder_and_parses_only_what_is_new(tmp_path, 
     fourth = reader.read()
     assert set(fourth.entries) == {"k6"} and fourth.dropped == 0 and fourth.stalled == set()
     assert fourth.headers[0]["session"] == "c" and fourth == read_history(tmp_path)
+
+
+def test_advances_while_the_ranks_write_leave_the_read_the_same_and_only_the_rest_to_parse(tmp_path, monkeypatch):
+    """Rank 0 parses the journals during a round (``advance``) while ranks write them: a line
+    half written at an advance (a rank writing it) is read whole later, not dropped; a file whose
+    header is half written likewise; the read after the round equals a reading of the whole
+    folder and parses only what came after the last advance."""
+    reader = HistoryReader(tmp_path)
+    a = Journal(tmp_path / "rank00000-a.jsonl", 0, {"session": "a"})
+    a.started("k1")
+    reader.advance()  # the header and a start
+    line = Journal.line(entry("k1", value=3.0))
+    a.write_raw(line[:25])
+    reader.advance()  # half the line: left for later
+    a.write_raw(line[25:])
+    b_path = tmp_path / "rank00001-a.jsonl"
+    b = Journal(b_path, 1, {"session": "a"})
+    b.started("k2")
+    header_and_start = b_path.read_bytes()
+    b_path.write_bytes(header_and_start[:10])  # the header as a rank writes it: partly there
+    reader.advance()
+    b_path.write_bytes(header_and_start)
+    reader.advance()
+    b.append(entry("k2", status=ERROR))
+    b.close()
+    a.append(entry("k3"))
+    a.close()
+    parsed: list[int] = []
+    scan = journal.scan_lines
+
+    def counted(data: bytes):
+        parsed.append(len(data))
+        return scan(data)
+
+    monkeypatch.setattr(journal, "scan_lines", counted)
+    history = reader.read()
+    monkeypatch.undo()
+    tail = len(Journal.line(entry("k3"))) + len(Journal.line(entry("k2", status=ERROR)))
+    assert sum(parsed) == tail  # the two lines written after the last advance, nothing else
+    whole = read_history(tmp_path)
+    assert history == whole and history.dropped == 0 and history.unfinished == {}
+    assert set(history.entries) == {"k1", "k2", "k3"} and history.entries["k1"].record == {"K_xx": 3.0}
+    assert [h["rank"] for h in history.headers] == [0, 1]
