@@ -1,11 +1,15 @@
 """Honesty of the adaptive map error on maps it was not tuned on (issue 40 item 3).
 
-    python benchmarks/map_honesty.py [--maps M2 M3 ...] [--output results/map_honesty.json]
+    python benchmarks/map_honesty.py [--maps M2 M3 ...] [--truth DIR] [--output results/map_honesty.json]
 
 Each map is solved twice with the real solver: adaptively (``[adaptive] tolerance = 1e-3``,
 the default checks) and as a plain sweep of every grid point (the truth: each point solved
 directly; all maps here are ellipses and circles, one exact cell per solve, so the truth's own
-error, <= 1e-6 requested, is far below the tolerance). Per map and quantity: points, solves,
+error, <= 1e-6 requested, is far below the tolerance). With ``--truth DIR`` the truth is kept
+in ``DIR`` (``<map>_truth.nc``, solved once, journaled) and the adaptive map is replayed from
+it instead of solved again (``replay``): the same scenes solved by the same solver give the
+same values, so its rounds, checks and data set (``maps.fill``) are those of a real run, in
+seconds; its solves are counted, not timed. Per map and quantity: points, solves,
 worst true relative error of the map (off-diagonal entries relative to the largest diagonal
 one, as the map error), worst stated map error, and honesty, the share of points whose stated
 ``<name>_map_error`` is at least the true error. The estimator's factor was tuned on Mindlin's
@@ -91,11 +95,47 @@ def run(folder: Path, name: str, text: str) -> tuple[xr.Dataset, float]:
     return xr.open_dataset(path), time.perf_counter() - started
 
 
-def measure(key: str, folder: Path) -> dict:
+def replay(text: str, truth: xr.Dataset) -> xr.Dataset:
+    """The data set the adaptive sweep of the spec ``text`` writes, from ``truth`` (every grid
+    point of the same scenes solved, the spec's accuracy): its rounds decided as a sweep decides
+    (``rounds.next_step``, from the values at the points solved so far alone), then filled
+    (``fill.fill``: every point not solved replaced by the map's value)."""
+    from hpcontact.sweep.maps.fill import fill, quantity_fields, refined_names, stiffness_names
+    from hpcontact.sweep.maps.refinement import Checks, Layout, initial_state, state_tasks
+    from hpcontact.sweep.maps.rounds import next_step
+    from hpcontact.sweep.space.parse import parse_spec
+    from hpcontact.sweep.work.tasks import enumerate_part, join_parts
+
+    adaptive = parse_spec(text, check_scenes=False)
+    layout = Layout.of(adaptive)
+    task_of = np.asarray(join_parts(adaptive, [enumerate_part(adaptive)])[1])
+    stored = stiffness_names(truth, adaptive.kind)
+    every = quantity_fields(truth, stored)
+    names = refined_names(truth, adaptive)
+    state, checks, rounds = initial_state(layout, adaptive.adaptive), Checks(), 0
+    while True:
+        rounds += 1
+        solved = np.isin(task_of, state_tasks(layout, state, task_of, checks))
+        seen = {n: np.where(solved, v, np.nan) for n, v in every.items()}
+        step = next_step(layout, adaptive.adaptive, state, checks, seen, names, stored, task_of)
+        if not isinstance(step, tuple):
+            return fill(truth, adaptive, layout, state, task_of, rounds, step)
+        state, checks = step
+
+
+def measure(key: str, folder: Path, cached: Path | None = None) -> dict:
     title, scene, axes = MAPS[key]
     map_accuracy, truth_accuracy = GRID_ACCURACY.get(key, (1e-6, 1e-6))
-    adaptive, adaptive_s = run(folder, f"{key}_adaptive", spec(scene, axes, True, map_accuracy))
-    truth, truth_s = run(folder, f"{key}_truth", spec(scene, axes, False, truth_accuracy))
+    if cached is not None and (cached / f"{key}_truth.nc").exists():
+        truth, truth_s = xr.open_dataset(cached / f"{key}_truth.nc"), float("nan")
+    else:
+        truth, truth_s = run(cached or folder, f"{key}_truth", spec(scene, axes, False, truth_accuracy))
+    if cached is not None and map_accuracy == truth_accuracy:
+        started = time.perf_counter()
+        adaptive = replay(spec(scene, axes, True, map_accuracy), truth)
+        adaptive_s = time.perf_counter() - started
+    else:
+        adaptive, adaptive_s = run(folder, f"{key}_adaptive", spec(scene, axes, True, map_accuracy))
     row = {
         "map": key,
         "title": title,
@@ -105,6 +145,7 @@ def measure(key: str, folder: Path) -> dict:
         "estimate factor": float(adaptive.attrs["adaptive_estimate_factor"]),
         "conservative": int(adaptive.attrs["adaptive_conservative_subproblems"]),
         "adaptive s": round(adaptive_s, 1),
+        "replayed": cached is not None and map_accuracy == truth_accuracy,
         "truth s": round(truth_s, 1),
         "quantities": {},
     }
@@ -131,13 +172,14 @@ def measure(key: str, folder: Path) -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--maps", nargs="+", default=list(MAPS), choices=list(MAPS))
+    parser.add_argument("--truth", type=Path, default=None, help="keep the truth here; replay the adaptive map from it")
     parser.add_argument("--output", type=Path, default=None)
     args = parser.parse_args()
     print(harness.machine_line(), flush=True)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for key in args.maps:
-            row = measure(key, Path(tmp))
+            row = measure(key, Path(tmp), args.truth)
             rows.append(row)
             print(
                 f"{key} {row['title']}: {row['solves']} solves for {row['points']} points "

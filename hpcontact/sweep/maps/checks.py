@@ -2,17 +2,22 @@
 
 Checks. The estimate is a model of the interpolation error, tuned on the maps it was tested
 on; a map nobody tuned it to can break it. So when the refinement ends, a check round solves
-``checks`` random unsolved points of every sub-problem (default ``DEFAULT_CHECKS``; a fixed seed
-per round and sub-problem, so a resumed sweep draws the same) and compares each solve with
+``checks`` random unsolved points of every sub-problem (by default ``check_count``: a tenth of
+the sub-problem's nodes, at least ``MIN_CHECKS`` and at most ``MAX_CHECKS``; a fixed seed per
+round and sub-problem, so a resumed sweep draws the same) and compares each solve with
 the interpolant there. Where the interpolant misses a check by more than its map error (less
 the two solves' own estimated errors, which the difference may hold), the sub-problem's
 factor on the interpolation estimate (``SAFETY`` at first) is multiplied by the worst ratio
 found × ``CHECK_MARGIN``, the refinement resumes with it, and a new check round follows, at
 most ``MAX_CHECK_ROUNDS`` in all. A check point is a solved point of the data set (its map
 error is its solve's error). What this guarantees: after a check round that needed no
-increase, the estimate held at every one of the ``checks`` random points of each sub-problem;
-were it below the true error on a fraction p of the map, that happens with probability
-(1 − p)^checks (p = 10 %: 4 % for 30 checks).
+increase, the estimate held at every one of the n random points of each sub-problem; were it
+below the true error on a fraction p of the map, that happens with probability (1 − p)^n:
+p = 25 %: 5.6 % for the fewest, n = 10 (an estimate short on a quarter of a map is caught 19
+times in 20); p = 10 %: 4 % for n = 30, a map of 300 nodes or more. The checks cost at most a
+tenth of the nodes' solves on any map of 100 nodes or more (30 a map before: 30 % of a map of
+100 nodes; 10 random points caught the estimate short on the maps M2, M3, M5 and M7 of
+docs/howto/adaptive.md as 30 did).
 """
 
 from __future__ import annotations
@@ -23,9 +28,21 @@ from dataclasses import replace
 
 import numpy as np
 
-from hpcontact.sweep.maps.refinement import Checks, Layout, Leaf, State, estimate, solve_errors, state_tasks
+from hpcontact.sweep.maps.refinement import (
+    Checks,
+    Layout,
+    Leaf,
+    State,
+    estimate,
+    node_mask,
+    solve_errors,
+    state_tasks,
+)
 from hpcontact.sweep.space.adaptive_settings import Settings
 
+#: Random points per check round and sub-problem by default (``check_count``): a tenth of its
+#: nodes, within these bounds.
+MIN_CHECKS, MAX_CHECKS = 10, 30
 #: A check that shows the estimate short by a ratio r raises the factor by r × this margin.
 CHECK_MARGIN = 1.25
 #: Check rounds at most (one, plus one after each round that had to raise a factor).
@@ -35,14 +52,22 @@ MAX_CHECK_ROUNDS = 3
 MAX_RAISE = 1e3
 
 
+def check_count(settings: Settings, nodes: int) -> int:
+    """Random points a check round draws in a sub-problem of ``nodes`` nodes: ``settings.checks``
+    where the spec sets it, else ⌈nodes / 10⌉ within [``MIN_CHECKS``, ``MAX_CHECKS``]."""
+    if settings.checks is not None:
+        return settings.checks
+    return min(max(math.ceil(nodes / 10), MIN_CHECKS), MAX_CHECKS)
+
+
 def wants_check(settings: Settings, checks: Checks) -> bool:
     """Whether a refinement that has ended is followed by a check round: the first, and one
     after each that raised a factor, at most ``MAX_CHECK_ROUNDS``."""
-    return settings.checks > 0 and checks.rounds < MAX_CHECK_ROUNDS and (checks.rounds == 0 or checks.raised)
+    return settings.checks != 0 and checks.rounds < MAX_CHECK_ROUNDS and (checks.rounds == 0 or checks.raised)
 
 
 def drawn_checks(layout: Layout, settings: Settings, state: State, checks: Checks, task_of: np.ndarray) -> Checks:
-    """``checks`` with ``settings.checks`` more random points of every sub-problem whose tasks
+    """``checks`` with ``check_count`` more random points of every sub-problem whose tasks
     are not solved yet (fewer where fewer are left, or where ``max_solves`` leaves fewer); the
     generator seeded by the check round and the sub-problem, so every rank and a resumed sweep
     draw the same. Unchanged when there is none to draw."""
@@ -51,14 +76,15 @@ def drawn_checks(layout: Layout, settings: Settings, state: State, checks: Check
     solved = set(state_tasks(layout, state, task_of, checks).tolist())
     room = None if settings.max_solves is None else settings.max_solves - len(solved)
     drawn: list[int] = []
-    for s, (cat, _) in enumerate(state):
+    for s, (cat, leaves) in enumerate(state):
         points = layout.take(flat, cat).ravel()
         tasks = task_of.ravel()[points]
         free: dict[int, int] = {}  # a task not solved yet -> its first point in the sub-problem
         for point, task in zip(points.tolist(), tasks.tolist()):
             if task not in solved:
                 free.setdefault(task, point)
-        count = min(settings.checks, len(free), room if room is not None else len(free))
+        wanted = check_count(settings, int(np.count_nonzero(node_mask(layout, leaves))))
+        count = min(wanted, len(free), room if room is not None else len(free))
         if count <= 0:
             continue
         rng = np.random.default_rng([checks.rounds, s, 27])

@@ -19,8 +19,6 @@ INTERPOLATED_AXES = frozenset(
 KEYS = ("tolerance", "max_solves", "quantities", "initial", "log", "checks")
 TOLERANCE_RANGE = "a relative error in [1e-8, 0.5]"
 DEFAULT_INITIAL = 5
-#: Random points of each sub-problem solved per check round (``hpcontact.sweep.maps.checks``).
-DEFAULT_CHECKS = 30
 
 
 @dataclass(frozen=True)
@@ -28,7 +26,8 @@ class Settings:
     """The checked ``[adaptive]`` table: ``tolerance`` per quantity (``quantities`` None: every
     stored stiffness at ``default``), ``max_solves`` (None: the full grid bounds it), nodes per
     axis of the first round, the list axes interpolated in log10 and the random points of
-    each sub-problem solved per check round (0: no check)."""
+    each sub-problem solved per check round (0: no check; None: ``maps.checks.check_count``,
+    a tenth of the sub-problem's nodes, 10 … 30)."""
 
     default: float
     tolerances: tuple[tuple[str, float], ...] = ()
@@ -36,7 +35,7 @@ class Settings:
     max_solves: int | None = None
     initial: int = DEFAULT_INITIAL
     log: tuple[str, ...] = ()
-    checks: int = DEFAULT_CHECKS
+    checks: int | None = None
 
     def tolerance(self, name: str) -> float:
         """The tolerance of the quantity ``name``."""
@@ -97,8 +96,8 @@ def parse_settings(table: Any, axes: Sequence[Any], raw_axes: Mapping[str, Any],
         raise InputError(
             "adaptive.initial", "an integer in [2, 1000] (nodes per numeric axis in the first round)", initial
         )
-    checks = table.get("checks", DEFAULT_CHECKS)
-    if isinstance(checks, bool) or not isinstance(checks, int) or not 0 <= checks <= 10_000:
+    checks = table.get("checks")
+    if checks is not None and (isinstance(checks, bool) or not isinstance(checks, int) or not 0 <= checks <= 10_000):
         raise InputError(
             "adaptive.checks",
             "an integer in [0, 10000] (random points solved per sub-problem to check the map)",

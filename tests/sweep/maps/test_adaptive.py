@@ -24,7 +24,7 @@ from hpcontact.analytic import mindlin_ellipse_stiffness
 from hpcontact.errors import InputError
 from hpcontact.sweep.data.journal import ERROR, read_journals
 from hpcontact.sweep.maps import refinement
-from hpcontact.sweep.maps.checks import drawn_checks
+from hpcontact.sweep.maps.checks import MAX_CHECKS, MIN_CHECKS, check_count, drawn_checks
 from hpcontact.sweep.maps.refinement import Checks, Layout, initial_state, state_points, state_tasks
 from hpcontact.sweep.maps.rounds import dry_run_text
 from hpcontact.sweep.run.records import Options, runner_name
@@ -334,7 +334,8 @@ def test_checks_make_an_estimator_tuned_too_low_honest_again(sweep, write_spec, 
         share = float(np.mean(ds["K_yy_map_error"].values >= true))
         assert (share >= 0.95) == honest, share
     assert checked.attrs["adaptive_check_rounds"] >= 2 and checked.attrs["adaptive_estimate_factor"] > 0.1
-    assert checked.attrs["adaptive_check_points"] >= 60 and checked.attrs["adaptive_met"] == 1
+    rounds = checked.attrs["adaptive_check_rounds"]
+    assert checked.attrs["adaptive_check_points"] >= rounds * MIN_CHECKS and checked.attrs["adaptive_met"] == 1
     for name, value in exact.items():
         assert np.max(np.abs(checked[name].values / value - 1.0)) <= 1e-4, name
 
@@ -342,7 +343,8 @@ def test_checks_make_an_estimator_tuned_too_low_honest_again(sweep, write_spec, 
 def test_check_points_are_reproducible_unsolved_and_bounded_by_max_solves():
     """Every rank and a resumed run draw the same check points; none is a task already solved;
     ``max_solves`` counts them."""
-    spec = parse_spec(MINDLIN.replace("tolerance = 1e-3", "tolerance = 1e-3\nmax_solves = 40"), check_scenes=False)
+    text = MINDLIN.replace("tolerance = 1e-3", "tolerance = 1e-3\nmax_solves = 40\nchecks = 30")
+    spec = parse_spec(text, check_scenes=False)
     layout = Layout.of(spec)
     task_of = join_parts(spec, [enumerate_part(spec)])[1]
     state = initial_state(layout, spec.adaptive)
@@ -354,6 +356,25 @@ def test_check_points_are_reproducible_unsolved_and_bounded_by_max_solves():
     assert len(state_tasks(layout, state, task_of, first)) == 40
     full = drawn_checks(layout, spec.adaptive, state, first, task_of)
     assert full == first  # no room left: nothing drawn
+
+
+def test_a_check_round_draws_a_tenth_of_the_nodes_within_bounds_unless_the_spec_sets_it():
+    """By default the random checks of a sub-problem are ⌈nodes / 10⌉, at least MIN_CHECKS and at
+    most MAX_CHECKS; ``checks = N`` draws N (0: no check round)."""
+    default = parse_spec(MINDLIN, check_scenes=False).adaptive
+    assert default.checks is None
+    assert [check_count(default, n) for n in (25, 100, 101, 250, 300, 10_000)] == [10, 10, 11, 25, 30, 30]
+    assert (MIN_CHECKS, MAX_CHECKS) == (10, 30)
+    for n in (0, 7, 300):
+        settings = parse_spec(
+            MINDLIN.replace("tolerance = 1e-3", f"tolerance = 1e-3\nchecks = {n}"), check_scenes=False
+        )
+        assert [check_count(settings.adaptive, nodes) for nodes in (25, 1000)] == [n, n]
+    spec = parse_spec(MINDLIN, check_scenes=False)
+    layout = Layout.of(spec)
+    task_of = join_parts(spec, [enumerate_part(spec)])[1]
+    drawn = drawn_checks(layout, spec.adaptive, initial_state(layout, spec.adaptive), Checks(), task_of)
+    assert len(drawn.points) == MIN_CHECKS  # 25 nodes in the first round
 
 
 def test_the_run_says_whether_the_map_met_its_tolerance(sweep, write_spec, tmp_path):
