@@ -8,6 +8,12 @@ when its chunks are cheap against the request's round trip (``schedule.claimed_c
 round trip a task. Claims change only which rank runs a task and when: every task is journaled
 and recorded as it would be alone.
 
+Rank 0 of an adaptive map reads the journals the ranks append while it takes claims
+(``journal.HistoryReader.advance``, at most ``READ_AHEAD_SHARE`` of its time in the round): the
+next round's decision parses only the lines written after its last claim, not the whole round's
+(issue 40 item 5: parsing a round's lines took rank 0 alone up to seconds, the other ranks
+waiting; during the round the other ranks take the claims rank 0 does not).
+
 Rank 0 imports what its data set needs at the round's end (xarray's duck-array modules, ~0.6 s
 once per process): done before its first claim it left a small sweep's every task to the other
 ranks, done between two of its tasks it stalled its claims past the cluster check's bound."""
@@ -58,6 +64,10 @@ from hpcontact.sweep.space.parse import load_spec
 from hpcontact.sweep.space.spec import Spec, Validator
 from hpcontact.sweep.work.estimate import start_estimate
 from hpcontact.sweep.work.tasks import Task, changed_inputs, make_chunks
+
+# Rank 0 of an adaptive map reads the journals ahead while the round runs for at most this share
+# of its time in the round (module docstring); the rest it computes tasks.
+READ_AHEAD_SHARE = 0.25
 
 
 def run_task(
@@ -290,6 +300,9 @@ def _run(run: Run, plan: Plan, kept: Kept | None, scope: RoundScope, options: Op
     )
     done: list[Entry] = []  # this rank's outcomes, and their tasks' positions
     done_at: list[int] = []
+    # rank 0 of an adaptive map: the journals' reader its next round's decision reads from
+    reader = scope.memory.reader if team.rank == 0 and scope.memory is not None else None
+    read_s, claims_started = 0.0, time.perf_counter()
 
     def run_one(task: Task) -> None:
         nonlocal task_s, journal_s, ran
@@ -336,6 +349,11 @@ def _run(run: Run, plan: Plan, kept: Kept | None, scope: RoundScope, options: Op
                     schedule_s += time.perf_counter() - mark
                     if progress is not None and progress.due():
                         progress.report(*totals_done(counter))
+                mark = time.perf_counter()
+                if reader is not None and read_s < READ_AHEAD_SHARE * (mark - claims_started):
+                    reader.advance()
+                    read_s += time.perf_counter() - mark
+                    journal_s += time.perf_counter() - mark
                 claim = time.perf_counter()
             schedule_s += time.perf_counter() - claim
         finally:
