@@ -26,13 +26,11 @@ from __future__ import annotations
 
 import argparse
 import re
-import sys
 import textwrap
 import tomllib
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import NoReturn
 
 import freshness
 import matplotlib
@@ -82,11 +80,7 @@ def arguments(description: str, extra: Iterable[tuple[str, dict]] = ()) -> argpa
     return args
 
 
-def refuse(message: str) -> NoReturn:
-    """Stop the script on data it cannot draw: one line on stderr, exit status 2 (bad input, as
-    ``hpcontact``'s own commands), no traceback, no figure."""
-    print(f"{Path(sys.argv[0]).name}: error: {message}", file=sys.stderr)
-    raise SystemExit(2)
+refuse = freshness.refuse  # one line on stderr, exit status 2 (defined there: standard library only)
 
 
 def open_dataset(path: Path) -> xr.Dataset:
@@ -104,6 +98,15 @@ def open_dataset(path: Path) -> xr.Dataset:
     if "status" not in loaded and not any(str(v).startswith(("K_", "load")) for v in loaded.data_vars):
         refuse(f"{path}: not a sweep data set (no status, stiffness or load: written by hpcontact run?)")
     return loaded
+
+
+def require(ds: xr.Dataset, path: Path, made_by: str, axes: Iterable[str] = (), variables: Iterable[str] = ()) -> None:
+    """``refuse`` a data set that lacks an axis (dimension) in ``axes`` or a variable in
+    ``variables`` that a script draws, before anything is drawn or solved: one line naming the
+    missing ones and ``made_by``, the sweep whose data set the script draws."""
+    missing = [a for a in axes if a not in ds.dims] + [v for v in variables if v not in ds.variables]
+    if missing:
+        refuse(f"{path}: not a data set of {made_by} (missing: {', '.join(missing)})")
 
 
 def require_values(ds: xr.Dataset, names: Iterable[str], path: Path) -> None:

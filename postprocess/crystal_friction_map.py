@@ -39,7 +39,17 @@ if str(ROOT) not in sys.path:
 import numpy as np  # noqa: E402
 
 from hpcontact.problems.slip.partial_slip import solve_slip  # noqa: E402
-from postprocess.common import arguments, open_dataset, plt, save  # noqa: E402
+from postprocess.common import arguments, open_dataset, plt, require, save  # noqa: E402
+
+AXES = ("material", "orientation", "q_ratio")  # of the data set drawn, in this order
+DRAWN = (
+    "tangential_stiffness",
+    "tangential_stiffness_xx",
+    "tangential_stiffness_yy",
+    "tangential_stiffness_xy",
+    "tangential_stiffness_yx",
+    "stick_centroid_x",
+)
 
 
 def principal_ratio(ds) -> np.ndarray:
@@ -70,7 +80,9 @@ def isotropic_reference(ds, q: np.ndarray) -> np.ndarray:
 def main() -> None:
     args = arguments(__doc__.splitlines()[0])
     with freshness.stamp(__file__, args.outdir, [args.dataset]):
-        ds = open_dataset(args.dataset).transpose("material", "orientation", "q_ratio")
+        ds = open_dataset(args.dataset)
+        require(ds, args.dataset, "jobs/crystal_friction_map.toml", axes=AXES, variables=DRAWN)
+        ds = ds.transpose(*AXES)
         ratio = principal_ratio(ds)
         materials = [str(m) for m in ds["material"].values]
         psi = ds["orientation"].values

@@ -28,9 +28,11 @@ import os
 import sys
 from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
+from typing import NoReturn
 
 FORCE = "--force"
 VERSION = 1  # of the stamp's layout
+MAX_STAMP_BYTES = 2**20  # a stamp holds a few paths and signatures: a larger file is none
 HERE = Path(__file__).resolve().parent
 SHARED = ("common.py", "freshness.py")  # modules of postprocess/ every script draws with
 
@@ -56,9 +58,11 @@ def exit_if_fresh(script: str | os.PathLike, argv: Sequence[str] | None = None) 
     for outdir in argv:
         path = stamp_path(script, outdir)
         try:
+            if path.stat().st_size > MAX_STAMP_BYTES:
+                continue
             recorded = json.loads(path.read_text(encoding="utf-8"))
             inputs, outputs = list(recorded["inputs"]), list(recorded["outputs"])
-        except (OSError, ValueError, TypeError, KeyError):
+        except (OSError, ValueError, TypeError, KeyError, RecursionError):  # no stamp, or none of ours: draw
             continue
         if outputs and recorded == _record(script, argv, outdir, inputs, outputs):
             print(f"{sys.argv[0]}: figures in {outdir} up to date with {', '.join(inputs)} ({FORCE} redraws)")
@@ -77,10 +81,15 @@ def stamp(
     The block draws: every file reported by ``wrote`` inside it is recorded with ``inputs``
     (the data set and any other file read; ``None`` entries are skipped) and the arguments
     ``argv`` (default ``sys.argv[1:]``). The old stamp is removed on entry, so a block that
-    raises (or is interrupted) leaves none."""
+    raises (or is interrupted) leaves none. An old stamp that cannot be removed (a folder in its
+    place, a read-only folder) stops the script before the block: one line on stderr, exit
+    status 2."""
     argv = sys.argv[1:] if argv is None else list(argv)
     path = stamp_path(script, outdir)
-    path.unlink(missing_ok=True)
+    try:
+        path.unlink(missing_ok=True)
+    except OSError as exc:
+        refuse(f"{path}: cannot remove the old stamp ({exc.strerror or type(exc).__name__}); remove it and run again")
     written: list[Path] = []
     _collectors.append(written)
     try:
@@ -96,6 +105,14 @@ def stamp(
     except BaseException:
         temporary.unlink(missing_ok=True)
         raise
+
+
+def refuse(message: str) -> NoReturn:
+    """Stop the script on input it cannot use: one line on stderr, exit status 2 (bad input, as
+    ``hpcontact``'s own commands), no traceback, no figure (``common.refuse`` for the drawing
+    scripts)."""
+    print(f"{Path(sys.argv[0]).name}: error: {message}", file=sys.stderr)
+    raise SystemExit(2)
 
 
 def wrote(path: str | os.PathLike) -> None:

@@ -61,6 +61,7 @@ from common import (
     panels,
     refuse,
     relative_error,
+    require,
     save,
     scalar_notes,
     select_rest,
@@ -290,9 +291,7 @@ def main() -> None:
     )
     with freshness.stamp(__file__, args.outdir, [args.dataset]):
         ds = open_dataset(args.dataset)
-        missing = [a for a in ("anisotropy", "orientation") if a not in ds.dims]
-        if missing:
-            refuse(f"{args.dataset}: needs the axes anisotropy and orientation (missing: {', '.join(missing)})")
+        require(ds, args.dataset, "a crystal sweep over anisotropy and orientation", axes=("anisotropy", "orientation"))
         done = False
         if {"load", "ellipse_b_over_a"} <= set(ds.data_vars):
             sphere_curves(ds, args.outdir, args.fine)

@@ -50,22 +50,24 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-import hpcontact  # noqa: E402
 from hpcontact import analytic  # noqa: E402
 from hpcontact.problems.slip.crystal_pair import pair_from_params  # noqa: E402
 from hpcontact.problems.slip.partial_slip import PathSolver, SlipProblem, solve_slip, validate  # noqa: E402
 from hpcontact.sweep.space.axes import LABEL_AXES  # noqa: E402
-from postprocess.common import add_format, save, use_format  # noqa: E402
+from postprocess.common import add_format, open_dataset, refuse, require, save, use_format  # noqa: E402
 
 RATIO_BAND = (0.25, 0.35)  # constant-ratio model k_t = c k_n (seed paper, refs. 5 and 6)
 UM = 1e-6  # stiffness shown in N/µm
-
-
-def open_dataset(path: Path) -> xr.Dataset:
-    if not path.exists():
-        sys.exit(f"{path}: no such data set; run the sweep first: mpiexec -n 2 hpcontact run jobs/sphere_pairs.toml")
-    with hpcontact.open_dataset(path) as ds:
-        return ds.load()
+SWEEP = "jobs/sphere_pairs.toml"  # the sweep whose data set this script draws
+DRAWN = (
+    "status",
+    "stiffness_ratio",
+    "normal_stiffness",
+    "no_slip_stiffness",
+    "tangential_stiffness",
+    "mindlin_stiffness",
+    "mindlin_no_slip_stiffness",
+)
 
 
 def scene_params(point: xr.Dataset) -> dict[str, Any]:
@@ -303,9 +305,13 @@ def main() -> None:
         "the stick area's staircase, ±0.3 %% at 64)",
     )
     args = parser.parse_args()
-    args.outdir.mkdir(parents=True, exist_ok=True)
-    use_format(args.format)
     ds = open_dataset(args.dataset)
+    require(ds, args.dataset, SWEEP, axes=("pair", "load", "mu", "q_ratio"), variables=DRAWN)
+    try:
+        args.outdir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        refuse(f"{args.outdir}: cannot make the figure folder ({exc.strerror or type(exc).__name__})")
+    use_format(args.format)
     mu = float(ds["mu"].values[0]) if args.mu is None else float(ds["mu"].sel(mu=args.mu, method="nearest"))
     pair = args.pair if args.pair in ds["pair"].values else str(ds["pair"].values[0])
     load = float(ds["load"].sel(load=args.load, method="nearest"))

@@ -59,13 +59,16 @@ from hpcontact.problems.line_contact import finite_cylinder, plane_strain_modulu
 from hpcontact.problems.slip.crystal_pair import PairCompliance  # noqa: E402
 from hpcontact.problems.slip.load_path import rotation, run_path  # noqa: E402
 from hpcontact.problems.slip.partial_slip import SlipProblem, solve_slip, validate  # noqa: E402
-from postprocess.common import arguments, open_dataset, plt, save  # noqa: E402
+from postprocess.common import arguments, open_dataset, plt, refuse, require, save  # noqa: E402
 
 ORTHO = "E1=25 E2=1 E3=1 G12=0.5 G13=0.5 G23=0.2 nu12=0.25 nu13=0.25 nu23=0.25"
 RATIOS = (1, 2, 4, 8, 16, 32)
 PLANE_RATIOS = np.geomspace(1.0, 1e4, 41)
 R, A = 0.5, 0.05  # the paper's punch radius and contact semi-width, m
 GRIDS = (32, 48, 64, 96)
+SWEEP = "jobs/tembleque2011_friction.toml"  # the sweep whose data set this script draws
+DRAWN = ("tangential_force", "decoupled_tangential_force", "stick_centroid_x", "force_ratio", "coupling_size", "mu")
+PAIRS = ("ortho E1 ratio 1", "ortho E1 ratio 2", "isotropic")  # the pairs of Fig. 6 (tractions)
 
 
 def _ortho(ratio: float, azimuth: float = 0.0):
@@ -279,7 +282,7 @@ def _scene(ds, label: str) -> dict:
 
 def tractions(ds, outdir: Path) -> dict[str, tuple[float, float]]:
     """Fig. 6 panels; returns each pair's stick band on the centre line (x/50 mm, first and last cell)."""
-    labels = ("ortho E1 ratio 1", "ortho E1 ratio 2", "isotropic")
+    labels = PAIRS
     bands = {}
     fig, axes = plt.subplots(1, len(labels), figsize=(15, 4), layout="constrained")
     for ax, label in zip(axes, labels):
@@ -381,6 +384,10 @@ def main() -> None:
     args = arguments(__doc__.splitlines()[0])
     with freshness.stamp(__file__, args.outdir, [args.dataset]):
         ds = open_dataset(args.dataset)
+        require(ds, args.dataset, SWEEP, axes=("pair",), variables=DRAWN)
+        missing = [label for label in PAIRS if label not in ds["pair"].values]
+        if missing:
+            refuse(f"{args.dataset}: not a data set of {SWEEP} (missing: the pairs {', '.join(missing)})")
         line_contact(args.outdir)
         normal_load(args.outdir)
         tangential(ds, args.outdir)
