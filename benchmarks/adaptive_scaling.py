@@ -5,9 +5,8 @@ claims (issue 40 item 5), and the 4-D crystal map's rounds replayed on 16 … 10
 
 Measured (2 ranks, ``mpiexec -n 2``): ``jobs/demo_map.toml`` with the real solver, alternately
 
-* ``before``: one chunk a request (``schedule.claim_size`` replaced by 1) and rank 0 importing
-  the data set's modules at the first round's end (``rounds._prepare_assembly`` skipped), as
-  the scheduler was before claims (the round's input-file check over its own tasks, as now);
+* ``before``: one chunk a request (``schedule.claim_size`` replaced by 1), as the scheduler
+  was before claims;
 * ``after``: the scheduler as it is.
 
 For each run: the wall time of the sweep, its parallel efficiency (Σ task time / (2 × wall)),
@@ -26,6 +25,16 @@ measured in that run (the data set of 146 475 points and the refinement are what
 alone, whatever the task function); every task is replayed at 65 ms (the issue's measurement),
 each its own chunk (exact cells: one kernel set a task), with the driver's time per task of the
 ``after`` runs.
+
+Rank 0's CPU seconds in that run are split by phase (``PHASES``: its share of the enumeration
+in the set-up; after each round the journals read and the decision, the outcomes joined, the
+data set built, the refinement's decision, the last round's fill and netCDF write). The set-up
+is replayed as measured: the enumeration (rank 0's share on 2 ranks, so twice it in all)
+divided over the ranks, the rest on every rank at once (``setup as measured``; ``setup as
+assumed``: rank 0's ``Overheads.setup_s`` a task of the six-axis job, the replay's default). A
+last table replays the refinement's decision and the fill spread over the ranks
+(``replay_rounds``' ``spread_between_s``): what splitting the per-leaf estimate would give,
+not a measurement of it.
 """
 
 from __future__ import annotations
@@ -51,6 +60,22 @@ DEMO_MAP = ROOT / "jobs" / "demo_map.toml"
 CRYSTAL_MAP = ROOT / "jobs" / "adaptive_orientation_map.toml"
 CRYSTAL_TASK_S = 0.065  # s, one exact-cell crystal solve on the 16-core node of issue 40
 RANKS = (2, 16, 64, 256, 1024)
+# Rank 0's phases timed in the benchmark's runs (module, attribute, label): the set-up's
+# enumeration (every rank its share) and what rank 0 does alone between rounds.
+PHASES = (
+    ("hpcontact.sweep.run.rounds", "share", "enumeration"),
+    ("hpcontact.sweep.run.rounds", "prepare", "journals+decision"),
+    ("hpcontact.sweep.run.assembly", "joined_outcomes", "outcomes joined"),
+    ("hpcontact.sweep.data.dataset", "dataset_of", "data set"),
+    ("hpcontact.sweep.maps.rounds", "next_step", "refinement"),
+    ("hpcontact.sweep.maps.rounds", "fill", "fill"),
+    ("hpcontact.sweep.data.dataset", "write_netcdf", "netCDF write"),
+    ("hpcontact.sweep.data.journal", "HistoryReader.advance", "read ahead"),
+)
+# Rank 0's work during a round, not between rounds (the other ranks take its claims meanwhile).
+IN_ROUND_PHASES = ("read ahead",)
+# The phases whose work is the refinement's per-leaf estimate (spread over the ranks in the what-if).
+ESTIMATE_PHASES = ("refinement", "fill")
 
 _TEMPLATE: dict[str, Any] = {}
 
@@ -87,14 +112,47 @@ def stand_in(params: Mapping[str, Any]) -> dict[str, Any]:
 def worker(spec: str, output: str, variant: str, task: str, times: str) -> None:
     """One rank of a benchmark run (under mpiexec): the sweep of ``spec`` into ``output`` as
     ``variant`` (before / after), with the real solver or the ``stand_in``. Rank 0 writes to
-    ``times`` the run's start and end and, for each round, when it began and ended taking
-    claims (``time.time`` and this process's CPU seconds, ``time.process_time``)."""
+    ``times`` the run's start and end, for each round when it began and ended taking claims
+    (``time.time`` and this process's CPU seconds, ``time.process_time``), and each call of the
+    ``PHASES`` (its label, start and CPU seconds)."""
+    import importlib
+
     from hpcontact.sweep.driver import run_sweep
     from hpcontact.sweep.run import rounds, schedule
 
     if variant == "before":
         schedule.claim_size = lambda *args: 1
-        rounds._prepare_assembly = lambda: None
+    phases: list[tuple[str, float, float, float]] = []
+
+    def timed(function: Any, label: str) -> Any:
+        def call(*args: Any, **kwargs: Any) -> Any:
+            start, cpu = time.time(), time.process_time()
+            try:
+                return function(*args, **kwargs)
+            finally:
+                phases.append((label, start, time.time() - start, time.process_time() - cpu))
+
+        return call
+
+    def patch(loaded_only: bool) -> None:
+        # a module not imported yet is timed once rank 0 assembles a round (as it imports it: no import moved)
+        for module_name, name, label in PHASES:
+            owner = sys.modules.get(module_name) if loaded_only else importlib.import_module(module_name)
+            *path, attribute = name.split(".")
+            for part in path:  # a method: its class
+                owner = getattr(owner, part, None)
+            if owner is not None and hasattr(owner, attribute) and not hasattr(getattr(owner, attribute), "phase"):
+                setattr(owner, attribute, timed(getattr(owner, attribute), label))
+                getattr(owner, attribute).phase = label
+
+    assemble = rounds.assemble
+
+    def assembled(*args: Any, **kwargs: Any) -> Any:
+        patch(loaded_only=False)
+        return assemble(*args, **kwargs)
+
+    patch(loaded_only=True)
+    rounds.assemble = assembled
     marks: list[tuple[float, float]] = []
     claimed = rounds.claimed_chunks
 
@@ -109,7 +167,9 @@ def worker(spec: str, output: str, variant: str, task: str, times: str) -> None:
         run_sweep(spec, output=output, task_function=stand_in if task == "stand-in" else None, stream=sink)
     if int(os.environ.get("OMPI_COMM_WORLD_RANK", os.environ.get("PMI_RANK", "0"))) == 0:
         ended = (time.time(), time.process_time())
-        Path(times).write_text(json.dumps({"start": started, "end": ended, "marks": marks}), encoding="utf-8")
+        Path(times).write_text(
+            json.dumps({"start": started, "end": ended, "marks": marks, "phases": phases}), encoding="utf-8"
+        )
 
 
 def run(spec: Path, output: Path, variant: str, task: str) -> dict[str, Any]:
@@ -174,17 +234,29 @@ def between(measured: dict[str, Any]) -> tuple[float, list[float], float, list[f
 
 def driver_cpu(measured: dict[str, Any]) -> float:
     """Rank 0's CPU seconds per task while it takes claims (its tasks, journal, counter and
-    server thread): with the ``stand_in``, whose tasks compute next to nothing, the driver's
-    own time per task, whatever the load."""
+    server thread; not its reading ahead, ``IN_ROUND_PHASES``): with the ``stand_in``, whose
+    tasks compute next to nothing, the driver's own time per task, whatever the load."""
     marks = measured["marks"]
-    busy = sum(b[1] - a[1] for a, b in zip(marks[0::2], marks[1::2]))
+    ahead = phase_seconds(measured, "CPU")
+    busy = sum(b[1] - a[1] for a, b in zip(marks[0::2], marks[1::2])) - sum(sum(ahead[p]) for p in IN_ROUND_PHASES)
     return busy / max(sum(r["rank0"] for r in measured["rounds"]), 1)
 
 
 def replayed(
-    rounds: list[dict[str, float]], ranks: int, gaps: list[float], setup: float, tasks: int, overheads: Any
+    rounds: list[dict[str, float]],
+    ranks: int,
+    gaps: list[float],
+    setup: float,
+    tasks: int,
+    overheads: Any,
+    enumeration: float | None = None,
+    spread_between: list[float] | None = None,
 ) -> Any:
-    """``replay_rounds`` of ``rounds`` (key → seconds; each task its own chunk) on ``ranks``."""
+    """``replay_rounds`` of ``rounds`` (key → seconds; each task its own chunk) on ``ranks``,
+    the measured ``setup`` of 2 ranks split: with ``enumeration`` (rank 0's share of it, of the
+    2 measured) that twice over spread over the ranks, the rest rank 0's; without, rank 0's part
+    ``overheads.setup_s`` a task (the replay's default) and the rest spread; ``spread_between``
+    (per round) passed to ``replay_rounds``."""
     from dataclasses import replace
 
     from hpcontact.sweep.work.replay import replay_rounds
@@ -194,9 +266,25 @@ def replayed(
     for tasks_of in rounds:
         keys = list(tasks_of)
         orders.append((chunk_order([Task(k, {}, tasks_of[k], k) for k in keys]), np.array([tasks_of[k] for k in keys])))
-    # the measured set-up: enumeration spread over the ranks (2 measured), rank 0's join and decision not
-    spread = max(setup - overheads.setup_s * tasks, 0.0) * 2 / tasks
-    return replay_rounds(orders, ranks, gaps, tasks, replace(overheads, spread_setup_s=spread))
+    if enumeration is None:  # the set-up as assumed: rank 0's join and decision as on the six-axis job
+        spread = max(setup - overheads.setup_s * tasks, 0.0) * 2 / tasks
+        overheads = replace(overheads, spread_setup_s=spread)
+    else:  # as measured: the enumeration spread over the ranks (2 measured), the rest on every rank at once
+        overheads = replace(
+            overheads, setup_s=max(setup - enumeration, 0.0) / tasks, spread_setup_s=2 * enumeration / tasks
+        )
+    return replay_rounds(orders, ranks, gaps, tasks, overheads, spread_between)
+
+
+def phase_seconds(measured: dict[str, Any], clock: str) -> dict[str, list[float]]:
+    """Rank 0's seconds (``clock``: "wall" or "CPU") in each of the ``PHASES`` of ``measured``:
+    per label, the set-up's and then each round's (the calls that started after its first claim
+    and before the next round's first: during it, ``IN_ROUND_PHASES``, and after it)."""
+    firsts = [m[0] for m in measured["marks"][0::2]]
+    out = {label: [0.0] * (len(firsts) + 1) for _, _, label in PHASES}
+    for label, start, wall, cpu in measured.get("phases", []):
+        out[label][sum(f <= start for f in firsts)] += wall if clock == "wall" else cpu
+    return out
 
 
 def main() -> None:
@@ -205,7 +293,6 @@ def main() -> None:
     parser.add_argument("--no-crystal", action="store_true", help="skip the 4-D map's stand-in run and replay")
     parser.add_argument("--keep", type=Path, help="keep data sets and journals in this folder")
     args = parser.parse_args()
-    from hpcontact.sweep.work import replay as replay_module
     from hpcontact.sweep.work.replay import DEFAULT_OVERHEADS, Overheads
 
     folder = args.keep or Path(tempfile.mkdtemp(prefix="hpcontact-adaptive-scaling-"))
@@ -253,35 +340,51 @@ def main() -> None:
             f"rounds as measured (wall; driver {1e3 * driver:.2f} ms a task, the demo map's) and as rank 0's CPU "
             f"seconds (an idle machine; driver {1e3 * cpu_driver:.2f} ms a task, the stand-in's):"
         )
+        phases = {clock: phase_seconds(measured, clock) for clock in ("wall", "CPU")}
+        print("rank 0's CPU seconds by phase on 2 ranks (the set-up, then each round: during it and after it):")
+        for label, seconds in phases["CPU"].items():
+            print(f"  {label:18s} {' '.join(f'{x:6.2f}' for x in seconds)}  (sum {sum(seconds):.2f})")
         print(
-            f"{'ranks':>6} {'claims':>6} {'between':>7} {'wall s':>8} {'effic.':>7} {'between':>8} {'tail':>6} "
+            "replayed: set-up as assumed or as measured; rank 0's reading ahead during each round spread over the "
+            "ranks (the others take its claims meanwhile)"
+        )
+        print(
+            f"{'ranks':>6} {'between':>7} {'setup':>8} {'wall s':>8} {'effic.':>7} {'between':>8} {'tail':>6} "
             f"{'claims':>7} {'setup':>6}"
         )
-        for variant, clock in (("before", "wall"), ("after", "wall"), ("before", "CPU"), ("after", "CPU")):
+        for clock, model in (("wall", "assumed"), ("wall", "measured"), ("CPU", "assumed"), ("CPU", "measured")):
             times = (setup, gaps) if clock == "wall" else (setup_cpu, gaps_cpu)
+            enumeration = sum(phases[clock]["enumeration"]) if model == "measured" else None
+            ahead = [sum(phases[clock][p][k + 1] for p in IN_ROUND_PHASES) for k in range(len(rounds))]
             per_task = driver if clock == "wall" else cpu_driver
             overheads = Overheads(**{**DEFAULT_OVERHEADS.__dict__, "driver_s": per_task, "spread_gather_s": 0.0})
-            share = replay_module.CLAIM_OVERHEAD_SHARE
-            replay_module.CLAIM_OVERHEAD_SHARE = math.inf if variant == "before" else share  # inf: one chunk a claim
-            try:
-                for ranks in RANKS:
-                    r = replayed(rounds, ranks, times[1], times[0], 139725, overheads)
-                    print(
-                        f"{ranks:6d} {variant:>6} {clock:>7} {r['makespan_s']:8.2f} {r['efficiency']:7.3f} {r['between']:8.3f} "
-                        f"{r['tail']:6.3f} {r['claims']:7.3f} {r['setup']:6.3f}",
-                        flush=True,
-                    )
-            finally:
-                replay_module.CLAIM_OVERHEAD_SHARE = share
-        print("16 ranks, what rank 0's time alone would have to be (CPU variant, after):")
+            for ranks in RANKS:
+                r = replayed(rounds, ranks, times[1], times[0], 139725, overheads, enumeration, ahead)
+                print(
+                    f"{ranks:6d} {clock:>7} {model:>8} {r['makespan_s']:8.2f} {r['efficiency']:7.3f} "
+                    f"{r['between']:8.3f} {r['tail']:6.3f} {r['claims']:7.3f} {r['setup']:6.3f}",
+                    flush=True,
+                )
         overheads = Overheads(**{**DEFAULT_OVERHEADS.__dict__, "driver_s": cpu_driver, "spread_gather_s": 0.0})
-        for label, setup_s, gap_s in (
-            ("as measured", setup_cpu, gaps_cpu),
-            ("0.5 s between rounds", setup_cpu, [0.5] * len(gaps_cpu)),
-            ("0.25 s between rounds, set-up 1 s", 1.0, [0.25] * len(gaps_cpu)),
-            ("nothing between rounds, no enumeration", 0.0, [0.0] * len(gaps_cpu)),
+        enumeration = sum(phases["CPU"]["enumeration"])
+        ahead = [sum(phases["CPU"][p][k + 1] for p in IN_ROUND_PHASES) for k in range(len(rounds))]
+        estimate = [sum(phases["CPU"][p][k + 1] for p in ESTIMATE_PHASES) for k in range(len(rounds))]
+        alone = [g - e for g, e in zip(gaps_cpu, estimate)]
+        print(
+            "what if the refinement's decision and the fill were spread over the ranks too (CPU, set-up as measured):"
+        )
+        for ranks in RANKS:
+            spread = [a + e for a, e in zip(ahead, estimate)]
+            r = replayed(rounds, ranks, alone, setup_cpu, 139725, overheads, enumeration, spread)
+            print(f"{ranks:6d} efficiency {r['efficiency']:.3f} (between {r['between']:.3f}, set-up {r['setup']:.3f})")
+        print("16 ranks, what rank 0's time alone would have to be (CPU, set-up as measured):")
+        for label, gap_s in (
+            ("as measured", gaps_cpu),
+            ("0.5 s between rounds", [0.5] * len(gaps_cpu)),
+            ("0.25 s between rounds", [0.25] * len(gaps_cpu)),
+            ("nothing between rounds", [0.0] * len(gaps_cpu)),
         ):
-            r = replayed(rounds, 16, gap_s, setup_s, 139725, overheads)
+            r = replayed(rounds, 16, gap_s, setup_cpu, 139725, overheads, enumeration, ahead)
             print(f"  {label:40s} efficiency {r['efficiency']:.3f} (set-up {r['setup']:.3f} of the makespan)")
     finally:
         if args.keep is None:
