@@ -13,6 +13,7 @@ import pytest
 
 import hpcontact
 from hpcontact.cli import main as cli_main
+from hpcontact.quantities import in_newtons_per_metre
 from hpcontact.sweep.data.units import SCALE_SYMBOLS, scale_symbols
 
 SMALL = ("--n", "8")
@@ -150,3 +151,16 @@ def test_a_sweep_names_the_unit_the_record_names(tmp_path):
                 assert attrs.get("scale", attrs.get("units")) == unit, (key, unit, attrs)
                 compared += 1
     assert compared >= 10
+
+
+def test_the_levels_of_a_sized_scene_are_in_newtons_per_metre_too():
+    """``levels`` repeat the record's keys per grid, in its units: ``in_newtons_per_metre``
+    scales their stiffnesses as the record's (and no ratio); a sized solve's finest level is
+    within its discretization error (a few % at an accuracy of 1e-2) of its extrapolated N/m."""
+    record = {"K_xx": 2.0, "K_a_over_K_b": 0.5, "levels": [{"K_xx": 1.5, "K_a_over_K_b": 0.4, "iterations": 3}]}
+    scaled = in_newtons_per_metre(record, 26e6)
+    assert scaled["K_xx"] == 2.0 * 26e6 and scaled["K_a_over_K_b"] == 0.5
+    assert scaled["levels"] == [{"K_xx": 1.5 * 26e6, "K_a_over_K_b": 0.4, "iterations": 3}]
+    sized = hpcontact.solve(shape="polygon", nu=0.3, G=26e9, a=1e-3, accuracy=1e-2)
+    assert sized["units"]["K_xx"] == "N m-1"
+    assert abs(sized["levels"][-1]["K_xx"] / sized["K_xx"] - 1.0) < 0.05
