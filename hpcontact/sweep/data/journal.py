@@ -493,10 +493,13 @@ class HistoryReader:
     def advance(self) -> None:
         """Parse the complete lines appended to the journals since the last ``advance`` or
         ``read`` (an incomplete last line is left for later: a rank may be writing it). A file
-        that cannot be read is left to the next ``read``, which reports it."""
+        that cannot be read is left to the next ``read``, which reports it; one of the same
+        identity and size as when last read (an earlier round's) is not opened."""
         for path in journal_files(self.folder):
             try:
-                self._files[path] = self._update(path)[0]
+                status, state = path.stat(), self._files.get(path)
+                if state is None or state.identity != (status.st_dev, status.st_ino) or status.st_size != state.offset:
+                    self._files[path] = self._update(path)[0]
             except OSError:
                 continue
 
