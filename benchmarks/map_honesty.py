@@ -73,6 +73,23 @@ MAPS = {
         'shape = "rectangle"\nquantities = ["tangential"]',
         "aspect = { logspace = [0, -4, 17] }\nnu = { linspace = [0, 0.45, 10] }",
     ),
+    # kept aside from every choice of issue 40 item 4's rules (needed_axes, check_count): first run
+    # after them (2026-11-29)
+    "M9": (
+        "turned ellipse b/a 0.05 (rotated angle mode), angle x nu",
+        'shape = "ellipse"\naspect = 0.05\nquantities = ["tangential"]',
+        "angle = { linspace = [0, 90, 19] }\nnu = { linspace = [0, 0.5, 11] }",
+    ),
+    "M10": (
+        "isotropic ellipse, b/a (1 ... 1e-3) x nu, fine, K_zz too",
+        'shape = "ellipse"\nquantities = ["tangential", "normal"]',
+        "aspect = { logspace = [0, -3, 31] }\nnu = { linspace = [0, 0.5, 26] }",
+    ),
+    "M11": (
+        "crystal circle, A x nu, psi 0",
+        'shape = "circle"\norientation = 0.0\nquantities = ["tangential"]',
+        "anisotropy = { linspace = [0.5, 2.5, 9] }\nnu = { linspace = [0, 0.45, 7] }",
+    ),
 }
 #: Maps solved on grids (not exact cells): the map at accuracy 1e-3, the truth at 1e-4, and a
 #: point counts as honest when its map error plus the truth's own estimated error covers the
