@@ -79,7 +79,8 @@ def solve_fields(
     process's resident set + ``footprint.array_bytes``) exceeds the budget. A
     default that misses its 1e-4 returns its record (``accuracy_met`` False) with an
     ``errors.AccuracyWarning`` naming the requested and estimated error and what stopped it; an
-    ``accuracy`` asked for and missed raises ``AccuracyNotMet``. BLAS is limited while it runs
+    ``accuracy`` asked for and missed raises ``AccuracyNotMet``, whose ``record`` is in the
+    units of a met request's, ``units`` included. BLAS is limited while it runs
     (``numerics.blas``). ``name`` spells a field in a message (``--memory`` on the command line).
 
     The record's ``units`` maps each number's key to its unit (``sweep.data.attributes.record_units``,
@@ -94,11 +95,15 @@ def solve_fields(
         raise InputError(
             name("accuracy"), f"not with {name('quantities')} {kind.name} ({kind.accuracy_refused})", accuracy
         )
-    with limited_blas():
-        record = _SOLVERS[kind.name](fields, extra, accuracy, memory, name)
     # imported here: the data set's tables load the sweep's modules, which a bare import hpcontact need not
     from hpcontact.sweep.data.attributes import record_units
 
+    with limited_blas():
+        try:
+            record = _SOLVERS[kind.name](fields, extra, accuracy, memory, name)
+        except AccuracyNotMet as exc:  # the record reached carries its units as a met one does
+            exc.record["units"] = record_units(exc.record, {**fields, **extra})
+            raise
     record["units"] = record_units(record, {**fields, **extra})
     return record
 
@@ -128,8 +133,18 @@ def _solve_contact(
     budget = None if memory is None else parse_memory(memory, name("memory"))
     missed = None
     scene = Scene.from_params(fields)
+
+    def finished(record: dict[str, Any]) -> dict[str, Any]:
+        """The record with the fields it states, in N/m where the scene gives its size."""
+        record.update(recorded(scene.quantities, vars(scene)))  # also where no Schur complement was formed
+        return in_newtons_per_metre(record, scene.newtons_per_metre)
+
     if accuracy is not None:
-        record = solve_to_accuracy(scene, accuracy, memory_budget=budget, strategy="auto")
+        try:
+            record = solve_to_accuracy(scene, accuracy, memory_budget=budget, strategy="auto")
+        except AccuracyNotMet as exc:  # the record reached, as a met request's would be
+            exc.record = finished(exc.record)
+            raise
     else:
         if not extrapolates_by_default(scene):  # one grid: refused before it is allocated
             _check_one_grid(scene, memory, name)
@@ -137,8 +152,7 @@ def _solve_contact(
             record = default_scene_solve(scene)
         except AccuracyNotMet as exc:  # the default's own target: say so, return what was reached
             record, missed = exc.record, str(exc)
-    record.update(recorded(scene.quantities, vars(scene)))  # also where no Schur complement was formed
-    record = in_newtons_per_metre(record, scene.newtons_per_metre)
+    record = finished(record)
     if missed is not None:
         warnings.warn(f"default {missed}", AccuracyWarning, stacklevel=4)
     return record

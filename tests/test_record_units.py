@@ -164,3 +164,24 @@ def test_the_levels_of_a_sized_scene_are_in_newtons_per_metre_too():
     sized = hpcontact.solve(shape="polygon", nu=0.3, G=26e9, a=1e-3, accuracy=1e-2)
     assert sized["units"]["K_xx"] == "N m-1"
     assert abs(sized["levels"][-1]["K_xx"] / sized["K_xx"] - 1.0) < 0.05
+
+
+def test_a_missed_request_keeps_its_record_in_the_units_it_names(monkeypatch):
+    """``AccuracyNotMet.record`` (the grids reached) is in N/m with ``a``, as a met request's,
+    and carries ``units``: the unsized record's stiffness times G a. The two solves differ only
+    by G, under a CG tolerance of 1e-10 (accuracy/100): they agree far inside 1e-6."""
+    from hpcontact import accuracy as acc
+
+    monkeypatch.setattr(
+        acc.solve_to_accuracy, "__kwdefaults__", {**acc.solve_to_accuracy.__kwdefaults__, "max_cells": 64 * 64, "n0": 8}
+    )
+    G, a = 26e9, 1e-3
+    caught = []
+    for sized in ({}, {"G": G, "a": a}):
+        with pytest.raises(acc.AccuracyNotMet) as info:
+            hpcontact.solve(shape="polygon", nu=0.3, accuracy=1e-8, **sized)
+        caught.append(info.value.record)
+    plain, sized = caught
+    assert plain["units"]["K_xx"] == "G a" and sized["units"]["K_xx"] == "N m-1"
+    assert sized["K_xx"] == pytest.approx(plain["K_xx"] * G * a, rel=1e-6)
+    assert sized["estimated_error"] == pytest.approx(plain["estimated_error"], rel=1e-3)
