@@ -14,10 +14,10 @@ error is its solve's error). What this guarantees: after a check round that need
 increase, the estimate held at every one of the n random points of each sub-problem; were it
 below the true error on a fraction p of the map, that happens with probability (1 − p)^n:
 p = 25 %: 5.6 % for the fewest, n = 10 (an estimate short on a quarter of a map is caught 19
-times in 20); p = 10 %: 4 % for n = 30, a map of 300 nodes or more. The checks cost at most a
-tenth of the nodes' solves on any map of 100 nodes or more (30 a map before: 30 % of a map of
-100 nodes; 10 random points caught the estimate short on the maps M2, M3, M5 and M7 of
-docs/howto/adaptive.md as 30 did).
+times in 20); p = 10 %: 4 % for n = 30, a map of 300 nodes or more. The checks cost a tenth of
+the nodes' solves (rounded up) on a map of 100 nodes or more (30 per sub-problem before: 30 %
+of a map of 100 nodes; 10 random points caught the estimate short on the maps M2, M3, M5 and M7
+of docs/howto/adaptive.md as 30 did).
 """
 
 from __future__ import annotations
