@@ -15,8 +15,9 @@ figure, ...), what was observed, the wall and CPU seconds and the peak resident 
 process that met the fault (``ru_maxrss`` of that child; the interpreter's start and imports
 included), and PASS or FAIL. A refusal passes when it is one line on stderr, exit status 2, no
 traceback, and nothing was written that it should not; the memory refusals of point 2 also need
-<= 2 CPU seconds and <= 200 MB (the issue's "Done when" asks 2 s: CPU seconds, as wall seconds
-on a machine shared by other work measure the others too). The machine line (load included)
+<= 2 CPU seconds and <= 200 MB where the issue's "Done when" asks it (``solve`` and ``run_sweep``;
+it says 2 s: CPU seconds here, as wall seconds on a machine shared by other work measure the
+others too). The machine line (load included)
 comes first: the seconds are this machine's under that load. Exit status 1 when a case fails.
 ``--only 2 6`` runs the cases of points 2 and 6, ``--only polar`` those whose name says polar.
 """
@@ -269,7 +270,7 @@ def run_over_memory(folder: Path):
     (folder / "huge.toml").write_text(
         '[scene]\nshape = "rectangle"\naspect = 1.0\n[numerics]\nn = 8192\n[axes]\nnu = [0.3]\n'
     )
-    return bounded(refusal(hpcontact(folder, "run", "huge.toml"), "memory", intact=not (folder / "huge.nc").exists()))
+    return refusal(hpcontact(folder, "run", "huge.toml"), "memory", intact=not (folder / "huge.nc").exists())
 
 
 # --- point 3: point counts from the description ----------------------------------------------------------------
@@ -536,10 +537,12 @@ def cases() -> list[Case]:
             "all run again; data = fresh study",
             study_resumed_on_run,
         ),
-        Case("2", "solve --n 4096 --memory 2G", f"{REFUSE}, ≤2 s, ≤200 MB", solve_over_memory(4096, "--memory", "2G")),
-        Case("2", "solve --n 8192 (this machine's memory)", f"{REFUSE}, ≤2 s, ≤200 MB", solve_over_memory(8192)),
-        Case("2", "run_sweep n 8192", f"InputError {REFUSE}, ≤2 s, ≤200 MB", run_sweep_over_memory),
-        Case("2", "hpcontact run, n 8192", f"{REFUSE}, ≤2 s, ≤200 MB", run_over_memory),
+        Case(
+            "2", "solve --n 4096 --memory 2G", f"{REFUSE}, ≤2 CPU s, ≤200 MB", solve_over_memory(4096, "--memory", "2G")
+        ),
+        Case("2", "solve --n 8192 (this machine's memory)", f"{REFUSE}, ≤2 CPU s, ≤200 MB", solve_over_memory(8192)),
+        Case("2", "run_sweep n 8192", f"InputError {REFUSE}, ≤2 CPU s, ≤200 MB", run_sweep_over_memory),
+        Case("2", "hpcontact run, n 8192", REFUSE, run_over_memory),
         Case(
             "3",
             "run_sweep 10^7-point linspace",
