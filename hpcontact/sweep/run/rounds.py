@@ -62,6 +62,7 @@ from hpcontact.sweep.run.shares import from_rank_zero, joined, share
 from hpcontact.sweep.run.signals import Abandoned, StopControl
 from hpcontact.sweep.space.parse import load_spec
 from hpcontact.sweep.space.spec import Spec, Validator
+from hpcontact.sweep.work.batches import plan_batches, run_batch
 from hpcontact.sweep.work.estimate import start_estimate
 from hpcontact.sweep.work.tasks import Task, changed_inputs, make_chunks
 
@@ -304,29 +305,36 @@ def _run(run: Run, plan: Plan, kept: Kept | None, scope: RoundScope, options: Op
     reader = scope.memory.reader if team.rank == 0 and scope.memory is not None else None
     read_s, claims_started = 0.0, time.perf_counter()
 
-    def run_one(task: Task) -> None:
+    def run_alone(task: Task) -> Entry:
+        return run_task(task_function, task, team.rank, stop, decision.faults.get(index[task.key]))
+
+    def run_tasks(batch: tuple[Task, ...]) -> None:
+        """One task, or a batch of scenes a GPU rank solves together (``work.batches``)."""
         nonlocal task_s, journal_s, ran
-        fault = decision.faults.get(index[task.key])
         mark = time.perf_counter()
-        journal.started(task.key)
+        for task in batch:
+            journal.started(task.key)
         journal_s += time.perf_counter() - mark
         try:
-            entry = run_task(task_function, task, team.rank, stop, fault)
+            entries = run_batch(batch, team.rank, run_alone, stop)
         except Abandoned as exc:
-            journal.interrupted(task.key, str(exc))
+            for task in batch:
+                journal.interrupted(task.key, str(exc))
             return
         except BaseException:
-            journal.interrupted(task.key, "the run was interrupted")
+            for task in batch:
+                journal.interrupted(task.key, "the run was interrupted")
             raise
-        entry = replace(entry, resolved=provenance.resolved_scene(task.params), provenance=decision.provenance)
-        task_s += entry.wall_time_s
-        ran += 1
-        mark = time.perf_counter()
-        faults.tear(fault, journal.line(entry), journal.write_raw)
-        journal.append(entry)
-        journal_s += time.perf_counter() - mark
-        done.append(entry)
-        done_at.append(index[task.key])
+        for task, entry in zip(batch, entries):
+            entry = replace(entry, resolved=provenance.resolved_scene(task.params), provenance=decision.provenance)
+            task_s += entry.wall_time_s
+            ran += 1
+            mark = time.perf_counter()
+            faults.tear(decision.faults.get(index[task.key]), journal.line(entry), journal.write_raw)
+            journal.append(entry)
+            journal_s += time.perf_counter() - mark
+            done.append(entry)
+            done_at.append(index[task.key])
 
     try:
         try:
@@ -334,18 +342,19 @@ def _run(run: Run, plan: Plan, kept: Kept | None, scope: RoundScope, options: Op
                 for task in plan.isolated:
                     if stop.stopping:
                         break
-                    run_one(task)
+                    run_tasks((task,))
             claim = time.perf_counter()
             for chunk in claimed_chunks(chunks, counter, team.size):
                 schedule_s += time.perf_counter() - claim
                 if stop.stopping:
                     break
-                for task in chunk:
+                for batch in plan_batches(chunk, task_function, alone=lambda t: index[t.key] in decision.faults):
                     if stop.stopping:
                         break
-                    run_one(task)
+                    run_tasks(batch)
                     mark = time.perf_counter()
-                    report_done(counter, task.cost)
+                    for task in batch:
+                        report_done(counter, task.cost)
                     schedule_s += time.perf_counter() - mark
                     if progress is not None and progress.due():
                         progress.report(*totals_done(counter))
