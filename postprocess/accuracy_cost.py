@@ -59,7 +59,7 @@ if __name__ == "__main__":
 
 import numpy as np
 import xarray as xr
-from common import arguments, colours, open_dataset, panels, save
+from common import arguments, colours, open_dataset, panels, require, save
 
 from hpcontact import accuracy, analytic
 from hpcontact.scene import DEFAULTS, Scene
@@ -598,6 +598,13 @@ def main() -> None:
     )
     with freshness.stamp(__file__, args.outdir, [args.dataset, args.extrapolated]):
         ds = open_dataset(args.dataset)
+        require(
+            ds,
+            args.dataset,
+            "jobs/accuracy_cost.toml",
+            axes=("shape", "n", "tol"),
+            variables=("status", "ny", "wall_time_s", "iterations", *QUANTITIES),
+        )
         cases = gather(ds)
         notes = add_errors(cases, case_params(ds))
         extrapolated = load_extrapolated(args.extrapolated)

@@ -78,6 +78,7 @@ def tangential_sweep(path: Path) -> Path:
         ("crystal_friction_map.py", "material"),
         ("slip_stiffness.py", "pair"),
         ("orientation_map.py", "anisotropy"),
+        ("accuracy_cost.py", "n"),
     ],
 )
 def test_a_data_set_of_another_sweep_is_refused_before_anything_is_drawn(tmp_path, name, says):

@@ -24,10 +24,12 @@ import sys
 import textwrap
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import xarray as xr
+
+if TYPE_CHECKING:  # xarray comes with the data set opened (dataset.open_dataset): `hpcontact solve` need not import it
+    import xarray as xr
 
 from hpcontact.sweep.data.attributes import ERROR_STATUS_MEANINGS, STATUS_MEANINGS
 
