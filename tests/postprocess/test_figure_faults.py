@@ -6,8 +6,10 @@ any netCDF that holds a sweep's variables."""
 from __future__ import annotations
 
 import os
+import runpy
 import subprocess
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -19,17 +21,48 @@ ASPECTS = np.array([1.0, 0.3, 0.1, 0.03, 0.01])
 ANGLES = np.linspace(0.0, 180.0, 7)
 
 
-def script(name: str, *args: object) -> subprocess.CompletedProcess:
+@dataclass(frozen=True)
+class Ran:
+    """How a script ended: its exit status and what it wrote on stderr."""
+
+    returncode: int
+    stderr: str
+
+
+def command(name: str, *args: object) -> Ran:
     """Run ``postprocess/<name>`` as from the command line (``--force``: no stamp shortcut)."""
-    return subprocess.run(
+    done = subprocess.run(
         [sys.executable, str(ROOT / "postprocess" / name), *map(str, args), "--force"],
         capture_output=True,
         text=True,
         env={**os.environ, "MPLBACKEND": "Agg"},
     )
+    return Ran(done.returncode, done.stderr)
 
 
-def refused(done: subprocess.CompletedProcess, *says: str) -> None:
+@pytest.fixture
+def script(monkeypatch, capsys):
+    """Run ``postprocess/<name>`` in this process as ``__main__`` (``runpy``, as
+    tests/sweep/test_postprocess.py does; ``command`` runs one as a command, and that file each
+    drawing script): its exit status (0 when it returns, a ``SystemExit``'s code otherwise) and
+    stderr. Any other exception, a traceback from the command line, fails the test."""
+    monkeypatch.syspath_prepend(str(ROOT / "postprocess"))
+
+    def run(name: str, *args: object) -> Ran:
+        path = ROOT / "postprocess" / name
+        monkeypatch.setattr(sys, "argv", [str(path), *map(str, args), "--force"])
+        capsys.readouterr()
+        try:
+            runpy.run_path(str(path), run_name="__main__")
+            status = 0
+        except SystemExit as stop:
+            status = 0 if stop.code is None else stop.code if isinstance(stop.code, int) else 1
+        return Ran(status, capsys.readouterr().err)
+
+    return run
+
+
+def refused(done: Ran, *says: str) -> None:
     """Exit 2 and one line on stderr that says each of ``says``."""
     lines = done.stderr.strip().splitlines()
     assert done.returncode == 2, done.stderr
@@ -73,7 +106,7 @@ def common(monkeypatch):
     return common
 
 
-def test_a_sweep_without_a_nu_axis_draws_its_curves(tmp_path):
+def test_a_sweep_without_a_nu_axis_draws_its_curves(script, tmp_path):
     """No nu axis (nu fixed by the scene): the curves at that nu (KeyError: 'nu' before)."""
     done = script("anisotropy_map.py", sweep(tmp_path / "s.nc", ["ellipse"]), tmp_path / "fig")
     assert done.returncode == 0, done.stderr
@@ -105,7 +138,7 @@ def test_a_one_dimensional_adaptive_map_is_drawn(tmp_path):
         coords={"aspect": ASPECTS},
     )
     ds.to_netcdf(tmp_path / "a.nc", engine="netcdf4")
-    done = script("adaptive_points.py", tmp_path / "a.nc", tmp_path / "fig")
+    done = command("adaptive_points.py", tmp_path / "a.nc", tmp_path / "fig")
     assert done.returncode == 0, done.stderr
     assert (tmp_path / "fig" / "adaptive_points.png").stat().st_size > 0
 
@@ -113,7 +146,7 @@ def test_a_one_dimensional_adaptive_map_is_drawn(tmp_path):
 @pytest.mark.parametrize(
     "name, variable", [("anisotropy_map.py", "K_a_over_K_b"), ("polar.py", "K_nn"), ("tensor_components.py", "K_xx")]
 )
-def test_all_nan_data_is_refused_naming_the_variable(tmp_path, name, variable):
+def test_all_nan_data_is_refused_naming_the_variable(script, tmp_path, name, variable):
     """Every task failed: no figure (tensor_components drew empty panels, exit 0; polar raised
     ValueError on NaN axis limits)."""
     data = sweep(tmp_path / "nan.nc", ["ellipse"], ratio=np.nan)
@@ -121,14 +154,14 @@ def test_all_nan_data_is_refused_naming_the_variable(tmp_path, name, variable):
     assert not list((tmp_path / "fig").glob("*.png"))
 
 
-def test_a_slash_in_a_shape_label_stays_in_the_file_name(tmp_path):
+def test_a_slash_in_a_shape_label_stays_in_the_file_name(script, tmp_path):
     """A label "a/b" made the file name a path into a folder that does not exist."""
     done = script("tensor_components.py", sweep(tmp_path / "s.nc", ["a/b"]), tmp_path / "fig")
     assert done.returncode == 0, done.stderr
     assert [p.name for p in (tmp_path / "fig").glob("*.png")] == ["tensor_components_a_b.png"]
 
 
-def test_a_figure_folder_that_cannot_be_made_is_refused(tmp_path):
+def test_a_figure_folder_that_cannot_be_made_is_refused(script, tmp_path):
     """The figure folder is a file: one line naming it, exit 2."""
     (tmp_path / "fig").write_text("a file\n")
     refused(script("polar.py", sweep(tmp_path / "s.nc", ["ellipse"]), tmp_path / "fig"), "fig", "figure folder")
