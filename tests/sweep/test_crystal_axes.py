@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import runpy
 import subprocess
 import sys
 from pathlib import Path
@@ -193,22 +194,40 @@ def run_script(script: str, *args: str) -> subprocess.CompletedProcess:
     )
 
 
-def test_orientation_map_draws_the_sphere_curves_and_the_tangential_map(sweep, write_spec, tmp_path):
+@pytest.fixture
+def drawn(monkeypatch, capsys):
+    """Run ``postprocess/<script>`` in this process as ``__main__`` (``runpy``; the scripts run as
+    commands in tests/sweep/test_postprocess.py): what it printed on stdout. Exit status 0 only:
+    a ``SystemExit`` with another code, or any exception, fails the test."""
+    monkeypatch.syspath_prepend(str(ROOT / "postprocess"))
+
+    def run(script: str, *args: str) -> str:
+        monkeypatch.setattr(sys, "argv", [str(ROOT / "postprocess" / script), *args])
+        capsys.readouterr()
+        try:
+            runpy.run_path(str(ROOT / "postprocess" / script), run_name="__main__")
+        except SystemExit as stop:
+            assert stop.code in (0, None), capsys.readouterr().err
+        return capsys.readouterr().out
+
+    return run
+
+
+def test_orientation_map_draws_the_sphere_curves_and_the_tangential_map(sweep, write_spec, tmp_path, drawn):
     sphere = sweep(write_spec(CUBIC))
     tangential = sweep(write_spec(TANGENTIAL, "tangential.toml"), output=tmp_path / "tangential.nc")
     with xr.open_dataset(tangential) as ds:
         ratio = (ds["K_min"] / ds["K_max"]).load()
     assert float(ratio.sel(aspect=1.0, anisotropy=3.0, orientation=90)) == pytest.approx(1.0, abs=1e-6)  # 4-fold
     assert float(ratio.sel(aspect=1.0, anisotropy=3.0, orientation=0)) < 0.95  # {110}: 2-fold only
-    done = run_script("orientation_map.py", str(sphere), str(tmp_path / "fig"), "--fine", "4")
-    assert done.returncode == 0, done.stderr
-    assert "largest |BEM - Willis| in P/P[001]" in done.stdout
-    done = run_script("orientation_map.py", str(tangential), str(tmp_path / "fig"))
-    assert done.returncode == 0, done.stderr
+    assert "largest |BEM - Willis| in P/P[001]" in drawn(
+        "orientation_map.py", str(sphere), str(tmp_path / "fig"), "--fine", "4"
+    )
+    printed = drawn("orientation_map.py", str(tangential), str(tmp_path / "fig"))
     for name in ("orientation_sphere.png", "orientation_tangential_map.png", "orientation_tangential_curves.png"):
         assert (tmp_path / "fig" / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", name
     # the drawn curves are the data set's K_min/K_max, point for point (printed as plotted)
-    curves = [line for line in done.stdout.splitlines() if line.startswith("plotted ")]
+    curves = [line for line in printed.splitlines() if line.startswith("plotted ")]
     assert len(curves) == 4  # two b/a x two A
     for line in curves:
         head, points = line.split(": ", 1)
