@@ -24,6 +24,19 @@ def entry(key: str, status: int = OK, finished: float = 1.0, value: float = 1.0)
     )
 
 
+def count_parsed(monkeypatch) -> list[int]:
+    """``journal.scan_lines`` patched to record the bytes of each piece it parses; that list."""
+    parsed: list[int] = []
+    scan = journal.scan_lines
+
+    def counted(data: bytes):
+        parsed.append(len(data))
+        return scan(data)
+
+    monkeypatch.setattr(journal, "scan_lines", counted)
+    return parsed
+
+
 def test_each_read_gives_the_whole_folder_and_parses_only_what_is_new(tmp_path, monkeypatch):
     reader = HistoryReader(tmp_path)
     assert reader.read() == read_history(tmp_path) and reader.read().files == 0
@@ -41,14 +54,7 @@ def test_each_read_gives_the_whole_folder_and_parses_only_what_is_new(tmp_path, 
     a.append(entry("k2", status=ERROR))
     a.write_raw(Journal.line(entry("k3"))[:20])
     a.sync()
-    parsed: list[int] = []
-    scan = journal.scan_lines
-
-    def counted(data: bytes):
-        parsed.append(len(data))
-        return scan(data)
-
-    monkeypatch.setattr(journal, "scan_lines", counted)
+    parsed = count_parsed(monkeypatch)
     second = reader.read()
     assert parsed and sum(parsed) < os.path.getsize(tmp_path / "rank00000-a.jsonl") / 2  # the new lines alone
     monkeypatch.undo()
@@ -104,14 +110,7 @@ def test_advances_while_the_ranks_write_leave_the_read_the_same_and_only_the_res
     b.close()
     a.append(entry("k3"))
     a.close()
-    parsed: list[int] = []
-    scan = journal.scan_lines
-
-    def counted(data: bytes):
-        parsed.append(len(data))
-        return scan(data)
-
-    monkeypatch.setattr(journal, "scan_lines", counted)
+    parsed = count_parsed(monkeypatch)
     history = reader.read()
     monkeypatch.undo()
     tail = len(Journal.line(entry("k3"))) + len(Journal.line(entry("k2", status=ERROR)))
