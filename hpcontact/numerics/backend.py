@@ -48,6 +48,10 @@ LOCAL_RANK_VARIABLES = (
     "PMIX_LOCAL_RANK",
 )
 
+#: The device value with which each rank chooses for itself (``resolved_device``): its own GPU
+#: where it has one, else the CPU; CPU and GPU ranks in one job.
+AUTO = "auto"
+
 Array = Any  # an array of some array-API namespace (numpy.ndarray, cupy.ndarray, ...)
 
 
@@ -150,8 +154,32 @@ def gpu_namespace() -> ModuleType:
     return cupy
 
 
+def own_gpu(environ: Mapping[str, str] | None = None) -> int | None:
+    """The CUDA ordinal of this rank's own GPU under device "auto": its rank on its node
+    (``local_rank``) where that is below the number of devices CuPy sees (which honours
+    ``CUDA_VISIBLE_DEVICES``); None where CuPy or a device is missing, or where the node has fewer
+    visible GPUs than ranks and this rank is beyond them: such a rank solves on the CPU."""
+    _, count, _ = cuda_devices()
+    rank = local_rank(environ)
+    return rank if rank < count else None
+
+
+def resolved_device(device: str) -> str:
+    """The device a solve of ``device`` runs on in this rank: "cpu" or "gpu" as given; "auto" is
+    "gpu" where this rank has its own GPU (``own_gpu``), else "cpu". A job of "auto" scenes on
+    nodes with G GPUs and R > G ranks each runs G GPU ranks and R − G CPU ranks: the scene (its
+    key, journal and record) is the same whichever solves it, within ``REQUIRED``-sized rounding
+    (tests/gpu/test_gpu_engine.py)."""
+    if device == AUTO:
+        return "cpu" if own_gpu() is None else "gpu"
+    return device
+
+
 def array_namespace(device: str) -> ModuleType:
-    """The array namespace of a device: numpy for "cpu", CuPy on this rank's GPU for "gpu"."""
+    """The array namespace of a device: numpy for "cpu", CuPy on this rank's GPU for "gpu", and for
+    "auto" the namespace of the device this rank resolves it to (``resolved_device``)."""
+    if device == AUTO:
+        device = resolved_device(device)
     if device == "cpu":
         return np
     if device == "gpu":

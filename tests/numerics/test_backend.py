@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -9,7 +12,10 @@ import hpcontact
 from hpcontact.cli import main as cli_main
 from hpcontact.errors import InputError
 from hpcontact.numerics import backend
-from hpcontact.numerics.backend import array_namespace, gpu_for_rank, local_rank
+from hpcontact.numerics.backend import array_namespace, gpu_for_rank, local_rank, own_gpu, resolved_device
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "gpu"))
+from stub_cupy import stub_cupy  # noqa: E402
 
 
 def test_ranks_take_the_visible_gpus_in_turn():
@@ -45,3 +51,25 @@ def test_a_gpu_without_one_is_refused_in_one_line_naming_what_is_missing(monkeyp
     assert cli_main(["solve", "--n", "8", "--device", "gpu"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "device" in err and why in err
+
+
+@pytest.mark.parametrize(
+    ("devices", "rank", "own"),
+    [(0, 0, None), (2, 0, 0), (2, 1, 1), (2, 2, None), (1, 5, None)],
+)
+def test_auto_is_the_ranks_own_gpu_where_it_has_one_else_the_cpu(monkeypatch, devices, rank, own):
+    """Device "auto": local rank r solves on GPU r while r < the visible devices, on the CPU
+    beyond them (a node of 2 GPUs and 16 ranks: 2 GPU ranks, 14 CPU ranks) and where CuPy sees
+    none; "cpu" and "gpu" stay what they say (no lookup for "cpu")."""
+    cupy = stub_cupy(2**30, 2**31)
+    monkeypatch.setattr(backend, "cuda_devices", lambda: (cupy if devices else None, devices, "" if devices else "no"))
+    for name in backend.LOCAL_RANK_VARIABLES:
+        monkeypatch.delenv(name, raising=False)
+    monkeypatch.setenv("SLURM_LOCALID", str(rank))
+    assert own_gpu() == own
+    assert resolved_device("auto") == ("cpu" if own is None else "gpu")
+    assert (resolved_device("cpu"), resolved_device("gpu")) == ("cpu", "gpu")
+    if own is None:
+        assert array_namespace("auto") is np
+    else:
+        assert array_namespace("auto") is cupy and cupy.cuda.Device().id == own

@@ -51,6 +51,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from hpcontact.sweep.work.replay import claim_size
+from hpcontact.sweep.work.tasks import CHUNKS_PER_RANK
 
 # Environment variables through which a launcher hands MPI process management to a process:
 # MPICH/Hydra, Intel MPI, MVAPICH and Slurm's pmi/pmi2 (PMI_*), PMIx (Slurm --mpi=pmix, prrte,
@@ -420,15 +421,27 @@ def claimed_chunks(
     counter: Counter,
     ranks: int | None = None,
     clock: Callable[[], float] = time.perf_counter,
+    fill: Callable[[int, int], int] | None = None,
 ) -> Iterator[tuple[Any, ...]]:
     """The chunks this rank takes, until none is left (every rank calls it; a rank may stop
     early, e.g. on a signal, and then calls ``counter.close``). With ``ranks`` (the team's
     size), each request takes the next ``replay.claim_size`` chunks, from this rank's mean round
     trip and chunk seconds so far on ``clock`` (the time from a claim's answer to the next
-    request, divided by its chunks); without, one chunk a request."""
+    request, divided by its chunks); without, one chunk a request.
+
+    ``fill`` (a GPU rank's ``work.batches.batch_fill``): fill(i, most), the chunks from index i
+    (at most ``most``) that fill one of this rank's batches. Each request then takes at least
+    fill(i, most) chunks, i the index where this rank's last claim ended (where the next free
+    chunk was when it last looked: chunks are in decreasing cost, so the chunks there are like
+    the next ones; 0 at first), ``most`` the bound ``claim_size`` puts on a claim (a share
+    1/(CHUNKS_PER_RANK × ranks) of the chunks left, so that one fast rank does not take the
+    tail; with no ``ranks``, all of them); and a claim's chunks come as one tuple of their items,
+    so that the rank batches them together (issue 41 item 2: a chunk holds one kernel group, a
+    batch the scenes of many). A guess that misses (other ranks took those chunks, the next ones
+    batch less) changes how many scenes a batch holds, never a result."""
     asked = taken = 0
     waited = busy = 0.0
-    take = 1
+    take = 1 if fill is None else _filling(fill, 0, len(chunks), ranks)
     while True:
         before = clock()
         index = counter.fetch_add(NEXT_CHUNK, take)
@@ -436,11 +449,24 @@ def claimed_chunks(
         if index >= len(chunks):
             return
         got = chunks[index : index + take]
-        yield from got
+        if fill is None:
+            yield from got
+        else:
+            yield tuple(item for chunk in got for item in chunk)
+        take, remaining = 1, len(chunks) - index - len(got)
         if ranks is not None:
             asked, taken = asked + 1, taken + len(got)
             waited, busy = waited + after - before, busy + clock() - after
-            take = claim_size(waited / asked, busy / taken, len(chunks) - index - len(got), ranks)
+            take = claim_size(waited / asked, busy / taken, remaining, ranks)
+        if fill is not None:
+            take = max(take, _filling(fill, index + len(got), remaining, ranks))
+
+
+def _filling(fill: Callable[[int, int], int], index: int, remaining: int, ranks: int | None) -> int:
+    """fill(index, most) within [1, most]: ``most`` the bound ``replay.claim_size`` puts on a
+    claim with ``ranks`` (all ``remaining`` chunks without)."""
+    most = remaining if ranks is None else max(1, remaining // (CHUNKS_PER_RANK * ranks))
+    return max(1, min(fill(index, most), most))
 
 
 def cost_units(cost: float) -> int:

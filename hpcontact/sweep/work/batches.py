@@ -43,6 +43,7 @@ from typing import Any
 from hpcontact import quantities as q
 from hpcontact.accuracy.defaults import error_columns, extrapolates_by_default, solve_contact_fields
 from hpcontact.errors import InputError
+from hpcontact.numerics.backend import resolved_device
 from hpcontact.numerics.memory import default_memory_per_rank, gpu_memory, resident_bytes
 from hpcontact.problems.contact import solve_batch
 from hpcontact.problems.footprint import array_bytes, contact_grid
@@ -57,31 +58,44 @@ from hpcontact.sweep.work.tasks import Task
 BATCH_MEMORY_FRACTION = 0.5
 
 
-def batch_group(params: Mapping[str, Any], task_function: Callable | None) -> tuple | None:
+def batch_group(params: Mapping[str, Any], task_function: Callable | None, device: str | None = None) -> tuple | None:
     """The group of the task ``params`` among tasks that ``run_batch`` solves together (module
     docstring), or None when it runs alone: another task function than the default contact
     solver's, a slip scene, a scene that asks for an accuracy or gets the extrapolated default
-    (a grid sequence, ``accuracy.defaults.default_solve``), a scene its checks refuse."""
+    (a grid sequence, ``accuracy.defaults.default_solve``), a scene its checks refuse. The group's
+    device is the one this rank solves the scene on (``device``, else the scene's device as
+    ``backend.resolved_device`` resolves it: "auto" is this rank's GPU or its CPU)."""
     if task_function is not solve_contact_fields or kind_of(params).name != CONTACT:
         return None
+    if device is None:
+        device = resolved_device(params.get("device", DEFAULTS["device"]))
     try:
-        scene = Scene.from_params(params)
+        scene = Scene.from_params({**params, "device": device})
     except InputError:  # alone: run_task records the refusal as the task's entry
         return None
     if scene.accuracy is not None or extrapolates_by_default(scene):
         return None
-    return (scene.device, contact_grid(params), tuple(scene.quantities), scene.precondition)
+    return (device, contact_grid(params), tuple(scene.quantities), scene.precondition)
 
 
 def batch_memory(device: str) -> int:
     """Bytes one batch of scenes may hold on ``device``: on a GPU ``BATCH_MEMORY_FRACTION`` of its
     free memory (``numerics.memory.gpu_memory``), at most the rank's host budget less this process's peak
     resident set; on the CPU 0 (one scene per batch, module docstring)."""
-    if device == "cpu":
+    if resolved_device(device) == "cpu":
         return 0
     free = gpu_memory().free
     host = default_memory_per_rank()[0] - resident_bytes()
     return int(max(0.0, min(BATCH_MEMORY_FRACTION * free, host)))
+
+
+class _Devices(dict):
+    """The device this rank solves each ``device`` value on (``backend.resolved_device``), each
+    value resolved once: "auto" asks CuPy for the devices (~0.1 ms), not once per task."""
+
+    def __missing__(self, device: str) -> str:
+        self[device] = resolved_device(device)
+        return self[device]
 
 
 def plan_batches(
@@ -99,13 +113,13 @@ def plan_batches(
     room: dict[tuple, float] = {}  # bytes a batch of the group may hold, and its open batch's
     held: dict[tuple, float] = {}
     batches: list[list[Task]] = []
+    devices = _Devices()
     for task in tasks:
         group = None
+        device = devices[task.params.get("device", DEFAULTS["device"])]
         # a CPU task's batch is itself unless memory is given: no scene made (~0.3 ms a task)
-        if (memory is not None or task.params.get("device", DEFAULTS["device"]) != "cpu") and not (
-            alone is not None and alone(task)
-        ):
-            group = batch_group(task.params, task_function)
+        if (memory is not None or device != "cpu") and not (alone is not None and alone(task)):
+            group = batch_group(task.params, task_function, device)
         if group is None:
             batches.append([task])
             continue
@@ -120,6 +134,45 @@ def plan_batches(
         batch.append(task)
         held[group] += need
     return [tuple(batch) for batch in batches]
+
+
+def batch_fill(
+    chunks: Sequence[Sequence[Task]], task_function: Callable | None, memory: int | None = None
+) -> Callable[[int, int], int] | None:
+    """For ``schedule.claimed_chunks``: fill(i, most), how many chunks from index i (at most
+    ``most``, at least 1) fill one of this rank's batches (issue 41 item 2); None where no task of
+    ``chunks`` runs on this rank's GPU and no ``memory`` is given (a CPU rank: claims as before).
+    The chunks counted are consecutive, their first tasks of the ``batch_group`` of chunk i's
+    first task, their tasks' ``footprint.array_bytes`` summed within ``memory`` (None:
+    ``batch_memory`` of the group's device). Chunks hold one kernel group each, so a chunk's
+    first task stands for it; ``plan_batches`` then groups the claimed tasks exactly. A chunk's
+    group is found once."""
+    devices = _Devices()
+    if memory is None and "gpu" not in {devices[t.params.get("device", DEFAULTS["device"])] for c in chunks for t in c}:
+        return None
+    groups: dict[int, tuple | None] = {}
+
+    def group_of(index: int) -> tuple | None:
+        if index not in groups:
+            params = chunks[index][0].params
+            device = devices[params.get("device", DEFAULTS["device"])]
+            batched = memory is not None or device != "cpu"
+            groups[index] = batch_group(params, task_function, device) if batched else None
+        return groups[index]
+
+    def fill(start: int, most: int) -> int:
+        if start >= len(chunks) or (group := group_of(start)) is None:
+            return 1
+        room = float(batch_memory(group[0]) if memory is None else memory)
+        count, held = 0, 0.0
+        for index in range(start, min(start + most, len(chunks))):
+            need = sum(array_bytes(t.params) for t in chunks[index])
+            if count and (held + need > room or group_of(index) != group):
+                break
+            count, held = count + 1, held + need
+        return max(count, 1)
+
+    return fill
 
 
 def solve_contact_batch(fields: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:

@@ -79,6 +79,51 @@ def test_ranks_claiming_at_once_take_every_chunk_exactly_once():
     assert counter.fetch_add(NEXT_CHUNK, 0) >= len(chunks)
 
 
+def test_a_rank_that_fills_batches_takes_what_fills_one_and_gets_a_claim_as_one_tuple():
+    """``fill`` (a GPU rank's ``batches.batch_fill``): each request takes max(claim_size, fill(i,
+    most)) chunks, i where the last claim ended, ``most`` claim_size's bound remaining // (4 ×
+    ranks); a claim's chunks come joined. 100 chunks of two items, 2 ranks, round trips of 1/64 s
+    and chunks of 1/8 s (claim_size 7 at most): fill asks for 12 from index 0, 30 beyond."""
+    clock = Clock()
+    counter = SlowCounter(clock, 1 / 64)
+    chunks = [(2 * i, 2 * i + 1) for i in range(100)]
+    asked = []
+
+    def fill(index: int, most: int) -> int:
+        asked.append((index, most))
+        return 12 if index == 0 else 30
+
+    claims = []
+    for claim in claimed_chunks(chunks, counter, 2, clock, fill):
+        claims.append(claim)
+        clock.now += 0.125 * len(claim) / 2
+    assert [item for claim in claims for item in claim] == list(range(200))  # every item once, in order
+    remaining = [100 - sum(len(c) // 2 for c in claims[: k + 1]) for k in range(len(claims))]
+    assert asked == [(0, 100 // 8)] + [(100 - r, max(1, r // 8)) for r in remaining]
+    expected = [12] + [max(claim_size(1 / 64, 0.125, r, 2), min(30, max(1, r // 8))) for r in remaining[:-1]]
+    assert counter.requests[:-1] == expected and [len(c) // 2 for c in claims] == [
+        min(e, 100 - sum(expected[:k])) for k, e in enumerate(expected)
+    ]
+
+
+def test_ranks_that_fill_batches_take_every_item_exactly_once():
+    counter = LocalCounter(SLOTS)
+    chunks = [(3 * i, 3 * i + 1, 3 * i + 2) for i in range(2000)]
+    taken: list[list[int]] = [[], [], []]
+
+    def rank(r: int) -> None:
+        fill = None if r == 2 else (lambda index, most: min(most, 5 + index % 7))  # ranks 0, 1 fill; 2 does not
+        for claim in claimed_chunks(chunks, counter, 3, fill=fill):
+            taken[r].extend(claim)
+
+    threads = [threading.Thread(target=rank, args=(r,)) for r in range(3)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert sorted(i for part in taken for i in part) == list(range(6000))
+
+
 SPEC = """
 [sweep]
 title = "claims test"

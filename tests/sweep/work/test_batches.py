@@ -18,7 +18,7 @@ from hpcontact.problems.footprint import array_bytes
 from hpcontact.sweep.data.journal import BAD_INPUT, OK
 from hpcontact.sweep.run.rounds import run_task
 from hpcontact.sweep.work import batches
-from hpcontact.sweep.work.batches import batch_group, batch_memory, plan_batches, run_batch
+from hpcontact.sweep.work.batches import batch_fill, batch_group, batch_memory, plan_batches, run_batch
 from hpcontact.sweep.work.tasks import Task, task_key
 
 #: Circles on one grid (three materials, tangential and normal): one batch group.
@@ -163,3 +163,31 @@ def test_a_gpu_batch_fits_half_the_free_device_memory_and_the_hosts_budget(monke
     tasks = tasks_of([{**c, "device": "gpu"} for c in CIRCLES])
     monkeypatch.setattr(batches, "default_memory_per_rank", lambda: (2**30 + int(2.5 * array_bytes(CIRCLES[0])), "s"))
     assert [len(b) for b in plan_batches(tasks, solve_contact_fields)] == [2, 1]
+
+
+def test_a_rank_fills_a_batch_with_the_chunks_of_its_group_that_fit():
+    """``batch_fill`` (forced on the CPU by ``memory``): from chunk i, the consecutive chunks whose
+    first task is of chunk i's group, as many as fit (their tasks' array_bytes summed), at most
+    ``most``, at least one; a chunk that batches with none fills alone."""
+    scene = array_bytes(CIRCLES[0])
+    circles = tasks_of(CIRCLES)
+    other_grid = tasks_of([{**CIRCLES[0], "n": 24}])
+    chunks = [tuple(circles[:2]), (circles[2],), tuple(circles), tuple(other_grid), tuple(tasks_of(ALONE[:1]))]
+    fill = batch_fill(chunks, solve_contact_fields, memory=int(6.5 * scene))
+    assert [fill(0, 10), fill(1, 10), fill(0, 1), fill(3, 10), fill(4, 10), fill(5, 10)] == [3, 2, 1, 1, 1, 1]
+    assert batch_fill(chunks, solve_contact_fields, memory=int(2.5 * scene))(0, 10) == 1  # the first chunk alone
+    assert batch_fill(chunks, solve_contact_fields, memory=int(3.5 * scene))(0, 10) == 2
+
+
+def test_a_cpu_rank_fills_no_batch_and_a_gpu_rank_fills_its_memory(monkeypatch):
+    """Without ``memory``: None where no task runs on this rank's GPU (claims as before), else
+    ``batch_memory`` of the GPU (a stand-in's 8 GiB free, half of it a batch)."""
+    tasks = tasks_of([{**c, "device": "gpu"} for c in CIRCLES])
+    assert batch_fill([(t,) for t in tasks_of(CIRCLES)], solve_contact_fields) is None
+    monkeypatch.setattr(batches, "gpu_memory", lambda: memory.GpuMemory(8 * 2**30, 16 * 2**30, 0, "stub"))
+    monkeypatch.setattr(batches, "resident_bytes", lambda: 0)
+    monkeypatch.setattr(batches, "default_memory_per_rank", lambda: (64 * 2**30, "stub"))
+    fill = batch_fill([(t,) for t in tasks], solve_contact_fields)
+    assert fill(0, 10) == 3 and fill(1, 1) == 1
+    monkeypatch.setattr(batches, "gpu_memory", lambda: memory.GpuMemory(int(4.5 * array_bytes(CIRCLES[0])), 0, 0, "s"))
+    assert fill(0, 10) == 2  # half of 4.5 scenes' bytes
