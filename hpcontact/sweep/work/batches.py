@@ -28,9 +28,15 @@ a time. Journals, resume and per-scene records are those of tasks run one at a t
 marks every task of a batch started before the batch solves, so a process that dies in a batch
 leaves all of them quarantined, and ``--retry-crashed`` runs them alone on rank 0.
 
-**Where.** A rank batches within the tasks it is handed at once (``plan_batches`` of a claimed
-chunk: ``sweep.run.rounds``); chunks hold one kernel group each, so today's batches are the tasks
-of one group that share a grid.
+**Where.** A rank batches within the tasks it is handed at once (``plan_batches`` of a claim:
+``sweep.run.rounds``). A chunk holds one kernel group, so a claim of one chunk batches little; a
+GPU rank claims with ``batch_fill`` (``schedule.claimed_chunks``' ``fill``): at least the
+consecutive chunks of one group that fill a batch, within the bound that keeps one fast rank from
+taking the tail, handed as one tuple of their tasks.
+
+**Which device.** A task's device is the one this rank solves it on (``backend.resolved_device``):
+"cpu" and "gpu" as they say, "auto" this rank's own GPU where it has one and its CPU elsewhere, so
+one job of "auto" scenes runs GPU and CPU ranks side by side, each batching as its device wants.
 """
 
 from __future__ import annotations

@@ -17,9 +17,10 @@ from hpcontact.numerics import memory
 from hpcontact.problems.footprint import array_bytes
 from hpcontact.sweep.data.journal import BAD_INPUT, OK
 from hpcontact.sweep.run.rounds import run_task
+from hpcontact.sweep.run.schedule import SLOTS, LocalCounter, claimed_chunks
 from hpcontact.sweep.work import batches
 from hpcontact.sweep.work.batches import batch_fill, batch_group, batch_memory, plan_batches, run_batch
-from hpcontact.sweep.work.tasks import Task, task_key
+from hpcontact.sweep.work.tasks import Task, make_chunks, task_key
 
 #: Circles on one grid (three materials, tangential and normal): one batch group.
 CIRCLES = [
@@ -191,3 +192,19 @@ def test_a_cpu_rank_fills_no_batch_and_a_gpu_rank_fills_its_memory(monkeypatch):
     assert fill(0, 10) == 3 and fill(1, 1) == 1
     monkeypatch.setattr(batches, "gpu_memory", lambda: memory.GpuMemory(int(4.5 * array_bytes(CIRCLES[0])), 0, 0, "s"))
     assert fill(0, 10) == 2  # half of 4.5 scenes' bytes
+
+
+def test_a_rank_that_fills_claims_one_batch_of_chunks_and_records_each_task_as_alone():
+    """Chunks of one task each (a kernel group per nu, ``make_chunks``) claimed with ``batch_fill``
+    (forced on the CPU by ``memory``): one claim holds them all, ``plan_batches`` makes it one
+    batch, and ``run_batch`` records each task as run alone."""
+    tasks = [Task(task_key(f), f, 1.0, f"nu {f['nu']}") for f in CIRCLES]
+    chunks = make_chunks(tasks, 1)
+    assert [len(c) for c in chunks] == [1, 1, 1]
+    counter = LocalCounter(SLOTS)
+    claims = list(claimed_chunks(chunks, counter, fill=batch_fill(chunks, solve_contact_fields, memory=10**12)))
+    assert claims == [tuple(t for c in chunks for t in c)]
+    (batch,) = plan_batches(claims[0], solve_contact_fields, memory=10**12)
+    for task, entry in zip(batch, run_batch(batch, 3, alone)):
+        assert entry.status == OK and entry.key == task.key
+        assert_same_records(entry.record, alone(task).record)
