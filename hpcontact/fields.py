@@ -6,7 +6,7 @@ that read it (``CONTACT``, ``SLIP``) and which shapes, quantities or body descri
 (``read_by``), its unit and long name in a data set, its help text on the command line, and
 whether it changes a task's kernels, grids or cost. A field whose meaning differs between the
 kinds (``n``: cells along the long side of a contact, across a slip contact) keeps one
-declaration with its slip variant (``Field.slip``); ``field(name, kind)`` gives the variant.
+declaration with its variant per kind (``Field.variants``); ``field(name, kind)`` gives it.
 
 The tables of ``hpcontact.scene`` (``DEFAULTS``, ``UNUSED_FIELDS``), the options of ``hpcontact
 solve``, the keywords of ``hpcontact.solve``, a sweep spec's type tables, the task-neutral
@@ -122,8 +122,9 @@ class Field:
     ``changes``: what the field changes in a task (``EFFECTS``). ``text``: what a string value
     is, in words (a sweep spec's message); ``path``: an input file, ``flat``: a radius that may
     be infinite (a flat direction). ``recorded_by``: the quantities whose record carries the
-    field's value when it is not the default (``recorded``). ``slip``: the field's differences in a slip scene, as
-    (attribute, value) pairs (``field(name, SLIP)``).
+    field's value when it is not the default (``recorded``). ``axis``: a sweep's ``[axes]`` may
+    run over it (``axis_names``). ``variants``: the field's differences in a scene of another
+    kind, as (kind, ((attribute, value), ...)) pairs (``field(name, kind)``; ``_in_slip``).
     """
 
     name: str
@@ -146,7 +147,8 @@ class Field:
     path: bool = False
     flat: bool = False
     recorded_by: tuple[str, ...] = ()
-    slip: tuple[tuple[str, Any], ...] = ()
+    axis: bool = False
+    variants: tuple[tuple[str, tuple[tuple[str, Any], ...]], ...] = ()
 
     def check(self, value: Any) -> Any:
         """``value`` as this field's number (a finite float, or an integer for ``int``) inside
@@ -171,6 +173,11 @@ def _changes(*effects: Effect) -> frozenset[str]:
     return frozenset(effects)
 
 
+def _in_slip(**changes: Any) -> tuple[tuple[str, tuple[tuple[str, Any], ...]], ...]:
+    """``Field.variants`` of a field that differs in a slip scene by ``changes`` (attribute=value)."""
+    return ((SLIP, tuple(changes.items())),)
+
+
 _NONE: frozenset[str] = frozenset()
 _SHAPE = _changes("grid", "cost")  # the outline: not the material or the grid spacing
 _BOTH = (CONTACT, SLIP)
@@ -188,6 +195,7 @@ FIELDS: tuple[Field, ...] = (
         long_name="contact shape",
         help="{choices}{default}",
         group="scene",
+        axis=True,
         changes=_SHAPE,
     ),
     Field(
@@ -201,6 +209,7 @@ FIELDS: tuple[Field, ...] = (
         unit="1",
         help="b/a of ellipse or rectangle, in [1e-12, 1]{default}",
         group="scene",
+        axis=True,
     ),
     Field(
         "sides",
@@ -309,8 +318,9 @@ FIELDS: tuple[Field, ...] = (
         unit="1",
         help="{range}; < 0.5 for a crystal (A != 1){default}",
         group="material",
+        axis=True,
         changes=_changes("kernel"),
-        slip=(("default", None), ("long_name", "Poisson ratio of body 1")),
+        variants=_in_slip(default=None, long_name="Poisson ratio of body 1"),
     ),
     Field(
         "G",
@@ -325,7 +335,7 @@ FIELDS: tuple[Field, ...] = (
         help="shear modulus: the stress unit of the results{default}",
         group="material",
         changes=_changes("kernel"),
-        slip=(("default", None), ("long_name", "shear modulus of body 1"), ("unit", "F L-2")),
+        variants=_in_slip(default=None, long_name="shear modulus of body 1", unit="F L-2"),
     ),
     Field(
         "anisotropy",
@@ -339,7 +349,8 @@ FIELDS: tuple[Field, ...] = (
         unit="1",
         help="cubic anisotropy factor A = 2 C44/(C11 - C12), 1 = isotropic{default}",
         group="material",
-        slip=(("default", None), ("long_name", None)),
+        axis=True,
+        variants=_in_slip(default=None, long_name=None),
     ),
     Field(
         "orientation",
@@ -352,8 +363,9 @@ FIELDS: tuple[Field, ...] = (
         unit="degree",
         help="surface normal along [110] -> [111] -> [001], psi in [0, 90] degrees (default: [001])",
         group="material",
+        axis=True,
         changes=_changes("kernel"),
-        slip=(("long_name", "surface normal of the crystal along [110] -> [111] -> [001]"),),
+        variants=_in_slip(long_name="surface normal of the crystal along [110] -> [111] -> [001]"),
     ),
     Field(
         "miller",
@@ -389,8 +401,9 @@ FIELDS: tuple[Field, ...] = (
         help="library crystal by name (Cu, Al, Fe, Ni, W, Si, ...; GPa); with --quantities slip: the isotropic "
         "body 1 (Cu, Fe/steel, Al, rigid) or a crystal as crystal:NAME",
         group="material",
+        axis=True,
         text="a library material name (crystals: Cu, Al, Fe, ...; slip bodies: Cu, Fe, Al, rigid)",
-        slip=(("long_name", "material of body 1 (hpcontact.problems.slip.bodies library, or crystal:NAME)"),),
+        variants=_in_slip(long_name="material of body 1 (hpcontact.problems.slip.bodies library, or crystal:NAME)"),
     ),
     Field("cubic", object, None, kinds=_BOTH, help='cubic crystal "C11=... C12=... C44=..." (GPa)', group="material"),
     Field(
@@ -400,7 +413,7 @@ FIELDS: tuple[Field, ...] = (
         kinds=_BOTH,
         help='orthotropic "E1=.. E2=.. E3=.. G12=.. G13=.. G23=.. nu12=.. nu13=.. nu23=.." (GPa)',
         group="material",
-        slip=(("long_name", "orthotropic engineering constants of body 1"),),
+        variants=_in_slip(long_name="orthotropic engineering constants of body 1"),
     ),
     Field(
         "voigt",
@@ -422,11 +435,12 @@ FIELDS: tuple[Field, ...] = (
         unit="1",
         help="cells along the long side (default: as --accuracy 1e-4 for isotropic outlined shapes, else {value})",
         group="numerics",
-        slip=(
-            ("default", 64),
-            ("interval", Interval(8, 4096)),
-            ("message", "an integer in [8, 4096] (cells across the contact)"),
-            ("long_name", "grid cells across the contact's major diameter"),
+        axis=True,
+        variants=_in_slip(
+            default=64,
+            interval=Interval(8, 4096),
+            message="an integer in [8, 4096] (cells across the contact)",
+            long_name="grid cells across the contact's major diameter",
         ),
     ),
     Field(
@@ -451,8 +465,9 @@ FIELDS: tuple[Field, ...] = (
         unit="1",
         help="CG relative residual tolerance, in [1e-14, 1e-2]{default}",
         group="numerics",
+        axis=True,
         changes=_changes("cost"),
-        slip=(("interval", Interval(1e-14, 1e-4)), ("message", "a tolerance in [1e-14, 1e-4]")),
+        variants=_in_slip(interval=Interval(1e-14, 1e-4), message="a tolerance in [1e-14, 1e-4]"),
     ),
     Field(
         "accuracy",
@@ -464,6 +479,7 @@ FIELDS: tuple[Field, ...] = (
         unit="1",
         help="extrapolate over grids until the estimated relative error <= REL, in [1e-9, 1) (default: off)",
         group="numerics",
+        axis=True,
         metavar="REL",
     ),
     Field(
@@ -484,7 +500,7 @@ FIELDS: tuple[Field, ...] = (
         help="comma list: tangential, normal, compliance, coupled, indentation; or slip{default}",
         group="scene",
         changes=_SHAPE,
-        slip=(("default", ("slip",)),),
+        variants=_in_slip(default=("slip",)),
     ),
     Field(
         "radius",
@@ -498,7 +514,7 @@ FIELDS: tuple[Field, ...] = (
         unit="L",
         help="rigid sphere radius (indentation; unit L of your choice), or radius of body 1 (slip)",
         group="scene",
-        slip=(("interval", None), ("message", None), ("long_name", "radius of curvature of body 1")),
+        variants=_in_slip(interval=None, message=None, long_name="radius of curvature of body 1"),
     ),
     Field(
         "depth",
@@ -542,7 +558,7 @@ FIELDS: tuple[Field, ...] = (
         help="FFTW threads{default}; BLAS: HPCONTACT_BLAS_THREADS (default: 1)",
         group="numerics",
         changes=_NONE,
-        slip=(("interval", Interval(1, 1024)), ("message", "an integer >= 1")),
+        variants=_in_slip(interval=Interval(1, 1024), message="an integer >= 1"),
     ),
     Field(
         "precondition",
@@ -573,6 +589,7 @@ FIELDS: tuple[Field, ...] = (
         long_name="what the tangential stiffness holds in the normal direction: approach (u_z = 0) or load (F_z = 0)",
         help="what tangential holds normally: approach (u_z = 0) or load (F_z = 0; differs for crystals only){default}",
         group="scene",
+        axis=True,
         changes=_changes("cost"),
         recorded_by=("tangential",),
         text="approach or load: what the tangential stiffness holds in the normal direction",
@@ -661,6 +678,7 @@ FIELDS: tuple[Field, ...] = (
         unit="F",
         help="normal load P (> 0)",
         group="slip",
+        axis=True,
         changes=_changes("grid", "cost"),
     ),
     Field(
@@ -674,6 +692,7 @@ FIELDS: tuple[Field, ...] = (
         unit="1",
         help="friction coefficient (>= 0)",
         group="slip",
+        axis=True,
         changes=_changes("grid", "cost"),
     ),
     Field(
@@ -687,6 +706,7 @@ FIELDS: tuple[Field, ...] = (
         unit="1",
         help="tangential load Q/(mu P) in [0, 1)",
         group="slip",
+        axis=True,
         changes=_changes("grid", "cost"),
     ),
     Field(
@@ -701,8 +721,9 @@ FIELDS: tuple[Field, ...] = (
         coordinate_of=_BOTH,
         help="direction of the tangential load (degrees from x)",
         group="slip",
+        axis=True,
         changes=_changes("grid", "cost"),
-        slip=(("long_name", "direction of the tangential load from x"),),
+        variants=_in_slip(long_name="direction of the tangential load from x"),
     ),
     Field(
         "steps",
@@ -799,6 +820,7 @@ FIELDS: tuple[Field, ...] = (
         kinds=(SLIP,),
         help="body 2: cubic anisotropy factor A (with nu2 and G2 or E2)",
         group="slip",
+        axis=True,
     ),
     Field(
         "orientation2",
@@ -807,6 +829,7 @@ FIELDS: tuple[Field, ...] = (
         kinds=(SLIP,),
         help="body 2: normal along [110] -> [111] -> [001], psi in degrees (lab frame)",
         group="slip",
+        axis=True,
     ),
     Field(
         "miller2",
@@ -847,9 +870,10 @@ _BY_NAME = {f.name: f for f in FIELDS}
 
 
 def field(name: str, kind: str = CONTACT) -> Field:
-    """The field ``name`` as a scene of ``kind`` reads it (its slip variant in a slip scene)."""
+    """The field ``name`` as a scene of ``kind`` reads it (its variant for that kind, if any)."""
     f = _BY_NAME[name]
-    return dataclasses.replace(f, **dict(f.slip)) if kind == SLIP and f.slip else f
+    changes = dict(f.variants).get(kind)
+    return dataclasses.replace(f, **dict(changes)) if changes else f
 
 
 def names(kind: str | None = None, neutral_to: Effect | None = None) -> tuple[str, ...]:
@@ -903,6 +927,11 @@ def recorded(quantities: tuple[str, ...], values: Mapping[str, Any]) -> dict[str
         for f in FIELDS
         if any(q in f.recorded_by for q in quantities) and values[f.name] != f.default
     }
+
+
+def axis_names() -> tuple[str, ...]:
+    """The fields a sweep's ``[axes]`` may run over (``Field.axis``), in declaration order."""
+    return tuple(f.name for f in FIELDS if f.axis)
 
 
 def recorded_names() -> tuple[str, ...]:

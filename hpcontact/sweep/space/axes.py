@@ -16,25 +16,9 @@ import numpy as np
 from hpcontact import fields
 from hpcontact.errors import InputError
 
-AXIS_NAMES = (
-    "shape",
-    "angle",
-    "nu",
-    "aspect",
-    "anisotropy",
-    "orientation",
-    "material",
-    "n",
-    "tol",
-    "accuracy",
-    "pair",
-    "load",
-    "mu",
-    "q_ratio",
-    "orientation2",
-    "anisotropy2",
-    "normal_held",
-)
+#: The axes a spec may name: the fields the schema marks as axes (``hpcontact.fields.axis_names``)
+#: and ``pair`` (a table of both bodies of a slip scene, ``LABEL_AXES``).
+AXIS_NAMES = (*fields.axis_names(), "pair")
 # Axes whose values may be tables with a ``label`` (the coordinate) and scene fields, and the
 # field a plain string value sets (None: tables only).
 LABEL_AXES: Mapping[str, str | None] = {"shape": "shape", "pair": None}

@@ -24,10 +24,10 @@ A spec has four tables (docs/design.md §1, §4.2; every key is optional except 
     nu = [0.1, 0.3, 0.5]
     angle = { linspace = [0, 180, 37] }     # numpy.linspace(start, stop, num)
 
-Axis names are those of docs/design.md §1 (``shape angle nu aspect anisotropy orientation``), ``material``
-(library crystal names, a string coordinate: ``material = ["Cu", "Al", "W"]``), ``normal_held``
-(``["approach", "load"]``, a string coordinate: what ``tangential`` holds normally), plus ``n``,
-``tol`` and ``accuracy`` for accuracy studies. Crystal scenes::
+Axis names are the fields the schema marks as axes (``hpcontact.fields.axis_names``: those of
+docs/design.md §1, ``shape angle nu aspect anisotropy orientation``; ``material``, library crystal
+names, a string coordinate: ``material = ["Cu", "Al", "W"]``; a string field's choices; ``n``,
+``tol`` and ``accuracy`` for accuracy studies; a slip scene's) and ``pair``. Crystal scenes::
 
     [scene]                          # Rodríguez-Tembleque et al. 2011: sphere on a cubic crystal
     quantities = ["indentation"]
