@@ -7,20 +7,35 @@ In one run, on one machine, float64, nu = 0.3, tol 1e-8 (the default), FFTW and 
   (cold first solve reported too), at ``--n`` (default 1024; the issue asks ≥ 50×), with
   K_zz, iterations and the relative difference of K_zz between the devices;
 - ``large``: the GPU alone at ``--large`` (default 4096; the issue asks ≤ 1 s per solve);
+- ``accuracy``: square, triangle and hexagon at ``--accuracy`` (default 1e-6; nu 0.3 and 0.5),
+  each one ``hpcontact.solve(..., accuracy=..., device="gpu")`` (the issue asks ≤ 5 s each): its
+  grids are coverage-weighted cells (``discretizations/boundary_cells.py``) iterating on the
+  device, one grid at a time;
+- ``main``: the main job's task time (``--main-job``, default jobs/demo.toml, at its accuracy):
+  every ``--main-every``-th of its tasks (in enumeration order) solved by the sweep's task function
+  on the GPU, then on one CPU core (``main_job_table``: the order errs against the GPU), each
+  task's seconds and the sums (the issue asks GPU ≤ 1/30 of the CPU), and each task's largest
+  relative difference of its stiffnesses between the devices;
 - ``iteration``: one operator application + one preconditioner application (what a PCG iteration
   costs beyond a few vector updates) on both devices for ``--iteration-n`` (default 64 … 2048);
-- ``accuracy`` (with ``--accuracy-table`` only): square, triangle and hexagon at ``--accuracy``
-  (default 1e-6; nu 0.3 and 0.5), each one ``hpcontact.solve(..., accuracy=..., device="gpu")``
-  (the issue asks ≤ 5 s each). Its grids are solved by coverage-weighted cells
-  (``discretizations/boundary_cells.py``), which do not yet take the device: until they do, this
-  table times the CPU, hence off by default;
+- ``slip``: what a slip scene asking for the GPU gets (it is refused in one line: the slip solver
+  runs on the CPU only; issue 41's agreement point for "a slip scene" is then not met);
 - memory: CuPy's memory pool after each GPU measurement (bytes held), as memory per device.
 
-GPU times are taken after ``cupy.cuda.Device().synchronize()``; CPU times with ``time.perf_counter``.
-Nothing is estimated: a measurement that fails is reported as failed.
+``done_when`` sets each of the issue's speed points the run measured against its bound (None where
+the run measured it at other sizes than the issue's). The agreement points (≤ 1e-12 against the
+CPU on the test suite's scenes) are tests/gpu (``python -m pytest -q tests/gpu``); batched
+scenes per scene-iteration are benchmarks/batched_scenes.py ``--device cpu gpu``.
 
-    source .device/on-device.sh && python benchmarks/gpu_engine.py --json /tmp/gpu_engine.json
+GPU times are taken after ``cupy.cuda.Device().synchronize()``; CPU times with ``time.perf_counter``.
+Nothing is estimated: a measurement that fails is reported as failed. With ``--json`` the file is
+written after each table, so a run cut short keeps what it measured.
+
+    source .device/on-device.sh && python benchmarks/gpu_engine.py --json $OUT/gpu_engine.json
     python benchmarks/gpu_engine.py --n 256 --large 1024 --iteration-n 64 256 --repeat 1   # quick
+
+tests/gpu/test_gpu_engine_script.py runs it on a stand-in GPU (array-api-strict's arrays, a stub
+CuPy's device calls) at small sizes, so it cannot fail on the device for want of being run.
 """
 
 from __future__ import annotations
@@ -113,11 +128,16 @@ def iteration_table(sizes: list[int], repeat: int, cupy) -> list[dict]:
     return rows
 
 
+#: The accuracy table's scenes: square, triangle, hexagon; nu 0.3 and 0.5 (issue 41's done-when).
+ACCURACY_SHAPES = (("rectangle", {"aspect": 1.0}), ("polygon", {"sides": 3}), ("polygon", {"sides": 6}))
+ACCURACY_NUS = (0.3, 0.5)
+
+
 def accuracy_table(accuracy: float, cupy) -> list[dict]:
     rows = []
     sync = cupy.cuda.Device().synchronize
-    for shape, extra in (("rectangle", {"aspect": 1.0}), ("polygon", {"sides": 3}), ("polygon", {"sides": 6})):
-        for nu in (0.3, 0.5):
+    for shape, extra in ACCURACY_SHAPES:
+        for nu in ACCURACY_NUS:
             params = {"shape": shape, "nu": nu, "quantities": "tangential,normal", "accuracy": accuracy, **extra}
             try:
                 seconds, record = _timed(lambda p=params: hpcontact.solve(**p, device="gpu"), sync)
@@ -128,20 +148,95 @@ def accuracy_table(accuracy: float, cupy) -> list[dict]:
     return rows
 
 
+def _largest_difference(cpu: dict, gpu: dict) -> float:
+    """The largest difference of the records' stiffnesses (K_ entries) relative to the largest."""
+    names = [k for k, v in cpu.items() if k.startswith("K_") and isinstance(v, float)]
+    scale = max(abs(cpu[k]) for k in names)
+    return max(abs(gpu[k] - cpu[k]) for k in names) / scale
+
+
+def main_job_table(spec_path: str, every: int, cupy) -> dict:
+    """Every ``every``-th task of the sweep ``spec_path`` on the GPU, then on one CPU core: each
+    device's pass over the tasks as a rank's (caches built by its first tasks serve the later), the
+    GPU's first and cold, the CPU's on the host caches it left (kernels, exact cells): the ratio
+    errs against the GPU."""
+    from hpcontact.accuracy import task_function
+    from hpcontact.sweep.space.parse import load_spec
+    from hpcontact.sweep.work.tasks import Task, enumerate_part, points
+
+    spec = load_spec(spec_path, check_scenes=False)
+    tasks = [Task(*row) for row in enumerate_part(spec, 0, points(spec)).rows][::every]
+    solve = task_function(spec.kind)
+    rows: list[dict] = [{"key": task.key} for task in tasks]
+    records: list[dict] = [{} for _ in tasks]
+    for device, sync in (("gpu", cupy.cuda.Device().synchronize), ("cpu", lambda: None)):  # the GPU's pass first
+        for task, row, record in zip(tasks, rows, records):
+            if "error" in row:
+                continue
+            try:
+                row[f"{device}_s"], record[device] = _timed(lambda t=task: solve({**t.params, "device": device}), sync)
+            except Exception as exc:  # reported, not hidden
+                row["error"] = f"{device}: {type(exc).__name__}: {exc}"
+    for row, record in zip(rows, records):
+        if "error" not in row:
+            row["relative_difference"] = _largest_difference(record["cpu"], record["gpu"])
+    timed = [r for r in rows if "error" not in r]
+    cpu_s, gpu_s = sum(r["cpu_s"] for r in timed), sum(r["gpu_s"] for r in timed)
+    return {
+        "spec": spec_path,
+        "every": every,
+        "tasks": len(tasks),
+        "failed": len(rows) - len(timed),
+        "cpu_s": cpu_s,
+        "gpu_s": gpu_s,
+        "gpu_over_cpu": gpu_s / cpu_s if cpu_s > 0.0 else None,
+        "largest_relative_difference": max((r["relative_difference"] for r in timed), default=None),
+        "gpu_pool_bytes": _pool_bytes(cupy),
+        "rows": rows,
+    }
+
+
+def slip_row() -> dict:
+    """What a slip scene asking for the GPU gets: its record's stiffness, or the one-line refusal."""
+    params = {"shape": "circle", "n": 16, "quantities": "slip", "mu": 0.3, "q_ratio": 0.5}
+    try:
+        record = hpcontact.solve(**params, device="gpu")
+    except InputError as exc:
+        return {**params, "refused": str(exc)}
+    return {**params, "ran": True, "iterations": record.get("iterations")}
+
+
+def done_when(results: dict, args: argparse.Namespace) -> dict:
+    """The issue's speed points this run measured, each against its bound (None: not at its size)."""
+    solve, large, accuracy, main = (results.get(k) for k in ("solve", "large", "accuracy", "main"))
+    return {
+        "n1024_circle_speedup_at_least_50": None if not solve or args.n != 1024 else solve["speedup"] >= 50.0,
+        "n4096_at_most_1_s": None if not large or args.large != 4096 else large["best_s"] <= 1.0,
+        "accuracy_1e-6_shapes_at_most_5_s_each": (
+            None
+            if not accuracy or args.accuracy != 1e-6
+            else all("error" not in r and r["seconds"] <= 5.0 for r in accuracy)
+        ),
+        "main_job_gpu_at_most_1_30_of_one_core": (
+            None if not main or main["gpu_over_cpu"] is None or main["failed"] else main["gpu_over_cpu"] <= 1.0 / 30.0
+        ),
+    }
+
+
+TABLES = ("solve", "large", "accuracy", "main", "iteration", "slip")
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--tables", nargs="+", choices=TABLES, default=list(TABLES), help="default: all, in this order")
     p.add_argument("--n", type=int, default=1024, help="the CPU-against-GPU solve (default 1024)")
     p.add_argument("--large", type=int, default=4096, help="the GPU-only solve (default 4096)")
     p.add_argument("--iteration-n", type=int, nargs="+", default=[64, 128, 256, 512, 1024, 2048])
     p.add_argument("--accuracy", type=float, default=1e-6)
-    p.add_argument(
-        "--accuracy-table",
-        dest="with_accuracy",
-        action="store_true",
-        help="also the accuracy table (its coverage-weighted grids: on the CPU until they take the device)",
-    )
+    p.add_argument("--main-job", default="jobs/demo.toml", help="the sweep of the main table (default jobs/demo.toml)")
+    p.add_argument("--main-every", type=int, default=8, help="every k-th of its tasks (default 8)")
     p.add_argument("--repeat", type=int, default=3, help="timings per measurement; the best is kept (default 3)")
-    p.add_argument("--json", help="write the results to this file")
+    p.add_argument("--json", help="write the results to this file (after each table)")
     args = p.parse_args(argv)
     try:
         cupy = array_namespace("gpu")
@@ -150,18 +245,23 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     machine = {"python": platform.python_version(), "cpu": platform.processor(), "devices": gpu_description()}
     print(json.dumps(machine), file=sys.stderr, flush=True)
-    results: dict = {"machine": machine, "iteration": iteration_table(args.iteration_n, args.repeat, cupy)}
-    results["solve"] = solve_table(args.n, args.repeat, cupy)
-    print(f"  solve {results['solve']}", file=sys.stderr, flush=True)
-    results["large"] = large_table(args.large, args.repeat, cupy)
-    print(f"  large {results['large']}", file=sys.stderr, flush=True)
-    if args.with_accuracy:
-        results["accuracy"] = accuracy_table(args.accuracy, cupy)
-    text = json.dumps(results, indent=1)
-    print(text)
-    if args.json:
-        with open(args.json, "w", encoding="utf-8") as fh:
-            fh.write(text)
+    results: dict = {"machine": machine}
+    measure = {
+        "solve": lambda: solve_table(args.n, args.repeat, cupy),
+        "large": lambda: large_table(args.large, args.repeat, cupy),
+        "accuracy": lambda: accuracy_table(args.accuracy, cupy),
+        "main": lambda: main_job_table(args.main_job, args.main_every, cupy),
+        "iteration": lambda: iteration_table(args.iteration_n, args.repeat, cupy),
+        "slip": slip_row,
+    }
+    for table in [t for t in TABLES if t in args.tables]:
+        results[table] = measure[table]()
+        results["done_when"] = done_when(results, args)
+        print(f"  {table} {json.dumps(results[table])[:2000]}", file=sys.stderr, flush=True)
+        if args.json:
+            with open(args.json, "w", encoding="utf-8") as fh:
+                json.dump(results, fh, indent=1)
+    print(json.dumps(results, indent=1))
     return 0
 
 

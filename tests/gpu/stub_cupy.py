@@ -1,11 +1,14 @@
 """A stand-in for CuPy on a machine without a GPU: the calls through which hpcontact asks for a GPU,
-its memory and its name (``numerics.backend.cuda_devices``, ``numerics.memory.gpu_memory``), no
-arrays. Tests of what is decided from a GPU's name and memory (batch sizes, the GPU's cost model,
-the memory check) use it; the tests that compute on a GPU are this folder's ``gpu``-marked ones."""
+its memory and its name (``numerics.backend.cuda_devices``, ``numerics.memory.gpu_memory``,
+``backend.gpu_description``), no arrays. Tests of what is decided from a GPU's name and memory
+(batch sizes, the GPU's cost model, the memory check) use it; ``use_standin_gpu`` adds arrays:
+array-api-strict's, so code written for the GPU runs end to end on the CPU (benchmarks/gpu_engine.py
+in tests/gpu/test_gpu_engine_script.py). The tests that compute on a GPU are this folder's
+``gpu``-marked ones."""
 
 from __future__ import annotations
 
-from types import SimpleNamespace
+from types import ModuleType, SimpleNamespace
 
 import pytest
 
@@ -24,13 +27,21 @@ def stub_cupy(free: int, total: int, pool_free: int = 0, name: str = "Stub H") -
         def use(self) -> None:
             Device.current = self.id
 
+        def synchronize(self) -> None:
+            """Nothing runs asynchronously on the stand-in."""
+
     runtime = SimpleNamespace(
         memGetInfo=lambda: (free, total),
-        getDeviceProperties=lambda i: {"name": name.encode()},
+        getDeviceProperties=lambda i: {"name": name.encode(), "totalGlobalMem": total},
         getDeviceCount=lambda: 1,
+        runtimeGetVersion=lambda: 0,
     )
-    pool = SimpleNamespace(free_bytes=lambda: pool_free)
-    return SimpleNamespace(cuda=SimpleNamespace(Device=Device, runtime=runtime), get_default_memory_pool=lambda: pool)
+    pool = SimpleNamespace(free_bytes=lambda: pool_free, total_bytes=lambda: 0)
+    return SimpleNamespace(
+        cuda=SimpleNamespace(Device=Device, runtime=runtime),
+        get_default_memory_pool=lambda: pool,
+        __version__="stub",
+    )
 
 
 def use_stub_gpu(monkeypatch: pytest.MonkeyPatch, cupy: SimpleNamespace, devices: int = 1) -> None:
@@ -38,3 +49,16 @@ def use_stub_gpu(monkeypatch: pytest.MonkeyPatch, cupy: SimpleNamespace, devices
     from hpcontact.numerics import backend
 
     monkeypatch.setattr(backend, "cuda_devices", lambda: (cupy, devices, ""))
+
+
+def use_standin_gpu(monkeypatch: pytest.MonkeyPatch) -> ModuleType:
+    """Make hpcontact see one GPU whose arrays are array-api-strict's (``stub_cupy``'s device calls
+    on that namespace): ``device = "gpu"`` then computes on the CPU through the device path. Returns
+    the namespace."""
+    import array_api_strict
+
+    cupy = stub_cupy(2**33, 2**34)
+    for name in ("cuda", "get_default_memory_pool", "__version__"):
+        monkeypatch.setattr(array_api_strict, name, getattr(cupy, name), raising=False)
+    use_stub_gpu(monkeypatch, array_api_strict)
+    return array_api_strict
