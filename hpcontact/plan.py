@@ -124,6 +124,13 @@ def make_plan(scene: Scene, mask: np.ndarray, grid: Grid) -> Plan:
     return plan_for(scene, transpose_symmetric(mask, grid))
 
 
+def holds_normal_load(scene: Scene) -> bool:
+    """Whether the ``tangential`` stiffness of ``scene`` holds the normal load (F_z = 0, its
+    ``normal_held = "load"``) rather than the normal approach (u_z = 0): K_tt − K_tz K_zz⁻¹ K_zt
+    (module docstring; ``hpcontact.quantities.load_held_stiffness``)."""
+    return scene.normal_held == "load"
+
+
 def plan_for(scene: Scene, mirror: bool) -> Plan:
     """The kernels and solves ``scene`` needs on a contact that maps to itself under x ↔ y
     (``mirror``: one tangential solve serves both directions, isotropic bodies only) or not."""
@@ -180,9 +187,9 @@ def plan_for(scene: Scene, mirror: bool) -> Plan:
         need("zz", "Re xz", "Re yz")
         solves.append(Solve("tangential_x", "xyz", "x", "Re H"))
         solves.append(Solve("tangential_y", "xyz", "y", "Re H"))
-        if scene.normal_held == "load":  # the third column of the 3 x 3 Re-H stiffness: its Schur complement
+        if holds_normal_load(scene):  # the third column of the 3 x 3 Re-H stiffness: its Schur complement
             solves.append(Solve("tangential_z", "xyz", "z", "Re H"))
-    if "tangential" in wanted and isotropic and scene.normal_held == "load":
+    if "tangential" in wanted and isotropic and holds_normal_load(scene):
         derived.append("normal_held load = approach (isotropic: Re H = H has no real x-z, y-z coupling, K_tz = 0)")
     if "compliance" in wanted:
         applications.extend(["uniform_traction_x", "uniform_traction_y"])

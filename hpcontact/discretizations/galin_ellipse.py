@@ -25,7 +25,7 @@ grid.
 
 Where it applies: ellipses and circles, turned or not, any material (isotropic or crystal), the
 quantities ``tangential`` (the 3 × 3 Re-H problem with the normal approach held: K = (J⁻¹)_tt;
-with ``normal_held = "load"`` the normal force held instead: K = (J_tt)⁻¹, the Schur complement)
+with the normal force held instead, ``plan.holds_normal_load``: K = (J_tt)⁻¹, the Schur complement)
 and ``normal`` (the frictionless punch: K_zz = 1 / J_zz of H_zz). Not ``coupled``: the full
 complex H has an odd real-space part, and for it (1) is not the solution (the bonded isotropic
 punch with coupling has an oscillating edge singularity, Mossakovskii 1954).
@@ -84,7 +84,7 @@ from hpcontact import quantities as q
 from hpcontact.kernels.anisotropic import kernel_for
 from hpcontact.kernels.isotropic import isotropic_surface_green
 from hpcontact.materials.isotropic import Isotropic
-from hpcontact.plan import plan_for
+from hpcontact.plan import holds_normal_load, plan_for
 from hpcontact.scene import Scene
 
 #: Quantities the one-cell Galin solve gives (``tangential``: Re H approach held; ``normal``: H_zz).
@@ -199,7 +199,7 @@ def solve(scene: Scene) -> dict[str, Any]:
     if "tangential" in scene.quantities:
         K = _inverse(J)
         forces["tangential_x"], forces["tangential_y"] = K[:, 0].copy(), K[:, 1].copy()
-        if scene.normal_held == "load":  # F_z = 0: stiffness_record forms K_tt − K_tz K_zz⁻¹ K_zt = (J_tt)⁻¹
+        if holds_normal_load(scene):  # F_z = 0: stiffness_record forms K_tt − K_tz K_zz⁻¹ K_zt = (J_tt)⁻¹
             forces["tangential_z"] = K[:, 2].copy()
             K_load = np.linalg.inv(J[:2, :2])
             dK = np.abs(K_load) @ dJ[:2, :2] @ np.abs(K_load)

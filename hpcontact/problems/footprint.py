@@ -51,7 +51,7 @@ from hpcontact.materials.elastic_constants import describes_crystal
 from hpcontact.numerics.convolution import padded_shape
 from hpcontact.numerics.memory import MIB
 from hpcontact.plan import plan_for
-from hpcontact.problems.kinds import kind_of, quantity_names
+from hpcontact.problems.kinds import KINDS, kind_of, quantity_names
 from hpcontact.scene import DEFAULTS, Scene
 
 ITERATIONS_PER_DOUBLING = 0.3  # relative growth of CG iterations per doubling of ρ (module docstring)
@@ -72,6 +72,12 @@ KERNEL_BUILD_BYTES = {"crystal": 55.0 * MIB, "crystal_indentation": 45.0 * MIB}
 #: A crystal body's quadrature tables, a slip scene's fixed part (docs/performance.md §"Memory
 #: per task").
 CRYSTAL_TABLES_BYTES = 45.0 * MIB
+#: The calibration groups (``task_kind``) whose solver builds a crystal body's tables in each
+#: task (``Kind.builds_body_tables``: the slip scenes'): their cost counts the tables' ω nodes
+#: and their memory ``CRYSTAL_TABLES_BYTES`` for a crystal body.
+BODY_TABLE_GROUPS = frozenset(
+    k.memory_group for k in KINDS.values() if k.builds_body_tables and k.memory_group is not None
+)
 #: A slip scene is solved on n × n cells around the Hertz contact (``Kind.grid_margin``), by
 #: default n = ``SLIP_DEFAULT_N``.
 SLIP_DEFAULT_N = 64
@@ -108,7 +114,7 @@ def array_bytes(params: Mapping[str, Any]) -> float:
     a slip scene with a crystal body has ``CRYSTAL_TABLES_BYTES`` as its fixed part."""
     kind = task_kind(params)
     fixed, per_cell = MEMORY_MODEL[kind]
-    if kind == "slip" and describes_crystal(params):
+    if kind in BODY_TABLE_GROUPS and describes_crystal(params):
         fixed = CRYSTAL_TABLES_BYTES
     arrays = fixed + per_cell * padded_cells(params)
     if kind in KERNEL_BUILD_BYTES:

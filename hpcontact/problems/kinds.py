@@ -58,7 +58,11 @@ class Kind:
     memory group of every scene of the kind (``problems.footprint.MEMORY_MODEL``; None: by the
     scene's body); ``planned`` whether ``hpcontact.plan.plan_for`` lays out its solves;
     ``grid_margin``, for a scene solved on n × n cells around its Hertz contact, the half-width
-    of that grid in Hertz semi-axes (None: on its shape's contact grid, ``geometry.grid_for``).
+    of that grid in Hertz semi-axes (None: on its shape's contact grid, ``geometry.grid_for``);
+    ``builds_body_tables`` whether its solver builds a crystal body's Barnett–Lothe tables in
+    each task, so that its cost counts their ω nodes (``sweep.cost.engine.omega_nodes``) and its
+    memory their ``problems.footprint.CRYSTAL_TABLES_BYTES`` (a contact scene's crystal kernels
+    are costed by its calibration group instead, ``footprint.task_kind``).
     """
 
     name: str
@@ -71,6 +75,7 @@ class Kind:
     memory_group: str | None
     planned: bool
     grid_margin: float | None
+    builds_body_tables: bool
     resolve: Callable[[Mapping[str, Any]], dict[str, Any]]
 
     @property
@@ -101,6 +106,7 @@ KINDS: Mapping[str, Kind] = {
         memory_group=None,
         planned=True,
         grid_margin=None,
+        builds_body_tables=False,
         resolve=_resolved_contact,
     ),
     SLIP: Kind(
@@ -114,6 +120,7 @@ KINDS: Mapping[str, Kind] = {
         memory_group=SLIP,
         planned=False,
         grid_margin=SLIP_GRID_MARGIN,
+        builds_body_tables=True,
         resolve=_resolved_slip,
     ),
 }

@@ -325,29 +325,49 @@ def record_units(record: Mapping[str, Any], params: Mapping[str, Any]) -> dict[s
     not units ("G a", "GPa a", "G L2", "F L-1"; ``units.SCALE_MEANINGS``). A mapping of numbers
     (``estimated_errors``) has its values' unit; text, flags and the per-grid ``levels`` (in the
     units of the keys they repeat) have none."""
-    if scene_kind(params) == SLIP:
-        si = materials_named([params])
-
-        def unit_of(name: str) -> str | None:
-            unit = SLIP_ATTRS[name][1] if name in SLIP_ATTRS else VARIABLE_ATTRS.get(name, {}).get("units")
-            return slip_unit(unit, si) if unit else None
-    else:
-        quantities = set(quantity_names(params.get("quantities"))) or set(DEFAULTS["quantities"])
-        units = ContactUnits.of_fields([params], quantities)
-
-        def unit_of(name: str) -> str | None:
-            stem = name.removesuffix(ERROR_SUFFIX)
-            if name != stem and stem in VARIABLE_ATTRS:
-                return error_attributes(stem)["units"]
-            attrs = VARIABLE_ATTRS.get(name) or AXIS_ATTRS.get(name) or {}
-            unit = attrs.get("units", RECORD_UNITS.get(name))
-            return units.unit(name, unit) if unit else None
-
+    unit_of = _UNIT_OF[scene_kind(params)](params)
     return {
         name: unit
         for name, value in record.items()
         if _numbers(value) and (unit := unit_of(name)) is not None and unit != ""
     }
+
+
+def _slip_units(params: Mapping[str, Any]) -> Callable[[str], str | None]:
+    """The unit of a slip record's key (``record_units``): its force and length scales, or SI
+    units where the scene's bodies are named materials (``slip_unit``)."""
+    si = materials_named([params])
+
+    def unit_of(name: str) -> str | None:
+        unit = SLIP_ATTRS[name][1] if name in SLIP_ATTRS else VARIABLE_ATTRS.get(name, {}).get("units")
+        return slip_unit(unit, si) if unit else None
+
+    return unit_of
+
+
+def _contact_units(params: Mapping[str, Any]) -> Callable[[str], str | None]:
+    """The unit of a contact record's key (``record_units``): as its data set's variable,
+    coordinate or error column of the same name reads (``ContactUnits``)."""
+    quantities = set(quantity_names(params.get("quantities"))) or set(DEFAULTS["quantities"])
+    units = ContactUnits.of_fields([params], quantities)
+
+    def unit_of(name: str) -> str | None:
+        stem = name.removesuffix(ERROR_SUFFIX)
+        if name != stem and stem in VARIABLE_ATTRS:
+            return error_attributes(stem)["units"]
+        attrs = VARIABLE_ATTRS.get(name) or AXIS_ATTRS.get(name) or {}
+        unit = attrs.get("units", RECORD_UNITS.get(name))
+        return units.unit(name, unit) if unit else None
+
+    return unit_of
+
+
+#: The unit of a record's key for a scene of each kind (``problems.kinds.Kind.name``): params ->
+#: key -> unit (``record_units``), a lookup per kind rather than a branch on it.
+_UNIT_OF: Mapping[str, Callable[[Mapping[str, Any]], Callable[[str], str | None]]] = {
+    CONTACT: _contact_units,
+    SLIP: _slip_units,
+}
 
 
 def _numbers(value: Any) -> bool:
