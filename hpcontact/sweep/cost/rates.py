@@ -28,19 +28,23 @@ grid and the load steps: the third term.
 costed over the grids it is predicted to solve (``cost.grids.accuracy_plan``: ``accuracy.first_grid``'s
 boundary cells, ``accuracy.plan_grids``' grids, four at 1e-3 for coverage-weighted cells and one
 more per decade below, ``cost.grids.predicted_grid_count``), each grid's work summed into a
-``tasks.Work`` whose terms take the contact kind's coefficients:
+``tasks.Work`` whose terms take the contact kind's coefficients, and a crystal's grids the
+crystal kind's (c):
 
     seconds = rate_s × fft + solve_s × solves + cell_s × cells + task_s × grids + strip_s × strips
-              + exact_s × exact
+              + exact_s × kernel_builds + rate_s(c) × crystal_fft + solve_s(c) × crystal_solves
 
-(``work_seconds``): an ellipse's or circle's one exact cell (galin: no grid) one task term, and
-a crystal's also ``exact_s``, the build of its kernel's Fourier series (``EXACT_CALIBRATION_SCENE``
-timed cold less warm: every crystal exact cell is costed cold, although a rank's kernel cache
-keeps the last 8 materials, so sweeps that repeat a material over consecutive tasks run below
-the estimate); a
+(``work_seconds``): an ellipse's or circle's one exact cell (galin: no grid) one task term; a
+crystal task, on an exact cell or on grids, also ``exact_s``, the build of its material's kernel
+(the Barnett–Lothe Fourier series and table: ``EXACT_CALIBRATION_SCENE`` timed cold less warm),
+which a sweep counts once per kernel group (the tasks of one material and b/a, run one after
+another on a rank whose kernel cache holds the last 8 materials: ``estimate.shared_kernel_builds``),
+a task estimated alone cold; an isotropic
 grid of coverage-weighted cells its one-grid FFT model
-(cost, cost / (S log2 S), S and one task term) times its cells' measured factor, a crystal's
-included (the crystal kind's own fit, on n = 32 and 64, has no FFT term to carry to n = 1024);
+(cost, cost / (S log2 S), S and one task term) times its cells' measured factor; a crystal's grid
+its one-grid model at the crystal kind's rates and one task term (the crystal kind's calibration
+solves on n = 32 and 64 measure a crystal grid's fixed work, its near cells' edge integrals and
+its preconditioner's symbol per solve, which the contact kind's rates lack);
 a slender rectangle's strip cells (dense Galerkin integrals, ``hpcontact.discretizations.strip_cells``) their
 ``cost.task_cost.strip_units`` at ``strip_s``, the seconds of a strip unit on this host; below 1e-3 a
 coverage-weighted task also counts a share of the grid after its last and less a share of its
@@ -126,16 +130,20 @@ class Rate:
     exact_s: float = 0.0
 
 
-def work_seconds(rate: Rate, work: Work) -> float:
-    """Seconds of an accuracy task's ``tasks.Work`` at the contact kind's ``rate`` (module
-    docstring, "Accuracy tasks")."""
+def work_seconds(rates: Mapping[str, Rate], work: Work) -> float:
+    """Seconds of an accuracy task's ``tasks.Work`` at the calibrated ``rates`` (by kind): the
+    contact kind's for its isotropic grids, strips, exact cells and crystal kernel builds, the
+    crystal kind's for a crystal's grids (module docstring, "Accuracy tasks")."""
+    rate, crystal = rates["contact"], rates["crystal"]
     return (
         rate.rate_s * work.fft
         + rate.solve_s * work.solves
         + rate.cell_s * work.cells
         + rate.task_s * work.grids
         + rate.strip_s * work.strips
-        + rate.exact_s * work.exact
+        + rate.exact_s * work.kernel_builds
+        + crystal.rate_s * work.crystal_fft
+        + crystal.solve_s * work.crystal_solves
     )
 
 
@@ -211,7 +219,7 @@ class Calibration:
         """Estimated seconds of the scene ``params`` on one core (a scene that asks for an
         accuracy: its ``tasks.Work`` at the contact kind's rates, whatever ``cost``)."""
         if asks_accuracy(params):
-            return work_seconds(self.rates["contact"], sizing(params).work)
+            return work_seconds(self.rates, sizing(params).work)
         kind = task_kind(params)
         rate = self.rates[kind]
         cost = estimated_cost(params) if cost is None else cost

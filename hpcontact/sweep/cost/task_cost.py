@@ -95,12 +95,19 @@ ONE_FEWER_SHARE = 0.25
 # term of the cost model (``cost.rates``), the contact kind's rates: ``level_work``) times a factor: isotropic
 # coverage-weighted cells ``COVERAGE_WORK`` × (1 + ``COVERAGE_ASPECT_WORK`` log2 ρ), ρ the grid's
 # aspect in cells (coverage, damping and preconditioner weights; their CG iterations grow faster
-# with ρ than the one-grid model's); a crystal's ``CRYSTAL_COVERAGE_WORK``. An outline that is
+# with ρ than the one-grid model's). A crystal's grid costs the one-grid model at the crystal
+# kind's calibrated rates (``Work.crystal_fft``, ``Work.crystal_solves``): its fixed work per grid
+# (the near cells' edge integrals of its nine kernel blocks, its preconditioner's symbol summed from
+# the kernel's Fourier series per solve) is what those rates measure, and the contact kind's rates
+# times one factor missed it by 2-10x on the main job's small grids (16 x 4 … 64 x 16: 0.1-0.2 s
+# each, estimated 0.02-0.06 s) while overestimating its large ones by 1.5x (docs/howto/cost-estimates.md).
+# A crystal task also builds its material's kernel (``Work.kernel_builds``: the Barnett–Lothe
+# Fourier series and table, ``kernels.anisotropic.kernel_for``, at ``Rate.exact_s``), once per
+# kernel group of a sweep (``estimate.shared_kernel_builds``). An outline that is
 # not an ellipse, circle or rectangle (polygons, stars, masks) builds its coverage by clipping:
 # ``OUTLINE_COVERAGE_WORK`` cost units per cell along both sides and grid.
 COVERAGE_WORK = 1.05
 COVERAGE_ASPECT_WORK = 0.37
-CRYSTAL_COVERAGE_WORK = 0.9
 OUTLINE_COVERAGE_WORK = 2.1e5
 ANALYTIC_OUTLINES = ("circle", "ellipse", "rectangle")
 # Strip cells (``strip_cells``: dense Galerkin integrals, then Cholesky; ``auto`` takes them for
@@ -118,18 +125,22 @@ STRIP_SECONDS_PER_STRIP = 1.9e-4
 
 class Work(NamedTuple):
     """The work of an accuracy task summed over its predicted grids (``accuracy_work``), one
-    number per term of the cost model's seconds (``cost.rates.Rate``): ``fft`` cost units
-    (× rate_s), ``solves`` solve units (× solve_s), ``cells`` padded cells whose kernels are built
-    (× cell_s), ``grids`` (× task_s), ``strips`` strip units (× strip_s) and ``exact`` crystal
-    exact cells whose kernel is built (× exact_s); the FFT terms of a grid carry its boundary
-    cells' factor."""
+    number per term of the cost model's seconds (``cost.rates.work_seconds``): ``fft`` cost units
+    (× the contact kind's rate_s), ``solves`` solve units (× solve_s), ``cells`` padded cells whose
+    kernels are built (× cell_s), ``grids`` (× task_s), ``strips`` strip units (× strip_s),
+    ``kernel_builds`` crystal kernels built (× exact_s: the material's Barnett–Lothe Fourier series,
+    whether its task solves grids or one exact cell) and a crystal's grids at the crystal kind's
+    rates: ``crystal_fft`` cost units (× its rate_s) and ``crystal_solves`` solve units (× its
+    solve_s); the FFT terms of an isotropic grid carry its boundary cells' factor."""
 
     fft: float
     solves: float
     cells: float
     grids: float
     strips: float
-    exact: float
+    kernel_builds: float
+    crystal_fft: float = 0.0
+    crystal_solves: float = 0.0
 
 
 class Sizing(NamedTuple):
@@ -162,38 +173,42 @@ def strip_units(level: Mapping[str, Any]) -> float:
 
 def level_work(level: Mapping[str, Any]) -> Work:
     """``Work`` of one level of ``accuracy_levels``: the one exact cell of an ellipse (galin) one
-    task term, and for a crystal one build of its kernel's Fourier series (the Barnett–Lothe
-    integrals at 128–256 directions: nearly all of such a task's time); a strip grid its ``strip_units``; a grid of coverage-weighted cells its one-grid
-    FFT model (``_contact_cost``: cost units, solve units cost / (S log2 S), S padded cells, one
-    task term) times its cells' factor (``COVERAGE_WORK`` × (1 + ``COVERAGE_ASPECT_WORK`` log2 ρ),
-    ``CRYSTAL_COVERAGE_WORK`` for a crystal), plus, for an outline that is not an ellipse, circle
-    or rectangle, its clipping: ``OUTLINE_COVERAGE_WORK`` per cell along both sides (n + n_across)."""
+    task term; a strip grid its ``strip_units``; an isotropic grid of coverage-weighted cells its
+    one-grid FFT model (``_contact_cost``: cost units, solve units cost / (S log2 S), S padded
+    cells, one task term) times its cells' factor (``COVERAGE_WORK`` × (1 + ``COVERAGE_ASPECT_WORK``
+    log2 ρ)); a crystal's grid its one-grid model at the crystal kind's rates (``crystal_fft``,
+    ``crystal_solves``) and one task term; plus, for an outline that is not an ellipse, circle or
+    rectangle, its clipping: ``OUTLINE_COVERAGE_WORK`` per cell along both sides (n + n_across).
+    A crystal's kernel build is the task's, not a level's (``accuracy_work``)."""
     boundary = level.get(BOUNDARY_TAG)  # None: coverage-weighted cells (default_solve's grids)
     if boundary == EXACT:  # a contour integral over the kernel's Fourier series: one task term
-        return Work(0.0, 0.0, 0.0, 1.0, 0.0, 1.0 if task_kind(level) == "crystal" else 0.0)
+        return Work(0.0, 0.0, 0.0, 1.0, 0.0, 0.0)
     if boundary is not None and STRATEGIES[boundary].strips:
         return Work(0.0, 0.0, 0.0, 1.0, strip_units(level), 0.0)
     cost = _contact_cost(level)
     cells = footprint.padded_cells(level)
-    if task_kind(level) != "contact":
-        factor = CRYSTAL_COVERAGE_WORK
-    else:
-        nx, ny = footprint.contact_grid(level)
-        factor = COVERAGE_WORK * (1.0 + COVERAGE_ASPECT_WORK * math.log2(max(nx, ny) / min(nx, ny)))
-    fft = factor * cost
+    clipping = 0.0
     if level.get("shape", "circle") not in ANALYTIC_OUTLINES:
-        fft += OUTLINE_COVERAGE_WORK * (int(level["n"]) + int(level["n_across"]))
-    return Work(fft, factor * cost / (cells * math.log2(cells)), factor * cells, factor, 0.0, 0.0)
+        clipping = OUTLINE_COVERAGE_WORK * (int(level["n"]) + int(level["n_across"]))
+    units = cost / (cells * math.log2(cells))
+    if task_kind(level) != "contact":
+        return Work(clipping, 0.0, 0.0, 1.0, 0.0, 0.0, cost, units)
+    nx, ny = footprint.contact_grid(level)
+    factor = COVERAGE_WORK * (1.0 + COVERAGE_ASPECT_WORK * math.log2(max(nx, ny) / min(nx, ny)))
+    return Work(factor * cost + clipping, factor * units, factor * cells, factor, 0.0, 0.0)
 
 
 def accuracy_work(params: Mapping[str, Any]) -> Work:
-    """``Work`` of the accuracy task ``params``: the sum of its levels' (``level_work``); for
+    """``Work`` of the accuracy task ``params``: the sum of its levels' (``level_work``) and, for a
+    crystal, one build of its kernel (``Work.kernel_builds``); for
     coverage-weighted cells below ``COVERAGE_FOUR_GRIDS_TO``, plus ``ONE_MORE_SHARE`` of the next
     planned grid's and less ``ONE_FEWER_SHARE`` of the last predicted grid's beyond
     ``MIN_GRIDS`` (the expected time of a count that varies by one: docs/performance.md
     §"Accuracy tasks")."""
     plan, levels = accuracy_plan(params), accuracy_levels(params)
     parts = [(1.0, level_work(level)) for level in levels]
+    if task_kind(params) != "contact":  # a crystal: its kernel, once, whatever its cells
+        parts.append((1.0, Work(0.0, 0.0, 0.0, 0.0, 0.0, 1.0)))
     if not plan.exact and not plan.cells.strips and float(params["accuracy"]) < COVERAGE_FOUR_GRIDS_TO:
         if plan.next_grid is not None:
             n, na = plan.next_grid
@@ -270,11 +285,12 @@ def sizing(params: Mapping[str, Any]) -> Sizing:
 
 def _contact_cost(params: Mapping[str, Any]) -> float:
     """``estimated_cost`` of the contact scene ``params``; of one that asks for an accuracy, its
-    FFT cost units and strip units (``accuracy_work``: comparable on the development machine)."""
+    FFT cost units, a crystal's included, and strip units (``accuracy_work``: comparable on the
+    development machine)."""
     levels = solved_grids(params)
     if asks_accuracy(params):
         work = accuracy_work(params)
-        return work.fft + work.strips
+        return work.fft + work.strips + work.crystal_fft
     if len(levels) > 1:
         return EXTRAPOLATION_WORK * sum(_contact_cost(level) for level in levels)
     quantities = quantity_names(params.get("quantities", DEFAULT_QUANTITIES))

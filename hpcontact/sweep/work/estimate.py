@@ -3,7 +3,8 @@
 **At scale.** ``estimate`` reads each task's cost and ``tasks.Sizing`` (kind, padded cells, array
 bytes: made once per distinct value while the tasks are enumerated) and computes seconds and
 bytes for all tasks at once (numpy, the same operations in the same order as ``task_seconds``,
-so the same numbers); the tasks are put in chunk order once (``tasks.chunk_order``) and cut for
+so the same numbers, but that a crystal kernel is built once per kernel group,
+``shared_kernel_builds``); the tasks are put in chunk order once (``tasks.chunk_order``) and cut for
 each number of ranks replayed (``tasks.chunk_bounds``): a dry run of 10^6 tasks estimates in
 seconds (``benchmarks/dry_run_points.py``).
 
@@ -50,7 +51,7 @@ from hpcontact.sweep.cost.rates import (
 )
 from hpcontact.sweep.cost.task_cost import Sizing, sizing
 from hpcontact.sweep.work.replay import DEFAULT_OVERHEADS, Overheads, replay_chunks
-from hpcontact.sweep.work.tasks import ChunkOrder, Task, chunk_order, paused_gc
+from hpcontact.sweep.work.tasks import ChunkOrder, Task, chunk_order, group_ids, paused_gc
 
 
 @dataclass
@@ -190,13 +191,14 @@ def task_arrays(
     tasks: Sequence[Task], calibration: Calibration
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[Sizing]]:
     """``Calibration.task_seconds`` and ``task_bytes`` of every task at once, from its cost and
-    sizing (the same operations in the same order: the same floats), with ``_sizings``' map."""
+    sizing (the same operations in the same order: the same floats), with ``_sizings``' map; a
+    crystal kernel that a kernel group builds once is counted once (``shared_kernel_builds``)."""
     which, sizes = _sizings(tasks)
     cost = np.array([t.cost for t in tasks], dtype=np.float64)
     seconds = np.empty(len(tasks), dtype=np.float64)
     for k, size in enumerate(sizes):  # a few distinct sizings: each a vector operation
         if size.work is not None:  # an accuracy task: its work, whatever its cost
-            seconds[which == k] = work_seconds(calibration.rates["contact"], size.work)
+            seconds[which == k] = work_seconds(calibration.rates, size.work)
             continue
         rate, at = calibration.rates[size.kind], np.flatnonzero(which == k)
         c = cost[at]
@@ -210,8 +212,34 @@ def task_arrays(
             + rate.node_s * nodes
             + rate.task_s
         )
+    shared = shared_kernel_builds(tasks, sizes, which)
+    if shared is not None:
+        seconds -= calibration.rates["contact"].exact_s * shared
     nbytes = calibration.base_bytes + np.array([s.array_bytes for s in sizes], dtype=np.float64)[which]
     return seconds, nbytes, which, sizes
+
+
+def shared_kernel_builds(tasks: Sequence[Task], sizes: Sequence[Sizing], which: np.ndarray) -> np.ndarray | None:
+    """The crystal kernel builds (``tasks.Work.kernel_builds``) that each of ``tasks`` (sizings
+    ``sizes``, ``which`` its position there) finds done: all of them for every task of a kernel
+    group but the one handed out first (the largest cost, ties first appearance: ``chunk_order``).
+    A kernel group's tasks share one material and run one after another on a rank, whose kernel
+    cache (``kernels.anisotropic.kernel_for``) keeps what the first built: on the main job at
+    accuracy 1e-3 a crystal ellipse after the rectangle of its material and b/a took 1-20 ms, its
+    kernel's build ~60 ms (docs/howto/cost-estimates.md). A group cut into several chunks counts
+    one build too: its later chunks are the smallest, handed out last, warm where the rank that
+    built the kernel takes them, cold (underestimated by one build each) where another does. None
+    when no task builds one."""
+    builds = np.array([0.0 if s.work is None else s.work.kernel_builds for s in sizes], dtype=np.float64)[which]
+    at = np.flatnonzero(builds > 0.0)
+    if not at.size:
+        return None
+    group = group_ids([tasks[i] for i in at.tolist()])
+    order = np.lexsort((-np.array([tasks[i].cost for i in at.tolist()], dtype=np.float64), group))  # stable
+    later = at[order[1:][group[order][1:] == group[order][:-1]]]  # not its group's first in hand-out order
+    shared = np.zeros(len(tasks), dtype=np.float64)
+    shared[later] = builds[later]
+    return shared
 
 
 def estimate(
