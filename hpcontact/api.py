@@ -18,10 +18,12 @@ discretization, BLAS limited while it runs (``numerics.blas``).
 
 from __future__ import annotations
 
+import inspect
 import os
 import re
+import textwrap
 import warnings
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
@@ -33,7 +35,7 @@ from hpcontact.accuracy import (
     task_function,
 )
 from hpcontact.errors import AccuracyWarning, InputError, did_you_mean
-from hpcontact.fields import CONTACT, cli_fields, cli_help, names, recorded
+from hpcontact.fields import CONTACT, cli_fields, names, python_annotation, python_doc, recorded
 from hpcontact.numerics.blas import limited_blas
 from hpcontact.numerics.memory import check_fits, default_memory_per_rank, memory_budget, parse_memory, resident_bytes
 from hpcontact.problems import footprint
@@ -175,166 +177,17 @@ def _check_one_grid(scene: Scene, memory: str | float | None, name: Callable[[st
 _SOLVERS = {CONTACT: _solve_contact, SLIP: _solve_slip}
 
 
-def solve(
-    *,
-    shape: str | None = None,
-    aspect: float | None = None,
-    sides: int | None = None,
-    shape_angle: float | None = None,
-    amplitude: float | None = None,
-    seed: int | None = None,
-    hurst: float | None = None,
-    rms: float | None = None,
-    mask: str | os.PathLike[str] | None = None,
-    nu: float | None = None,
-    G: float | None = None,
-    anisotropy: float | None = None,
-    orientation: float | None = None,
-    miller: str | Sequence[int] | None = None,
-    azimuth: float | None = None,
-    material: str | None = None,
-    cubic: str | Mapping[str, float] | Sequence[float] | None = None,
-    orthotropic: str | Mapping[str, float] | Sequence[float] | None = None,
-    voigt: str | Sequence[float] | Sequence[Sequence[float]] | None = None,
-    n: int | None = None,
-    n_across: int | None = None,
-    tol: float | None = None,
-    quantities: str | Sequence[str] | None = None,
-    radius: float | None = None,
-    depth: float | None = None,
-    a: float | None = None,
-    threads: int | None = None,
-    precondition: bool | None = None,
-    device: str | None = None,
-    normal_held: str | None = None,
-    accuracy: float | None = None,
-    memory: str | int | None = None,
-    radius_b: float | str | None = None,
-    radius2: float | str | None = None,
-    radius2_b: float | str | None = None,
-    body2_angle: float | None = None,
-    material2: str | None = None,
-    E: float | None = None,
-    E2: float | None = None,
-    G2: float | None = None,
-    nu2: float | None = None,
-    load: float | None = None,
-    mu: float | None = None,
-    q_ratio: float | None = None,
-    angle: float | None = None,
-    steps: int | None = None,
-    control: str | None = None,
-    displacement: float | None = None,
-    path: str | None = None,
-    coupling: str | None = None,
-    tensor: bool | None = None,
-    history: bool | None = None,
-    normal_friction: bool | None = None,
-    anisotropy2: float | None = None,
-    orientation2: float | None = None,
-    miller2: str | Sequence[int] | None = None,
-    azimuth2: float | None = None,
-    cubic2: str | Mapping[str, float] | Sequence[float] | None = None,
-    orthotropic2: str | Mapping[str, float] | Sequence[float] | None = None,
-    voigt2: str | Sequence[float] | Sequence[Sequence[float]] | None = None,
-    **unknown: Any,
-) -> dict[str, Any]:
+def solve(**keywords: Any) -> dict[str, Any]:
     """Solve one scene and return its record, as ``hpcontact solve --json`` prints it.
 
-    Every parameter is keyword-only; ``None`` (the default) means the engine's default
-    (``hpcontact.scene.DEFAULTS``, shown in brackets). Lengths are in units of a, the
-    semi-major extent of the contact (the long side's half; 1 on the grid).
+    Every parameter is keyword-only: a field of the schema (``hpcontact.fields``, which gives
+    the keywords, their types and their entries below) or ``memory``. ``None`` (the default)
+    means the engine's default (``hpcontact.scene.DEFAULTS``, shown in brackets). Lengths are
+    in units of a, the semi-major extent of the contact (the long side's half; 1 on the grid).
 
     Parameters
     ----------
-    shape
-        ``circle`` [default], ``ellipse``, ``rectangle``, ``polygon``, ``star``, ``rough`` or
-        ``mask``.
-    aspect
-        b/a of an ellipse or rectangle, in [1e-12, 1] [1].
-    sides
-        Sides of a polygon, lobes of a star (≥ 2) [5].
-    shape_angle
-        Turn of the shape (and of a crystal's lattice with it), degrees [0].
-    amplitude
-        Star modulation ε of r = 1 + ε cos(k φ), in [0, 1) [0.2].
-    seed, hurst, rms
-        The rough surface: random seed [0], Hurst exponent in (0, 1) [0.8], rms height in
-        units of a [0.02].
-    mask
-        Contact mask file (.npy, or .png: dark pixels in contact) for ``shape="mask"``; unit a
-        is half the long side of the contact.
-    nu
-        Poisson ratio in (-1, 0.5], < 0.5 for a crystal (A ≠ 1) [0.3].
-    G
-        Shear modulus, the stress unit of the scene [1].
-    anisotropy
-        Cubic anisotropy factor A = 2 C44/(C11 − C12) in [0.01, 100]; 1 is isotropic [1].
-        ``nu``, ``G`` and ``anisotropy`` describe the body only without ``material``,
-        ``cubic``, ``orthotropic`` or ``voigt``: beside one of them (its constants give the
-        whole stiffness) they raise ``InputError``.
-    orientation
-        Surface normal along [110] → [111] → [001]: ψ in [0, 90] degrees [[001]].
-    miller
-        Surface normal as Miller indices, ``"1 1 0"`` or ``(1, 1, 0)`` (not with orientation).
-    azimuth
-        In-plane turn of the crystal, degrees [0].
-    material
-        Library crystal by name (``Cu``, ``Al``, ``Fe``, ``Ni``, ``W``, ``Si``, ...; constants
-        in GPa). With ``quantities="slip"``: body 1 (``Cu``, ``Fe``/``steel``, ``Al``,
-        ``rigid``, or ``crystal:NAME``).
-    cubic
-        Cubic crystal ``"C11=... C12=... C44=..."`` (GPa), a mapping or three numbers.
-    orthotropic
-        Orthotropic engineering constants ``"E1=.. E2=.. E3=.. G12=.. G13=.. G23=.. nu12=..
-        nu13=.. nu23=.."`` (GPa), a mapping or nine numbers.
-    voigt
-        General 6 × 6 Voigt stiffness (GPa): 36 numbers row by row or a nested 6 × 6 list.
-    n
-        Cells along the long side. Without it (and without ``accuracy``): as ``accuracy=1e-4``
-        (``hpcontact.accuracy.DEFAULT_ACCURACY``) where that applies (isotropic, outlined
-        shapes: the one exact cell of a circle or an ellipse, refined grids extrapolated
-        otherwise), else 128.
-    n_across
-        Cells across the short side (thin shapes).
-    tol
-        Conjugate-gradient relative residual tolerance in [1e-14, 1e-2] [1e-8].
-    quantities
-        Comma string or list of ``tangential`` [default], ``normal``, ``compliance``,
-        ``coupled``, ``indentation``; or ``slip`` (partial slip of two bodies: give its fields
-        below as keywords, e.g. ``radius=0.01, load=100.0, mu=0.3, q_ratio=0.5``).
-    radius, depth
-        Rigid sphere radius and approach (``indentation``), in a length unit L of your choice.
-    a
-        Contact size: the semi-major extent a in metres, in [1e-12, 1e3] (not for
-        ``indentation``). Every stiffness of the record is then in N/m (K = k G a), which needs
-        the body's modulus in physical units: ``G`` in Pa, or a library crystal or elastic
-        constants in GPa.
-    threads
-        FFTW threads [1]. BLAS threads: ``$HPCONTACT_BLAS_THREADS`` [1], only while solving.
-    precondition
-        Fourier-preconditioned CG [True]; False for plain CG.
-    device
-        Where the contact solves run: ``"cpu"`` [default] (numpy, pyFFTW) or ``"gpu"`` (CuPy,
-        cuFFT; the optional extra ``gpu``), one GPU per process (its rank on the node modulo the
-        visible devices). Results agree to round-off. A GPU without CuPy or without a CUDA device
-        raises ``InputError`` saying which.
-    normal_held
-        What ``tangential`` holds in the normal direction: ``"approach"`` (u_z = 0) [default]
-        or ``"load"`` (F_z = 0, Cattaneo–Mindlin: the Schur complement K_tt − K_tz K_zz⁻¹ K_zt
-        of the 3 × 3 Re-H stiffness, one more solve for a crystal; the same as ``"approach"``
-        for an isotropic body). The record then has ``normal_held`` = "load".
-    accuracy
-        Extrapolate over refined grids until the estimated relative error of every reported
-        stiffness is ≤ this (in [1e-9, 1)), exactly as ``hpcontact solve --accuracy``
-        (``hpcontact.accuracy.solve_to_accuracy``, strategy "auto"); ``n`` is then ignored.
-    memory
-        Memory budget of a contact solve (``"2G"``, ``"512M"`` or bytes) [this machine's memory
-        per core]: with ``accuracy`` its grids are planned within it; a one-grid solve (``n``
-        given, or a scene the default solves on one grid) whose estimated peak exceeds it is
-        refused before anything is allocated (``InputError``, field ``memory``, or ``n``
-        without it). Not for ``quantities="slip"``.
-    {slip_parameters}
+    {parameters}
 
     Returns
     -------
@@ -367,28 +220,37 @@ def solve(
         limits allow: the record is returned (``accuracy_met`` False, ``estimated_error`` what
         was reached) and the warning names the requested and estimated error and the limit.
     """
-    given = locals()
+    unknown = sorted(set(keywords) - set(SOLVE_KEYWORDS))
     if unknown:
-        word = sorted(unknown)[0]
+        word = unknown[0]
         raise TypeError(
             f"solve() got an unexpected keyword argument {word!r}{did_you_mean(word, SOLVE_KEYWORDS, quote=True)}"
         )
-    params = {name: given[name] for name in names(CONTACT) if name != "accuracy"}
-    slip = {name: given[name] for name in SLIP_KEYWORDS}
-    return solve_fields(params, slip, accuracy=accuracy, memory=memory)
+    params = {name: keywords.get(name) for name in names(CONTACT) if name != "accuracy"}
+    slip = {name: keywords.get(name) for name in SLIP_KEYWORDS}
+    return solve_fields(params, slip, accuracy=keywords.get("accuracy"), memory=keywords.get("memory"))
 
 
-def _slip_parameters(indent: str) -> str:
-    """The slip scene's own keywords of ``solve``, as its docstring lists them (``indent``:
-    that of its parameter names): each with its command-line help (``hpcontact.fields``)."""
+def _parameters(indent: str) -> str:
+    """The entries of ``solve``'s keywords in its docstring (``indent``: that of their names),
+    each from the schema (``fields.python_doc``), wrapped as numpydoc lays them out."""
     return "".join(
-        f'{indent}{name}\n{indent}    Partial slip (``quantities="slip"`` only): {cli_help(name)}.\n'
-        for name in SLIP_KEYWORDS
+        f"{indent}{name}\n"
+        + textwrap.fill(python_doc(name), 96, initial_indent=indent + "    ", subsequent_indent=indent + "    ")
+        + "\n"
+        for name in SOLVE_KEYWORDS
     )
 
 
-solve.__doc__ = re.sub(
-    r"^( *)\{slip_parameters\}\n", lambda m: _slip_parameters(m.group(1)), solve.__doc__ or "", flags=re.M
+solve.__doc__ = re.sub(r"^( *)\{parameters\}\n", lambda m: _parameters(m.group(1)), solve.__doc__ or "", flags=re.M)
+#: What ``help(hpcontact.solve)`` and ``inspect.signature`` show: every keyword of
+#: ``SOLVE_KEYWORDS``, keyword-only, default None, typed from the schema (``fields.python_annotation``).
+solve.__signature__ = inspect.Signature(  # type: ignore[attr-defined]
+    [
+        inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, default=None, annotation=python_annotation(name))
+        for name in SOLVE_KEYWORDS
+    ],
+    return_annotation="dict[str, Any]",
 )
 
 

@@ -123,7 +123,9 @@ class Field:
     is, in words (a sweep spec's message); ``path``: an input file, ``flat``: a radius that may
     be infinite (a flat direction). ``recorded_by``: the quantities whose record carries the
     field's value when it is not the default (``recorded``). ``axis``: a sweep's ``[axes]`` may
-    run over it (``axis_names``). ``variants``: the field's differences in a scene of another
+    run over it (``axis_names``). ``doc``: its entry in the docstring of ``hpcontact.solve``
+    (None: the command-line help, ``python_doc``); ``annotation``: the keyword's type there where
+    it is not the value's type or None (``python_annotation``). ``variants``: the field's differences in a scene of another
     kind, as (kind, ((attribute, value), ...)) pairs (``field(name, kind)``; ``_in_slip``).
     """
 
@@ -148,6 +150,8 @@ class Field:
     flat: bool = False
     recorded_by: tuple[str, ...] = ()
     axis: bool = False
+    doc: str | None = None
+    annotation: str | None = None
     variants: tuple[tuple[str, tuple[tuple[str, Any], ...]], ...] = ()
 
     def check(self, value: Any) -> Any:
@@ -195,6 +199,7 @@ FIELDS: tuple[Field, ...] = (
         long_name="contact shape",
         help="{choices}{default}",
         group="scene",
+        doc="``circle`` [default], ``ellipse``, ``rectangle``, ``polygon``, ``star``, ``rough`` or ``mask``.",
         axis=True,
         changes=_SHAPE,
     ),
@@ -209,6 +214,7 @@ FIELDS: tuple[Field, ...] = (
         unit="1",
         help="b/a of ellipse or rectangle, in [1e-12, 1]{default}",
         group="scene",
+        doc="b/a of an ellipse or rectangle, in [1e-12, 1] [1].",
         axis=True,
     ),
     Field(
@@ -222,6 +228,7 @@ FIELDS: tuple[Field, ...] = (
         unit="1",
         help="polygon sides or star lobes{default}",
         group="scene",
+        doc="Sides of a polygon, lobes of a star (≥ 2) [5].",
         changes=_SHAPE,
     ),
     Field(
@@ -239,6 +246,7 @@ FIELDS: tuple[Field, ...] = (
         unit="degree",
         help="turn the shape by this angle (degrees){default}",
         group="scene",
+        doc="Turn of the shape (and of a crystal's lattice with it), degrees [0].",
         changes=_SHAPE,
     ),
     Field(
@@ -252,6 +260,7 @@ FIELDS: tuple[Field, ...] = (
         unit="1",
         help="star modulation epsilon of r = 1 + eps cos(k phi){default}",
         group="scene",
+        doc="Star modulation ε of r = 1 + ε cos(k φ), in [0, 1) [0.2].",
         changes=_SHAPE,
     ),
     Field(
@@ -265,6 +274,7 @@ FIELDS: tuple[Field, ...] = (
         unit="1",
         help="seed of the rough surface{default}",
         group="scene",
+        doc="The rough surface's random seed [0].",
         changes=_SHAPE,
     ),
     Field(
@@ -278,6 +288,7 @@ FIELDS: tuple[Field, ...] = (
         unit="1",
         help="Hurst exponent of the rough surface, in (0, 1){default}",
         group="scene",
+        doc="The rough surface's Hurst exponent, in (0, 1) [0.8].",
         changes=_SHAPE,
     ),
     Field(
@@ -291,6 +302,7 @@ FIELDS: tuple[Field, ...] = (
         unit="a",
         help="rms height of the rough surface (units of a){default}",
         group="scene",
+        doc="The rough surface's rms height, in units of a [0.02].",
         changes=_SHAPE,
     ),
     Field(
@@ -301,6 +313,8 @@ FIELDS: tuple[Field, ...] = (
         long_name="contact mask image (path)",
         help="contact mask file (.npy or .png) for --shape mask; a = half the long side of the contact",
         group="scene",
+        doc='Contact mask file (.npy, or .png: dark pixels in contact) for ``shape="mask"``; unit a is half the long side of the contact.',
+        annotation="str | os.PathLike[str] | None",
         changes=_SHAPE,
         text="a .npy or .png mask file; a relative path is relative to the spec's folder",
         path=True,
@@ -318,6 +332,7 @@ FIELDS: tuple[Field, ...] = (
         unit="1",
         help="{range}; < 0.5 for a crystal (A != 1){default}",
         group="material",
+        doc="Poisson ratio in (-1, 0.5], < 0.5 for a crystal (A ≠ 1) [0.3].",
         axis=True,
         changes=_changes("kernel"),
         variants=_in_slip(default=None, long_name="Poisson ratio of body 1"),
@@ -334,6 +349,7 @@ FIELDS: tuple[Field, ...] = (
         unit="1",
         help="shear modulus: the stress unit of the results{default}",
         group="material",
+        doc="Shear modulus, the stress unit of the scene [1].",
         changes=_changes("kernel"),
         variants=_in_slip(default=None, long_name="shear modulus of body 1", unit="F L-2"),
     ),
@@ -349,6 +365,7 @@ FIELDS: tuple[Field, ...] = (
         unit="1",
         help="cubic anisotropy factor A = 2 C44/(C11 - C12), 1 = isotropic{default}",
         group="material",
+        doc="Cubic anisotropy factor A = 2 C44/(C11 − C12) in [0.01, 100]; 1 is isotropic [1]. ``nu``, ``G`` and ``anisotropy`` describe the body only without ``material``, ``cubic``, ``orthotropic`` or ``voigt``: beside one of them (its constants give the whole stiffness) they raise ``InputError``.",
         axis=True,
         variants=_in_slip(default=None, long_name=None),
     ),
@@ -363,6 +380,7 @@ FIELDS: tuple[Field, ...] = (
         unit="degree",
         help="surface normal along [110] -> [111] -> [001], psi in [0, 90] degrees (default: [001])",
         group="material",
+        doc="Surface normal along [110] → [111] → [001]: ψ in [0, 90] degrees [[001]].",
         axis=True,
         changes=_changes("kernel"),
         variants=_in_slip(long_name="surface normal of the crystal along [110] -> [111] -> [001]"),
@@ -377,6 +395,8 @@ FIELDS: tuple[Field, ...] = (
         long_name="surface normal (h k l) of the crystal",
         help='surface normal as Miller indices "h k l" (default: "0 0 1")',
         group="material",
+        doc='Surface normal as Miller indices, ``"1 1 0"`` or ``(1, 1, 0)`` (not with orientation).',
+        annotation="str | Sequence[int] | None",
         changes=_changes("kernel"),
     ),
     Field(
@@ -390,6 +410,7 @@ FIELDS: tuple[Field, ...] = (
         unit="degree",
         help="in-plane turn of the crystal (degrees){default}",
         group="material",
+        doc="In-plane turn of the crystal, degrees [0].",
         changes=_changes("kernel"),
     ),
     Field(
@@ -401,11 +422,21 @@ FIELDS: tuple[Field, ...] = (
         help="library crystal by name (Cu, Al, Fe, Ni, W, Si, ...; GPa); with --quantities slip: the isotropic "
         "body 1 (Cu, Fe/steel, Al, rigid) or a crystal as crystal:NAME",
         group="material",
+        doc='Library crystal by name (``Cu``, ``Al``, ``Fe``, ``Ni``, ``W``, ``Si``, ...; constants in GPa). With ``quantities="slip"``: body 1 (``Cu``, ``Fe``/``steel``, ``Al``, ``rigid``, or ``crystal:NAME``).',
         axis=True,
         text="a library material name (crystals: Cu, Al, Fe, ...; slip bodies: Cu, Fe, Al, rigid)",
         variants=_in_slip(long_name="material of body 1 (hpcontact.problems.slip.bodies library, or crystal:NAME)"),
     ),
-    Field("cubic", object, None, kinds=_BOTH, help='cubic crystal "C11=... C12=... C44=..." (GPa)', group="material"),
+    Field(
+        "cubic",
+        object,
+        None,
+        kinds=_BOTH,
+        help='cubic crystal "C11=... C12=... C44=..." (GPa)',
+        group="material",
+        doc='Cubic crystal ``"C11=... C12=... C44=..."`` (GPa), a mapping or three numbers.',
+        annotation="str | Mapping[str, float] | Sequence[float] | None",
+    ),
     Field(
         "orthotropic",
         object,
@@ -413,6 +444,8 @@ FIELDS: tuple[Field, ...] = (
         kinds=_BOTH,
         help='orthotropic "E1=.. E2=.. E3=.. G12=.. G13=.. G23=.. nu12=.. nu13=.. nu23=.." (GPa)',
         group="material",
+        doc='Orthotropic engineering constants ``"E1=.. E2=.. E3=.. G12=.. G13=.. G23=.. nu12=.. nu13=.. nu23=.."`` (GPa), a mapping or nine numbers.',
+        annotation="str | Mapping[str, float] | Sequence[float] | None",
         variants=_in_slip(long_name="orthotropic engineering constants of body 1"),
     ),
     Field(
@@ -422,6 +455,8 @@ FIELDS: tuple[Field, ...] = (
         kinds=_BOTH,
         help="general 6 x 6 Voigt stiffness, 36 numbers row by row (GPa)",
         group="material",
+        doc="General 6 × 6 Voigt stiffness (GPa): 36 numbers row by row or a nested 6 × 6 list.",
+        annotation="str | Sequence[float] | Sequence[Sequence[float]] | None",
     ),
     # numerics
     Field(
@@ -435,6 +470,7 @@ FIELDS: tuple[Field, ...] = (
         unit="1",
         help="cells along the long side (default: as --accuracy 1e-4 for isotropic outlined shapes, else {value})",
         group="numerics",
+        doc="Cells along the long side. Without it (and without ``accuracy``): as ``accuracy=1e-4`` (``hpcontact.accuracy.DEFAULT_ACCURACY``) where that applies (isotropic, outlined shapes: the one exact cell of a circle or an ellipse, refined grids extrapolated otherwise), else 128.",
         axis=True,
         variants=_in_slip(
             default=64,
@@ -453,6 +489,7 @@ FIELDS: tuple[Field, ...] = (
         unit="1",
         help="cells across the short side (thin shapes; default: as along)",
         group="numerics",
+        doc="Cells across the short side (thin shapes).",
     ),
     Field(
         "tol",
@@ -465,6 +502,7 @@ FIELDS: tuple[Field, ...] = (
         unit="1",
         help="CG relative residual tolerance, in [1e-14, 1e-2]{default}",
         group="numerics",
+        doc="Conjugate-gradient relative residual tolerance in [1e-14, 1e-2] [1e-8].",
         axis=True,
         changes=_changes("cost"),
         variants=_in_slip(interval=Interval(1e-14, 1e-4), message="a tolerance in [1e-14, 1e-4]"),
@@ -479,6 +517,7 @@ FIELDS: tuple[Field, ...] = (
         unit="1",
         help="extrapolate over grids until the estimated relative error <= REL, in [1e-9, 1) (default: off)",
         group="numerics",
+        doc='Extrapolate over refined grids until the estimated relative error of every reported stiffness is ≤ this (in [1e-9, 1)), exactly as ``hpcontact solve --accuracy`` (``hpcontact.accuracy.solve_to_accuracy``, strategy "auto"); ``n`` is then ignored.',
         axis=True,
         metavar="REL",
     ),
@@ -489,6 +528,8 @@ FIELDS: tuple[Field, ...] = (
         kinds=(),
         help="memory budget of a contact solve, e.g. 2G (default: this machine's memory per core)",
         group="numerics",
+        doc='Memory budget of a contact solve (``"2G"``, ``"512M"`` or bytes) [this machine\'s memory per core]: with ``accuracy`` its grids are planned within it; a one-grid solve (``n`` given, or a scene the default solves on one grid) whose estimated peak exceeds it is refused before anything is allocated (``InputError``, field ``memory``, or ``n`` without it). Not for ``quantities="slip"``.',
+        annotation="str | int | None",
         metavar="SIZE",
     ),
     Field(
@@ -499,6 +540,8 @@ FIELDS: tuple[Field, ...] = (
         long_name="quantities solved for",
         help="comma list: tangential, normal, compliance, coupled, indentation; or slip{default}",
         group="scene",
+        doc="Comma string or list of ``tangential`` [default], ``normal``, ``compliance``, ``coupled``, ``indentation``; or ``slip`` (partial slip of two bodies: give its fields below as keywords, e.g. ``radius=0.01, load=100.0, mu=0.3, q_ratio=0.5``).",
+        annotation="str | Sequence[str] | None",
         changes=_SHAPE,
         variants=_in_slip(default=("slip",)),
     ),
@@ -514,6 +557,7 @@ FIELDS: tuple[Field, ...] = (
         unit="L",
         help="rigid sphere radius (indentation; unit L of your choice), or radius of body 1 (slip)",
         group="scene",
+        doc='Rigid sphere radius (``indentation``), in a length unit L of your choice; with ``quantities="slip"``: the radius of body 1.',
         variants=_in_slip(interval=None, message=None, long_name="radius of curvature of body 1"),
     ),
     Field(
@@ -527,6 +571,7 @@ FIELDS: tuple[Field, ...] = (
         unit="L",
         help="rigid sphere approach (indentation), in [1e-15, 1) x radius",
         group="scene",
+        doc="Rigid sphere approach (``indentation``), in the unit L of ``radius``, in [1e-15, 1) × radius.",
     ),
     Field(
         "a",
@@ -544,6 +589,7 @@ FIELDS: tuple[Field, ...] = (
         help="contact size: the semi-major extent a in metres; stiffnesses then in N/m (the body's modulus "
         "in Pa: --G, or a library crystal or elastic constants in GPa)",
         group="scene",
+        doc="Contact size: the semi-major extent a in metres, in [1e-12, 1e3] (not for ``indentation``). Every stiffness of the record is then in N/m (K = k G a), which needs the body's modulus in physical units: ``G`` in Pa, or a library crystal or elastic constants in GPa.",
         changes=_NONE,
     ),
     Field(
@@ -557,6 +603,7 @@ FIELDS: tuple[Field, ...] = (
         unit="1",
         help="FFTW threads{default}; BLAS: HPCONTACT_BLAS_THREADS (default: 1)",
         group="numerics",
+        doc="FFTW threads [1]. BLAS threads: ``$HPCONTACT_BLAS_THREADS`` [1], only while solving.",
         changes=_NONE,
         variants=_in_slip(interval=Interval(1, 1024), message="an integer >= 1"),
     ),
@@ -568,6 +615,7 @@ FIELDS: tuple[Field, ...] = (
         help="plain CG, for comparison (default: Fourier-preconditioned CG)",
         option="--no-precondition",
         group="numerics",
+        doc="Fourier-preconditioned CG [True]; False for plain CG.",
         changes=_NONE,
     ),
     Field(
@@ -578,6 +626,7 @@ FIELDS: tuple[Field, ...] = (
         long_name="device of the contact solves: cpu (numpy, pyFFTW) or gpu (CuPy, cuFFT)",
         help="where the contact solves run: {choices}{default} (gpu: CuPy and a CUDA device; one per rank)",
         group="numerics",
+        doc='Where the contact solves run: ``"cpu"`` [default] (numpy, pyFFTW) or ``"gpu"`` (CuPy, cuFFT; the optional extra ``gpu``), one GPU per process (its rank on the node modulo the visible devices). Results agree to round-off. A GPU without CuPy or without a CUDA device raises ``InputError`` saying which.',
         changes=_changes("cost"),
         text="cpu or gpu: where the contact solves run",
     ),
@@ -589,6 +638,7 @@ FIELDS: tuple[Field, ...] = (
         long_name="what the tangential stiffness holds in the normal direction: approach (u_z = 0) or load (F_z = 0)",
         help="what tangential holds normally: approach (u_z = 0) or load (F_z = 0; differs for crystals only){default}",
         group="scene",
+        doc='What ``tangential`` holds in the normal direction: ``"approach"`` (u_z = 0) [default] or ``"load"`` (F_z = 0, Cattaneo–Mindlin: the Schur complement K_tt − K_tz K_zz⁻¹ K_zt of the 3 × 3 Re-H stiffness, one more solve for a crystal; the same as ``"approach"`` for an isotropic body). The record then has ``normal_held`` = "load".',
         axis=True,
         changes=_changes("cost"),
         recorded_by=("tangential",),
@@ -596,7 +646,18 @@ FIELDS: tuple[Field, ...] = (
     ),
     # partial slip
     *(
-        Field(name, float, None, kinds=(SLIP,), long_name=long_name, unit="L", help=text, group="slip", flat=True)
+        Field(
+            name,
+            float,
+            None,
+            kinds=(SLIP,),
+            long_name=long_name,
+            unit="L",
+            help=text,
+            group="slip",
+            flat=True,
+            annotation="float | str | None",
+        )
         for name, long_name, text in (
             (
                 "radius_b",
@@ -838,8 +899,16 @@ FIELDS: tuple[Field, ...] = (
         kinds=(SLIP,),
         help='body 2: lattice direction "h k l" along the lab normal',
         group="slip",
+        annotation="str | Sequence[int] | None",
     ),
-    Field("azimuth2", float, None, kinds=(SLIP,), help="body 2: in-plane turn of the crystal (degrees)", group="slip"),
+    Field(
+        "azimuth2",
+        float,
+        None,
+        kinds=(SLIP,),
+        help="body 2: in-plane turn of the crystal (degrees)",
+        group="slip",
+    ),
     Field(
         "cubic2",
         object,
@@ -847,6 +916,7 @@ FIELDS: tuple[Field, ...] = (
         kinds=(SLIP,),
         help='body 2: cubic crystal "C11=... C12=... C44=..." (GPa)',
         group="slip",
+        annotation="str | Mapping[str, float] | Sequence[float] | None",
     ),
     Field(
         "orthotropic2",
@@ -856,6 +926,7 @@ FIELDS: tuple[Field, ...] = (
         long_name="orthotropic engineering constants of body 2",
         help="body 2: orthotropic engineering constants (GPa), as orthotropic",
         group="slip",
+        annotation="str | Mapping[str, float] | Sequence[float] | None",
     ),
     Field(
         "voigt2",
@@ -864,6 +935,7 @@ FIELDS: tuple[Field, ...] = (
         kinds=(SLIP,),
         help="body 2: general 6 x 6 Voigt stiffness, 36 numbers (GPa)",
         group="slip",
+        annotation="str | Sequence[float] | Sequence[Sequence[float]] | None",
     ),
 )
 _BY_NAME = {f.name: f for f in FIELDS}
@@ -966,6 +1038,22 @@ def cli_help(name: str) -> str:
         .replace("{range}", f.message or "")
         .replace("{choices}", ", ".join(f.choices))
     )
+
+
+def python_annotation(name: str) -> str:
+    """The type of the field's keyword of ``hpcontact.solve``, as an annotation's text:
+    ``Field.annotation``, else its value's type or None (``Any`` for an ``object``)."""
+    f = _BY_NAME[name]
+    if f.annotation is not None:
+        return f.annotation
+    return "Any" if f.type is object else f"{f.type.__name__} | None"
+
+
+def python_doc(name: str) -> str:
+    """The field's entry in the docstring of ``hpcontact.solve``: ``Field.doc``, else (a slip
+    scene's own field) its command-line help."""
+    f = _BY_NAME[name]
+    return f.doc if f.doc is not None else f'Partial slip (``quantities="slip"`` only): {cli_help(name)}.'
 
 
 def cli_fields(group: str | None = None) -> tuple[Field, ...]:

@@ -340,14 +340,20 @@ def test_run_sweep_refuses_a_spec_file_too_large_or_not_regular(tmp_path):
 def test_solve_keywords_are_the_field_schemas():
     """Issue 38: the explicit keywords of ``hpcontact.solve`` are the schema's contact fields,
     the documented extra ``memory`` (``accuracy`` is a contact field) and the slip scene's own
-    fields, each keyword-only, typed and documented; ``**unknown`` only names a misspelling."""
+    fields, each keyword-only, typed and documented, generated from the schema (no keyword is
+    listed by hand in ``api.py``); an unknown keyword is a TypeError, as for any function."""
+    from hpcontact import fields
     from hpcontact.fields import CONTACT, SLIP, names
 
     parameters = inspect.signature(hpcontact.solve).parameters
     keywords = [name for name, p in parameters.items() if p.kind is inspect.Parameter.KEYWORD_ONLY]
     assert set(keywords) == set(names(CONTACT)) | {"accuracy", "memory"} | set(names(SLIP)) - {"quantities"}
     assert len(keywords) == len(set(keywords))
-    assert [p.kind for p in parameters.values()][-1] is inspect.Parameter.VAR_KEYWORD
+    assert all(p.kind is inspect.Parameter.KEYWORD_ONLY for p in parameters.values())
+    for name in ("normal_held", "a", "load"):  # a contact field, the contact size, a slip field: not in api.py's text
+        assert fields.python_doc(name) in " ".join(hpcontact.solve.__doc__.split())
+        assert parameters[name].annotation == fields.python_annotation(name)
+        assert not re.search(rf"\b{name}\b", inspect.getsource(api.solve).split('"""')[2]), name
     for name in names(SLIP):
         assert parameters[name].annotation is not inspect.Parameter.empty, name
         assert re.search(rf"^    (\w+, )*{name}(, \w+)*$", hpcontact.solve.__doc__, re.MULTILINE), name
