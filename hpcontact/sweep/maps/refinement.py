@@ -47,7 +47,9 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
@@ -333,6 +335,89 @@ def solve_errors(
     )
 
 
+@dataclass(frozen=True)
+class LeafJob:
+    """What one leaf's part of a sub-problem's estimate needs (``leaf_estimate``), small enough
+    to send to another rank: the coordinates over the span of its nodes (``xs``), its nodes in
+    that span (``local``), its box in that span (``inner``), the values of the quantities
+    ``work`` at its nodes (``data``, quantities last) and the solves' relative errors there
+    (``solve_data``), how many of ``work`` are kept (the first ``kept``; the rest: the tensor a
+    principal stiffness is derived from), the factor and kind of the estimate, and whether the
+    principal stiffnesses are derived from the tensor (``principal_from_tensor``). ``points``:
+    the points of its box, the cost the leaves are shared out by (``maps.spread``)."""
+
+    xs: tuple[np.ndarray, ...]
+    local: tuple[tuple[int, ...], ...]
+    inner: tuple[slice, ...]
+    data: np.ndarray
+    solve_data: np.ndarray
+    work: tuple[str, ...]
+    kept: int
+    safety: float
+    conservative: bool
+    derive: bool
+
+    @property
+    def points(self) -> int:
+        return math.prod(s.stop - s.start for s in self.inner)
+
+
+class LeafPart(NamedTuple):
+    """One leaf's part of the estimate over its box, the kept quantities last: the interpolated
+    values, each axis' relative estimate, the interpolated solve error, the size the errors are
+    relative to, and the largest map error over the quantities at each point (inf where NaN)."""
+
+    values: np.ndarray
+    axes: list[np.ndarray]
+    solve: np.ndarray
+    scale: np.ndarray
+    worst: np.ndarray
+
+
+def leaf_estimate(job: LeafJob) -> LeafPart:
+    """One leaf's part of ``estimate`` (``LeafJob``): a function of the job alone, so every rank
+    computes it alike (``maps.spread`` shares the leaves out)."""
+    work, kept = list(job.work), slice(0, job.kept)
+    interpolant = TensorInterpolant(list(job.xs), job.local)
+    whole = interpolant.values(job.data)
+    full = whole[job.inner]
+    relative = _relative_scale(work, full)
+    leaf_axes = [job.safety * e[job.inner] / relative for e in interpolant.estimates(job.data, whole, job.conservative)]
+    if job.derive:
+        principal_from_tensor(full, leaf_axes, work)
+        relative = _relative_scale(work, full)
+    leaf_solve = np.abs(interpolant.values(job.solve_data))[job.inner]
+    error = (sum(leaf_axes, np.zeros_like(leaf_solve)) + leaf_solve)[..., kept]
+    worst = np.where(np.isnan(error), np.inf, error).max(axis=-1)
+    return LeafPart(
+        full[..., kept], [a[..., kept] for a in leaf_axes], leaf_solve[..., kept], relative[..., kept], worst
+    )
+
+
+LeafMap = Callable[[Sequence[LeafJob]], list[LeafPart]]
+
+
+def _serial(jobs: Sequence[LeafJob]) -> list[LeafPart]:
+    """``leaf_estimate`` of every job on this process, in order."""
+    return [leaf_estimate(job) for job in jobs]
+
+
+#: How ``estimate`` computes its leaves' parts (``spread_leaves``: over the ranks of a team).
+_LEAF_MAP: ContextVar[LeafMap] = ContextVar("leaf_map", default=_serial)
+
+
+@contextmanager
+def spread_leaves(leaf_map: LeafMap) -> Iterator[None]:
+    """Every ``estimate`` inside computes its leaves' parts with ``leaf_map`` (a list of
+    ``LeafJob`` → their ``LeafPart`` in order; ``maps.spread.LeafPool.map`` shares them out
+    over the ranks), not one after the other here."""
+    token = _LEAF_MAP.set(leaf_map)
+    try:
+        yield
+    finally:
+        _LEAF_MAP.reset(token)
+
+
 def estimate(
     layout: Layout,
     cat: Sequence[int],
@@ -346,45 +431,48 @@ def estimate(
     ``leaves`` of the quantities ``names`` (``fields``: name → array over the task axes;
     ``<name>_error``, when there, the solve's relative error); ``safety`` the factor on the
     interpolation estimate, ``conservative`` its kind (``TensorInterpolant.estimates``). Each
-    leaf interpolates its own box; a point on a face shared by several takes the leaf whose
-    largest map error over the quantities is smallest there (the first where all are NaN). The
-    principal stiffnesses come from the interpolated tensor where ``fields`` has it and they
-    may cross (``_crosses``, on every node of the sub-problem; ``principal_from_tensor``)."""
+    leaf interpolates its own box (``leaf_estimate``, computed as ``spread_leaves`` says); a
+    point on a face shared by several takes the leaf whose largest map error over the
+    quantities is smallest there (the first where all are NaN), merged in leaf order whoever
+    computed the parts. The principal stiffnesses come from the interpolated tensor where
+    ``fields`` has it and they may cross (``_crosses``, on every node of the sub-problem;
+    ``principal_from_tensor``)."""
     derive = any(n in PRINCIPAL for n in names) and all(t in fields for t in TENSOR)
     work = list(names) + [t for t in TENSOR if derive and t not in names]
-    kept = slice(0, len(names))
     grid = tuple(len(x) for x in layout.xs)
     if derive:
         mask = node_mask(layout, leaves)
         data = np.stack([layout.take(fields[n], cat)[mask] for n in work], axis=-1)
         derive = _crosses(data, solve_errors(layout, fields, work, cat)[mask], work)
+    jobs = [
+        LeafJob(
+            xs=tuple(x[n[0] : n[-1] + 1] for x, n in zip(layout.xs, leaf.nodes)),
+            local=tuple(tuple(i - n[0] for i in n) for n in leaf.nodes),
+            inner=tuple(slice(lo - n[0], hi - n[0] + 1) for (lo, hi), n in zip(leaf.box, leaf.nodes)),
+            data=np.stack([layout.take(fields[n], cat, leaf.nodes) for n in work], axis=-1),
+            solve_data=solve_errors(layout, fields, work, cat, leaf.nodes),
+            work=tuple(work),
+            kept=len(names),
+            safety=safety,
+            conservative=conservative,
+            derive=derive,
+        )
+        for leaf in leaves
+    ]
     values = np.full((*grid, len(names)), np.nan)
     axes = [np.full((*grid, len(names)), np.nan) for _ in grid]
     solve, scale = np.full((*grid, len(names)), np.nan), np.ones((*grid, len(names)))
     owner, best = np.full(grid, -1, dtype=np.intp), np.full(grid, np.inf)
-    for position, leaf in enumerate(leaves):
+    for position, (leaf, part) in enumerate(zip(leaves, _LEAF_MAP.get()(jobs))):
         region = box(leaf)
-        local = [tuple(i - n[0] for i in n) for n in leaf.nodes]
-        inner = tuple(slice(lo - n[0], hi - n[0] + 1) for (lo, hi), n in zip(leaf.box, leaf.nodes))
-        interpolant = TensorInterpolant([x[n[0] : n[-1] + 1] for x, n in zip(layout.xs, leaf.nodes)], local)
-        data = np.stack([layout.take(fields[n], cat, leaf.nodes) for n in work], axis=-1)
-        full = interpolant.values(data)[inner]
-        relative = _relative_scale(work, full)
-        leaf_axes = [safety * e[inner] / relative for e in interpolant.estimates(data, None, conservative)]
-        if derive:
-            principal_from_tensor(full, leaf_axes, work)
-            relative = _relative_scale(work, full)
-        leaf_solve = np.abs(interpolant.values(solve_errors(layout, fields, work, cat, leaf.nodes)))[inner]
-        error = (sum(leaf_axes, np.zeros_like(leaf_solve)) + leaf_solve)[..., kept]
-        worst = np.where(np.isnan(error), np.inf, error).max(axis=-1)
-        better = (worst < best[region]) | (owner[region] < 0)
-        best[region] = np.where(better, worst, best[region])
+        better = (part.worst < best[region]) | (owner[region] < 0)
+        best[region] = np.where(better, part.worst, best[region])
         owner[region] = np.where(better, position, owner[region])
         chosen = better[..., None]
-        for target, source in ((values, full), (solve, leaf_solve), (scale, relative)):
-            target[region] = np.where(chosen, source[..., kept], target[region])
-        for target, source in zip(axes, leaf_axes):
-            target[region] = np.where(chosen, source[..., kept], target[region])
+        for target, source in ((values, part.values), (solve, part.solve), (scale, part.scale)):
+            target[region] = np.where(chosen, source, target[region])
+        for target, source in zip(axes, part.axes):
+            target[region] = np.where(chosen, source, target[region])
     return Estimate(values, axes, solve, scale, owner)
 
 

@@ -13,6 +13,8 @@ Rank 0 of an adaptive map reads the journals the ranks append while it takes cla
 next round's decision parses only the lines written after its last claim, not the whole round's
 (issue 40 item 5: parsing a round's lines took rank 0 alone up to seconds, the other ranks
 waiting; during the round the other ranks take the claims rank 0 does not).
+While rank 0 decides the next round, the other ranks compute the leaves' parts of its map-error
+estimate with it (``maps.spread``: bitwise the estimate of one process) instead of waiting.
 
 Rank 0 imports what its data set needs at the round's end (xarray's duck-array modules, ~0.6 s
 once per process): done before its first claim it left a small sweep's every task to the other
@@ -386,7 +388,22 @@ def _run(run: Run, plan: Plan, kept: Kept | None, scope: RoundScope, options: Op
         )
     )
 
+    # an adaptive round: the other ranks compute rank 0's estimate with it while it decides (maps.spread)
+    shared = scope.finish is not None and team.size > 1
+    if shared and team.rank != 0:
+        from hpcontact.sweep.maps.spread import serve
+
+        serve(team)
+
     def finish() -> tuple[Outcome | None, str, int]:
+        if not shared:
+            return concluded()
+        from hpcontact.sweep.maps.spread import shared_estimates
+
+        with shared_estimates(team):
+            return concluded()
+
+    def concluded() -> tuple[Outcome | None, str, int]:
         stopped = [t for t in totals if t.reason is not None]
         if stopped:
             failed = [t.failure for t in totals if t.failure]

@@ -1,0 +1,118 @@
+"""Rank 0's estimate between an adaptive map's rounds, shared out over the ranks (issue 40 item 5).
+
+After each round rank 0 decides the next from the values at the nodes (``maps.rounds``): the
+refinement, the check rounds and the last round's fill estimate the map error of every leaf
+(``refinement.estimate``), which was most of rank 0's time between rounds while every other
+rank waited (4.9 of 13.4 CPU s on the 4-D stand-in map, the fill 1.8 more;
+``benchmarks/adaptive_scaling.py``). Each leaf's part of an estimate is a function of a small
+job alone (``refinement.LeafJob``: its coordinates, nodes and the values there), so the ranks
+compute the parts while rank 0 decides:
+
+* every rank but 0 ``serve``\\ s after a round's tasks, until rank 0 has decided;
+* rank 0 decides inside ``shared_estimates``: each ``estimate`` broadcasts its leaves' jobs and
+  who computes which (``assign``), every rank computes its own (rank 0 too) and rank 0 gathers
+  the parts, merges them in leaf order (``refinement.estimate``) and goes on; leaving, it tells
+  the ranks to stop serving.
+
+What it guarantees: a part is ``refinement.leaf_estimate(job)`` on whichever rank computes it
+(the same code on the same numbers, float64), and the merge takes the parts in leaf order, so
+the estimate, the next round's nodes, the map and its errors are bitwise those of one process
+(``tests/mpi/test_adaptive_spread.py``; ``tests/sweep/maps/test_spread.py``). Only when the
+parts are computed changes. A rank's failure in a part is raised on rank 0 after the gather
+(every rank takes part in each collective, so none waits forever); a decision that fails
+still tells the ranks to stop serving before its error reaches them (``rounds._run``).
+
+Assignment (``assign``): longest processing time first (Graham, SIAM J. Appl. Math. 17, 1969),
+by the points of each leaf's box: the largest leaf to the rank with the least so far. A leaf's
+part cannot be split further, so an estimate's time on R ranks is its largest leaf's at least
+(``replay.replay_rounds`` replays it so, from the parts' measured seconds).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from typing import Any
+
+from hpcontact.sweep.maps.refinement import LeafJob, LeafPart, leaf_estimate, spread_leaves
+from hpcontact.sweep.run.shares import SharedError
+
+
+def assign(points: Sequence[int], ranks: int) -> list[list[int]]:
+    """The jobs (positions in ``points``, each a leaf's box points) each of ``ranks`` ranks
+    computes (module docstring): the largest first (ties: the earlier) to the rank with the
+    fewest points so far (ties: the lower rank)."""
+    load = [0] * ranks
+    out: list[list[int]] = [[] for _ in range(ranks)]
+    for job in sorted(range(len(points)), key=lambda j: (-points[j], j)):
+        rank = min(range(ranks), key=lambda r: (load[r], r))
+        out[rank].append(job)
+        load[rank] += points[job]
+    return out
+
+
+def _computed(
+    jobs: Sequence[LeafJob], mine: Sequence[int], rank: int
+) -> list[tuple[int, LeafPart, float]] | SharedError:
+    """This rank's parts: (job position, part, its CPU seconds), or the error that stopped it."""
+    out = []
+    try:
+        for j in mine:
+            started = time.process_time()
+            part = leaf_estimate(jobs[j])
+            out.append((j, part, time.process_time() - started))
+    except Exception as exc:  # noqa: BLE001 - raised on rank 0 after the gather, every rank in step
+        return SharedError.of(exc, rank)
+    return out
+
+
+class LeafPool:
+    """Rank 0's side (module docstring): ``map`` computes the parts of one ``estimate`` over the
+    team; ``seconds`` keeps, for each call, every job's (box points, CPU seconds) in job order,
+    for the replay (``benchmarks/adaptive_scaling.py``)."""
+
+    def __init__(self, team: Any) -> None:
+        self.team = team
+        self.seconds: list[list[tuple[int, float]]] = []
+
+    def map(self, jobs: Sequence[LeafJob]) -> list[LeafPart]:
+        """The ``LeafPart`` of every job, in order, computed by the ranks ``assign`` names."""
+        jobs = list(jobs)
+        points = [job.points for job in jobs]
+        shares = assign(points, self.team.size)
+        self.team.bcast((jobs, shares))
+        gathered = self.team.gather(_computed(jobs, shares[0], 0))
+        parts: list[LeafPart | None] = [None] * len(jobs)
+        seconds = [0.0] * len(jobs)
+        for result in gathered:
+            if isinstance(result, SharedError):
+                raise result.exception()
+            for j, part, spent in result:
+                parts[j], seconds[j] = part, spent
+        self.seconds.append(list(zip(points, seconds)))
+        return [p for p in parts if p is not None]
+
+
+def serve(team: Any) -> None:
+    """A rank other than 0 after a round's tasks: compute the parts rank 0 broadcasts (its own
+    share, ``assign``) and send them back, until rank 0 broadcasts None (it has decided)."""
+    while True:
+        message = team.bcast(None)
+        if message is None:
+            return
+        jobs, shares = message
+        team.gather(_computed(jobs, shares[team.rank], team.rank))
+
+
+@contextmanager
+def shared_estimates(team: Any) -> Iterator[LeafPool]:
+    """Rank 0 while it decides (module docstring): every ``refinement.estimate`` inside shares
+    its leaves out over ``team``, whose other ranks ``serve``; leaving (whatever happened) it
+    tells them to stop."""
+    pool = LeafPool(team)
+    try:
+        with spread_leaves(pool.map):
+            yield pool
+    finally:
+        team.bcast(None)
