@@ -28,6 +28,7 @@ from __future__ import annotations
 import ast
 import importlib.util
 import json
+import math
 import os
 import re
 import socket
@@ -40,13 +41,23 @@ from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 CLAIMS = ROOT / "docs" / "claims.md"
 
 CLAIM_HEADER = ("figure as stated", "where", "reproduced by", "status")
-STATUS = re.compile(r"^(test \(bound\)|test|benchmark, dated \(.*\d{4}-\d{2}-\d{2}.*\)|untested)(\W|$)", re.S)
+STATUS = re.compile(
+    r"^(test \(bound\)|test|regenerated|benchmark, dated \(.*\d{4}-\d{2}-\d{2}.*\)|one-off, dated \(.*\))(\W|$)", re.S
+)
+#: A one-off figure's parenthesis: its date, the machine and the commit (issue 39 item 2).
+ONE_OFF = re.compile(r"one-off, dated \(((?:[^()]|\([^()]*\))*)\)")
+DATE = re.compile(r"\d{4}-\d{2}-\d{2}")
+MACHINE = re.compile(r"EPYC|Xeon|VM|machine|CI\b")
+COMMIT = re.compile(r"\b[0-9a-f]{7,40}\b")
+#: ``benchmarks/check_claims.py --check NAME`` in a regenerated row: the script's check of it.
+CHECK = re.compile(r"benchmarks/check_claims\.py --check (\w+)")
 PATH = re.compile(r"(?<![\w./-])((?:tests|benchmarks|jobs|postprocess|docs|hpcontact|\.ci)/[\w./-]*\w|README\.md)")
 NODE = re.compile(r"(?<![\w.])((?:tests/[\w/]+\.py)?)((?:::\w+)+)")
 MODULE = re.compile(r"python -m ([\w.]+)")
@@ -129,6 +140,34 @@ def _sections(page: Path) -> list[str]:
     return [_normalized(h) for h in headings + re.findall(r"\*\*([^*]+)\*\*", text)]
 
 
+@cache
+def _known_commit(commit: str) -> bool:
+    """Whether ``commit`` is a commit of this checkout's history (true where there is no full
+    history to look in: no git, a shallow clone)."""
+
+    def git(*arguments: str) -> subprocess.CompletedProcess:
+        return subprocess.run(["git", "-C", str(ROOT), *arguments], capture_output=True, text=True, check=False)
+
+    try:
+        shallow = git("rev-parse", "--is-shallow-repository")
+    except FileNotFoundError:
+        return True
+    if shallow.returncode != 0 or shallow.stdout.strip() != "false":
+        return True
+    return git("cat-file", "-e", f"{commit}^{{commit}}").returncode == 0
+
+
+@cache
+def _claim_checks() -> frozenset[str]:
+    """The names of ``benchmarks/check_claims.py``'s checks (its module loaded, nothing run)."""
+    spec = importlib.util.spec_from_file_location("check_claims", ROOT / "benchmarks" / "check_claims.py")
+    assert spec and spec.loader
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # as an import would: dataclasses look their module up
+    spec.loader.exec_module(module)
+    return frozenset(module.CHECKS)
+
+
 @pytest.mark.parametrize("row", ROWS, ids=lambda row: str(row.line))
 def test_every_named_path_and_test_exists(row: Row) -> None:
     text = " ".join(row.cells.values())
@@ -156,6 +195,17 @@ def test_every_claim_names_its_page_section_excerpts_and_status(row: Row) -> Non
     for excerpt in QUOTED.findall(row.cells["figure as stated"].replace("\\|", "|")):
         assert _normalized(excerpt) in quoted_on_page, f"{row}: {pages[0]} no longer says “{excerpt}”"
     assert STATUS.match(status), f"{row}: status {status[:40]!r} is none of the page's words"
+    assert "untested" not in status, f"{row}: a figure is untested: name a test or a command, or date it as a one-off"
+    for one_off in ONE_OFF.findall(status):
+        assert DATE.search(one_off) and MACHINE.search(one_off), f"{row}: a one-off names its date and machine"
+        commits = COMMIT.findall(one_off)
+        assert commits and all(map(_known_commit, commits)), f"{row}: a one-off names a commit of this history"
+    if status.startswith("regenerated"):
+        names = CHECK.findall(reproduced)
+        assert names, f"{row}: a regenerated row names its check: benchmarks/check_claims.py --check NAME"
+        assert set(names) <= _claim_checks(), (
+            f"{row}: benchmarks/check_claims.py has no check {set(names) - _claim_checks()}"
+        )
     if status.startswith("test"):
         assert any(_node_ids(reproduced)) or "tests/" in reproduced, f"{row}: a test row names no test"
     if status.startswith("benchmark"):
@@ -213,7 +263,7 @@ def _solve(arguments: str) -> tuple[str, ...]:
 def printed(calibration: Path) -> dict[tuple[str, ...], str]:
     """What ``hpcontact ARGUMENTS`` prints, for the dry runs of ``DRY_RUN_SPECS`` and every
     ``hpcontact solve`` console block of ``SOLVE_PAGES``: each in a fresh interpreter, all at once."""
-    commands = [_dry_run(spec) for spec in DRY_RUN_SPECS]
+    commands = [_dry_run(spec) for spec in DRY_RUN_SPECS] + [_solve(arguments) for arguments in ACCURACY_SOLVES]
     commands += [_solve(arguments) for page in SOLVE_PAGES for arguments, _ in _console_blocks(page)]
     env = {**os.environ, "HPCONTACT_COSTMODEL": str(calibration), "HPCONTACT_MPI": "0"}
 
@@ -321,3 +371,69 @@ def test_check_pass_probability_as_quoted() -> None:
     for page, match in _quoted(r"\(1 − p\)\^(\d+) \((\d+) % for p = (\d+) %\)", ("docs/howto/adaptive.md",)):
         checks, quoted, share = map(int, match.groups())
         assert round(100 * (1 - share / 100) ** checks) == quoted, f"{page}: “{match[0]}”"
+
+
+def at_quoted_precision(quoted: str, value: float) -> bool:
+    """Whether ``value`` rounds to ``quoted`` at its precision: as many decimals of the mantissa
+    as ``3.32e-4`` has (scientific), or as ``0.077`` has (fixed)."""
+    mantissa, _, exponent = quoted.partition("e")
+    decimals = len(mantissa.partition(".")[2])
+    shown = f"{value:.{decimals}e}" if exponent else f"{value:.{decimals}f}"
+    return float(shown) == float(quoted)
+
+
+def test_interpolation_between_the_main_jobs_points_as_quoted() -> None:
+    """“by up to 0.077 (10 % relative, at b/a ≈ 0.14, nu = 0.45”: the ellipse's K_a/K_b
+    interpolated bilinearly in log b/a and nu from the main job's 5 b/a × 3 nu points against
+    Mindlin's closed form (``hpcontact.analytic``, tested against mpmath in tests/test_analytic.py)
+    on an 801 × 91 grid over the same ranges."""
+    from scipy.interpolate import RegularGridInterpolator
+
+    from hpcontact.analytic import mindlin_ellipse_stiffness_ratio
+
+    axes = tomllib.loads((ROOT / "jobs/demo.toml").read_text(encoding="utf-8"))["axes"]
+    start, stop, count = axes["aspect"]["logspace"]
+    log_aspects, nus = np.linspace(start, stop, count)[::-1], np.array(axes["nu"], dtype=np.float64)
+    at_points = mindlin_ellipse_stiffness_ratio(10.0 ** log_aspects[:, None], nus[None, :])
+    fine_log, fine_nu = np.linspace(stop, start, 801), np.linspace(nus[0], nus[-1], 91)
+    grid = np.stack(np.meshgrid(fine_log, fine_nu, indexing="ij"), axis=-1)
+    interpolated = RegularGridInterpolator((log_aspects, nus), at_points)(grid)
+    exact = mindlin_ellipse_stiffness_ratio(10.0 ** fine_log[:, None], fine_nu[None, :])
+    worst = np.unravel_index(np.argmax(np.abs(interpolated - exact)), exact.shape)
+    miss = abs(interpolated[worst] - exact[worst])
+    pattern = r"by up to (\S+) \((\d+) % relative, at b/a ≈ (\S+), nu = ([\d.]+)"
+    for page, match in _quoted(pattern, ("docs/tutorials/sweep.md",)):
+        computed = (miss, 100.0 * miss / exact[worst], 10.0 ** fine_log[worst[0]], fine_nu[worst[1]])
+        assert all(map(at_quoted_precision, match.groups(), computed)), f"{page}: “{match[0]}”, computed {computed}"
+
+
+# `hpcontact solve --accuracy 1e-3` of the triangle and the square that docs/validation.md and
+# docs/performance.md quote (~1.3 s of CPU each, run with the dry runs by ``printed``).
+TRIANGLE = "--shape polygon --sides 3 --nu 0.3 --accuracy 1e-3 --quantities tangential,normal --json"
+SQUARE = "--shape rectangle --aspect 1 --nu 0.3 --accuracy 1e-3 --quantities tangential,normal --json"
+ACCURACY_SOLVES = (TRIANGLE, SQUARE)
+
+
+def test_the_triangle_at_1e_3_as_quoted(printed: dict[tuple[str, ...], str]) -> None:
+    """“stops on grids 16 … 128 (× 14 … 112) with an estimate of 3.32e-4”: the record's grids
+    along and across and its ``estimated_error``."""
+    record = json.loads(printed[_solve(TRIANGLE)])
+    pattern = r"stops on grids (\d+) … (\d+) \(× (\d+) … (\d+)\) with an estimate of (\S+) "
+    for page, match in _quoted(pattern, ("docs/validation.md",)):
+        grids = (record["grids"][0], record["grids"][-1], record["grids_across"][0], record["grids_across"][-1])
+        assert tuple(map(int, match.groups()[:4])) == grids, f"{page}: “{match[0]}”, the record's grids {grids}"
+        assert at_quoted_precision(match[5], record["estimated_error"]), (
+            f"{page}: “{match[0]}”, {record['estimated_error']}"
+        )
+
+
+def test_the_square_against_its_capacitance_as_quoted(printed: dict[tuple[str, ...], str]) -> None:
+    """“the square's capacitance: true 4.6e-5 against 2.9e-4”: the square's K_zz at 1e-3
+    against π E* C̃ (C̃ = 2 × 0.3667874, the unit square plate's capacitance, Hwang & Mascagni
+    2004; E* = 2G/(1 − nu), G = 1, half-side 1), and its estimate for K_zz."""
+    record = json.loads(printed[_solve(SQUARE)])
+    exact = math.pi * 2.0 / (1.0 - 0.3) * 2.0 * 0.3667874
+    true, estimate = abs(record["K_zz"] / exact - 1.0), record["estimated_errors"]["K_zz"]
+    for page, match in _quoted(r"the square's capacitance: true (\S+) against (\S+)\)", ("docs/performance.md",)):
+        assert at_quoted_precision(match[1], true), f"{page}: “{match[0]}”, computed {true}"
+        assert at_quoted_precision(match[2], estimate), f"{page}: “{match[0]}”, the record's {estimate}"

@@ -1,0 +1,231 @@
+"""Every row of docs/claims.md checked, one PASS or FAIL line per row (issue 39 item 2).
+
+    python benchmarks/check_claims.py [--check NAME ...] [--static] [--keep DIR]
+
+For every row: what ``tests/test_claims.py`` checks without running anything (each named path,
+module and test exists; the page, section and every excerpt quoted in “…” stand; the status is
+one of the page's words, a one-off names its date, machine and commit). For the rows whose
+status is ``regenerated``, it also runs the command the row names through its check
+(``--check NAME`` in the row) and compares the number each page quotes with what the command
+prints, at the quoted precision. The cheap regenerated figures (dry-run counts, printed
+records, the triangle and square at 1e-3, the interpolation miss) are tests in
+tests/test_claims.py and run with the suite; the checks here take minutes:
+
+- ``dense_map``: ``hpcontact run jobs/demo_map.toml`` on one rank (~15 s idle), then
+  ``hpcontact show`` of its data set: the dense map's solves and worst map error
+  (docs/tutorials/sweep.md, docs/howto/adaptive.md, docs/reference/cli.md);
+- ``main_job``: ``mpiexec -n 2 hpcontact run jobs/demo.toml`` (~2 min on 2 idle cores), then
+  ``hpcontact show --json``: the worst estimated errors the README quotes;
+- ``thin_rectangle_512``: ``hpcontact solve`` of the b/a = 1e-8 rectangle on 512 × 64 cells
+  (docs/explanation/verification.md's K_a/K_b, ~10 s).
+
+Every row's line says PASS or FAIL and why; the exit status is 1 if any row failed. ``--static``
+runs no command (the regenerated rows' comparisons are then reported NOT RUN); ``--check``
+runs only the named checks (the other rows still get their static check). A dry run or a run
+reads this machine's cost-model calibration as ``hpcontact run`` does (it calibrates first,
+~12-30 s, where there is none).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from functools import cache
+from pathlib import Path
+from types import ModuleType
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@cache
+def claims_test() -> ModuleType:
+    """tests/test_claims.py as a module: the row parser and its static checks (plain functions
+    that raise AssertionError)."""
+    spec = importlib.util.spec_from_file_location("claims_rows", ROOT / "tests" / "test_claims.py")
+    assert spec and spec.loader
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # as an import would: dataclasses look their module up
+    spec.loader.exec_module(module)
+    return module
+
+
+@dataclass
+class Runner:
+    """Runs ``hpcontact`` commands once each in ``folder``, keeping what they print."""
+
+    folder: Path
+    printed: dict[tuple[str, ...], str] = field(default_factory=dict)
+
+    def __call__(self, *arguments: str, ranks: int = 1) -> str:
+        if arguments not in self.printed:
+            hpcontact = [sys.executable, "-m", "hpcontact", *arguments]
+            mpiexec = shutil.which("mpiexec", path=str(Path(sys.executable).parent)) or "mpiexec"
+            command = [mpiexec, "-n", str(ranks), *hpcontact] if ranks > 1 else hpcontact
+            env = {**os.environ, "HPCONTACT_MPI": "1" if ranks > 1 else "0"}
+            done = subprocess.run(command, cwd=ROOT, env=env, capture_output=True, text=True, check=False)
+            if done.returncode != 0:
+                raise AssertionError(f"{' '.join(command)} exited {done.returncode}: {done.stderr.strip()[-400:]}")
+            self.printed[arguments] = done.stdout + done.stderr
+        return self.printed[arguments]
+
+
+def quoted(page: str, pattern: str) -> list[re.Match[str]]:
+    """Every match of ``pattern`` on ``page`` (whitespace collapsed); the page must quote it."""
+    return [match for _, match in claims_test()._quoted(pattern, (page,))]
+
+
+def compare(what: str, quoted_text: str, value: float | int | str) -> str:
+    """``""`` if ``value`` is what the page quotes, else one line saying both."""
+    ok = (
+        claims_test().at_quoted_precision(quoted_text, value) if isinstance(value, float) else str(value) == quoted_text
+    )
+    return "" if ok else f"{what}: the page says {quoted_text}, the command printed {value}"
+
+
+def show_summary(text: str) -> list[str]:
+    """The lines of an ``hpcontact show`` text summary from its ``run`` section to the end of its
+    map errors (the file, axes, quantities and provenance left out: they name this run)."""
+    lines = [line.rstrip() for line in text.splitlines()]
+    start = lines.index("run")
+    end = next((i for i, line in enumerate(lines) if line == "provenance"), len(lines))
+    return lines[start:end]
+
+
+def dense_map(run: Runner) -> list[str]:
+    """The dense map of the README's main job on one rank: its last line (solves, points, worst
+    map error and where), and ``hpcontact show``'s summary of its data set against the console
+    block of docs/reference/cli.md, from ``run`` to the map errors."""
+    output = run.folder / "demo_map.nc"
+    printed = run("run", "jobs/demo_map.toml", "--output", str(output))
+    last = re.search(r"worst map error (\S+) \(.+?\); (\d+) solves for (\d+) points", printed)
+    assert last, f"hpcontact run jobs/demo_map.toml printed no map line: {printed[-400:]}"
+    failures = []
+    for match in quoted("docs/tutorials/sweep.md", r"in (\d+) solves of the (\d[\d ]*\d) points"):
+        failures += [
+            compare("solves", match[1], last[2]),
+            compare("points", str(claims_test()._count(match[2])), last[3]),
+        ]
+    for match in quoted("docs/tutorials/sweep.md", r"its worst map error (\d\.\d+e-\d+)"):
+        failures.append(compare("worst map error", match[1], float(last[1])))
+    for match in quoted("docs/howto/adaptive.md", r"worst map error \S+ \(.+?\); \d+ solves for \d+ points"):
+        failures.append(compare("the last line", match[0], last[0]))
+    cli = (ROOT / "docs/reference/cli.md").read_text(encoding="utf-8")
+    block = re.search(r"```\w+\n\$ hpcontact show results/demo_map.nc\n(.*?)```", cli, re.S)
+    assert block, "docs/reference/cli.md shows no hpcontact show of results/demo_map.nc"
+    shown = show_summary(run("show", str(output)))
+    for quoted_line, shown_line in zip(show_summary(block[1]), shown, strict=False):
+        failures.append(compare("docs/reference/cli.md's hpcontact show", quoted_line.strip(), shown_line.strip()))
+    if len(show_summary(block[1])) != len(shown):
+        failures.append(
+            f"docs/reference/cli.md's hpcontact show: {len(show_summary(block[1]))} lines, printed {len(shown)}"
+        )
+    return [failure for failure in failures if failure]
+
+
+def worst_estimated_error(path: Path) -> float:
+    """The largest ``estimated_error`` (a record's worst over its own quantities) of a data set."""
+    import xarray as xr
+
+    with xr.open_dataset(path) as dataset:
+        return float(dataset["estimated_error"].max())
+
+
+def main_job(run: Runner) -> list[str]:
+    """The README's main job on 2 ranks and ``hpcontact show --json`` of its data set: its
+    points (with the load angle), the largest ``estimated_error`` over them, and the worst
+    estimated errors of K_nn and of ``normalized_nn``."""
+    output = run.folder / "demo.nc"
+    run("run", "jobs/demo.toml", "--output", str(output), ranks=2)
+    shown = json.loads(run("show", "--json", str(output)))
+    worst = {name: entry["error"] for name, entry in shown["errors"]["worst"].items()}
+    points = 1
+    for axis in shown["axes"]:
+        points *= axis["size"]
+    failures = []
+    pattern = r"the worst estimated error over the (\d[\d ]*\d) points is (\S+) \(estimated_error; K_nn (\S+);"
+    for match in quoted("README.md", pattern.replace("estimated_error", "`estimated_error`")):
+        failures += [
+            compare("points", str(claims_test()._count(match[1])), str(points)),
+            compare("worst estimated_error", match[2], worst_estimated_error(output)),
+            compare("K_nn", match[3], worst["K_nn"]),
+        ]
+    for match in quoted("README.md", r"`normalized_nn`, K_nn's plus K_zz's, (\S+)\)"):
+        failures.append(compare("normalized_nn", match[1], worst["normalized_nn"]))
+    return [failure for failure in failures if failure]
+
+
+def thin_rectangle_512(run: Runner) -> list[str]:
+    """K_a/K_b of the rectangle b/a = 1e-8, nu = 0.5 on 512 × 64 cells."""
+    arguments = "--shape rectangle --aspect 1e-8 --nu 0.5 --n 512 --n-across 64 --quantities tangential --json"
+    record = json.loads(run("solve", *arguments.split()))
+    return [
+        failure
+        for match in quoted("docs/explanation/verification.md", r"(\d\.\d+) \(512×64")
+        if (failure := compare("K_a/K_b at 512×64", match[1], record["K_a_over_K_b"]))
+    ]
+
+
+#: The checks a regenerated row names (``benchmarks/check_claims.py --check NAME``).
+CHECKS: dict[str, Callable[[Runner], list[str]]] = {
+    "dense_map": dense_map,
+    "main_job": main_job,
+    "thin_rectangle_512": thin_rectangle_512,
+}
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--check", nargs="+", choices=sorted(CHECKS), help="run only these checks")
+    parser.add_argument("--static", action="store_true", help="run no command")
+    parser.add_argument("--keep", type=Path, help="keep the data sets the checks write in this folder")
+    args = parser.parse_args(argv)
+    claims = claims_test()
+    folder = args.keep or Path(tempfile.mkdtemp(prefix="check_claims-"))
+    folder.mkdir(parents=True, exist_ok=True)
+    run, results = Runner(folder), {}
+    selected = [] if args.static else (args.check or list(CHECKS))
+    for name in selected:
+        try:
+            results[name] = CHECKS[name](run)
+        except AssertionError as error:
+            results[name] = [str(error)]
+    failed = 0
+    for row in claims.ROWS:
+        problems = []
+        checks = [claims.test_every_named_path_and_test_exists]
+        if row in claims.CLAIM_ROWS:
+            checks.append(claims.test_every_claim_names_its_page_section_excerpts_and_status)
+        for check in checks:
+            try:
+                check(row)
+            except AssertionError as error:
+                problems.append(str(error))
+        names = claims.CHECK.findall(" ".join(row.cells.values()))
+        ran = [name for name in names if name in results]
+        problems += [problem for name in ran for problem in results[name]]
+        verdict = "FAIL" if problems else "PASS"
+        failed += bool(problems)
+        not_run = [name for name in names if name not in results]
+        how = "static" + "".join(f"; regenerated: {name}" for name in ran)
+        how += f"; NOT RUN: {', '.join(not_run)} (only the static checks)" if not_run else ""
+        print(f"{verdict} {row} [{how}]" + "".join(f"\n    {problem}" for problem in problems))
+    print(
+        f"{len(claims.ROWS) - failed} of {len(claims.ROWS)} rows pass"
+        + (f"; data sets in {folder}" if args.keep else "")
+    )
+    if not args.keep:
+        shutil.rmtree(folder, ignore_errors=True)
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
