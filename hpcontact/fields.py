@@ -86,6 +86,9 @@ DEVICES = ("cpu", "gpu")
 #: Li 2017 and the existing data sets) or the normal load (F_z = 0, Mindlin 1949 / Cattaneo's
 #: experiment). The two coincide for isotropic bodies; only ``tangential`` reads it.
 NORMAL_HELD = ("approach", "load")
+#: What a record states when its tangential stiffness holds the normal load: the field's value
+#: (``recorded``), written where the Schur complement is formed (``quantities.stiffness_record``).
+LOAD_HELD_RECORD: Mapping[str, str] = {"normal_held": "load"}
 
 
 @dataclass(frozen=True)

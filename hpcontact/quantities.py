@@ -3,7 +3,8 @@
 The tangential stiffness tensor K relates the tangential force to the rigid tangential
 displacement of a bonded punch, F = K · δ (force per length, e.g. G·a units). Solving for unit
 displacement along x and along y gives its two columns (Li 2017 §3.1), with the normal approach
-held; ``normal_held = "load"`` holds the normal force instead (:func:`load_held_stiffness`).
+held, or the normal force held instead (a scene field, ``hpcontact.fields.NORMAL_HELD``;
+:func:`load_held_stiffness`).
 """
 
 from __future__ import annotations
@@ -15,6 +16,8 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+
+from hpcontact.fields import LOAD_HELD_RECORD
 
 
 @dataclass(frozen=True)
@@ -187,11 +190,11 @@ def load_held_stiffness(K3: np.ndarray) -> np.ndarray:
     """
     K3 = np.asarray(K3, dtype=np.float64)
     if K3.shape != (3, 3) or not np.isfinite(K3).all():
-        raise FloatingPointError(f"3 x 3 stiffness for normal_held load: finite 3 x 3 entries needed, got {K3!r}")
+        raise FloatingPointError(f"3 x 3 stiffness with the normal load held: finite 3 x 3 entries needed, got {K3!r}")
     values = np.linalg.eigvalsh(0.5 * (K3 + K3.T))
     if not values[0] > ROUNDING * abs(values[-1]):
         raise FloatingPointError(
-            "3 x 3 stiffness for normal_held load is not positive definite within round-off "
+            "3 x 3 stiffness with the normal load held is not positive definite within round-off "
             f"(eigenvalues of its symmetric part {values.tolist()})"
         )
     return K3[:2, :2] - np.outer(K3[:2, 2], K3[2, :2]) / K3[2, 2]
@@ -202,7 +205,7 @@ def tensor_from_forces(forces: Mapping[str, np.ndarray], quantities: Sequence[st
 
     ``forces[name]`` is the resultant force (x, y, z) of solve ``name`` (unit displacement along
     its load). ``tangential_x/y`` give K_xx … K_yy (normal approach held); with ``tangential_z``
-    (``normal_held = "load"``, a crystal) the three columns form the 3 × 3 Re-H stiffness and
+    (the normal load held, a crystal) the three columns form the 3 × 3 Re-H stiffness and
     K_xx … K_yy are its Schur complement (:func:`load_held_stiffness`); ``coupled_x/y/z`` the 3 × 3 tensor (its
     2 × 2 block as K_ij_coupled when ``tangential`` is asked too, its K_zz as K_zz_bonded when
     ``normal`` is); ``normal_z`` K_zz. Solves the plan skipped follow from its shortcuts: a
@@ -284,11 +287,11 @@ def stiffness_record(
 ) -> dict[str, float | str | None]:
     """Tensor entries and every quantity derived from them, from the solves' resultant forces
     (:func:`tensor_from_forces`, then :func:`derived_quantities`): used by ``solve`` and by the
-    coverage-weighted solves of ``accuracy`` alike. With a ``tangential_z`` solve (a crystal's
-    ``normal_held = "load"``) K_xx … K_yy hold the normal load (:func:`load_held_stiffness`) and
-    the record says so: ``normal_held`` = "load"."""
+    coverage-weighted solves of ``accuracy`` alike. With a ``tangential_z`` solve (a crystal
+    whose tangential stiffness holds the normal load) K_xx … K_yy hold it
+    (:func:`load_held_stiffness`) and the record says so (``fields.LOAD_HELD_RECORD``)."""
     entries = tensor_from_forces(forces, quantities)
     record: dict[str, float | str | None] = {**entries, **derived_quantities(entries, material, noise)}
     if "tangential_z" in forces:
-        record["normal_held"] = "load"
+        record.update(LOAD_HELD_RECORD)
     return record

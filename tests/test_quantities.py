@@ -235,10 +235,10 @@ def test_the_record_forms_the_schur_complement_from_three_solves_and_says_so():
     ],
 )
 def test_a_stiffness_that_is_not_positive_definite_is_refused(bad):
-    with pytest.raises(FloatingPointError, match="normal_held load"):
+    with pytest.raises(FloatingPointError, match="with the normal load held"):
         q.load_held_stiffness(bad)
     forces = {"tangential_x": bad[:, 0], "tangential_y": bad[:, 1], "tangential_z": bad[:, 2]}
-    with pytest.raises(FloatingPointError, match="normal_held load"):
+    with pytest.raises(FloatingPointError, match="with the normal load held"):
         q.stiffness_record(forces, ("tangential",), None)
 
 
