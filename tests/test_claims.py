@@ -13,14 +13,19 @@ For every row of every table in docs/claims.md:
   "where" exists and has the section named after its "§" (a heading, or a bold run-in heading
   as the README's), every excerpt quoted in “…” in the figure appears in that page (spaces,
   ``*`` and backticks ignored), and the status is one of the page's words: ``test``,
-  ``test (bound)``, ``benchmark, dated (… YYYY-MM-DD …)`` or ``untested``; a test row names a
-  test, a benchmark row a command (``hpcontact …``, ``python -m MODULE``) or a file.
+  ``test (bound)``, ``regenerated``, ``benchmark, dated (…)`` or ``one-off, dated (…)``; a test
+  row names a test, a regenerated row its check of ``benchmarks/check_claims.py`` (which has
+  it), a benchmark row a command (``hpcontact …``, ``python -m MODULE``) or a file; a
+  benchmark's parenthesis names a date and the machine, a one-off's a date, the machine and a
+  commit of this history; no status says ``untested``.
 
 And for the deterministic figures a fast command reproduces, the number every page quotes
 equals what the command prints: the task and point counts of the two main jobs' dry runs (~2.5 s
 each: a dry run enumerates and estimates, it never solves), the records of ``hpcontact solve``
-that the README and the one-scene tutorial print (~3 s), and the adaptive maps' check
-probability (arithmetic).
+that the README and the one-scene tutorial print (~3 s), the triangle and the square at
+``--accuracy 1e-3`` (~1.3 s each), the sweep tutorial's interpolation miss against Mindlin's
+closed form and the adaptive maps' check probability (arithmetic). The slower regenerated
+figures are ``benchmarks/check_claims.py``'s (minutes: the dense map, the main job).
 """
 
 from __future__ import annotations
@@ -51,8 +56,10 @@ CLAIM_HEADER = ("figure as stated", "where", "reproduced by", "status")
 STATUS = re.compile(
     r"^(test \(bound\)|test|regenerated|benchmark, dated \(.*\d{4}-\d{2}-\d{2}.*\)|one-off, dated \(.*\))(\W|$)", re.S
 )
-#: A one-off figure's parenthesis: its date, the machine and the commit (issue 39 item 2).
+#: A one-off figure's parenthesis: its date, the machine and the commit (issue 39 item 2); a
+#: benchmark's: its date and the machine.
 ONE_OFF = re.compile(r"one-off, dated \(((?:[^()]|\([^()]*\))*)\)")
+BENCHMARK = re.compile(r"^benchmark, dated \(((?:[^()]|\([^()]*\))*)\)")
 DATE = re.compile(r"\d{4}-\d{2}-\d{2}")
 MACHINE = re.compile(r"EPYC|Xeon|VM|machine|CI\b")
 COMMIT = re.compile(r"\b[0-9a-f]{7,40}\b")
@@ -196,6 +203,8 @@ def test_every_claim_names_its_page_section_excerpts_and_status(row: Row) -> Non
         assert _normalized(excerpt) in quoted_on_page, f"{row}: {pages[0]} no longer says “{excerpt}”"
     assert STATUS.match(status), f"{row}: status {status[:40]!r} is none of the page's words"
     assert "untested" not in status, f"{row}: a figure is untested: name a test or a command, or date it as a one-off"
+    for dated in BENCHMARK.findall(status):
+        assert MACHINE.search(dated), f"{row}: a benchmark names its machine"
     for one_off in ONE_OFF.findall(status):
         assert DATE.search(one_off) and MACHINE.search(one_off), f"{row}: a one-off names its date and machine"
         commits = COMMIT.findall(one_off)
