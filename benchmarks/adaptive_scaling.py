@@ -31,10 +31,16 @@ in the set-up; after each round the journals read and the decision, the outcomes
 data set built, the refinement's decision, the last round's fill and netCDF write). The set-up
 is replayed as measured: the enumeration (rank 0's share on 2 ranks, so twice it in all)
 divided over the ranks, the rest on every rank at once (``setup as measured``; ``setup as
-assumed``: rank 0's ``Overheads.setup_s`` a task of the six-axis job, the replay's default). A
-last table replays the refinement's decision and the fill spread over the ranks
-(``replay_rounds``' ``spread_between_s``): what splitting the per-leaf estimate would give,
-not a measurement of it.
+assumed``: rank 0's ``Overheads.setup_s`` a task of the six-axis job, the replay's default).
+
+The estimates rank 0 shares out over the ranks while it decides (``hpcontact.sweep.maps.spread``)
+are recorded call by call (``LeafPool.map``: each leaf's box points and its part's CPU seconds,
+on whichever rank computed it) and replayed as the code runs them on R ranks
+(``replay.leaf_call_seconds``: the parts assigned by ``spread.assign``, the rank with the most,
+plus the call's overhead: rank 0's CPU seconds sending the jobs and unpickling the parts, as
+measured on 2 ranks); the time between rounds replayed as rank 0's alone is what is left of it
+without those calls (rank 0's time in a call, CPU seconds too, includes its wait for rank 1:
+MPICH polls). The last line replays nothing between rounds at all (a bound, not the code).
 """
 
 from __future__ import annotations
@@ -74,8 +80,6 @@ PHASES = (
 )
 # Rank 0's work during a round, not between rounds (the other ranks take its claims meanwhile).
 IN_ROUND_PHASES = ("read ahead",)
-# The phases whose work is the refinement's per-leaf estimate (spread over the ranks in the what-if).
-ESTIMATE_PHASES = ("refinement", "fill")
 
 _TEMPLATE: dict[str, Any] = {}
 
@@ -113,8 +117,9 @@ def worker(spec: str, output: str, variant: str, task: str, times: str) -> None:
     """One rank of a benchmark run (under mpiexec): the sweep of ``spec`` into ``output`` as
     ``variant`` (before / after), with the real solver or the ``stand_in``. Rank 0 writes to
     ``times`` the run's start and end, for each round when it began and ended taking claims
-    (``time.time`` and this process's CPU seconds, ``time.process_time``), and each call of the
-    ``PHASES`` (its label, start and CPU seconds)."""
+    (``time.time`` and this process's CPU seconds, ``time.process_time``), each call of the
+    ``PHASES`` (its label, start and CPU seconds) and each estimate shared out over the ranks
+    (its start, wall and CPU seconds, and its leaves' box points and parts' CPU seconds)."""
     import importlib
 
     from hpcontact.sweep.driver import run_sweep
@@ -162,13 +167,26 @@ def worker(spec: str, output: str, variant: str, task: str, times: str) -> None:
         marks.append((time.time(), time.process_time()))
 
     rounds.claimed_chunks = recorded
+    from hpcontact.sweep.maps import spread
+
+    calls: list[tuple[float, float, float, list[tuple[int, float]], float]] = []
+    pool_map = spread.LeafPool.map
+
+    def shared(self: Any, jobs: Any) -> Any:
+        start, cpu = time.time(), time.process_time()
+        parts = pool_map(self, jobs)
+        calls.append((start, time.time() - start, time.process_time() - cpu, self.seconds[-1], self.overhead_s[-1]))
+        return parts
+
+    spread.LeafPool.map = shared
     started = (time.time(), time.process_time())
     with open(os.devnull, "w", encoding="utf-8") as sink:
         run_sweep(spec, output=output, task_function=stand_in if task == "stand-in" else None, stream=sink)
     if int(os.environ.get("OMPI_COMM_WORLD_RANK", os.environ.get("PMI_RANK", "0"))) == 0:
         ended = (time.time(), time.process_time())
         Path(times).write_text(
-            json.dumps({"start": started, "end": ended, "marks": marks, "phases": phases}), encoding="utf-8"
+            json.dumps({"start": started, "end": ended, "marks": marks, "phases": phases, "calls": calls}),
+            encoding="utf-8",
         )
 
 
@@ -242,6 +260,22 @@ def driver_cpu(measured: dict[str, Any]) -> float:
     return busy / max(sum(r["rank0"] for r in measured["rounds"]), 1)
 
 
+def leaf_calls(measured: dict[str, Any], clock: str) -> tuple[list[list[Any]], list[float]]:
+    """The estimates rank 0 shared out after each round (``replay.LeafCall``: the parts'
+    CPU seconds, the overhead rank 0's CPU seconds sending the jobs and unpickling the parts,
+    ``spread.LeafPool``), and rank 0's ``clock`` seconds in them after each round."""
+    from hpcontact.sweep.work.replay import LeafCall
+
+    firsts = [m[0] for m in measured["marks"][0::2]]
+    out: list[list[Any]] = [[] for _ in firsts]
+    spent = [0.0] * len(firsts)
+    for start, wall, cpu, parts, overhead in measured.get("calls", []):
+        k = sum(f <= start for f in firsts) - 1  # after round k (its first claim before the call)
+        out[k].append(LeafCall(tuple(p for p, _ in parts), tuple(s for _, s in parts), overhead))
+        spent[k] += wall if clock == "wall" else cpu
+    return out, spent
+
+
 def replayed(
     rounds: list[dict[str, float]],
     ranks: int,
@@ -251,12 +285,13 @@ def replayed(
     overheads: Any,
     enumeration: float | None = None,
     spread_between: list[float] | None = None,
+    calls: list[list[Any]] | None = None,
 ) -> Any:
     """``replay_rounds`` of ``rounds`` (key → seconds; each task its own chunk) on ``ranks``,
     the measured ``setup`` of 2 ranks split: with ``enumeration`` (rank 0's share of it, of the
     2 measured) that twice over spread over the ranks, the rest rank 0's; without, rank 0's part
     ``overheads.setup_s`` a task (the replay's default) and the rest spread; ``spread_between``
-    (per round) passed to ``replay_rounds``."""
+    and the shared estimates ``calls`` (per round) passed to ``replay_rounds``."""
     from dataclasses import replace
 
     from hpcontact.sweep.work.replay import replay_rounds
@@ -273,7 +308,7 @@ def replayed(
         overheads = replace(
             overheads, setup_s=max(setup - enumeration, 0.0) / tasks, spread_setup_s=2 * enumeration / tasks
         )
-    return replay_rounds(orders, ranks, gaps, tasks, overheads, spread_between)
+    return replay_rounds(orders, ranks, gaps, tasks, overheads, spread_between, calls)
 
 
 def phase_seconds(measured: dict[str, Any], clock: str) -> dict[str, list[float]]:
@@ -352,14 +387,26 @@ def main() -> None:
             f"{'ranks':>6} {'between':>7} {'setup':>8} {'wall s':>8} {'effic.':>7} {'between':>8} {'tail':>6} "
             f"{'claims':>7} {'setup':>6}"
         )
+        shared = {clock: leaf_calls(measured, clock) for clock in ("wall", "CPU")}
+        for clock in ("wall", "CPU"):
+            calls, spent = shared[clock]
+            parts = sum(s for round_calls in calls for c in round_calls for s in c.seconds)
+            overhead = sum(c.overhead_s for round_calls in calls for c in round_calls)
+            print(
+                f"estimates shared out ({clock}): {sum(len(c) for c in calls)} calls, rank 0 in them "
+                f"{' '.join(f'{x:.2f}' for x in spent)} s after the rounds; the parts {parts:.2f} s on both ranks, "
+                f"overhead {overhead:.2f} s"
+            )
         for clock, model in (("wall", "assumed"), ("wall", "measured"), ("CPU", "assumed"), ("CPU", "measured")):
             times = (setup, gaps) if clock == "wall" else (setup_cpu, gaps_cpu)
+            calls, spent = shared[clock]
+            alone = [g - s for g, s in zip(times[1], spent)]  # rank 0's time between rounds outside the calls
             enumeration = sum(phases[clock]["enumeration"]) if model == "measured" else None
             ahead = [sum(phases[clock][p][k + 1] for p in IN_ROUND_PHASES) for k in range(len(rounds))]
             per_task = driver if clock == "wall" else cpu_driver
             overheads = Overheads(**{**DEFAULT_OVERHEADS.__dict__, "driver_s": per_task, "spread_gather_s": 0.0})
             for ranks in RANKS:
-                r = replayed(rounds, ranks, times[1], times[0], 139725, overheads, enumeration, ahead)
+                r = replayed(rounds, ranks, alone, times[0], 139725, overheads, enumeration, ahead, calls)
                 print(
                     f"{ranks:6d} {clock:>7} {model:>8} {r['makespan_s']:8.2f} {r['efficiency']:7.3f} "
                     f"{r['between']:8.3f} {r['tail']:6.3f} {r['claims']:7.3f} {r['setup']:6.3f}",
@@ -368,24 +415,11 @@ def main() -> None:
         overheads = Overheads(**{**DEFAULT_OVERHEADS.__dict__, "driver_s": cpu_driver, "spread_gather_s": 0.0})
         enumeration = sum(phases["CPU"]["enumeration"])
         ahead = [sum(phases["CPU"][p][k + 1] for p in IN_ROUND_PHASES) for k in range(len(rounds))]
-        estimate = [sum(phases["CPU"][p][k + 1] for p in ESTIMATE_PHASES) for k in range(len(rounds))]
-        alone = [g - e for g, e in zip(gaps_cpu, estimate)]
+        r = replayed(rounds, 16, [0.0] * len(gaps_cpu), setup_cpu, 139725, overheads, enumeration, ahead)
         print(
-            "what if the refinement's decision and the fill were spread over the ranks too (CPU, set-up as measured):"
+            f"bound, not the code: 16 ranks with nothing at all between rounds (CPU, set-up as measured): "
+            f"efficiency {r['efficiency']:.3f} (set-up {r['setup']:.3f} of the makespan)"
         )
-        for ranks in RANKS:
-            spread = [a + e for a, e in zip(ahead, estimate)]
-            r = replayed(rounds, ranks, alone, setup_cpu, 139725, overheads, enumeration, spread)
-            print(f"{ranks:6d} efficiency {r['efficiency']:.3f} (between {r['between']:.3f}, set-up {r['setup']:.3f})")
-        print("16 ranks, what rank 0's time alone would have to be (CPU, set-up as measured):")
-        for label, gap_s in (
-            ("as measured", gaps_cpu),
-            ("0.5 s between rounds", [0.5] * len(gaps_cpu)),
-            ("0.25 s between rounds", [0.25] * len(gaps_cpu)),
-            ("nothing between rounds", [0.0] * len(gaps_cpu)),
-        ):
-            r = replayed(rounds, 16, gap_s, setup_cpu, 139725, overheads, enumeration, ahead)
-            print(f"  {label:40s} efficiency {r['efficiency']:.3f} (set-up {r['setup']:.3f} of the makespan)")
     finally:
         if args.keep is None:
             shutil.rmtree(folder, ignore_errors=True)

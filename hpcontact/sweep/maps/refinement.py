@@ -418,6 +418,36 @@ def spread_leaves(leaf_map: LeafMap) -> Iterator[None]:
         _LEAF_MAP.reset(token)
 
 
+#: Estimates computed inside ``remembered_estimates`` (None outside): (sub-problem, leaves,
+#: quantities, factor, kind) → (the leaves' jobs, the estimate).
+_REMEMBERED: ContextVar[dict[tuple, tuple[list[LeafJob], Estimate]] | None] = ContextVar("remembered", default=None)
+
+
+@contextmanager
+def remembered_estimates() -> Iterator[None]:
+    """Inside, an ``estimate`` asked again of the same sub-problem, leaves, quantities, factor
+    and kind, whose leaves' values at the nodes (and the solves' errors) are bitwise those of
+    the first, is the first's (the same object: callers only read it). After the last check
+    round the judgement (``checks.judged``) and the fill (``fill.fill``) estimate the same
+    quantities with the same factor unless the check raised it: one estimate, not two."""
+    token = _REMEMBERED.set({})
+    try:
+        yield
+    finally:
+        _REMEMBERED.reset(token)
+
+
+def _same_jobs(a: Sequence[LeafJob], b: Sequence[LeafJob]) -> bool:
+    """Whether two lists of jobs hold bitwise the same inputs."""
+    return len(a) == len(b) and all(
+        x.derive == y.derive
+        and x.work == y.work
+        and np.array_equal(x.data, y.data, equal_nan=True)
+        and np.array_equal(x.solve_data, y.solve_data, equal_nan=True)
+        for x, y in zip(a, b)
+    )
+
+
 def estimate(
     layout: Layout,
     cat: Sequence[int],
@@ -459,6 +489,10 @@ def estimate(
         )
         for leaf in leaves
     ]
+    remembered = _REMEMBERED.get()
+    key = (tuple(cat), tuple(leaves), tuple(names), safety, conservative)
+    if remembered is not None and key in remembered and _same_jobs(remembered[key][0], jobs):
+        return remembered[key][1]
     values = np.full((*grid, len(names)), np.nan)
     axes = [np.full((*grid, len(names)), np.nan) for _ in grid]
     solve, scale = np.full((*grid, len(names)), np.nan), np.ones((*grid, len(names)))
@@ -473,7 +507,10 @@ def estimate(
             target[region] = np.where(chosen, source, target[region])
         for target, source in zip(axes, part.axes):
             target[region] = np.where(chosen, source, target[region])
-    return Estimate(values, axes, solve, scale, owner)
+    result = Estimate(values, axes, solve, scale, owner)
+    if remembered is not None:
+        remembered[key] = (jobs, result)
+    return result
 
 
 def refine(

@@ -37,7 +37,15 @@ from hpcontact.numerics.interpolation import bisection_nodes
 from hpcontact.sweep.data import provenance
 from hpcontact.sweep.maps.checks import drawn_checks, judged, wants_check
 from hpcontact.sweep.maps.fill import MAP_ERROR_SUFFIX, fill, quantity_fields, refined_names, stiffness_names
-from hpcontact.sweep.maps.refinement import Checks, Layout, State, initial_state, refine, state_tasks
+from hpcontact.sweep.maps.refinement import (
+    Checks,
+    Layout,
+    State,
+    initial_state,
+    refine,
+    remembered_estimates,
+    state_tasks,
+)
 from hpcontact.sweep.space.adaptive_settings import Settings
 
 RoundFunction = Callable[[Any, "frozenset[int] | None", "Callable[[Any, Any], Any] | None", "frozenset[int]"], Any]
@@ -94,11 +102,12 @@ def _rounds(team: Any, spec: Any, task_of: np.ndarray, options: Any, stream: Tex
         ) -> Any:
             stored = stiffness_names(ds, spec.kind)
             fields = quantity_fields(ds, stored)
-            step = next_step(layout, spec.adaptive, state, checks, fields, refined_names(ds, spec), stored, task_of)
-            decided["next"] = step if isinstance(step, tuple) else None
-            if isinstance(step, tuple):
-                return None
-            out = fill(ds, spec, layout, state, task_of, this_round, step)
+            with remembered_estimates():  # the last check's judgement and the fill: one estimate
+                step = next_step(layout, spec.adaptive, state, checks, fields, refined_names(ds, spec), stored, task_of)
+                decided["next"] = step if isinstance(step, tuple) else None
+                if isinstance(step, tuple):
+                    return None
+                out = fill(ds, spec, layout, state, task_of, this_round, step)
             decided["line"] = outcome_line(out, spec)
             return out
 

@@ -30,6 +30,7 @@ part cannot be split further, so an estimate's time on R ranks is its largest le
 
 from __future__ import annotations
 
+import pickle
 import time
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -69,23 +70,32 @@ def _computed(
 
 class LeafPool:
     """Rank 0's side (module docstring): ``map`` computes the parts of one ``estimate`` over the
-    team; ``seconds`` keeps, for each call, every job's (box points, CPU seconds) in job order,
-    for the replay (``benchmarks/adaptive_scaling.py``)."""
+    team. For the replay (``benchmarks/adaptive_scaling.py``) it keeps, for each call, every
+    job's (box points, CPU seconds) in job order (``seconds``) and rank 0's CPU seconds spent
+    sending the jobs and unpickling the parts (``overhead_s``; not its wait for the slowest rank,
+    which the replay has from ``seconds``)."""
 
     def __init__(self, team: Any) -> None:
         self.team = team
         self.seconds: list[list[tuple[int, float]]] = []
+        self.overhead_s: list[float] = []
 
     def map(self, jobs: Sequence[LeafJob]) -> list[LeafPart]:
         """The ``LeafPart`` of every job, in order, computed by the ranks ``assign`` names."""
         jobs = list(jobs)
         points = [job.points for job in jobs]
         shares = assign(points, self.team.size)
+        started = time.process_time()
         self.team.bcast((jobs, shares))
-        gathered = self.team.gather(_computed(jobs, shares[0], 0))
+        overhead = time.process_time() - started
+        mine = _computed(jobs, shares[0], 0)
+        gathered = self.team.gather(None)  # the other ranks' results, pickled (``serve``)
+        started = time.process_time()
+        results = [mine, *(pickle.loads(data) for data in gathered[1:])]
+        self.overhead_s.append(overhead + time.process_time() - started)
         parts: list[LeafPart | None] = [None] * len(jobs)
         seconds = [0.0] * len(jobs)
-        for result in gathered:
+        for result in results:
             if isinstance(result, SharedError):
                 raise result.exception()
             for j, part, spent in result:
@@ -102,7 +112,7 @@ def serve(team: Any) -> None:
         if message is None:
             return
         jobs, shares = message
-        team.gather(_computed(jobs, shares[team.rank], team.rank))
+        team.gather(pickle.dumps(_computed(jobs, shares[team.rank], team.rank), protocol=pickle.HIGHEST_PROTOCOL))
 
 
 @contextmanager

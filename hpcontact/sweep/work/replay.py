@@ -34,9 +34,12 @@ each round's tasks run as one replayed sweep (without setup or gather of their o
 rounds rank 0 alone decides the next round (journals, the data set of every journaled task, the
 refinement: ``between_s``, measured) while every other rank waits. Work between rounds that
 the ranks would share (``spread_between_s``: its seconds on one rank, e.g. the refinement's
-per-leaf estimate split over the ranks) costs its seconds / R. Makespan = setup + Σ rounds
-(their makespan + ``between_s`` + ``spread_between_s`` / R); efficiency = Σ task seconds / (R ×
-makespan).
+per-leaf estimate split over the ranks) costs its seconds / R. The estimates rank 0 shares out
+over the ranks while it decides (``leaf_calls``, ``maps.spread``) cost each the seconds of the
+rank with the most (its leaves' parts, as ``spread.assign`` assigns them on R ranks: a leaf is
+not split, so never less than the largest) plus the call's own overhead (jobs sent, parts
+gathered and merged). Makespan = setup + Σ rounds (their makespan + ``between_s`` + the shared
+estimates + ``spread_between_s`` / R); efficiency = Σ task seconds / (R × makespan).
 
 """
 
@@ -180,6 +183,26 @@ def replay_chunks(chunks: ChunkOrder, seconds: np.ndarray, ranks: int, overheads
     }
 
 
+@dataclass(frozen=True)
+class LeafCall:
+    """One estimate rank 0 shared out over the ranks (``maps.spread.LeafPool.map``): each leaf's
+    box points and the CPU seconds its part took, and what the call cost beyond its parts
+    (sending the jobs, gathering and merging the parts), in seconds."""
+
+    points: tuple[int, ...]
+    seconds: tuple[float, ...]
+    overhead_s: float
+
+
+def leaf_call_seconds(call: LeafCall, ranks: int) -> float:
+    """The seconds ``call`` takes on ``ranks`` ranks: the parts assigned as ``spread.assign``
+    does, the largest rank's sum, plus ``call.overhead_s``."""
+    from hpcontact.sweep.maps.spread import assign
+
+    shares = assign(list(call.points), ranks)
+    return max((sum(call.seconds[j] for j in share) for share in shares), default=0.0) + call.overhead_s
+
+
 def replay_rounds(
     rounds: Sequence[tuple[ChunkOrder, np.ndarray]],
     ranks: int,
@@ -187,6 +210,7 @@ def replay_rounds(
     tasks: int,
     overheads: Overheads = DEFAULT_OVERHEADS,
     spread_between_s: Sequence[float] | None = None,
+    leaf_calls: Sequence[Sequence[LeafCall]] | None = None,
 ) -> dict[str, float]:
     """Discrete-event model of an adaptive map's synchronized rounds (module docstring): each
     round's tasks (``tasks.chunk_order`` of them and their one-core seconds in task order) run
@@ -197,7 +221,11 @@ def replay_rounds(
     ``replay_chunks``); ``spread_between_s`` (None: none), per round, seconds of work after it
     that one rank would take and the ``ranks`` share evenly (their seconds / ``ranks``, every
     rank busy, none waiting on them). Makespan, efficiency, and the shares of the makespan lost
-    between rounds (rank 0 alone and the shared work) and to the rounds' own tails and claims."""
+    between rounds (rank 0 alone and the shared work) and to the rounds' own tails and claims.
+    ``leaf_calls`` (None: none), per round, the estimates rank 0 shares out over the ranks after
+    it (``maps.spread``): each ``LeafCall``'s parts go to the ranks as ``spread.assign`` gives
+    them for ``ranks``, and the call takes the largest rank's seconds plus its ``overhead_s``
+    (``leaf_call_seconds``), every other rank waiting."""
     if ranks < 1:
         raise InputError("ranks", "an integer >= 1", ranks)
     if len(between_s) != len(rounds):
@@ -205,6 +233,10 @@ def replay_rounds(
     spread = [0.0] * len(rounds) if spread_between_s is None else list(spread_between_s)
     if len(spread) != len(rounds):
         raise InputError("spread_between_s", f"one time per round ({len(rounds)})", len(spread))
+    calls = [[] for _ in rounds] if leaf_calls is None else [list(c) for c in leaf_calls]
+    if len(calls) != len(rounds):
+        raise InputError("leaf_calls", f"one list per round ({len(rounds)})", len(calls))
+    between_s = [b + sum(leaf_call_seconds(c, ranks) for c in round_calls) for b, round_calls in zip(between_s, calls)]
     within = Overheads(
         driver_s=overheads.driver_s,
         service_s=overheads.service_s,

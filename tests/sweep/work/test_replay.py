@@ -10,7 +10,15 @@ import numpy as np
 import pytest
 
 from hpcontact.errors import InputError
-from hpcontact.sweep.work.replay import CLAIM_OVERHEAD_SHARE, Overheads, claim_size, replay, replay_rounds
+from hpcontact.sweep.work.replay import (
+    CLAIM_OVERHEAD_SHARE,
+    LeafCall,
+    Overheads,
+    claim_size,
+    leaf_call_seconds,
+    replay,
+    replay_rounds,
+)
 from hpcontact.sweep.work.tasks import Task, chunk_order
 
 NONE = Overheads(
@@ -95,6 +103,29 @@ def test_work_between_rounds_shared_by_the_ranks_costs_its_seconds_over_the_rank
     )
     with pytest.raises(InputError, match="spread_between_s"):
         replay_rounds(rounds, 2, [0.5, 0.25], 8, NONE, [1.0])
+
+
+def test_estimates_shared_over_the_ranks_take_their_busiest_rank_plus_their_overhead():
+    """An estimate of leaves of 8, 4, 2, 2 points whose parts took 2, 1, 0.5, 0.5 s, overhead
+    0.25 s (``maps.spread``: the largest leaf first to the least loaded rank): on 1 rank all
+    4 s; on 2 ranks {8} and {4, 2, 2}, 2 s; on 4 ranks each its own, the largest 2 s; on 3
+    ranks {8}, {4}, {2, 2}: 2 s; + 0.25 each. In the rounds above (on 2 ranks, rank 0 alone
+    0.5 and 0.25 s), one such call after the first round adds 2.25 s: makespan 2 + 0.5 + 2.25 +
+    2 + 0.25 = 7 s; none (None) is empty lists."""
+    call = LeafCall((8, 4, 2, 2), (2.0, 1.0, 0.5, 0.5), 0.25)
+    assert [leaf_call_seconds(call, r) for r in (1, 2, 3, 4)] == [4.25, 2.25, 2.25, 2.25]
+    uneven = LeafCall((8, 4, 2, 2), (0.5, 1.0, 2.0, 0.5), 0.0)  # cost is assigned by points, not seconds
+    assert leaf_call_seconds(uneven, 2) == 3.5  # {8} 0.5 s, {4, 2, 2} 3.5 s
+    first, _ = toy([1.0] * 4)
+    second, _ = toy([2.0])
+    rounds = [(chunk_order(first), np.array([1.0] * 4)), (chunk_order(second), np.array([2.0]))]
+    r = replay_rounds(rounds, 2, [0.5, 0.25], 8, NONE, None, [[call], []])
+    assert r["makespan_s"] == 7.0 and r["between"] == (0.75 + 2.25) / 7.0
+    assert replay_rounds(rounds, 2, [0.5, 0.25], 8, NONE, None, None) == replay_rounds(
+        rounds, 2, [0.5, 0.25], 8, NONE, None, [[], []]
+    )
+    with pytest.raises(InputError, match="leaf_calls"):
+        replay_rounds(rounds, 2, [0.5, 0.25], 8, NONE, None, [[call]])
 
 
 def test_rounds_need_one_time_between_each():
