@@ -35,13 +35,15 @@ from hpcontact.geometry import SHAPES, Shape, mask_pixels
 from hpcontact.materials.crystal import Crystal, crystal, cubic_from_nu_A
 from hpcontact.materials.elastic_constants import FAMILIES, FIXED_BY_CONSTANTS, constants_material
 from hpcontact.materials.isotropic import Isotropic
+from hpcontact.quantities import names_where
 
 Material = Isotropic | Crystal
 
-QUANTITIES = ("tangential", "normal", "compliance", "coupled", "indentation")
+#: The quantities a contact scene may ask for (``hpcontact.quantities.QUANTITIES``, the registry).
+QUANTITIES = names_where()
 #: Quantities whose discretization follows the contact's edge, so that grids can be refined and
-#: extrapolated (``hpcontact.discretizations.boundary_cells``, ``hpcontact.accuracy``).
-REFINABLE_QUANTITIES = ("tangential", "normal", "coupled")
+#: extrapolated (``Quantity.refinable``; ``hpcontact.discretizations.boundary_cells``, ``hpcontact.accuracy``).
+REFINABLE_QUANTITIES = names_where(lambda q: q.refinable)
 #: Fields whose valid values form one interval while every other field is held: ``from_params``
 #: checks a range of each (its limits are the ones above and in the checks below, nowhere else),
 #: and nothing else it does with the value fails inside that range, except at the branch values
