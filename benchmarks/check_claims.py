@@ -83,12 +83,17 @@ def quoted(page: str, pattern: str) -> list[re.Match[str]]:
     return [match for _, match in claims_test()._quoted(pattern, (page,))]
 
 
-def compare(what: str, quoted_text: str, value: float | int | str) -> str:
-    """``""`` if ``value`` is what the page quotes, else one line saying both."""
+#: What a check found wrong: (the page that quotes the figure, one line saying what and both values).
+Failure = tuple[str, str]
+
+
+def compare(page: str, what: str, quoted_text: str, value: float | int | str) -> list[Failure]:
+    """``[]`` if ``value`` is what ``page`` quotes (at its precision, for a float), else one
+    failure saying both."""
     ok = (
         claims_test().at_quoted_precision(quoted_text, value) if isinstance(value, float) else str(value) == quoted_text
     )
-    return "" if ok else f"{what}: the page says {quoted_text}, the command printed {value}"
+    return [] if ok else [(page, f"{what}: the page says {quoted_text}, the command printed {value}")]
 
 
 def show_summary(text: str) -> list[str]:
@@ -100,7 +105,7 @@ def show_summary(text: str) -> list[str]:
     return lines[start:end]
 
 
-def dense_map(run: Runner) -> list[str]:
+def dense_map(run: Runner) -> list[Failure]:
     """The dense map of the README's main job on one rank: its last line (solves, points, worst
     map error and where), and ``hpcontact show``'s summary of its data set against the console
     block of docs/reference/cli.md, from ``run`` to the map errors."""
@@ -108,27 +113,27 @@ def dense_map(run: Runner) -> list[str]:
     printed = run("run", "jobs/demo_map.toml", "--output", str(output))
     last = re.search(r"worst map error (\S+) \(.+?\); (\d+) solves for (\d+) points", printed)
     assert last, f"hpcontact run jobs/demo_map.toml printed no map line: {printed[-400:]}"
-    failures = []
-    for match in quoted("docs/tutorials/sweep.md", r"in (\d+) solves of the (\d[\d ]*\d) points"):
-        failures += [
-            compare("solves", match[1], last[2]),
-            compare("points", str(claims_test()._count(match[2])), last[3]),
-        ]
-    for match in quoted("docs/tutorials/sweep.md", r"its worst map error (\d\.\d+e-\d+)"):
-        failures.append(compare("worst map error", match[1], float(last[1])))
-    for match in quoted("docs/howto/adaptive.md", r"worst map error \S+ \(.+?\); \d+ solves for \d+ points"):
-        failures.append(compare("the last line", match[0], last[0]))
-    cli = (ROOT / "docs/reference/cli.md").read_text(encoding="utf-8")
+    failures, sweep, adaptive, cli_page = (
+        [],
+        "docs/tutorials/sweep.md",
+        "docs/howto/adaptive.md",
+        "docs/reference/cli.md",
+    )
+    for match in quoted(sweep, r"in (\d+) solves of the (\d[\d ]*\d) points"):
+        failures += compare(sweep, "solves", match[1], last[2])
+        failures += compare(sweep, "points", str(claims_test()._count(match[2])), last[3])
+    for match in quoted(sweep, r"its worst map error (\d\.\d+e-\d+)"):
+        failures += compare(sweep, "worst map error", match[1], float(last[1]))
+    for match in quoted(adaptive, r"worst map error \S+ \(.+?\); \d+ solves for \d+ points"):
+        failures += compare(adaptive, "the last line", match[0], last[0])
+    cli = (ROOT / cli_page).read_text(encoding="utf-8")
     block = re.search(r"```\w+\n\$ hpcontact show results/demo_map.nc\n(.*?)```", cli, re.S)
     assert block, "docs/reference/cli.md shows no hpcontact show of results/demo_map.nc"
     shown = show_summary(run("show", str(output)))
     for quoted_line, shown_line in zip(show_summary(block[1]), shown, strict=False):
-        failures.append(compare("docs/reference/cli.md's hpcontact show", quoted_line.strip(), shown_line.strip()))
-    if len(show_summary(block[1])) != len(shown):
-        failures.append(
-            f"docs/reference/cli.md's hpcontact show: {len(show_summary(block[1]))} lines, printed {len(shown)}"
-        )
-    return [failure for failure in failures if failure]
+        failures += compare(cli_page, "hpcontact show", quoted_line.strip(), shown_line.strip())
+    failures += compare(cli_page, "hpcontact show's lines", str(len(show_summary(block[1]))), len(shown))
+    return failures
 
 
 def worst_estimated_error(path: Path) -> float:
@@ -139,7 +144,7 @@ def worst_estimated_error(path: Path) -> float:
         return float(dataset["estimated_error"].max())
 
 
-def main_job(run: Runner) -> list[str]:
+def main_job(run: Runner) -> list[Failure]:
     """The README's main job on 2 ranks and ``hpcontact show --json`` of its data set: its
     points (with the load angle), the largest ``estimated_error`` over them, and the worst
     estimated errors of K_nn and of ``normalized_nn``."""
@@ -150,32 +155,31 @@ def main_job(run: Runner) -> list[str]:
     points = 1
     for axis in shown["axes"]:
         points *= axis["size"]
-    failures = []
-    pattern = r"the worst estimated error over the (\d[\d ]*\d) points is (\S+) \(estimated_error; K_nn (\S+);"
-    for match in quoted("README.md", pattern.replace("estimated_error", "`estimated_error`")):
-        failures += [
-            compare("points", str(claims_test()._count(match[1])), str(points)),
-            compare("worst estimated_error", match[2], worst_estimated_error(output)),
-            compare("K_nn", match[3], worst["K_nn"]),
-        ]
-    for match in quoted("README.md", r"`normalized_nn`, K_nn's plus K_zz's, (\S+)\)"):
-        failures.append(compare("normalized_nn", match[1], worst["normalized_nn"]))
-    return [failure for failure in failures if failure]
+    failures, readme = [], "README.md"
+    pattern = r"the worst estimated error over the (\d[\d ]*\d) points is (\S+) \(`estimated_error`; K_nn (\S+);"
+    for match in quoted(readme, pattern):
+        failures += compare(readme, "points", str(claims_test()._count(match[1])), str(points))
+        failures += compare(readme, "worst estimated_error", match[2], worst_estimated_error(output))
+        failures += compare(readme, "K_nn", match[3], worst["K_nn"])
+    for match in quoted(readme, r"`normalized_nn`, K_nn's plus K_zz's, (\S+)\)"):
+        failures += compare(readme, "normalized_nn", match[1], worst["normalized_nn"])
+    return failures
 
 
-def thin_rectangle_512(run: Runner) -> list[str]:
+def thin_rectangle_512(run: Runner) -> list[Failure]:
     """K_a/K_b of the rectangle b/a = 1e-8, nu = 0.5 on 512 × 64 cells."""
     arguments = "--shape rectangle --aspect 1e-8 --nu 0.5 --n 512 --n-across 64 --quantities tangential --json"
     record = json.loads(run("solve", *arguments.split()))
+    page = "docs/explanation/verification.md"
     return [
         failure
-        for match in quoted("docs/explanation/verification.md", r"(\d\.\d+) \(512×64")
-        if (failure := compare("K_a/K_b at 512×64", match[1], record["K_a_over_K_b"]))
+        for match in quoted(page, r"(\d\.\d+) \(512×64")
+        for failure in compare(page, "K_a/K_b at 512×64", match[1], record["K_a_over_K_b"])
     ]
 
 
 #: The checks a regenerated row names (``benchmarks/check_claims.py --check NAME``).
-CHECKS: dict[str, Callable[[Runner], list[str]]] = {
+CHECKS: dict[str, Callable[[Runner], list[Failure]]] = {
     "dense_map": dense_map,
     "main_job": main_job,
     "thin_rectangle_512": thin_rectangle_512,
@@ -196,8 +200,8 @@ def main(argv: list[str] | None = None) -> int:
     for name in selected:
         try:
             results[name] = CHECKS[name](run)
-        except AssertionError as error:
-            results[name] = [str(error)]
+        except AssertionError as error:  # the command failed, or a page no longer quotes the figure
+            results[name] = [("", str(error))]
     failed = 0
     for row in claims.ROWS:
         problems = []
@@ -211,7 +215,10 @@ def main(argv: list[str] | None = None) -> int:
                 problems.append(str(error))
         names = claims.CHECK.findall(" ".join(row.cells.values()))
         ran = [name for name in names if name in results]
-        problems += [problem for name in ran for problem in results[name]]
+        page = claims.PATH.findall(row.cells.get("where", ""))
+        problems += [
+            problem for name in ran for where, problem in results[name] if where in ("", *page)
+        ]  # a failure of this row's page, or of the command
         verdict = "FAIL" if problems else "PASS"
         failed += bool(problems)
         not_run = [name for name in names if name not in results]
