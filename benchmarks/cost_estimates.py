@@ -21,6 +21,15 @@ For each job (default: every jobs/*.toml), two fresh child processes:
 replaced by the request: every contact task solves ``accuracy.solve_to_accuracy``, costed over
 the grids it is predicted to solve, ``cost.grids.accuracy_plan``), e.g. ``jobs/demo.toml --accuracy
 1e-3 --budget 60``; ``benchmarks/accuracy_cost_estimates.py`` gives the same per task.
+
+    python benchmarks/cost_estimates.py JOB.toml --journals RESULTS.nc.journal --costmodel FILE
+
+solves nothing: a finished run's measured seconds (each task's ``wall_time_s`` in its journals)
+against the seconds the cost model estimates for the same tasks at the calibration ``FILE``
+(``estimate.task_arrays``, as the run's start line and ETA use them), by kind of task (its
+calibration kind, shape and boundary cells) and in total. The first-hour run of the main job
+(issue 42) at its machine's idle calibration: ``jobs/demo.toml --journals
+results/demo.nc.journal --costmodel costmodel-intel-xeon-processor-2c.json``.
 """
 
 from __future__ import annotations
@@ -99,12 +108,54 @@ def measure_memory(job: str, accuracy: float | None = None) -> dict:
     }
 
 
+def measured_against_estimated(job: str, journals: str, costmodel: str) -> None:
+    """Print the measured ÷ estimated seconds of a finished run of ``job`` (its ``journals``) per
+    kind of task and in total, at the calibration file ``costmodel`` (module docstring)."""
+    from hpcontact.problems.footprint import task_kind
+    from hpcontact.sweep.cost.calibration_file import read_calibration
+    from hpcontact.sweep.cost.grids import accuracy_plan, asks_accuracy
+    from hpcontact.sweep.data.journal import journal_files, read_file
+    from hpcontact.sweep.space.parse import load_spec
+    from hpcontact.sweep.work.estimate import task_arrays
+    from hpcontact.sweep.work.tasks import enumerate_tasks
+
+    measured = {
+        event["key"]: float(event["record"]["wall_time_s"])
+        for path in journal_files(Path(journals))
+        for event in read_file(path)[1]
+        if event.get("event") == "finished" and "wall_time_s" in event.get("record", {})
+    }
+    tasks, _ = enumerate_tasks(load_spec(job))
+    ran = [t for t in tasks if t.key in measured]
+    seconds = task_arrays(ran, read_calibration(Path(costmodel)))[0].tolist()
+    kinds: dict[str, list[float]] = {}
+    for task, estimated in zip(ran, seconds):
+        cells = accuracy_plan(task.params).strategy if asks_accuracy(task.params) else "one grid"
+        kind = f"{task_kind(task.params)} {task.params.get('shape', '')} {cells}"
+        row = kinds.setdefault(kind, [0, 0.0, 0.0])
+        row[0] += 1
+        row[1] += measured[task.key]
+        row[2] += estimated
+    print(f"{Path(job).stem}: {len(ran)} of {len(tasks)} tasks in the journals; cost model {costmodel}")
+    print(f"{'kind of task':36s} {'tasks':>5s} {'measured s':>10s} {'estimated s':>11s} {'ratio':>6s}")
+    for kind, (count, wall, estimated) in sorted(kinds.items()):
+        print(f"{kind:36s} {count:5d} {wall:10.2f} {estimated:11.2f} {wall / estimated:6.2f}")
+    wall, estimated = sum(measured[t.key] for t in ran), sum(seconds)
+    print(f"{'total':36s} {len(ran):5d} {wall:10.2f} {estimated:11.2f} {wall / estimated:6.2f}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("jobs", nargs="*", default=sorted(str(p) for p in (harness.ROOT / "jobs").glob("*.toml")))
     parser.add_argument("--budget", type=float, default=60.0, help="estimated seconds of tasks per job (default 60)")
     parser.add_argument("--accuracy", type=float, help="run every job at this accuracy (as hpcontact run --accuracy)")
+    parser.add_argument("--journals", help="a finished run's journal folder: its measured seconds, nothing solved")
+    parser.add_argument("--costmodel", help="with --journals: the calibration file to estimate at")
     args = parser.parse_args()
+    if args.journals:
+        for job in args.jobs:
+            measured_against_estimated(job, args.journals, args.costmodel)
+        return
     print(f"cost_estimates: {harness.machine_line(1)}")
     print(
         f"{'job':24s} {'tasks run':>11s} {'estimated s':>11s} {'measured s':>10s} {'ratio':>6s} "
