@@ -151,19 +151,31 @@ def batch_fill(
     The chunks counted are consecutive, their first tasks of the ``batch_group`` of chunk i's
     first task, their tasks' ``footprint.array_bytes`` summed within ``memory`` (None:
     ``batch_memory`` of the group's device). Chunks hold one kernel group each, so a chunk's
-    first task stands for it; ``plan_batches`` then groups the claimed tasks exactly. A chunk's
-    group is found once."""
+    first task stands for it; a chunk whose first task gives n has the group of the first chunk of
+    the same device, contact grid, quantities, preconditioning and accuracy (a Scene a grid, not a
+    chunk; a scene its checks would refuse is then counted in: ``plan_batches`` groups the claimed
+    tasks exactly, so a miscount changes a batch's size, never a result)."""
     devices = _Devices()
     if memory is None and "gpu" not in {devices[t.params.get("device", DEFAULTS["device"])] for c in chunks for t in c}:
         return None
     groups: dict[int, tuple | None] = {}
+    by_fields: dict[tuple, tuple | None] = {}  # the group of the fields that decide it (n given)
 
     def group_of(index: int) -> tuple | None:
         if index not in groups:
             params = chunks[index][0].params
             device = devices[params.get("device", DEFAULTS["device"])]
-            batched = memory is not None or device != "cpu"
-            groups[index] = batch_group(params, task_function, device) if batched else None
+            if memory is None and device == "cpu":
+                groups[index] = None
+            elif params.get("n") is None:  # the extrapolated default or not: the body decides (a Scene)
+                groups[index] = batch_group(params, task_function, device)
+            else:  # a sweep's chunks on one grid: one Scene made (~0.1-0.4 ms), not one a chunk
+                get = params.get
+                fields = (device, get("quantities"), get("precondition"), get("accuracy"))
+                key = (*map(repr, fields), contact_grid(params))
+                if key not in by_fields:
+                    by_fields[key] = batch_group(params, task_function, device)
+                groups[index] = by_fields[key]
         return groups[index]
 
     def fill(start: int, most: int) -> int:

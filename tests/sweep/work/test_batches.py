@@ -174,8 +174,12 @@ def test_a_rank_fills_a_batch_with_the_chunks_of_its_group_that_fit():
     circles = tasks_of(CIRCLES)
     other_grid = tasks_of([{**CIRCLES[0], "n": 24}])
     chunks = [tuple(circles[:2]), (circles[2],), tuple(circles), tuple(other_grid), tuple(tasks_of(ALONE[:1]))]
-    fill = batch_fill(chunks, solve_contact_fields, memory=int(6.5 * scene))
-    assert [fill(0, 10), fill(1, 10), fill(0, 1), fill(3, 10), fill(4, 10), fill(5, 10)] == [3, 2, 1, 1, 1, 1]
+    made = []
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(batches, "batch_group", lambda *args: made.append(args[0]) or batch_group(*args))
+        fill = batch_fill(chunks, solve_contact_fields, memory=int(6.5 * scene))
+        assert [fill(0, 10), fill(1, 10), fill(0, 1), fill(3, 10), fill(4, 10), fill(5, 10)] == [3, 2, 1, 1, 1, 1]
+    assert made == [circles[0].params, other_grid[0].params, ALONE[0]]  # one Scene a grid, not one a chunk
     assert batch_fill(chunks, solve_contact_fields, memory=int(2.5 * scene))(0, 10) == 1  # the first chunk alone
     assert batch_fill(chunks, solve_contact_fields, memory=int(3.5 * scene))(0, 10) == 2
 
