@@ -227,6 +227,42 @@ def _old(names) -> set[str]:
     return set(names) - set(NEW_FIELDS)
 
 
+#: The keywords of ``hpcontact.solve`` by their annotation, as its explicit signature had them
+#: before the schema gave them (issue 38).
+OLD_SOLVE_ANNOTATIONS = {
+    "str | None": "shape material device normal_held material2 control path coupling",
+    "float | None": "aspect shape_angle amplitude hurst rms nu G anisotropy orientation azimuth tol radius depth a "
+    "accuracy body2_angle E E2 G2 nu2 load mu q_ratio angle displacement anisotropy2 orientation2 azimuth2",
+    "int | None": "sides seed n n_across threads steps",
+    "str | os.PathLike[str] | None": "mask",
+    "str | Sequence[int] | None": "miller miller2",
+    "str | Mapping[str, float] | Sequence[float] | None": "cubic orthotropic cubic2 orthotropic2",
+    "str | Sequence[float] | Sequence[Sequence[float]] | None": "voigt voigt2",
+    "str | Sequence[str] | None": "quantities",
+    "bool | None": "precondition tensor history normal_friction",
+    "str | int | None": "memory",
+    "float | str | None": "radius_b radius2 radius2_b",
+}
+#: The axes a spec could name, as ``sweep.space.axes.AXIS_NAMES`` listed them by hand (issue 38).
+OLD_AXIS_NAMES = (
+    "shape angle nu aspect anisotropy orientation material n tol accuracy pair load mu q_ratio orientation2 "
+    "anisotropy2 normal_held"
+).split()
+
+
+def test_solve_keywords_are_typed_as_the_old_explicit_signature():
+    old = {name: annotation for annotation, names in OLD_SOLVE_ANNOTATIONS.items() for name in names.split()}
+    assert {name: fields.python_annotation(name) for name in old} == old
+    assert set(old) == set(fields.names(CONTACT)) | set(fields.names(SLIP)) | {"memory"}
+
+
+def test_axes_are_the_old_ones_and_fields():
+    from hpcontact.sweep.space.axes import AXIS_NAMES
+
+    assert sorted(AXIS_NAMES) == sorted(OLD_AXIS_NAMES)
+    assert set(fields.axis_names()) <= set(fields.names()), "an axis that is no field"
+
+
 def test_task_neutral_tables_are_the_old_ones():
     assert _old(fields.names(CONTACT, neutral_to="kernel")) == OLD_KERNEL_NEUTRAL_FIELDS
     assert _old(fields.names(CONTACT, neutral_to="grid")) == OLD_GRID_NEUTRAL_FIELDS
