@@ -13,7 +13,17 @@ from pathlib import Path
 from stub_cupy import use_standin_gpu
 
 ROOT = Path(__file__).resolve().parents[2]
-SPEC = '[sweep]\ntitle = "main"\n[scene]\nshape = "circle"\nquantities = ["tangential", "normal"]\n[numerics]\nn = 12\n[axes]\nnu = [0.2, 0.4]\n'
+SPEC = """
+[sweep]
+title = "main"
+[scene]
+shape = "circle"
+quantities = ["tangential", "normal"]
+[numerics]
+n = 12
+[axes]
+nu = [0.2, 0.4]
+"""
 
 
 def _script():

@@ -435,10 +435,10 @@ def claimed_chunks(
     chunk was when it last looked: chunks are in decreasing cost, so the chunks there are like
     the next ones; 0 at first), ``most`` the bound ``claim_size`` puts on a claim (a share
     1/(CHUNKS_PER_RANK × ranks) of the chunks left, so that one fast rank does not take the
-    tail; with no ``ranks``, all of them); and a claim's chunks come as one tuple of their items,
-    so that the rank batches them together (issue 41 item 2: a chunk holds one kernel group, a
-    batch the scenes of many). A guess that misses (other ranks took those chunks, the next ones
-    batch less) changes how many scenes a batch holds, never a result."""
+    tail; with no ``ranks`` or one, all of them); and a claim's chunks come as one tuple of
+    their items, so that the rank batches them together (issue 41 item 2: a chunk holds one
+    kernel group, a batch the scenes of many). A guess that misses (other ranks took those
+    chunks, the next ones batch less) changes how many scenes a batch holds, never a result."""
     asked = taken = 0
     waited = busy = 0.0
     take = 1 if fill is None else _filling(fill, 0, len(chunks), ranks)
@@ -464,8 +464,8 @@ def claimed_chunks(
 
 def _filling(fill: Callable[[int, int], int], index: int, remaining: int, ranks: int | None) -> int:
     """fill(index, most) within [1, most]: ``most`` the bound ``replay.claim_size`` puts on a
-    claim with ``ranks`` (all ``remaining`` chunks without)."""
-    most = remaining if ranks is None else max(1, remaining // (CHUNKS_PER_RANK * ranks))
+    claim with ``ranks`` > 1 (all ``remaining`` chunks alone: no other rank to leave a tail to)."""
+    most = max(1, remaining if ranks is None or ranks == 1 else remaining // (CHUNKS_PER_RANK * ranks))
     return max(1, min(fill(index, most), most))
 
 

@@ -106,6 +106,18 @@ def test_a_rank_that_fills_batches_takes_what_fills_one_and_gets_a_claim_as_one_
     ]
 
 
+def test_a_rank_alone_fills_without_the_tail_bound():
+    asked = []
+
+    def fill(index: int, most: int) -> int:
+        asked.append((index, most))
+        return 100
+
+    chunks = [(i,) for i in range(10)]
+    assert list(claimed_chunks(chunks, LocalCounter(SLOTS), 1, fill=fill)) == [tuple(range(10))]
+    assert asked == [(0, 10), (10, 1)]  # all ten at once; after them the bound of none left
+
+
 def test_ranks_that_fill_batches_take_every_item_exactly_once():
     counter = LocalCounter(SLOTS)
     chunks = [(3 * i, 3 * i + 1, 3 * i + 2) for i in range(2000)]
