@@ -111,23 +111,33 @@ class Layout:
         categorical = tuple(i for i in range(len(axes)) if i not in numeric)
         return cls(tuple(len(a) for a in axes), numeric, categorical, xs, scales)
 
-    def block(self, cat: Sequence[int], nodes: Sequence[Sequence[int]] | None = None) -> tuple:
-        """``np.ix_`` index of the sub-problem ``cat`` at ``nodes`` (None: every point of it)."""
+    def block(self, cat: Sequence[int], nodes: Sequence[Sequence[int]]) -> tuple:
+        """``np.ix_`` index of the sub-problem ``cat`` at ``nodes``."""
         index: list[Any] = [None] * len(self.shape)
         for p, c in zip(self.categorical, cat):
             index[p] = [c]
         for j, p in enumerate(self.numeric):
-            index[p] = list(range(self.shape[p])) if nodes is None else list(nodes[j])
+            index[p] = list(nodes[j])
         return np.ix_(*index)
+
+    def whole(self, cat: Sequence[int]) -> tuple:
+        """The basic index (an integer per categorical axis, every point of the numeric ones) of
+        the sub-problem ``cat``: a view, not a fancy-indexed copy of the grid."""
+        index: list[Any] = [slice(None)] * len(self.shape)
+        for p, c in zip(self.categorical, cat):
+            index[p] = int(c)
+        return tuple(index)
 
     def take(self, array: np.ndarray, cat: Sequence[int], nodes: Sequence[Sequence[int]] | None = None) -> np.ndarray:
         """The values of ``array`` (over the task axes, any trailing dimensions) of the
-        sub-problem ``cat`` at ``nodes``, numeric axes first in order."""
+        sub-problem ``cat`` at ``nodes`` (None: every point), numeric axes first in order; a copy."""
+        if nodes is None:
+            return array[self.whole(cat)].copy()
         return np.squeeze(array[self.block(cat, nodes)], axis=self.categorical)
 
     def put(self, array: np.ndarray, cat: Sequence[int], values: np.ndarray) -> None:
         """Set every point of the sub-problem ``cat`` of ``array`` to ``values`` (``take``'s layout)."""
-        array[self.block(cat)] = np.expand_dims(values, self.categorical)
+        array[self.whole(cat)] = values
 
 
 def initial_state(layout: Layout, settings: Settings) -> State:
@@ -498,15 +508,13 @@ def estimate(
     solve, scale = np.full((*grid, len(names)), np.nan), np.ones((*grid, len(names)))
     owner, best = np.full(grid, -1, dtype=np.intp), np.full(grid, np.inf)
     for position, (leaf, part) in enumerate(zip(leaves, _LEAF_MAP.get()(jobs))):
-        region = box(leaf)
+        region = box(leaf)  # slices: each target[region] is a view, written in place
         better = (part.worst < best[region]) | (owner[region] < 0)
-        best[region] = np.where(better, part.worst, best[region])
-        owner[region] = np.where(better, position, owner[region])
+        np.copyto(best[region], part.worst, where=better)
+        np.copyto(owner[region], position, where=better)
         chosen = better[..., None]
-        for target, source in ((values, part.values), (solve, part.solve), (scale, part.scale)):
-            target[region] = np.where(chosen, source, target[region])
-        for target, source in zip(axes, part.axes):
-            target[region] = np.where(chosen, source, target[region])
+        for target, source in zip((values, solve, scale, *axes), (part.values, part.solve, part.scale, *part.axes)):
+            np.copyto(target[region], source, where=chosen)
     result = Estimate(values, axes, solve, scale, owner)
     if remembered is not None:
         remembered[key] = (jobs, result)
