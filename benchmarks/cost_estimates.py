@@ -110,7 +110,8 @@ def measure_memory(job: str, accuracy: float | None = None) -> dict:
 
 def measured_against_estimated(job: str, journals: str, costmodel: str) -> None:
     """Print the measured ÷ estimated seconds of a finished run of ``job`` (its ``journals``) per
-    kind of task and in total, at the calibration file ``costmodel`` (module docstring)."""
+    kind of task and in total, then per grid (``grids_against_levels``), at the calibration file
+    ``costmodel`` (module docstring)."""
     from hpcontact.problems.footprint import task_kind
     from hpcontact.sweep.cost.calibration_file import read_calibration
     from hpcontact.sweep.cost.grids import accuracy_plan, asks_accuracy
@@ -119,29 +120,66 @@ def measured_against_estimated(job: str, journals: str, costmodel: str) -> None:
     from hpcontact.sweep.work.estimate import task_arrays
     from hpcontact.sweep.work.tasks import enumerate_tasks
 
-    measured = {
-        event["key"]: float(event["record"]["wall_time_s"])
+    records = {
+        event["key"]: event["record"]
         for path in journal_files(Path(journals))
         for event in read_file(path)[1]
         if event.get("event") == "finished" and "wall_time_s" in event.get("record", {})
     }
+    calibration = read_calibration(Path(costmodel))
     tasks, _ = enumerate_tasks(load_spec(job))
-    ran = [t for t in tasks if t.key in measured]
-    seconds = task_arrays(ran, read_calibration(Path(costmodel)))[0].tolist()
+    ran = [t for t in tasks if t.key in records]
+    seconds = task_arrays(ran, calibration)[0].tolist()
     kinds: dict[str, list[float]] = {}
     for task, estimated in zip(ran, seconds):
         cells = accuracy_plan(task.params).strategy if asks_accuracy(task.params) else "one grid"
-        kind = f"{task_kind(task.params)} {task.params.get('shape', '')} {cells}"
-        row = kinds.setdefault(kind, [0, 0.0, 0.0])
+        row = kinds.setdefault(f"{task_kind(task.params)} {task.params.get('shape', '')} {cells}", [0, 0.0, 0.0])
         row[0] += 1
-        row[1] += measured[task.key]
+        row[1] += float(records[task.key]["wall_time_s"])
         row[2] += estimated
     print(f"{Path(job).stem}: {len(ran)} of {len(tasks)} tasks in the journals; cost model {costmodel}")
     print(f"{'kind of task':36s} {'tasks':>5s} {'measured s':>10s} {'estimated s':>11s} {'ratio':>6s}")
     for kind, (count, wall, estimated) in sorted(kinds.items()):
         print(f"{kind:36s} {count:5d} {wall:10.2f} {estimated:11.2f} {wall / estimated:6.2f}")
-    wall, estimated = sum(measured[t.key] for t in ran), sum(seconds)
-    print(f"{'total':36s} {len(ran):5d} {wall:10.2f} {estimated:11.2f} {wall / estimated:6.2f}")
+    wall = sum(float(records[t.key]["wall_time_s"]) for t in ran)
+    print(f"{'total':36s} {len(ran):5d} {wall:10.2f} {sum(seconds):11.2f} {wall / sum(seconds):6.2f}")
+    grids_against_levels(ran, records, calibration)
+
+
+def grids_against_levels(tasks: list, records: dict, calibration) -> None:
+    """Print, per grid (calibration kind, shape, n × n_across; a task's first grid apart), the
+    median of its measured seconds in the tasks' ``records`` (each ``levels`` entry's
+    ``wall_time_s``, on the grid of ``grids``, ``grids_across``) against the cost model's seconds
+    of that grid (``task_cost.level_work``; a crystal's kernel build is the task's: its first grid
+    measures it, no grid's estimate holds it)."""
+    import statistics
+
+    from hpcontact.problems.footprint import task_kind
+    from hpcontact.sweep.cost.grids import BOUNDARY_TAG, accuracy_levels, asks_accuracy
+    from hpcontact.sweep.cost.rates import work_seconds
+    from hpcontact.sweep.cost.task_cost import level_work
+
+    grids: dict[tuple[str, int, int, bool], tuple[list[float], float]] = {}
+    for task in tasks:
+        record = records[task.key]
+        if not asks_accuracy(task.params) or not record.get("levels") or not record.get("grids"):
+            continue
+        first = accuracy_levels(task.params)[0]
+        if first.get(BOUNDARY_TAG) != record.get("boundary"):
+            continue  # cells other than the predicted ones: not the grids the model costs
+        kind = f"{task_kind(task.params)} {task.params.get('shape', '')}"
+        for index, (level, n, across) in enumerate(zip(record["levels"], record["grids"], record["grids_across"])):
+            estimated = work_seconds(calibration.rates, level_work({**first, "n": n, "n_across": across}))
+            grids.setdefault((kind, n, across, index == 0), ([], estimated))[0].append(float(level["wall_time_s"]))
+    print(f"{'grid':30s} {'first':>5s} {'grids':>5s} {'measured s':>10s} {'estimated s':>11s} {'ratio':>6s}")
+    for (kind, n, across, first), (walls, estimated) in sorted(
+        grids.items(), key=lambda kv: (kv[0][0], kv[0][1] * kv[0][2])
+    ):
+        median = statistics.median(walls)
+        label = f"{kind} {n} x {across}"
+        print(
+            f"{label:30s} {'yes' if first else '':>5s} {len(walls):5d} {median:10.3f} {estimated:11.3f} {median / estimated:6.2f}"
+        )
 
 
 def main() -> None:

@@ -100,7 +100,9 @@ ONE_FEWER_SHARE = 0.25
 # (the near cells' edge integrals of its nine kernel blocks, its preconditioner's symbol summed from
 # the kernel's Fourier series per solve) is what those rates measure, and the contact kind's rates
 # times one factor missed it by 2-10x on the main job's small grids (16 x 4 … 64 x 16: 0.1-0.2 s
-# each, estimated 0.02-0.06 s) while overestimating its large ones by 1.5x (docs/howto/cost-estimates.md).
+# each, estimated 0.02-0.06 s) while overestimating its large ones by 1.5x; at its rates every crystal
+# grid after a task's first is within 0.7-1.25x (the main job's first-hour run, 2 idle cores,
+# 2026-11-29: ``benchmarks/cost_estimates.py --journals``).
 # A crystal task also builds its material's kernel (``Work.kernel_builds``: the Barnett–Lothe
 # Fourier series and table, ``kernels.anisotropic.kernel_for``, at ``Rate.exact_s``), once per
 # kernel group of a sweep (``estimate.shared_kernel_builds``). An outline that is

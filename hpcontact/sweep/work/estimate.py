@@ -226,7 +226,7 @@ def shared_kernel_builds(tasks: Sequence[Task], sizes: Sequence[Sizing], which: 
     A kernel group's tasks share one material and run one after another on a rank, whose kernel
     cache (``kernels.anisotropic.kernel_for``) keeps what the first built: on the main job at
     accuracy 1e-3 a crystal ellipse after the rectangle of its material and b/a took 1-20 ms, its
-    kernel's build ~60 ms (docs/howto/cost-estimates.md). A group cut into several chunks counts
+    kernel's build ~60 ms (``benchmarks/cost_estimates.py --journals``). A group cut into several chunks counts
     one build too: its later chunks are the smallest, handed out last, warm where the rank that
     built the kernel takes them, cold (underestimated by one build each) where another does. None
     when no task builds one."""

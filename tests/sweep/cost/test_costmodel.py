@@ -499,7 +499,7 @@ def test_the_dry_run_estimates_accuracy_tasks_as_task_by_task_and_labels_their_g
 
 def test_a_kernel_group_builds_its_crystal_kernel_once_in_a_sweeps_estimate():
     """A crystal ellipse handed out after the rectangle of its material and b/a finds its kernel
-    built (the main job: 1-20 ms against the ~60 ms build, docs/howto/cost-estimates.md): the
+    built (the main job: 1-20 ms against the ~60 ms build, benchmarks/cost_estimates.py --journals): the
     estimate counts the build for the first task of each kernel group in hand-out order only; a
     task estimated alone (``task_seconds``) counts it."""
     from hpcontact.sweep.space.parse import parse_spec

@@ -17,7 +17,7 @@ The first-hour run (``first_hour_run.json``, issue 42): the README's main job as
 hand-out order, chunks and kernel groups, each task's end — with the ETA from the seconds the
 cost model estimates today for each task at the calibration of that machine (in the fixture). Its
 ETAs printed 0.47-0.78 of the time left; the crystal rectangles' seconds estimated 2.25x low and the
-crystal exact cells' 12x high (docs/howto/cost-estimates.md).
+crystal exact cells' 12x high (``benchmarks/cost_estimates.py --journals``, docs/howto/cost-estimates.md).
 """
 
 from __future__ import annotations
