@@ -81,7 +81,12 @@ class Joined:
 
 def is_number(value: Any) -> bool:
     """Whether ``value`` is a number (not a bool)."""
-    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+    return is_number_type(type(value))
+
+
+def is_number_type(kind: type) -> bool:
+    """Whether values of type ``kind`` are numbers (``is_number``): ints, floats and numpy's, not bools."""
+    return issubclass(kind, (int, float, np.integer, np.floating)) and not issubclass(kind, (bool, np.bool_))
 
 
 def _text(value: Any) -> str:
@@ -100,16 +105,20 @@ def _text(value: Any) -> str:
 def to_columns(entries: Sequence[Entry], positions: Sequence[int]) -> Columns:
     """The ``entries`` (of the tasks at ``positions``) as columns (module docstring)."""
     names: dict[str, tuple[int, int]] = {}
+    layouts: set[tuple[str, ...]] = set()  # the records' key sequences seen: a repeated one adds no name
     for entry, at in zip(entries, positions):
-        if entry.status == OK:
-            for place, name in enumerate(entry.record):
+        if entry.status == OK and (layout := tuple(entry.record)) not in layouts:
+            layouts.add(layout)
+            for place, name in enumerate(layout):
                 if name not in names:
                     names[name] = (int(at), place)
+    ok_records = [e.record if e.status == OK else {} for e in entries]
     records: dict[str, np.ndarray | Texts] = {}
     for name in names:
-        values = [e.record.get(name) if e.status == OK else None for e in entries]
-        if all(v is None or is_number(v) for v in values):
-            records[name] = np.array([np.nan if v is None else float(v) for v in values], dtype=np.float64)
+        values = [record.get(name) for record in ok_records]
+        if all(kind is type(None) or is_number_type(kind) for kind in set(map(type, values))):
+            # numpy converts each number as float() does and None to NaN (tests/sweep/data/test_columns.py)
+            records[name] = np.array(values, dtype=np.float64)
         else:
             records[name] = Texts.of(_text(v) for v in values)
     return Columns(

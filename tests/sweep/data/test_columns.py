@@ -3,6 +3,9 @@ per-task arrays, later parts win, provenance counts add up."""
 
 from __future__ import annotations
 
+import struct
+from dataclasses import replace
+
 import numpy as np
 
 from hpcontact.sweep.data.columns import NOT_COMPUTED, Texts, join, to_columns
@@ -65,3 +68,22 @@ def test_texts_decode_equal_texts_to_one_object():
     shared: dict[str, str] = {}
     a, b = Texts.of(["p", "q", "p"]).decoded(shared), Texts.of(["q", "p"]).decoded(shared)
     assert a.tolist() == ["p", "q", "p"] and a[0] is a[2] is b[1]
+
+
+def test_number_columns_are_each_value_as_float_bit_for_bit():
+    """A column of numbers (Python's, numpy's of several widths, ints past 2**53 and 2**64, -0.0, a
+    subnormal, a NaN with a payload) and missing values is float(v) of each value and NaN where
+    missing, to the bit (the definition, value by value); a failed task's record is not read; a
+    bool, a numpy bool or a string among the numbers makes the column text."""
+    payload_nan = float(np.frombuffer(np.uint64(0x7FF800000000ABCD).tobytes(), dtype=np.float64)[0])
+    numbers = [1.0 / 3.0, 7, 2**53 + 1, 2**64 + 2**11 + 1, -(2**70) - 3, -0.0, payload_nan, None, 1e-310]
+    numbers += [np.float32(0.1), np.float16(0.3), np.longdouble(0.1), np.int8(-5), np.uint64(2**64 - 1)]
+    ok = [entry(0, OK) for _ in numbers]
+    entries = [replace(e, record={} if v is None else {"x": v}) for e, v in zip(ok, numbers)]
+    entries.append(replace(entry(1, ERROR), record={"x": 2.0}))
+    column = to_columns(entries, list(range(len(entries)))).records["x"]
+    expected = [struct.pack("<d", np.nan if v is None else float(v)) for v in numbers] + [struct.pack("<d", np.nan)]
+    assert column.dtype == np.float64 and [struct.pack("<d", v) for v in column.tolist()] == expected
+    for odd in (True, np.bool_(False), "1.0"):
+        mixed = to_columns([*entries[:2], replace(entries[0], record={"x": odd})], [0, 1, 2]).records["x"]
+        assert isinstance(mixed, Texts), odd
