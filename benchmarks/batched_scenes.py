@@ -40,7 +40,7 @@ import harness  # noqa: E402
 import numpy as np  # noqa: E402
 
 from hpcontact.kernels.engine import Engine  # noqa: E402
-from hpcontact.numerics.backend import to_device, to_host  # noqa: E402
+from hpcontact.numerics.backend import array_namespace, to_device, to_host  # noqa: E402
 from hpcontact.numerics.conjugate_gradient import conjugate_gradient  # noqa: E402
 from hpcontact.plan import make_plan  # noqa: E402
 from hpcontact.problems.contact import (  # noqa: E402
@@ -133,9 +133,7 @@ def measure(device: str, n: int, count: int, args, clock, synchronize) -> dict:
         "force_relative_difference": difference,
     }
     if device == "gpu":
-        import cupy
-
-        row["gpu_pool_bytes"] = int(cupy.get_default_memory_pool().total_bytes())
+        row["gpu_pool_bytes"] = int(array_namespace("gpu").get_default_memory_pool().total_bytes())
     return row
 
 
@@ -159,8 +157,6 @@ def main(argv: list[str] | None = None) -> int:
     for device in args.device:
         synchronize, clock = (lambda: None), harness.CLOCKS[args.clock]
         if device == "gpu":
-            from hpcontact.numerics.backend import array_namespace
-
             cupy = array_namespace("gpu")
             synchronize, clock = cupy.cuda.Device().synchronize, harness.CLOCKS["wall"]
         for n in args.n:

@@ -1,7 +1,8 @@
-"""benchmarks/gpu_engine.py end to end on a stand-in GPU (``stub_cupy.use_standin_gpu``: array-api-strict's
-arrays behind CuPy's device calls), at small sizes: every table the device run needs is made and
-written, so the script cannot fail on the GPU machine for want of having been run. Not marked
-``gpu``: it runs everywhere. What it times here is the CPU under two namespaces: no GPU figure."""
+"""The device run's benchmarks (benchmarks/gpu_engine.py, benchmarks/batched_scenes.py) end to end on a
+stand-in GPU (``stub_cupy.use_standin_gpu``: array-api-strict's arrays behind CuPy's device calls), at
+small sizes: every table the device run needs is made and written, so the scripts cannot fail on the
+GPU machine for want of having been run. Not marked ``gpu``: they run everywhere. What they time here
+is the CPU under two namespaces: no GPU figure."""
 
 from __future__ import annotations
 
@@ -26,8 +27,8 @@ nu = [0.2, 0.4]
 """
 
 
-def _script():
-    spec = importlib.util.spec_from_file_location("gpu_engine", ROOT / "benchmarks" / "gpu_engine.py")
+def _script(name: str = "gpu_engine"):
+    spec = importlib.util.spec_from_file_location(name, ROOT / "benchmarks" / f"{name}.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
@@ -68,3 +69,16 @@ def test_without_a_gpu_it_exits_2_in_one_line(monkeypatch, capsys):
     assert _script().main([]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "CuPy is not installed" in err
+
+
+def test_batched_scenes_on_a_standin_gpu_measures_both_devices(monkeypatch, tmp_path):
+    use_standin_gpu(monkeypatch)
+    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))  # its harness
+    output = tmp_path / "batched.json"
+    argv = ["--device", "cpu", "gpu", "--n", "8", "--batch", "3", "--clock", "wall", "--json", str(output)]
+    assert _script("batched_scenes").main(argv) == 0
+    rows = json.loads(output.read_text(encoding="utf-8"))["rows"]
+    assert [(r["device"], r["scenes"]) for r in rows] == [("cpu", 3), ("gpu", 3)]
+    for row in rows:
+        assert row["batch_us_per_scene_iteration"] > 0.0 and row["force_relative_difference"] < 1e-6
+    assert rows[1]["gpu_pool_bytes"] == 0  # the stand-in's pool
