@@ -2,6 +2,8 @@
 
     python benchmarks/check_claims.py [--check NAME ...] [--static] [--keep DIR]
 
+All checks: ~15 min on 2 idle cores (the main job and the Tembleque job most of it).
+
 For every row: what ``tests/test_claims.py`` checks without running anything (each named path,
 module and test exists; the page, section and every excerpt quoted in “…” stand; the status is
 one of the page's words, a one-off names its date, machine and commit). For the rows whose
@@ -17,7 +19,10 @@ tests/test_claims.py and run with the suite; the checks here take minutes:
 - ``main_job``: ``mpiexec -n 2 hpcontact run jobs/demo.toml`` (~2 min on 2 idle cores), then
   ``hpcontact show --json``: the worst estimated errors the README quotes;
 - ``thin_rectangle_512``: ``hpcontact solve`` of the b/a = 1e-8 rectangle on 512 × 64 cells
-  (docs/explanation/verification.md's K_a/K_b, ~10 s).
+  (docs/explanation/verification.md's K_a/K_b, ~10 s);
+- ``tembleque``: ``mpiexec -n 2 hpcontact run jobs/tembleque2011_friction.toml`` and its figure
+  script, which prints the figures docs/explanation/results.md quotes for Rodríguez-Tembleque
+  et al. 2011 (9 min at load ~12 on 2 cores, 2026-11-29; about a third of that idle).
 
 Every row's line says PASS or FAIL and why; the exit status is 1 if any row failed. ``--static``
 runs no command (the regenerated rows' comparisons are then reported NOT RUN); ``--check``
@@ -60,14 +65,16 @@ def claims_test() -> ModuleType:
 
 @dataclass
 class Runner:
-    """Runs ``hpcontact`` commands once each in ``folder``, keeping what they print."""
+    """Runs ``hpcontact ARGUMENTS`` (or ``python SCRIPT.py ARGUMENTS``) once each from the
+    repository root, keeping what they print; their data sets go to ``folder``."""
 
     folder: Path
     printed: dict[tuple[str, ...], str] = field(default_factory=dict)
 
     def __call__(self, *arguments: str, ranks: int = 1) -> str:
         if arguments not in self.printed:
-            hpcontact = [sys.executable, "-m", "hpcontact", *arguments]
+            script = arguments[0].endswith(".py")
+            hpcontact = [sys.executable, *([] if script else ["-m", "hpcontact"]), *arguments]
             mpiexec = shutil.which("mpiexec", path=str(Path(sys.executable).parent)) or "mpiexec"
             command = [mpiexec, "-n", str(ranks), *hpcontact] if ranks > 1 else hpcontact
             env = {**os.environ, "HPCONTACT_MPI": "1" if ranks > 1 else "0"}
@@ -178,11 +185,104 @@ def thin_rectangle_512(run: Runner) -> list[Failure]:
     ]
 
 
+def tembleque(run: Runner) -> list[Failure]:
+    """Rodríguez-Tembleque et al. 2011: ``jobs/tembleque2011_friction.toml`` on 2 ranks and its
+    figure script, whose printed lines hold the figures docs/explanation/results.md quotes
+    (Figs. 3 and 5–7: the line contact's errors, the load and force ratios, the coupling sizes,
+    the stick zones and their centroids)."""
+    page, output = "docs/explanation/results.md", run.folder / "tembleque2011_friction.nc"
+    run("run", "jobs/tembleque2011_friction.toml", "--output", str(output), ranks=2)
+    printed = run("postprocess/tembleque2011_friction.py", str(output), str(run.folder / "tembleque2011"))
+    text = " ".join(printed.split())
+
+    def line(pattern: str) -> re.Match[str]:
+        found = re.search(pattern, text)
+        assert found, f"the figure script printed no /{pattern}/"
+        return found
+
+    def percent(ratio: str, sign: float = 1.0) -> float:
+        """``1.0109`` → 1.09 (% above 1; below 1 with ``sign`` = −1)."""
+        return sign * 100.0 * (float(ratio) - 1.0)
+
+    def series(label: str) -> dict[str, str]:
+        """``Q / Q(ratio 1): 1: 1.0000, 2: 0.9954, …`` → {"1": "1.0000", "2": "0.9954", …}."""
+        body = line(re.escape(label) + r":? ((?:[\d.]+: (?:[\d.]+|nan)(?:, )?)+)")[1]
+        return dict(re.findall(r"([\d.]+): ([\d.]+|nan)", body))
+
+    failures = []
+
+    def check(pattern: str, values: list[float | str]) -> None:
+        for match in quoted(page, pattern):
+            for index, (quoted_text, value) in enumerate(zip(match.groups(), values, strict=True)):
+                failures.extend(compare(page, f"/{pattern}/ item {index + 1}", quoted_text, value))
+
+    plane = line(r"plane strain [\d.]+: ([\d.]+), [\d.]+: ([\d.]+), 1000: ([\d.]+), rigid in x1: ([\d.]+)")
+    check(
+        r"the rise is (\S+) % at 2, (\S+) % at 32, (\S+) % at 1000 and (\S+) % for a punch",
+        list(map(percent, plane.groups())),
+    )
+    paper = line(r"paper eq\. 24 [\d.]+: ([\d.]+), [\d.]+: ([\d.]+), 1000: [\d.]+, rigid in x1: ([\d.]+)")
+    check(r"as we read the garbled text\) gives (\S+) %, (\S+) % and (\S+) %", list(map(percent, paper.groups())))
+    bem = series("3-D BEM")
+    check(r"cylinder \(n = 16\) gives (\S+) % and (\S+) % at 2 and 32", [percent(bem["2"]), percent(bem["32"])])
+    q, decoupled, fixed = (
+        series("Q / Q(ratio 1)"),
+        series("decoupled Q / Q(ratio 1)"),
+        series("P at a fixed approach / ratio 1"),
+    )
+    check(
+        r"falls with the ratio by (\S+) % at 2, (\S+) % at 4, (\S+) % at 8, (\S+) % at 16 and (\S+) % at 32",
+        [percent(q[r], -1.0) for r in ("2", "4", "8", "16", "32")],
+    )
+    check(r"Q rises by (\S+) % at 2", [percent(decoupled["2"])])
+    check(
+        r"d\^1\.5, d the frictionless approach at 0\.37 MN\) rises (\S+) % at 2 and (\S+) % at 32",
+        [percent(fixed["2"]), percent(fixed["32"])],
+    )
+    import xarray as xr
+
+    with xr.open_dataset(output) as dataset:
+        coupling = dict(zip(map(str, dataset["pair"].values), map(float, dataset["coupling_size"].values), strict=True))
+    check(
+        r"coupling_size (\S+) at ratio 2, (\S+) at 32\)", [coupling["ortho E1 ratio 2"], coupling["ortho E1 ratio 32"]]
+    )
+    contact = line(
+        r"semi-axes ([\d.]+) mm across x1, ([\d.]+) mm along; p0 = ([\d.]+) MPa \(plane strain at a = 50 mm: ([\d.]+) MPa\)"
+    )
+    check(
+        r"semi-axes (\S+) × (\S+) mm and p0 = (\S+) MPa for the similar pair at n = 64, printed by the figure script; plane strain at a = 50 mm gives (\S+) MPa",
+        list(map(float, contact.groups())),
+    )
+    similar = line(r"tractions, ortho E1 ratio 1: stick cells on the centre line from x/50mm = (-?[\d.]+) to ([\d.]+)")
+    check(r"on the centre line it spans x = −(\S+) a … (\S+) a", [-float(similar[1]), float(similar[2])])
+    band = line(
+        r"tractions, ortho E1 ratio 2: stick cells on the centre line from x/50mm = \S+ to \S+ \(centre (-?[\d.]+)\)"
+    )
+    check(r"The 3-D ellipse's band is centred at (\S+) a", [abs(float(band[1]))])
+    estimate = line(r"\|e\| = ([\d.]+) a = ([\d.]+) mm")
+    check(r"\|e\| = (\S+) a = (\S+) mm", list(map(float, estimate.groups())))
+    shift = line(
+        r"stick centroid x, ortho E1 ratio 2: " + ", ".join([r"n = \d+ \(cell [\d.]+ mm\): ([-+][\d.]+) mm"] * 4)
+    )
+    check(
+        r"centroid is at (\S+), (\S+), (\S+) and (\S+) mm at n = 32, 48, 64 and 96",
+        [f"{float(x):.2f}".replace("-", "−") for x in shift.groups()],
+    )
+    iso = line(r"stick centroid x, isotropic: .*?n = 96 \(cell [\d.]+ mm\): ([-+][\d.]+) mm")  # the finest grid
+    check(r"has its stick zone on the other side, at \+(\S+) mm", [float(iso[1])])
+    pairs = re.findall(r"\(32, ([-+][\d.e-]+), ([-+][\d.e-]+)\)", text)  # (n, peak error, width error)
+    errors = [abs(float(error)) for pair in pairs for error in pair]
+    assert len(errors) == 4, "the figure script printed no n = 32 errors of the two line contacts"
+    check(r"falling to ≤ (\S+) at n = 32", [max(errors)])
+    return failures
+
+
 #: The checks a regenerated row names (``benchmarks/check_claims.py --check NAME``).
 CHECKS: dict[str, Callable[[Runner], list[Failure]]] = {
     "dense_map": dense_map,
     "main_job": main_job,
     "thin_rectangle_512": thin_rectangle_512,
+    "tembleque": tembleque,
 }
 
 

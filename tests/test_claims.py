@@ -61,7 +61,7 @@ STATUS = re.compile(
 ONE_OFF = re.compile(r"one-off, dated \(((?:[^()]|\([^()]*\))*)\)")
 BENCHMARK = re.compile(r"^benchmark, dated \(((?:[^()]|\([^()]*\))*)\)")
 DATE = re.compile(r"\d{4}-\d{2}-\d{2}")
-MACHINE = re.compile(r"EPYC|Xeon|VM|machine|CI\b")
+MACHINE = re.compile(r"EPYC|Xeon|VM\b|machine(?!-dependent)|CI\b")
 COMMIT = re.compile(r"\b[0-9a-f]{7,40}\b")
 #: ``benchmarks/check_claims.py --check NAME`` in a regenerated row: the script's check of it.
 CHECK = re.compile(r"benchmarks/check_claims\.py --check (\w+)")
