@@ -161,7 +161,9 @@ STRIP_CALIBRATION_SCENE: dict[str, Any] = {
 # A crystal ellipse on its one exact cell (``hpcontact.discretizations.galin_ellipse``): the
 # seconds its kernel's Fourier series takes to build (cold cache) are the contact kind's
 # ``exact_s``, what a crystal exact cell costs beyond the task term (0.05–0.12 s on the
-# development machine over A 0.5–3, ψ 0–55°, nu 0.05–0.45; its warm solve ~1 ms).
+# development machine over A 0.5–3, ψ 0–55°, nu 0.05–0.45; its warm solve ~1 ms), and what any
+# crystal task of an accuracy costs to build its material's kernel (``task_cost.Work.kernel_builds``:
+# the same ``kernels.anisotropic.kernel_for``, which a crystal's grids read too).
 EXACT_CALIBRATION_SCENE: dict[str, Any] = {
     "shape": "ellipse",
     "aspect": 0.5,

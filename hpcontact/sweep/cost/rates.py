@@ -118,7 +118,7 @@ class Rate:
     """Seconds of a task of one kind: ``rate_s × cost + solve_s × solve_units + cell_s ×
     padded cells + node_s × omega_nodes + task_s`` (module docstring; ``cell_s``,
     ``task_s``, ``strip_s``, seconds per strip unit of an accuracy task's strip cells, and
-    ``exact_s``, seconds of a crystal exact cell's kernel build, are measured for the isotropic
+    ``exact_s``, seconds of a crystal's kernel build (timed on its exact cell), are measured for the isotropic
     contact kind, ``node_s`` for slip scenes)."""
 
     rate_s: float
@@ -217,7 +217,9 @@ class Calibration:
 
     def task_seconds(self, params: Mapping[str, Any], cost: float | None = None) -> float:
         """Estimated seconds of the scene ``params`` on one core (a scene that asks for an
-        accuracy: its ``tasks.Work`` at the contact kind's rates, whatever ``cost``)."""
+        accuracy: its ``tasks.Work`` at the contact kind's rates, a crystal's grids at the crystal
+        kind's, whatever ``cost``; a crystal's kernel built, as for a task alone: a sweep's estimate
+        counts it once per kernel group, ``estimate.shared_kernel_builds``)."""
         if asks_accuracy(params):
             return work_seconds(self.rates, sizing(params).work)
         kind = task_kind(params)
