@@ -87,7 +87,7 @@ def solve_fields(
 
     The record's ``units`` maps each number's key to its unit (``sweep.data.attributes.record_units``,
     as a sweep's data set names it): "G a" (GPa a for a body given in GPa, "N m-1" with the
-    contact size ``a`` in m), "1" for ratios and counts, "degree", "s", a slip scene's F and L or
+    contact size in metres), "1" for ratios and counts, "degree", "s", a slip scene's F and L or
     SI units.
     """
     fields = {k: os.fspath(v) if isinstance(v, os.PathLike) else v for k, v in params.items() if v is not None}
@@ -193,13 +193,13 @@ def solve(**keywords: Any) -> dict[str, Any]:
     -------
     dict
         The record: stiffnesses ``K_ij`` in units of G·a (GPa·a for a crystal given in GPa,
-        N/m with ``a``), principal values and angle, ratios, grid, iterations, residual,
-        ``wall_time_s`` and the ``plan``; with ``accuracy`` (or the extrapolated default) also
+        N/m with the contact size in metres), principal values and angle, ratios, grid,
+        iterations, residual, ``wall_time_s`` and the ``plan``; with ``accuracy`` (or the extrapolated default) also
         ``estimated_error``, ``grids`` and ``levels``. Slip scenes: the record of
         ``hpcontact.problems.slip.partial_slip.solve_slip``. Its ``units`` maps each number's
         key to its unit: ``{"K_xx": "G a", "K_a_over_K_b": "1", "principal_angle_deg":
         "degree", "wall_time_s": "s", ...}`` ("GPa a" for a body given in GPa, "N m-1" with
-        ``a``; UDUNITS strings, or products of the scene's scales G, a, L, F, which are
+        the contact size in metres; UDUNITS strings, or products of the scene's scales G, a, L, F, which are
         parameters rather than units: ``hpcontact.sweep.data.units``).
 
     Raises
