@@ -143,18 +143,34 @@ def dense_map(run: Runner) -> list[Failure]:
     return failures
 
 
-def worst_estimated_error(path: Path) -> float:
-    """The largest ``estimated_error`` (a record's worst over its own quantities) of a data set."""
+def worst_estimated_error(path: Path, shape: str | None = None) -> float:
+    """The largest ``estimated_error`` (a record's worst over its own quantities) of a data set,
+    or of its points of one ``shape``."""
     import xarray as xr
 
     with xr.open_dataset(path) as dataset:
-        return float(dataset["estimated_error"].max())
+        errors = dataset["estimated_error"]
+        return float((errors if shape is None else errors.sel(shape=shape)).max())
+
+
+#: Pages that quote the exact cell's largest estimate: (page, pattern whose group is the bound).
+EXACT_CELL_BOUNDS = (
+    ("README.md", r"Ellipses and circles are one exact cell each .*?estimates ≤ (\S+)\);"),
+    (
+        "docs/performance.md",
+        r"The estimate is a bound on the contour integral's truncation and rounding, 1e-14 … (\S+) \(",
+    ),
+    ("docs/performance.md", r"every ellipse on its one exact cell \(errors estimated ≤ (\S+) in"),
+    ("docs/design.md", r"\(series tail and rounding\) is a bound at 1e-14 … (\S+)\."),
+    ("docs/explanation/accuracy.md", r"rounding of the sum \(1e-14 … (\S+)\)"),
+)
 
 
 def main_job(run: Runner) -> list[Failure]:
     """The README's main job on 2 ranks and ``hpcontact show --json`` of its data set: its
-    points (with the load angle), the largest ``estimated_error`` over them, and the worst
-    estimated errors of K_nn and of ``normalized_nn``."""
+    points (with the load angle), the largest ``estimated_error`` over them, the worst estimated
+    errors of K_nn and of ``normalized_nn``, and the ellipses' largest ``estimated_error`` (one
+    exact cell each) against the bound each page gives the exact cell."""
     output = run.folder / "demo.nc"
     run("run", "jobs/demo.toml", "--output", str(output), ranks=2)
     shown = json.loads(run("show", "--json", str(output)))
@@ -170,6 +186,16 @@ def main_job(run: Runner) -> list[Failure]:
         failures += compare(readme, "K_nn", match[3], worst["K_nn"])
     for match in quoted(readme, r"`normalized_nn`, K_nn's plus K_zz's, (\S+)\)"):
         failures += compare(readme, "normalized_nn", match[1], worst["normalized_nn"])
+    exact_cells = worst_estimated_error(output, "ellipse")  # the job's ellipses: one exact cell each
+    for page, pattern in EXACT_CELL_BOUNDS:
+        failures += [
+            (
+                page,
+                f"the exact cell's estimates: the page says ≤ {match[1]}, the main job's ellipses reach {exact_cells:.2e}",
+            )
+            for match in quoted(page, pattern)
+            if exact_cells > float(match[1])
+        ]
     return failures
 
 
