@@ -75,3 +75,14 @@ def test_a_whole_solve_on_the_gpu_gives_the_cpu_record(cupy):
     assert stiffness and cpu["iterations"] > 0
     for key in stiffness:  # the per-solve bound above, carried to the stiffness (a resultant)
         assert abs(gpu[key] - cpu[key]) <= REQUIRED * max(abs(cpu[k]) for k in stiffness), key
+
+
+def test_auto_on_a_rank_with_a_gpu_solves_on_it(cupy, monkeypatch):
+    """Device "auto" on local rank 0 of a machine with a GPU: the GPU's namespace, the GPU's record."""
+    from hpcontact.numerics import backend
+
+    for name in backend.LOCAL_RANK_VARIABLES:
+        monkeypatch.delenv(name, raising=False)
+    assert backend.resolved_device("auto") == "gpu" and backend.array_namespace("auto") is cupy
+    params = {**SCENES["circle"], "tol": 1e-14}
+    assert hpcontact.solve(**params, device="auto")["K_zz"] == hpcontact.solve(**params, device="gpu")["K_zz"]
