@@ -22,7 +22,10 @@ tests/test_claims.py and run with the suite; the checks here take minutes:
   (docs/explanation/verification.md's K_a/K_b, ~10 s);
 - ``tembleque``: ``mpiexec -n 2 hpcontact run jobs/tembleque2011_friction.toml`` and its figure
   script, which prints the figures docs/explanation/results.md quotes for Rodríguez-Tembleque
-  et al. 2011 (9 min at load ~12 on 2 cores, 2026-11-29; about a third of that idle).
+  et al. 2011 (9 min at load ~12 on 2 cores, 2026-11-29; about a third of that idle);
+- ``crystal_friction_map``: ``mpiexec -n 2 hpcontact run jobs/crystal_friction_map.toml`` and
+  its figure script: the friction map's ratios under load and the stick zone's offset
+  (docs/explanation/results.md; 8 min at load ~11 on 2 cores, 2026-11-29).
 
 Every row's line says PASS or FAIL and why; the exit status is 1 if any row failed. ``--static``
 runs no command (the regenerated rows' comparisons are then reported NOT RUN); ``--check``
@@ -303,12 +306,56 @@ def tembleque(run: Runner) -> list[Failure]:
     return failures
 
 
+def compare_printed(page: str, what: str, quoted_text: str, printed_text: str) -> list[Failure]:
+    """``[]`` if a value printed to fewer digits than it has (``printed_text``, ± half its last
+    digit) can round to ``quoted_text`` (± half its last digit): the two intervals meet."""
+
+    def half_unit(text: str) -> float:
+        mantissa, _, exponent = text.partition("e")
+        return 0.5 * 10.0 ** (-len(mantissa.partition(".")[2]) + int(exponent or 0))
+
+    gap = abs(float(printed_text) - float(quoted_text)) - half_unit(printed_text) - half_unit(quoted_text)
+    return [] if gap <= 0.0 else [(page, f"{what}: the page says {quoted_text}, the command printed {printed_text}")]
+
+
+def crystal_friction_map(run: Runner) -> list[Failure]:
+    """The crystal-sphere friction map: ``jobs/crystal_friction_map.toml`` on 2 ranks and its
+    figure script, whose k_min/k_max table (Q/(μP) = 0, 0.5, 0.8, 0.9 per row) and stick-centroid
+    offset hold the figures docs/explanation/results.md quotes under load."""
+    page, output = "docs/explanation/results.md", run.folder / "crystal_friction_map.nc"
+    run("run", "jobs/crystal_friction_map.toml", "--output", str(output), ranks=2)
+    printed = run("postprocess/crystal_friction_map.py", str(output), str(run.folder / "crystal_friction"))
+    text = " ".join(printed.split())
+
+    def row(pattern: str) -> list[str]:
+        found = re.search(pattern + r"((?: [\d.]+){4})", text)
+        assert found, f"the figure script printed no /{pattern}/"
+        return found[1].split()
+
+    isotropic = row(r"isotropic reference k_min/k_max:")
+    cu_110 = row(r"crystal:Cu: k_min/k_max psi = 0\.00:")
+    cu_50 = row(r"crystal:Cu: k_min/k_max (?:psi = [\d.]+:(?: [\d.]+){4} )*psi = 50\.00:")
+    offset = re.search(r"largest stick-centroid offset along the load: (\S+) m", text)
+    assert offset, "the figure script printed no stick-centroid offset"
+    failures = []
+    for match in quoted(page, r"the isotropic body, (\S+), (\S+), (\S+) at Q/\(μP\) = 0\.5, 0\.8, 0\.9\)"):
+        for quoted_text, printed_text in zip(match.groups(), isotropic[1:], strict=True):
+            failures += compare_printed(page, "isotropic k_min/k_max", quoted_text, printed_text)
+    for match in quoted(page, r"\(Cu (\S+) at 0\.9\) and up near ψ = 50° \((\S+)\)"):
+        failures += compare_printed(page, "Cu on [110] at 0.9", match[1], cu_110[3])
+        failures += compare_printed(page, "Cu at ψ = 50° and 0.9", match[2], cu_50[3])
+    for match in quoted(page, r"off centre by up to (\S+) µm"):
+        failures += compare(page, "stick-centroid offset (µm)", match[1], float(offset[1]) * 1e6)
+    return failures
+
+
 #: The checks a regenerated row names (``benchmarks/check_claims.py --check NAME``).
 CHECKS: dict[str, Callable[[Runner], list[Failure]]] = {
     "dense_map": dense_map,
     "main_job": main_job,
     "thin_rectangle_512": thin_rectangle_512,
     "tembleque": tembleque,
+    "crystal_friction_map": crystal_friction_map,
 }
 
 
