@@ -80,7 +80,9 @@ class Runner:
             hpcontact = [sys.executable, *([] if script else ["-m", "hpcontact"]), *arguments]
             mpiexec = shutil.which("mpiexec", path=str(Path(sys.executable).parent)) or "mpiexec"
             command = [mpiexec, "-n", str(ranks), *hpcontact] if ranks > 1 else hpcontact
-            env = {**os.environ, "HPCONTACT_MPI": "1" if ranks > 1 else "0"}
+            env = {name: value for name, value in os.environ.items() if name != "HPCONTACT_MPI"}
+            if ranks == 1:
+                env["HPCONTACT_MPI"] = "0"  # one process on purpose (docs/reference/environment.md)
             done = subprocess.run(command, cwd=ROOT, env=env, capture_output=True, text=True, check=False)
             if done.returncode != 0:
                 raise AssertionError(f"{' '.join(command)} exited {done.returncode}: {done.stderr.strip()[-400:]}")
