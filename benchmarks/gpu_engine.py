@@ -8,9 +8,10 @@ In one run, on one machine, float64, nu = 0.3, tol 1e-8 (the default), FFTW and 
   K_zz, iterations and the relative difference of K_zz between the devices;
 - ``large``: the GPU alone at ``--large`` (default 4096; the issue asks ≤ 1 s per solve);
 - ``accuracy``: square, triangle and hexagon at ``--accuracy`` (default 1e-6; nu 0.3 and 0.5),
-  each one ``hpcontact.solve(..., accuracy=..., device="gpu")`` (the issue asks ≤ 5 s each): its
-  grids are coverage-weighted cells (``discretizations/boundary_cells.py``) iterating on the
-  device, one grid at a time;
+  each one ``hpcontact.solve(..., accuracy=..., device="gpu")`` (the issue asks ≤ 5 s each), with
+  its grids, whether the request was met, the estimate and what stopped it (the grids stop where
+  the estimator's calibration ends, n = 1024, on either device): its grids are coverage-weighted
+  cells (``discretizations/boundary_cells.py``) iterating on the device, one grid at a time;
 - ``main``: the main job's task time (``--main-job``, default jobs/demo.toml, at its accuracy):
   every ``--main-every``-th of its tasks (in enumeration order) solved by the sweep's task function
   on the GPU, then on one CPU core (``main_job_table``: the order errs against the GPU), each
@@ -141,7 +142,8 @@ def accuracy_table(accuracy: float, cupy) -> list[dict]:
             params = {"shape": shape, "nu": nu, "quantities": "tangential,normal", "accuracy": accuracy, **extra}
             try:
                 seconds, record = _timed(lambda p=params: hpcontact.solve(**p, device="gpu"), sync)
-                rows.append({**params, "seconds": seconds, "nx": record.get("nx"), "gpu_pool_bytes": _pool_bytes(cupy)})
+                reached = {k: record.get(k) for k in ("nx", "grids", "accuracy_met", "estimated_error", "stopped_by")}
+                rows.append({**params, "seconds": seconds, **reached, "gpu_pool_bytes": _pool_bytes(cupy)})
             except Exception as exc:  # reported, not hidden: the table says which failed and why
                 rows.append({**params, "error": f"{type(exc).__name__}: {exc}"})
             print(f"  accuracy {rows[-1]}", file=sys.stderr, flush=True)
@@ -215,7 +217,7 @@ def done_when(results: dict, args: argparse.Namespace) -> dict:
         "accuracy_1e-6_shapes_at_most_5_s_each": (
             None
             if not accuracy or args.accuracy != 1e-6
-            else all("error" not in r and r["seconds"] <= 5.0 for r in accuracy)
+            else all("error" not in r and r["accuracy_met"] and r["seconds"] <= 5.0 for r in accuracy)
         ),
         "main_job_gpu_at_most_1_30_of_one_core": (
             None if not main or main["gpu_over_cpu"] is None or main["failed"] else main["gpu_over_cpu"] <= 1.0 / 30.0
