@@ -2,11 +2,11 @@
 
 After each round rank 0 decides the next from the values at the nodes (``maps.rounds``): the
 refinement, the check rounds and the last round's fill estimate the map error of every leaf
-(``refinement.estimate``), which was most of rank 0's time between rounds while every other
-rank waited (4.9 of 13.4 CPU s on the 4-D stand-in map, the fill 1.8 more;
-``benchmarks/adaptive_scaling.py``). Each leaf's part of an estimate is a function of a small
-job alone (``refinement.LeafJob``: its coordinates, nodes and the values there), so the ranks
-compute the parts while rank 0 decides:
+(``refinement.estimate``), which was half of rank 0's time between rounds while every other
+rank waited (the refinement 4.9 and the fill 1.8 of 13.4 CPU s between rounds on the 4-D
+stand-in map before this: ``benchmarks/adaptive_scaling.py``, 2026-11-29; docs/performance.md).
+Each leaf's part of an estimate is a function of a small job alone (``refinement.LeafJob``: its
+coordinates, nodes and the values there), so the ranks compute the parts while rank 0 decides:
 
 * every rank but 0 ``serve``\\ s after a round's tasks, until rank 0 has decided;
 * rank 0 decides inside ``shared_estimates``: each ``estimate`` broadcasts its leaves' jobs and
@@ -101,7 +101,10 @@ class LeafPool:
             for j, part, spent in result:
                 parts[j], seconds[j] = part, spent
         self.seconds.append(list(zip(points, seconds)))
-        return [p for p in parts if p is not None]
+        missing = [j for j, part in enumerate(parts) if part is None]
+        if missing:  # every job is in one share (``assign``): a rank that answered without it
+            raise RuntimeError(f"no part came back for the leaves {missing} of an estimate")
+        return [part for part in parts if part is not None]
 
 
 def serve(team: Any) -> None:
