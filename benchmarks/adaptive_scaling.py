@@ -28,7 +28,8 @@ each its own chunk (exact cells: one kernel set a task), with the driver's time 
 
 Rank 0's CPU seconds in that run are split by phase (``PHASES``: its share of the enumeration
 in the set-up; after each round the journals read and the decision, the outcomes joined, the
-data set built, the refinement's decision, the last round's fill and netCDF write). The set-up
+data set built, the refinement's decision, the last round's fill and netCDF write; its own
+outcomes of the round turned into columns, which each rank does for its own). The set-up
 is replayed as measured: the enumeration (rank 0's share on 2 ranks, so twice it in all)
 divided over the ranks, the rest on every rank at once (``setup as measured``; ``setup as
 assumed``: rank 0's ``Overheads.setup_s`` a task of the six-axis job, the replay's default).
@@ -71,6 +72,7 @@ RANKS = (2, 16, 64, 256, 1024)
 PHASES = (
     ("hpcontact.sweep.run.rounds", "share", "enumeration"),
     ("hpcontact.sweep.run.rounds", "prepare", "journals+decision"),
+    ("hpcontact.sweep.run.rounds", "to_columns", "own outcomes"),
     ("hpcontact.sweep.run.assembly", "joined_outcomes", "outcomes joined"),
     ("hpcontact.sweep.data.dataset", "dataset_of", "data set"),
     ("hpcontact.sweep.maps.rounds", "next_step", "refinement"),
