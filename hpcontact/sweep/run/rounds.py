@@ -64,7 +64,7 @@ from hpcontact.sweep.run.shares import from_rank_zero, joined, share
 from hpcontact.sweep.run.signals import Abandoned, StopControl
 from hpcontact.sweep.space.parse import load_spec
 from hpcontact.sweep.space.spec import Spec, Validator
-from hpcontact.sweep.work.batches import plan_batches, run_batch
+from hpcontact.sweep.work.batches import batch_fill, plan_batches, run_batch
 from hpcontact.sweep.work.estimate import start_estimate
 from hpcontact.sweep.work.tasks import Task, changed_inputs, make_chunks
 
@@ -346,7 +346,8 @@ def _run(run: Run, plan: Plan, kept: Kept | None, scope: RoundScope, options: Op
                         break
                     run_tasks((task,))
             claim = time.perf_counter()
-            for chunk in claimed_chunks(chunks, counter, team.size):
+            # a GPU rank claims the chunks that fill a batch, handed as one tuple (work.batches.batch_fill)
+            for chunk in claimed_chunks(chunks, counter, team.size, fill=batch_fill(chunks, task_function)):
                 schedule_s += time.perf_counter() - claim
                 if stop.stopping:
                     break
