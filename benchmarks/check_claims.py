@@ -2,7 +2,7 @@
 
     python benchmarks/check_claims.py [--check NAME ...] [--static] [--keep DIR]
 
-All checks: ~15 min on 2 idle cores (the main job and the Tembleque job most of it).
+All checks: ~40 min at load ~11 on 2 cores (2026-11-29; the four jobs most of it), roughly a third of that idle.
 
 For every row: what ``tests/test_claims.py`` checks without running anything (each named path,
 module and test exists; the page, section and every excerpt quoted in “…” stand; the status is
@@ -25,7 +25,10 @@ tests/test_claims.py and run with the suite; the checks here take minutes:
   et al. 2011 (9 min at load ~12 on 2 cores, 2026-11-29; about a third of that idle);
 - ``crystal_friction_map``: ``mpiexec -n 2 hpcontact run jobs/crystal_friction_map.toml`` and
   its figure script: the friction map's ratios under load and the stick zone's offset
-  (docs/explanation/results.md; 8 min at load ~11 on 2 cores, 2026-11-29).
+  (docs/explanation/results.md; 8 min at load ~11 on 2 cores, 2026-11-29);
+- ``sphere_pairs``: ``mpiexec -n 2 hpcontact run jobs/sphere_pairs.toml`` and
+  ``postprocess/slip_stiffness.py``: k_t's deviation from Mindlin–Deresiewicz over every pair,
+  load, mu and Q (docs/explanation/results.md; 15 min at load ~11 on 2 cores, 2026-11-29).
 
 Every row's line says PASS or FAIL and why; the exit status is 1 if any row failed. ``--static``
 runs no command (the regenerated rows' comparisons are then reported NOT RUN); ``--check``
@@ -351,6 +354,31 @@ def crystal_friction_map(run: Runner) -> list[Failure]:
     return failures
 
 
+def sphere_pairs(run: Runner) -> list[Failure]:
+    """The sphere-pair job: ``jobs/sphere_pairs.toml`` on 2 ranks and ``postprocess/slip_stiffness.py``,
+    whose table gives each pair's deviation of k_t from Mindlin–Deresiewicz over every load, mu
+    and Q; docs/explanation/results.md quotes the range over all pairs."""
+    page, output = "docs/explanation/results.md", run.folder / "sphere_pairs.nc"
+    run("run", "jobs/sphere_pairs.toml", "--output", str(output), ranks=2)
+    printed = run("postprocess/slip_stiffness.py", str(output), str(run.folder / "sphere_pairs"))
+    ranges = re.findall(r"^\s+\S+\s+[\d.]+\s+\S+\s+(\S+) … (\S+)\s", printed, re.M)
+    assert ranges, "postprocess/slip_stiffness.py printed no k_t/MD-1 ranges"
+    low = min(ranges, key=lambda pair: float(pair[0]))[0]
+    high = max(ranges, key=lambda pair: float(pair[1]))[1]
+
+    def percent(printed_text: str) -> str:
+        """``-1.40e-03`` → ``-0.140`` (in %, at the printed precision)."""
+        mantissa, _, exponent = printed_text.partition("e")
+        digits = len(mantissa.partition(".")[2]) - int(exponent) - 2
+        return f"{100.0 * float(printed_text):.{max(digits, 0)}f}"
+
+    failures = []
+    for match in quoted(page, r"within (\S+) % … \+(\S+) % over every pair, load, mu and Q"):
+        failures += compare_printed(page, "k_t/MD − 1, lowest (%)", match[1].replace("−", "-"), percent(low))
+        failures += compare_printed(page, "k_t/MD − 1, highest (%)", match[2], percent(high))
+    return failures
+
+
 #: The checks a regenerated row names (``benchmarks/check_claims.py --check NAME``).
 CHECKS: dict[str, Callable[[Runner], list[Failure]]] = {
     "dense_map": dense_map,
@@ -358,6 +386,7 @@ CHECKS: dict[str, Callable[[Runner], list[Failure]]] = {
     "thin_rectangle_512": thin_rectangle_512,
     "tembleque": tembleque,
     "crystal_friction_map": crystal_friction_map,
+    "sphere_pairs": sphere_pairs,
 }
 
 
