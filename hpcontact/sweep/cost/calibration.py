@@ -41,7 +41,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from hpcontact import __version__
+from hpcontact import __version__, fields
 from hpcontact.accuracy import task_function
 from hpcontact.numerics.blas import limited_blas
 from hpcontact.numerics.convolution import clear_cache
@@ -258,8 +258,10 @@ def other_running() -> float | None:
 
 def on_device(params: Mapping[str, Any], device: str) -> dict[str, Any]:
     """The calibration scene ``params`` with its solves on ``device``: a contact scene's
-    ``device`` field; a slip scene as it is (slip scenes are solved on the CPU)."""
-    return dict(params) if device == "cpu" or scene_kind(params) != "contact" else {**params, "device": device}
+    ``device`` field; a scene of a kind without one (slip: solved on the CPU) as it is."""
+    if device == "cpu" or "device" not in fields.names(scene_kind(params)):
+        return dict(params)
+    return {**params, "device": device}
 
 
 def calibrate(
@@ -275,16 +277,13 @@ def calibrate(
 
     started = time.perf_counter()
     scenes = {kind: [on_device(p, device) for p in pair] for kind, pair in scenes.items()}
+    contact_scenes = scenes.pop("contact")  # fitted with its kernels' builds (_fit_with_kernels)
     others = [other_running()]
     base = base_memory_bytes()
     with limited_blas():
-        rates = {
-            kind: fit_rate(pair, [_timed(p, clock=scene_clock(p)) for p in pair])
-            for kind, pair in scenes.items()
-            if kind != "contact"
-        }
+        rates = {kind: fit_rate(pair, [_timed(p, clock=scene_clock(p)) for p in pair]) for kind, pair in scenes.items()}
         others.append(other_running())
-        contact = _fit_with_kernels(scenes["contact"])
+        contact = _fit_with_kernels(contact_scenes)
         others.append(other_running())
         strip_scene = on_device(STRIP_CALIBRATION_SCENE, device)
         exact_scene = on_device(EXACT_CALIBRATION_SCENE, device)

@@ -90,7 +90,7 @@ from typing import Any
 from hpcontact.numerics.convolution import wisdom_path
 from hpcontact.numerics.memory import MIB, GpuMemory, resident_bytes
 from hpcontact.problems import footprint
-from hpcontact.problems.footprint import task_kind
+from hpcontact.problems.footprint import BODY_TABLE_GROUPS, task_kind
 from hpcontact.sweep.cost.engine import omega_nodes
 from hpcontact.sweep.cost.grids import asks_accuracy, padded_cells, solved_grids
 from hpcontact.sweep.cost.task_cost import Work, estimated_cost, sizing
@@ -225,7 +225,7 @@ class Calibration:
         kind = task_kind(params)
         rate = self.rates[kind]
         cost = estimated_cost(params) if cost is None else cost
-        nodes = omega_nodes(params) if kind == "slip" else 0
+        nodes = omega_nodes(params) if kind in BODY_TABLE_GROUPS else 0
         return (
             rate.rate_s * cost
             + rate.solve_s * solve_units(params, cost)

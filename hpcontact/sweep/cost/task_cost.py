@@ -193,7 +193,7 @@ def level_work(level: Mapping[str, Any]) -> Work:
     if level.get("shape", "circle") not in ANALYTIC_OUTLINES:
         clipping = OUTLINE_COVERAGE_WORK * (int(level["n"]) + int(level["n_across"]))
     units = cost / (cells * math.log2(cells))
-    if task_kind(level) != "contact":
+    if task_kind(level) in footprint.KERNEL_BUILD_BYTES:  # a crystal's coverage factor
         return Work(clipping, 0.0, 0.0, 1.0, 0.0, 0.0, cost, units)
     nx, ny = footprint.contact_grid(level)
     factor = COVERAGE_WORK * (1.0 + COVERAGE_ASPECT_WORK * math.log2(max(nx, ny) / min(nx, ny)))
@@ -209,7 +209,7 @@ def accuracy_work(params: Mapping[str, Any]) -> Work:
     §"Accuracy tasks")."""
     plan, levels = accuracy_plan(params), accuracy_levels(params)
     parts = [(1.0, level_work(level)) for level in levels]
-    if task_kind(params) != "contact":  # a crystal: its kernel, once, whatever its cells
+    if task_kind(params) in footprint.KERNEL_BUILD_BYTES:  # a crystal: its kernel, once, whatever its cells
         parts.append((1.0, Work(0.0, 0.0, 0.0, 0.0, 0.0, 1.0)))
     if not plan.exact and not plan.cells.strips and float(params["accuracy"]) < COVERAGE_FOUR_GRIDS_TO:
         if plan.next_grid is not None:

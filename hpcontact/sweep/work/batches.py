@@ -53,7 +53,7 @@ from hpcontact.numerics.backend import resolved_device
 from hpcontact.numerics.memory import default_memory_per_rank, gpu_memory, resident_bytes
 from hpcontact.problems.contact import solve_batch
 from hpcontact.problems.footprint import array_bytes, contact_grid
-from hpcontact.problems.kinds import CONTACT, kind_of
+from hpcontact.problems.kinds import kind_of
 from hpcontact.scene import DEFAULTS, Scene
 from hpcontact.sweep.data.journal import OK, Entry, to_json
 from hpcontact.sweep.work.tasks import Task
@@ -71,7 +71,7 @@ def batch_group(params: Mapping[str, Any], task_function: Callable | None, devic
     (a grid sequence, ``accuracy.defaults.default_solve``), a scene its checks refuse. The group's
     device is the one this rank solves the scene on (``device``, else the scene's device as
     ``backend.resolved_device`` resolves it: "auto" is this rank's GPU or its CPU)."""
-    if task_function is not solve_contact_fields or kind_of(params).name != CONTACT:
+    if task_function is not solve_contact_fields or not kind_of(params).planned:
         return None
     if device is None:
         device = resolved_device(params.get("device", DEFAULTS["device"]))

@@ -35,7 +35,7 @@ import numpy as np
 
 from hpcontact.errors import InputError
 from hpcontact.numerics.memory import MIB, GpuMemory, gpu_memory, resident_bytes
-from hpcontact.problems.footprint import task_kind
+from hpcontact.problems.footprint import BODY_TABLE_GROUPS, task_kind
 from hpcontact.sweep.cost.calibration import other_running
 from hpcontact.sweep.cost.calibration_file import gpu_calibration
 from hpcontact.sweep.cost.engine import omega_nodes
@@ -203,7 +203,7 @@ def task_arrays(
         rate, at = calibration.rates[size.kind], np.flatnonzero(which == k)
         c = cost[at]
         nodes = 0.0
-        if size.kind == "slip":
+        if size.kind in BODY_TABLE_GROUPS:
             nodes = np.array([omega_nodes(dict(tasks[i].params)) for i in at.tolist()], dtype=np.float64)
         seconds[at] = (
             rate.rate_s * c
