@@ -78,9 +78,10 @@ CONTACT_SIZE_RANGE = "contact size a in metres, in [1e-12, 1e3]"
 #: (``hpcontact.accuracy.solve_to_accuracy``).
 ACCURACY_RANGE = "a relative error in [1e-9, 1)"
 #: Where a contact solve runs (``hpcontact.numerics.backend``): numpy with pyFFTW on the CPU, or
-#: CuPy with cuFFT on an NVIDIA GPU. Results agree to round-off (tests/gpu), so the field is neutral to
+#: CuPy with cuFFT on an NVIDIA GPU, or "auto": each process its own GPU where it has one, else its CPU
+#: (``backend.resolved_device``). Results agree to round-off (tests/gpu), so the field is neutral to
 #: kernels and grids, not to cost.
-DEVICES = ("cpu", "gpu")
+DEVICES = ("cpu", "gpu", "auto")
 #: What the ``tangential`` stiffness holds fixed in the normal direction (``hpcontact.plan``,
 #: ``hpcontact.quantities.load_held_stiffness``): the normal approach (u_z = 0, the default:
 #: Li 2017 and the existing data sets) or the normal load (F_z = 0, Mindlin 1949 / Cattaneo's
@@ -626,12 +627,12 @@ FIELDS: tuple[Field, ...] = (
         str,
         "cpu",
         choices=DEVICES,
-        long_name="device of the contact solves: cpu (numpy, pyFFTW) or gpu (CuPy, cuFFT)",
-        help="where the contact solves run: {choices}{default} (gpu: CuPy and a CUDA device; one per rank)",
+        long_name="device of the contact solves: cpu (numpy, pyFFTW), gpu (CuPy, cuFFT) or auto (the rank's own GPU, else its CPU)",
+        help="where the contact solves run: {choices}{default} (gpu: CuPy and a CUDA device, ranks beyond the node's GPUs share them; auto: node-local rank r on GPU r while r < the visible GPUs, the others on the CPU)",
         group="numerics",
-        doc='Where the contact solves run: ``"cpu"`` [default] (numpy, pyFFTW) or ``"gpu"`` (CuPy, cuFFT; the optional extra ``gpu``), one GPU per process (its rank on the node modulo the visible devices). Results agree to round-off. A GPU without CuPy or without a CUDA device raises ``InputError`` saying which.',
+        doc='Where the contact solves run: ``"cpu"`` [default] (numpy, pyFFTW), ``"gpu"`` (CuPy, cuFFT; the optional extra ``gpu``), one GPU per process (its rank on the node modulo the visible devices), or ``"auto"``: a GPU of its own where the process has one (node-local rank r on GPU r while r is below the visible devices), its CPU elsewhere, so CPU and GPU ranks run one sweep. Results agree to round-off. A GPU without CuPy or without a CUDA device raises ``InputError`` saying which ("auto" never does).',
         changes=_changes("cost"),
-        text="cpu or gpu: where the contact solves run",
+        text="cpu, gpu or auto: where the contact solves run",
     ),
     Field(
         "normal_held",

@@ -287,7 +287,7 @@ def test_spec_type_tables_are_the_old_ones():
     assert fields.flat_fields() == OLD_FLAT_FIELDS
     assert fields.path_fields() == OLD_PATH_FIELDS
     assert {k: v for k, v in fields.string_texts().items() if k not in NEW_FIELDS} == OLD_STRING_FIELDS
-    assert fields.string_texts()["device"] == "cpu or gpu: where the contact solves run"
+    assert fields.string_texts()["device"] == "cpu, gpu or auto: where the contact solves run"
     shape_only = {name: set(readers) for name, (_, readers, why) in fields.read_by("shape").items() if why is None}
     assert shape_only == OLD_SHAPE_ONLY_FIELDS
 
