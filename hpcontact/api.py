@@ -40,7 +40,6 @@ from hpcontact.numerics.blas import limited_blas
 from hpcontact.numerics.memory import check_fits, default_memory_per_rank, memory_budget, parse_memory, resident_bytes
 from hpcontact.problems import footprint
 from hpcontact.problems.kinds import SLIP, kind_of
-from hpcontact.quantities import in_newtons_per_metre
 from hpcontact.scene import Scene
 
 if TYPE_CHECKING:
@@ -137,9 +136,9 @@ def _solve_contact(
     scene = Scene.from_params(fields)
 
     def finished(record: dict[str, Any]) -> dict[str, Any]:
-        """The record with the fields it states, in N/m where the scene gives its size."""
+        """The record with the fields it states, in N/m, m and m² where the scene gives its size."""
         record.update(recorded(scene.quantities, vars(scene)))  # also where no Schur complement was formed
-        return in_newtons_per_metre(record, scene.newtons_per_metre)
+        return scene.in_si_units(record)
 
     if accuracy is not None:
         try:

@@ -86,6 +86,40 @@ def in_newtons_per_metre(record: Mapping[str, Any], newtons_per_metre: float | N
     return out
 
 
+#: Record keys that hold a length in units of a (the grid's cell sizes) or an area in units of a²
+#: (the punch's contact area): in m and m² where the scene gives its contact size a in m
+#: (:func:`in_metres`). A sphere's lengths are in the unit of its radius (a is refused beside an
+#: indentation).
+LENGTH_KEY = re.compile(r"d[xy]")
+AREA_KEY = re.compile(r"contact_area")
+
+
+def in_metres(record: Mapping[str, Any], metres: float | None) -> dict[str, Any]:
+    """``record`` with every length in units of a (``LENGTH_KEY``) times ``metres`` (the scene's
+    ``a`` in m) and every area in units of a² (``AREA_KEY``) times ``metres``², those of its
+    per-grid ``levels`` too; unchanged where that is None."""
+    if metres is None:
+        return dict(record)
+
+    def power(key: str, value: Any) -> int:
+        """The power of a in the unit of ``value`` (0: not a length or area, or not a number)."""
+        if not isinstance(value, (int, float)) or isinstance(value, bool):
+            return 0
+        return 2 if AREA_KEY.fullmatch(key) else 1 if LENGTH_KEY.fullmatch(key) else 0
+
+    out = {k: v * float(metres) ** power(k, v) if power(k, v) else v for k, v in record.items()}
+    if isinstance(out.get("levels"), list):
+        out["levels"] = [in_metres(level, metres) for level in out["levels"]]
+    return out
+
+
+def in_si_units(record: Mapping[str, Any], newtons_per_metre: float | None, metres: float | None) -> dict[str, Any]:
+    """A sized scene's ``record`` in SI units: its stiffnesses in N/m (:func:`in_newtons_per_metre`,
+    ``Scene.newtons_per_metre``), its lengths and areas in m and m² (:func:`in_metres`, ``Scene.a``);
+    unchanged for a scene without ``a`` (both None)."""
+    return in_metres(in_newtons_per_metre(record, newtons_per_metre), metres)
+
+
 #: The suffix of a quantity's estimated relative error in a sweep's records and data set
 #: (``K_xx_error``: ``hpcontact.accuracy.error_columns``, docs/reference/dataset.md).
 ERROR_SUFFIX = "_error"

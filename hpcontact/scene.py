@@ -35,7 +35,7 @@ from hpcontact.geometry import SHAPES, Shape, mask_pixels
 from hpcontact.materials.crystal import Crystal, crystal, cubic_from_nu_A
 from hpcontact.materials.elastic_constants import FAMILIES, FIXED_BY_CONSTANTS, constants_material
 from hpcontact.materials.isotropic import Isotropic
-from hpcontact.quantities import names_where
+from hpcontact.quantities import in_si_units, names_where
 
 Material = Isotropic | Crystal
 
@@ -208,6 +208,12 @@ class Scene:
         if self.a is None:
             return None
         return self.a * (GPA if _body_in_gpa(self.params) else 1.0)
+
+    def in_si_units(self, record: Mapping[str, Any]) -> dict[str, Any]:
+        """``record``, this scene's, in N/m, m and m² where the scene gives its contact size
+        (``quantities.in_si_units``: its stiffnesses times ``newtons_per_metre``, its lengths and
+        areas in units of a times a and a²); unchanged without it."""
+        return in_si_units(record, self.newtons_per_metre, self.a)
 
     @property
     def grid_given(self) -> bool:

@@ -103,9 +103,10 @@ def task_function(kind: str) -> TaskFunction:
 def solve_contact_fields(fields: Mapping[str, Any]) -> dict[str, Any]:
     """:func:`default_solve` of the contact scene of ``fields`` (a sweep's task, a journal's
     entry: the edge where fields become a ``Scene``), its per-quantity estimates as numbers
-    (:func:`error_columns`)."""
+    (:func:`error_columns`), in N/m, m and m² where the scene gives its size ``a``
+    (``Scene.in_si_units``)."""
     scene = Scene.from_params(fields)
-    return error_columns(q.in_newtons_per_metre(default_solve(scene), scene.newtons_per_metre))
+    return error_columns(scene.in_si_units(default_solve(scene)))
 
 
 def error_columns(record: Mapping[str, Any]) -> dict[str, Any]:

@@ -207,6 +207,11 @@ def attribute_table(spec: Spec) -> dict[str, dict[str, Any]]:
     return ATTRIBUTE_TABLES[spec.kind](spec)
 
 
+#: What a length or area in units of the contact size a reads where the scene gives a in m
+#: (``ContactUnits.newtons``; ``quantities.in_metres`` scales the values).
+SIZED_UNITS: Mapping[str, str] = {"a": "m", "a2": "m2"}
+
+
 @dataclasses.dataclass(frozen=True)
 class ContactUnits:
     """How the engine units of ``VARIABLE_ATTRS`` and ``AXIS_ATTRS`` read for contact scenes: the
@@ -216,7 +221,8 @@ class ContactUnits:
     ``gpa``: the body's constants are in GPa (a library crystal, cubic, orthotropic or Voigt
     constants, ``scene.BODY_FIELDS``): stresses in GPa, stiffnesses in GPa a, not in units of G.
     ``newtons``: the contact size ``a`` is given in metres: stiffnesses (G a) in N m-1, the value
-    times ``Scene.newtons_per_metre`` (``quantities.in_newtons_per_metre``). ``sphere_grid``: every
+    times ``Scene.newtons_per_metre`` (``quantities.in_newtons_per_metre``), lengths (a) in m and
+    areas (a2) in m2 (``SIZED_UNITS``, ``quantities.in_metres``). ``sphere_grid``: every
     scene asks for an indentation alone, so the grid's ``dx``, ``dy`` are the sphere's, in L.
     ``sphere_area``: an indentation is asked, so ``contact_area`` is the sphere's (L2), else the
     punch's (a2)."""
@@ -244,7 +250,9 @@ class ContactUnits:
         if name in ("dx", "dy") and self.sphere_grid:
             return "L"
         if name == "contact_area" and not self.sphere_area:
-            return "a2"
+            unit = "a2"
+        if self.newtons and unit in SIZED_UNITS:
+            return SIZED_UNITS[unit]
         if self.gpa and unit.split(" ")[0] == "G":
             return "GPa" + unit[1:]
         return unit
@@ -446,12 +454,13 @@ def _contact_units(spec: Spec) -> dict[str, str]:
         if a is not None
         else f"forces per unit displacement in units of {'GPa' if gpa else 'G'} a (a semi-major extent of the punch = 1)"
     )
-    return {
-        "stiffness_units": stiffness,
-        "stress_units": stress,
-        "length_units": "a: semi-major extent of the punch (= 1 on the grid; for a mask, half the long side of the contact); "
-        "L: unit of the sphere's radius and depth",
-    }
+    lengths = (
+        f"m, areas m2 (the contact size a = {a} m given)"
+        if a is not None
+        else "a: semi-major extent of the punch (= 1 on the grid; for a mask, half the long side of the contact); "
+        "L: unit of the sphere's radius and depth"
+    )
+    return {"stiffness_units": stiffness, "stress_units": stress, "length_units": lengths}
 
 
 def _slip_units(spec: Spec) -> dict[str, str]:

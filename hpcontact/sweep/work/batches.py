@@ -46,7 +46,6 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
-from hpcontact import quantities as q
 from hpcontact.accuracy.defaults import error_columns, extrapolates_by_default, solve_contact_fields
 from hpcontact.errors import InputError
 from hpcontact.numerics.backend import resolved_device
@@ -200,10 +199,7 @@ def solve_contact_batch(fields: Sequence[Mapping[str, Any]]) -> list[dict[str, A
     scenes = [Scene.from_params(f) for f in fields]
     if any(s.accuracy is not None or extrapolates_by_default(s) for s in scenes):
         raise ValueError("only scenes solved on one grid batch (no accuracy, not the extrapolated default)")
-    return [
-        error_columns(q.in_newtons_per_metre(record, scene.newtons_per_metre))
-        for scene, record in zip(scenes, solve_batch(scenes))
-    ]
+    return [error_columns(scene.in_si_units(record)) for scene, record in zip(scenes, solve_batch(scenes))]
 
 
 def run_batch(batch: Sequence[Task], rank: int, run_alone: Callable[[Task], Entry], stop: Any = None) -> list[Entry]:
