@@ -37,7 +37,7 @@ assumed``: rank 0's ``Overheads.setup_s`` a task of the six-axis job, the replay
 The estimates rank 0 shares out over the ranks while it decides (``hpcontact.sweep.maps.spread``)
 are recorded call by call (``LeafPool.map``: each leaf's box points and its part's CPU seconds,
 on whichever rank computed it) and replayed as the code runs them on R ranks
-(``replay.leaf_call_seconds``: the parts assigned by ``spread.assign``, the rank with the most,
+(``replay.leaf_call_seconds``: the parts assigned by ``replay.assign``, the rank with the most,
 plus the call's overhead: rank 0's CPU seconds sending the jobs and unpickling the parts, as
 measured on 2 ranks); the time between rounds replayed as rank 0's alone is what is left of it
 without those calls (rank 0's time in a call, CPU seconds too, includes its wait for rank 1:

@@ -38,19 +38,7 @@ from typing import Any
 
 from hpcontact.sweep.maps.refinement import LeafJob, LeafPart, leaf_estimate, spread_leaves
 from hpcontact.sweep.run.shares import SharedError
-
-
-def assign(points: Sequence[int], ranks: int) -> list[list[int]]:
-    """The jobs (positions in ``points``, each a leaf's box points) each of ``ranks`` ranks
-    computes (module docstring): the largest first (ties: the earlier) to the rank with the
-    fewest points so far (ties: the lower rank)."""
-    load = [0] * ranks
-    out: list[list[int]] = [[] for _ in range(ranks)]
-    for job in sorted(range(len(points)), key=lambda j: (-points[j], j)):
-        rank = min(range(ranks), key=lambda r: (load[r], r))
-        out[rank].append(job)
-        load[rank] += points[job]
-    return out
+from hpcontact.sweep.work.replay import assign
 
 
 def _computed(

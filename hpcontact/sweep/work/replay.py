@@ -36,7 +36,7 @@ refinement: ``between_s``, measured) while every other rank waits. Work between 
 the ranks would share (``spread_between_s``: its seconds on one rank, e.g. the refinement's
 per-leaf estimate split over the ranks) costs its seconds / R. The estimates rank 0 shares out
 over the ranks while it decides (``leaf_calls``, ``maps.spread``) cost each the seconds of the
-rank with the most (its leaves' parts, as ``spread.assign`` assigns them on R ranks: a leaf is
+rank with the most (its leaves' parts, as ``assign`` gives them to R ranks: a leaf is
 not split, so never less than the largest) plus the call's own overhead (jobs sent, parts
 gathered and merged). Makespan = setup + Σ rounds (their makespan + ``between_s`` + the shared
 estimates + ``spread_between_s`` / R); efficiency = Σ task seconds / (R × makespan).
@@ -194,11 +194,22 @@ class LeafCall:
     overhead_s: float
 
 
-def leaf_call_seconds(call: LeafCall, ranks: int) -> float:
-    """The seconds ``call`` takes on ``ranks`` ranks: the parts assigned as ``spread.assign``
-    does, the largest rank's sum, plus ``call.overhead_s``."""
-    from hpcontact.sweep.maps.spread import assign
+def assign(points: Sequence[int], ranks: int) -> list[list[int]]:
+    """The jobs (positions in ``points``, each a leaf's box points) each of ``ranks`` ranks
+    computes (``hpcontact.sweep.maps.spread``: each job a leaf's part of the map-error estimate): the largest first (ties: the earlier) to the rank with the
+    fewest points so far (ties: the lower rank)."""
+    load = [0] * ranks
+    out: list[list[int]] = [[] for _ in range(ranks)]
+    for job in sorted(range(len(points)), key=lambda j: (-points[j], j)):
+        rank = min(range(ranks), key=lambda r: (load[r], r))
+        out[rank].append(job)
+        load[rank] += points[job]
+    return out
 
+
+def leaf_call_seconds(call: LeafCall, ranks: int) -> float:
+    """The seconds ``call`` takes on ``ranks`` ranks: the parts assigned as ``spread`` assigns
+    them (``assign``), the largest rank's sum, plus ``call.overhead_s``."""
     shares = assign(list(call.points), ranks)
     return max((sum(call.seconds[j] for j in share) for share in shares), default=0.0) + call.overhead_s
 
@@ -223,7 +234,7 @@ def replay_rounds(
     rank busy, none waiting on them). Makespan, efficiency, and the shares of the makespan lost
     between rounds (rank 0 alone and the shared work) and to the rounds' own tails and claims.
     ``leaf_calls`` (None: none), per round, the estimates rank 0 shares out over the ranks after
-    it (``maps.spread``): each ``LeafCall``'s parts go to the ranks as ``spread.assign`` gives
+    it (``maps.spread``): each ``LeafCall``'s parts go to the ranks as ``assign`` gives
     them for ``ranks``, and the call takes the largest rank's seconds plus its ``overhead_s``
     (``leaf_call_seconds``), every other rank waiting."""
     if ranks < 1:
