@@ -105,9 +105,14 @@ def json_default(value: Any) -> Any:
     raise TypeError(f"{type(value).__name__} is not JSON serializable")
 
 
+#: One encoder for every journal line: ``json.dumps(value, default=json_default, sort_keys=True)``
+#: builds the same encoder afresh on each call (20-35 % of a call on 140k plan records).
+_ENCODER = json.JSONEncoder(default=json_default, sort_keys=True)
+
+
 def to_json(value: Mapping[str, Any]) -> str:
     """``value`` as JSON text (numpy scalars and arrays as numbers and lists)."""
-    return json.dumps(value, default=json_default, sort_keys=True)
+    return _ENCODER.encode(value)
 
 
 def encode_line(event: Mapping[str, Any]) -> bytes:
