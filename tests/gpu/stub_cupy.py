@@ -62,3 +62,22 @@ def use_standin_gpu(monkeypatch: pytest.MonkeyPatch) -> ModuleType:
         monkeypatch.setattr(array_api_strict, name, getattr(cupy, name), raising=False)
     use_stub_gpu(monkeypatch, array_api_strict)
     return array_api_strict
+
+
+def circle_sweep(title: str, device: str, nu: list[float]) -> str:
+    """The spec of the device tests' sweeps: the circle's tangential and normal stiffness on a
+    12 × 12 grid (CG to 1e-14, so records of the two devices agree to round-off) over ``nu``,
+    solved on ``device``."""
+    return f"""
+[sweep]
+title = "{title}"
+[scene]
+shape = "circle"
+quantities = ["tangential", "normal"]
+device = "{device}"
+[numerics]
+n = 12
+tol = 1e-14
+[axes]
+nu = {nu}
+"""

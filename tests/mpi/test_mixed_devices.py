@@ -19,23 +19,11 @@ from hpcontact.sweep.driver import run_sweep
 from hpcontact.sweep.run.schedule import SerialTeam, Team
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "gpu"))
-from stub_cupy import use_standin_gpu  # noqa: E402
+from stub_cupy import circle_sweep, use_standin_gpu  # noqa: E402
 
 pytestmark = pytest.mark.mpi
 
-SPEC = """
-[sweep]
-title = "mixed devices"
-[scene]
-shape = "circle"
-quantities = ["tangential", "normal"]
-device = "auto"
-[numerics]
-n = 12
-tol = 1e-14
-[axes]
-nu = [0.05, 0.15, 0.25, 0.35, 0.45]
-"""
+SPEC = circle_sweep("mixed devices", "auto", [0.05, 0.15, 0.25, 0.35, 0.45])
 
 
 def test_a_gpu_rank_and_a_cpu_rank_run_one_sweep_of_auto_scenes(team: Team, shared_dir: Path, monkeypatch):

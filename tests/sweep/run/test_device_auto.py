@@ -20,21 +20,9 @@ from hpcontact.numerics import backend
 from hpcontact.sweep.driver import run_sweep
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "gpu"))
-from stub_cupy import use_standin_gpu  # noqa: E402
+from stub_cupy import circle_sweep, use_standin_gpu  # noqa: E402
 
-SPEC = """
-[sweep]
-title = "auto"
-[scene]
-shape = "circle"
-quantities = ["tangential", "normal"]
-device = "auto"
-[numerics]
-n = 12
-tol = 1e-14
-[axes]
-nu = [0.1, 0.3, 0.45]
-"""
+SPEC = circle_sweep("auto", "auto", [0.1, 0.3, 0.45])
 
 
 def _no_gpu(monkeypatch: pytest.MonkeyPatch) -> None:

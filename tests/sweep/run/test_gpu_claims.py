@@ -17,21 +17,9 @@ from hpcontact.sweep.driver import run_sweep
 from hpcontact.sweep.work import batches
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "gpu"))
-from stub_cupy import use_standin_gpu  # noqa: E402
+from stub_cupy import circle_sweep, use_standin_gpu  # noqa: E402
 
-SPEC = """
-[sweep]
-title = "gpu claims"
-[scene]
-shape = "circle"
-quantities = ["tangential", "normal"]
-device = "{device}"
-[numerics]
-n = 12
-tol = 1e-14
-[axes]
-nu = [0.05, 0.1, 0.15, 0.2, 0.25, 0.3, 0.35, 0.4]
-"""
+NU = [0.05, 0.1, 0.15, 0.2, 0.25, 0.3, 0.35, 0.4]
 
 
 def test_a_gpu_rank_solves_a_sweep_of_one_task_chunks_as_one_batch(monkeypatch, tmp_path):
@@ -43,7 +31,7 @@ def test_a_gpu_rank_solves_a_sweep_of_one_task_chunks_as_one_batch(monkeypatch, 
         if device == "gpu":
             use_standin_gpu(monkeypatch)
         spec = tmp_path / f"{device}.toml"
-        spec.write_text(SPEC.format(device=device), encoding="utf-8")
+        spec.write_text(circle_sweep("gpu claims", device, NU), encoding="utf-8")
         outputs[device] = run_sweep(spec, stream=io.StringIO())
         assert sizes == ([] if device == "cpu" else [8])  # the CPU rank: one task at a time
     with xr.open_dataset(outputs["cpu"]) as a, xr.open_dataset(outputs["gpu"]) as b:
