@@ -103,6 +103,11 @@ VARIABLE_ATTRS: dict[str, Mapping[str, str]] = {
 }
 
 
+#: ``contact_area``'s long_name in a sweep without an indentation (``ContactUnits.sphere_area``
+#: False): the area of the bonded punch, in a2.
+PUNCH_AREA_NAME = "contact area of the bonded punch (its outline)"
+
+
 # Slip scenes (hpcontact.problems.slip.partial_slip.solve_slip): (long_name, unit) with F the force and L the length unit
 # (N and m for library materials); the end of the loading path unless said otherwise.
 SLIP_MODE_ATTRS: Mapping[str, tuple[str, str]] = {
@@ -268,6 +273,8 @@ def _contact_attribute_table(spec: Spec) -> dict[str, dict[str, Any]]:
     for name, attrs in VARIABLE_ATTRS.items():
         unit = attrs.get("units")
         table[name] = {**attrs, "units": units.unit(name, unit)} if unit else dict(attrs)
+    if not units.sphere_area:  # no indentation asked: the area is the bonded punch's, its outline
+        table["contact_area"]["long_name"] = PUNCH_AREA_NAME
     return {name: cf_attributes(attrs) for name, attrs in table.items()}
 
 

@@ -96,3 +96,22 @@ def test_dimensional_names_every_missing_scale():
 def test_a_variable_without_a_scale_is_returned_as_it_is():
     plain = xr.DataArray([1.0], dims=("x",), attrs={"units": "Pa"})
     assert dimensional(plain, G=2.0) is plain
+
+
+def _contact_area_attrs(scene: str) -> dict:
+    """The data set attributes of ``contact_area`` for a one-point contact spec of ``scene``."""
+    from hpcontact.sweep.data.attributes import attribute_table
+    from hpcontact.sweep.space.parse import parse_spec
+
+    spec = parse_spec(f'[sweep]\ntitle = "t"\noutput = "t.nc"\n[scene]\n{scene}\n[axes]\nnu = [0.2, 0.3]\n')
+    return attribute_table(spec)["contact_area"]
+
+
+def test_contact_area_is_named_for_what_it_is_the_punch_or_the_sphere():
+    """A bonded punch's contact area is its outline's, in units of a²; an indentation's is under
+    the sphere, in L²: the long_name says which (it said "under the sphere" for a punch)."""
+    punch = _contact_area_attrs('shape = "ellipse"\naspect = 0.5\nquantities = ["tangential"]')
+    sphere = _contact_area_attrs('quantities = ["indentation"]\nradius = 1.0\ndepth = 1e-4')
+    assert "punch" in punch["long_name"] and "sphere" not in punch["long_name"], punch
+    assert punch["scale"] == "a2" and "a2" in punch["long_name"], punch
+    assert "under the sphere" in sphere["long_name"] and "punch" not in sphere["long_name"], sphere
