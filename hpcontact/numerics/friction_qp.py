@@ -23,6 +23,13 @@ energy test); the descent test and the MPRGP fallback make the iteration globall
 for this convex programme. ``‖A‖`` is bounded by the largest eigenvalue of the 2 × 2 kernel
 symbol over the padded FFT grid (the grid operator is a principal block of that circulant).
 
+Device: the solvers run on the arrays they are given, of any array-API namespace (numpy on the
+CPU, CuPy on a GPU: ``hpcontact.numerics.backend``), and call only the standard's functions and
+``backend.dot``/``backend.norm`` (numpy's ``vdot`` and ``norm`` on the CPU, so its results are
+bitwise what they were): no copy to or from the host inside an iteration but the scalars the
+iteration decides by (inner products, norms, the feasible step, whether a set is empty), read by
+``float``/``bool``. Units: those of ``apply`` and ``b`` (tractions and displacements, any unit).
+
 References
 ----------
 - M. Hintermüller, K. Ito and K. Kunisch, SIAM J. Optim. 13 (2002) 865–888.
@@ -41,48 +48,51 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-import numpy as np
-
 from hpcontact.errors import ConvergenceError
+from hpcontact.numerics.backend import Array, copy, dot, namespace, norm
 
-Operator = Callable[[np.ndarray], np.ndarray]
+Operator = Callable[[Array], Array]
 
 
-def _project(t: np.ndarray, bound: np.ndarray) -> np.ndarray:
+def _project(t: Array, bound: Array) -> Array:
     """Nearest point of the product of discs |t_i| ≤ bound_i (radial shrink; 0 where bound = 0)."""
-    mag = np.hypot(t[0], t[1])
-    scale = np.where(mag > bound, bound / np.where(mag > 0.0, mag, 1.0), 1.0)
+    xp = namespace(t)
+    mag = xp.hypot(t[0, ...], t[1, ...])
+    scale = xp.where(mag > bound, bound / xp.where(mag > 0.0, mag, 1.0), 1.0)
     return t * scale
 
 
-def _feasible_step(t: np.ndarray, p: np.ndarray, bound: np.ndarray, free: np.ndarray) -> float:
-    """Largest α ≥ 0 with |t_i − α p_i| ≤ bound_i on the free cells (positive root of a quadratic)."""
-    pp = p[0] * p[0] + p[1] * p[1]
+def _feasible_step(t: Array, p: Array, bound: Array, free: Array) -> float:
+    """Largest α ≥ 0 with |t_i − α p_i| ≤ bound_i on the free cells (positive root of a quadratic;
+    the smallest over the cells that move, each cell's root computed on the whole grid and the
+    others set to ∞: no data-dependent shapes on a device)."""
+    xp = namespace(t)
+    pp = p[0, ...] * p[0, ...] + p[1, ...] * p[1, ...]
     moving = free & (pp > 0.0)
-    if not moving.any():
+    if not bool(xp.any(moving)):
         return math.inf
-    tp = (t[0] * p[0] + t[1] * p[1])[moving]
-    room = np.maximum(bound[moving] ** 2 - (t[0] ** 2 + t[1] ** 2)[moving], 0.0)
-    q = pp[moving]
-    alpha = (tp + np.sqrt(tp * tp + q * room)) / q
-    return float(alpha.min())
+    tp = t[0, ...] * p[0, ...] + t[1, ...] * p[1, ...]
+    room = xp.maximum(bound**2 - (t[0, ...] ** 2 + t[1, ...] ** 2), 0.0)
+    q = xp.where(moving, pp, 1.0)
+    alpha = (tp + xp.sqrt(tp * tp + q * room)) / q
+    return float(xp.min(xp.where(moving, alpha, math.inf)))
 
 
 @dataclass
 class QPResult:
     """Traction (2, nx, ny), iterations (operator applications), final relative projected gradient."""
 
-    traction: np.ndarray
+    traction: Array
     iterations: int
     residual: float
     steps: dict = field(default_factory=dict)
 
 
-def _disc_rhs(b: np.ndarray, bound: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+def _disc_rhs(b: Array, bound: Array) -> tuple[Array, Array, float]:
     """Cells with a friction disc (bound > 0), the right-hand side restricted to them, its norm."""
     mask = bound > 0.0
-    b = np.where(mask, b, 0.0)
-    b_norm = float(np.linalg.norm(b))
+    b = namespace(b).where(mask, b, 0.0)
+    b_norm = norm(b)
     if not math.isfinite(b_norm):
         raise ValueError("right-hand side of the slip problem is not finite")
     return mask, b, b_norm
@@ -90,9 +100,9 @@ def _disc_rhs(b: np.ndarray, bound: np.ndarray) -> tuple[np.ndarray, np.ndarray,
 
 def mprgp_disc(
     apply: Operator,
-    b: np.ndarray,
-    bound: np.ndarray,
-    t0: np.ndarray | None,
+    b: Array,
+    bound: Array,
+    t0: Array | None,
     tol: float,
     norm_A: float,
     maxiter: int | None = None,
@@ -126,57 +136,58 @@ def mprgp_disc(
     so they creep (~5–10× the operator applications of ``disc_qp``: docs/performance.md
     §"Friction discs").
     """
+    xp = namespace(b)
     mask, b, b_norm = _disc_rhs(b, bound)
-    zero = np.zeros_like(b)
-    if b_norm == 0.0 or not mask.any():
+    zero = xp.zeros_like(b)
+    if b_norm == 0.0 or not bool(xp.any(mask)):
         return QPResult(zero, 0, 0.0)
-    maxiter = maxiter if maxiter is not None else max(2000, 40 * int(math.sqrt(mask.sum())))
+    maxiter = maxiter if maxiter is not None else max(2000, 40 * int(math.sqrt(int(xp.count_nonzero(mask)))))
     abar = 1.0 / norm_A
-    t = _project(np.where(mask, t0, 0.0) if t0 is not None else zero.copy(), bound)
+    t = _project(xp.where(mask, t0, 0.0) if t0 is not None else copy(zero), bound)
     applications = 0
 
-    def gradient(x: np.ndarray) -> np.ndarray:
+    def gradient(x: Array) -> Array:
         nonlocal applications
         applications += 1
-        return np.where(mask, apply(x) - b, 0.0)
+        return xp.where(mask, apply(x) - b, 0.0)
 
-    def parts(x: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        mag = np.hypot(x[0], x[1])
+    def parts(x: Array, g: Array) -> tuple[Array, Array, Array]:
+        mag = xp.hypot(x[0, ...], x[1, ...])
         active = mask & (mag >= bound * (1.0 - 1e-12))
         free = mask & ~active
-        phi = np.where(free, g, 0.0)
-        n = np.where(active, x / np.where(mag > 0.0, mag, 1.0), 0.0)
-        gn = g[0] * n[0] + g[1] * n[1]
-        beta = np.where(active, g - np.minimum(gn, 0.0) * n, 0.0)
+        phi = xp.where(free, g, 0.0)
+        n = xp.where(active, x / xp.where(mag > 0.0, mag, 1.0), 0.0)
+        gn = g[0, ...] * n[0, ...] + g[1, ...] * n[1, ...]
+        beta = xp.where(active, g - xp.minimum(gn, 0.0) * n, 0.0)
         return phi, beta, free
 
-    def energy(x: np.ndarray, g: np.ndarray) -> float:
-        return 0.5 * float(np.vdot(x, g)) - 0.5 * float(np.vdot(b, x))
+    def energy(x: Array, g: Array) -> float:
+        return 0.5 * dot(x, g) - 0.5 * dot(b, x)
 
-    def direction(phi: np.ndarray, free: np.ndarray) -> np.ndarray:
+    def direction(phi: Array, free: Array) -> Array:
         if precondition is None:
             return phi
-        return np.where(free, precondition(phi), 0.0)
+        return xp.where(free, precondition(phi), 0.0)
 
     g = gradient(t)
     phi, beta, free = parts(t, g)
     z = direction(phi, free)
-    p = z.copy()
+    p = copy(z)
     counts = {"cg": 0, "expansion": 0, "proportioning": 0, "fallback": 0}
     residual = math.inf
     for _ in range(maxiter):
-        residual = float(np.linalg.norm(phi + beta)) / b_norm
+        residual = norm(phi + beta) / b_norm
         if not math.isfinite(residual):
             raise ConvergenceError("non-finite residual in the partial-slip solver", applications, residual)
         if residual <= tol:
             return QPResult(t, applications, residual, counts)
-        if float(np.vdot(beta, beta)) <= gamma * gamma * float(np.vdot(phi, phi)):
-            Ap = np.where(mask, apply(p), 0.0)
+        if dot(beta, beta) <= gamma * gamma * dot(phi, phi):
+            Ap = xp.where(mask, apply(p), 0.0)
             applications += 1
-            pAp = float(np.vdot(p, Ap))
+            pAp = dot(p, Ap)
             if not pAp > 0.0:
                 raise ConvergenceError("operator is not positive definite on the stick cells", applications, residual)
-            a_cg = float(np.vdot(z, phi)) / pAp
+            a_cg = dot(z, phi) / pAp
             a_f = _feasible_step(t, p, bound, free)
             if a_cg <= a_f:
                 counts["cg"] += 1
@@ -185,10 +196,10 @@ def mprgp_disc(
                 free_before = free
                 phi, beta, free = parts(t, g)
                 z = direction(phi, free)
-                if np.array_equal(free, free_before):
-                    p = z - (float(np.vdot(z, Ap)) / pAp) * p
+                if bool(xp.all(free == free_before)):
+                    p = z - (dot(z, Ap) / pAp) * p
                 else:
-                    p = z.copy()
+                    p = copy(z)
             else:
                 counts["expansion"] += 1
                 t = t - a_f * p
@@ -198,13 +209,13 @@ def mprgp_disc(
                 g = gradient(t)
                 phi, beta, free = parts(t, g)
                 z = direction(phi, free)
-                p = z.copy()
+                p = copy(z)
         else:
             counts["proportioning"] += 1
-            Ab = np.where(mask, apply(beta), 0.0)
+            Ab = xp.where(mask, apply(beta), 0.0)
             applications += 1
             f_old = energy(t, g)
-            a = float(np.vdot(g, beta)) / float(np.vdot(beta, Ab))
+            a = dot(g, beta) / dot(beta, Ab)
             trial = _project(t - a * beta, bound)
             g_trial = gradient(trial)
             if not energy(trial, g_trial) < f_old:
@@ -214,28 +225,29 @@ def mprgp_disc(
             t, g = trial, g_trial
             phi, beta, free = parts(t, g)
             z = direction(phi, free)
-            p = z.copy()
+            p = copy(z)
     if not strict:
         return QPResult(t, applications, residual, counts)
     raise ConvergenceError(f"partial-slip solver did not reach tol={tol:g}", applications, residual)
 
 
-def kkt_residual(t: np.ndarray, g: np.ndarray, bound: np.ndarray) -> float:
+def kkt_residual(t: Array, g: Array, bound: Array) -> float:
     """‖φ + β‖ of ``mprgp_disc`` at the feasible t with gradient g: zero exactly at the solution."""
+    xp = namespace(t)
     mask = bound > 0.0
-    mag = np.hypot(t[0], t[1])
+    mag = xp.hypot(t[0, ...], t[1, ...])
     active = mask & (mag >= bound * (1.0 - 1e-12))
-    n = np.where(active, t / np.where(mag > 0.0, mag, 1.0), 0.0)
-    gn = g[0] * n[0] + g[1] * n[1]
-    projected = np.where(active, g - np.minimum(gn, 0.0) * n, np.where(mask, g, 0.0))
-    return float(np.linalg.norm(projected))
+    n = xp.where(active, t / xp.where(mag > 0.0, mag, 1.0), 0.0)
+    gn = g[0, ...] * n[0, ...] + g[1, ...] * n[1, ...]
+    projected = xp.where(active, g - xp.minimum(gn, 0.0) * n, xp.where(mask, g, 0.0))
+    return norm(projected)
 
 
 def disc_qp(
     apply: Operator,
-    b: np.ndarray,
-    bound: np.ndarray,
-    t0: np.ndarray | None,
+    b: Array,
+    bound: Array,
+    t0: Array | None,
     tol: float,
     c: float,
     norm_A: float,
@@ -266,21 +278,22 @@ def disc_qp(
     when the projected gradient ‖φ + β‖ ≤ tol ‖b‖ at a feasible iterate (``kkt_residual``).
     Returns the traction, the operator applications and the final relative residual.
     """
+    xp = namespace(b)
     mask, b, b_norm = _disc_rhs(b, bound)
-    zero = np.zeros_like(b)
-    if b_norm == 0.0 or not mask.any():
+    zero = xp.zeros_like(b)
+    if b_norm == 0.0 or not bool(xp.any(mask)):
         return QPResult(zero, 0, 0.0)
     applications = 0
 
-    def A(x: np.ndarray) -> np.ndarray:
+    def A(x: Array) -> Array:
         nonlocal applications
         applications += 1
-        return np.where(mask, apply(x), 0.0)
+        return xp.where(mask, apply(x), 0.0)
 
-    def energy(x: np.ndarray, g: np.ndarray) -> float:
-        return 0.5 * float(np.vdot(x, g - b))
+    def energy(x: Array, g: Array) -> float:
+        return 0.5 * dot(x, g - b)
 
-    t = _project(np.where(mask, t0, 0.0) if t0 is not None else zero.copy(), bound)
+    t = _project(xp.where(mask, t0, 0.0) if t0 is not None else copy(zero), bound)
     r = A(t) - b
     f = energy(t, r)
     counts = {"newton": 0, "cg": 0, "halvings": 0, "fallback": 0}
@@ -292,47 +305,47 @@ def disc_qp(
             return QPResult(t, applications, residual, counts)
         counts["newton"] += 1
         y = t - c * r
-        ymag = np.hypot(y[0], y[1])
+        ymag = xp.hypot(y[0, ...], y[1, ...])
         slip = mask & (ymag > bound)
         stick = mask & ~slip
-        safe = np.where(slip, ymag, 1.0)
-        yh = np.where(slip, y / safe, 0.0)
-        tau = np.stack([-yh[1], yh[0]])
-        rho = np.where(slip, bound / safe, 1.0)
-        w = np.where(slip, (1.0 - rho) / (rho * c), 0.0)
-        t_n = t[0] * yh[0] + t[1] * yh[1]
-        t_t = t[0] * tau[0] + t[1] * tau[1]
-        known = np.where(slip, (bound - t_n) * yh, 0.0)  # normal components go to the limit
+        safe = xp.where(slip, ymag, 1.0)
+        yh = xp.where(slip, y / safe, 0.0)
+        tau = xp.stack([-yh[1, ...], yh[0, ...]])
+        rho = xp.where(slip, bound / safe, 1.0)
+        w = xp.where(slip, (1.0 - rho) / (rho * c), 0.0)
+        t_n = t[0, ...] * yh[0, ...] + t[1, ...] * yh[1, ...]
+        t_t = t[0, ...] * tau[0, ...] + t[1, ...] * tau[1, ...]
+        known = xp.where(slip, (bound - t_n) * yh, 0.0)  # normal components go to the limit
 
-        def restrict(v: np.ndarray) -> np.ndarray:
-            along = v[0] * tau[0] + v[1] * tau[1]
-            return np.where(stick, v, np.where(slip, along * tau, 0.0))
+        def restrict(v: Array) -> Array:
+            along = v[0, ...] * tau[0, ...] + v[1, ...] * tau[1, ...]
+            return xp.where(stick, v, xp.where(slip, along * tau, 0.0))
 
-        def system(v: np.ndarray) -> np.ndarray:
+        def system(v: Array) -> Array:
             return restrict(A(v)) + w * v
 
         jacobi = 1.0 / (1.0 / c + w)
 
-        def precond(v: np.ndarray) -> np.ndarray:
+        def precond(v: Array) -> Array:
             if precondition is None:
-                return np.where(stick, v, 0.0) + np.where(slip, jacobi * v, 0.0)
-            return np.where(stick, precondition(np.where(stick, v, 0.0)), 0.0) + np.where(slip, jacobi * v, 0.0)
+                return xp.where(stick, v, 0.0) + xp.where(slip, jacobi * v, 0.0)
+            return xp.where(stick, precondition(xp.where(stick, v, 0.0)), 0.0) + xp.where(slip, jacobi * v, 0.0)
 
-        rhs = np.where(stick, -r, 0.0) + np.where(slip, (-t_t / (rho * c)) * tau, 0.0)
-        if slip.any():
+        rhs = xp.where(stick, -r, 0.0) + xp.where(slip, (-t_t / (rho * c)) * tau, 0.0)
+        if bool(xp.any(slip)):
             rhs = rhs - restrict(A(known))
-        x = zero.copy()
-        res_cg = rhs.copy()
-        rhs_norm = float(np.linalg.norm(rhs))
+        x = copy(zero)
+        res_cg = copy(rhs)
+        rhs_norm = norm(rhs)
         forcing = max(min(0.1, residual), 0.01 * tol)
         z = precond(res_cg)
-        p = z.copy()
-        rz = float(np.vdot(res_cg, z))
+        p = copy(z)
+        rz = dot(res_cg, z)
         for _ in range(2000):
-            if float(np.linalg.norm(res_cg)) <= forcing * rhs_norm:
+            if norm(res_cg) <= forcing * rhs_norm:
                 break
             Mp = system(p)
-            curvature = float(np.vdot(p, Mp))
+            curvature = dot(p, Mp)
             if not curvature > 0.0:
                 break
             alpha = rz / curvature
@@ -340,7 +353,7 @@ def disc_qp(
             res_cg -= alpha * Mp
             counts["cg"] += 1
             z = precond(res_cg)
-            rz_new = float(np.vdot(res_cg, z))
+            rz_new = dot(res_cg, z)
             p = z + (rz_new / rz) * p
             rz = rz_new
         step = x + known
