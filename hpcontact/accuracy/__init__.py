@@ -22,7 +22,9 @@ The package, by role (each module's docstring states its part):
   sequence, first grid, calibrated range, memory model, model error), and the choice of ``auto``;
 * ``memory``: the peak bytes of one solve per kind of cells; ``grid_plan``: the grids a request
   may use within the cell limit, the calibrated range and the memory budget;
-* ``refinement``: the loop (``refine``, ``solve_to_accuracy``, ``exact_solve``, ``AccuracyNotMet``);
+* ``refinement``: the loop (``refine`` over the steps of ``RefinementState``, ``solve_to_accuracy``,
+  ``exact_solve``, ``AccuracyNotMet``) and the grid sequences of a batch of scenes refined level by
+  level together (``solve_to_accuracy_batch``);
 * ``defaults``: the default discretization of a scene without ``n`` and each scene kind's solver.
 
 This module is the package's face: the names below, and any other public name of those modules
@@ -43,9 +45,11 @@ from hpcontact.accuracy.defaults import (
     DEFAULT_GRIDS,
     DEFAULT_N0,
     SOLVERS,
+    accuracy_request,
     default_grids,
     default_scene_solve,
     default_solve,
+    default_solve_batch,
     error_columns,
     extrapolates_by_default,
     task_function,
@@ -65,7 +69,18 @@ from hpcontact.accuracy.extrapolation import (
     spread,
 )
 from hpcontact.accuracy.grid_plan import GridPlan, plan_grids
-from hpcontact.accuracy.refinement import AccuracyNotMet, Refinement, exact_solve, refine, solve_to_accuracy
+from hpcontact.accuracy.refinement import (
+    AccuracyNotMet,
+    AccuracyRun,
+    Refinement,
+    RefinementState,
+    exact_solve,
+    plan_accuracy,
+    refine,
+    solve_levels_one_by_one,
+    solve_to_accuracy,
+    solve_to_accuracy_batch,
+)
 from hpcontact.accuracy.strategies import (
     COVERAGE_MAX_N,
     MAX_CELLS,
@@ -107,7 +122,14 @@ __all__ = [
     "coverage_n0",
     "model_error",
     "solve_to_accuracy",
+    "solve_to_accuracy_batch",
+    "solve_levels_one_by_one",
+    "plan_accuracy",
+    "AccuracyRun",
+    "RefinementState",
     "default_solve",
+    "default_solve_batch",
+    "accuracy_request",
     "default_scene_solve",
     "default_grids",
     "extrapolates_by_default",

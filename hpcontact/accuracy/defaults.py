@@ -3,11 +3,16 @@ solver of each scene kind (:func:`task_function`)."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from hpcontact import quantities as q
-from hpcontact.accuracy.refinement import solve_to_accuracy
+from hpcontact.accuracy.refinement import (
+    LevelSolver,
+    solve_levels_one_by_one,
+    solve_to_accuracy,
+    solve_to_accuracy_batch,
+)
 from hpcontact.accuracy.strategies import grid_sequence
 from hpcontact.discretizations.boundary_cells import SUPPORTED
 from hpcontact.materials.isotropic import Isotropic
@@ -67,11 +72,28 @@ def default_solve(scene: Scene) -> dict[str, Any]:
 
     A sweep's contact tasks run this too (:func:`task_function`): a spec
     without ``n`` gets the extrapolated default and its data set ``estimated_error``."""
+    request = accuracy_request(scene)
+    return solve(scene) if request is None else solve_to_accuracy(scene, **request)
+
+
+def accuracy_request(scene: Scene) -> dict[str, Any] | None:
+    """The keyword arguments of :func:`solve_to_accuracy` that :func:`default_solve` solves ``scene``
+    with (``accuracy`` among them), or None where it solves one grid (``problems.contact.solve``)."""
     if scene.accuracy is not None:
-        return solve_to_accuracy(scene, scene.accuracy, strategy="auto", strict=False)
+        return {"accuracy": scene.accuracy, "strategy": "auto", "strict": False}
     if not extrapolates_by_default(scene):
-        return solve(scene)
-    return solve_to_accuracy(scene, DEFAULT_ACCURACY, n0=DEFAULT_N0, max_grids=DEFAULT_GRIDS, strict=False)
+        return None
+    return {"accuracy": DEFAULT_ACCURACY, "n0": DEFAULT_N0, "max_grids": DEFAULT_GRIDS, "strict": False}
+
+
+def default_solve_batch(scenes: Sequence[Scene], solve_levels: LevelSolver = solve_levels_one_by_one) -> list[Any]:
+    """:func:`default_solve` of each of ``scenes``, every one a grid sequence (:func:`accuracy_request`
+    not None), their levels refined together (:func:`solve_to_accuracy_batch`, levels solved by
+    ``solve_levels``): in order, each scene's record or the ``Exception`` it raised."""
+    requests = [accuracy_request(scene) for scene in scenes]
+    if any(request is None for request in requests):
+        raise ValueError("only scenes solved over a grid sequence batch here (an accuracy or the extrapolated default)")
+    return solve_to_accuracy_batch(scenes, requests, solve_levels)
 
 
 def default_scene_solve(scene: Scene) -> dict[str, Any]:

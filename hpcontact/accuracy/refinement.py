@@ -122,6 +122,73 @@ class Refinement:
     stopped_by: str | None
 
 
+class RefinementState:
+    """The refinement loop of :func:`refine` as a step function: the state of one scene's
+    refinement after each grid level (its per-grid records, the estimates so far, what stopped it),
+    so that a batch can solve level k of all its still-running scenes together
+    (:func:`solve_to_accuracy_batch`) while each scene stops by its own estimate.
+
+    ``grids``, ``accuracy``, ``expansions``, ``safety`` and ``model_error`` as :func:`refine`;
+    :meth:`next_grid` is the grid to solve next (None once stopped), :meth:`add` takes its record
+    and decides whether to stop, :meth:`result` is the :class:`Refinement`. The arithmetic and the
+    decisions are :func:`refine`'s, in the same order, so a scene refined here step by step gets
+    bitwise the record it gets from :func:`refine`."""
+
+    def __init__(
+        self,
+        grids: Sequence[tuple[int, int]],
+        accuracy: float,
+        expansions: Sequence[tuple[float, ...]] | None = None,
+        safety: float | None = None,
+        model_error: float = 0.0,
+    ) -> None:
+        self.grids, self.accuracy, self.expansions = list(grids), accuracy, expansions
+        self.safety, self.model_error = safety, model_error
+        self.levels: list[dict[str, Any]] = []
+        self.history: list[float] = []
+        self.found: tuple[dict[str, float], dict[str, float], dict[str, float], dict[str, list[float]]] = (
+            {},
+            {},
+            {},
+            {},
+        )
+        self.stopped_by: str | None = None
+        self.stopped = not self.grids
+
+    def next_grid(self) -> tuple[int, int] | None:
+        """The grid (n, n_across) of the next level, or None when the refinement has stopped."""
+        return None if self.stopped else self.grids[len(self.levels)]
+
+    def add(self, level: dict[str, Any]) -> None:
+        """Take the record of the level on :meth:`next_grid`; from the ``MIN_GRIDS``-th on,
+        extrapolate and stop when the estimate is met (``met``) or stagnates (``stagnation``), or
+        when the grids run out. The level is reported to the ``LevelReport`` of
+        :func:`reporting_levels`, if any."""
+        report = _LEVEL_REPORT.get()
+        n, na = self.grids[len(self.levels)]
+        self.levels.append(level)
+        self.stopped = len(self.levels) == len(self.grids)
+        if len(self.levels) < MIN_GRIDS:
+            if report is not None:
+                report(len(self.levels), len(self.grids), (n, na), None, self.accuracy)
+            return
+        found = extrapolate(self.levels, self.expansions, self.safety)
+        if self.model_error:
+            found = (found[0], {k: v + self.model_error for k, v in found[1].items()}, found[2], found[3])
+        self.found = found
+        self.history.append(max(found[1].values()))
+        if report is not None:
+            report(len(self.levels), len(self.grids), (n, na), self.history[-1], self.accuracy)
+        if self.history[-1] <= self.accuracy:
+            self.stopped, self.stopped_by = True, "met"
+        elif stagnates(self.history):
+            self.stopped, self.stopped_by = True, "stagnation"
+
+    def result(self) -> Refinement:
+        """What the refinement found so far (:class:`Refinement`)."""
+        return Refinement(self.levels, *self.found, stopped_by=self.stopped_by)
+
+
 def refine(
     grids: Sequence[tuple[int, int]],
     solve_level: Any,
@@ -136,28 +203,12 @@ def refine(
     ``solve_to_accuracy`` and of the replays of ``benchmarks/accuracy_sharpness.py``;
     ``expansions`` and ``safety`` as :func:`estimate`; ``model_error``, a relative bound on what
     the discretization itself leaves whatever the grid (strip cells' profile), is added to every
-    estimate. Each level is reported to the ``LevelReport`` of :func:`reporting_levels`, if any."""
-    report = _LEVEL_REPORT.get()
-    levels: list[dict[str, Any]] = []
-    history: list[float] = []
-    found: tuple[dict[str, float], dict[str, float], dict[str, float], dict[str, list[float]]] = ({}, {}, {}, {})
-    for n, na in grids:
-        levels.append(solve_level(n, na))
-        if len(levels) < MIN_GRIDS:
-            if report is not None:
-                report(len(levels), len(grids), (n, na), None, accuracy)
-            continue
-        found = extrapolate(levels, expansions, safety)
-        if model_error:
-            found = (found[0], {k: v + model_error for k, v in found[1].items()}, found[2], found[3])
-        history.append(max(found[1].values()))
-        if report is not None:
-            report(len(levels), len(grids), (n, na), history[-1], accuracy)
-        if history[-1] <= accuracy:
-            return Refinement(levels, *found, stopped_by="met")
-        if stagnates(history):
-            return Refinement(levels, *found, stopped_by="stagnation")
-    return Refinement(levels, *found, stopped_by=None)
+    estimate. Each level is reported to the ``LevelReport`` of :func:`reporting_levels`, if any.
+    The steps are :class:`RefinementState`'s."""
+    state = RefinementState(grids, accuracy, expansions, safety, model_error)
+    while (grid := state.next_grid()) is not None:
+        state.add(solve_level(*grid))
+    return state.result()
 
 
 def solve_to_accuracy(
@@ -214,6 +265,135 @@ def solve_to_accuracy(
     (the sequence starts at the contact's long side in pixels); a rough patch cannot be refined
     and is refused (InputError), as are quantities other than tangential, normal, coupled.
     """
+    run = plan_accuracy(
+        scene,
+        accuracy,
+        n0=n0,
+        n_across0=n_across0,
+        max_cells=max_cells,
+        memory_budget=memory_budget,
+        max_grids=max_grids,
+        strategy=strategy,
+    )
+    if run.state is None:
+        return exact_solve(scene, accuracy, strict, run.started)
+    while (grid := run.state.next_grid()) is not None:
+        run.state.add(run.solve_level(*grid))
+    return run.record(strict)
+
+
+@dataclasses.dataclass
+class AccuracyRun:
+    """One scene's :func:`solve_to_accuracy` once planned (:func:`plan_accuracy`): the cells
+    (``strategy``), the CG tolerance of its levels (``tol``), the grid plan and the sequence it
+    refines over, its cells' model bound (``model``) and its :class:`RefinementState` (None for the
+    one exact cell, ``strategy`` "galin": no grids). ``started``: ``time.perf_counter()`` when the
+    request began (the record's ``wall_time_s`` counts from it)."""
+
+    scene: Scene
+    accuracy: float
+    strategy: str
+    started: float
+    tol: float
+    plan: GridPlan | None = None
+    max_grids: int | None = None
+    model: float = 0.0
+    state: RefinementState | None = None
+
+    def level_scene(self, n: int, n_across: int) -> Scene:
+        """The scene on the level grid n × n_across, at the levels' CG tolerance."""
+        return self.scene.on_grid(n, n_across, self.tol)
+
+    def solve_level(self, n: int, n_across: int) -> dict[str, Any]:
+        """The record of the level n × n_across (``covered_solve`` on this run's cells); the kernel
+        cache is cleared after it (this grid's kernels serve no other grid: the budget counts one
+        grid's)."""
+        level = covered_solve(self.level_scene(n, n_across), self.strategy)
+        clear_cache()
+        return level
+
+    def record(self, strict: bool = True) -> dict[str, Any]:
+        """The extrapolated record of the refinement so far (:func:`solve_to_accuracy`'s keys);
+        with ``strict`` a request not met raises :class:`AccuracyNotMet`."""
+        if self.state is None or self.plan is None:
+            raise ValueError("the one exact cell's record is exact_solve's")
+        scene, plan, model, accuracy = self.scene, self.plan, self.model, self.accuracy
+        chosen = cells(self.strategy)
+        sequence = self.state.grids
+        done = self.state.result()
+        levels, values, relative, orders, expansions = (
+            done.levels,
+            done.values,
+            done.relative,
+            done.orders,
+            done.expansions,
+        )
+        stopped_by = done.stopped_by or (
+            "model"
+            if model >= accuracy
+            else "grids"
+            if self.max_grids is not None and self.max_grids < len(plan.grids)
+            else plan.limit
+        )
+        finest = levels[-1]
+        record: dict[str, Any] = {k: finest[k] for k in (*FINEST_GRID_KEYS, *fields.recorded_names()) if k in finest}
+        record.update(values)
+        worst = max(relative.values())
+        record.update(q.derived_quantities(values, scene.material, noise=worst))
+        record["estimated_error"] = worst
+        record["estimated_errors"] = dict(relative)
+        record["convergence_order"] = {k: (v if math.isfinite(v) else None) for k, v in orders.items()}  # JSON-safe
+        record["expansion"] = expansions
+        record["accuracy"] = float(accuracy)
+        record["accuracy_met"] = bool(worst <= accuracy)
+        record["stopped_by"] = stopped_by
+        record["boundary"] = self.strategy
+        record["grids"] = [n for n, _ in sequence[: len(levels)]]
+        record["grids_across"] = [na for _, na in sequence[: len(levels)]]
+        record["memory_budget_bytes"] = plan.budget
+        record["memory_budget_source"] = plan.budget_source
+        record["estimated_peak_bytes"] = plan.base_bytes + chosen.grid_bytes(scene, *sequence[len(levels) - 1])
+        record["model_error"] = model
+        record["levels"] = [
+            {k: r[k] for k in (*TENSOR_KEYS, "K_a_over_K_b", "wall_time_s", "iterations", "contact_area") if k in r}
+            for r in levels
+        ]
+        record["iterations"] = int(sum(r["iterations"] for r in levels))
+        record["residual"] = max(r["residual"] for r in levels)
+        record["plan"] = {
+            **finest["plan"],
+            "extrapolation": "generalized Richardson over grids ratio 2, expansion of least spread",
+        }
+        record["wall_time_s"] = time.perf_counter() - self.started
+        if strict and not record["accuracy_met"]:
+            raise AccuracyNotMet(record, plan)
+        return record
+
+    def peak_bytes(self) -> float:
+        """The arrays' bytes of the largest grid this run may solve (``Strategy.grid_bytes`` of
+        the last grid of its sequence; 0 for the one exact cell, which solves no grid)."""
+        if self.state is None or not self.state.grids:
+            return 0.0
+        return cells(self.strategy).grid_bytes(self.scene, *self.state.grids[-1])
+
+
+def plan_accuracy(
+    scene: Scene,
+    accuracy: float,
+    *,
+    n0: int | None = None,
+    n_across0: int | None = None,
+    max_cells: int = MAX_CELLS,
+    memory_budget: float | None = None,
+    max_grids: int | None = None,
+    strategy: str = "coverage",
+) -> AccuracyRun:
+    """The request of :func:`solve_to_accuracy` (same arguments) checked and planned, nothing
+    solved: the cells of ``strategy`` (``auto`` resolved by :func:`first_grid`), the levels' CG
+    tolerance min(``scene.tol``, accuracy/100) (at least 1e-14), the grids within the limits
+    (:func:`plan_grids`; the first ``MIN_GRIDS`` alone where the cells' model bound is not below the
+    request) and a fresh :class:`RefinementState` over them. Bad input, or fewer than ``MIN_GRIDS``
+    grids within the limits, raises ``InputError``."""
     started = time.perf_counter()
     if not (isinstance(accuracy, (int, float)) and math.isfinite(accuracy) and 1e-9 <= accuracy < 1.0):
         raise InputError("accuracy", "a relative error in [1e-9, 1)", accuracy)
@@ -222,7 +402,7 @@ def solve_to_accuracy(
     tol = max(min(scene.tol, accuracy * 1e-2), 1e-14)
     strategy, n0, n_across0 = first_grid(scene, strategy, n0, n_across0, accuracy)
     if strategy == EXACT:
-        return exact_solve(scene, accuracy, strict, started)
+        return AccuracyRun(scene, accuracy, strategy, started, tol)
     chosen = cells(strategy)
     plan = plan_grids(scene, n0, n_across0, max_cells, memory_budget, strategy)
     sequence = plan.grids[:max_grids] if max_grids is not None else plan.grids
@@ -238,64 +418,80 @@ def solve_to_accuracy(
             f"{limit} ({MIN_GRIDS} grids are the fewest an estimate needs)",
             plan.budget if plan.limit == "memory budget" else sequence[:1],
         )
-
-    def solve_level(n: int, na: int) -> dict[str, Any]:
-        level = covered_solve(scene.on_grid(n, na, tol), strategy)
-        clear_cache()  # this grid's kernels serve no other grid: the budget counts one grid's
-        return level
-
     model = chosen.model_error(scene)
     if model >= accuracy:  # no grid can bring the estimate below the cells' own bound
         sequence = sequence[:MIN_GRIDS]
-    done = refine(
-        sequence,
-        solve_level,
-        accuracy,
-        chosen.expansions,
-        chosen.safety,
-        model_error=model,
-    )
-    levels, values, relative, orders, expansions = done.levels, done.values, done.relative, done.orders, done.expansions
-    stopped_by = done.stopped_by or (
-        "model"
-        if model >= accuracy
-        else "grids"
-        if max_grids is not None and max_grids < len(plan.grids)
-        else plan.limit
-    )
-    finest = levels[-1]
-    record: dict[str, Any] = {k: finest[k] for k in (*FINEST_GRID_KEYS, *fields.recorded_names()) if k in finest}
-    record.update(values)
-    worst = max(relative.values())
-    record.update(q.derived_quantities(values, scene.material, noise=worst))
-    record["estimated_error"] = worst
-    record["estimated_errors"] = dict(relative)
-    record["convergence_order"] = {k: (v if math.isfinite(v) else None) for k, v in orders.items()}  # JSON-safe
-    record["expansion"] = expansions
-    record["accuracy"] = float(accuracy)
-    record["accuracy_met"] = bool(worst <= accuracy)
-    record["stopped_by"] = stopped_by
-    record["boundary"] = strategy
-    record["grids"] = [n for n, _ in sequence[: len(levels)]]
-    record["grids_across"] = [na for _, na in sequence[: len(levels)]]
-    record["memory_budget_bytes"] = plan.budget
-    record["memory_budget_source"] = plan.budget_source
-    record["estimated_peak_bytes"] = plan.base_bytes + chosen.grid_bytes(scene, *sequence[len(levels) - 1])
-    record["model_error"] = model
-    record["levels"] = [
-        {k: r[k] for k in (*TENSOR_KEYS, "K_a_over_K_b", "wall_time_s", "iterations", "contact_area") if k in r}
-        for r in levels
-    ]
-    record["iterations"] = int(sum(r["iterations"] for r in levels))
-    record["residual"] = max(r["residual"] for r in levels)
-    record["plan"] = {
-        **finest["plan"],
-        "extrapolation": "generalized Richardson over grids ratio 2, expansion of least spread",
-    }
-    record["wall_time_s"] = time.perf_counter() - started
-    if strict and not record["accuracy_met"]:
-        raise AccuracyNotMet(record, plan)
-    return record
+    state = RefinementState(sequence, accuracy, chosen.expansions, chosen.safety, model_error=model)
+    return AccuracyRun(scene, accuracy, strategy, started, tol, plan, max_grids, model, state)
+
+
+#: Solves one grid level of several runs at once: [(run, n, n_across)] → each one's level record
+#: (``AccuracyRun.solve_level``'s) or the ``Exception`` its solve raised, in order.
+LevelSolver = Callable[[Sequence[tuple["AccuracyRun", int, int]]], list[Any]]
+
+
+def solve_levels_one_by_one(levels: Sequence[tuple[AccuracyRun, int, int]]) -> list[Any]:
+    """The ``LevelSolver`` that solves each run's level alone (``AccuracyRun.solve_level``), an
+    ``Exception`` of one kept as its result: on the CPU, where a batch of scenes is slower per scene
+    (``sweep.work.batches``), and what a level gives each scene alone, bitwise."""
+    out: list[Any] = []
+    for run, n, n_across in levels:
+        try:
+            out.append(run.solve_level(n, n_across))
+        except Exception as error:  # noqa: BLE001 - this scene's result; the others go on
+            out.append(error)
+    return out
+
+
+def solve_to_accuracy_batch(
+    scenes: Sequence[Scene],
+    requests: Sequence[Mapping[str, Any]],
+    solve_levels: LevelSolver = solve_levels_one_by_one,
+) -> list[Any]:
+    """:func:`solve_to_accuracy` of each of ``scenes`` with the keyword arguments of its
+    ``requests`` (``accuracy`` among them), refined level by level together: each round solves the
+    next level of every scene still refining in one call of ``solve_levels`` (a ``LevelSolver``),
+    then each scene's :class:`RefinementState` decides by its own estimate whether it stops
+    (met, stagnation, grids, cells, memory budget), so scenes stop at different levels. The one
+    exact cell (strategy "galin") is solved per scene (``exact_solve``: a closed-form integral,
+    no grid to batch).
+
+    Returns, in order, each scene's record, or the ``Exception`` it raised (its input refused, a
+    level's solve failed, ``AccuracyNotMet`` with ``strict``); a failing scene stops and the others
+    go on. Each record is the one :func:`solve_to_accuracy` gives the scene alone where
+    ``solve_levels`` gives each level's record alone (``solve_levels_one_by_one``: bitwise, the
+    memory plan's and timing keys aside: ``memory_budget_bytes``/``estimated_peak_bytes`` count this
+    process's resident set when planned, and ``wall_time_s`` runs from the batch's start)."""
+    results: list[Any] = [None] * len(scenes)
+    runs: dict[int, tuple[AccuracyRun, bool]] = {}
+    for index, (scene, request) in enumerate(zip(scenes, requests)):
+        options = dict(request)
+        strict = bool(options.pop("strict", True))
+        accuracy = options.pop("accuracy")
+        try:
+            run = plan_accuracy(scene, accuracy, **options)
+            if run.state is None:
+                results[index] = exact_solve(scene, accuracy, strict, run.started)
+            else:
+                runs[index] = (run, strict)
+        except Exception as error:  # noqa: BLE001 - this scene's result; the others go on
+            results[index] = error
+    while refining := [(index, run) for index, (run, _) in runs.items() if run.state.next_grid() is not None]:
+        levels = solve_levels([(run, *run.state.next_grid()) for _, run in refining])
+        for (index, run), level in zip(refining, levels):
+            try:
+                if isinstance(level, Exception):
+                    raise level
+                run.state.add(level)
+            except Exception as error:  # noqa: BLE001 - this scene's result; the others go on
+                results[index] = error
+                del runs[index]
+    for index, (run, strict) in runs.items():
+        try:
+            results[index] = run.record(strict)
+        except Exception as error:  # noqa: BLE001 - this scene's result (AccuracyNotMet with strict)
+            results[index] = error
+    return results
 
 
 def exact_solve(scene: Scene, accuracy: float, strict: bool, started: float) -> dict[str, Any]:
