@@ -34,7 +34,7 @@ from hpcontact.accuracy import (
     solve_to_accuracy,
     task_function,
 )
-from hpcontact.errors import AccuracyWarning, InputError, did_you_mean
+from hpcontact.errors import AccuracyWarning, Front, InputError, did_you_mean, rendered
 from hpcontact.fields import CONTACT, cli_fields, names, python_annotation, python_doc, recorded
 from hpcontact.numerics.blas import limited_blas
 from hpcontact.numerics.memory import check_fits, default_memory_per_rank, memory_budget, parse_memory, resident_bytes
@@ -277,28 +277,6 @@ def open_dataset(path: str | Path, **options: Any) -> xr.Dataset:
     return open_sweep(path, **options)
 
 
-#: Command-line flags in the sweep's messages and the keywords of ``run_sweep`` that do the same.
-_FLAGS = {
-    "--resume": "resume=True",
-    "--restart": "restart=True",
-    "--accept-stale": "accept_stale=True",
-    "--retry-crashed": "retry_crashed=True",
-    "--break-lock": "break_lock=True",
-    "--mem-per-rank": "mem_per_rank",
-    "--accuracy": "accuracy",
-    "--output": "output=",
-}
-_FLAG = re.compile(
-    r"(?<![\w-])(" + "|".join(re.escape(f) for f in sorted(_FLAGS, key=len, reverse=True)) + r")(?![\w-])"
-)
-
-
-def python_message(text: str) -> str:
-    """A sweep message with its command-line flags as ``run_sweep`` keywords (``--resume`` →
-    ``resume=True``): what a Python caller passes."""
-    return _FLAG.sub(lambda m: _FLAGS[m.group(1)], text)
-
-
 def run_sweep(
     spec: str | os.PathLike[str] | Mapping[str, Any],
     *,
@@ -368,7 +346,6 @@ def run_sweep(
         The run stopped before writing the data set (journals intact: ``resume=True`` goes on).
     """
     arguments = dict(locals())  # the call as given, for the data set's history (after the checks)
-    from hpcontact.sweep.run.guard import Refused
     from hpcontact.sweep.run.records import Options, Stopped, runner_name
     from hpcontact.sweep.run.rounds import execute
     from hpcontact.sweep.run.schedule import SerialTeam
@@ -410,16 +387,12 @@ def run_sweep(
             accuracy=None if isinstance(spec, Mapping) else accuracy,
             command=_history_text(arguments),
         ).path
-    except Refused as exc:
-        raise Refused(python_message(str(exc))).with_traceback(exc.__traceback__) from None
-    except Stopped as exc:
-        raise Stopped(python_message(str(exc)), exc.status).with_traceback(exc.__traceback__) from None
-    except InputError as exc:
-        if not any(flag in f"{exc.field} {exc.allowed}" for flag in _FLAGS):
+    except InputError as exc:  # a refusal too: options in a Python caller's words ("resume=True", "mem_per_rank")
+        if not exc.names_option():
             raise
-        raise InputError(python_message(exc.field), python_message(exc.allowed), exc.value).with_traceback(
-            exc.__traceback__
-        ) from None
+        raise exc.for_front(Front.PYTHON).with_traceback(exc.__traceback__) from None
+    except Stopped as exc:
+        raise Stopped(rendered(exc.args[0], Front.PYTHON), exc.status).with_traceback(exc.__traceback__) from None
 
 
 #: The spec path a dict spec is recorded under (journals, the data set's ``spec_path``).

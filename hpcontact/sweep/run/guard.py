@@ -40,8 +40,9 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from hpcontact.errors import InputError
+from hpcontact.errors import Front, InputError, Message, rendered
 from hpcontact.sweep.data.journal import JOB_VARIABLES, batch_job, journal_files, read_file, sync_folder
+from hpcontact.sweep.run.options import BREAK_LOCK, OUTPUT
 from hpcontact.sweep.space.axes import LABEL_AXES, PATH_FIELDS
 from hpcontact.sweep.space.spec import default_output
 
@@ -64,14 +65,23 @@ JOURNAL_SLACK_S = 2.0  # journals this much older than an unreadable lock still 
 
 class Refused(InputError):
     """The run may not go on (lock held, journals without a flag, stale journals, an unusable
-    output): one line on stderr, exit status 2."""
+    output): one line on stderr, exit status 2. Its advice names options as a ``Message``
+    (``worded``: as a front end spells them; ``str()``: the command line's words)."""
 
-    def __init__(self, message: str) -> None:
+    def __init__(self, message: str | Message) -> None:
         super().__init__("output", message)
         self.args = (message,)
 
+    def worded(self, front: Front) -> str:
+        """The refusal as ``front`` words it."""
+        return rendered(self.args[0], front)
+
+    def for_front(self, front: Front) -> Refused:
+        """The same refusal in ``front``'s words, as plain text."""
+        return Refused(self.worded(front))
+
     def __str__(self) -> str:
-        return str(self.args[0])
+        return self.worded(Front.COMMAND_LINE)
 
 
 def usable_folder(folder: Path, what: str) -> None:
@@ -104,7 +114,11 @@ def usable_output(path: Path) -> None:
     if path.exists() and not path.is_file():
         what = "a folder" if path.is_dir() else "not a regular file"
         raise Refused(
-            f"the output {path} is {what}, not a file: name another output ([sweep].output or --output) or move it away"
+            Message(
+                f"the output {path} is {what}, not a file: name another output ([sweep].output or ",
+                OUTPUT,
+                ") or move it away",
+            )
         )
 
 
@@ -140,20 +154,22 @@ def _inputs(spec: Any) -> list[tuple[str, Path]]:
     return found
 
 
-def _named(spec: Any) -> tuple[str, str]:
-    """The output and the journal folder of ``spec`` as a refusal names them: path and origin
-    (the spec's text read again: made only for a refusal)."""
+def _named(spec: Any, quoted: bool = False) -> tuple[Message, str]:
+    """The output and the journal folder of ``spec`` as a refusal names them: path (``quoted``:
+    as Python shows a string, a NUL as ``\\x00``) and origin (the spec's text read again: made
+    only for a refusal)."""
     try:
         sweep = tomllib.loads(spec.text).get("sweep", {})
     except (tomllib.TOMLDecodeError, AttributeError):
         sweep = {}
     output, journal = Path(spec.output), Path(spec.journal)
+    shown_output, shown_journal = (repr(str(output)), repr(str(journal))) if quoted else (output, journal)
     if "output" not in sweep and output == default_output(spec.path):
-        output_name = f"the output {output} (the spec's name with .nc, beside it: set sweep.output or pass --output)"
+        how = "the spec's name with .nc, beside it: set sweep.output or pass "
     else:
-        output_name = f"the output {output} (sweep.output or --output)"
+        how = "sweep.output or "
     origin = "sweep.journal" if "journal" in sweep else "the output's name + .journal"
-    return output_name, f"the journal folder {journal} ({origin})"
+    return Message(f"the output {shown_output} ({how}", OUTPUT, ")"), f"the journal folder {shown_journal} ({origin})"
 
 
 #: What the run adds to the output's name: its temporary data set ``.NAME.tmp-PID``
@@ -179,9 +195,7 @@ def usable_names(spec: Any) -> None:
     made before any other look at them (``apart``)."""
     for path, what in ((Path(spec.output), 0), (Path(spec.journal), 1)):
         if "\0" in str(path):
-            named = _named(spec)[what]
-            shown = named.replace(str(path), repr(str(path)), 1)  # the NUL shown as \x00
-            raise Refused(f"{shown} contains a NUL character: name a path without one")
+            raise Refused(_named(spec, quoted=True)[what] + " contains a NUL character: name a path without one")
         limit = _name_max(path.absolute().parent)
         for part in path.parts:
             extra = NAME_EXTRA if (what == 0 and part == path.name) else 0
@@ -189,7 +203,7 @@ def usable_names(spec: Any) -> None:
             if size > limit:
                 room = f" ({extra} bytes kept for its temporary file)" if extra else ""
                 raise Refused(
-                    f"{_named(spec)[what]} has a name component of {len(os.fsencode(part))} bytes, over the "
+                    _named(spec)[what] + f" has a name component of {len(os.fsencode(part))} bytes, over the "
                     f"{limit - extra} this file system allows{room}: name a shorter path"
                 )
 
@@ -202,13 +216,15 @@ def apart(spec: Any) -> None:
     usable_names(spec)
     output, journal = Path(spec.output), Path(spec.journal)
     if _same(output, journal):
-        raise Refused("{} is {}: name them apart".format(*_named(spec)))
+        output_name, journal_name = _named(spec)
+        raise Refused(output_name + f" is {journal_name}: name them apart")
     if _inside(output, journal):
-        raise Refused("{} lies in {}: name an output outside it".format(*_named(spec)))
+        output_name, journal_name = _named(spec)
+        raise Refused(output_name + f" lies in {journal_name}: name an output outside it")
     for field, path in _inputs(spec):
         read = f"the spec {path}" if field == "spec" else f"the input file {path} ({field})"
         if _same(output, path):
-            raise Refused(f"{_named(spec)[0]} is {read}: the data set would replace it; name another output")
+            raise Refused(_named(spec)[0] + f" is {read}: the data set would replace it; name another output")
         if _same(journal, path):
             raise Refused(f"{_named(spec)[1]} is {read}: name another journal folder (sweep.journal)")
 
@@ -323,10 +339,10 @@ class RunLock:
             if holder is None:
                 continue  # released in between
             if holder:
-                reason = "--break-lock" if break_lock else self._takeover_reason(holder)
+                reason = BREAK_LOCK.flag if break_lock else self._takeover_reason(holder)
                 whose = f"the lock of {holder['host']} pid {holder['pid']}"
             else:
-                reason = "--break-lock" if break_lock else self._journal_evidence()
+                reason = BREAK_LOCK.flag if break_lock else self._journal_evidence()
                 whose = f"the unreadable lock {self.path}"
             if reason is None:
                 raise Refused(self._refusal(holder))
@@ -335,18 +351,19 @@ class RunLock:
                 return f"took over {whose} ({reason})"
         raise Refused(f"{self.path} keeps changing (other runs starting on this output?); try again")
 
-    def _refusal(self, holder: dict[str, Any]) -> str:
+    def _refusal(self, holder: dict[str, Any]) -> Message:
         if not holder:
-            return (
+            return Message(
                 f"the lock {self.path} is unreadable (empty or damaged: left by a run that died before it "
                 f"reached the disk?) and no journal of that run names this batch job, or this host with its "
-                f"process gone; if no run is using {self.path.parent}, pass --break-lock"
+                f"process gone; if no run is using {self.path.parent}, pass ",
+                BREAK_LOCK,
             )
-        return (
+        return Message(
             f"{self.path.parent} is in use by a run on {holder['host']} (pid {holder['pid']}, "
             f"{holder.get('ranks', '?')} ranks, since {holder.get('started', '?')}"
-            f"{', job ' + str(holder['job']) if holder.get('job') else ''}); if that run is dead, pass "
-            f"--break-lock"
+            f"{', job ' + str(holder['job']) if holder.get('job') else ''}); if that run is dead, pass ",
+            BREAK_LOCK,
         )
 
     def _temporary(self) -> Path:

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from hpcontact import accuracy
+from hpcontact.errors import Message
 from hpcontact.sweep import faults
 from hpcontact.sweep.data import provenance
 from hpcontact.sweep.data.journal import (
@@ -30,6 +31,7 @@ from hpcontact.sweep.data.journal import (
     session_name,
 )
 from hpcontact.sweep.run.guard import Refused, RunLock, apart, usable_folder, usable_output
+from hpcontact.sweep.run.options import ACCEPT_STALE, RESTART, RESUME
 from hpcontact.sweep.run.records import EVERY_TASK, Decision, Kept, Options, RoundMemory, RoundScope, runner_name
 from hpcontact.sweep.run.signals import ALIVE_PREFIX, STOP_NAME
 from hpcontact.sweep.space.spec import Spec
@@ -100,16 +102,25 @@ def prepare(
                     Kept(task_of, lock, history, reused, set(), note),
                 )
             raise Refused(
-                f"{len(history.entries)} finished tasks in {spec.journal}; pass --resume to continue or "
-                f"--restart to discard them"
+                Message(
+                    f"{len(history.entries)} finished tasks in {spec.journal}; pass ",
+                    RESUME,
+                    " to continue or ",
+                    RESTART,
+                    " to discard them",
+                )
             )
         if options.restart:
             clear_journals(spec.journal)
             history = History()
         elif legacy_journals(spec.journal):
             raise Refused(
-                f"{spec.journal} holds HDF5 journals of an earlier hpcontact (rank*.h5), which carry no "
-                f"provenance and cannot be reused; pass --restart to discard them"
+                Message(
+                    f"{spec.journal} holds HDF5 journals of an earlier hpcontact (rank*.h5), which carry no "
+                    "provenance and cannot be reused; pass ",
+                    RESTART,
+                    " to discard them",
+                )
             )
         now = current(spec, options)
         covered = None if scope.select is None else sorted(scope.select | scope.earlier)
@@ -222,8 +233,13 @@ def _decide(
         mismatch = provenance.first_mismatch(reused, now)
         if mismatch is not None:
             raise Refused(
-                f"stale journals in {spec.journal}: {mismatch}; pass --accept-stale to reuse such "
-                f"results or --restart to discard them"
+                Message(
+                    f"stale journals in {spec.journal}: {mismatch}; pass ",
+                    ACCEPT_STALE,
+                    " to reuse such results or ",
+                    RESTART,
+                    " to discard them",
+                )
             )
     done = {e.key for e in reused}
     suspected = history.suspects()

@@ -101,10 +101,11 @@ from typing import Any
 
 import numpy as np
 
-from hpcontact.errors import InputError, did_you_mean
+from hpcontact.errors import InputError, Option, did_you_mean
 from hpcontact.numerics.backend import require_gpu
 from hpcontact.problems.kinds import kind_of
 from hpcontact.scene import ACCURACY_RANGE
+from hpcontact.sweep.run.options import ACCURACY
 from hpcontact.sweep.space.adaptive_settings import parse_settings
 from hpcontact.sweep.space.axes import (
     AXIS_NAMES,
@@ -368,9 +369,9 @@ def spec_of_tables(
     if accuracy is not None:  # the command line's request replaces the spec's grid and accuracy
         for key in ("n", "n_across"):
             fixed.pop(key, None)
-        fixed["accuracy"] = normalize("--accuracy", "accuracy", accuracy)
+        fixed["accuracy"] = normalize(ACCURACY, "accuracy", accuracy)
         if not 1e-9 <= fixed["accuracy"] < 1.0:
-            raise InputError("--accuracy", ACCURACY_RANGE, accuracy)
+            raise InputError(ACCURACY, ACCURACY_RANGE, accuracy)
     kind = kind_of(fixed)
     if fixed.get("device") == "gpu":
         require_gpu()  # where CuPy or a CUDA device is missing, refused before anything runs
@@ -390,10 +391,11 @@ def spec_of_tables(
         if axis.name in fixed:
             raise InputError(f"axes.{axis.name}", f"an axis or a fixed [{section}] field, not both")
 
-    _refuse_grid_with_accuracy(fixed, axes, "--accuracy" if accuracy is not None else "numerics.accuracy")
+    accuracy_key = ACCURACY if accuracy is not None else "numerics.accuracy"
+    _refuse_grid_with_accuracy(fixed, axes, accuracy_key)
     if not kind.accuracy_applies and ("accuracy" in fixed or any(a.name == "accuracy" for a in axes)):
         raise InputError(
-            "--accuracy" if accuracy is not None else "numerics.accuracy",
+            accuracy_key,
             f"not with {kind.name} scenes ({kind.accuracy_refused})",
             fixed.get("accuracy"),
         )
@@ -466,7 +468,7 @@ def _check_task_points(axes: Mapping[str, Any], tensor: bool) -> None:
         )
 
 
-def _refuse_grid_with_accuracy(fixed: Mapping[str, Any], axes: tuple[Axis, ...], key: str) -> None:
+def _refuse_grid_with_accuracy(fixed: Mapping[str, Any], axes: tuple[Axis, ...], key: str | Option) -> None:
     """A requested accuracy picks its own grids (``hpcontact.accuracy.solve_to_accuracy``): a
     fixed grid beside it (``n``, ``n_across``, fixed or an axis) would be ignored, so it is
     refused."""

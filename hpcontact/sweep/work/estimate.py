@@ -50,6 +50,7 @@ from hpcontact.sweep.cost.rates import (
     work_seconds,
 )
 from hpcontact.sweep.cost.task_cost import Sizing, sizing
+from hpcontact.sweep.run.options import MEM_PER_RANK
 from hpcontact.sweep.work.replay import DEFAULT_OVERHEADS, Overheads, replay_chunks
 from hpcontact.sweep.work.tasks import ChunkOrder, Task, chunk_order, group_ids, paused_gc
 
@@ -273,7 +274,7 @@ def estimate(
 
 
 def check_memory(tasks: Sequence[Task], limit: float, source: str) -> None:
-    """``InputError`` (field --mem-per-rank) when a task's estimated peak memory exceeds
+    """``InputError`` (field ``options.MEM_PER_RANK``) when a task's estimated peak memory exceeds
     ``limit`` bytes; the base memory is this process's (no calibration needed). Importing what
     a run imports to measure it costs rank 0 ~1 s while every rank waits, so that is done only
     for a task within IMPORTS_BYTES of the limit; a task whose arrays exceed the limit already
@@ -296,7 +297,7 @@ def check_memory(tasks: Sequence[Task], limit: float, source: str) -> None:
     if need > limit:
         over = int(np.count_nonzero(base + arrays > limit))
         raise InputError(
-            "--mem-per-rank",
+            MEM_PER_RANK,
             f"at least the largest task's estimated peak memory {need / MIB:.0f} MiB (task {worst}; {over} task(s) "
             f"over the limit; see hpcontact run SPEC --dry-run)",
             f"{limit / MIB:.0f} MiB ({source})",
