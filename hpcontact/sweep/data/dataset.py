@@ -55,10 +55,9 @@ import numbers
 import re
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import xarray as xr
 
 from hpcontact import __version__, fields
 from hpcontact.quantities import ERROR_SUFFIX, ESTIMATED, directional_error, directional_stiffness
@@ -85,6 +84,9 @@ from hpcontact.sweep.data.units import cf_attributes, convention, scale_symbols
 from hpcontact.sweep.space.axes import LABEL_AXES
 from hpcontact.sweep.space.spec import Spec
 
+if TYPE_CHECKING:  # xarray is imported where a data set is made: a rank that never makes one never imports it
+    import xarray as xr
+
 __all__ = [  # the attribute tables are hpcontact.sweep.data.attributes'; importers may take them from here
     "DIRECTIONAL",
     "ERROR_MET",
@@ -103,6 +105,7 @@ __all__ = [  # the attribute tables are hpcontact.sweep.data.attributes'; import
     "error_attributes",
     "link_errors",
     "open_dataset",
+    "stiffness_dataset",
     "write_netcdf",
 ]
 
@@ -140,6 +143,8 @@ def dataset_of(
     ``task_of`` gives each point of the task axes its task (0-based position), ``attrs`` are
     global attributes; with ``derive``, K_nn and normalized_nn (``derive_directional``; without,
     ``write_netcdf`` derives them). Values are spread from tasks to points by index."""
+    import xarray as xr
+
     axes = spec.task_axes
     dims = tuple(a.name for a in axes)
     shape = tuple(len(a) for a in axes)
@@ -180,12 +185,32 @@ def dataset_of(
     return derive_directional(ds) if derive else ds
 
 
+def stiffness_dataset(spec: Spec, task_of: np.ndarray, joined: Joined) -> xr.Dataset:
+    """The stiffnesses of ``dataset_of(spec, task_of, joined)`` alone: ``status``, the record
+    variables the scene kind's estimated pattern matches and their ``<name>_error``
+    (``link_errors``; NaN where none), the same values in the same order, with no coordinates,
+    other records, attributes or derived variables. An adaptive round decides from these
+    (``maps.rounds``); only its last builds the whole data set (146 475 points, ~20 variables on
+    the 4-D map, rank 0 alone after every round while the other ranks wait)."""
+    import xarray as xr
+
+    dims = tuple(a.name for a in spec.task_axes)
+    pattern = spec.kind_record.estimated
+    variables: dict[str, tuple[tuple[str, ...], np.ndarray]] = {"status": (dims, joined.status[task_of])}
+    for name, values in joined.records.items():
+        if pattern.match(name.removesuffix(ERROR_SUFFIX)) or pattern.match(name):
+            variables[name] = (dims, values[task_of])
+    return link_errors(xr.Dataset(variables), pattern)
+
+
 def link_errors(ds: xr.Dataset, stiffnesses: re.Pattern[str] = ESTIMATED) -> xr.Dataset:
     """``ds`` with an estimated relative error ``<name>_error`` beside every stiffness it stores
     (the names ``stiffnesses`` matches: ``ESTIMATED`` for contact sweeps, ``SLIP_ESTIMATED``
     for slip sweeps; NaN where a task has none: one grid, a slip scene, a failed task), linked
     from it by CF ``ancillary_variables`` = "<name>_error error_status", and the flag variable
     ``error_status`` (``ERROR_STATUS_MEANINGS``) over the task axes."""
+    import xarray as xr
+
     names = [v for v in ds.data_vars if stiffnesses.match(str(v)) and not str(v).endswith(ERROR_SUFFIX)]
     if not names:
         return ds
@@ -284,6 +309,8 @@ def derive_directional(ds: xr.Dataset) -> xr.Dataset:
     K_nn · normalized_xx / K_xx. Dimensions in the spec's axis order (the ``sweep_axes``
     attribute); units those of K_xx. Lazy on dask arrays. Variables ``ds`` has already (read
     from a file that stores them) are kept, not derived again."""
+    import xarray as xr
+
     if not _directional(ds) or all(name in ds for name in DIRECTIONAL):
         return ds
     order = ds.attrs.get("sweep_axes", " ".join(map(str, ds.dims))).split()  # files before sweep_axes: as read
@@ -313,6 +340,8 @@ def directional_errors(ds: xr.Dataset, order: list[str]) -> xr.Dataset:
     to the largest diagonal entry) over |K_nn| in tensor mode, K_xx's in rotated mode;
     normalized_nn = K_nn E*/(K_zz G*) adds K_zz's relative error. K_nn and normalized_nn link
     them (``ancillary_variables``)."""
+    import xarray as xr
+
     errors = [f"{name}{ERROR_SUFFIX}" for name in TENSOR]
     if not set(errors) <= set(ds.data_vars):
         return ds
@@ -438,6 +467,8 @@ def history_attribute(spec: Spec, attrs: Mapping[str, Any], given: str | None = 
     ``provenance.command_line`` or ``provenance.call_text``; else ``attrs["history"]``); a ``--resume`` run (its
     ``attrs["history"]`` names ``--resume``) appends its line to the history of the data set it
     replaces (``spec.output``), a fresh run starts a new one."""
+    import xarray as xr
+
     command = attrs.get("history")
     if not command:
         return None

@@ -37,14 +37,15 @@ import json
 import math
 import os
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
-import xarray as xr
 
 from hpcontact.sweep import faults
 from hpcontact.sweep.data.journal import sync_folder
+
+if TYPE_CHECKING:  # xarray and pandas are imported where a data set is written or read (rank 0)
+    import xarray as xr
 
 COUNTS = frozenset({"iterations", "nx", "ny", "contact_cells", "sides", "n", "n_across", "steps", "seed", "threads"})
 INT_FILL = -2147483647  # NC_FILL_INT, netCDF's default fill of int32
@@ -165,6 +166,8 @@ def read(path: str | Path, **options: Any) -> xr.Dataset:
     """The data set ``write`` stored at ``path``, read lazily (``options`` go to
     ``xarray.open_dataset``, e.g. ``chunks={}`` for dask arrays); the plan codes of an older
     file as the JSON text of each point's plan (module docstring)."""
+    import xarray as xr
+
     ds = xr.open_dataset(path, engine="netcdf4", **options)
     if PLAN not in ds.data_vars or PLAN_TABLE not in ds[PLAN].attrs:
         return ds
@@ -179,6 +182,8 @@ def read(path: str | Path, **options: Any) -> xr.Dataset:
 
 def _encoding(ds: xr.Dataset, name: str) -> dict[str, Any]:
     """How ``name`` is stored: dtype, fill value, compression and chunks (module docstring)."""
+    import pandas as pd
+
     var = ds[name]
     dimension = name in ds.dims
     coordinate = name in ds.coords

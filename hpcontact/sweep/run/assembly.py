@@ -58,8 +58,9 @@ def assemble(
     stream: TextIO,
     command: str | None = None,
 ) -> Outcome:
-    """Rank 0: the data set of the round (``joined_outcomes``), given to an adaptive round's
-    ``scope.finish``, with its summary, written as netCDF; the summary printed on ``stream``;
+    """Rank 0: the data set of the round (``joined_outcomes``; an adaptive round's
+    ``scope.finish`` gets the columns and the function that makes it, and makes it only in its
+    last round), with its summary, written as netCDF; the summary printed on ``stream``;
     ``command``: the command as its user gave it, for the history (``dataset.history_attribute``):
     that of the run as its user started it (an adaptive run's first round's ``options``; its
     later rounds run as resumes), made only for the data set that is written."""
@@ -74,25 +75,30 @@ def assemble(
         "history": f"hpcontact run {spec.path}{' --resume' if first.resume else ''}",
     }
     failed = [int(i) for i in np.flatnonzero((joined.status != OK) & (joined.status != NOT_COMPUTED))]
-    dataset = dataset_of(
-        spec,
-        kept.task_of,
-        joined,
-        {
-            "hpcontact_version": plan.decision.provenance["hpcontact_version"],
-            "git_revision": plan.decision.provenance["git_revision"],
-            "numerics": json.dumps(provenance.numerics(), sort_keys=True),
-            "sweep_contributors": joined.provenance,
-            "created": run["created"],
-            "mpi_size": ranks,
-            "sweep_journal_sync_time_s": sum(t.sync_s for t in totals),
-        },
-        derive=False,  # write_netcdf stores K_nn and normalized_nn (it derives them once, there)
-        command=command,
-    )
+
+    def made() -> Any:
+        return dataset_of(
+            spec,
+            kept.task_of,
+            joined,
+            {
+                "hpcontact_version": plan.decision.provenance["hpcontact_version"],
+                "git_revision": plan.decision.provenance["git_revision"],
+                "numerics": json.dumps(provenance.numerics(), sort_keys=True),
+                "sweep_contributors": joined.provenance,
+                "created": run["created"],
+                "mpi_size": ranks,
+                "sweep_journal_sync_time_s": sum(t.sync_s for t in totals),
+            },
+            derive=False,  # write_netcdf stores K_nn and normalized_nn (it derives them once, there)
+            command=command,
+        )
+
     sums = round_sums(plan, scope, totals, setup_s)
-    if scope.finish is not None:  # an adaptive round (adaptive.run_rounds)
-        dataset = scope.finish(dataset, joined)
+    if scope.finish is None:
+        dataset = made()
+    else:  # an adaptive round (maps.rounds.run_rounds): the data set made only if it is the last
+        dataset = scope.finish(made, joined)
         if dataset is None:  # not the last round: nothing to write
             return Outcome(Path(spec.output), len(failed))
     dataset.attrs["history"] = history_attribute(spec, run, command)

@@ -1,0 +1,117 @@
+"""The stiffnesses an adaptive round decides from (``dataset.stiffness_dataset``) are those of the
+whole data set (``dataset.dataset_of``) of the same columns: same names in the same order, same
+values bitwise (NaN where a task failed or has no entry), ``<name>_error`` NaN where a record
+carries none; and making them imports no other variable."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from dataclasses import replace
+
+import numpy as np
+
+from hpcontact.fields import SLIP
+from hpcontact.quantities import SLIP_ESTIMATED
+from hpcontact.sweep.data.columns import join, task_positions, to_columns
+from hpcontact.sweep.data.dataset import FIXED_VARIABLES, dataset_of, stiffness_dataset
+from hpcontact.sweep.data.journal import ERROR, OK, Entry
+from hpcontact.sweep.space.parse import parse_spec
+from hpcontact.sweep.work.tasks import enumerate_tasks
+
+SPEC = """
+[sweep]
+title = "test"
+[scene]
+quantities = ["tangential", "normal"]
+[numerics]
+n = 16
+[axes]
+shape = ["circle", "ellipse"]
+aspect = [1.0, 0.1, 0.01]
+nu = [0.0, 0.25, 0.5]
+"""
+
+
+def columns_of(spec, solve):
+    """The joined columns of ``spec``'s tasks (``solve`` gives the records; one task failed, one
+    has no entry, only some records carry ``K_xx_error``), and each point's task."""
+    tasks, where = enumerate_tasks(spec)
+    keys, task_of = task_positions(where, tuple(len(a) for a in spec.task_axes))
+    by_key = {t.key: t for t in tasks}
+    entries, at = [], []
+    for i, key in enumerate(keys):
+        if i == 2:
+            continue  # no entry: not computed
+        record = dict(solve(by_key[key].params))
+        if i % 2 and "K_xx" in record:
+            record["K_xx_error"] = 1e-3 * (i + 1)
+        failed = i == 3
+        entries.append(
+            Entry(
+                key,
+                by_key[key].params,
+                ERROR if failed else OK,
+                "x" if failed else "",
+                {} if failed else record,
+                0.5,
+                0.0,
+                0,
+            )
+        )
+        at.append(i)
+    return join([to_columns(entries, at)], len(keys), FIXED_VARIABLES), task_of
+
+
+def assert_same_stiffnesses(spec, task_of, joined) -> list[str]:
+    """``stiffness_dataset`` against ``dataset_of`` of the same columns; the stiffness names."""
+    whole = dataset_of(spec, task_of, joined, {"mpi_size": 1}, derive=False)
+    alone = stiffness_dataset(spec, task_of, joined)
+    pattern = spec.kind_record.estimated
+    expected = [str(v) for v in whole.data_vars if pattern.match(str(v)) and not str(v).endswith("_error")]
+    names = [str(v) for v in alone.data_vars if pattern.match(str(v)) and not str(v).endswith("_error")]
+    assert names == expected
+    for name in names:
+        for full in (name, f"{name}_error"):
+            a, b = alone[full].values, whole[full].values
+            assert a.dtype == b.dtype == np.float64 and a.shape == b.shape, full
+            assert np.array_equal(a, b, equal_nan=True), full
+    assert set(alone.data_vars) <= set(whole.data_vars) and not alone.coords
+    return names
+
+
+def test_the_stiffnesses_are_those_of_the_whole_data_set(fake_solve):
+    spec = parse_spec(SPEC, validate=lambda params: None)
+    joined, task_of = columns_of(spec, fake_solve)
+    names = assert_same_stiffnesses(spec, task_of, joined)
+    assert "K_xx" in names and "K_zz" in names
+    alone = stiffness_dataset(spec, task_of, joined)
+    assert np.isnan(alone["K_xx"].values[np.isin(task_of, [2, 3])]).all()  # not computed, failed
+    assert np.isnan(alone["K_yy_error"].values).all()  # no record carries it
+    assert np.isfinite(alone["K_xx_error"].values).any() and "plan" not in alone
+
+
+def test_a_slip_sweeps_stored_errors_are_kept(fake_solve):
+    """A record's own ``<name>_error`` is kept where the kind's pattern names the stiffness but
+    not its error (a slip sweep's, ``SLIP_ESTIMATED``), as the whole data set keeps it."""
+    assert not SLIP_ESTIMATED.match("tangential_stiffness_error")
+    spec = replace(parse_spec(SPEC, validate=lambda params: None), kind=SLIP)
+
+    def solve(params):
+        return {"tangential_stiffness": params["nu"] + 1.0, "tangential_stiffness_error": 1e-4, "other": 1.0}
+
+    joined, task_of = columns_of(spec, solve)
+    assert assert_same_stiffnesses(spec, task_of, joined) == ["tangential_stiffness"]
+    errors = stiffness_dataset(spec, task_of, joined)["tangential_stiffness_error"].values
+    assert np.nanmax(errors) == np.nanmin(errors) == 1e-4
+
+
+def test_deciding_ranks_import_no_xarray():
+    """A worker rank imports the driver, the rounds of an adaptive map and the shared estimate,
+    never xarray or pandas (only rank 0 makes a data set): measured as ~0.6 CPU s a rank."""
+    code = (
+        "import sys; import hpcontact.sweep.driver, hpcontact.sweep.maps.rounds, hpcontact.sweep.maps.spread; "
+        "print(sorted(m for m in ('xarray', 'pandas', 'netCDF4', 'matplotlib') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
