@@ -7,24 +7,34 @@ path ``default_solve`` takes) can be solved with others by ``problems.contact.so
 groups their punch solves exactly by ``contact.batch_key`` (device, components, grid shape,
 preconditioner grid). The plan here puts together the tasks of one ``batch_group``: one device,
 one contact grid before cropping (``footprint.contact_grid``), one set of quantities and one
-preconditioner choice, the fields that decide ``batch_key`` before any scene is rasterized. Every
-other task (an accuracy task's grid sequence, a slip scene, another task function) runs alone.
+preconditioner choice, the fields that decide ``batch_key`` before any scene is rasterized.
 
-**How many.** A batch of B scenes holds B scenes' arrays at once: B × ``footprint.array_bytes``
-(the memory model of one solve, bytes fitted to host peaks, docs/performance.md §"Memory per
-task"; the same arrays on a GPU, not measured there). A batch takes as many scenes of one group as
+A task solved over a grid sequence (an ``accuracy``, or the extrapolated default without ``n``:
+``accuracy.defaults.accuracy_request``) batches with the tasks of the same device, cells
+(``boundary``, ``auto`` resolved), first grid, quantities and preconditioner choice, so that their
+sequences run over the same grids: ``accuracy.solve_to_accuracy_batch`` refines them level by
+level together, each scene stopping by its own estimate, a failing one stopped alone. The one exact
+cell of an ellipse (``galin``) runs alone: a closed-form integral on the host, no grid to batch.
+Every other task (a slip scene, another task function) runs alone.
+
+**How many.** A batch of B scenes holds B scenes' arrays at once: B × ``batch_bytes``, a one-grid
+scene's ``footprint.array_bytes`` (the memory model of one solve, bytes fitted to host peaks,
+docs/performance.md §"Memory per task"; the same arrays on a GPU, not measured there), a grid
+sequence's the arrays of the largest grid it may reach (``AccuracyRun.peak_bytes``, the memory
+model of ``hpcontact.accuracy.memory``). A batch takes as many scenes of one group as
 fit in ``batch_memory(device)``: on a GPU ``BATCH_MEMORY_FRACTION`` of the device's free memory
 (``numerics.memory.gpu_memory``), and never more than the rank's host budget left
 (the scenes' kernels and masks are built on the host first). On the CPU one scene per batch:
 benchmarks/batched_scenes.py measured a batch 2-3.7x slower per scene there, so a CPU rank keeps
 one scene per task unless ``memory`` is given (the tests force the batched path on the CPU so).
 
-**Entries.** ``run_batch`` solves a batch with ``solve_batch`` and makes one ``journal.Entry`` per
-task with the fields ``rounds.run_task`` gives a task run alone (its record through the same JSON
-round trip, status OK, the batch's wall time shared equally). If the batch raises (a scene that
-fails its solve or its input), each of its tasks is run alone by ``run_alone`` (``run_task``): the
-failing scene is recorded with the error it gives alone and the others are solved again, one at
-a time. Journals, resume and per-scene records are those of tasks run one at a time; a rank
+**Entries.** ``run_batch`` solves a batch (``solve_contact_batch``) and makes one ``journal.Entry``
+per task with the fields ``rounds.run_task`` gives a task run alone (its record through the same
+JSON round trip, status OK, the batch's wall time shared equally). If a one-grid batch raises (a
+scene that fails its solve or its input), each of its tasks is run alone by ``run_alone``
+(``run_task``): the failing scene is recorded with the error it gives alone and the others are
+solved again, one at a time. In a batch of grid sequences a failing scene stops alone: it is run
+alone by ``run_alone`` (recorded with the error it gives alone) and the others' records are kept. Journals, resume and per-scene records are those of tasks run one at a time; a rank
 marks every task of a batch started before the batch solves, so a process that dies in a batch
 leaves all of them quarantined, and ``--retry-crashed`` runs them alone on rank 0.
 
@@ -46,7 +56,8 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
-from hpcontact.accuracy.defaults import error_columns, extrapolates_by_default, solve_contact_fields
+from hpcontact.accuracy.defaults import accuracy_request, default_solve_batch, error_columns, solve_contact_fields
+from hpcontact.accuracy.refinement import AccuracyRun, plan_accuracy
 from hpcontact.errors import InputError
 from hpcontact.numerics.backend import resolved_device
 from hpcontact.numerics.memory import default_memory_per_rank, gpu_memory, resident_bytes
@@ -66,9 +77,10 @@ BATCH_MEMORY_FRACTION = 0.5
 def batch_group(params: Mapping[str, Any], task_function: Callable | None, device: str | None = None) -> tuple | None:
     """The group of the task ``params`` among tasks that ``run_batch`` solves together (module
     docstring), or None when it runs alone: another task function than the default contact
-    solver's, a slip scene, a scene that asks for an accuracy or gets the extrapolated default
-    (a grid sequence, ``accuracy.defaults.default_solve``), a scene its checks refuse. The group's
-    device is the one this rank solves the scene on (``device``, else the scene's device as
+    solver's, a slip scene, an ellipse's one exact cell, a scene its checks refuse. A one-grid
+    scene's group is (device, contact grid, quantities, preconditioning); a grid sequence's
+    (device, "grid sequence", cells, first grid, quantities, preconditioning). The group's device
+    is the one this rank solves the scene on (``device``, else the scene's device as
     ``backend.resolved_device`` resolves it: "auto" is this rank's GPU or its CPU)."""
     if task_function is not solve_contact_fields or not kind_of(params).planned:
         return None
@@ -76,11 +88,40 @@ def batch_group(params: Mapping[str, Any], task_function: Callable | None, devic
         device = resolved_device(params.get("device", DEFAULTS["device"]))
     try:
         scene = Scene.from_params({**params, "device": device})
+        run = _sequence_of(scene)
     except InputError:  # alone: run_task records the refusal as the task's entry
         return None
-    if scene.accuracy is not None or extrapolates_by_default(scene):
+    if run is None:
+        return (device, contact_grid(params), tuple(scene.quantities), scene.precondition)
+    if run.state is None:  # the one exact cell
         return None
-    return (device, contact_grid(params), tuple(scene.quantities), scene.precondition)
+    return (device, SEQUENCE, run.strategy, run.state.grids[0], tuple(scene.quantities), scene.precondition)
+
+
+#: The mark of a grid sequence's ``batch_group``.
+SEQUENCE = "grid sequence"
+
+
+def _sequence_of(scene: Scene) -> AccuracyRun | None:
+    """The planned grid sequence of ``scene`` as ``default_solve`` would refine it
+    (``accuracy.plan_accuracy`` of its ``accuracy_request``), None for a one-grid scene."""
+    request = accuracy_request(scene)
+    if request is None:
+        return None
+    options = {k: v for k, v in request.items() if k != "strict"}
+    return plan_accuracy(scene, options.pop("accuracy"), **options)
+
+
+def batch_bytes(params: Mapping[str, Any], device: str) -> float:
+    """The bytes the task ``params`` holds in a batch on ``device`` (the one this rank solves it on): a
+    grid sequence's largest grid's arrays (``AccuracyRun.peak_bytes``), else ``footprint.array_bytes``
+    (a scene its checks refuse too: it runs alone)."""
+    try:
+        scene = Scene.from_params({**params, "device": device})
+        run = _sequence_of(scene)
+    except InputError:
+        return array_bytes(params)
+    return array_bytes(params) if run is None else run.peak_bytes()
 
 
 def batch_memory(device: str) -> int:
@@ -111,7 +152,7 @@ def plan_batches(
 ) -> list[tuple[Task, ...]]:
     """``tasks`` (a rank's claimed chunk) cut into batches: the tasks of one ``batch_group``, in
     their order, as many to a batch as their ``footprint.array_bytes`` sum fits in ``memory``
-    bytes (None: ``batch_memory`` of their device; at least one task a batch); a task without a
+    bytes (``batch_bytes``; None: ``batch_memory`` of their device; at least one task a batch); a task without a
     group, or for which ``alone`` is true (a task with an injected fault), is a batch of its own.
     Batches in the order of their first task; every task in exactly one."""
     open_batch: dict[tuple, list[Task]] = {}
@@ -128,7 +169,7 @@ def plan_batches(
         if group is None:
             batches.append([task])
             continue
-        need = array_bytes(task.params)
+        need = batch_bytes(task.params, device)
         if group not in room:
             room[group] = float(batch_memory(group[0]) if memory is None else memory)
         batch = open_batch.get(group)
@@ -148,7 +189,7 @@ def batch_fill(
     ``most``, at least 1) fill one of this rank's batches (issue 41 item 2); None where no task of
     ``chunks`` runs on this rank's GPU and no ``memory`` is given (a CPU rank: claims as before).
     The chunks counted are consecutive, their first tasks of the ``batch_group`` of chunk i's
-    first task, their tasks' ``footprint.array_bytes`` summed within ``memory`` (None:
+    first task, their tasks' ``batch_bytes`` summed within ``memory`` (None:
     ``batch_memory`` of the group's device). Chunks hold one kernel group each, so a chunk's
     first task stands for it; a chunk whose first task gives n has the group of the first chunk of
     the same device, contact grid, quantities, preconditioning and accuracy (a Scene a grid, not a
@@ -183,7 +224,7 @@ def batch_fill(
         room = float(batch_memory(group[0]) if memory is None else memory)
         count, held = 0, 0.0
         for index in range(start, min(start + most, len(chunks))):
-            need = sum(array_bytes(t.params) for t in chunks[index])
+            need = sum(batch_bytes(t.params, group[0]) for t in chunks[index])
             if count and (held + need > room or group_of(index) != group):
                 break
             count, held = count + 1, held + need
@@ -192,30 +233,37 @@ def batch_fill(
     return fill
 
 
-def solve_contact_batch(fields: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
-    """``solve_contact_fields`` of each of ``fields`` (tasks of ``batch_group`` not None), their
-    punch solves batched by ``problems.contact.solve_batch``: each record that of the task alone
-    up to rounding (tests/problems/test_contact_batch.py bounds it), in order."""
+def solve_contact_batch(fields: Sequence[Mapping[str, Any]]) -> list[Any]:
+    """``solve_contact_fields`` of each of ``fields`` (the tasks of one ``batch_group``, not None), in
+    order. One-grid scenes: their punch solves batched by ``problems.contact.solve_batch``, each
+    record that of the task alone up to rounding (tests/problems/test_contact_batch.py bounds it);
+    a failing scene fails the batch (raises). Grid sequences: refined level by level together
+    (``accuracy.defaults.default_solve_batch``), each record the task's alone (bitwise where the
+    levels are solved one by one, as on the CPU), a failing scene's place holding the ``Exception``
+    it raised."""
     scenes = [Scene.from_params(f) for f in fields]
-    if any(s.accuracy is not None or extrapolates_by_default(s) for s in scenes):
-        raise ValueError("only scenes solved on one grid batch (no accuracy, not the extrapolated default)")
-    return [error_columns(scene.in_si_units(record)) for scene, record in zip(scenes, solve_batch(scenes))]
+    sequences = [accuracy_request(s) is not None for s in scenes]
+    if any(sequences) and not all(sequences):
+        raise ValueError("a batch is of one-grid scenes or of grid sequences, not both")
+    results = default_solve_batch(scenes) if all(sequences) else solve_batch(scenes)
+    return [r if isinstance(r, Exception) else error_columns(s.in_si_units(r)) for s, r in zip(scenes, results)]
 
 
 def run_batch(batch: Sequence[Task], rank: int, run_alone: Callable[[Task], Entry], stop: Any = None) -> list[Entry]:
     """The entries of ``batch`` (``plan_batches``), in order: one task by ``run_alone`` (the rank's
     ``run_task``); several by ``solve_contact_batch``, each entry with the fields ``run_task`` gives
     (the record through the journal's JSON, status OK, an equal share of the batch's wall time,
-    this ``rank``), or, if the batch raises an ``Exception``, each task by ``run_alone`` (module
-    docstring). ``stop`` (``signals.StopControl``) is marked running while the batch solves, so a
+    this ``rank``), or, if the batch raises an ``Exception``, each task by ``run_alone``; a grid
+    sequence that failed in its batch by ``run_alone`` alone (module docstring). ``stop`` (``signals.StopControl``) is marked running while the batch solves, so a
     stop request's grace covers it; ``Abandoned`` and other BaseExceptions propagate."""
     if len(batch) == 1:
         return [run_alone(batch[0])]
+    fields = [dict(t.params) for t in batch]
     started = time.perf_counter()
     try:
         if stop is not None:
             stop.running = True
-        records = [json.loads(to_json(r)) for r in solve_contact_batch([dict(t.params) for t in batch])]
+        results = [r if isinstance(r, Exception) else json.loads(to_json(r)) for r in solve_contact_batch(fields)]
     except Exception:  # noqa: BLE001 - each task alone: the failing one recorded as alone, the others solved
         return [run_alone(task) for task in batch]
     finally:
@@ -223,7 +271,9 @@ def run_batch(batch: Sequence[Task], rank: int, run_alone: Callable[[Task], Entr
             stop.running = False
     share, finished = (time.perf_counter() - started) / len(batch), time.time()
     return [
-        Entry(
+        run_alone(task)  # a grid sequence that failed in the batch: its entry as alone
+        if isinstance(record, Exception)
+        else Entry(
             key=task.key,
             params=task.params,
             status=OK,
@@ -233,5 +283,5 @@ def run_batch(batch: Sequence[Task], rank: int, run_alone: Callable[[Task], Entr
             finished=finished,
             rank=rank,
         )
-        for task, record in zip(batch, records)
+        for task, record in zip(batch, results)
     ]

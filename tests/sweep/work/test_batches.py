@@ -26,10 +26,11 @@ from hpcontact.sweep.work.tasks import Task, make_chunks, task_key
 CIRCLES = [
     {"shape": "circle", "n": 20, "nu": nu, "quantities": "tangential,normal", "tol": 1e-14} for nu in (0.1, 0.3, 0.45)
 ]
-#: Scenes that are no batch's: a grid sequence (accuracy), the extrapolated default (no n), a slip scene.
+#: Scenes that are no batch's: an ellipse's one exact cell (a circle's and an ellipse's accuracy), a slip
+#: scene. (Grid sequences batch: tests/sweep/work/test_batches_accuracy.py.)
 ALONE = [
     {"shape": "circle", "accuracy": 1e-3},
-    {"shape": "circle", "nu": 0.2},
+    {"shape": "ellipse", "aspect": 0.5, "accuracy": 1e-4},
     {"shape": "circle", "n": 16, "quantities": "slip", "mu": 0.3, "q_ratio": 0.5},
 ]
 #: Passes the scene's checks, fails its solve: no cell of a 4-cell grid in the star (InputError on n).
