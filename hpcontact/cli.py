@@ -26,7 +26,7 @@ import numpy
 from hpcontact import __version__
 from hpcontact.accuracy.refinement import LevelProgress, reporting_levels
 from hpcontact.api import solve_fields
-from hpcontact.errors import AccuracyWarning, ConvergenceError, InputError, did_you_mean
+from hpcontact.errors import AccuracyWarning, ConvergenceError, Front, InputError, did_you_mean
 from hpcontact.fields import CONTACT, Field, cli_fields, cli_help, names
 from hpcontact.numerics.convolution import load_wisdom, pyfftw, save_wisdom, wisdom_path
 from hpcontact.sweep.data.show import add_show_arguments, show_command
@@ -344,7 +344,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return command(args)
     except InputError as exc:
-        print(f"hpcontact: error: {exc}", file=sys.stderr)
+        print(f"hpcontact: error: {exc.worded(Front.COMMAND_LINE)}", file=sys.stderr)
         return 2
     except ConvergenceError as exc:
         print(f"hpcontact: did not converge: {exc}", file=sys.stderr)

@@ -9,12 +9,13 @@ import sys
 import traceback
 from pathlib import Path
 
-from hpcontact.errors import InputError
+from hpcontact.errors import Front, InputError, rendered
 from hpcontact.numerics.convolution import load_wisdom, save_wisdom
 from hpcontact.numerics.memory import default_memory_per_rank, parse_memory
 from hpcontact.sweep.cost.calibration_file import read_calibration
 from hpcontact.sweep.run.arguments import EXIT_FAILED_TASKS, EXIT_OK, EXIT_REFUSED, EXIT_UNEXPECTED
 from hpcontact.sweep.run.dry_run import dry_run
+from hpcontact.sweep.run.options import MEM_PER_RANK
 from hpcontact.sweep.run.records import NO_FLAGS, Options, Stopped, TaskFunction, runner_name
 from hpcontact.sweep.run.rounds import execute
 from hpcontact.sweep.run.schedule import LaunchError, world
@@ -53,13 +54,13 @@ def run_command(
         if not outcome.up_to_date:  # an up-to-date sweep planned nothing new
             _keep_wisdom()  # every rank: save_wisdom merges the ranks' plans into one file
         return EXIT_FAILED_TASKS if outcome.failures else EXIT_OK
-    except InputError as exc:
+    except InputError as exc:  # options in the command line's words ("pass --resume")
         if team.rank == 0:
-            print(f"{prog}: error: {exc}", file=sys.stderr)
+            print(f"{prog}: error: {exc.worded(Front.COMMAND_LINE)}", file=sys.stderr)
         return EXIT_REFUSED
     except Stopped as exc:
         if team.rank == 0:
-            print(exc, file=sys.stderr)
+            print(rendered(exc.args[0], Front.COMMAND_LINE), file=sys.stderr)
         return exc.status
     except Exception:  # noqa: BLE001 - reported, then every rank is ended
         traceback.print_exc()
@@ -103,7 +104,11 @@ def run_from_arguments(
     """Run what ``add_run_arguments`` parsed (``task_function``, ``prog``, ``command``: see
     ``run_command``; ``runner``: see ``Options.runner``, default ``records.runner_name`` of
     ``task_function``, so that a resume never reuses another task function's entries)."""
-    memory = (parse_memory(args.mem_per_rank), "--mem-per-rank") if args.mem_per_rank is not None else None
+    memory = (
+        (parse_memory(args.mem_per_rank, MEM_PER_RANK.flag), MEM_PER_RANK.flag)
+        if args.mem_per_rank is not None
+        else None
+    )
     if args.costmodel is not None:
         use_costmodel(args.costmodel, args.dry_run)
     if args.dry_run:

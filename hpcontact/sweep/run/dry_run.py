@@ -16,6 +16,7 @@ from hpcontact.numerics.memory import default_memory_per_rank
 from hpcontact.sweep.cost.calibration_file import described, load_calibration
 from hpcontact.sweep.run.arguments import EXIT_OK
 from hpcontact.sweep.run.guard import apart
+from hpcontact.sweep.run.options import MEM_PER_RANK
 from hpcontact.sweep.run.summary import SHOWN_FAILURES
 from hpcontact.sweep.space.parse import load_spec
 from hpcontact.sweep.work.estimate import Estimate, estimate, gpu_batches
@@ -66,7 +67,8 @@ def dry_run(
     apart(spec)  # refused as the run refuses it (guard.apart), before the enumeration
     progress = progress_lines(sys.stderr, points(spec))
     tasks, task_of = join_parts(spec, [enumerate_part(spec, check=True, progress=progress, lean=True)])
-    limit, source = (mem_per_rank, "--mem-per-rank") if mem_per_rank is not None else default_memory_per_rank()
+    # a dry run is the command line's alone (``hpcontact run --dry-run``): its words
+    limit, source = (mem_per_rank, MEM_PER_RANK.flag) if mem_per_rank is not None else default_memory_per_rank()
     if calibration is None:
         calibration = load_calibration(stream=sys.stderr)
     est = estimate(tasks, calibration)

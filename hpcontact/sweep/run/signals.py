@@ -48,6 +48,7 @@ from pathlib import Path
 from types import FrameType
 
 from hpcontact.sweep.data.journal import record_stall
+from hpcontact.sweep.run.options import RESUME, STALL_TIMEOUT
 
 STOP_NAME = "STOP"
 SIGNALS = (signal.SIGTERM, signal.SIGUSR1, signal.SIGINT)
@@ -277,12 +278,13 @@ class StopControl:
             if seen is None or seen[0] != content:
                 self._seen[path] = (content, now)
             elif now - seen[1] >= self.stall_s:
-                return other, f"rank {other} made no progress for {now - seen[1]:.0f} s (--stall-timeout)"
+                return other, f"rank {other} made no progress for {now - seen[1]:.0f} s ({STALL_TIMEOUT.flag})"
         return None
 
     def _exit_now(self) -> None:
         """End this rank from the stop thread (the main thread is blocked): one line, the file
-        systems synced, status 4 (1 after a write failure)."""
+        systems synced, status 4 (1 after a write failure). Only the command line installs the
+        handlers that lead here (``install``), so the line is in its words (``RESUME.flag``)."""
         status = 1 if self.failed else STOPPED_STATUS
         where = {
             "setup": "while setting up",
@@ -294,7 +296,7 @@ class StopControl:
                 2,
                 (
                     f"hpcontact: rank {self.rank} stopped {where} ({self.reason}); journals intact; "
-                    "run again with --resume\n"
+                    f"run again with {RESUME.flag}\n"
                 ).encode(),
             )
         except OSError:

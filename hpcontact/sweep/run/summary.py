@@ -11,6 +11,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
 
+from hpcontact.errors import Front, Message
+from hpcontact.sweep.run.options import RESUME
 from hpcontact.sweep.run.progress import clock_text
 from hpcontact.sweep.run.records import Plan, RankTotals, RoundScope, RoundTally
 from hpcontact.sweep.run.resume import journal_path
@@ -133,11 +135,13 @@ def print_summary(
     path: Path,
     written_from: float,
     stream: TextIO,
+    front: Front = Front.COMMAND_LINE,
 ) -> None:
     """The summary with the first ``SHOWN_FAILURES`` failed tasks (``failed``: positions) and
     their messages, a warning naming the ranks whose journals rank 0 does not see (not on a
-    shared file system: a ``--resume`` would run their tasks again), and the data set written
-    at ``path`` with the seconds since ``written_from`` (``time.perf_counter``)."""
+    shared file system: a resume would run their tasks again; its option in ``front``'s words),
+    and the data set written at ``path`` with the seconds since ``written_from``
+    (``time.perf_counter``)."""
     spec = plan.spec
     shown = [
         f"{json.dumps(dict(plan.tasks[i].params), sort_keys=True)}: {joined.message[i]}"
@@ -146,9 +150,11 @@ def print_summary(
     print(summary.text(shown), file=stream)
     unseen = [r for r, t in enumerate(totals) if t.run and not journal_path(spec, r, plan.decision.session).exists()]
     if unseen:
-        print(
+        warning = Message(
             f"hpcontact: warning: rank 0 does not see the journals of rank(s) {', '.join(map(str, unseen[:10]))} in "
-            f"{spec.journal} (a --resume would compute their tasks again); is it on a file system every node shares?",
-            file=stream,
+            f"{spec.journal} (a ",
+            RESUME,
+            " would compute their tasks again); is it on a file system every node shares?",
         )
+        print(warning.render(front), file=stream)
     print(f"hpcontact: wrote {path} in {time.perf_counter() - written_from:.2f}s", file=stream, flush=True)
