@@ -1,5 +1,5 @@
-"""A GPU rank's batches (``sweep.work.batches``) and the GPU's cost model (``calibrate_gpu``) on a real
-GPU (issue 41 items 2 and 5). Marked ``gpu``: skipped without CuPy or a CUDA device
+"""A GPU rank's batches (``sweep.work.batches``: scenes of one grid, grid sequences of ``--accuracy``)
+and the GPU's cost model (``calibrate_gpu``) on a real GPU (issue 41 items 2 and 5). Marked ``gpu``: skipped without CuPy or a CUDA device
 (tests/conftest.py); the CPU tests of the same code force the batched path on numpy
 (tests/sweep/work/test_batches.py) and read a stand-in GPU's name and memory
 (tests/sweep/cost/test_gpu_costs.py)."""
@@ -19,7 +19,9 @@ from hpcontact.sweep.run.rounds import run_task
 from hpcontact.sweep.work.batches import plan_batches, run_batch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "sweep" / "work"))
+from sequence_agreement import check_batched_sequences  # noqa: E402
 from test_batches import CIRCLES, alone, assert_same_records, tasks_of  # noqa: E402
+from test_batches_accuracy import REQUESTS  # noqa: E402
 
 pytestmark = pytest.mark.gpu
 
@@ -31,6 +33,12 @@ def test_a_gpu_rank_batches_one_grid_and_its_records_are_the_cpus_one_at_a_time(
     for task, entry in zip(tasks_of(CIRCLES), entries):
         assert entry.status == OK and entry.key != task.key  # the device is a field of the scene
         assert_same_records(entry.record, alone(task).record)
+
+
+def test_a_gpu_batch_of_grid_sequences_gives_the_cpu_records_one_at_a_time(tmp_path):
+    """Issue 41's scenes (circle and crystal ellipse on grids, rectangle 1e-4, star, mask, an exact
+    cell) refined as one batch on the GPU: each the CPU's record alone, within 1e-12."""
+    assert check_batched_sequences(REQUESTS, tmp_path) > 0
 
 
 def test_a_gpu_calibration_is_made_on_the_gpu_and_read_back(monkeypatch, tmp_path):
