@@ -40,6 +40,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import cached_property
+from types import ModuleType
 from typing import Any
 
 import numpy as np
@@ -213,10 +214,18 @@ def _indentation(material: Material) -> float:
 
 
 class PairEngine(Engine):
-    """``engine.Engine`` on the pair's compliance: spectra and operators of u_1 − u_2 (scaled units)."""
+    """``engine.Engine`` on the pair's compliance: spectra and operators of u_1 − u_2 (scaled units),
+    the operators on arrays of ``xp`` (numpy: pyFFTW; CuPy on a GPU)."""
 
-    def __init__(self, compliance: PairCompliance, grid: Grid, kernels: tuple[str, ...], threads: int = 1) -> None:
-        super().__init__(compliance, grid, kernels, threads)  # type: ignore[arg-type]
+    def __init__(
+        self,
+        compliance: PairCompliance,
+        grid: Grid,
+        kernels: tuple[str, ...],
+        threads: int = 1,
+        xp: ModuleType = np,
+    ) -> None:
+        super().__init__(compliance, grid, kernels, threads, xp)  # type: ignore[arg-type]
         self._blocks: dict[str, np.ndarray] | None = None
 
     def centred_block(self, block: str) -> np.ndarray:

@@ -30,6 +30,10 @@ direction n is 1/(nᵀ K⁻¹ n) (force control: displacement along n per unit f
 
 Force control is solved by Newton's method on δ with the consistent tensor as Jacobian (exact
 while no cell changes state; monotone from below on the concave loading curve).
+
+Device: a state's fields (t, p, s, the masks) are arrays of the problem's namespace
+(``SlipProblem.xp``: numpy on the CPU, CuPy on a GPU); δ, the force and K are small host arrays,
+the force summed on the device and read back as two numbers per equilibrium.
 """
 
 from __future__ import annotations
@@ -40,6 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from hpcontact.errors import ConvergenceError
+from hpcontact.numerics.backend import Array, copy, namespace, to_device, to_host
 from hpcontact.numerics.friction_qp import disc_qp
 from hpcontact.problems.slip.problem import SlipProblem, SlipScene
 
@@ -50,24 +55,26 @@ class SlipState:
 
     ``delta`` rigid tangential displacement (2,); ``t`` traction (2, nx, ny); ``p`` pressure;
     ``s`` accumulated slip δ − u_t on every cell; ``force`` (2,); ``stick`` and ``contact``
-    masks; ``K`` the incremental (stick-area) tensor once computed.
+    masks; ``K`` the incremental (stick-area) tensor once computed. ``delta``, ``force`` and the
+    tensors are numpy arrays, the fields on the grid arrays of the problem's device.
     """
 
     delta: np.ndarray
-    t: np.ndarray
-    p: np.ndarray
-    s: np.ndarray
+    t: Array
+    p: Array
+    s: Array
     force: np.ndarray
-    stick: np.ndarray
-    contact: np.ndarray
+    stick: Array
+    contact: Array
     K: np.ndarray | None = None
     K_stick: np.ndarray | None = None
 
-    def slip_direction(self) -> np.ndarray:
+    def slip_direction(self) -> Array:
         """t̂ = t/|t| on the slip cells (contact cells not in the stick set), zero elsewhere."""
-        mag = np.hypot(self.t[0], self.t[1])
+        xp = namespace(self.t)
+        mag = xp.hypot(self.t[0, ...], self.t[1, ...])
         slip = self.contact & ~self.stick & (mag > 0.0)
-        return np.where(slip, self.t / np.where(slip, mag, 1.0), 0.0)
+        return xp.where(slip, self.t / xp.where(slip, mag, 1.0), 0.0)
 
 
 @dataclass
@@ -105,11 +112,11 @@ class PathSolver:
         else:
             normal = problem.normal()
             self.count.pk += normal.iterations
-            p0 = normal.traction[0]
-            zero = np.zeros((2,) + p0.shape)
-            s0 = -problem.coupling_tangential(p0) if coupled else zero.copy()
+            p0 = normal.traction[0, ...]
+            zero = problem.zeros(2)
+            s0 = -problem.coupling_tangential(p0) if coupled else copy(zero)
             contact = p0 > 0.0
-            self.initial = SlipState(np.zeros(2), zero.copy(), p0, s0, np.zeros(2), contact.copy(), contact)
+            self.initial = SlipState(np.zeros(2), copy(zero), p0, s0, np.zeros(2), copy(contact), contact)
         self.initial.K = None
         self.K0 = self.tangent(self.initial)
         self._last_increment: np.ndarray | None = None
@@ -132,9 +139,9 @@ class PathSolver:
 
     def unloaded(self) -> SlipState:
         """The bodies before any load: no contact, no traction, no slip."""
-        shape = self.problem.gap.shape
-        zero2, none = np.zeros((2,) + shape), np.zeros(shape, dtype=bool)
-        return SlipState(np.zeros(2), zero2, np.zeros(shape), zero2.copy(), np.zeros(2), none, none)
+        pb = self.problem
+        zero2, none = pb.zeros(2), pb.zeros() > 0.0
+        return SlipState(np.zeros(2), zero2, pb.zeros(), copy(zero2), np.zeros(2), none, none)
 
     def equilibrium(
         self, prev: SlipState, delta: np.ndarray, warm: SlipState | None = None, load: float | None = None
@@ -150,8 +157,8 @@ class PathSolver:
         if not self.coupled and load is not None:
             normal = pb.normal(None, load)
             self.count.pk += normal.iterations
-            p = normal.traction[0]
-        shift = np.asarray(delta, dtype=np.float64)[:, None, None]
+            p = normal.traction[0, ...]
+        shift = to_device(np.asarray(delta, dtype=np.float64)[:, None, None], pb.xp)
         c = 1.0 / pb.self_compliance
         p_change = math.inf
         for outer in range(1, self.MAX_OUTER + 1):  # noqa: B007 (the count is reported after the loop)
@@ -166,8 +173,9 @@ class PathSolver:
                 break  # (coupled: this last slip solve used the settled pressure)
             normal = pb.normal(pb.coupling_normal(t), load)
             self.count.pk += normal.iterations
-            p_new = normal.traction[0]
-            p_change = float(np.abs(p_new - p).sum()) / float(np.abs(p_new).sum())
+            p_new = normal.traction[0, ...]
+            xp = pb.xp
+            p_change = float(xp.sum(xp.abs(p_new - p))) / float(xp.sum(xp.abs(p_new)))
             p = p_new
             self.count.outer += 1
         else:
@@ -178,8 +186,9 @@ class PathSolver:
         s = shift - u
         contact = p > 0.0
         bound = self.mu * p
-        stick = contact & (np.hypot(t[0], t[1]) < bound * (1.0 - 1e-12))
-        force = t.reshape(2, -1).sum(axis=1) * pb.grid.cell_area
+        xp = pb.xp
+        stick = contact & (xp.hypot(t[0, ...], t[1, ...]) < bound * (1.0 - 1e-12))
+        force = to_host(xp.sum(xp.reshape(t, (2, -1)), axis=1)) * pb.grid.cell_area
         return SlipState(np.array(delta, dtype=np.float64), t, p, s, force, stick, contact)
 
     def tangent(self, state: SlipState) -> np.ndarray:
@@ -218,7 +227,8 @@ class PathSolver:
         ftol = 10.0 * self.tol * scale
         increment = target - prev.force
         continuing = self._last_increment is not None and float(increment @ self._last_increment) > 0.0
-        K = self.tangent(prev) if continuing and prev.stick.any() else self.K0
+        any_stick = self.problem.xp.any
+        K = self.tangent(prev) if continuing and bool(any_stick(prev.stick)) else self.K0
         delta = prev.delta + np.linalg.solve(K, increment)
         warm: SlipState | None = None
         residual = increment
@@ -231,7 +241,7 @@ class PathSolver:
                 self._last_increment = increment
                 return state
             K = self.tangent(state)
-            if not state.stick.any() or abs(np.linalg.det(K)) <= 1e-14 * np.linalg.det(self.K0):
+            if not bool(any_stick(state.stick)) or abs(np.linalg.det(K)) <= 1e-14 * np.linalg.det(self.K0):
                 raise ConvergenceError(
                     "no stick cells left: the contact slides (grid too coarse for this q_ratio?)",
                     self.count.newton,
@@ -318,6 +328,8 @@ def run_path(problem: SlipProblem, coupled: bool) -> PathResult:
     L, Fu, Ku = problem.L, problem.force_unit, problem.stiffness_unit
     area = problem.grid.cell_area * L * L
 
+    count = problem.xp.count_nonzero
+
     def point(branch: str, state: SlipState) -> PathPoint:
         K = state.K if scene.mu > 0.0 else np.zeros((2, 2))
         K_stick = solver.stick_tangent(state) if scene.mu > 0.0 else np.zeros((2, 2))
@@ -326,8 +338,8 @@ def run_path(problem: SlipProblem, coupled: bool) -> PathResult:
             force=float(n @ state.force) * Fu,
             displacement=float(n @ state.delta) * L,
             stiffness=along(K, n) * Ku,
-            stick_area=float(state.stick.sum()) * area if scene.mu > 0.0 else 0.0,
-            contact_area=float(state.contact.sum()) * area,
+            stick_area=float(count(state.stick)) * area if scene.mu > 0.0 else 0.0,
+            contact_area=float(count(state.contact)) * area,
             tensor=R @ K @ R.T * Ku,
             stick_stiffness=along(K_stick, n) * Ku,
         )

@@ -65,6 +65,7 @@ import numpy as np
 
 from hpcontact import analytic
 from hpcontact.materials.isotropic import Isotropic
+from hpcontact.numerics.backend import to_host
 from hpcontact.problems.slip.bodies import HertzEllipse
 from hpcontact.problems.slip.load_path import PathResult, PathSolver, rotation, run_path
 from hpcontact.problems.slip.problem import SlipProblem, SlipScene, validate
@@ -205,7 +206,7 @@ def _stick_centroid(problem: SlipProblem, path: PathResult) -> dict[str, float]:
     """Centroid of the stick zone at the path's end (scene frame, input length unit; 0 when the
     whole contact slides or mu = 0): off the contact centre for dissimilar pairs (Rodríguez-
     Tembleque et al. 2011, Fig. 6d) and for crystals without a symmetric frame."""
-    stick = path.final.stick
+    stick = to_host(path.final.stick)
     if problem.scene.mu == 0.0 or not stick.any():
         return {"stick_centroid_x": 0.0, "stick_centroid_y": 0.0}
     local = np.array([problem.x[stick].mean(), problem.y[stick].mean()]) * problem.L

@@ -17,6 +17,13 @@ they do not cancel), its stiffnesses turned from the lab into the grid's frame (
 contact ellipse's major axis, at ``hertz.angle_deg`` from lab x); the Hertz ellipse that sizes the grid uses the indentation-modulus estimate
 of E* and the grid grows by sqrt(max/min H_zz) so that a non-elliptical contact fits.
 
+Device (``device``: "cpu", "gpu" or "auto", ``hpcontact.numerics.backend``): the operators,
+preconditioners and every array of the load steps live in the array namespace of the scene's
+device (numpy with pyFFTW on the CPU, CuPy with cuFFT on a GPU); the kernel spectra, the gap and
+the preconditioners' symbols are built on the host and copied to the device once, here. Inside
+the solves only scalars reach the host (inner products, norms, resultant forces, whether a set
+is empty).
+
 Units: lengths are scaled by the Hertz semi-axis a and stresses by G_eq (G_ref for a crystal
 pair) inside.
 """
@@ -31,13 +38,14 @@ from typing import Any
 import numpy as np
 
 from hpcontact.errors import ConvergenceError, InputError, finite_number, integer
-from hpcontact.fields import SLIP, names
+from hpcontact.fields import DEVICES, SLIP, names
 from hpcontact.geometry import Grid
 from hpcontact.kernels.engine import Engine
 from hpcontact.kernels.isotropic import isotropic_surface_green
 from hpcontact.materials.isotropic import Isotropic
+from hpcontact.numerics.backend import Array, array_namespace, copy, dot, is_numpy, namespace, norm, to_device, to_host
 from hpcontact.numerics.conjugate_gradient import Solution, polonsky_keer
-from hpcontact.numerics.convolution import ConvolutionOperator, cached_spectrum
+from hpcontact.numerics.convolution import ArrayConvolutionOperator, ConvolutionOperator, cached_spectrum
 from hpcontact.numerics.friction_qp import Operator
 from hpcontact.numerics.preconditioner import FourierPreconditioner
 from hpcontact.problems.slip.bodies import HertzEllipse, Pair
@@ -76,6 +84,7 @@ class SlipScene:
     coupling: str
     threads: int
     precondition: bool
+    device: str
 
 
 def _flag(name: str, value: Any) -> bool:
@@ -103,7 +112,8 @@ def validate(params: Mapping[str, Any]) -> SlipScene:
     normal load and tangential displacement applied together, control = displacement);
     ``tensor`` and ``history`` (booleans: add the 2 × 2 tensor / the whole curve);
     ``coupling`` (auto | both | coupled | decoupled; auto = both for a dissimilar pair);
-    ``threads``; ``precondition``; ``normal_friction`` (boolean: Spence's normal loading).
+    ``threads``; ``precondition``; ``normal_friction`` (boolean: Spence's normal loading);
+    ``device`` (cpu | gpu | auto, default cpu: where the solves run).
     """
     unknown = sorted(set(params) - set(FIELDS) - set(IGNORED))
     if unknown:
@@ -165,6 +175,9 @@ def validate(params: Mapping[str, Any]) -> SlipScene:
     if coupling not in COUPLINGS:
         raise InputError("coupling", f"one of {', '.join(COUPLINGS)}", coupling)
     threads = integer("threads", p.get("threads", 1), 1, "an integer >= 1", 1024)
+    device = p.get("device", "cpu")
+    if device not in DEVICES:
+        raise InputError("device", f"one of {', '.join(DEVICES)}", device)
     return SlipScene(
         pair=pair,
         load=load,
@@ -183,6 +196,7 @@ def validate(params: Mapping[str, Any]) -> SlipScene:
         coupling=coupling,
         threads=threads,
         precondition=_flag("precondition", p.get("precondition", True)),
+        device=device,
     )
 
 
@@ -192,11 +206,14 @@ class SlipProblem:
     Inside, lengths are in units of the Hertz semi-major axis ``L = hertz.a`` and stresses in
     units of ``G_eq`` (the equivalent body of ``Pair.equivalent``); the grid's x axis is the
     major axis of the contact ellipse (scene angle ``hertz.angle_deg``). ``n`` cells span the
-    major diameter 2a (square cells unless fewer than 16 would span the minor one).
+    major diameter 2a (square cells unless fewer than 16 would span the minor one). The operators
+    act on arrays of ``xp``, the namespace of the scene's device (``backend.array_namespace``:
+    ``InputError`` naming what a GPU lacks); ``gap``, ``x`` and ``y`` stay on the host.
     """
 
     def __init__(self, scene: SlipScene) -> None:
         self.scene = scene
+        self.xp = xp = array_namespace(scene.device)
         pair = scene.pair
         self.pair = pair
         self.hertz: HertzEllipse = pair.hertz(scene.load)
@@ -228,23 +245,26 @@ class SlipProblem:
         self.x, self.y = x, y
         A, B = self.hertz.A * self.L, self.hertz.B * self.L  # dimensionless gap coefficients
         self.gap = A * x * x + B * y * y
+        self._gap = to_device(self.gap, xp)
         self.P = scene.load / (self.G_ref * self.L * self.L)
         if self.material is None:
-            self.engine: Engine = PairEngine(self.compliance, self.grid, ("xx", "xy", "yx", "yy", "zz"), scene.threads)
+            kernels = ("xx", "xy", "yx", "yy", "zz")
+            self.engine: Engine = PairEngine(self.compliance, self.grid, kernels, scene.threads, xp)
         else:
             tangential = ("xx",) if self.material.nu == 0.0 else ("xx", "xy", "yx", "yy")
-            self.engine = Engine(self.material, self.grid, tangential + ("zz",), scene.threads)
+            self.engine = Engine(self.material, self.grid, tangential + ("zz",), scene.threads, xp)
         self.op_t = self.engine.operator("xy")
         self.op_z = self.engine.operator("z")
         self.precondition_t = (
-            FourierPreconditioner(self.grid, self.surface_green, "xy").apply if scene.precondition else None
+            FourierPreconditioner(self.grid, self.surface_green, "xy", xp).apply if scene.precondition else None
         )
         self.norm_A = self._operator_norm()
-        impulse = np.zeros((2, nx, ny))
+        impulse = self.zeros(2)
         impulse[0, nx // 2, ny // 2] = 1.0
         self.self_compliance = float(self.op_t.apply(impulse)[0, nx // 2, ny // 2])
-        self._op_c: ConvolutionOperator | None = None
-        self._op_full: ConvolutionOperator | None = None
+        self._op_c: ConvolutionOperator | ArrayConvolutionOperator | None = None
+        self._coupling_spectra: dict[str, np.ndarray] = {}
+        self._op_full: ConvolutionOperator | ArrayConvolutionOperator | None = None
         self._precondition_full: Operator | None = None
 
     def _anisotropy_margin(self) -> float:
@@ -295,8 +315,19 @@ class SlipProblem:
         lam = 0.5 * (sxx + syy) + np.sqrt(0.25 * (sxx - syy) ** 2 + sxy * sxy)
         return float(lam.max())
 
+    def _operator(self, spectra: Mapping[str, np.ndarray]) -> ConvolutionOperator | ArrayConvolutionOperator:
+        """The convolution operator on "xyz" with the host ``spectra``, on the scene's device."""
+        g = self.grid
+        if is_numpy(self.xp):
+            return ConvolutionOperator(g.nx, g.ny, "xyz", spectra, threads=self.scene.threads)
+        return ArrayConvolutionOperator(g.nx, g.ny, "xyz", spectra, self.xp)
+
+    def zeros(self, *leading: int) -> Array:
+        """float64 zeros of shape (*leading, nx, ny) on the scene's device."""
+        return self.xp.zeros(leading + self.gap.shape, dtype=self.xp.float64)
+
     @property
-    def coupling_operator(self) -> ConvolutionOperator:
+    def coupling_operator(self) -> ConvolutionOperator | ArrayConvolutionOperator:
         """(t_x, t_y, p) ↦ (A_xz p, A_yz p, A_zx t_x + A_zy t_y): the coupling blocks of the pair
         (``PairCompliance.blocks``; body 1's minus body 2's for isotropic bodies)."""
         if self._op_c is None:
@@ -313,25 +344,33 @@ class SlipProblem:
             for block in names:
                 key = ("pair-coupling",) + self.compliance.key + (g.nx, g.ny, g.dx, g.dy, block)
                 spectra[block] = cached_spectrum(key, lambda block=block: build(block), self.engine.fft_shape)
-            self._op_c = ConvolutionOperator(g.nx, g.ny, "xyz", spectra, threads=self.scene.threads)
+            self._coupling_spectra = spectra
+            self._op_c = self._operator(spectra)
         return self._op_c
 
-    def coupling_tangential(self, p: np.ndarray) -> np.ndarray:
+    @property
+    def coupling_spectra(self) -> dict[str, np.ndarray]:
+        """The host spectra of ``coupling_operator``'s blocks xz yz zx zy (built with it)."""
+        if self._op_c is None:
+            self.coupling_operator  # noqa: B018 (a property that builds them)
+        return self._coupling_spectra
+
+    def coupling_tangential(self, p: Array) -> Array:
         """A_tz p: relative tangential displacement (2, nx, ny) caused by the pressure (nx, ny)."""
-        field3 = np.zeros((3,) + p.shape)
-        field3[2] = p
-        return self.coupling_operator.apply(field3)[:2]
+        field3 = self.zeros(3)
+        field3[2, ...] = p
+        return self.coupling_operator.apply(field3)[:2, ...]
 
-    def coupling_normal(self, t: np.ndarray) -> np.ndarray:
+    def coupling_normal(self, t: Array) -> Array:
         """A_zt t: relative normal displacement (nx, ny) caused by the tangential traction."""
-        field3 = np.zeros((3,) + t.shape[1:])
-        field3[:2] = t
-        return self.coupling_operator.apply(field3)[2]
+        field3 = self.zeros(3)
+        field3[:2, ...] = t
+        return self.coupling_operator.apply(field3)[2, ...]
 
-    def normal(self, extra_gap: np.ndarray | None = None, load: float | None = None) -> Solution:
+    def normal(self, extra_gap: Array | None = None, load: float | None = None) -> Solution:
         """Polonsky–Keer at the load P (or ``load``, grid units) on the gap (plus ``extra_gap``);
         raises if the contact reaches the grid edge."""
-        gap = self.gap if extra_gap is None else self.gap + extra_gap
+        gap = self._gap if extra_gap is None else self._gap + extra_gap
         solution = polonsky_keer(
             self.op_z.apply,
             gap,
@@ -339,34 +378,35 @@ class SlipProblem:
             load=self.P if load is None else load,
             cell_area=self.grid.cell_area,
         )
-        contact = solution.traction[0] > 0.0
-        if contact[0, :].any() or contact[-1, :].any() or contact[:, 0].any() or contact[:, -1].any():
+        contact = solution.traction[0, ...] > 0.0
+        xp = self.xp
+        edges = (contact[0, :], contact[-1, :], contact[:, 0], contact[:, -1])
+        if any(bool(xp.any(edge)) for edge in edges):
             raise FloatingPointError("the contact reaches the edge of the slip grid")
         return solution
 
     @property
-    def full_operator(self) -> ConvolutionOperator:
+    def full_operator(self) -> ConvolutionOperator | ArrayConvolutionOperator:
         """The coupled 3-component operator of the pair (xx xy yx yy zz and the coupling blocks)."""
         if self._op_full is None:
-            op_c = self.coupling_operator
             spectra = {}
             for a in "xyz":
                 for c in "xyz":
                     block = a + c
                     if block in ("xz", "yz", "zx", "zy"):
-                        spectra[block] = op_c.pairs["xyz".index(a)]["xyz".index(c)]
+                        spectra[block] = self.coupling_spectra[block]
                     else:
                         try:
                             spectra[block] = self.engine.spectrum(block)
                         except KeyError:
                             continue
-            self._op_full = ConvolutionOperator(self.grid.nx, self.grid.ny, "xyz", spectra, threads=self.scene.threads)
+            self._op_full = self._operator(spectra)
             if self.scene.precondition:
-                self._precondition_full = FourierPreconditioner(self.grid, self.surface_green, "xyz").apply
+                self._precondition_full = FourierPreconditioner(self.grid, self.surface_green, "xyz", self.xp).apply
         return self._op_full
 
     def tangent_tensor(
-        self, stick: np.ndarray, slip_direction: np.ndarray | None, contact: np.ndarray, coupled: bool
+        self, stick: Array, slip_direction: Array | None, contact: Array, coupled: bool
     ) -> tuple[np.ndarray, int]:
         r"""Incremental stiffness tensor (grid frame and units) of a state, at constant normal load.
 
@@ -386,37 +426,39 @@ class SlipProblem:
         unit approach d when coupled, whose row is condensed out with dP = 0:
         K = K_tt − K_tz K_zz⁻¹ K_zt). Coupled, the contact area is held and the change of a slip
         cell's limit mu dp is left out (it would make the system non-symmetric; an O(β mu)
-        term, ~2e-4 of k_t even for β = 0.29: docs/validation.md §"Partial slip").
+        term, ~2e-4 of k_t even for β = 0.29: docs/validation.md §"Partial slip"). The masks and
+        directions are arrays of the scene's device; K comes back to the host (one column a solve).
         """
-        if not stick.any() and slip_direction is None:
+        xp = self.xp
+        if not bool(xp.any(stick)) and slip_direction is None:
             return np.zeros((2, 2)), 0
         tau = None
         if slip_direction is not None:
-            tau = np.stack([-slip_direction[1], slip_direction[0]])
-        slip = contact & ~stick if slip_direction is not None else np.zeros_like(stick)
+            tau = xp.stack([-slip_direction[1, ...], slip_direction[0, ...]])
+        slip = contact & ~stick if slip_direction is not None else xp.zeros_like(stick)
         if coupled:
             op, pc, comps = self.full_operator, self._precondition_full, 3
         else:
             op, pc, comps = self.op_t, self.precondition_t, 2
 
-        def restrict(v: np.ndarray) -> np.ndarray:
-            out = np.zeros_like(v)
-            out[:2] = np.where(stick, v[:2], 0.0)
+        def restrict(v: Array) -> Array:
+            out = xp.zeros_like(v)
+            out[:2, ...] = xp.where(stick, v[:2, ...], 0.0)
             if tau is not None:
-                along = v[0] * tau[0] + v[1] * tau[1]
-                out[:2] += np.where(slip, along * tau, 0.0)
+                along = v[0, ...] * tau[0, ...] + v[1, ...] * tau[1, ...]
+                out[:2, ...] += xp.where(slip, along * tau, 0.0)
             if comps == 3:
-                out[2] = np.where(contact, v[2], 0.0)
+                out[2, ...] = xp.where(contact, v[2, ...], 0.0)
             return out
 
         K = np.zeros((comps, comps))
         iterations = 0
         for j in range(comps):
-            rhs = np.zeros((comps,) + stick.shape)
-            rhs[j] = 1.0
+            rhs = self.zeros(comps)
+            rhs[j, ...] = 1.0
             x, its = _pcg(op.apply, restrict(rhs), restrict, pc, self.scene.tol)
             iterations += its
-            K[:, j] = x.reshape(comps, -1).sum(axis=1) * self.grid.cell_area
+            K[:, j] = to_host(xp.sum(xp.reshape(x, (comps, -1)), axis=1)) * self.grid.cell_area
         if comps == 3:
             K = K[:2, :2] - np.outer(K[:2, 2], K[2, :2]) / K[2, 2]
         return K, iterations
@@ -424,36 +466,37 @@ class SlipProblem:
 
 def _pcg(
     apply: Operator,
-    rhs: np.ndarray,
+    rhs: Array,
     restrict: Operator,
     precondition: Operator | None,
     tol: float,
     maxiter: int = 5000,
-) -> tuple[np.ndarray, int]:
+) -> tuple[Array, int]:
     """Solve Π A Π x = Π b for x = Π x by preconditioned CG (Π a symmetric projection)."""
+    xp = namespace(rhs)
     b = restrict(rhs)
-    b_norm = float(np.linalg.norm(b))
-    x = np.zeros_like(b)
+    b_norm = norm(b)
+    x = xp.zeros_like(b)
     if b_norm == 0.0:
         return x, 0
-    r = b.copy()
+    r = copy(b)
     z = restrict(precondition(r)) if precondition is not None else r
-    p = z.copy()
-    rz = float(np.vdot(r, z))
+    p = copy(z)
+    rz = dot(r, z)
     residual = 1.0
     for iteration in range(1, maxiter + 1):
         q = restrict(apply(p))
-        curvature = float(np.vdot(p, q))
+        curvature = dot(p, q)
         if not curvature > 0.0:
             raise ConvergenceError("tangent operator is not positive definite", iteration, residual)
         alpha = rz / curvature
         x += alpha * p
         r -= alpha * q
-        residual = float(np.linalg.norm(r)) / b_norm
+        residual = norm(r) / b_norm
         if residual <= tol:
             return x, iteration
         z = restrict(precondition(r)) if precondition is not None else r
-        rz_new = float(np.vdot(r, z))
+        rz_new = dot(r, z)
         p = z + (rz_new / rz) * p
         rz = rz_new
     raise ConvergenceError(f"tangent CG did not reach tol={tol:g}", maxiter, residual)
