@@ -31,8 +31,10 @@ same rule to its own round trips and chunk seconds.
 **Adaptive rounds** (``replay_rounds``): an adaptive map runs synchronized rounds
 (``hpcontact.sweep.maps.rounds``): every rank enumerates its share of the whole grid once, then
 each round's tasks run as one replayed sweep (without setup or gather of their own), and between
-rounds rank 0 alone decides the next round (journals, the data set of every journaled task, the
-refinement: ``between_s``, measured) while every other rank waits. Work between rounds that
+rounds rank 0 alone decides the next round (the journal lines not read ahead, the outcomes
+joined, the stored stiffnesses of every journaled task, ``dataset.stiffness_dataset``, the
+refinement; after the last round the whole data set made, filled and written: ``between_s``,
+measured) while every other rank waits. Work between rounds that
 the ranks would share (``spread_between_s``: its seconds on one rank, e.g. the refinement's
 per-leaf estimate split over the ranks) costs its seconds / R. The estimates rank 0 shares out
 over the ranks while it decides (``leaf_calls``, ``maps.spread``) cost each the seconds of the
@@ -226,7 +228,8 @@ def replay_rounds(
     """Discrete-event model of an adaptive map's synchronized rounds (module docstring): each
     round's tasks (``tasks.chunk_order`` of them and their one-core seconds in task order) run
     as one ``replay_chunks`` without setup or gather, then rank 0 alone spends the round's
-    ``between_s`` (journals, data set, refinement; after the last round: the data set written)
+    ``between_s`` (journals, stored stiffnesses, refinement; after the last round: the data set
+    made, filled and written)
     while the other ranks wait; before the first round every rank enumerates its share of the
     whole grid's ``tasks`` and rank 0 joins them (``spread_setup_s``, ``setup_s`` per task, as
     ``replay_chunks``); ``spread_between_s`` (None: none), per round, seconds of work after it
