@@ -52,18 +52,26 @@ class Option(str):
         return self.flag if front is Front.COMMAND_LINE or self.keyword is None else self.keyword
 
 
-class Message:
+class Message(str):
     """Text that names options, each kept as its ``Option`` and spelled by the front end that
     shows it (``render``): ``Message("pass ", RESUME, " to continue")`` is "pass --resume to
-    continue" on the command line (also its ``str()``) and "pass resume=True to continue" to a
-    Python caller. Joined with ``+`` to text or another message, it stays a message."""
+    continue" on the command line and "pass resume=True to continue" to a Python caller. As
+    text (``str``) it is the command line's wording, so that code reading a message as text
+    reads what it read before; joined with ``+`` to text or another message it stays a message
+    (other ``str`` operations give the command line's plain text)."""
 
-    __slots__ = ("parts",)
+    parts: tuple[str, ...]
 
-    def __init__(self, *parts: str | Option | Message) -> None:
-        self.parts: tuple[str | Option, ...] = tuple(
-            q for p in parts for q in (p.parts if isinstance(p, Message) else (p,)) if q != ""
+    def __new__(cls, *parts: str) -> Message:
+        flat = tuple(q for p in parts for q in (p.parts if isinstance(p, Message) else (p,)) if q != "")
+        message = super().__new__(
+            cls, "".join(p.advised(Front.COMMAND_LINE) if isinstance(p, Option) else p for p in flat)
         )
+        message.parts = flat
+        return message
+
+    def __getnewargs__(self) -> tuple[str, ...]:  # type: ignore[override]  # pickled across ranks
+        return self.parts
 
     def render(self, front: Front) -> str:
         """The text as ``front`` shows it: each option ``Option.advised`` there."""
@@ -73,26 +81,14 @@ class Message:
         """The options the message names, in order."""
         return tuple(p for p in self.parts if isinstance(p, Option))
 
-    def __str__(self) -> str:
-        return self.render(Front.COMMAND_LINE)
-
     def __repr__(self) -> str:
         return f"Message{self.parts!r}"
 
-    def __eq__(self, other: object) -> bool:
-        return isinstance(other, Message) and self.parts == other.parts
-
-    def __hash__(self) -> int:
-        return hash(self.parts)
-
-    def __add__(self, other: str | Option | Message) -> Message:
+    def __add__(self, other: str) -> Message:  # type: ignore[override]
         return Message(self, other)
 
-    def __radd__(self, other: str | Option | Message) -> Message:
+    def __radd__(self, other: str) -> Message:
         return Message(other, self)
-
-    def __reduce__(self) -> tuple[Any, ...]:  # pickled across ranks (``run.shares``)
-        return (Message, self.parts)
 
 
 def rendered(text: str | Option | Message, front: Front) -> str:

@@ -21,7 +21,16 @@ from hpcontact.cli import main as cli_main
 from hpcontact.errors import Front, InputError, Message, Option, rendered
 from hpcontact.sweep.run.arguments import add_run_arguments
 from hpcontact.sweep.run.guard import Refused
-from hpcontact.sweep.run.options import ACCURACY, KEYWORDS, MEM_PER_RANK, OUTPUT, RESUME, RUN_OPTIONS, STALL_TIMEOUT
+from hpcontact.sweep.run.options import (
+    ACCURACY,
+    BREAK_LOCK,
+    KEYWORDS,
+    MEM_PER_RANK,
+    OUTPUT,
+    RESUME,
+    RUN_OPTIONS,
+    STALL_TIMEOUT,
+)
 from hpcontact.sweep.space.parse import parse_spec, toml_text
 
 PACKAGE = Path(hpcontact.__file__).parent
@@ -148,6 +157,10 @@ def test_no_sweep_text_spells_a_flag_that_python_would_not_render():
     assert found == PENDING
 
 
-def test_a_declared_option_reads_as_its_flag():
-    """Code that reads an error's field as text (``InputError.field``) reads the flag."""
+def test_options_and_messages_read_as_the_command_line_s_text():
+    """Code that reads an error's field or a note as text (``InputError.field``, a lock's note)
+    reads the command line's words, as before options were carried."""
     assert isinstance(RESUME, Option) and isinstance(RESUME, str) and f"{RESUME}" == "--resume"
+    note = Message("took over the lock (", BREAK_LOCK, ")") + "; 2 entries not reused"
+    assert isinstance(note, str) and "(--break-lock); 2" in note and note.startswith("took over")
+    assert note.render(Front.PYTHON) == "took over the lock (break_lock=True); 2 entries not reused"

@@ -40,7 +40,7 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from hpcontact.errors import Front, InputError, Message, rendered
+from hpcontact.errors import Front, InputError, Message, Option, rendered
 from hpcontact.sweep.data.journal import JOB_VARIABLES, batch_job, journal_files, read_file, sync_folder
 from hpcontact.sweep.run.options import BREAK_LOCK, OUTPUT
 from hpcontact.sweep.space.axes import LABEL_AXES, PATH_FIELDS
@@ -327,9 +327,10 @@ class RunLock:
             return f"pid {holder['pid']} on this host is gone"
         return None
 
-    def acquire(self, break_lock: bool = False) -> str | None:
-        """Take the lock; the reason when a dead holder's lock was taken over. ``Refused`` when
-        another run holds it (module docstring)."""
+    def acquire(self, break_lock: bool = False) -> Message | None:
+        """Take the lock; the note when a dead holder's lock was taken over, naming why (with
+        ``break_lock``: its option, as a ``Message``). ``Refused`` when another run holds it
+        (module docstring)."""
         for _ in range(10):  # another run may release or take the lock in between: look again
             if self._create():
                 self.held = True
@@ -339,16 +340,16 @@ class RunLock:
             if holder is None:
                 continue  # released in between
             if holder:
-                reason = BREAK_LOCK.flag if break_lock else self._takeover_reason(holder)
+                reason: str | Option | None = BREAK_LOCK if break_lock else self._takeover_reason(holder)
                 whose = f"the lock of {holder['host']} pid {holder['pid']}"
             else:
-                reason = BREAK_LOCK.flag if break_lock else self._journal_evidence()
+                reason = BREAK_LOCK if break_lock else self._journal_evidence()
                 whose = f"the unreadable lock {self.path}"
             if reason is None:
                 raise Refused(self._refusal(holder))
             if self._take_over(data):
                 self.held = True
-                return f"took over {whose} ({reason})"
+                return Message(f"took over {whose} (", reason, ")")
         raise Refused(f"{self.path} keeps changing (other runs starting on this output?); try again")
 
     def _refusal(self, holder: dict[str, Any]) -> Message:

@@ -125,7 +125,8 @@ def prepare(
         now = current(spec, options)
         covered = None if scope.select is None else sorted(scope.select | scope.earlier)
         isolated, shared, reused, crashed, foreign = _decide(spec, tasks, covered, history, options, now, memory)
-        note = "; ".join(filter(None, (note, foreign))) or None
+        if foreign is not None:  # the lock's note (a Message: it may name an option) and this one
+            note = foreign if note is None else note + f"; {foreign}"
         carried: set[str] = set()
         counted = len(reused)  # the round's tasks from journals
         if scope.select is not None:  # an adaptive round: its tasks alone
