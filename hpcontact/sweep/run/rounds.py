@@ -66,7 +66,7 @@ from hpcontact.sweep.space.parse import load_spec
 from hpcontact.sweep.space.spec import Spec, Validator
 from hpcontact.sweep.work.batches import batch_fill, plan_batches, run_batch
 from hpcontact.sweep.work.estimate import start_estimate
-from hpcontact.sweep.work.tasks import Task, changed_inputs, make_chunks
+from hpcontact.sweep.work.tasks import Task, changed_inputs, make_chunks, paused_gc
 
 # Rank 0 of an adaptive map reads the journals ahead while the round runs for at most this share
 # of its time in the round (module docstring); the rest it computes tasks.
@@ -172,13 +172,16 @@ def execute(
         ),
     )
     # every rank needs every task (chunks are claimed from one shared counter); one process keeps
-    # its share as it is, without a pickled copy of its whole task list
+    # its share as it is, without a pickled copy of its whole task list. The collector is off
+    # while the shares are unpickled (tasks.paused_gc: rows without cycles; 0.5-0.6 -> 0.2 CPU s
+    # for each half of the 4-D map's 139 725 tasks, on every rank)
     mine = share(spec, team.rank, team.size, validate, options)
-    shares = (
-        [mine]
-        if team.size == 1
-        else [pickle.loads(b) for b in team.bcast(team.gather(pickle.dumps(mine, protocol=pickle.HIGHEST_PROTOCOL)))]
-    )
+    if team.size == 1:
+        shares = [mine]
+    else:
+        sent = team.bcast(team.gather(pickle.dumps(mine, protocol=pickle.HIGHEST_PROTOCOL)))
+        with paused_gc():
+            shares = [pickle.loads(b) for b in sent]
     tasks, task_of, over = joined(spec, shares)
     run = Run(team, spec, tasks, task_of, over, task_function, stream, stop, started, command)
     if spec.adaptive is None:
