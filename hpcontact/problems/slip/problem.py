@@ -327,10 +327,10 @@ class SlipProblem:
         return self.xp.zeros(leading + self.gap.shape, dtype=self.xp.float64)
 
     @property
-    def coupling_operator(self) -> ConvolutionOperator | ArrayConvolutionOperator:
-        """(t_x, t_y, p) ↦ (A_xz p, A_yz p, A_zx t_x + A_zy t_y): the coupling blocks of the pair
-        (``PairCompliance.blocks``; body 1's minus body 2's for isotropic bodies)."""
-        if self._op_c is None:
+    def coupling_spectra(self) -> dict[str, np.ndarray]:
+        """The host spectra of the pair's coupling blocks xz yz zx zy (``PairCompliance.blocks``;
+        body 1's minus body 2's for isotropic bodies), built once."""
+        if not self._coupling_spectra:
             g = self.grid
             names = ("xz", "yz", "zx", "zy")
             built: dict[str, np.ndarray] = {}
@@ -340,20 +340,19 @@ class SlipProblem:
                     built.update(self.compliance.blocks(g.nx, g.ny, g.dx, g.dy, names, self.scene.threads))
                 return built[block]
 
-            spectra = {}
             for block in names:
                 key = ("pair-coupling",) + self.compliance.key + (g.nx, g.ny, g.dx, g.dy, block)
-                spectra[block] = cached_spectrum(key, lambda block=block: build(block), self.engine.fft_shape)
-            self._coupling_spectra = spectra
-            self._op_c = self._operator(spectra)
-        return self._op_c
+                spectrum = cached_spectrum(key, lambda block=block: build(block), self.engine.fft_shape)
+                self._coupling_spectra[block] = spectrum
+        return self._coupling_spectra
 
     @property
-    def coupling_spectra(self) -> dict[str, np.ndarray]:
-        """The host spectra of ``coupling_operator``'s blocks xz yz zx zy (built with it)."""
+    def coupling_operator(self) -> ConvolutionOperator | ArrayConvolutionOperator:
+        """(t_x, t_y, p) ↦ (A_xz p, A_yz p, A_zx t_x + A_zy t_y): the coupling blocks of the pair
+        (``coupling_spectra``) on the scene's device."""
         if self._op_c is None:
-            self.coupling_operator  # noqa: B018 (a property that builds them)
-        return self._coupling_spectra
+            self._op_c = self._operator(self.coupling_spectra)
+        return self._op_c
 
     def coupling_tangential(self, p: Array) -> Array:
         """A_tz p: relative tangential displacement (2, nx, ny) caused by the pressure (nx, ny)."""
