@@ -115,10 +115,10 @@ def test_the_run_options_are_declared_once_for_argparse_and_run_sweep():
 #: Files whose text may spell a declared flag by hand: the declaration and the command line's
 #: help (``arguments.EXIT_STATUS``), the command line's alone.
 DECLARATIONS = {"sweep/run/options.py", "sweep/run/arguments.py"}
-#: Hand-spelled flags left in files that helpers other than E4 owned during issue 38 item 4 (the
-#: patches that name them as options are in E4's report): ``rounds`` a stop's "run again with
-#: --resume" (twice) and its count of quarantined tasks; ``assembly`` and ``dataset`` a history's
-#: "--resume". Emptied with those patches: the check then covers the whole sweep.
+#: Hand-spelled flags left in files that helpers other than E4 owned during issue 38 item 4 (E4's
+#: report has the patch, /tmp/e4/patches_for_lead.diff, that names them as options and deletes
+#: this table): ``rounds`` a stop's "run again with --resume" (twice) and its count of quarantined
+#: tasks; ``assembly`` and ``dataset`` a history's "--resume" (the command line's words, by design).
 PENDING = {
     "sweep/data/dataset.py": ["--resume"],
     "sweep/run/assembly.py": ["--resume"],
