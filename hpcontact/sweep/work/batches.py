@@ -14,7 +14,7 @@ A task solved over a grid sequence (an ``accuracy``, or the extrapolated default
 (``boundary``, ``auto`` resolved), first grid, quantities and preconditioner choice, so that their
 sequences run over the same grids: ``accuracy.solve_to_accuracy_batch`` refines them level by
 level together, each scene stopping by its own estimate, a failing one stopped alone. The one exact
-cell of an ellipse (``galin``) runs alone: a one-dimensional integral on the host, no grid to
+cell of an ellipse (``galin``) runs alone: one integral (its compliance J) on the host, no grid to
 batch, 0.5-26 ms of CPU a scene (``solve_to_accuracy`` at 1e-6 of the circle, a Cu ellipse b/a 0.5,
 an ellipse b/a 1e-4 at nu 0.45; best of 5, measured 2026-11-29 on 2 shared cores, load ~10).
 Every other task (a slip scene, another task function) runs alone.
