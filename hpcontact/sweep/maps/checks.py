@@ -34,6 +34,7 @@ from hpcontact.sweep.maps.refinement import (
     Leaf,
     State,
     estimate,
+    is_sparse,
     node_mask,
     solve_errors,
     state_tasks,
@@ -109,8 +110,8 @@ def judged(
     the interpolant's miss at a check point — |solved − interpolated| relative to the
     quantity's scale, less the check's own and the nodes' interpolated solve errors — to the
     interpolation estimate there. Above 1, the sub-problem first turns conservative
-    (``TensorInterpolant.estimates``: the lower order's error too) and is judged again; still
-    above 1, its factor is raised by the ratio × ``CHECK_MARGIN`` (at most ``MAX_RAISE``).
+    (``TensorInterpolant.estimates``: the lower order's error too; a sparse grid's has no other
+    kind) and is judged again; still above 1, its factor is raised by the ratio × ``CHECK_MARGIN`` (at most ``MAX_RAISE``).
     Every check point is judged again each time (the nodes may have moved)."""
     full = np.zeros(layout.shape, dtype=bool)
     full.ravel()[list(checks.points)] = True
@@ -122,7 +123,7 @@ def judged(
         if not here.any():
             continue
         worst = _worst_miss(layout, cat, leaves, names, fields, here, safety[s], conservative[s])
-        if worst > 1.0 and not conservative[s]:
+        if worst > 1.0 and not conservative[s] and not is_sparse(leaves):
             conservative[s], raised = True, True
             worst = _worst_miss(layout, cat, leaves, names, fields, here, safety[s], True)
         if worst > 1.0:

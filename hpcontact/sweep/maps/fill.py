@@ -59,7 +59,8 @@ def fill(
     """The final data set of an adaptive sweep from ``ds`` (``dataset.dataset_of`` of every
     journaled task, derive off): every unsolved point of a sub-problem filled by interpolation
     from its nodes (stiffnesses and their ``<name>_error``; other record variables NaN or "",
-    ``status`` ok where the stiffnesses are finite, ``message`` ``INTERPOLATED_MESSAGE``,
+    ``status`` ok where the stiffnesses are finite (those finite at every successful solve:
+    normalized_* of an anisotropic body is NaN by definition), ``message`` ``INTERPOLATED_MESSAGE``,
     ``error_status`` the worst of the sub-problem's nodes), plus ``solved``,
     ``<name>_map_error`` for every stored stiffness (linked by ``ancillary_variables``) and the
     global attributes ``sweep_solves``, ``adaptive_*``. The check points of ``checks`` are
@@ -110,7 +111,11 @@ def fill(
             else:
                 continue
             out[name] = (dims, array, out[name].attrs)
-    finite = np.all([np.isfinite(values[n]) for n in names], axis=0) if names else np.ones(layout.shape, bool)
+    # a stiffness undefined at some solves that succeeded (normalized_* of an anisotropic body:
+    # NaN by definition) is no sign of a failed node where it is NaN between them
+    ok = solved & (ds["status"].values == OK)
+    defined = [n for n in names if np.all(np.isfinite(fields[n][ok]))]
+    finite = np.all([np.isfinite(values[n]) for n in defined], axis=0) if defined else np.ones(layout.shape, bool)
     status = out["status"].values.copy()
     status[unsolved] = np.where(finite[unsolved], OK, NOT_COMPUTED)
     out["status"] = (dims, status, out["status"].attrs)

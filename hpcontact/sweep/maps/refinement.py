@@ -140,13 +140,40 @@ class Layout:
         array[self.whole(cat)] = values
 
 
+#: Interpolated axes (of 3 points or more) from which ``[adaptive] method = "auto"`` maps with a
+#: sparse grid (``maps.sparse_grid``) rather than leaves: measured, benchmarks/local_refinement.py
+#: (docs/howto/adaptive.md, "A sparse grid").
+AUTO_SPARSE_AXES = 3
+
+
+def sparse_method(layout: Layout, settings: Settings) -> bool:
+    """Whether the map is a sparse grid (``settings.method``; "auto": ``AUTO_SPARSE_AXES``)."""
+    if settings.method != "auto":
+        return settings.method == "sparse"
+    return sum(len(x) >= 3 for x in layout.xs) >= AUTO_SPARSE_AXES
+
+
+def is_sparse(leaves: Any) -> bool:
+    """Whether a sub-problem's part of the state is a sparse grid's set (``maps.sparse_grid``),
+    not leaves."""
+    from hpcontact.sweep.maps.sparse_grid import SparseSet
+
+    return isinstance(leaves, SparseSet)
+
+
 def initial_state(layout: Layout, settings: Settings) -> State:
     """The first round's nodes: in every sub-problem one leaf, the first bisection level with
-    ``settings.initial`` nodes along each numeric axis."""
+    ``settings.initial`` nodes along each numeric axis; for a sparse grid (``sparse_method``)
+    its first set (``sparse_grid.initial_set``)."""
+    cats = [tuple(int(c) for c in cat) for cat in np.ndindex(*(layout.shape[p] for p in layout.categorical))]
+    if sparse_method(layout, settings):
+        from hpcontact.sweep.maps.sparse_grid import initial_set
+
+        first = initial_set(tuple(len(x) for x in layout.xs), settings.initial)
+        return tuple((cat, first) for cat in cats)
     nodes = tuple(tuple(bisection_nodes(layout.shape[p], settings.initial)) for p in layout.numeric)
     leaf = Leaf(nodes, tuple((n[0], n[-1]) for n in nodes))
-    cats = np.ndindex(*(layout.shape[p] for p in layout.categorical))
-    return tuple((tuple(int(c) for c in cat), (leaf,)) for cat in cats)
+    return tuple((cat, (leaf,)) for cat in cats)
 
 
 def box(leaf: Leaf) -> tuple[slice, ...]:
@@ -155,7 +182,12 @@ def box(leaf: Leaf) -> tuple[slice, ...]:
 
 
 def node_mask(layout: Layout, leaves: Sequence[Leaf]) -> np.ndarray:
-    """Whether each point of a sub-problem's grid (numeric axes) is a node of one of ``leaves``."""
+    """Whether each point of a sub-problem's grid (numeric axes) is a node of one of ``leaves``
+    (or of a sparse grid's set)."""
+    if is_sparse(leaves):
+        from hpcontact.sweep.maps.sparse_grid import set_nodes
+
+        return set_nodes(tuple(len(x) for x in layout.xs), leaves.indices)
     mask = np.zeros(tuple(len(x) for x in layout.xs), dtype=bool)
     for leaf in leaves:
         mask[np.ix_(*leaf.nodes)] = True
@@ -199,7 +231,7 @@ def state_points(layout: Layout, state: State, checks: Checks | None = None) -> 
     """The flat (C order over the task axes) indices of every node point of ``state`` and
     every check point of ``checks``, sorted."""
     flat = np.arange(math.prod(layout.shape)).reshape(layout.shape)
-    parts = [layout.take(flat, cat, leaf.nodes).ravel() for cat, leaves in state for leaf in leaves]
+    parts = [layout.take(flat, cat)[node_mask(layout, leaves)] for cat, leaves in state]
     if checks is not None and checks.points:
         parts.append(np.asarray(checks.points, dtype=np.intp))
     return np.unique(np.concatenate(parts)) if parts else np.empty(0, dtype=np.intp)
@@ -345,6 +377,20 @@ def solve_errors(
     )
 
 
+def worked_quantities(
+    layout: Layout, cat: Sequence[int], mask: np.ndarray, names: Sequence[str], fields: Mapping[str, np.ndarray]
+) -> tuple[list[str], bool]:
+    """The quantities an estimate interpolates: ``names``, then the tensor entries the principal
+    stiffnesses derive from where ``fields`` has them and they may cross at the nodes ``mask``
+    of the sub-problem ``cat`` (``_crosses``), and whether they derive."""
+    derive = any(n in PRINCIPAL for n in names) and all(t in fields for t in TENSOR)
+    work = list(names) + [t for t in TENSOR if derive and t not in names]
+    if derive:
+        data = np.stack([layout.take(fields[n], cat)[mask] for n in work], axis=-1)
+        derive = _crosses(data, solve_errors(layout, fields, work, cat)[mask], work)
+    return work, derive
+
+
 @dataclass(frozen=True)
 class LeafJob:
     """What one leaf's part of a sub-problem's estimate needs (``leaf_estimate``), small enough
@@ -476,14 +522,14 @@ def estimate(
     quantities is smallest there (the first where all are NaN), merged in leaf order whoever
     computed the parts. The principal stiffnesses come from the interpolated tensor where
     ``fields`` has it and they may cross (``_crosses``, on every node of the sub-problem;
-    ``principal_from_tensor``)."""
-    derive = any(n in PRINCIPAL for n in names) and all(t in fields for t in TENSOR)
-    work = list(names) + [t for t in TENSOR if derive and t not in names]
+    ``principal_from_tensor``). A sparse grid's set instead of leaves: ``sparse_grid.estimate``
+    (``conservative`` has no meaning there)."""
+    if is_sparse(leaves):
+        from hpcontact.sweep.maps import sparse_grid
+
+        return sparse_grid.estimate(layout, cat, leaves, names, fields, safety)
+    work, derive = worked_quantities(layout, cat, node_mask(layout, leaves), names, fields)
     grid = tuple(len(x) for x in layout.xs)
-    if derive:
-        mask = node_mask(layout, leaves)
-        data = np.stack([layout.take(fields[n], cat)[mask] for n in work], axis=-1)
-        derive = _crosses(data, solve_errors(layout, fields, work, cat)[mask], work)
     jobs = [
         LeafJob(
             xs=tuple(x[n[0] : n[-1] + 1] for x, n in zip(layout.xs, leaf.nodes)),
@@ -536,6 +582,10 @@ def refine(
     checks = checks if checks is not None else Checks()
     if not names:
         return None
+    if state and is_sparse(state[0][1]):
+        from hpcontact.sweep.maps import sparse_grid
+
+        return sparse_grid.refine(layout, settings, state, fields, names, task_of, checks)
     tol = np.array([settings.tolerance(n) for n in names])
     candidates = []  # (score, sub-problem position, leaf position, axis, interval)
     for s, (cat, leaves) in enumerate(state):

@@ -16,7 +16,10 @@ from hpcontact.quantities import ESTIMATED, SLIP_ESTIMATED
 INTERPOLATED_AXES = frozenset(
     {"nu", "aspect", "anisotropy", "orientation", "angle", "load", "mu", "q_ratio", "anisotropy2", "orientation2"}
 )
-KEYS = ("tolerance", "max_solves", "quantities", "initial", "log", "checks")
+KEYS = ("tolerance", "max_solves", "quantities", "initial", "log", "checks", "method")
+#: How the map's nodes are chosen (``maps.refinement``: leaves of a k-d tree; ``maps.sparse_grid``:
+#: a dimension-adaptive sparse grid; "auto": ``refinement.sparse_method``).
+METHODS = ("auto", "leaves", "sparse")
 TOLERANCE_RANGE = "a relative error in [1e-8, 0.5]"
 DEFAULT_INITIAL = 5
 
@@ -27,7 +30,7 @@ class Settings:
     stored stiffness at ``default``), ``max_solves`` (None: the full grid bounds it), nodes per
     axis of the first round, the list axes interpolated in log10 and the random points of
     each sub-problem solved per check round (0: no check; None: ``maps.checks.check_count``,
-    a tenth of the sub-problem's nodes, 10 … 30)."""
+    a tenth of the sub-problem's nodes, 10 … 30) and the ``method`` (``METHODS``)."""
 
     default: float
     tolerances: tuple[tuple[str, float], ...] = ()
@@ -36,6 +39,7 @@ class Settings:
     initial: int = DEFAULT_INITIAL
     log: tuple[str, ...] = ()
     checks: int | None = None
+    method: str = "auto"
 
     def tolerance(self, name: str) -> float:
         """The tolerance of the quantity ``name``."""
@@ -103,6 +107,9 @@ def parse_settings(table: Any, axes: Sequence[Any], raw_axes: Mapping[str, Any],
             "an integer in [0, 10000] (random points solved per sub-problem to check the map)",
             checks,
         )
+    method = table.get("method", "auto")
+    if method not in METHODS:
+        raise InputError("adaptive.method", f"one of {', '.join(METHODS)}", method)
     log = table.get("log", [])
     if isinstance(log, str):
         log = [log]
@@ -128,7 +135,7 @@ def parse_settings(table: Any, axes: Sequence[Any], raw_axes: Mapping[str, Any],
         for name, raw_axis in raw_axes.items()
         if name in numeric and isinstance(raw_axis, dict) and "logspace" in raw_axis and name not in log
     )
-    settings = Settings(default, tolerances, quantities, None, initial, log, checks)
+    settings = Settings(default, tolerances, quantities, None, initial, log, checks, method)
     if "max_solves" in table:
         value = table["max_solves"]
         first = math.prod(len(bisection_nodes(len(a), initial)) if a.name in numeric else len(a) for a in task_axes)
