@@ -20,8 +20,10 @@ every grid point and no sweep machinery (journals, data sets) is timed:
   every 4th b/a, 2nd nu, 4th A and 6th ψ of jobs/adaptive_orientation_map.toml; 1 260 points),
   the scenes at nu 0.25 taken from the 3-D map's cache, the others solved (~870, minutes).
 
-For each: the adaptive map's solves (check points included), worst true relative error and
-honesty (the share of points whose map error is at least the true error); the smallest uniform
+For each, by leaves and by the sparse grid (``[adaptive] method``; ``maps.sparse_grid``): the
+adaptive map's solves (check points included; the points solved, against the uniform sub-grid's
+points), worst true relative error and honesty (the share of points whose map error is at
+least the true error); the smallest uniform
 sub-grid (every k_d-th index per axis, the last included; the same cubic tensor interpolant)
 that meets the tolerance by the truth and by the adaptive map's own estimate; a
 dimension-adaptive sparse grid (``sparse_grid``: this file's own combination technique on the
@@ -44,7 +46,7 @@ import numpy as np
 
 from hpcontact.analytic import mindlin_ellipse_stiffness
 from hpcontact.numerics.interpolation import TensorInterpolant, bisection_nodes
-from hpcontact.sweep.maps.refinement import Checks, Layout, Leaf, estimate, initial_state, state_tasks
+from hpcontact.sweep.maps.refinement import Checks, Layout, Leaf, estimate, initial_state, is_sparse, state_tasks
 from hpcontact.sweep.maps.rounds import next_step
 from hpcontact.sweep.space.parse import parse_spec
 from hpcontact.sweep.work.tasks import enumerate_part, join_parts
@@ -62,13 +64,14 @@ def all_points(text: str, function: Callable[[Mapping[str, Any]], Mapping[str, f
     return {n: np.array([float(r[n]) for r in records])[task_of] for n in names}
 
 
-def simulate(text: str, fields: Fields, names: list[str]) -> dict[str, Any]:
+def simulate(text: str, fields: Fields, names: list[str], method: str = "auto") -> dict[str, Any]:
     """The adaptive map of the spec ``text`` whose solves return ``fields`` (every stiffness and
     its ``<name>_error`` over the task axes; the decisions see them only at solved points, NaN
     elsewhere), decided as a sweep decides (``next_step``), refined on ``names``: the filled map
     (solved points their value, the rest interpolated), its map error, the solved mask, the
-    solves, the rounds, the check points and the leaves."""
-    spec = parse_spec(text, check_scenes=False)
+    solves, the rounds, the check points and the leaves (a sparse grid: its level indices);
+    ``method``: ``[adaptive] method``."""
+    spec = parse_spec(f'{text.rstrip()}\nmethod = "{method}"\n', check_scenes=False)
     layout = Layout.of(spec)
     task_of = join_parts(spec, [enumerate_part(spec)])[1]
     stored = [n for n in fields if not n.endswith("_error")]
@@ -98,7 +101,7 @@ def simulate(text: str, fields: Fields, names: list[str]) -> dict[str, Any]:
         "solves": len(np.unique(np.asarray(task_of)[solved])),
         "rounds": rounds,
         "checks": len(checks.points),
-        "leaves": sum(len(leaves) for _, leaves in state),
+        "leaves": sum(len(leaves.indices) if is_sparse(leaves) else len(leaves) for _, leaves in state),
         "layout": layout,
         "spec": spec,
     }
@@ -303,14 +306,20 @@ def python_adaptive(layout: Layout, truth: Fields, target: float, chunk: int, li
 
 
 def compare(label: str, text: str, fields: Fields, names: list[str], truth: Fields, libraries: bool) -> dict:
-    """One map: the adaptive map, the smallest uniform sub-grids, the sparse grid and (with
-    ``libraries``) python-adaptive, every one against ``truth`` at every grid point."""
-    started = time.perf_counter()
-    result = simulate(text, fields, names)
-    row: dict[str, Any] = {"map": label, "points": int(np.asarray(result["values"][names[0]]).size)}
-    row.update(solves=result["solves"], rounds=result["rounds"], checks=result["checks"], leaves=result["leaves"])
-    row.update(judge(result["values"], result["errors"], truth), wall_s=round(time.perf_counter() - started, 2))
-    row["share solved"] = row["solves"] / row["points"]
+    """One map: the adaptive map by leaves and by the sparse grid (``[adaptive] method``), the
+    smallest uniform sub-grids, the truth-guided sparse grid and (with ``libraries``)
+    python-adaptive, every one against ``truth`` at every grid point."""
+    row: dict[str, Any] = {"map": label}
+    for method in ("leaves", "sparse"):
+        started = time.perf_counter()
+        result = simulate(text, fields, names, method)
+        found: dict[str, Any] = {"points": int(np.asarray(result["values"][names[0]]).size)}
+        found.update(solves=result["solves"], rounds=result["rounds"], checks=result["checks"])
+        found.update(parts=result["leaves"], points_solved=int(np.count_nonzero(result["solved"])))
+        found.update(judge(result["values"], result["errors"], truth), wall_s=round(time.perf_counter() - started, 2))
+        found["share solved"] = found["solves"] / found["points"]
+        row[method] = found
+    row["points"] = row["leaves"]["points"]
     tolerance = result["spec"].adaptive.default
     row["uniform"] = smallest_uniform(result, fields, names, truth, tolerance)
     row["sparse grid"] = sparse_grid(result["layout"], fields, truth, tolerance)
@@ -444,17 +453,21 @@ def main() -> None:
         )
     for row in rows:
         uniform, sparse = row["uniform"], row["sparse grid"]
-        print(
-            f"{row['map']}: {row['points']} points, adaptive {row['solves']} solves ({100 * row['share solved']:.1f} %, "
-            f"{row['checks']} checks, {row['rounds']} rounds, {row['leaves']} leaves), worst true {row['worst true']:.2e}, "
-            f"worst stated {row['worst stated']:.2e}, honest {100 * row['honest']:.1f} %",
-            flush=True,
-        )
-        for key, found in uniform.items():
-            ratio = row["solves"] / found["nodes"]
-            print(
-                f"    uniform {key}: {found['nodes']} nodes, strides {found['strides']} (adaptive / it = {ratio:.2f})"
+        print(f"{row['map']}: {row['points']} points", flush=True)
+        for method in ("leaves", "sparse"):
+            found = row[method]
+            ratios = ", ".join(
+                f"{found['points_solved'] / u['nodes']:.2f} x uniform {key}" for key, u in uniform.items()
             )
+            print(
+                f"    {method}: {found['solves']} solves ({100 * found['share solved']:.1f} %, {found['checks']} checks, "
+                f"{found['rounds']} rounds, {found['parts']} leaves or indices; {found['points_solved']} points solved: "
+                f"{ratios}), worst true {found['worst true']:.2e}, worst stated {found['worst stated']:.2e}, "
+                f"honest {100 * found['honest']:.1f} %, {found['wall_s']} s",
+                flush=True,
+            )
+        for key, found in uniform.items():
+            print(f"    uniform {key}: {found['nodes']} nodes, strides {found['strides']}, worst {found['worst']:.2e}")
         print(f"    sparse grid (truth-guided): {sparse['solves']} points, worst {sparse['worst true']:.2e}")
         for name, learned in row.get("python-adaptive", {}).items():
             if name != "version":
