@@ -47,6 +47,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -71,9 +72,14 @@ __all__ = [
     "STRATEGIES",
     "SUBSAMPLES",
     "SUPPORTED",
+    "CoverageSystem",
     "coverage",
+    "coverage_solved",
+    "coverage_system",
+    "covered_record",
     "covered_solve",
     "mask_cells",
+    "resolved_strategy",
     "strip_applies",
 ]
 
@@ -229,6 +235,14 @@ def covered_solve(scene: Scene, strategy: str = "coverage") -> dict[str, Any]:
     which is exact where the coverage is, and ``boundary`` (the strategy used).
     """
     started = time.perf_counter()
+    strategy = resolved_strategy(scene, strategy)
+    solved = {"singular": _singular_forces, "strip": _strip_forces, "coverage": _coverage_forces}[strategy](scene)
+    return covered_record(scene, strategy, solved, started)
+
+
+def resolved_strategy(scene: Scene, strategy: str) -> str:
+    """The boundary cells ``covered_solve`` takes for ``scene`` (``auto`` resolved); InputError
+    where ``strategy`` does not apply or a quantity is not one coverage-weighted cells solve."""
     if strategy not in STRATEGIES:
         raise InputError("strategy", f"one of {', '.join(STRATEGIES)}", strategy)
     grid = grid_for(scene.shape, scene.n, scene.n_across) if scene.shape.name != "mask" else None
@@ -251,7 +265,12 @@ def covered_solve(scene: Scene, strategy: str = "coverage") -> dict[str, Any]:
     unsupported = [x for x in scene.quantities if x not in SUPPORTED]
     if unsupported:
         raise InputError("quantities", f"{', '.join(SUPPORTED)} with coverage-weighted cells", unsupported[0])
-    solved = {"singular": _singular_forces, "strip": _strip_forces, "coverage": _coverage_forces}[strategy](scene)
+    return strategy
+
+
+def covered_record(scene: Scene, strategy: str, solved: _Solved, started: float) -> dict[str, Any]:
+    """``covered_solve``'s record of ``scene`` solved on ``strategy``'s cells (``solved``);
+    ``wall_time_s`` from ``started`` (``time.perf_counter()``)."""
     grid, f, mask = solved.grid, solved.coverage, solved.mask
     record: dict[str, Any] = {"nx": grid.nx, "ny": grid.ny, "dx": grid.dx, "dy": grid.dy}
     record["contact_cells"] = int(mask.sum())
@@ -282,8 +301,40 @@ class _Solved:
     description: str
 
 
-def _coverage_forces(scene: Scene) -> _Solved:
-    """Coverage-weighted cells: (A + D) t = u, D_ii = A_ii (1 − f_i)/f_i (module docstring)."""
+@dataclasses.dataclass
+class CoverageSystem:
+    """The linear systems of one coverage-weighted solve, none solved yet: per solve of ``plan``,
+    (A + D) t = u on the mask (module docstring: D_ii = A_ii (1 − f_i)/f_i), A the ``engine``'s
+    operator on the scene's device, D ``damping[k]`` (c, nx, ny) and the Fourier preconditioner's rows
+    scaled by ``weights[k]`` (c, nx, ny) = 1/sqrt(1 + D_ii/A_ii), both on the device; ``rhs[k]`` on the
+    host. ``precondition``: whether the scene asks for the preconditioner."""
+
+    grid: Grid
+    coverage: np.ndarray
+    mask: np.ndarray
+    plan: Plan
+    engine: Engine
+    damping: list[Any]
+    weights: list[Any]
+    rhs: list[np.ndarray]
+    precondition: bool
+
+    def operator(self, k: int) -> Callable[[Any], Any]:
+        """t ↦ (A + D) t of solve k."""
+        op, damping = self.engine.operator(self.plan.solves[k].components, self.plan.solves[k].green), self.damping[k]
+        return lambda t: op.apply(t) + damping * t
+
+    def preconditioner(self, k: int) -> FourierPreconditioner | None:
+        """The Fourier preconditioner of solve k (None without one); applied as w P(w r)."""
+        if not self.precondition:
+            return None
+        s = self.plan.solves[k]
+        return FourierPreconditioner(self.grid, self.engine.green_function(s.green), s.components, xp=self.engine.xp)
+
+
+def coverage_system(scene: Scene) -> CoverageSystem:
+    """The :class:`CoverageSystem` of ``scene`` on its grid (the mirror shortcut dropped unless the
+    coverage is x ↔ y symmetric to rounding)."""
     if scene.shape.name == "mask":
         f, grid = _refined_mask(scene.shape.mask_path, scene.n)
     else:
@@ -300,32 +351,52 @@ def _coverage_forces(scene: Scene) -> _Solved:
     engine = Engine(scene.material, grid, plan.kernels, scene.threads, xp=xp)
     phi = np.where(mask, (1.0 - f) / np.where(mask, f, 1.0), 0.0)  # D_ii / A_ii
     scale = np.where(mask, 1.0 / np.sqrt(1.0 + phi), 0.0)
+    damping, weights, rhs = [], [], []
+    for s in plan.solves:
+        damping.append(to_device(np.stack([_self_compliance(engine, c) * phi for c in s.components]), xp))
+        weights.append(to_device(np.stack([scale] * len(s.components)), xp))
+        b = np.zeros((len(s.components),) + mask.shape)
+        b[s.components.index(s.load)] = 1.0
+        rhs.append(b)
+    return CoverageSystem(grid, f, mask, plan, engine, damping, weights, rhs, scene.precondition)
+
+
+def coverage_solved(system: CoverageSystem, solutions: Sequence[Any]) -> _Solved:
+    """What the solutions of ``system``'s solves (one per solve, in order: ``traction`` on the
+    device, ``iterations``, ``residual``) give the record: the resultant forces, on the host."""
     forces: dict[str, np.ndarray] = {}
     iterations, residual = 0, 0.0
-    for s in plan.solves:
-        op = engine.operator(s.components, s.green)
-        damping = to_device(np.stack([_self_compliance(engine, c) * phi for c in s.components]), xp)
-        weights = to_device(np.stack([scale] * len(s.components)), xp)
-        rhs = np.zeros((len(s.components),) + mask.shape)
-        rhs[s.components.index(s.load)] = 1.0
-        precondition = None
-        if scene.precondition:
-            fourier = FourierPreconditioner(grid, engine.green_function(s.green), s.components, xp=xp).apply
-            precondition = lambda r, fourier=fourier, w=weights: w * fourier(w * r)
-        solution = conjugate_gradient(
-            lambda t, op=op, d=damping: op.apply(t) + d * t,
-            to_device(rhs, xp),
-            to_device(mask, xp),
-            tol=scene.tol,
-            precondition=precondition,
-        )
+    for s, solution in zip(system.plan.solves, solutions):
         force = np.zeros(3)
-        for c, value in zip(s.components, q.resultant(to_host(solution.traction), grid.cell_area)):
+        for c, value in zip(s.components, q.resultant(to_host(solution.traction), system.grid.cell_area)):
             force[COMPONENT_INDEX[c]] = value
         forces[s.name] = force
         iterations += solution.iterations
         residual = max(residual, solution.residual)
-    return _Solved(grid, f, mask, plan, forces, iterations, residual, "coverage-weighted cells, D_ii = A_ii (1 - f)/f")
+    description = "coverage-weighted cells, D_ii = A_ii (1 - f)/f"
+    return _Solved(system.grid, system.coverage, system.mask, system.plan, forces, iterations, residual, description)
+
+
+def _coverage_forces(scene: Scene) -> _Solved:
+    """Coverage-weighted cells: (A + D) t = u, D_ii = A_ii (1 − f)/f (module docstring), one CG per solve."""
+    system = coverage_system(scene)
+    xp = system.engine.xp
+    solutions = []
+    for k in range(len(system.plan.solves)):
+        fourier = system.preconditioner(k)
+        precondition = None
+        if fourier is not None:
+            precondition = lambda r, fourier=fourier.apply, w=system.weights[k]: w * fourier(w * r)
+        solutions.append(
+            conjugate_gradient(
+                system.operator(k),
+                to_device(system.rhs[k], xp),
+                to_device(system.mask, xp),
+                tol=scene.tol,
+                precondition=precondition,
+            )
+        )
+    return coverage_solved(system, solutions)
 
 
 def singular_block_solve(cells: singular_cells.SingularCells, block: str, tol: float, precondition: bool = True) -> Any:

@@ -20,18 +20,26 @@ from device_agreement import REQUIRED  # noqa: E402
 from test_batches_accuracy import alone, scenes_of  # noqa: E402
 
 from hpcontact.accuracy import solve_to_accuracy_batch  # noqa: E402
+from hpcontact.accuracy.level_batches import solve_levels_batched  # noqa: E402
+from hpcontact.accuracy.refinement import LevelSolver  # noqa: E402
 from hpcontact.scene import Scene  # noqa: E402
 
 
-def check_batched_sequences(requests: list[tuple[str, dict]], folder: Path) -> int:
-    """Solve ``requests`` (``REQUESTS``' rows) as one batch on device "gpu" and each alone on the CPU;
+def check_batched_sequences(
+    requests: list[tuple[str, dict]],
+    folder: Path,
+    device: str = "gpu",
+    solve_levels: LevelSolver = solve_levels_batched,
+) -> int:
+    """Solve ``requests`` (``REQUESTS``' rows) as one batch on ``device``, levels by ``solve_levels``
+    (default: a level's coverage-weighted solves as one batched CG), and each alone on the CPU;
     assert the same grids, stops, cells and expansions, and every stiffness (per level and
     extrapolated) within ``REQUIRED`` of the tensor's largest entry, the estimates within ``REQUIRED``.
     Returns the number of levels compared."""
     scenes = scenes_of(requests, folder)
     options = [r for _, r in requests]
-    on_gpu = [Scene.from_params({**s.params, "tol": 1e-14, "device": "gpu"}) for s in scenes]
-    batched = solve_to_accuracy_batch(on_gpu, options)
+    on_device = [Scene.from_params({**s.params, "tol": 1e-14, "device": device}) for s in scenes]
+    batched = solve_to_accuracy_batch(on_device, options, solve_levels)
     compared = 0
     for (name, _), scene, request, record in zip(requests, scenes, options, batched):
         single = alone(Scene.from_params({**scene.params, "tol": 1e-14}), request)

@@ -57,7 +57,7 @@ def test_every_table_of_the_device_run_is_made_on_a_standin_gpu(monkeypatch, tmp
     assert batch["failed"] == 0 and batch["seconds"] > 0.0
     (batched,) = batch["rows"]  # the same scene's grid sequence in a batch: the same grids, its record
     assert (batched["grids"], batched["stopped_by"]) == (row["grids"], row["stopped_by"])
-    assert batched["relative_difference_from_alone"] == 0.0  # the same device path, levels solved one by one
+    assert batched["relative_difference_from_alone"] < 1e-8  # CG to tol 1e-8 on both paths, as the rows above
     main = results["main"]
     assert (main["tasks"], main["failed"]) == (2, 0) and main["largest_relative_difference"] < 1e-8
     assert main["batch_sizes"] == [2] and main["gpu_batched_s"] > 0.0  # the demo's two tasks: one group

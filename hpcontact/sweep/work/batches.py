@@ -13,7 +13,9 @@ A task solved over a grid sequence (an ``accuracy``, or the extrapolated default
 ``accuracy.defaults.accuracy_request``) batches with the tasks of the same device, cells
 (``boundary``, ``auto`` resolved), first grid, quantities and preconditioner choice, so that their
 sequences run over the same grids: ``accuracy.solve_to_accuracy_batch`` refines them level by
-level together, each scene stopping by its own estimate, a failing one stopped alone. The one exact
+level together, each scene stopping by its own estimate, a failing one stopped alone; on a GPU the
+coverage-weighted solves of a level that share a cropped grid are one batched CG
+(``accuracy.level_batches``), on the CPU the levels are solved one at a time. The one exact
 cell of an ellipse (``galin``) runs alone: one integral (its compliance J) on the host, no grid to
 batch, 0.5-26 ms of CPU a scene (``solve_to_accuracy`` at 1e-6 of the circle, a Cu ellipse b/a 0.5,
 an ellipse b/a 1e-4 at nu 0.45; best of 5, measured 2026-11-29 on 2 shared cores, load ~10).
@@ -59,7 +61,8 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from hpcontact.accuracy.defaults import accuracy_request, default_solve_batch, error_columns, solve_contact_fields
-from hpcontact.accuracy.refinement import AccuracyRun, plan_accuracy
+from hpcontact.accuracy.level_batches import solve_levels_batched
+from hpcontact.accuracy.refinement import AccuracyRun, plan_accuracy, solve_levels_one_by_one
 from hpcontact.errors import InputError
 from hpcontact.numerics.backend import resolved_device
 from hpcontact.numerics.memory import default_memory_per_rank, gpu_memory, resident_bytes
@@ -240,14 +243,19 @@ def solve_contact_batch(fields: Sequence[Mapping[str, Any]]) -> list[Any]:
     order. One-grid scenes: their punch solves batched by ``problems.contact.solve_batch``, each
     record that of the task alone up to rounding (tests/problems/test_contact_batch.py bounds it);
     a failing scene fails the batch (raises). Grid sequences: refined level by level together
-    (``accuracy.defaults.default_solve_batch``), each record the task's alone (bitwise where the
-    levels are solved one by one, as on the CPU), a failing scene's place holding the ``Exception``
-    it raised."""
+    (``accuracy.defaults.default_solve_batch``), on a GPU each level's coverage-weighted solves as
+    one batch (``accuracy.level_batches``: each record the task's alone up to rounding), on the CPU
+    one level at a time (each record the task's alone, bitwise), a failing scene's place holding the
+    ``Exception`` it raised."""
     scenes = [Scene.from_params(f) for f in fields]
     sequences = [accuracy_request(s) is not None for s in scenes]
     if any(sequences) and not all(sequences):
         raise ValueError("a batch is of one-grid scenes or of grid sequences, not both")
-    results = default_solve_batch(scenes) if all(sequences) else solve_batch(scenes)
+    if all(sequences):  # on a GPU a level's coverage-weighted solves batched; on the CPU one by one
+        on_gpu = resolved_device(scenes[0].device) == "gpu"
+        results = default_solve_batch(scenes, solve_levels_batched if on_gpu else solve_levels_one_by_one)
+    else:
+        results = solve_batch(scenes)
     return [r if isinstance(r, Exception) else error_columns(s.in_si_units(r)) for s, r in zip(scenes, results)]
 
 
