@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 
 from hpcontact.errors import InputError
+from hpcontact.numerics import backend
 from hpcontact.numerics.backend import namespace, to_host
 from hpcontact.numerics.convolution import ArrayConvolutionOperator, ConvolutionOperator
 from hpcontact.problems.slip.crystal_pair import PairEngine
@@ -62,13 +63,14 @@ def test_the_crystal_pairs_operator_on_strict_arrays_is_the_pyfftw_one():
     assert np.linalg.norm(to_host(u) - reference) <= bound
 
 
-def test_the_device_of_a_slip_scene():
-    """cpu by default; "auto" is the CPU on a machine without a GPU and the GPU where the rank has
-    one; "gpu" without CuPy is refused naming the field, before a grid is allocated."""
+def test_the_device_of_a_slip_scene(monkeypatch):
+    """cpu by default; on a machine without CuPy "auto" is the CPU and "gpu" is refused naming the
+    field and what is missing, before a grid is allocated."""
+    monkeypatch.setattr(backend, "cuda_devices", lambda: (None, 0, "CuPy is not installed"))
     scene = validate(SCENES["similar"][0])
     assert scene.device == "cpu" and SlipProblem(scene).xp is np
     assert SlipProblem(dataclasses.replace(scene, device="auto")).xp is np
-    with pytest.raises(InputError, match="device.*CuPy"):
+    with pytest.raises(InputError, match="device.*CuPy is not installed"):
         SlipProblem(dataclasses.replace(scene, device="gpu"))
 
 
