@@ -74,6 +74,7 @@ PHASES = (
     ("hpcontact.sweep.run.rounds", "share", "enumeration"),
     ("hpcontact.sweep.run.rounds", "prepare", "journals+decision"),
     ("hpcontact.sweep.run.rounds", "to_columns", "own outcomes"),
+    ("hpcontact.sweep.run.assembly", "outcome_parts", "outcomes joined"),
     ("hpcontact.sweep.run.assembly", "joined_outcomes", "outcomes joined"),
     ("hpcontact.sweep.data.dataset", "stiffness_dataset", "stiffnesses"),
     ("hpcontact.sweep.data.dataset", "dataset_of", "data set"),

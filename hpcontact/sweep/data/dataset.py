@@ -106,6 +106,7 @@ __all__ = [  # the attribute tables are hpcontact.sweep.data.attributes'; import
     "link_errors",
     "open_dataset",
     "stiffness_dataset",
+    "stiffness_record",
     "write_netcdf",
 ]
 
@@ -195,12 +196,18 @@ def stiffness_dataset(spec: Spec, task_of: np.ndarray, joined: Joined) -> xr.Dat
     import xarray as xr
 
     dims = tuple(a.name for a in spec.task_axes)
-    pattern = spec.kind_record.estimated
     variables: dict[str, tuple[tuple[str, ...], np.ndarray]] = {"status": (dims, joined.status[task_of])}
     for name, values in joined.records.items():
-        if pattern.match(name.removesuffix(ERROR_SUFFIX)) or pattern.match(name):
+        if stiffness_record(spec, name):
             variables[name] = (dims, values[task_of])
-    return link_errors(xr.Dataset(variables), pattern)
+    return link_errors(xr.Dataset(variables), spec.kind_record.estimated)
+
+
+def stiffness_record(spec: Spec, name: str) -> bool:
+    """Whether the record key ``name`` is one of ``stiffness_dataset``'s: a stiffness of the
+    spec's scene kind (``Kind.estimated``) or its ``<name>_error``."""
+    pattern = spec.kind_record.estimated
+    return bool(pattern.match(name) or pattern.match(name.removesuffix(ERROR_SUFFIX)))
 
 
 def link_errors(ds: xr.Dataset, stiffnesses: re.Pattern[str] = ESTIMATED) -> xr.Dataset:

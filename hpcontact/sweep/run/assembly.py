@@ -7,6 +7,7 @@ from __future__ import annotations
 import datetime
 import json
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -21,16 +22,15 @@ from hpcontact.sweep.run.resume import round_memory
 from hpcontact.sweep.run.summary import Summary, print_summary, round_sums
 
 
-def joined_outcomes(plan: Plan, kept: Kept, totals: list[RankTotals], scope: RoundScope) -> Any:
-    """The last outcome of every task of ``scope`` as columns (``columns.join``): this run's,
-    from the ranks' ``totals``, and those of earlier journals (reused, quarantined, or carried
-    from an adaptive round before). An adaptive round's scope is the tasks of its rounds so far
-    (``select`` and ``earlier``): an entry the journals hold for another point of the grid (a
-    finer map's) is no solve of this data set, nor counted among its contributors. The earlier
-    entries are turned into columns once in an adaptive run (``resume.RoundMemory``): the
-    ranks' columns of a round stand for its entries in the rounds after it."""
-    from hpcontact.sweep.data.dataset import FIXED_VARIABLES
-
+def outcome_parts(plan: Plan, kept: Kept, totals: list[RankTotals], scope: RoundScope) -> list[Any]:
+    """The last outcome of every task of ``scope`` as columns in parts, to be joined
+    (``columns.join``): this run's, from the ranks' ``totals``, and those of earlier journals
+    (reused, quarantined, or carried from an adaptive round before). An adaptive round's scope
+    is the tasks of its rounds so far (``select`` and ``earlier``): an entry the journals hold
+    for another point of the grid (a finer map's) is no solve of this data set, nor counted
+    among its contributors. The earlier entries are turned into columns once in an adaptive run
+    (``resume.RoundMemory``): the ranks' columns of a round stand for its entries in the rounds
+    after it (so this is called once a round)."""
     history = kept.history
     covered = None if scope.select is None else scope.select | scope.earlier
     earlier = [
@@ -43,7 +43,15 @@ def joined_outcomes(plan: Plan, kept: Kept, totals: list[RankTotals], scope: Rou
     parts = once.parts([e for e, _ in earlier], [i for _, i in earlier]) + [t.columns for t in totals]
     for t in totals:  # the next round finds these entries in the journals: their columns are built
         once.ran(t.columns)
-    return join(parts, len(plan.tasks), FIXED_VARIABLES)
+    return parts
+
+
+def joined_outcomes(parts: list[Any], plan: Plan, kept: Callable[[str], bool] | None = None) -> Any:
+    """``columns.join`` of the ``outcome_parts`` over the tasks of ``plan``; with ``kept``, only
+    the record keys it keeps (an adaptive round's decision: ``dataset.stiffness_record``)."""
+    from hpcontact.sweep.data.dataset import FIXED_VARIABLES
+
+    return join(parts, len(plan.tasks), FIXED_VARIABLES, kept)
 
 
 def assemble(
@@ -64,11 +72,15 @@ def assemble(
     ``command``: the command as its user gave it, for the history (``dataset.history_attribute``):
     that of the run as its user started it (an adaptive run's first round's ``options``; its
     later rounds run as resumes), made only for the data set that is written."""
-    from hpcontact.sweep.data.dataset import dataset_of, history_attribute, write_netcdf
+    from hpcontact.sweep.data.dataset import dataset_of, history_attribute, stiffness_record, write_netcdf
 
     spec = plan.spec
     gather_started = time.perf_counter()
-    joined = joined_outcomes(plan, kept, totals, scope)
+    parts = outcome_parts(plan, kept, totals, scope)
+    if scope.finish is None:
+        joined = joined_outcomes(parts, plan)
+    else:  # an adaptive round decides from the stiffnesses; the last joins every variable (made)
+        joined = joined_outcomes(parts, plan, lambda name: stiffness_record(spec, name))
     first = round_memory(scope).first_options or options
     run = {
         "created": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
@@ -77,6 +89,9 @@ def assemble(
     failed = [int(i) for i in np.flatnonzero((joined.status != OK) & (joined.status != NOT_COMPUTED))]
 
     def made() -> Any:
+        nonlocal joined
+        if scope.finish is not None:
+            joined = joined_outcomes(parts, plan)  # every variable: the summary's too
         return dataset_of(
             spec,
             kept.task_of,

@@ -14,7 +14,7 @@ import numpy as np
 from hpcontact.fields import SLIP
 from hpcontact.quantities import SLIP_ESTIMATED
 from hpcontact.sweep.data.columns import join, task_positions, to_columns
-from hpcontact.sweep.data.dataset import FIXED_VARIABLES, dataset_of, stiffness_dataset
+from hpcontact.sweep.data.dataset import FIXED_VARIABLES, dataset_of, stiffness_dataset, stiffness_record
 from hpcontact.sweep.data.journal import ERROR, OK, Entry
 from hpcontact.sweep.space.parse import parse_spec
 from hpcontact.sweep.work.tasks import enumerate_tasks
@@ -36,6 +36,12 @@ nu = [0.0, 0.25, 0.5]
 def columns_of(spec, solve):
     """The joined columns of ``spec``'s tasks (``solve`` gives the records; one task failed, one
     has no entry, only some records carry ``K_xx_error``), and each point's task."""
+    parts, task_of = columns_parts(spec, solve, with_positions=True)
+    return join(parts, task_of.max() + 1, FIXED_VARIABLES), task_of
+
+
+def columns_parts(spec, solve, with_positions=False):
+    """``columns_of``'s entries as one part of columns (and each point's task)."""
     tasks, where = enumerate_tasks(spec)
     keys, task_of = task_positions(where, tuple(len(a) for a in spec.task_axes))
     by_key = {t.key: t for t in tasks}
@@ -60,7 +66,8 @@ def columns_of(spec, solve):
             )
         )
         at.append(i)
-    return join([to_columns(entries, at)], len(keys), FIXED_VARIABLES), task_of
+    parts = [to_columns(entries, at)]
+    return (parts, task_of) if with_positions else parts
 
 
 def assert_same_stiffnesses(spec, task_of, joined) -> list[str]:
@@ -115,3 +122,23 @@ def test_deciding_ranks_import_no_xarray():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
+
+
+def test_a_join_of_the_stiffness_records_alone_gives_the_same_stiffnesses(fake_solve):
+    """``columns.join`` with ``kept = dataset.stiffness_record`` (what an adaptive round joins):
+    the same stiffnesses, errors and status, bitwise; no other record array made."""
+    spec = parse_spec(SPEC, validate=lambda params: None)
+    joined, task_of = columns_of(spec, fake_solve)
+    lean = join(
+        columns_parts(spec, fake_solve) + [to_columns([], [])],
+        joined.status.size,
+        FIXED_VARIABLES,
+        lambda name: stiffness_record(spec, name),
+    )
+    assert set(lean.records) == {n for n in joined.records if stiffness_record(spec, n)} and "plan" in joined.records
+    assert "plan" not in lean.records and "K_xx_error" in lean.records
+    np.testing.assert_array_equal(lean.status, joined.status)
+    a, b = stiffness_dataset(spec, task_of, lean), stiffness_dataset(spec, task_of, joined)
+    assert list(a.data_vars) == list(b.data_vars)
+    for name in a.data_vars:
+        assert np.array_equal(a[name].values, b[name].values, equal_nan=True), name
