@@ -212,3 +212,12 @@ def test_a_sparse_sweep_writes_its_map_with_map_errors(sweep, write_spec):
     assert np.mean(ds["K_xx_map_error"].values >= true) >= 0.99
     assert ds.attrs["adaptive_met"] == 1 and ds.attrs["sweep_solves"] < ds["solved"].size
     assert "normalized_xx" in ds and ds.attrs["adaptive_points_not_interpolated"] == 0
+
+
+def test_max_solves_bounds_the_sparse_map_check_points_included():
+    """``max_solves`` stops the refinement (indices by their largest excess first) and the
+    checks at the bound, counting every distinct scene solved."""
+    text = spec_text().replace('quantities = ["K_xx"]', 'quantities = ["K_xx"]\nmax_solves = 200')
+    spec, layout, task_of, state, checks, seen, solved, _ = decided(text)
+    solves = len(np.unique(task_of[solved]))
+    assert solves <= 200 and solves > len(state_tasks(layout, initial_state(layout, spec.adaptive), task_of))
