@@ -31,13 +31,13 @@ def outcome_parts(plan: Plan, kept: Kept, totals: list[RankTotals], scope: Round
     among its contributors. The earlier entries are turned into columns once in an adaptive run
     (``resume.RoundMemory``): the ranks' columns of a round stand for its entries in the rounds
     after it (so this is called once a round)."""
-    history = kept.history
-    covered = None if scope.select is None else scope.select | scope.earlier
+    history, tasks = kept.history, plan.tasks
+    # an adaptive round looks at the tasks of its rounds alone (thousands), not the grid's 139 725
+    covered = range(len(tasks)) if scope.select is None else sorted(scope.select | scope.earlier)
     earlier = [
         (history.crashed_entry(t.key, t.params) if t.key in kept.crashed else history.entries[t.key], i)
-        for i, t in enumerate(plan.tasks)
-        if (t.key in kept.crashed or t.key in kept.reused or t.key in kept.carried)
-        and (covered is None or i in covered)
+        for i, t in ((i, tasks[i]) for i in covered)
+        if t.key in kept.crashed or t.key in kept.reused or t.key in kept.carried
     ]
     once = round_memory(scope).earlier_columns
     parts = once.parts([e for e, _ in earlier], [i for _, i in earlier]) + [t.columns for t in totals]
