@@ -1,5 +1,9 @@
 """The nodes of an adaptive map, its error estimate and their refinement (the rounds:
-``hpcontact.sweep.maps.rounds``; the check rounds: ``hpcontact.sweep.maps.checks``).
+``hpcontact.sweep.maps.rounds``; the check rounds: ``hpcontact.sweep.maps.checks``). What
+follows is the leaves' method; with ``[adaptive] method`` "sparse" (or "auto" on 3 or more
+interpolated axes, ``sparse_method``) each sub-problem's part of the state is a sparse grid's
+set instead (``hpcontact.sweep.maps.sparse_grid``), and ``initial_state``, ``node_mask``,
+``state_points``, ``estimate`` and ``refine`` hand it to that module.
 
 Axes. The *numeric* task axes (``INTERPOLATED_AXES``: nu, aspect, anisotropy, orientation, …)
 are interpolated, in log10 of the value for a ``{ logspace = … }`` axis (and those named in
