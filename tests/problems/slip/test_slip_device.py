@@ -78,3 +78,36 @@ def test_auto_takes_the_ranks_own_gpu(monkeypatch):
     standin = use_standin_gpu(monkeypatch)
     scene = validate(SCENES["similar"][0])
     assert SlipProblem(dataclasses.replace(scene, device="auto")).xp is standin
+
+
+FE_PAIR = {
+    "quantities": "slip",
+    "radius": 8e-3,
+    "load": 100.0,
+    "mu": 0.3,
+    "q_ratio": 0.5,
+    "n": 8,
+    "steps": 1,
+    "tol": 1e-14,
+    "material": "Fe",
+    "material2": "Fe",
+}
+
+
+def test_a_slip_scene_solves_on_the_device_its_field_names(monkeypatch):
+    """device is a field of a slip scene through ``hpcontact.solve``: "gpu" without CuPy is refused
+    naming it, an unknown device too; on the stand-in GPU the record is the CPU one (to 1e-12
+    relative, the bound of slip_agreement.py) with the same stick and contact areas."""
+    import hpcontact
+
+    monkeypatch.setattr(backend, "cuda_devices", lambda: (None, 0, "CuPy is not installed"))
+    with pytest.raises(InputError, match="device.*CuPy"):
+        hpcontact.solve(**FE_PAIR, device="gpu")
+    with pytest.raises(InputError, match="device"):
+        hpcontact.solve(**FE_PAIR, device="tpu")
+    cpu = hpcontact.solve(**FE_PAIR)
+    use_standin_gpu(monkeypatch)
+    gpu = hpcontact.solve(**FE_PAIR, device="gpu")
+    for key in ("tangential_force", "tangential_displacement", "tangential_stiffness", "stick_area_stiffness"):
+        assert gpu[key] == pytest.approx(cpu[key], rel=1e-12, abs=0.0), key
+    assert (gpu["stick_area"], gpu["contact_area"]) == (cpu["stick_area"], cpu["contact_area"])
