@@ -377,13 +377,14 @@ def _log_chebyshev_sum(table: tuple[np.ndarray, list[np.ndarray]], sigma: np.nda
     v = np.log(sigma)
     panel = np.clip(np.searchsorted(edges, v, side="right") - 1, 0, edges.size - 2)
     u = 2.0 * (v - edges[panel]) / (edges[panel + 1] - edges[panel]) - 1.0
+    twice = 2.0 * u
     out = []
     for c in coefficients:
-        c = c[panel]
+        c = np.take(c.T, panel, axis=1)  # c[j] the j-th coefficient at every σ, contiguous
         b1, b2 = np.zeros_like(u), np.zeros_like(u)
-        for j in range(c.shape[1] - 1, 0, -1):
-            b1, b2 = c[:, j] + 2.0 * u * b1 - b2, b1
-        out.append(c[:, 0] + u * b1 - b2)
+        for j in range(c.shape[0] - 1, 0, -1):
+            b1, b2 = c[j] + twice * b1 - b2, b1
+        out.append(c[0] + u * b1 - b2)
     return out
 
 
