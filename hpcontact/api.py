@@ -373,6 +373,7 @@ def run_sweep(
         mem_per_rank=memory,
         up_to_date=task_function is None,
         runner=runner_name(task_function),  # a resume never reuses another task function's entries
+        front=Front.PYTHON,  # printed advice in a Python caller's words
     )
     target = None if output is None else os.fspath(output)
     try:

@@ -115,15 +115,6 @@ def test_the_run_options_are_declared_once_for_argparse_and_run_sweep():
 #: Files whose text may spell a declared flag by hand: the declaration and the command line's
 #: help (``arguments.EXIT_STATUS``), the command line's alone.
 DECLARATIONS = {"sweep/run/options.py", "sweep/run/arguments.py"}
-#: Hand-spelled flags left in files that helpers other than E4 owned during issue 38 item 4 (E4's
-#: report has the patch, /tmp/e4/patches_for_lead.diff, that names them as options and deletes
-#: this table): ``rounds`` a stop's "run again with --resume" (twice) and its count of quarantined
-#: tasks; ``assembly`` and ``dataset`` a history's "--resume" (the command line's words, by design).
-PENDING = {
-    "sweep/data/dataset.py": ["--resume"],
-    "sweep/run/assembly.py": ["--resume"],
-    "sweep/run/rounds.py": ["--resume", "--resume", "--retry-crashed"],
-}
 
 
 def _hand_spelled_flags(path: Path, flags: list[str]) -> list[str]:
@@ -154,7 +145,7 @@ def test_no_sweep_text_spells_a_flag_that_python_would_not_render():
         for path in sorted((PACKAGE / "sweep").rglob("*.py"))
         if str(path.relative_to(PACKAGE)) not in DECLARATIONS and (spelled := _hand_spelled_flags(path, flags))
     }
-    assert found == PENDING
+    assert found == {}
 
 
 def test_options_and_messages_read_as_the_command_line_s_text():

@@ -81,6 +81,7 @@ from hpcontact.sweep.data.columns import NOT_COMPUTED, Joined, join, task_positi
 from hpcontact.sweep.data.columns import is_number as _is_number
 from hpcontact.sweep.data.journal import Entry, to_json
 from hpcontact.sweep.data.units import cf_attributes, convention, scale_symbols
+from hpcontact.sweep.run.options import RESUME
 from hpcontact.sweep.space.axes import LABEL_AXES
 from hpcontact.sweep.space.spec import Spec
 
@@ -481,7 +482,7 @@ def history_attribute(spec: Spec, attrs: Mapping[str, Any], given: str | None = 
         return None
     given = given or command
     line = f"{attrs['created']}: {given}" if attrs.get("created") else str(given)
-    if "--resume" not in str(command).split():
+    if RESUME.flag not in str(command).split():  # the history assembly wrote: the command line's words
         return line
     try:
         with xr.open_dataset(spec.output, engine="netcdf4") as old:

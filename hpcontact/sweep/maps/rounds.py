@@ -8,6 +8,7 @@ solves a subset of it, chosen in rounds::
     max_solves = 200          # optional: solves at most (distinct scenes)
     quantities = ["K_a_over_K_b"]   # optional: the stiffnesses refined on (default: every one stored)
     initial = 5               # optional: nodes per numeric axis in the first round (>= 2)
+    method = "auto"           # optional: "leaves" (k-d tree), "sparse" (sparse grid); auto: sparse from 3 axes
     log = ["load"]            # optional: list axes interpolated in log10 (logspace axes always are)
 
 Rounds. Each round is an ordinary run of the driver (``driver._round``) over the tasks of the
@@ -43,6 +44,7 @@ from hpcontact.sweep.maps.refinement import (
     initial_state,
     refine,
     remembered_estimates,
+    sparse_method,
     state_tasks,
 )
 from hpcontact.sweep.space.adaptive_settings import Settings
@@ -220,8 +222,13 @@ def dry_run_text(spec: Any, task_of: np.ndarray) -> str:
     )
     scales = ", ".join(f"{spec.task_axes[p].name} ({s.value})" for p, s in zip(layout.numeric, layout.scales))
     quantities = "every stored stiffness" if settings.quantities is None else ", ".join(settings.quantities)
+    grid = (
+        "a sparse grid's first levels per sub-problem"
+        if sparse_method(layout, settings)
+        else f"nodes {' x '.join(str(len(bisection_nodes(layout.shape[p], settings.initial))) for p in layout.numeric)}"
+        " per sub-problem"
+    )
     return (
-        f"# adaptive: first round {len(first)} of the {total} tasks (nodes "
-        f"{' x '.join(str(len(bisection_nodes(layout.shape[p], settings.initial))) for p in layout.numeric)} per "
-        f"sub-problem); solves {bound}; tolerance {settings.default:g} on {quantities}; interpolated axes: {scales}"
+        f"# adaptive: first round {len(first)} of the {total} tasks ({grid}); solves {bound}; "
+        f"tolerance {settings.default:g} on {quantities}; interpolated axes: {scales}"
     )

@@ -17,6 +17,7 @@ from hpcontact.sweep import faults
 from hpcontact.sweep.data import provenance
 from hpcontact.sweep.data.columns import NOT_COMPUTED, join
 from hpcontact.sweep.data.journal import OK
+from hpcontact.sweep.run.options import RESUME
 from hpcontact.sweep.run.records import Kept, Options, Outcome, Plan, RankTotals, RoundScope
 from hpcontact.sweep.run.resume import round_memory
 from hpcontact.sweep.run.summary import Summary, print_summary, round_sums
@@ -84,7 +85,7 @@ def assemble(
     first = round_memory(scope).first_options or options
     run = {
         "created": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
-        "history": f"hpcontact run {spec.path}{' --resume' if first.resume else ''}",
+        "history": f"hpcontact run {spec.path}{' ' + RESUME.flag if first.resume else ''}",  # the command line's
     }
     failed = [int(i) for i in np.flatnonzero((joined.status != OK) & (joined.status != NOT_COMPUTED))]
 
@@ -122,5 +123,5 @@ def assemble(
     dataset.attrs.update(summary.attrs())
     faults.slow_phase("write")
     path = write_netcdf(dataset, spec.output)
-    print_summary(summary, plan, joined, failed, totals, path, now, stream)
+    print_summary(summary, plan, joined, failed, totals, path, now, stream, options.front)
     return Outcome(path, len(failed))

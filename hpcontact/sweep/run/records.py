@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from hpcontact.errors import Front
 from hpcontact.sweep.data.columns import ColumnsOnce
 from hpcontact.sweep.data.journal import Entry, History, HistoryReader
 from hpcontact.sweep.run.guard import RunLock
@@ -59,6 +60,9 @@ class Options:
     # kind's own solver): set where a task function computes other results than the kind's own
     # solver (the accuracy study), not for a wrapper of it (one that counts calls, a stand-in)
     runner: str | None = None
+    # the front end that started the run: its words for an option the run's printed advice names
+    # (``errors.Option``: ``--retry-crashed`` on the command line, ``retry_crashed=True`` in Python)
+    front: Front = Front.COMMAND_LINE
 
 
 NO_FLAGS = Options()  # ``hpcontact run`` without flags
@@ -126,8 +130,9 @@ class RoundMemory:
 class RoundScope:
     """What one round of a run covers: a plain run is one round of every task (the defaults);
     an adaptive round (``adaptive.run_rounds``) runs the tasks of ``select`` (positions) alone,
-    rank 0 gives the data set to ``finish(dataset, joined)`` and writes what it returns (None:
-    nothing), ``tally`` sums the rounds for the summary, and the outcomes of ``earlier`` (the
+    rank 0 gives ``finish(make, joined)`` the joined columns of every journaled task (the
+    stiffness records) and ``make()``, which builds their data set, and writes what it returns
+    (None: nothing), ``tally`` sums the rounds for the summary, and the outcomes of ``earlier`` (the
     rounds before) that are not reused (failures) are carried into the data set as they are."""
 
     select: frozenset[int] | None = None

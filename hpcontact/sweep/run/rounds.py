@@ -32,7 +32,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from hpcontact import accuracy
-from hpcontact.errors import ConvergenceError, InputError
+from hpcontact.errors import ConvergenceError, Front, InputError, Message, rendered
 from hpcontact.numerics.blas import limited_blas
 from hpcontact.numerics.convolution import expect_applications
 from hpcontact.problems.footprint import fft_applications
@@ -42,6 +42,7 @@ from hpcontact.sweep.data.columns import to_columns
 from hpcontact.sweep.data.journal import BAD_INPUT, ERROR, NOT_CONVERGED, OK, Entry, Journal, to_json
 from hpcontact.sweep.run.arguments import EXIT_OK, EXIT_STOPPED, EXIT_UNEXPECTED
 from hpcontact.sweep.run.assembly import assemble
+from hpcontact.sweep.run.options import RESUME, RETRY_CRASHED
 from hpcontact.sweep.run.progress import Progress
 from hpcontact.sweep.run.records import (
     EVERY_TASK,
@@ -237,14 +238,21 @@ def _round(run: Run, options: Options, scope: RoundScope) -> Outcome:
 
 
 def _announce(
-    run: Run, plan: Plan, kept: Kept, scope: RoundScope, todo: list[Task], chunks: list[tuple[Task, ...]]
+    run: Run,
+    plan: Plan,
+    kept: Kept,
+    scope: RoundScope,
+    todo: list[Task],
+    chunks: list[tuple[Task, ...]],
+    front: Front,
 ) -> Progress:
     """Rank 0 before the tasks run: the lock's note, dropped journal lines, changed inputs, the
     round's line (tasks to run, reused, alone on rank 0, quarantined, chunks) and its estimate
-    (an adaptive map's in its first round alone); the progress report of the tasks handed out."""
+    (an adaptive map's in its first round alone), options in ``front``'s words; the progress
+    report of the tasks handed out."""
     spec, stream, decision = run.spec, run.stream, plan.decision
     if kept.note:
-        print(f"hpcontact: {kept.note}", file=stream)
+        print(f"hpcontact: {rendered(kept.note, front)}", file=stream)
     if kept.history.dropped:
         print(f"hpcontact: warning: {kept.history.dropped_note(spec.journal)}", file=stream)
     # a mask replaced under its path; the tasks this round runs, not the whole grid (an adaptive
@@ -256,7 +264,7 @@ def _announce(
         f"hpcontact: {spec.title}: {len(run.tasks)} tasks, {len(todo)} to run"
         f"{f' ({decision.reused} from journals)' if decision.reused else ''}"
         f"{f', {len(plan.isolated)} alone on rank 0 (their last run died)' if plan.isolated else ''}"
-        f"{f', {decision.crashed} quarantined (--retry-crashed runs them)' if decision.crashed else ''}"
+        f"{f', {decision.crashed} quarantined ({RETRY_CRASHED.advised(front)} runs them)' if decision.crashed else ''}"
         f", {len(chunks)} chunks on {run.team.size} rank(s); writes {spec.output}",
         file=stream,
         flush=True,
@@ -291,7 +299,7 @@ def _run(run: Run, plan: Plan, kept: Kept | None, scope: RoundScope, options: Op
     todo = plan.isolated + plan.shared
     expect_applications(fft_applications(t.params for t in todo[team.rank :: team.size]))
     setup_s = time.perf_counter() - round_started
-    progress = _announce(run, plan, kept, scope, todo, chunks) if team.rank == 0 else None
+    progress = _announce(run, plan, kept, scope, todo, chunks, options.front) if team.rank == 0 else None
 
     index = {t.key: i for i, t in enumerate(tasks)}
     task_s = schedule_s = journal_s = 0.0
@@ -416,9 +424,10 @@ def _run(run: Run, plan: Plan, kept: Kept | None, scope: RoundScope, options: Op
             what = f"stopped ({'; '.join(failed) if failed else stopped[0].reason})"
             return (
                 None,
-                (
+                Message(
                     f"hpcontact: {what}: {ran} tasks finished in this run; journals intact in "
-                    f"{spec.journal}; run again with --resume"
+                    f"{spec.journal}; run again with ",
+                    RESUME,
                 ),
                 status,
             )
@@ -432,9 +441,10 @@ def _run(run: Run, plan: Plan, kept: Kept | None, scope: RoundScope, options: Op
         except OSError as exc:  # a full disk at the end: the journals hold everything
             return (
                 None,
-                (
+                Message(
                     f"hpcontact: cannot write the data set {exc.filename or spec.output}: {exc.strerror or exc}; "
-                    f"journals intact in {spec.journal}; free space and run again with --resume"
+                    f"journals intact in {spec.journal}; free space and run again with ",
+                    RESUME,
                 ),
                 EXIT_UNEXPECTED,
             )
