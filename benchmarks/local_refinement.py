@@ -46,8 +46,10 @@ import numpy as np
 
 from hpcontact.analytic import mindlin_ellipse_stiffness
 from hpcontact.numerics.interpolation import TensorInterpolant, bisection_nodes
-from hpcontact.sweep.maps.refinement import Checks, Layout, Leaf, estimate, initial_state, is_sparse, state_tasks
+from hpcontact.sweep.maps.estimates import Checks, Layout
+from hpcontact.sweep.maps.refinement import Leaf
 from hpcontact.sweep.maps.rounds import next_step
+from hpcontact.sweep.maps.state import estimate, initial_state, is_sparse, state_tasks
 from hpcontact.sweep.space.parse import parse_spec
 from hpcontact.sweep.work.tasks import enumerate_part, join_parts
 

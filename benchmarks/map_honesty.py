@@ -120,9 +120,10 @@ def replay(text: str, truth: xr.Dataset) -> xr.Dataset:
     point of the same scenes solved, the spec's accuracy): its rounds decided as a sweep decides
     (``rounds.next_step``, from the values at the points solved so far alone), then filled
     (``fill.fill``: every point not solved replaced by the map's value)."""
+    from hpcontact.sweep.maps.estimates import Checks, Layout
     from hpcontact.sweep.maps.fill import fill, quantity_fields, refined_names, stiffness_names
-    from hpcontact.sweep.maps.refinement import Checks, Layout, initial_state, state_tasks
     from hpcontact.sweep.maps.rounds import next_step
+    from hpcontact.sweep.maps.state import initial_state, state_tasks
     from hpcontact.sweep.space.parse import parse_spec
     from hpcontact.sweep.work.tasks import enumerate_part, join_parts
 

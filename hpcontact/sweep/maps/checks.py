@@ -28,17 +28,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from hpcontact.sweep.maps.refinement import (
-    Checks,
-    Layout,
-    Leaf,
-    State,
-    estimate,
-    is_sparse,
-    node_mask,
-    solve_errors,
-    state_tasks,
-)
+from hpcontact.sweep.maps.estimates import Checks, Layout, solve_errors
+from hpcontact.sweep.maps.refinement import Leaf
+from hpcontact.sweep.maps.state import State, estimate, is_sparse, node_mask, state_tasks
 from hpcontact.sweep.space.adaptive_settings import Settings
 
 #: Random points per check round and sub-problem by default (``check_count``): a tenth of its

@@ -14,7 +14,8 @@ from hpcontact.problems.kinds import KINDS
 from hpcontact.sweep.data.columns import NOT_COMPUTED
 from hpcontact.sweep.data.dataset import DIRECTIONAL, TENSOR, derive_directional, directional_errors
 from hpcontact.sweep.data.journal import OK
-from hpcontact.sweep.maps.refinement import OFF_DIAGONAL, Checks, Layout, State, estimate, node_mask, state_tasks
+from hpcontact.sweep.maps.estimates import OFF_DIAGONAL, Checks, Layout
+from hpcontact.sweep.maps.state import State, estimate, node_mask, state_tasks
 
 MAP_ERROR_SUFFIX = "_map_error"
 INTERPOLATED_MESSAGE = "interpolated (adaptive map)"

@@ -21,7 +21,8 @@ sweep, stiffnesses and their ``<name>_error`` interpolated at unsolved points, p
 ``solved``, ``<name>_map_error`` and the global attribute ``sweep_solves``
 (docs/reference/dataset.md).
 
-The nodes, the map error and the refinement: ``hpcontact.sweep.maps.refinement``; the check
+The nodes, the map error and the refinement: ``hpcontact.sweep.maps.state`` (by the method:
+``hpcontact.sweep.maps.refinement``, ``hpcontact.sweep.maps.sparse_grid``); the check
 rounds: ``hpcontact.sweep.maps.checks``; the data set: ``hpcontact.sweep.maps.fill``.
 """
 
@@ -37,16 +38,8 @@ import numpy as np
 from hpcontact.numerics.interpolation import bisection_nodes
 from hpcontact.sweep.data import provenance
 from hpcontact.sweep.maps.checks import drawn_checks, judged, wants_check
-from hpcontact.sweep.maps.refinement import (
-    Checks,
-    Layout,
-    State,
-    initial_state,
-    refine,
-    remembered_estimates,
-    sparse_method,
-    state_tasks,
-)
+from hpcontact.sweep.maps.estimates import Checks, Layout, remembered_estimates
+from hpcontact.sweep.maps.state import State, initial_state, refine, sparse_method, state_tasks
 from hpcontact.sweep.space.adaptive_settings import Settings
 
 RoundFunction = Callable[[Any, "frozenset[int] | None", "Callable[[Any, Any], Any] | None", "frozenset[int]"], Any]

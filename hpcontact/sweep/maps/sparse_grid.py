@@ -1,5 +1,6 @@
 """A sparse-grid adaptive map: the dimension-adaptive combination technique with its own error
-estimate (``[adaptive] method = "sparse"``; the leaves of a k-d tree: ``maps.refinement``).
+estimate (``[adaptive] method = "sparse"``; the leaves of a k-d tree: ``maps.refinement``; what
+both share: ``maps.estimates``; which one a map uses: ``maps.state``).
 
 Levels. Along a numeric axis of n points, level l is the nested bisection level with 2^l + 1
 nodes (``interpolation.bisection_nodes(n, 2**l + 1)``; level 0: both ends), up to the first
@@ -24,7 +25,7 @@ Estimate. The map error at x is
 
 ``scale`` the quantity's size (as the leaves': |q|, the largest diagonal entry for an
 off-diagonal one), s the solves' own relative error combined alike from the nodes, ``factor``
-``refinement.SAFETY`` (as the leaves') until a check round raises it, and ρ_l ≤ 1 the decay a
+``estimates.SAFETY`` (as the leaves') until a check round raises it, and ρ_l ≤ 1 the decay a
 step to a missing forward neighbour of l is expected to bring (``next_terms``: the largest
 ratio of surpluses seen for that step next to l; 1 where none is seen). The value reported is
 the combination over *all* solved indices, active ones included (the best the solves give;
@@ -38,11 +39,11 @@ estimate, not a bound: where the decay is not yet regular it can fall short (67 
 points in one round of the test's map, before the level that resolves its feature), so the
 check rounds (``maps.checks``) test it at random points when the refinement ends and raise the
 factor of that sub-problem alone where it falls short. The principal stiffnesses derive from
-the combined tensor as the leaves' do (``refinement.principal_from_tensor``).
+the combined tensor as the leaves' do (``estimates.principal_from_tensor``).
 
 Refinement (``refine``, one round at a time, batched). At every point over its tolerance t the
 active indices are ranked by their part of the estimate, and those needed are taken as
-``refinement.needed_axes`` takes axes (the largest, and each whose tail alone exceeds
+``estimates.needed_axes`` takes axes (the largest, and each whose tail alone exceeds
 max(t − s, t/4)). Every forward neighbour of a taken index joins S, with what keeps S
 downward closed (``admitted``); their new grid points are the next round. Indices go by their
 largest excess first, as many as ``max_solves`` (check points included) allows. The
@@ -71,17 +72,17 @@ import numpy as np
 
 from hpcontact.numerics.interpolation import bisection_nodes, weights
 from hpcontact.sweep.data.dataset import TENSOR
-from hpcontact.sweep.maps.refinement import (
-    _REMEMBERED,
+from hpcontact.sweep.maps.estimates import (
+    REMEMBERED,
     SAFETY,
     Checks,
     Estimate,
     Layout,
-    _relative_scale,
     needed_axes,
+    node_tasks,
     principal_from_tensor,
+    relative_scale,
     solve_errors,
-    state_tasks,
     worked_quantities,
 )
 from hpcontact.sweep.space.adaptive_settings import Settings
@@ -243,10 +244,10 @@ def combined(
     solve error; its one "axis" the interpolation part), and with ``shares`` each active index's
     part of the interpolation estimate (grid × ``names``, float32; for a derived principal
     stiffness, the tensor bound of that index's part alone; without, an empty dict and the
-    active surpluses contracted twice rather than kept). Inside ``refinement.remembered_estimates``, asked
+    active surpluses contracted twice rather than kept). Inside ``estimates.remembered_estimates``, asked
     again of the same set, quantities and factor with bitwise the same values at its nodes, the
     first's (the check's judgement, the refinement and the fill after a round ask alike)."""
-    remembered = _REMEMBERED.get()
+    remembered = REMEMBERED.get()
     if remembered is None:
         return _combined(layout, cat, sparse, names, fields, safety, shares)
     mask = set_nodes(tuple(len(x) for x in layout.xs), sparse.indices)
@@ -305,7 +306,7 @@ def _combined(
         if shares:
             parts[index] = weighted
     solve = np.abs(solve)
-    scale = _relative_scale(work, values)
+    scale = relative_scale(work, values)
     interpolation = safety * absolute / scale
     for index, part in parts.items():
         share = safety * part / scale
@@ -314,7 +315,7 @@ def _combined(
         parts[index] = share[..., :kept].astype(np.float32)
     if derive:
         principal_from_tensor(values, [interpolation], work)
-        scale = _relative_scale(work, values)
+        scale = relative_scale(work, values)
     keep = slice(0, kept)
     est = Estimate(
         values[..., keep], [interpolation[..., keep]], solve[..., keep], scale[..., keep], np.zeros(shape, np.intp)
@@ -405,7 +406,8 @@ def refine(
         return None
     flat = np.arange(math.prod(layout.shape)).reshape(layout.shape)
     task_of = np.asarray(task_of).ravel()
-    taken = set(state_tasks(layout, state, task_of, checks).tolist())
+    masks = [(cat, set_nodes(shape, sparse.indices)) for cat, sparse in state]
+    taken = set(node_tasks(layout, masks, task_of, checks).tolist())
     chosen: dict[int, set[Index]] = {}
     grown = {s: sparse for s, (_, sparse) in enumerate(state)}
     for _, s, index in sorted(candidates, key=lambda c: (-c[0], c[1], c[2])):

@@ -23,10 +23,11 @@ import xarray as xr
 from hpcontact.analytic import mindlin_ellipse_stiffness
 from hpcontact.errors import InputError
 from hpcontact.sweep.data.journal import ERROR, read_journals
-from hpcontact.sweep.maps import refinement
+from hpcontact.sweep.maps import estimates
 from hpcontact.sweep.maps.checks import MAX_CHECKS, MIN_CHECKS, check_count, drawn_checks
-from hpcontact.sweep.maps.refinement import Checks, Layout, initial_state, state_points, state_tasks
+from hpcontact.sweep.maps.estimates import Checks, Layout
 from hpcontact.sweep.maps.rounds import dry_run_text
+from hpcontact.sweep.maps.state import initial_state, state_points, state_tasks
 from hpcontact.sweep.run.records import Options, runner_name
 from hpcontact.sweep.run.rounds import execute
 from hpcontact.sweep.run.schedule import SerialTeam
@@ -321,7 +322,7 @@ def test_checks_make_an_estimator_tuned_too_low_honest_again(sweep, write_spec, 
     (random solves compared with the interpolant) raise the factor until they hold, the
     refinement goes on with it, and the map is honest at >= 95 % of its points and within
     its tolerance of Mindlin's closed form everywhere."""
-    monkeypatch.setattr(refinement, "SAFETY", 0.1)
+    monkeypatch.setattr(estimates, "SAFETY", 0.1)
     text = MINDLIN.replace("tolerance = 1e-3", "tolerance = 1e-4").replace("accuracy = 1e-4", "accuracy = 1e-6")
     monkeypatch.setattr(sys.modules[__name__], "SOLVE_ERROR", 1e-6)
     monkeypatch.setattr(sys.modules[__name__], "NOISE", 1e-7)
@@ -433,6 +434,6 @@ def test_principal_values_come_from_the_interpolated_tensor_across_their_kink(sw
         true = np.abs(ds[name].values / value - 1.0)
         assert true.max() <= 1e-3, name
         assert np.mean(ds[f"{name}_map_error"].values >= true) >= 0.95, name
-    monkeypatch.setattr(refinement, "PRINCIPAL", ())
+    monkeypatch.setattr(estimates, "PRINCIPAL", ())
     direct = xr.open_dataset(sweep(write_spec(CROSSING, "direct.toml"), crossing, output=tmp_path / "direct.nc"))
     assert ds.attrs["sweep_solves"] < direct.attrs["sweep_solves"]

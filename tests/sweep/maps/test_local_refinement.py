@@ -12,8 +12,10 @@ from test_adaptive import MINDLIN, mindlin
 from hpcontact.analytic import mindlin_ellipse_stiffness
 from hpcontact.numerics.interpolation import TensorInterpolant
 from hpcontact.sweep.maps.checks import check_count
-from hpcontact.sweep.maps.refinement import HALO, LEAF_NODES, Checks, Layout, Leaf, _cut, initial_state, state_tasks
+from hpcontact.sweep.maps.estimates import Checks, Layout
+from hpcontact.sweep.maps.refinement import HALO, LEAF_NODES, Leaf, _cut
 from hpcontact.sweep.maps.rounds import next_step
+from hpcontact.sweep.maps.state import initial_state, state_tasks
 from hpcontact.sweep.space.parse import parse_spec
 from hpcontact.sweep.work.tasks import enumerate_part, join_parts
 

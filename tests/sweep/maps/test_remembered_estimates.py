@@ -1,4 +1,4 @@
-"""An estimate asked twice in one decision is computed once (``refinement.remembered_estimates``):
+"""An estimate asked twice in one decision is computed once (``estimates.remembered_estimates``):
 after the last check round the judgement and the fill estimate the same quantities with the same
 factor; what it returns is bitwise the estimate computed afresh, and changed values at a node
 are estimated anew."""
@@ -9,8 +9,9 @@ import numpy as np
 from test_spread import bump_map
 
 from hpcontact.sweep.maps import refinement
-from hpcontact.sweep.maps.refinement import Checks, estimate, initial_state, remembered_estimates, state_tasks
+from hpcontact.sweep.maps.estimates import Checks, remembered_estimates
 from hpcontact.sweep.maps.rounds import next_step
+from hpcontact.sweep.maps.state import estimate, initial_state, state_tasks
 
 
 def test_the_last_decisions_fill_estimate_is_the_judgements_and_equals_one_computed_afresh(monkeypatch):

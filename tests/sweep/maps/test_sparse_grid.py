@@ -13,8 +13,9 @@ import xarray as xr
 from hpcontact.errors import InputError
 from hpcontact.numerics.interpolation import TensorInterpolant
 from hpcontact.sweep.maps import sparse_grid
-from hpcontact.sweep.maps.refinement import Checks, Layout, initial_state, is_sparse, sparse_method, state_tasks
+from hpcontact.sweep.maps.estimates import Checks, Layout
 from hpcontact.sweep.maps.rounds import next_step
+from hpcontact.sweep.maps.state import initial_state, is_sparse, sparse_method, state_tasks
 from hpcontact.sweep.space.parse import parse_spec
 from hpcontact.sweep.work.tasks import enumerate_part, join_parts
 

@@ -15,8 +15,9 @@ import pytest
 from test_local_refinement import BUMP, bumped
 
 from hpcontact.sweep.maps import spread
-from hpcontact.sweep.maps.refinement import Checks, Layout, estimate, initial_state, state_tasks
+from hpcontact.sweep.maps.estimates import Checks, Layout
 from hpcontact.sweep.maps.rounds import next_step
+from hpcontact.sweep.maps.state import estimate, initial_state, state_tasks
 from hpcontact.sweep.space.parse import parse_spec
 from hpcontact.sweep.work.tasks import enumerate_part, join_parts
 
