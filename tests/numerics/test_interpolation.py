@@ -110,7 +110,7 @@ def test_tensor_product_in_two_dimensions_with_trailing_quantities():
     assert np.max(ex[..., 0]) < 1e-12 and np.max(ey[..., 0]) < 1e-12
     true = np.abs(full[..., 1] - f[..., 1])
     estimate = ex[..., 1] + ey[..., 1]
-    assert np.mean(1.5 * estimate >= true) >= 0.95  # with maps.refinement.SAFETY: an estimate, not a bound
+    assert np.mean(1.5 * estimate >= true) >= 0.95  # with maps.estimates.SAFETY: an estimate, not a bound
     assert 0.5 < estimate.max() / true.max() < 4.0
     assert np.all(ex[nodes[0], :, :] == 0.0) and np.all(ey[:, nodes[1], :] == 0.0)  # zero on its own nodes
 

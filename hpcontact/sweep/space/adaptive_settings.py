@@ -18,7 +18,7 @@ INTERPOLATED_AXES = frozenset(
 )
 KEYS = ("tolerance", "max_solves", "quantities", "initial", "log", "checks", "method")
 #: How the map's nodes are chosen (``maps.refinement``: leaves of a k-d tree; ``maps.sparse_grid``:
-#: a dimension-adaptive sparse grid; "auto": ``refinement.sparse_method``).
+#: a dimension-adaptive sparse grid; "auto": ``state.sparse_method``).
 METHODS = ("auto", "leaves", "sparse")
 TOLERANCE_RANGE = "a relative error in [1e-8, 0.5]"
 DEFAULT_INITIAL = 5
