@@ -41,7 +41,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from hpcontact import __version__, fields
+from hpcontact import __version__
 from hpcontact.accuracy import task_function
 from hpcontact.numerics.blas import limited_blas
 from hpcontact.numerics.convolution import clear_cache
@@ -257,9 +257,9 @@ def other_running() -> float | None:
 
 
 def on_device(params: Mapping[str, Any], device: str) -> dict[str, Any]:
-    """The calibration scene ``params`` with its solves on ``device``: a contact scene's
-    ``device`` field; a scene of a kind without one (slip: solved on the CPU) as it is."""
-    if device == "cpu" or "device" not in fields.names(scene_kind(params)):
+    """The calibration scene ``params`` with its solves on ``device`` (its ``device`` field, which
+    contact and slip scenes both have)."""
+    if device == "cpu":
         return dict(params)
     return {**params, "device": device}
 
@@ -271,9 +271,9 @@ def calibrate(
     solve under the BLAS limit a sweep's tasks run under (``numerics.blas.limited_blas``:
     without it OpenBLAS's threads made the calibration's CPU seconds 2-3x those of the same
     solves in a task, and every estimate as high; docs/performance.md §"Sweep cost model").
-    With ``device`` "gpu" the contact scenes are solved on this rank's GPU one at a time and
-    timed in wall seconds (``CLOCKS``), the slip scenes on the CPU as a sweep solves them:
-    the cost model of a GPU (``calibration_file.calibrate_gpu``)."""
+    With ``device`` "gpu" every scene (contact and slip) is solved on this rank's GPU one at a
+    time and timed in wall seconds (``CLOCKS``): the cost model of a GPU
+    (``calibration_file.calibrate_gpu``)."""
 
     started = time.perf_counter()
     scenes = {kind: [on_device(p, device) for p in pair] for kind, pair in scenes.items()}
@@ -290,7 +290,7 @@ def calibrate(
         strips = max(0.0, timed_strips(strip_scene, clock=scene_clock(strip_scene)) - contact.task_s)
         exact = timed_exact(exact_scene, clock=scene_clock(exact_scene))
         rates["contact"] = replace(contact, strip_s=strips / strip_units(strip_scene), exact_s=exact)
-        slip, scene = rates["slip"], ANISOTROPIC_SLIP_SCENE
+        slip, scene = rates["slip"], on_device(ANISOTROPIC_SLIP_SCENE, device)
         cost = estimated_cost(scene)
         rest = _timed(scene, clock=scene_clock(scene)) - slip.rate_s * cost - slip.solve_s * solve_units(scene, cost)
         rates["slip"] = Rate(slip.rate_s, slip.solve_s, max(0.0, rest) / omega_nodes(scene))
