@@ -323,7 +323,7 @@ class SlipProblem:
         return ArrayConvolutionOperator(g.nx, g.ny, "xyz", spectra, self.xp)
 
     def zeros(self, *leading: int) -> Array:
-        """float64 zeros of shape (*leading, nx, ny) on the scene's device."""
+        """float64 zeros of shape ``(*leading, nx, ny)`` on the scene's device."""
         return self.xp.zeros(leading + self.gap.shape, dtype=self.xp.float64)
 
     @property
