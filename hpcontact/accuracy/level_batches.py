@@ -27,8 +27,9 @@ from hpcontact.discretizations.boundary_cells import (
 )
 from hpcontact.numerics.backend import to_device
 from hpcontact.numerics.conjugate_gradient import Solution, conjugate_gradient_batch
-from hpcontact.numerics.convolution import FourierProductStack, block_table, clear_cache
+from hpcontact.numerics.convolution import clear_cache
 from hpcontact.numerics.preconditioner import FourierPreconditioner
+from hpcontact.problems.contact import operator_stacks
 from hpcontact.scene import Scene
 
 
@@ -88,27 +89,19 @@ def _batch_solve(
     """Solve k of each (system, k, tol, its preconditioner) of ``members`` (one device, components,
     grid shape and preconditioner grid) as one ``conjugate_gradient_batch``; the solutions in order
     (tractions on the device)."""
-    system0, k0, _, _ = members[0]
-    engine0, solve0 = system0.engine, system0.plan.solves[k0]
-    xp, shape, c = engine0.xp, system0.mask.shape, len(solve0.components)
-    on_device: dict[int, Any] = {}
-    tables = []
-    for system, k, _, _ in members:
-        s = system.plan.solves[k]
-        table = block_table(s.components, system.engine.spectra(s.components, s.green), system.engine.fft_shape)
-        for row in table:
-            for spectrum in row:
-                if spectrum is not None and id(spectrum) not in on_device:
-                    on_device[id(spectrum)] = to_device(spectrum, xp)
-        tables.append([[None if x is None else on_device[id(x)] for x in row] for row in table])
-    operator = FourierProductStack(tables, shape, engine0.fft_shape, xp)
+    system0 = members[0][0]
+    xp, shape = system0.engine.xp, system0.mask.shape
+    operator, fourier = operator_stacks(
+        [system.engine for system, _, _, _ in members],
+        [system.plan.solves[k] for system, k, _, _ in members],
+        [pre for _, _, _, pre in members],
+        shape,
+        xp,
+    )
     damping = xp.stack([system.damping[k] for system, k, _, _ in members])
     apply = lambda t: operator.apply(t) + damping * t  # noqa: E731
     precondition = None
-    preconditioners = [pre for _, _, _, pre in members]
-    if preconditioners[0] is not None:
-        symbols = [[[p.symbol[i, j, ...] for j in range(c)] for i in range(c)] for p in preconditioners]
-        fourier = FourierProductStack(symbols, shape, preconditioners[0].shape, xp).apply
+    if fourier is not None:
         weights = xp.stack([system.weights[k] for system, k, _, _ in members])
         precondition = lambda r: weights * fourier(weights * r)  # noqa: E731
     rhs = to_device(np.stack([system.rhs[k] for system, k, _, _ in members]), xp)

@@ -138,15 +138,15 @@ def batch_key(solve_: PunchSolve, preconditioner: FourierPreconditioner | None) 
     return (id(engine.xp), s.components, mask.shape, None if preconditioner is None else preconditioner.shape)
 
 
-def batch_system(solves: Sequence[PunchSolve], preconditioners: Sequence[FourierPreconditioner | None]) -> BatchSystem:
-    """The ``BatchSystem`` of ``solves`` (one ``batch_key``; ``_preconditioner_of`` each): the
-    spectra and symbols copied to the device once, a spectrum shared by all scenes kept once."""
-    if len({batch_key(s, p) for s, p in zip(solves, preconditioners)}) != 1:
-        raise ValueError("the solves of a batch share device, components, grid shape and preconditioner grid")
-    scenes, engines, masks, plan_solves = zip(*solves)
-    engine, s = engines[0], plan_solves[0]
-    xp, shape, c = engine.xp, masks[0].shape, len(s.components)
-    on_device: dict[int, Array] = {}  # one device copy per host spectrum (scenes on one grid share theirs)
+def operator_stacks(
+    engines: Sequence[Any], plan_solves: Sequence[Any], preconditioners: Sequence[Any], shape: tuple[int, ...], xp: Any
+) -> tuple[Any, Callable[[Array], Array] | None]:
+    """The batched operator of solves that share components and padded grid (one
+    ``FourierProductStack`` of each solve's kernel spectra, ``block_table``; one device copy per
+    host spectrum, so scenes on one grid share theirs) and the application of their stacked
+    Fourier preconditioners' symbols (None without preconditioners): what ``solve_batch`` and
+    the batched levels of ``accuracy.level_batches`` iterate with."""
+    on_device: dict[int, Array] = {}
     tables = []
     for e, s_ in zip(engines, plan_solves):
         table = block_table(s_.components, e.spectra(s_.components, s_.green), e.fft_shape)
@@ -155,11 +155,23 @@ def batch_system(solves: Sequence[PunchSolve], preconditioners: Sequence[Fourier
                 if spectrum is not None and id(spectrum) not in on_device:
                     on_device[id(spectrum)] = to_device(spectrum, xp)
         tables.append([[None if x is None else on_device[id(x)] for x in row] for row in table])
-    operator = FourierProductStack(tables, shape, engine.fft_shape, xp)
-    precondition = None
-    if preconditioners[0] is not None:
-        symbols = [[[p.symbol[i, j, ...] for j in range(c)] for i in range(c)] for p in preconditioners]
-        precondition = FourierProductStack(symbols, shape, preconditioners[0].shape, xp).apply
+    operator = FourierProductStack(tables, shape, engines[0].fft_shape, xp)
+    if preconditioners[0] is None:
+        return operator, None
+    c = len(plan_solves[0].components)
+    symbols = [[[p.symbol[i, j, ...] for j in range(c)] for i in range(c)] for p in preconditioners]
+    return operator, FourierProductStack(symbols, shape, preconditioners[0].shape, xp).apply
+
+
+def batch_system(solves: Sequence[PunchSolve], preconditioners: Sequence[FourierPreconditioner | None]) -> BatchSystem:
+    """The ``BatchSystem`` of ``solves`` (one ``batch_key``; ``_preconditioner_of`` each): the
+    spectra and symbols copied to the device once, a spectrum shared by all scenes kept once."""
+    if len({batch_key(s, p) for s, p in zip(solves, preconditioners)}) != 1:
+        raise ValueError("the solves of a batch share device, components, grid shape and preconditioner grid")
+    scenes, engines, masks, plan_solves = zip(*solves)
+    engine, s = engines[0], plan_solves[0]
+    xp, shape, c = engine.xp, masks[0].shape, len(s.components)
+    operator, precondition = operator_stacks(engines, plan_solves, preconditioners, shape, xp)
     rhs = np.zeros((len(solves), c) + shape)
     for k, s_ in enumerate(plan_solves):
         rhs[k, s_.components.index(s_.load)] = 1.0
