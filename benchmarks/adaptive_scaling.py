@@ -68,6 +68,11 @@ DEMO_MAP = ROOT / "jobs" / "demo_map.toml"
 CRYSTAL_MAP = ROOT / "jobs" / "adaptive_orientation_map.toml"
 CRYSTAL_TASK_S = 0.065  # s, one exact-cell crystal solve on the 16-core node of issue 40
 RANKS = (2, 16, 64, 256, 1024)
+# The real 4-D map's records (``store_records``; results/ is not tracked: made from the map's journals)
+RECORDS = ROOT / "results" / "adaptive_orientation_map_records.npz"
+RECORDED_AXES = ("aspect", "nu", "anisotropy", "orientation")
+# The 4-D map's task functions (``worker``): the real map's records, or a smooth stand-in
+TASKS = {"recorded": "real map's records (its solves, looked up)", "stand-in": "stand-in refinement"}
 # Rank 0's phases timed in the benchmark's runs (module, attribute, label): the set-up's
 # enumeration (every rank its share) and what rank 0 does alone between rounds.
 PHASES = (
@@ -117,6 +122,77 @@ def stand_in(params: Mapping[str, Any]) -> dict[str, Any]:
         wall_time_s=0.0,
     )
     return record
+
+
+def store_records(journal: Path, path: Path) -> int:
+    """Store compactly (``path``, a compressed ``.npz``) what ``recorded`` needs to answer like the
+    journals in ``journal`` (the real 4-D map's, one ``finished`` entry per scene: its last that
+    succeeded): each scene's axis values (``points``, NaN where a scene ignores the axis) and each
+    record field, a float column (``f:`` with ``m:`` its presence where some record lacks it) or,
+    for any other value, a table of its distinct JSON texts (``t:``) and each record's row in it
+    (``i:``, -1 where absent). The number of records stored."""
+    from hpcontact.sweep.data.journal import OK, journal_files
+
+    entries: dict[str, dict[str, Any]] = {}
+    for file in journal_files(journal):
+        for line in file.read_text(encoding="utf-8").splitlines():
+            event = json.loads(line.split(" ", 1)[1])
+            if event.get("event") == "finished" and event["status"] == OK:
+                entries[event["key"]] = event
+    rows = list(entries.values())
+    arrays: dict[str, np.ndarray] = {
+        "axes": np.array(RECORDED_AXES),
+        "points": np.array([[float(e["params"].get(a, math.nan)) for a in RECORDED_AXES] for e in rows]),
+    }
+    for name in sorted({k for e in rows for k in e["record"]}):
+        values = [e["record"].get(name) for e in rows]
+        present = np.array([name in e["record"] for e in rows])
+        if all(type(v) is float for v, here in zip(values, present) if here):
+            arrays[f"f:{name}"] = np.array([v if here else math.nan for v, here in zip(values, present)])
+            if not present.all():
+                arrays[f"m:{name}"] = present
+        else:
+            texts = [json.dumps(v, sort_keys=True) for v in values]
+            table = sorted({t for t, here in zip(texts, present) if here})
+            arrays[f"t:{name}"] = np.array(table)
+            row_of = {t: i for i, t in enumerate(table)}
+            arrays[f"i:{name}"] = np.array([row_of[t] if here else -1 for t, here in zip(texts, present)], np.int32)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(path, **arrays)
+    return len(rows)
+
+
+_RECORDS: dict[tuple[float | None, ...], dict[str, Any]] = {}
+
+
+def load_records() -> dict[tuple[float | None, ...], dict[str, Any]]:
+    """The real map's records by scene (its ``RECORDED_AXES`` values, None where it ignores one)
+    from ``store_records``' file (``RECORDS``, or ``$HPCONTACT_RECORDS``), read once per process."""
+    if not _RECORDS:
+        with np.load(os.environ.get("HPCONTACT_RECORDS", RECORDS)) as stored:
+            columns = {k: stored[k] for k in stored.files}
+        names = sorted({k[2:] for k in columns if k[:2] in ("f:", "t:")})
+        for row, point in enumerate(columns["points"].tolist()):
+            record: dict[str, Any] = {}
+            for name in names:
+                if f"f:{name}" in columns:
+                    if f"m:{name}" not in columns or columns[f"m:{name}"][row]:
+                        record[name] = float(columns[f"f:{name}"][row])
+                elif (i := int(columns[f"i:{name}"][row])) >= 0:
+                    record[name] = json.loads(str(columns[f"t:{name}"][i]))
+            _RECORDS[tuple(None if math.isnan(x) else x for x in point)] = record
+    return _RECORDS
+
+
+def recorded(params: Mapping[str, Any]) -> dict[str, Any]:
+    """The real map's record of the scene ``params`` (``load_records``): the 2-rank run makes
+    exactly the decisions the real solves made, with today's code, and no solve. A scene the
+    file does not hold is an error (the run would then decide otherwise than the real map)."""
+    point = tuple(float(params[a]) if a in params else None for a in RECORDED_AXES)
+    records = load_records()
+    if point not in records:
+        raise KeyError(f"no recorded solve of the 4-D map at {dict(zip(RECORDED_AXES, point))}")
+    return dict(records[point])
 
 
 def process_start() -> float:
@@ -176,12 +252,12 @@ def worker(spec: str, output: str, variant: str, task: str, times: str) -> None:
     marks: list[tuple[float, float]] = []
     claimed = rounds.claimed_chunks
 
-    def recorded(*args: Any, **kwargs: Any) -> Any:
+    def marked(*args: Any, **kwargs: Any) -> Any:
         marks.append((time.time(), time.process_time()))
         yield from claimed(*args, **kwargs)
         marks.append((time.time(), time.process_time()))
 
-    rounds.claimed_chunks = recorded
+    rounds.claimed_chunks = marked
     from hpcontact.sweep.maps import spread
 
     calls: list[tuple[float, float, float, list[tuple[int, float]], float]] = []
@@ -195,8 +271,13 @@ def worker(spec: str, output: str, variant: str, task: str, times: str) -> None:
 
     spread.LeafPool.map = shared
     started = (process_start(), 0.0)  # the set-up from the process's start: its imports too
+    if task == "recorded":  # the records read before the run, and not counted in its set-up
+        wall, cpu = time.time(), time.process_time()
+        load_records()
+        started = (started[0] + time.time() - wall, time.process_time() - cpu)
+    functions = {"stand-in": stand_in, "recorded": recorded, "solver": None}
     with open(os.devnull, "w", encoding="utf-8") as sink:
-        run_sweep(spec, output=output, task_function=stand_in if task == "stand-in" else None, stream=sink)
+        run_sweep(spec, output=output, task_function=functions[task], stream=sink)
     if int(os.environ.get("OMPI_COMM_WORLD_RANK", os.environ.get("PMI_RANK", "0"))) == 0:
         ended = (time.time(), time.process_time())
         Path(times).write_text(
@@ -339,14 +420,94 @@ def phase_seconds(measured: dict[str, Any], clock: str) -> dict[str, list[float]
     return out
 
 
+def crystal(folder: Path, task: str, driver_ms: list[float]) -> None:
+    """The 4-D map run on 2 ranks with the task function ``task`` (``recorded`` or ``stand-in``)
+    and its rounds replayed on ``RANKS`` (module docstring); ``driver_ms``: the demo map's
+    measured driver seconds a task (empty: the replay's default)."""
+    from hpcontact.sweep.work.replay import DEFAULT_OVERHEADS, Overheads
+
+    measured = run(CRYSTAL_MAP, folder / f"crystal-{task}.nc", "after", task)
+    setup, gaps, setup_cpu, gaps_cpu = between(measured)
+    rounds = [{k: CRYSTAL_TASK_S for k in r["tasks"]} for r in measured["rounds"]]
+    print(
+        f"\njobs/adaptive_orientation_map.toml, rounds of the {TASKS[task]} on 2 ranks: "
+        f"{' + '.join(str(len(r)) for r in rounds)} = {sum(len(r) for r in rounds)} solves; set-up {setup:.1f} s "
+        f"({setup_cpu:.1f} CPU s), between rounds {', '.join(f'{g:.2f}' for g in gaps)} s "
+        f"({', '.join(f'{g:.2f}' for g in gaps_cpu)} CPU s; rank 0 alone, measured)"
+    )
+    driver = float(np.median(driver_ms)) if driver_ms else DEFAULT_OVERHEADS.driver_s
+    cpu_driver = driver_cpu(measured)
+    print(
+        f"replayed at {CRYSTAL_TASK_S * 1e3:.0f} ms a solve; the driver's time a task, set-up and the time between "
+        f"rounds as measured (wall; driver {1e3 * driver:.2f} ms a task, the demo map's) and as rank 0's CPU "
+        f"seconds (an idle machine; driver {1e3 * cpu_driver:.2f} ms a task, this run's):"
+    )
+    phases = {clock: phase_seconds(measured, clock) for clock in ("wall", "CPU")}
+    print("rank 0's CPU seconds by phase on 2 ranks (the set-up, then each round: during it and after it):")
+    for label, seconds in phases["CPU"].items():
+        print(f"  {label:18s} {' '.join(f'{x:6.2f}' for x in seconds)}  (sum {sum(seconds):.2f})")
+    print(
+        "replayed: set-up as assumed or as measured; rank 0's reading ahead during each round spread over the "
+        "ranks (the others take its claims meanwhile)"
+    )
+    print(
+        f"{'ranks':>6} {'between':>7} {'setup':>8} {'wall s':>8} {'effic.':>7} {'between':>8} {'tail':>6} "
+        f"{'claims':>7} {'setup':>6}"
+    )
+    shared = {clock: leaf_calls(measured, clock) for clock in ("wall", "CPU")}
+    for clock in ("wall", "CPU"):
+        calls, spent = shared[clock]
+        parts = sum(s for round_calls in calls for c in round_calls for s in c.seconds)
+        overhead = sum(c.overhead_s for round_calls in calls for c in round_calls)
+        print(
+            f"estimates shared out ({clock}): {sum(len(c) for c in calls)} calls, rank 0 in them "
+            f"{' '.join(f'{x:.2f}' for x in spent)} s after the rounds; the parts {parts:.2f} s on both ranks, "
+            f"overhead {overhead:.2f} s"
+        )
+    for clock, model in (("wall", "assumed"), ("wall", "measured"), ("CPU", "assumed"), ("CPU", "measured")):
+        times = (setup, gaps) if clock == "wall" else (setup_cpu, gaps_cpu)
+        calls, spent = shared[clock]
+        alone = [g - s for g, s in zip(times[1], spent)]  # rank 0's time between rounds outside the calls
+        enumeration = sum(phases[clock]["enumeration"]) if model == "measured" else None
+        ahead = [sum(phases[clock][p][k + 1] for p in IN_ROUND_PHASES) for k in range(len(rounds))]
+        per_task = driver if clock == "wall" else cpu_driver
+        overheads = Overheads(**{**DEFAULT_OVERHEADS.__dict__, "driver_s": per_task, "spread_gather_s": 0.0})
+        for ranks in RANKS:
+            r = replayed(rounds, ranks, alone, times[0], 139725, overheads, enumeration, ahead, calls)
+            print(
+                f"{ranks:6d} {clock:>7} {model:>8} {r['makespan_s']:8.2f} {r['efficiency']:7.3f} "
+                f"{r['between']:8.3f} {r['tail']:6.3f} {r['claims']:7.3f} {r['setup']:6.3f}",
+                flush=True,
+            )
+    overheads = Overheads(**{**DEFAULT_OVERHEADS.__dict__, "driver_s": cpu_driver, "spread_gather_s": 0.0})
+    enumeration = sum(phases["CPU"]["enumeration"])
+    ahead = [sum(phases["CPU"][p][k + 1] for p in IN_ROUND_PHASES) for k in range(len(rounds))]
+    r = replayed(rounds, 16, [0.0] * len(gaps_cpu), setup_cpu, 139725, overheads, enumeration, ahead)
+    print(
+        f"bound, not the code: 16 ranks with nothing at all between rounds (CPU, set-up as measured): "
+        f"efficiency {r['efficiency']:.3f} (set-up {r['setup']:.3f} of the makespan)"
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=2, help="runs of each variant of the demo map (alternating)")
-    parser.add_argument("--no-crystal", action="store_true", help="skip the 4-D map's stand-in run and replay")
+    parser.add_argument(
+        "--crystal",
+        nargs="*",
+        choices=sorted(TASKS),
+        default=["recorded", "stand-in"],
+        help="the 4-D map's runs and replays: with the real map's records, with the stand-in (default both; none: skip)",
+    )
+    parser.add_argument(
+        "--store-records", type=Path, metavar="JOURNAL", help=f"store the real map's records from JOURNAL in {RECORDS}"
+    )
     parser.add_argument("--keep", type=Path, help="keep data sets and journals in this folder")
     args = parser.parse_args()
     from hpcontact.sweep.work.replay import DEFAULT_OVERHEADS, Overheads
 
+    if args.store_records is not None:
+        print(f"stored {store_records(args.store_records, RECORDS)} records in {RECORDS}")
     folder = args.keep or Path(tempfile.mkdtemp(prefix="hpcontact-adaptive-scaling-"))
     folder.mkdir(parents=True, exist_ok=True)
     print(f"adaptive_scaling: {harness.machine_line(1)}")
@@ -374,69 +535,8 @@ def main() -> None:
                     f"{setup:7.2f} {1e3 * driver:14.2f} {model['makespan_s']:15.2f}",
                     flush=True,
                 )
-        if args.no_crystal:
-            return
-        measured = run(CRYSTAL_MAP, folder / "crystal-stand-in.nc", "after", "stand-in")
-        setup, gaps, setup_cpu, gaps_cpu = between(measured)
-        rounds = [{k: CRYSTAL_TASK_S for k in r["tasks"]} for r in measured["rounds"]]
-        print(
-            f"\njobs/adaptive_orientation_map.toml, rounds of the stand-in refinement on 2 ranks: "
-            f"{' + '.join(str(len(r)) for r in rounds)} = {sum(len(r) for r in rounds)} solves; set-up {setup:.1f} s "
-            f"({setup_cpu:.1f} CPU s), between rounds {', '.join(f'{g:.2f}' for g in gaps)} s "
-            f"({', '.join(f'{g:.2f}' for g in gaps_cpu)} CPU s; rank 0 alone, measured)"
-        )
-        driver = float(np.median(driver_ms)) if driver_ms else DEFAULT_OVERHEADS.driver_s
-        cpu_driver = driver_cpu(measured)
-        print(
-            f"replayed at {CRYSTAL_TASK_S * 1e3:.0f} ms a solve; the driver's time a task, set-up and the time between "
-            f"rounds as measured (wall; driver {1e3 * driver:.2f} ms a task, the demo map's) and as rank 0's CPU "
-            f"seconds (an idle machine; driver {1e3 * cpu_driver:.2f} ms a task, the stand-in's):"
-        )
-        phases = {clock: phase_seconds(measured, clock) for clock in ("wall", "CPU")}
-        print("rank 0's CPU seconds by phase on 2 ranks (the set-up, then each round: during it and after it):")
-        for label, seconds in phases["CPU"].items():
-            print(f"  {label:18s} {' '.join(f'{x:6.2f}' for x in seconds)}  (sum {sum(seconds):.2f})")
-        print(
-            "replayed: set-up as assumed or as measured; rank 0's reading ahead during each round spread over the "
-            "ranks (the others take its claims meanwhile)"
-        )
-        print(
-            f"{'ranks':>6} {'between':>7} {'setup':>8} {'wall s':>8} {'effic.':>7} {'between':>8} {'tail':>6} "
-            f"{'claims':>7} {'setup':>6}"
-        )
-        shared = {clock: leaf_calls(measured, clock) for clock in ("wall", "CPU")}
-        for clock in ("wall", "CPU"):
-            calls, spent = shared[clock]
-            parts = sum(s for round_calls in calls for c in round_calls for s in c.seconds)
-            overhead = sum(c.overhead_s for round_calls in calls for c in round_calls)
-            print(
-                f"estimates shared out ({clock}): {sum(len(c) for c in calls)} calls, rank 0 in them "
-                f"{' '.join(f'{x:.2f}' for x in spent)} s after the rounds; the parts {parts:.2f} s on both ranks, "
-                f"overhead {overhead:.2f} s"
-            )
-        for clock, model in (("wall", "assumed"), ("wall", "measured"), ("CPU", "assumed"), ("CPU", "measured")):
-            times = (setup, gaps) if clock == "wall" else (setup_cpu, gaps_cpu)
-            calls, spent = shared[clock]
-            alone = [g - s for g, s in zip(times[1], spent)]  # rank 0's time between rounds outside the calls
-            enumeration = sum(phases[clock]["enumeration"]) if model == "measured" else None
-            ahead = [sum(phases[clock][p][k + 1] for p in IN_ROUND_PHASES) for k in range(len(rounds))]
-            per_task = driver if clock == "wall" else cpu_driver
-            overheads = Overheads(**{**DEFAULT_OVERHEADS.__dict__, "driver_s": per_task, "spread_gather_s": 0.0})
-            for ranks in RANKS:
-                r = replayed(rounds, ranks, alone, times[0], 139725, overheads, enumeration, ahead, calls)
-                print(
-                    f"{ranks:6d} {clock:>7} {model:>8} {r['makespan_s']:8.2f} {r['efficiency']:7.3f} "
-                    f"{r['between']:8.3f} {r['tail']:6.3f} {r['claims']:7.3f} {r['setup']:6.3f}",
-                    flush=True,
-                )
-        overheads = Overheads(**{**DEFAULT_OVERHEADS.__dict__, "driver_s": cpu_driver, "spread_gather_s": 0.0})
-        enumeration = sum(phases["CPU"]["enumeration"])
-        ahead = [sum(phases["CPU"][p][k + 1] for p in IN_ROUND_PHASES) for k in range(len(rounds))]
-        r = replayed(rounds, 16, [0.0] * len(gaps_cpu), setup_cpu, 139725, overheads, enumeration, ahead)
-        print(
-            f"bound, not the code: 16 ranks with nothing at all between rounds (CPU, set-up as measured): "
-            f"efficiency {r['efficiency']:.3f} (set-up {r['setup']:.3f} of the makespan)"
-        )
+        for task in args.crystal:
+            crystal(folder, task, driver_ms)
     finally:
         if args.keep is None:
             shutil.rmtree(folder, ignore_errors=True)
