@@ -77,6 +77,9 @@ TASKS = {"recorded": "real map's records (its solves, looked up)", "stand-in": "
 # enumeration (every rank its share) and what rank 0 does alone between rounds.
 PHASES = (
     ("hpcontact.sweep.run.rounds", "share", "enumeration"),
+    ("hpcontact.sweep.run.rounds", "packed", "pack"),
+    ("hpcontact.sweep.run.rounds", "unpacked", "unpack+join"),
+    ("hpcontact.sweep.run.rounds", "joined", "unpack+join"),
     ("hpcontact.sweep.run.rounds", "prepare", "journals+decision"),
     ("hpcontact.sweep.run.rounds", "to_columns", "own outcomes"),
     ("hpcontact.sweep.run.assembly", "outcome_parts", "outcomes joined"),
@@ -91,6 +94,8 @@ PHASES = (
 )
 # Rank 0's work during a round, not between rounds (the other ranks take its claims meanwhile).
 IN_ROUND_PHASES = ("read ahead",)
+# The set-up's phases each rank does for its own share (1/R of the points on R ranks), not for all.
+SPREAD_SETUP = ("enumeration", "pack")
 
 _TEMPLATE: dict[str, Any] = {}
 
@@ -446,6 +451,12 @@ def crystal(folder: Path, task: str, driver_ms: list[float]) -> None:
     print("rank 0's CPU seconds by phase on 2 ranks (the set-up, then each round: during it and after it):")
     for label, seconds in phases["CPU"].items():
         print(f"  {label:18s} {' '.join(f'{x:6.2f}' for x in seconds)}  (sum {sum(seconds):.2f})")
+    in_setup = {label: seconds[0] for label, seconds in phases["CPU"].items() if seconds[0] > 0.0}
+    print(
+        f"rank 0's set-up, {setup_cpu:.2f} CPU s: "
+        + ", ".join(f"{label} {x:.2f}" for label, x in in_setup.items())
+        + f", the rest {setup_cpu - sum(in_setup.values()):.2f} (interpreter, imports, MPI, spec, first decision)"
+    )
     print(
         "replayed: set-up as assumed or as measured; rank 0's reading ahead during each round spread over the "
         "ranks (the others take its claims meanwhile)"
@@ -468,7 +479,7 @@ def crystal(folder: Path, task: str, driver_ms: list[float]) -> None:
         times = (setup, gaps) if clock == "wall" else (setup_cpu, gaps_cpu)
         calls, spent = shared[clock]
         alone = [g - s for g, s in zip(times[1], spent)]  # rank 0's time between rounds outside the calls
-        enumeration = sum(phases[clock]["enumeration"]) if model == "measured" else None
+        enumeration = sum(sum(phases[clock][p]) for p in SPREAD_SETUP) if model == "measured" else None
         ahead = [sum(phases[clock][p][k + 1] for p in IN_ROUND_PHASES) for k in range(len(rounds))]
         per_task = driver if clock == "wall" else cpu_driver
         overheads = Overheads(**{**DEFAULT_OVERHEADS.__dict__, "driver_s": per_task, "spread_gather_s": 0.0})
@@ -480,7 +491,7 @@ def crystal(folder: Path, task: str, driver_ms: list[float]) -> None:
                 flush=True,
             )
     overheads = Overheads(**{**DEFAULT_OVERHEADS.__dict__, "driver_s": cpu_driver, "spread_gather_s": 0.0})
-    enumeration = sum(phases["CPU"]["enumeration"])
+    enumeration = sum(sum(phases["CPU"][p]) for p in SPREAD_SETUP)
     ahead = [sum(phases["CPU"][p][k + 1] for p in IN_ROUND_PHASES) for k in range(len(rounds))]
     r = replayed(rounds, 16, [0.0] * len(gaps_cpu), setup_cpu, 139725, overheads, enumeration, ahead)
     print(

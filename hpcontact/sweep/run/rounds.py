@@ -23,7 +23,6 @@ ranks, done between two of its tasks it stalled its claims past the cluster chec
 from __future__ import annotations
 
 import json
-import pickle
 import sys
 import time
 from collections.abc import Callable, Mapping
@@ -61,13 +60,13 @@ from hpcontact.sweep.run.records import (
 )
 from hpcontact.sweep.run.resume import journal_path, prepare
 from hpcontact.sweep.run.schedule import SLOTS, Team, claimed_chunks, cost_units, report_done, totals_done, world
-from hpcontact.sweep.run.shares import from_rank_zero, joined, share
+from hpcontact.sweep.run.shares import from_rank_zero, joined, packed, share, unpacked
 from hpcontact.sweep.run.signals import Abandoned, StopControl
 from hpcontact.sweep.space.parse import load_spec
 from hpcontact.sweep.space.spec import Spec, Validator
 from hpcontact.sweep.work.batches import batch_fill, plan_batches, run_batch
 from hpcontact.sweep.work.estimate import start_estimate
-from hpcontact.sweep.work.tasks import Task, changed_inputs, make_chunks, paused_gc
+from hpcontact.sweep.work.tasks import Task, changed_inputs, make_chunks
 
 # Rank 0 of an adaptive map reads the journals ahead while the round runs for at most this share
 # of its time in the round (module docstring); the rest it computes tasks.
@@ -173,16 +172,10 @@ def execute(
         ),
     )
     # every rank needs every task (chunks are claimed from one shared counter); one process keeps
-    # its share as it is, without a pickled copy of its whole task list. The collector is off
-    # while the shares are unpickled (tasks.paused_gc: rows without cycles; 0.5-0.6 -> 0.2 CPU s
-    # for each half of the 4-D map's 139 725 tasks, on every rank)
+    # its share as it is, without a pickled copy of its whole task list (shares.packed, unpacked:
+    # rows as plain tuples, unpacked with the collector off)
     mine = share(spec, team.rank, team.size, validate, options)
-    if team.size == 1:
-        shares = [mine]
-    else:
-        sent = team.bcast(team.gather(pickle.dumps(mine, protocol=pickle.HIGHEST_PROTOCOL)))
-        with paused_gc():
-            shares = [pickle.loads(b) for b in sent]
+    shares = [mine] if team.size == 1 else [unpacked(b) for b in team.bcast(team.gather(packed(mine)))]
     tasks, task_of, over = joined(spec, shares)
     run = Run(team, spec, tasks, task_of, over, task_function, stream, stop, started, command)
     if spec.adaptive is None:

@@ -81,6 +81,12 @@ class Task(NamedTuple):
 _task = functools.partial(tuple.__new__, Task)  # Task from a 5-tuple, without NamedTuple's Python __new__
 
 
+def as_task(row: tuple) -> Task:
+    """The ``Task`` of a plain 5-tuple ``row`` (key, params, cost, group, sizing), made without
+    ``Task.__new__``'s Python call: what a share's rows become again on the receiving rank."""
+    return _task(row)
+
+
 def task_key(params: Mapping[str, Any], text: str | None = None) -> str:
     """The key of the scene ``params``: SHA-1 (hex) of its canonical JSON (``text``, when the
     caller has it) and, for a scene that reads input files (``spec.PATH_FIELDS``: a mask), of
@@ -456,19 +462,23 @@ def join_parts(spec: Spec, parts: Sequence[Part]) -> tuple[list[Task], np.ndarra
 
 
 def _joined_rows(parts: Sequence[Part]) -> tuple[list[Task], list[np.ndarray]]:
-    """``join_parts`` of several parts: the tasks by key, and each part's points' tasks."""
+    """``join_parts`` of several parts: the tasks by key, and each part's points' tasks. A row
+    is taken as it is (a ``Task``) unless its group's text is held by another object already:
+    then with that one (one string object per distinct group)."""
     position: dict[str, int] = {}
     groups: dict[str, str] = {}
     tasks: list[Task] = []
     joined = []
     for part in parts:
-        local = np.empty(len(part.rows), dtype=np.intp)
-        for j, row in enumerate(part.rows):
-            at = position.get(row[0])
+        rows = part.rows
+        found = list(map(position.get, [row[0] for row in rows]))  # the keys of the parts before
+        local = np.empty(len(rows), dtype=np.intp)
+        for j, (row, at) in enumerate(zip(rows, found)):
             if at is None:
                 at = position[row[0]] = len(tasks)
-                key, params, cost, group, *size = row
-                tasks.append(Task(key, params, cost, groups.setdefault(group, group), *size))
+                group = row[3]
+                held = groups.setdefault(group, group)
+                tasks.append(row if held is group else row._replace(group=held))
             local[j] = at
         joined.append(local[part.task_of])
     return tasks, joined

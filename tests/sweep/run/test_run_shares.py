@@ -8,6 +8,7 @@ import contextlib
 import pickle
 from typing import Any
 
+import numpy as np
 import pytest
 
 from hpcontact.errors import InputError
@@ -84,3 +85,37 @@ def test_the_first_bad_share_in_rank_order_is_raised():
         joined(None, shares)
     with pytest.raises(RuntimeError, match="^KeyError on rank 2: 'x'$"):
         joined(None, shares[2:])
+
+
+def test_shares_packed_and_unpacked_join_into_the_tasks_of_one_whole_enumeration():
+    """Three ranks' shares of a grid whose scenes repeat across the ranks' ranges (a circle's
+    along b/a, the angle ignored in tensor mode), each packed and unpacked as the ranks exchange
+    them (``packed``, ``unpacked``) and joined: the tasks (``Task`` rows, key, parameters, cost,
+    group) and each point's task of one enumeration of the whole grid, which joins nothing
+    (``tasks.join_parts`` of one part; that one against the points one by one:
+    ``tests/sweep/work/test_tasks.py``); one group object per distinct group text; a share's
+    error survives the trip."""
+    from hpcontact.sweep.run.records import NO_FLAGS
+    from hpcontact.sweep.run.shares import packed, share, unpacked
+    from hpcontact.sweep.space.parse import parse_spec
+    from hpcontact.sweep.work.tasks import Task, enumerate_part, join_parts
+
+    text = """
+        [axes]
+        shape = ["circle", "ellipse"]
+        aspect = [1, 0.1, 0.01]
+        nu = [0.1, 0.3, 0.5]
+        angle = { linspace = [0, 180, 5] }
+        """
+    spec = parse_spec(text, validate=lambda params: None)
+    whole, whole_of = join_parts(spec, [enumerate_part(spec)])
+    shares = [unpacked(packed(share(spec, r, 3, None, NO_FLAGS))) for r in range(3)]
+    tasks, where, over = joined(spec, shares)
+    assert len(whole) < where.size  # scenes repeat
+    assert [tuple(t) for t in tasks] == [tuple(t) for t in whole]
+    assert np.array_equal(where, whole_of) and not over
+    assert all(type(t) is Task for t in tasks)
+    assert len({id(t.group) for t in tasks}) == len({t.group for t in tasks})
+    bad = Share(None, False, SharedError.of(InputError("axes.nu", "values in (-1, 0.5]", 0.7), 2))
+    with pytest.raises(InputError, match="axes.nu"):
+        joined(spec, [shares[0], unpacked(packed(bad))])
