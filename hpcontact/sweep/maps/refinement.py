@@ -31,7 +31,12 @@ face, each keeping ``HALO`` node(s) of the other beyond it, so the intervals at 
 the centred stencil they had (without it the one-sided stencils there refined the faces: 486
 instead of 222 solves on jobs/demo_map.toml). A cut adds no node, but later splits in one half
 leave the other as it is (but for its ``HALO`` line), so the map grows nodes where its estimate
-is large and stays coarse elsewhere. The new nodes' points are the next round, broadcast to
+is large and stays coarse elsewhere. And before a leaf is split, where the points over their
+tolerance that its splits serve lie on one side of one of its nodes along an axis it is not
+split along, it is cut there first (at fewer nodes, each half keeping ``LEAF_NODES`` with its
+halo: ``_grown``), and only the half holding those points gets the new nodes: a new line of
+nodes spans the part of the leaf that needs it, not the whole leaf (measured with
+benchmarks/local_refinement.py and benchmarks/map_honesty.py: docs/howto/adaptive.md). The new nodes' points are the next round, broadcast to
 every rank; the refinement ends when no interval is split, or at ``max_solves`` (the splits with
 the largest estimates first, as many as fit), or when every point is solved. The state
 (``state.State``: each sub-problem's leaves) is a function of the values at its nodes alone, so a
@@ -270,6 +275,7 @@ def refine(
     too). Deterministic: every rank given the same values decides the same."""
     tol = np.array([settings.tolerance(n) for n in names])
     candidates = []  # (score, sub-problem position, leaf position, axis, interval)
+    reach: dict[tuple[int, int, int, int], Span] = {}  # (s, leaf, axis, interval) -> its points over, per axis
     for s, (cat, leaves) in enumerate(state):
         est = estimate(layout, cat, leaves, names, fields, checks.factor(s), checks.cautious(s))
         with np.errstate(invalid="ignore"):
@@ -292,9 +298,11 @@ def refine(
                 for m, (i, j) in enumerate(zip(nodes[:-1], nodes[1:])):
                     if j - i < 2 or i < lo or j > hi:
                         continue
-                    worst = float(np.take(ratio, range(i + 1 - lo, j - lo), axis=d).max())
+                    slab = np.take(ratio, range(i + 1 - lo, j - lo), axis=d)
+                    worst = float(slab.max())
                     if worst > 1.0:
                         candidates.append((worst, s, position, d, m))
+                        reach[(s, position, d, m)] = _span(slab > 1.0, leaf, d, (i + 1, j - 1))
     if not candidates:
         return None
     flat = np.arange(math.prod(layout.shape)).reshape(layout.shape)
@@ -306,7 +314,8 @@ def refine(
         trial = {a: set(ms) for a, ms in marks.get((s, position), {}).items()}
         trial.setdefault(d, set()).add(m)
         cat, leaves = state[s]
-        added = set(task_of[layout.take(flat, cat, _split(leaves[position], trial).nodes).ravel()].tolist()) - taken
+        pieces = _grown(leaves[position], trial, _reach_of(reach, s, position, trial))
+        added = {t for piece in pieces for t in task_of[layout.take(flat, cat, piece.nodes).ravel()].tolist()} - taken
         if settings.max_solves is not None and len(taken) + len(added) > settings.max_solves:
             continue
         marks[(s, position)] = trial
@@ -317,7 +326,8 @@ def refine(
     for s, (cat, leaves) in enumerate(state):
         grown: list[Leaf] = []
         for position, leaf in enumerate(leaves):
-            grown.extend(_cut(_split(leaf, marks.get((s, position), {}))))
+            marked = marks.get((s, position), {})
+            grown.extend(_grown(leaf, marked, _reach_of(reach, s, position, marked)))
         out.append((cat, tuple(grown)))
     return tuple(out)
 
@@ -330,6 +340,68 @@ def _between_nodes(leaf: Leaf, axis: int) -> np.ndarray:
     shape = [1] * len(leaf.box)
     shape[axis] = len(between)
     return between.reshape(shape)
+
+
+#: The grid indices, first and last per axis, of the points over their tolerance that a split serves.
+Span = tuple[tuple[int, int], ...]
+
+
+def _span(over: np.ndarray, leaf: Leaf, axis: int, interval: tuple[int, int]) -> Span:
+    """The first and last grid index along each axis of the points ``over`` (a boolean slab of
+    ``leaf``'s box: the points strictly inside the node interval ``interval`` along ``axis``)."""
+    out = []
+    for e, (lo, _) in enumerate(leaf.box):
+        if e == axis:
+            out.append(interval)
+            continue
+        hit = np.flatnonzero(over.any(axis=tuple(a for a in range(over.ndim) if a != e)))
+        out.append((lo + int(hit[0]), lo + int(hit[-1])))
+    return tuple(out)
+
+
+def _reach_of(
+    reach: Mapping[tuple[int, int, int, int], Span], s: int, position: int, marks: Mapping[int, set[int]]
+) -> Span | None:
+    """The smallest box holding the spans (``_span``) of the marked intervals ``marks`` of the
+    leaf ``position`` of the sub-problem ``s`` (None: no mark)."""
+    spans = [reach[(s, position, d, m)] for d, ms in marks.items() for m in ms]
+    if not spans:
+        return None
+    return tuple((min(sp[e][0] for sp in spans), max(sp[e][1] for sp in spans)) for e in range(len(spans[0])))
+
+
+def _grown(leaf: Leaf, marks: Mapping[int, set[int]], reach: Span | None) -> list[Leaf]:
+    """The leaves ``leaf`` becomes when the intervals ``marks`` are split, ``reach`` the box
+    of the points over their tolerance that the splits serve (None: no mark). First, along an
+    axis with no mark, ``leaf`` is cut at the node nearest to ``reach`` whose face leaves
+    ``reach`` on one side and each half at least ``LEAF_NODES`` nodes along that axis, ``HALO``
+    beyond the face included (a cut as ``_cut``'s, at fewer nodes): the half that holds
+    ``reach`` is grown the same way, the other half keeps its nodes, so the new nodes span only
+    the part of the leaf whose points need them. Then the marks are split (``_split``) and the
+    leaf cut where it has grown to ``2 LEAF_NODES − 1`` nodes (``_cut``)."""
+    if reach is None:
+        return _cut(leaf)
+    for e, (nodes, (lo, hi)) in enumerate(zip(leaf.nodes, leaf.box)):
+        if e in marks:
+            continue
+        n, (first, last) = len(nodes), reach[e]
+        fits = [k for k, i in enumerate(nodes) if lo < i < hi and k + 1 + HALO >= LEAF_NODES <= n - k + HALO]
+        above = [k for k in fits if nodes[k] >= last]
+        below = [k for k in fits if nodes[k] <= first]
+        if above:
+            k = above[0]
+            keep, rest = (nodes[: k + 1 + HALO], (lo, nodes[k])), (nodes[k - HALO :], (nodes[k], hi))
+        elif below:
+            k = below[-1]
+            keep, rest = (nodes[k - HALO :], (nodes[k], hi)), (nodes[: k + 1 + HALO], (lo, nodes[k]))
+        else:
+            continue
+        kept, other = (
+            Leaf((*leaf.nodes[:e], half, *leaf.nodes[e + 1 :]), (*leaf.box[:e], span, *leaf.box[e + 1 :]))
+            for half, span in (keep, rest)
+        )
+        return [*_grown(kept, marks, reach), other]
+    return _cut(_split(leaf, marks))
 
 
 def _split(leaf: Leaf, marks: Mapping[int, set[int]]) -> Leaf:

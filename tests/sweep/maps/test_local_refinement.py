@@ -13,7 +13,7 @@ from hpcontact.analytic import mindlin_ellipse_stiffness
 from hpcontact.numerics.interpolation import TensorInterpolant
 from hpcontact.sweep.maps.checks import check_count
 from hpcontact.sweep.maps.estimates import Checks, Layout
-from hpcontact.sweep.maps.refinement import HALO, LEAF_NODES, Leaf, _cut
+from hpcontact.sweep.maps.refinement import HALO, LEAF_NODES, Leaf, _cut, estimate, node_mask, refine
 from hpcontact.sweep.maps.rounds import next_step
 from hpcontact.sweep.maps.state import initial_state, state_tasks
 from hpcontact.sweep.space.parse import parse_spec
@@ -145,3 +145,61 @@ def test_a_smooth_map_is_filled_from_few_nodes_within_its_tolerance(sweep, write
     nodes = ds.attrs["sweep_solves"] - checks
     assert points == 525 and nodes <= 0.15 * points, nodes
     assert checks == check_count(parse_spec(text, check_scenes=False).adaptive, nodes)
+
+
+ONE_SIDED = """
+[scene]
+shape = "circle"
+quantities = ["tangential"]
+nu = 0.25
+[axes]
+anisotropy = { linspace = [0.5, 1.5, 25] }
+orientation = { linspace = [0, 90, 17] }
+[adaptive]
+tolerance = 1e-3
+quantities = ["K_xx"]
+"""
+
+
+def test_a_split_needed_on_one_side_of_a_leaf_adds_nodes_on_that_side_alone():
+    """K_xx = 2 + (1 − t)³ s⁶ / 2 over t = A − 0.5 (25 points) × s = ψ/90° (17): cubic in t, so
+    the interpolation along t is exact and the error is along s, over the tolerance at small t
+    alone (where (1 − t)³ is large). From one leaf of 7 × 5 nodes, the first decision cuts the
+    leaf along t at the node nearest beyond the points over (index 12) before splitting along
+    s: the new nodes lie at the t nodes up to the face's halo (0 … 16), 4 × 5 = 20 of them, none
+    at t indices 20 and 24 (a split of the whole leaf adds 4 × 7 = 28), and the half beyond the
+    face keeps its nodes. Refined to the end (``next_step``, check rounds included), the map is
+    within its tolerance of the function and its stated error is at least the true error at
+    every point."""
+    spec = parse_spec(ONE_SIDED, check_scenes=False)
+    layout = Layout.of(spec)
+    task_of = join_parts(spec, [enumerate_part(spec)])[1]
+    t, s = np.linspace(0.0, 1.0, 25)[:, None], np.linspace(0.0, 1.0, 17)[None, :]
+    exact = 2.0 + 0.5 * (1.0 - t) ** 3 * s**6
+    every = {"K_xx": exact, "K_xx_error": np.full_like(exact, 1e-12)}
+    leaf = Leaf(((0, 4, 8, 12, 16, 20, 24), (0, 4, 8, 12, 16)), ((0, 24), (0, 16)))
+    before = node_mask(layout, [leaf])
+    seen = {n: np.where(before, v, np.nan) for n, v in every.items()}
+    over = estimate(layout, (), [leaf], ["K_xx"], seen).map_error[..., 0] > 1e-3
+    rows = np.flatnonzero(over.any(axis=1))
+    assert rows.size and rows.max() < 12  # the function does what the test needs: points over at small t alone
+    state = refine(layout, spec.adaptive, (((), (leaf,)),), seen, ["K_xx"], task_of, Checks())
+    leaves = state[0][1]
+    new = node_mask(layout, leaves) & ~before
+    assert np.flatnonzero(new.any(axis=1)).tolist() == [0, 4, 8, 12, 16]
+    assert np.flatnonzero(new.any(axis=0)).tolist() == [2, 6, 10, 14] and new.sum() == 20
+    beyond = [piece for piece in leaves if piece.box[0] == (12, 24)]
+    assert beyond == [Leaf(((8, 12, 16, 20, 24), (0, 4, 8, 12, 16)), ((12, 24), (0, 16)))]
+    checks = Checks()
+    while True:
+        solved = np.isin(task_of, state_tasks(layout, state, task_of, checks))
+        seen = {n: np.where(solved, v, np.nan) for n, v in every.items()}
+        step = next_step(layout, spec.adaptive, state, checks, seen, ["K_xx"], ["K_xx"], task_of)
+        if not isinstance(step, tuple):
+            checks = step
+            break
+        state, checks = step
+    est = estimate(layout, (), state[0][1], ["K_xx"], seen, checks.factor(0), checks.cautious(0))
+    true = np.where(solved, 0.0, np.abs(est.values[..., 0] / exact - 1.0))
+    stated = np.where(solved, 0.0, est.map_error[..., 0])
+    assert true.max() <= 1e-3 and np.all(stated >= true), (true.max(), np.mean(stated >= true))
