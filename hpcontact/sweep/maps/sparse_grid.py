@@ -65,7 +65,7 @@ from __future__ import annotations
 import functools
 import itertools
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from typing import NamedTuple
 
 import numpy as np
@@ -73,6 +73,7 @@ import numpy as np
 from hpcontact.numerics.interpolation import bisection_nodes, weights
 from hpcontact.sweep.data.dataset import TENSOR
 from hpcontact.sweep.maps.estimates import (
+    PRINCIPAL,
     REMEMBERED,
     SAFETY,
     Checks,
@@ -157,41 +158,100 @@ def initial_set(shape: Sequence[int], initial: int) -> SparseSet:
 def difference_matrices(xs: Sequence[np.ndarray], top: Sequence[int]) -> list[list[np.ndarray]]:
     """Per axis and level l ≤ its top, the matrix of U_l − U_{l−1} (grid points × the level's
     nodes; U_{−1} = 0): ``interpolation.weights`` of the level, less that of the level below on
-    its nodes (nested: a subset of the level's)."""
+    its nodes (nested: a subset of the level's). Computed once per axis and top (the
+    coordinates as the key): every decision of a map asks for the same."""
+    return [_axis_differences(tuple(float(v) for v in x), t) for x, t in zip(xs, top)]
+
+
+@functools.lru_cache(maxsize=64)
+def _axis_differences(x: tuple[float, ...], top: int) -> list[np.ndarray]:
+    """``difference_matrices`` of one axis (read only)."""
+    coordinates = np.asarray(x)
+    n = len(x)
     out = []
-    for x, t in zip(xs, top):
-        n = len(x)
-        per_axis = []
-        for level in range(t + 1):
-            nodes = level_nodes(n, level)
-            matrix = weights(x, nodes)
-            if level > 0:
-                below = level_nodes(n, level - 1)
-                position = [nodes.index(i) for i in below]
-                matrix[:, position] -= weights(x, below)
-            per_axis.append(matrix)
-        out.append(per_axis)
+    for level in range(top + 1):
+        nodes = level_nodes(n, level)
+        matrix = weights(coordinates, nodes)
+        if level > 0:
+            below = level_nodes(n, level - 1)
+            position = [nodes.index(i) for i in below]
+            matrix[:, position] -= weights(coordinates, below)
+        matrix.flags.writeable = False
+        out.append(matrix)
     return out
+
+
+def _along(matrix: np.ndarray, data: np.ndarray, axis: int) -> np.ndarray:
+    """``matrix`` (n × k) applied along ``axis`` of ``data`` (k long there): a C-contiguous array
+    n long there, each entry Σ_j matrix[i, j] data[…, j, …] (matrix products, no transpose)."""
+    shape = data.shape
+    before, after = math.prod(shape[:axis]), math.prod(shape[axis + 1 :])
+    flat = np.ascontiguousarray(data).reshape(before, shape[axis], after)
+    if before == 1:
+        out = matrix @ flat[0]
+    elif after == 1:
+        out = flat[..., 0] @ matrix.T
+    else:
+        out = np.matmul(matrix, flat)
+    return out.reshape(*shape[:axis], matrix.shape[0], *shape[axis + 1 :])
+
+
+def _order(matrices: Sequence[np.ndarray]) -> list[int]:
+    """The axes in the order they are contracted: those that grow the array least first (20
+    times faster than in order on the 4-D crystal map's grid, 25 x 9 x 21 x 31)."""
+    return sorted(range(len(matrices)), key=lambda a: (matrices[a].shape[0] / matrices[a].shape[1], a))
 
 
 def surplus(matrices: Sequence[np.ndarray], data: np.ndarray) -> np.ndarray:
     """Δ_l f on the full grid: ``matrices`` (one per axis, ``difference_matrices`` of the index's
     levels) applied along each axis of ``data`` (the values at the index's grid, quantities
-    last). A NaN node (a failed solve) makes NaN every point whose value it enters with a
-    nonzero weight, not the whole lines through it."""
+    first: each one's surplus contiguous). A NaN node (a failed solve) makes NaN every point
+    whose value it enters with a nonzero weight (Σ |w| over its NaN nodes > 0), not the whole
+    lines through it."""
     missing = np.isnan(data)
     out = np.where(missing, 0.0, data)
-    reach = missing.astype(np.float64) if missing.any() else None
-    # the axes that grow the array least first: 20 times faster than in order on the 4-D crystal
-    # map's grid (25 x 9 x 21 x 31, one quantity), 2.3 times with 11 (a microbenchmark of 200 indices)
-    for axis in sorted(range(len(matrices)), key=lambda a: (matrices[a].shape[0] / matrices[a].shape[1], a)):
-        matrix = matrices[axis]
-        out = np.moveaxis(np.tensordot(matrix, out, axes=([1], [axis])), 0, axis)
-        if reach is not None:
-            reach = np.moveaxis(np.tensordot(np.abs(matrix), reach, axes=([1], [axis])), 0, axis)
-    if reach is not None:
-        out[reach > 0.0] = np.nan
+    order = _order(matrices)
+    for axis in order:
+        out = _along(matrices[axis], out, axis + 1)
+    rows = [q for q in range(len(data)) if missing[q].any()]
+    if rows:
+        reach = missing[rows].astype(np.float64)
+        for axis in order:
+            reach = _along(np.abs(matrices[axis]), reach, axis + 1)
+        for row, spread in zip(rows, reach):
+            out[row][spread > 0.0] = np.nan
     return out
+
+
+def combination(matrices: Sequence[Sequence[np.ndarray]], cores: Mapping[Index, np.ndarray]) -> np.ndarray:
+    """Σ_l Δ_l f on the full grid over the indices l of ``cores`` (each the values at its grid,
+    quantities last; no NaN): ``matrices`` per axis and level (``difference_matrices``). The
+    indices sharing their levels along the first axes share the contraction of the rest: the
+    sum over the children c of a prefix p = (l_0 … l_{j−1}) of D_{j,c} applied along axis j is
+    one product of [D_{j,c₁} | D_{j,c₂} | …] with their blocks stacked along that axis, each
+    block the same sum one axis deeper (Σ_l ⊗_d D_{d,l_d} = Σ_{l_0} D_{0,l_0} ⊗ Σ_{l_1} … ): one
+    matrix product per prefix instead of one per index and axis on the full grid. Equal to the
+    sum of ``surplus`` over the indices up to the order of the sums (|difference| ≤ 2γ_m Σ_l
+    Σ_j |w_lj f_j|, m the terms of the longest sum: Higham, Accuracy and Stability, §3.1)."""
+    dims = len(matrices)
+    children: dict[Index, list[int]] = {}
+    for index in cores:
+        for j in range(dims):
+            children.setdefault(index[:j], [])
+            if index[j] not in children[index[:j]]:
+                children[index[:j]].append(index[j])
+
+    def summed(prefix: Index) -> np.ndarray:
+        axis = len(prefix)
+        if axis == dims:
+            return cores[prefix]
+        levels = sorted(children[prefix])
+        blocks = [summed((*prefix, level)) for level in levels]
+        stacked = blocks[0] if len(blocks) == 1 else np.concatenate(blocks, axis=axis)
+        matrix = np.hstack([matrices[axis][level] for level in levels])
+        return _along(matrix, stacked, axis)
+
+    return summed(())
 
 
 def closure(indices: set[Index]) -> set[Index]:
@@ -270,46 +330,54 @@ def _combined(
     safety: float,
     shares: bool,
 ) -> tuple[Estimate, dict[Index, np.ndarray]]:
-    """``combined`` computed."""
+    """``combined`` computed: the values and the solve errors as one ``combination`` each (NaN
+    where a failed node enters, ``surplus``'s rule, by the same sum of |weights| over the failed
+    nodes); each surplus on the full grid only where the estimate reads it (``_Surpluses``)."""
     shape = tuple(len(x) for x in layout.xs)
     top = tops(shape)
     matrices = difference_matrices(layout.xs, top)
     work, derive = worked_quantities(layout, cat, set_nodes(shape, sparse.indices), names, fields)
     kept = len(names)
-    active = set(sparse.active)
-    values = np.zeros((*shape, len(work)))
-    solve = np.zeros_like(values)
-    absolute = np.zeros_like(values)
-    sizes: dict[Index, np.ndarray] = {}  # with shares, the active surpluses' |Δ_l| (float32)
-    largest: dict[Index, np.ndarray] = {}
-
-    def along(index: Index) -> list[np.ndarray]:
-        return [matrices[d][level] for d, level in enumerate(index)]
-
-    def part_of(index: Index) -> np.ndarray:
-        nodes = index_nodes(shape, index)
-        return surplus(along(index), np.stack([layout.take(fields[n], cat, nodes) for n in work], axis=-1))
-
-    for index in sparse.indices:
-        part = part_of(index)
-        values += part
-        solve += surplus(along(index), solve_errors(layout, fields, work, cat, index_nodes(shape, index)))
-        size = np.abs(part)
-        largest[index] = np.nanmax(size.reshape(-1, len(work)), axis=0, initial=0.0)
-        if shares and index in active:
-            sizes[index] = size.astype(np.float32)
+    grid = np.stack([layout.take(fields[n], cat) for n in work], axis=-1)
+    cores = {index: grid[np.ix_(*index_nodes(shape, index))] for index in sparse.indices}
+    values = combination(matrices, {index: np.nan_to_num(core, nan=0.0) for index, core in cores.items()})
+    missing = np.flatnonzero(np.isnan(grid[set_nodes(shape, sparse.indices)]).any(axis=0))
+    if len(missing):
+        magnitudes = [[np.abs(m) for m in per_axis] for per_axis in matrices]
+        reach = combination(magnitudes, {i: np.isnan(c[..., missing]).astype(np.float64) for i, c in cores.items()})
+        values[..., missing] = np.where(reach > 0.0, np.nan, values[..., missing])
+    errors = solve_errors(layout, fields, work, cat)
+    solve = np.abs(combination(matrices, {index: errors[np.ix_(*index_nodes(shape, index))] for index in cores}))
+    # a principal stiffness derived from the tensor has its value and estimate replaced below
+    # (principal_from_tensor): its surpluses are not needed
+    own = [q for q, name in enumerate(work) if not (derive and name in PRINCIPAL)]
+    surpluses = _Surpluses(
+        matrices,
+        {index: np.moveaxis(core[..., own], -1, 0) for index, core in cores.items()},
+        len(work),
+        own,
+        set(sparse.active),
+    )
+    summed = np.zeros((len(own), *shape))  # Σ ρ_l |Δ_l| over the active indices, quantities first
     members = set(sparse.indices)
     parts: dict[Index, np.ndarray] = {}
     for index in sparse.active:
-        weighted = next_terms(index, members, largest, top) * (sizes[index] if shares else np.abs(part_of(index)))
-        absolute += weighted
-        if shares:
+        size = surpluses.size(index)
+        rho = next_terms(index, members, surpluses, top)[own].reshape(-1, *(1 for _ in shape))
+        if shares:  # the refinement's ranking keeps the parts: |Δ_l| in float32, as before
+            weighted = rho * size.astype(np.float32)
             parts[index] = weighted
-    solve = np.abs(solve)
+        else:
+            weighted = np.multiply(size, rho, out=size)
+        summed += weighted
+    absolute = np.zeros_like(values)
+    absolute[..., own] = np.moveaxis(summed, 0, -1)
     scale = relative_scale(work, values)
     interpolation = safety * absolute / scale
     for index, part in parts.items():
-        share = safety * part / scale
+        share = np.zeros_like(values)
+        share[..., own] = np.moveaxis(part, 0, -1)
+        share = safety * share / scale
         if derive:
             principal_from_tensor(values.copy(), [share], work)
         parts[index] = share[..., :kept].astype(np.float32)
@@ -321,6 +389,56 @@ def _combined(
         values[..., keep], [interpolation[..., keep]], solve[..., keep], scale[..., keep], np.zeros(shape, np.intp)
     )
     return est, parts
+
+
+#: Bytes of surpluses ``_Surpluses`` keeps for the index that will ask for them (beyond, it
+#: evaluates them again): 16 of the 4-D crystal map's full grids of 8 quantities.
+KEPT_BYTES = 2**27
+
+
+class _Surpluses(Mapping[Index, np.ndarray]):
+    """The surpluses of a set's indices (``cores``: the values at each one's grid, of the
+    quantities ``own`` of ``width``), each evaluated on the full grid (``surplus``) when first
+    asked for: ``size(l)``, |Δ_l f|; as a mapping (what ``next_terms`` reads), max over the grid
+    of |Δ_l f| per quantity (0 for the others; NaN points left out). Quantities first. A surplus evaluated for its maximum before
+    ``size`` asks for it (an index of ``wanted``) is kept for that (up to ``KEPT_BYTES``)."""
+
+    def __init__(
+        self,
+        matrices: Sequence[Sequence[np.ndarray]],
+        cores: Mapping[Index, np.ndarray],
+        width: int,
+        own: Sequence[int],
+        wanted: set[Index],
+    ) -> None:
+        self.matrices, self.cores, self.width, self.own, self.wanted = matrices, cores, width, list(own), wanted
+        self.largest: dict[Index, np.ndarray] = {}
+        self.kept: dict[Index, np.ndarray] = {}
+
+    def _evaluated(self, index: Index) -> np.ndarray:
+        size = surplus([self.matrices[d][level] for d, level in enumerate(index)], self.cores[index])
+        np.abs(size, out=size)
+        largest = np.zeros(self.width)
+        largest[self.own] = np.fmax.reduce(size.reshape(len(self.own), -1), axis=1, initial=0.0)  # NaN: a failed node
+        self.largest[index] = largest
+        return size
+
+    def size(self, index: Index) -> np.ndarray:
+        """|Δ_l f| on the full grid (the quantities ``own`` first), yours to change."""
+        return self.kept.pop(index) if index in self.kept else self._evaluated(index)
+
+    def __getitem__(self, index: Index) -> np.ndarray:
+        if index not in self.largest:
+            size = self._evaluated(index)
+            if index in self.wanted and size.nbytes + sum(k.nbytes for k in self.kept.values()) <= KEPT_BYTES:
+                self.kept[index] = size
+        return self.largest[index]
+
+    def __iter__(self) -> Iterator[Index]:
+        return iter(self.cores)
+
+    def __len__(self) -> int:
+        return len(self.cores)
 
 
 def next_terms(
