@@ -17,10 +17,22 @@ rounds, with each task's measured seconds and the measured times between rounds,
 beside the measured wall time: the model checked against the run it stands for.
 
 Replayed (16, 64, 256, 1024 ranks): ``jobs/adaptive_orientation_map.toml`` (139 725 distinct
-scenes; 13 464 solves of ~65 ms in four rounds on a 16-core node, issue 40). Its rounds come from
-the job's own refinement run on 2 ranks with a **stand-in** task function (``stand_in``: a smooth
-analytic K_a/K_b of b/a, nu, A and ψ in a real record's fields; no solve, so its rounds and
-solves are the stand-in's, not the crystal's); the times between its rounds and its set-up are
+scenes; on a 16-core node, issue 40, 13 464 solves of ~65 ms in four rounds by the per-axis
+refinement of then; the job now maps with the sparse grid, ``method = "auto"``). Its rounds come
+from the job's own refinement run on 2 ranks with one of two task functions (``--crystal``):
+
+* ``recorded`` (the first): the **real map's records** (``recorded``: the journaled record of
+  each scene of the real sparse map's run, 5 353 solves in 7 rounds and a check round of 30,
+  2026-11-29; looked up by scene, no solve), so the run makes exactly the real map's decisions
+  with the code as it is. The records are stored compactly by ``store_records`` (``--store-records
+  JOURNAL``: 9 484 records, every field, in a 1.7 MB ``results/adaptive_orientation_map_records.npz``;
+  results/ is not tracked: made from the real run's journals, ``/tmp/s4/map4d.nc.journal`` on the
+  development VM), read by every rank before the run starts (not counted in its set-up);
+* ``stand-in`` (the second): a smooth analytic K_a/K_b of b/a, nu, A and ψ in a real record's
+  fields (``stand_in``; its rounds and solves are the stand-in's, not the crystal's: far
+  smoother, 643 solves with the sparse grid).
+
+The times between its rounds and its set-up are
 measured in that run (the stored stiffnesses of 146 475 points, the refinement and, after the
 last round, the data set are what rank 0 does alone, whatever the task function; the set-up from
 the process's start, ``process_start``: its interpreter and imports too); every task is replayed at 65 ms (the issue's measurement),
@@ -32,9 +44,12 @@ in the set-up; after each round the journals read and the decision, the outcomes
 stored stiffnesses, the refinement's decision; after the last the data set made, filled and
 written; its own
 outcomes of the round turned into columns, which each rank does for its own). The set-up
-is replayed as measured: the enumeration (rank 0's share on 2 ranks, so twice it in all)
-divided over the ranks, the rest on every rank at once (``setup as measured``; ``setup as
-assumed``: rank 0's ``Overheads.setup_s`` a task of the six-axis job, the replay's default).
+is replayed as measured: the enumeration and the packing of a rank's share for the others
+(``SPREAD_SETUP``: rank 0's share on 2 ranks, so twice it in all) divided over the ranks, the
+rest on every rank at once: the shares of every rank unpacked and joined (``unpack+join``), the
+interpreter, imports, MPI, the spec and the first round's nodes (``setup as measured``;
+``setup as assumed``: rank 0's ``Overheads.setup_s`` a task of the six-axis job, the replay's
+default).
 
 The estimates rank 0 shares out over the ranks while it decides (``hpcontact.sweep.maps.spread``)
 are recorded call by call (``LeafPool.map``: each leaf's box points and its part's CPU seconds,
@@ -519,6 +534,12 @@ def main() -> None:
 
     if args.store_records is not None:
         print(f"stored {store_records(args.store_records, RECORDS)} records in {RECORDS}")
+    records = Path(os.environ.get("HPCONTACT_RECORDS", RECORDS))
+    if "recorded" in args.crystal and not records.is_file():
+        raise SystemExit(
+            f"{records} not found: make it from the real 4-D map's journals with --store-records JOURNAL "
+            "(or run --crystal stand-in)"
+        )
     folder = args.keep or Path(tempfile.mkdtemp(prefix="hpcontact-adaptive-scaling-"))
     folder.mkdir(parents=True, exist_ok=True)
     print(f"adaptive_scaling: {harness.machine_line(1)}")
