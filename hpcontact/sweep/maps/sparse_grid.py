@@ -210,17 +210,21 @@ def surplus(matrices: Sequence[np.ndarray], data: np.ndarray) -> np.ndarray:
     lines through it."""
     missing = np.isnan(data)
     out = np.where(missing, 0.0, data)
-    order = _order(matrices)
-    for axis in order:
+    for axis in _order(matrices):
         out = _along(matrices[axis], out, axis + 1)
     rows = [q for q in range(len(data)) if missing[q].any()]
     if rows:
-        reach = missing[rows].astype(np.float64)
-        for axis in order:
-            reach = _along(np.abs(matrices[axis]), reach, axis + 1)
-        for row, spread in zip(rows, reach):
-            out[row][spread > 0.0] = np.nan
+        out[rows] = np.where(reached(matrices, missing[rows]), np.nan, out[rows])
     return out
+
+
+def reached(matrices: Sequence[np.ndarray], missing: np.ndarray) -> np.ndarray:
+    """Whether each point of the full grid takes a value from a ``missing`` node of an index's
+    grid (quantities first, as ``surplus``'s data) with a nonzero weight: Σ |w| over them > 0."""
+    spread = missing.astype(np.float64)
+    for axis in _order(matrices):
+        spread = _along(np.abs(matrices[axis]), spread, axis + 1)
+    return spread > 0.0
 
 
 def combination(matrices: Sequence[Sequence[np.ndarray]], cores: Mapping[Index, np.ndarray]) -> np.ndarray:
@@ -297,16 +301,18 @@ def combined(
     fields: Fields,
     safety: float = SAFETY,
     shares: bool = False,
-) -> tuple[Estimate, dict[Index, np.ndarray]]:
+) -> tuple[Estimate, dict[Index, np.ndarray], np.ndarray]:
     """The ``Estimate`` of the sub-problem ``cat`` from the values at the nodes of ``sparse``
-    (module docstring: the combination over every index, the map error ``safety`` × the
-    active surpluses scaled by ``next_terms``, relative to the quantity's scale, + the combined
-    solve error; its one "axis" the interpolation part), and with ``shares`` each active index's
-    part of the interpolation estimate (grid × ``names``, float32; for a derived principal
-    stiffness, the tensor bound of that index's part alone; without, an empty dict and the
-    active surpluses contracted twice rather than kept). Inside ``estimates.remembered_estimates``, asked
-    again of the same set, quantities and factor with bitwise the same values at its nodes, the
-    first's (the check's judgement, the refinement and the fill after a round ask alike)."""
+        (module docstring: the combination over every index, the map error ``safety`` × the
+        active surpluses scaled by ``next_terms``, relative to the quantity's scale, + the combined
+        solve error; its one "axis" the interpolation part), and with ``shares`` each active index's
+        part of the interpolation estimate (grid × ``names``, float32; for a derived principal
+        stiffness, the tensor bound of that index's part alone; without, an empty dict and the
+        active surpluses contracted twice rather than kept), and where each quantity's map comes from
+    fewer indices because a node it needs failed (``_around_failures``; the refinement leaves those
+    points be: adding indices would not bring the failed node back). Inside ``estimates.remembered_estimates``, asked
+        again of the same set, quantities and factor with bitwise the same values at its nodes, the
+        first's (the check's judgement, the refinement and the fill after a round ask alike)."""
     remembered = REMEMBERED.get()
     if remembered is None:
         return _combined(layout, cat, sparse, names, fields, safety, shares)
@@ -329,7 +335,7 @@ def _combined(
     fields: Fields,
     safety: float,
     shares: bool,
-) -> tuple[Estimate, dict[Index, np.ndarray]]:
+) -> tuple[Estimate, dict[Index, np.ndarray], np.ndarray]:
     """``combined`` computed: the values and the solve errors as one ``combination`` each (NaN
     where a failed node enters, ``surplus``'s rule, by the same sum of |weights| over the failed
     nodes); each surplus on the full grid only where the estimate reads it (``_Surpluses``)."""
@@ -341,13 +347,9 @@ def _combined(
     grid = np.stack([layout.take(fields[n], cat) for n in work], axis=-1)
     cores = {index: grid[np.ix_(*index_nodes(shape, index))] for index in sparse.indices}
     values = combination(matrices, {index: np.nan_to_num(core, nan=0.0) for index, core in cores.items()})
-    missing = np.flatnonzero(np.isnan(grid[set_nodes(shape, sparse.indices)]).any(axis=0))
-    if len(missing):
-        magnitudes = [[np.abs(m) for m in per_axis] for per_axis in matrices]
-        reach = combination(magnitudes, {i: np.isnan(c[..., missing]).astype(np.float64) for i, c in cores.items()})
-        values[..., missing] = np.where(reach > 0.0, np.nan, values[..., missing])
     errors = solve_errors(layout, fields, work, cat)
-    solve = np.abs(combination(matrices, {index: errors[np.ix_(*index_nodes(shape, index))] for index in cores}))
+    error_cores = {index: errors[np.ix_(*index_nodes(shape, index))] for index in cores}
+    solve = np.abs(combination(matrices, error_cores))
     # a principal stiffness derived from the tensor has its value and estimate replaced below
     # (principal_from_tensor): its surpluses are not needed
     own = [q for q, name in enumerate(work) if not (derive and name in PRINCIPAL)]
@@ -372,6 +374,27 @@ def _combined(
         summed += weighted
     absolute = np.zeros_like(values)
     absolute[..., own] = np.moveaxis(summed, 0, -1)
+    held = np.zeros(values.shape, dtype=bool)
+    nodes = grid[set_nodes(shape, sparse.indices)]
+    groups: dict[bytes, list[int]] = {}  # the quantities NaN at the same nodes (a failed solve: all)
+    for q in np.flatnonzero(np.isnan(nodes).any(axis=0)):
+        groups.setdefault(np.packbits(np.isnan(nodes[:, q])).tobytes(), []).append(int(q))
+    for columns in groups.values():
+        estimated = [(j, c) for j, c in enumerate(columns) if c in own]
+        touched, value, error, interpolation_sum = _around_failures(
+            matrices,
+            sparse,
+            {index: np.moveaxis(core[..., columns], -1, 0) for index, core in cores.items()},
+            {index: np.moveaxis(core[..., columns], -1, 0) for index, core in error_cores.items()},
+            estimated,
+            surpluses,
+        )
+        for j, c in enumerate(columns):
+            values[..., c] = np.where(touched, value[j], values[..., c])
+            solve[..., c] = np.where(touched, error[j], solve[..., c])
+            held[..., c] = touched
+        for k, (_, c) in enumerate(estimated):
+            absolute[..., c] = np.where(touched, interpolation_sum[k], absolute[..., c])
     scale = relative_scale(work, values)
     interpolation = safety * absolute / scale
     for index, part in parts.items():
@@ -384,11 +407,79 @@ def _combined(
     if derive:
         principal_from_tensor(values, [interpolation], work)
         scale = relative_scale(work, values)
+        tensor_held = held[..., [work.index(n) for n in TENSOR]].any(axis=-1)
+        for q in (q for q, name in enumerate(work) if name in PRINCIPAL):
+            held[..., q] = tensor_held
     keep = slice(0, kept)
     est = Estimate(
         values[..., keep], [interpolation[..., keep]], solve[..., keep], scale[..., keep], np.zeros(shape, np.intp)
     )
-    return est, parts
+    return est, parts, held[..., keep]
+
+
+def _around_failures(
+    matrices: Sequence[Sequence[np.ndarray]],
+    sparse: SparseSet,
+    cores: Mapping[Index, np.ndarray],
+    errors: Mapping[Index, np.ndarray],
+    estimated: Sequence[tuple[int, int]],
+    largest: Mapping[Index, np.ndarray],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Quantities NaN at the same nodes (a failed solve; ``cores``: each index's values at its
+    grid, quantities first; ``errors``: their solve errors alike) where a NaN node reaches
+    (``reached``) a point x through the surplus of an index: the map there is the combination
+    over S_x, the set less every index ≥ one whose surplus takes a NaN node at x (downward closed:
+    the largest such subset), as if those indices had not been solved — a finer index needs the
+    coarser ones' values to be a surplus at all. Returns whether each point is such a point, and
+    there the values and |solve errors| combined over S_x and, for the quantities ``estimated``
+    ((position here, column of ``largest``)), Σ ρ_l |Δ_l f| over the active indices of S_x
+    (``next_terms`` within S_x: an index whose finer neighbour is left out estimates what that
+    one would add); NaN where S_x is empty (the first index takes a NaN node: nothing to
+    interpolate from)."""
+    shape = tuple(per_axis[0].shape[0] for per_axis in matrices)
+    top = tuple(len(per_axis) - 1 for per_axis in matrices)
+    count = len(next(iter(cores.values())))
+    value, error = np.full((count, *shape), np.nan), np.full((count, *shape), np.nan)
+    summed = np.full((len(estimated), *shape), np.nan)
+
+    def along(index: Index) -> list[np.ndarray]:
+        return [matrices[d][level] for d, level in enumerate(index)]
+
+    failing = [index for index in sparse.indices if np.isnan(cores[index][0]).any()]
+    root = sparse.indices[0]  # (0, …, 0): below every index
+    dead = reached(along(root), np.isnan(cores[root][:1]))[0] if root in failing else np.zeros(shape, dtype=bool)
+    reach = {} if dead.all() else {i: reached(along(i), np.isnan(cores[i][:1]))[0] for i in failing if i != root}
+    touched = np.logical_or.reduce([dead, *reach.values()])
+    live = np.flatnonzero(touched & ~dead)
+    if not len(live):
+        return touched, value, error, summed
+    keys = list(reach)
+    patterns, inverse = np.unique(np.stack([reach[i].ravel()[live] for i in keys], axis=1), axis=0, return_inverse=True)
+    evaluated: dict[Index, tuple[np.ndarray, np.ndarray]] = {}
+
+    def at(index: Index) -> tuple[np.ndarray, np.ndarray]:  # Δ_l f and Δ_l e at the live points
+        if index not in evaluated:
+            evaluated[index] = (
+                surplus(along(index), cores[index]).reshape(count, -1)[:, live],
+                surplus(along(index), errors[index]).reshape(count, -1)[:, live],
+            )
+        return evaluated[index]
+
+    for p, pattern in enumerate(patterns):
+        bad = [index for index, hit in zip(keys, pattern) if hit]
+        kept = {m for m in sparse.indices if not any(all(a >= b for a, b in zip(m, i)) for i in bad)}
+        here = np.flatnonzero(inverse.ravel() == p)
+        points = live[here]
+        value.reshape(count, -1)[:, points] = sum(at(index)[0][:, here] for index in sorted(kept))
+        error.reshape(count, -1)[:, points] = np.abs(sum(at(index)[1][:, here] for index in sorted(kept)))
+        if estimated:
+            positions, columns = zip(*estimated)
+            total = np.zeros((len(estimated), len(here)))
+            for index in split_set(kept, top).active:
+                rho = next_terms(index, kept, largest, top)[list(columns)]
+                total += rho[:, None] * np.abs(at(index)[0][list(positions)][:, here])
+            summed.reshape(len(estimated), -1)[:, points] = total
+    return touched, value, error, summed
 
 
 #: Bytes of surpluses ``_Surpluses`` keeps for the index that will ask for them (beyond, it
@@ -504,10 +595,10 @@ def refine(
     tol = np.array([settings.tolerance(n) for n in names])
     candidates = []  # (score, sub-problem, index)
     for s, (cat, sparse) in enumerate(state):
-        est, parts = combined(layout, cat, sparse, names, fields, checks.factor(s), shares=True)
+        est, parts, held = combined(layout, cat, sparse, names, fields, checks.factor(s), shares=True)
         with np.errstate(invalid="ignore"):
             error = est.map_error
-            over = np.nan_to_num(error, nan=0.0) > tol
+            over = (np.nan_to_num(error, nan=0.0) > tol) & ~held  # a failed node's surroundings: no index helps
             points = over.any(axis=-1)
         if not points.any() or not parts:
             continue
