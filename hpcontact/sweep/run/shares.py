@@ -3,9 +3,10 @@ and each rank's share of the parameter space joined into the tasks of every rank
 
 A share travels as bytes (``packed``, ``unpacked``): its rows as plain tuples, made tasks again
 with ``tasks.Task``'s C-level constructor, not pickled as named tuples (which unpickle through
-``Task.__new__``, a Python call a row): the 4-D map's 139 725 rows 0.2-0.4 -> ~0.12 CPU s to
-pack a half and ~0.13 -> ~0.09 to unpack one on every rank (2026-11-29, 2-core VM, load ~3;
-``benchmarks/adaptive_scaling.py`` times both phases)."""
+``Task.__new__``, a Python call a row): on the 4-D map's 139 725 rows in 2 shares a share packed
+in 0.458 -> 0.361 CPU s, both unpacked in 0.326 -> 0.312 (one process, min of 4, 2026-11-29,
+docs/performance.md § Adaptive rounds on many ranks; ``benchmarks/adaptive_scaling.py`` times both
+phases in its runs)."""
 
 from __future__ import annotations
 
