@@ -171,11 +171,12 @@ def execute(
             else load_spec(spec_path, output=output, validate=validate, check_scenes=False, accuracy=accuracy)
         ),
     )
-    # every rank needs every task (chunks are claimed from one shared counter); one process keeps
-    # its share as it is, without a pickled copy of its whole task list (shares.packed, unpacked:
-    # rows as plain tuples, unpacked with the collector off)
+    # every rank needs every task (chunks are claimed from one shared counter); each rank keeps
+    # its own share as it is and unpacks the others' (shares.packed, unpacked: rows as plain
+    # tuples, unpacked with the collector off); one process sends nothing
     mine = share(spec, team.rank, team.size, validate, options)
-    shares = [mine] if team.size == 1 else [unpacked(b) for b in team.bcast(team.gather(packed(mine)))]
+    sent = [None] if team.size == 1 else team.bcast(team.gather(packed(mine)))
+    shares = [mine if r == team.rank else unpacked(b) for r, b in enumerate(sent)]
     tasks, task_of, over = joined(spec, shares)
     run = Run(team, spec, tasks, task_of, over, task_function, stream, stop, started, command)
     if spec.adaptive is None:
