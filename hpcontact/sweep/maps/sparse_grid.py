@@ -273,18 +273,6 @@ def combination(matrices: Sequence[Sequence[np.ndarray]], cores: Mapping[Index, 
     return summed(())
 
 
-def closure(indices: set[Index]) -> set[Index]:
-    """The smallest downward-closed set holding ``indices``: with every index, every index ≤ it."""
-    out = set(indices)
-    pending = list(indices)
-    while pending:
-        for behind in _backward(pending.pop()):
-            if behind not in out:
-                out.add(behind)
-                pending.append(behind)
-    return out
-
-
 def split_set(indices: set[Index], top: Sequence[int]) -> SparseSet:
     """A downward-closed set as ``SparseSet``: active the indices with a forward neighbour (up to
     the axes' tops) outside it, old the rest."""
@@ -294,7 +282,7 @@ def split_set(indices: set[Index], top: Sequence[int]) -> SparseSet:
 
 def admitted(sparse: SparseSet, chosen: set[Index], top: Sequence[int]) -> tuple[SparseSet, list[Index]]:
     """``sparse`` with every forward neighbour of the active indices ``chosen`` (up to the tops)
-    and what makes the set downward closed again (``closure``): the new set and the indices
+    and what makes the set downward closed again (``_closed_over``): the new set and the indices
     added. An index stays active while one of its forward neighbours is missing, so its surplus
     stays in the estimate until every direction finer than it is in the set. (Gerstner &
     Griebel retire an index once chosen and add a forward neighbour only when all its backward
@@ -303,9 +291,26 @@ def admitted(sparse: SparseSet, chosen: set[Index], top: Sequence[int]) -> tuple
     true error stalled at 6.6e-4 while the estimate said 1.4e-4, on tests/sweep/maps/
     test_sparse_grid.py's map.)"""
     members = set(sparse.indices)
-    ahead = {_forward(i, d) for i in set(chosen) & set(sparse.active) for d in range(len(top)) if i[d] < top[d]}
-    grown = closure(members | ahead)
-    return split_set(grown, top), sorted(grown - members)
+    added = _closed_over(members, _ahead(set(chosen) & set(sparse.active), top))
+    return split_set(members | added, top), sorted(added)
+
+
+def _ahead(indices: set[Index], top: Sequence[int]) -> set[Index]:
+    """The forward neighbours of ``indices`` up to the tops."""
+    return {_forward(i, d) for i in indices for d in range(len(top)) if i[d] < top[d]}
+
+
+def _closed_over(members: set[Index], extra: set[Index]) -> set[Index]:
+    """What the downward-closed ``members`` needs to hold ``extra`` and stay downward closed
+    (with every index, every index ≤ it): ``extra`` and the indices behind them not in it."""
+    added = {i for i in extra if i not in members}
+    pending = list(added)
+    while pending:
+        for behind in _backward(pending.pop()):
+            if behind not in members and behind not in added:
+                added.add(behind)
+                pending.append(behind)
+    return added
 
 
 def combined(
@@ -618,7 +623,8 @@ def refine(
         if not points.any() or not parts:
             continue
         keys = sorted(parts)
-        stacked = np.stack([parts[k][points] for k in keys])  # (indices, points, quantities)
+        where = np.flatnonzero(points)
+        stacked = np.stack([parts[k].reshape(-1, len(names))[where] for k in keys])  # (indices, points, quantities)
         budget = np.maximum(tol - est.solve[points], tol / 4.0)
         excess = np.where(over[points], error[points] / tol, 0.0)
         need = needed_axes(list(stacked), budget)
@@ -633,19 +639,20 @@ def refine(
     masks = [(cat, set_nodes(shape, sparse.indices)) for cat, sparse in state]
     taken = set(node_tasks(layout, masks, task_of, checks).tolist())
     chosen: dict[int, set[Index]] = {}
-    grown = {s: sparse for s, (_, sparse) in enumerate(state)}
+    members = {s: set(sparse.indices) for s, (_, sparse) in enumerate(state)}  # with the chosen so far
     for _, s, index in sorted(candidates, key=lambda c: (-c[0], c[1], c[2])):
-        trial = chosen.get(s, set()) | {index}
-        cat, sparse = state[s]
-        following, added = admitted(sparse, trial, top)
         if settings.max_solves is not None:
+            added = _closed_over(members[s], _ahead({index}, top))
             new = set()
             for extra in added:
-                new |= set(task_of[layout.take(flat, cat, index_nodes(shape, extra)).ravel()].tolist())
+                new |= set(task_of[layout.take(flat, state[s][0], index_nodes(shape, extra)).ravel()].tolist())
             if len(taken | new) > settings.max_solves:
                 continue
             taken |= new
-        chosen[s], grown[s] = trial, following
+            members[s] |= added
+        chosen.setdefault(s, set()).add(index)
     if not chosen:
         return None
-    return tuple((cat, grown[s]) for s, (cat, _) in enumerate(state))
+    return tuple(
+        (cat, admitted(sparse, chosen[s], top)[0] if s in chosen else sparse) for s, (cat, sparse) in enumerate(state)
+    )
