@@ -417,12 +417,15 @@ def _combined(
             absolute[..., c] = np.where(touched, interpolation_sum[k], absolute[..., c])
     scale = relative_scale(work, values)
     interpolation = safety * absolute / scale
+    keep = slice(0, kept)
     for index, part in parts.items():
+        if not derive:  # own: every quantity
+            parts[index] = (safety * np.moveaxis(part[:kept], 0, -1) / scale[..., keep]).astype(np.float32)
+            continue
         share = np.zeros_like(values)
         share[..., own] = np.moveaxis(part, 0, -1)
         share = safety * share / scale
-        if derive:
-            principal_from_tensor(values.copy(), [share], work)
+        principal_from_tensor(values.copy(), [share], work)
         parts[index] = share[..., :kept].astype(np.float32)
     if derive:
         principal_from_tensor(values, [interpolation], work)
@@ -430,7 +433,6 @@ def _combined(
         tensor_held = held[..., [work.index(n) for n in TENSOR]].any(axis=-1)
         for q in (q for q, name in enumerate(work) if name in PRINCIPAL):
             held[..., q] = tensor_held
-    keep = slice(0, kept)
     est = Estimate(
         values[..., keep], [interpolation[..., keep]], solve[..., keep], scale[..., keep], np.zeros(shape, np.intp)
     )
