@@ -224,3 +224,32 @@ def test_max_solves_bounds_the_sparse_map_check_points_included():
     spec, layout, task_of, state, checks, seen, solved, _ = decided(text)
     solves = len(np.unique(task_of[solved]))
     assert solves <= 200 and solves > len(state_tasks(layout, initial_state(layout, spec.adaptive), task_of))
+
+
+def test_the_summed_combination_is_the_sum_of_the_surpluses_within_round_off():
+    """``combination`` (the indices sharing leading levels share one product) against the sum of
+    each index's ``surplus`` on a grid of 9 × 5 × 17 points, every index up to level sum 4: equal
+    up to the order of the sums, |difference| ≤ 2γ_m B with B = Σ_l Σ_j |w_lj f_j| (the same sums
+    of absolute values) and m the terms of the longest chain of sums (Higham §3.1); and equal to
+    the values at every node of the set, which the combination reproduces."""
+    rng = np.random.default_rng(7)
+    xs = [np.linspace(0.0, 1.0, 9), np.log10(np.logspace(0.0, -2.0, 5)), np.linspace(0.0, 90.0, 17)]
+    shape = tuple(len(x) for x in xs)
+    top = sparse_grid.tops(shape)
+    matrices = sparse_grid.difference_matrices(xs, top)
+    values = 1.0 + rng.random((*shape, 2))
+    indices = [i for i in itertools.product(*(range(t + 1) for t in top)) if sum(i) <= 4]
+    cores = {i: values[np.ix_(*sparse_grid.index_nodes(shape, i))] for i in indices}
+    summed = sparse_grid.combination(matrices, cores)
+
+    def along(index):
+        return [matrices[d][level] for d, level in enumerate(index)]
+
+    separate = sum(np.moveaxis(sparse_grid.surplus(along(i), np.moveaxis(cores[i], -1, 0)), 0, -1) for i in indices)
+    magnitudes = [[np.abs(m) for m in per_axis] for per_axis in matrices]
+    bound_terms = sparse_grid.combination(magnitudes, {i: np.abs(c) for i, c in cores.items()})
+    unit = np.finfo(np.float64).eps / 2
+    m = sum(2 * n for n in shape) + len(shape) + len(indices)  # stacked levels per axis (< 2n), products, indices
+    assert np.all(np.abs(summed - separate) <= 2 * m * unit / (1 - m * unit) * bound_terms)
+    nodes = sparse_grid.set_nodes(shape, indices)
+    assert np.all(np.abs(summed[nodes] - values[nodes]) <= m * unit / (1 - m * unit) * bound_terms[nodes])
