@@ -231,7 +231,8 @@ def surplus(matrices: Sequence[np.ndarray], data: np.ndarray) -> np.ndarray:
         out = _along(matrices[axis], out, axis + 1)
     rows = [q for q in range(len(data)) if missing[q].any()]
     if rows:
-        out[rows] = np.where(reached(matrices, missing[rows]), np.nan, out[rows])
+        for row, spread in zip(rows, reached(matrices, missing[rows])):
+            np.copyto(out[row], np.nan, where=spread)
     return out
 
 
