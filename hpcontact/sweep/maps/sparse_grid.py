@@ -373,9 +373,24 @@ def _combined(
     errors = solve_errors(layout, fields, work, cat)
     error_cores = {index: errors[np.ix_(*index_nodes(shape, index))] for index in cores}
     solve = np.abs(combination(matrices, error_cores))
-    # a principal stiffness derived from the tensor has its value and estimate replaced below
-    # (principal_from_tensor): its surpluses are not needed
-    own = [q for q, name in enumerate(work) if not (derive and name in PRINCIPAL)]
+    nodes = grid[set_nodes(shape, sparse.indices)]
+    groups: dict[bytes, list[int]] = {}  # the quantities NaN at the same nodes (a failed solve: all)
+    for q in np.flatnonzero(np.isnan(nodes).any(axis=0)):
+        groups.setdefault(np.packbits(np.isnan(nodes[:, q])).tobytes(), []).append(int(q))
+    # no surpluses of a principal stiffness derived from the tensor (its value and estimate are
+    # replaced below: principal_from_tensor), nor of a quantity whose NaN nodes reach every point
+    # through the first index (no map anywhere: _around_failures; normalized_* of a crystal)
+    derived = {q for q, name in enumerate(work) if derive and name in PRINCIPAL}
+    root = sparse.indices[0]
+    lost = {
+        q
+        for columns in groups.values()
+        if reached(
+            [matrices[d][level] for d, level in enumerate(root)], np.isnan(cores[root][..., columns[0]])[None]
+        ).all()
+        for q in columns
+    }
+    own = [q for q in range(len(work)) if q not in derived and q not in lost]
     surpluses = _Surpluses(
         matrices,
         {index: np.moveaxis(core[..., own], -1, 0) for index, core in cores.items()},
@@ -398,12 +413,8 @@ def _combined(
     absolute = np.zeros_like(values)
     absolute[..., own] = np.moveaxis(summed, 0, -1)
     held = np.zeros(values.shape, dtype=bool)
-    nodes = grid[set_nodes(shape, sparse.indices)]
-    groups: dict[bytes, list[int]] = {}  # the quantities NaN at the same nodes (a failed solve: all)
-    for q in np.flatnonzero(np.isnan(nodes).any(axis=0)):
-        groups.setdefault(np.packbits(np.isnan(nodes[:, q])).tobytes(), []).append(int(q))
     for columns in groups.values():
-        estimated = [(j, c) for j, c in enumerate(columns) if c in own]
+        estimated = [(j, c) for j, c in enumerate(columns) if c not in derived]
         touched, value, error, interpolation_sum = _around_failures(
             matrices,
             sparse,
@@ -422,13 +433,14 @@ def _combined(
     interpolation = safety * absolute / scale
     keep = slice(0, kept)
     for index, part in parts.items():
-        if not derive:  # own: every quantity
+        if len(own) == len(work):  # every quantity
             parts[index] = (safety * np.moveaxis(part[:kept], 0, -1) / scale[..., keep]).astype(np.float32)
             continue
         share = np.zeros_like(values)
         share[..., own] = np.moveaxis(part, 0, -1)
         share = safety * share / scale
-        principal_from_tensor(values.copy(), [share], work)
+        if derive:
+            principal_from_tensor(values.copy(), [share], work)
         parts[index] = share[..., :kept].astype(np.float32)
     if derive:
         principal_from_tensor(values, [interpolation], work)
