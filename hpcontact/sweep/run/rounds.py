@@ -295,7 +295,9 @@ def _run(run: Run, plan: Plan, kept: Kept | None, scope: RoundScope, options: Op
     setup_s = time.perf_counter() - round_started
     progress = _announce(run, plan, kept, scope, todo, chunks, options.front) if team.rank == 0 else None
 
-    index = {t.key: i for i, t in enumerate(tasks)}
+    # the position of each task this round runs (not of every task of the grid: on the 4-D map's
+    # 139 725, 0.08 CPU s a round on every rank, before its first claim)
+    index = {tasks[i].key: i for i in (*decision.isolated, *decision.shared)}
     task_s = schedule_s = journal_s = 0.0
     ran = 0
     failure: str | None = None
