@@ -71,10 +71,11 @@ full grid only of the active indices and of those whose maxima ``next_terms`` re
 contracted once where it can be kept (``_Surpluses``), quantities first, none for a principal
 stiffness derived from the tensor; the active parts kept (float32) for the refinement's ranking.
 On the real 4-D crystal map (25 x 9 x 21 x 31, 232 indices, 104 active; /tmp/s4/map4d.nc of
-2026-11-29, its decisions replayed with BLAS on one thread as in a sweep, on the 2-core VM at load
-2.2-2.6, 2026-11-29 11:45 UTC): the rounds' decisions 0.15-0.53 CPU s (0.25-1.04 before), the
-last (its check judged and the fill's estimate of all 11 stiffnesses) 1.8 (11.3; 32.5 measured
-with OpenBLAS's own threads on the busy VM), that estimate alone in a fresh process 2.6 (14.9).
+2026-11-29), its decisions replayed with BLAS on one thread as in a sweep, old and new in one
+sitting on the 2-core VM (2026-11-29 11:45 and 11:59 UTC, load 2.2-2.6 and 5-7): the rounds'
+decisions 0.15-0.71 CPU s (0.25-1.04 before), the last (its check judged and the fill's estimate
+of all 11 stiffnesses) 1.4-1.8 (11.2-11.3; 32.5 measured with OpenBLAS's own threads on the busy
+VM), ``fill`` of the whole data set in a fresh process 2.5-2.7 (13.1-13.8).
 """
 
 from __future__ import annotations
