@@ -78,7 +78,6 @@ import time
 from typing import Any
 
 import numpy as np
-from scipy.special import ellipe, ellipkm1
 
 from hpcontact import quantities as q
 from hpcontact.kernels.anisotropic import kernel_for
@@ -137,6 +136,8 @@ def inverse_support_moments(aspect: float, count: int) -> tuple[np.ndarray, np.n
         return out, np.full(count, eps * math.log2(P) * out[0])
     if count * eta > RECURRENCE_MAX_GROWTH:
         raise ValueError(f"no accurate rule for {count} moments at b/a = {e:g}")
+    from scipy.special import ellipe, ellipkm1  # on first use, not at import (strip_cells' docstring)
+
     alpha, beta = 0.5 * (1.0 + e * e), 0.5 * (1.0 - e * e)
     z = alpha / beta
     out = np.empty(count)

@@ -92,10 +92,9 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from functools import lru_cache
+from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.ndimage import binary_dilation, correlate
 
 from hpcontact.discretizations import singular_pairs
 from hpcontact.errors import InputError
@@ -104,6 +103,9 @@ from hpcontact.kernels.cell_integrals import cell_integrals
 from hpcontact.kernels.isotropic import isotropic_block
 from hpcontact.materials.isotropic import Isotropic
 from hpcontact.numerics.convolution import ConvolutionOperator, kernel_spectrum, padded_shape
+
+if TYPE_CHECKING:
+    import scipy.sparse as sp
 
 __all__ = [
     "BAND",
@@ -266,6 +268,8 @@ def double_average_kernel(material: Isotropic, nx: int, ny: int, dx: float, dy: 
     ``_CELL_AVERAGE``), replaced within
     ``EXACT_OFFSETS`` cells by graded Gauss–Legendre quadrature of Love's integral.
     """
+    from scipy.ndimage import correlate  # on first use, not at import (strip_cells' docstring)
+
     Kb = isotropic_block(material, nx + 2, ny + 2, dx, dy, block)
     K = correlate(Kb, _CELL_AVERAGE, mode="constant")[2:-2, 2:-2]
     rx, ry = min(EXACT_OFFSETS, nx - 1), min(EXACT_OFFSETS, ny - 1)
@@ -339,6 +343,8 @@ class SingularCells:
         # near set: cells within BAND of a cut cell (band), and cells within NEAR of the band
         cut = mask & ~full_cell
         square = np.ones((3, 3), dtype=bool)
+        from scipy.ndimage import binary_dilation  # on first use, not at import (strip_cells' docstring)
+
         band = binary_dilation(cut, square, iterations=BAND) & mask
         near = binary_dilation(band, square, iterations=NEAR) & mask
         cells = np.argwhere(near)
@@ -398,6 +404,8 @@ class SingularCells:
         ``beta``'s order, so that a product sums the terms in the order of a loop over ``beta``
         of shifted-array products (the same arithmetic, bitwise). Contact cells lie at least one
         cell inside the padded grid, so flat offsets p·ny + q never wrap a row."""
+        import scipy.sparse as sp  # on first use, not at import (strip_cells' docstring)
+
         if self._spreading is None:
             nx, ny = self.grid.nx, self.grid.ny
             size = nx * ny
@@ -510,6 +518,8 @@ class BlockSystem:
     (for the preconditioner), ``mask`` the unknowns."""
 
     def __init__(self, cells: SingularCells, block: str) -> None:
+        import scipy.sparse as sp  # on first use, not at import (strip_cells' docstring)
+
         self.cells, self.grid, self.mask, self.beta = cells, cells.grid, cells.mask, cells.beta
         material, mask = cells.material, cells.mask
         nx, ny, dx, dy = self.grid.nx, self.grid.ny, self.grid.dx, self.grid.dy

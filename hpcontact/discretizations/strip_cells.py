@@ -128,6 +128,12 @@ margin of 2.7 over the largest, also for a slow growth in ln(a/b) down to b/a = 
 reference of ``benchmarks/accuracy_reference.py``, as a lower bound must, so that reference is
 low by at least that much.
 
+scipy's ``special`` and ``linalg`` are imported where they are used, not with the module: every
+``hpcontact`` process imports this module (each MPI rank, each command), most never build a strip
+cell, and scipy's submodules beyond ``fft`` cost a process ~0.3 s of CPU to import (measured with
+the same change in ``galin_ellipse``, ``singular_cells``, ``analytic`` and ``problems.slip.bodies``:
+``python -c "import hpcontact.cli"``, 2026-11-29, 2-core VM under load 5).
+
 References: K. L. Johnson, *Contact Mechanics*, Cambridge University Press, 1985; P. F. Byrd and
 M. D. Friedman, *Handbook of Elliptic Integrals for Engineers and Scientists*, 2nd ed., Springer,
 1971; von Petersdorff and Stephan (above).
@@ -140,8 +146,6 @@ import functools
 import math
 
 import numpy as np
-from scipy.linalg import cho_factor, cho_solve
-from scipy.special import ellipkm1
 
 from hpcontact.errors import ConvergenceError
 from hpcontact.geometry import Shape
@@ -241,6 +245,8 @@ SUPPORTED_TEXT = (
 @functools.lru_cache(maxsize=1)
 def _tau_rule() -> tuple[np.ndarray, np.ndarray]:
     """Nodes τ ∈ (0, 1] and weights of ⟨g⟩ = (4/π²) ∫₀¹ K(1 − τ²) g(2bτ) dτ (density (3))."""
+    from scipy.special import ellipkm1  # on first use, not at import (module docstring)
+
     x, w = np.polynomial.legendre.leggauss(TAU_POINTS)
     edges = TAU_RATIO ** np.arange(TAU_PANELS + 1, dtype=np.float64)
     lo, hi = edges[1:], edges[:-1]
@@ -493,6 +499,8 @@ def two_width_averages(
     quadrature in the profiles' angles; lean: ≤ 5.8e-7 of the fine average on 2000 random
     (s, b₁, b₂), but 2.6e-6 at equal widths and |s| ≲ 1e-5 b, where :func:`width_difference`
     does not use it (``tests/discretizations/test_strip_cells_widths.py``)."""
+    from scipy.special import ellipkm1  # on first use, not at import (module docstring)
+
     s, b1, b2 = np.broadcast_arrays(
         np.abs(np.asarray(s, dtype=np.float64)), np.asarray(b1, dtype=np.float64), np.asarray(b2, dtype=np.float64)
     )
@@ -864,6 +872,8 @@ def stiffness(B: np.ndarray, sizes: np.ndarray) -> tuple[float, np.ndarray, floa
     """K = Σ f_i |I_i| [N/m] of (2) for a unit displacement, the line loads f [N/m] and the
     relative residual ‖B f − |I|‖/‖|I|‖ of the Cholesky solve (B must be positive definite: a
     failed factorization is a ConvergenceError)."""
+    from scipy.linalg import cho_factor, cho_solve  # on first use, not at import (module docstring)
+
     try:
         factor = cho_factor(B, lower=True)
     except np.linalg.LinAlgError as exc:
