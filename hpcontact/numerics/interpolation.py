@@ -23,6 +23,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from enum import Enum
+from typing import NamedTuple
 
 import numpy as np
 
@@ -146,6 +147,92 @@ def estimate_weights(x: np.ndarray, nodes: Sequence[int], stencil: int = STENCIL
     return out
 
 
+class EndTerms(NamedTuple):
+    """What the estimate adds at the intervals whose stencil can grow on one side only
+    (``end_terms``): whether each point is in one (``one_sided``), the matrices of the third
+    divided differences of the cubic's window and of the window one node inwards (``near``,
+    ``far``), the positions that extrapolate their growth (``base``, ``reach``), and the matrix
+    of the next two Newton terms (``quintic``: the quintic's difference from the cubic; zero
+    with five nodes)."""
+
+    one_sided: np.ndarray
+    near: np.ndarray
+    far: np.ndarray
+    base: np.ndarray
+    reach: np.ndarray
+    quintic: np.ndarray
+
+
+def _divided_difference(xs: np.ndarray, points: int) -> np.ndarray:
+    """The divided difference f[xs] as weights on f(xs), Σ_j f(x_j) / Π_{k≠j} (x_j − x_k): one row
+    per point, all alike."""
+    row = np.array([1.0 / np.prod([xj - xk for k, xk in enumerate(xs) if k != j]) for j, xj in enumerate(xs)])
+    return np.tile(row, (points, 1))
+
+
+def end_terms(x: np.ndarray, nodes: Sequence[int], stencil: int = STENCIL) -> EndTerms | None:
+    """The estimate's terms at the intervals whose stencil can grow on one side only (None:
+    none can grow, at most ``stencil`` nodes): the two next to each end of the nodes (an axis'
+    end, or the halo beyond a leaf's cut face). There the next Newton term g(x_5) w(x) (g(y) =
+    f[C, y], C the cubic's nodes, w(x) = Π_C (x − c), x_5 the next node inwards) samples the
+    divided difference inwards of the point alone, while the cubic's error is g(x) w(x), x nearer
+    the end; where the derivatives grow towards the end (a pole, s⁶, an exponential) the term
+    falls short (to 0.28 × at the last interval of 0.2/(1.15 − s) on a 33-point axis with nodes 0,
+    4, 8, 16, 20, … 32: tests/numerics/test_interpolation.py; docs/howto/adaptive.md). Two
+    extrapolations towards the end:
+
+    * linear (six nodes or more): g(x_5) + (x − x_5)(g(x_5) − g(x_6))/(x_5 − x_6), x_6 the node after
+      x_5: the next two Newton terms (``quintic``), exact where f⁽⁵⁾ is constant;
+    * the growth of the divided difference, read from the cubic's window at the end (C, its third
+      difference D_near) and the window one node inwards (D_far), with 1/D linear in the
+      window's mean m (harmonic): g(x)/g(x_5) = (1 + a (1 − ρ)) / (1 + b (1 − ρ)), ρ = D_near/D_far,
+      a = (M_5 − m_near)/(m_near − m_far), b = (M − m_near)/(m_near − m_far), M_5 the mean of C and
+      x_5 (g(x_5)'s nodes) and M = M_5 + (x − x_5)/5 that of g(x)'s (``base`` a, ``reach`` b).
+      Exact on a pole c/(a − y) where the means stand for the nodes (its divided differences
+      are c/Π(a − y_i)); above the true growth where 1/|D| is convex in the mean (an
+      exponential, a power), so it over-estimates there rather than under. Where 1 + b (1 − ρ)
+      ≤ 0 (1/D extrapolates through zero: a pole inside the interval, or ρ read from
+      differences at round-off), the geometric growth |ρ|^(b − a) instead (ln |D| linear in the
+      mean: exact to leading order on an exponential); where D changes sign between the two
+      windows, no growth (the linear term's case).
+
+    ``TensorInterpolant.estimates`` takes the larger of the next term, the linear one and the
+    grown one bounded by the lower order's own error (a growth read from differences near
+    round-off is noise; the lower order's error is not)."""
+    x = np.asarray(x, dtype=np.float64)
+    nodes = np.asarray(nodes, dtype=np.intp)
+    count = len(nodes)
+    if count <= stencil:
+        return None
+    xn = x[nodes]
+    k = np.clip(np.searchsorted(nodes, np.arange(len(x)), side="right") - 1, 0, count - 2)
+    first = np.clip(k - (stencil - 2) // 2, 0, count - stencil)
+    one_sided = (first == 0) | (first == count - stencil)
+    one_sided[nodes] = False
+    size = len(x)
+    near, far, quintic = (np.zeros((size, count)) for _ in range(3))
+    base, reach = np.zeros(size), np.zeros(size)
+    cubic = weights(x, nodes, stencil)
+    for start in sorted(set(first[one_sided].tolist())):
+        rows = np.flatnonzero(one_sided & (first == start))
+        cols = list(range(start, start + stencil))
+        inwards = 1 if start == 0 else -1  # the side the stencil can grow to
+        fifth = cols[-1] + 1 if inwards > 0 else cols[0] - 1
+        if count >= stencil + 2:
+            sixth = fifth + inwards
+            chosen = sorted(cols + [fifth, sixth])
+            quintic[np.ix_(rows, chosen)] = _lagrange(x[rows], xn[chosen])
+            quintic[rows] -= cubic[rows]
+        windows = (cols, [c + inwards for c in cols])
+        for matrix, window in zip((near, far), windows):
+            matrix[np.ix_(rows, window)] = _divided_difference(xn[window], len(rows))
+        m_near, m_far = (float(np.mean(xn[w])) for w in windows)
+        mean = float(np.mean(xn[sorted({*cols, fifth})]))
+        base[rows] = (mean - m_near) / (m_near - m_far)
+        reach[rows] = (mean + (x[rows] - xn[fifth]) / (stencil + 1) - m_near) / (m_near - m_far)
+    return EndTerms(one_sided, near, far, base, reach, quintic)
+
+
 def _apply(
     matrix: np.ndarray, data: np.ndarray, axis: int, without: Callable[[np.ndarray], np.ndarray] | None = None
 ) -> np.ndarray:
@@ -183,6 +270,7 @@ class TensorInterpolant:
         self.lower = [
             (weights(x, n, stencil, drop=0), weights(x, n, stencil, drop=1)) for x, n in zip(self.xs, self.nodes)
         ]
+        self.ends = [end_terms(x, n, stencil) for x, n in zip(self.xs, self.nodes)]
 
     def _without(self, axis: int, side: int | None, lower: bool = False) -> Callable[[np.ndarray], np.ndarray]:
         """The matrix along ``axis`` (``weights``; ``estimate_weights`` of ``side``, or with
@@ -203,13 +291,40 @@ class TensorInterpolant:
     def _along(self, data: np.ndarray, low: tuple[int, int] | None = None, lower: bool = False) -> np.ndarray:
         """``data`` at the nodes interpolated axis after axis; ``low`` = (axis, side): that
         axis with the estimate's matrix of ``side`` (with ``lower``: one order lower)."""
+        if low is None:
+            return self._through(data)
+        axis, side = low
+        return self._through(
+            data, axis, (self.lower if lower else self.low)[axis][side], self._without(axis, side, lower)
+        )
+
+    def _through(
+        self,
+        data: np.ndarray,
+        axis: int | None = None,
+        matrix: np.ndarray | None = None,
+        without: Callable[[np.ndarray], np.ndarray] | None = None,
+    ) -> np.ndarray:
+        """``data`` at the nodes interpolated axis after axis, ``axis`` with ``matrix`` (and
+        ``without`` for its lines through a failed node) instead of the interpolant."""
         out = np.asarray(data, dtype=np.float64)
-        for axis, matrix in enumerate(self.high):
-            side = low[1] if low is not None and low[0] == axis else None
-            if side is not None:
-                matrix = (self.lower if lower else self.low)[axis][side]
-            out = _apply(matrix, out, axis, self._without(axis, side, lower))
+        for d, high in enumerate(self.high):
+            if d == axis:
+                out = _apply(matrix, out, d, without)
+            else:
+                out = _apply(high, out, d, self._without(d, None))
         return out
+
+    def _end_without(self, axis: int, term: str) -> Callable[[np.ndarray], np.ndarray]:
+        """The ``end_terms`` matrix ``term`` along ``axis`` of the nodes where ``valid`` (zero where
+        those leave no term)."""
+        x, nodes = self.xs[axis], np.asarray(self.nodes[axis])
+
+        def matrix(valid: np.ndarray) -> np.ndarray:
+            ends = end_terms(x, nodes[valid], self.stencil)
+            return np.zeros((len(x), int(valid.sum()))) if ends is None else getattr(ends, term)
+
+        return matrix
 
     def values(self, data: np.ndarray) -> np.ndarray:
         """The interpolant on the full grid from ``data`` at the nodes (shape: the node counts,
@@ -225,14 +340,35 @@ class TensorInterpolant:
         ``conservative``: the larger of that and the difference from the two interpolants one
         order lower (the lower order's own error: it over-estimates the interpolant's by about
         one order of the spacing, and does not vanish where the next derivative changes sign
-        across the stencil, as the next term's estimate can)."""
+        across the stencil, as the next term's estimate can). At an interval whose stencil can
+        grow on one side only (``end_terms``: the ends of an axis' nodes), the larger of the next
+        term, the next two (linear extrapolation of the divided difference towards the end) and
+        the grown one bounded by the lower order's error."""
         full = self.values(data) if full is None else full
         out = []
         for axis in range(len(self.xs)):
-            worst = None
-            for side in (0, 1):
-                for lower in (False, True) if conservative else (False,):
-                    diff = np.abs(self._along(data, (axis, side), lower) - full)
-                    worst = diff if worst is None else np.fmax(worst, diff)
+            sharp = np.fmax(*(np.abs(self._along(data, (axis, side)) - full) for side in (0, 1)))
+            lower = None
+            if conservative or self.ends[axis] is not None:
+                lower = np.fmax(*(np.abs(self._along(data, (axis, side), True) - full) for side in (0, 1)))
+            worst = np.fmax(sharp, lower) if conservative else sharp
+            ends = self.ends[axis]
+            if ends is not None:
+                near, far, quintic = (
+                    self._through(data, axis, getattr(ends, term), self._end_without(axis, term))
+                    for term in ("near", "far", "quintic")
+                )
+                shape = [1] * worst.ndim
+                shape[axis] = len(ends.reach)
+                base, reach = ends.base.reshape(shape), ends.reach.reshape(shape)
+                with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+                    ratio = near / far  # ρ
+                    numerator, denominator = 1.0 + base * (1.0 - ratio), 1.0 + reach * (1.0 - ratio)
+                    harmonic = (numerator > 0.0) & (denominator > 0.0)
+                    growth = np.where(harmonic, numerator / denominator, np.abs(ratio) ** (reach - base))
+                    growth = np.where(near * far > 0.0, growth, 0.0)  # a sign change: the linear term's
+                    grown = np.fmin(np.nan_to_num(sharp * growth, nan=0.0, posinf=np.inf), lower)
+                extra = np.fmax(np.abs(quintic), grown)
+                worst = np.where(ends.one_sided.reshape(shape), np.fmax(worst, extra), worst)
             out.append(worst)
         return out
