@@ -14,7 +14,9 @@ and the two interpolants of one order lower along ``d`` alone (the quadratics th
 stencil without its first or without its last node): the size of the next term of the
 Newton form, which is the lower order's error and over-estimates the cubic's by about one
 order of the node spacing; on a function with second derivative ``f''`` and spacing ``h`` it
-is ``~|f'''| h^3 / 16`` (zero on a quadratic). The estimates of the axes add
+is ``~|f'''| h^3 / 16`` (zero on a quadratic). At the two intervals next to each end of the
+nodes the fifth node lies inwards only; there the estimate also extrapolates the divided
+difference's growth towards the end (``end_terms``). The estimates of the axes add
 (``estimates``). Both are linear in the data until the absolute value, so ``values`` and
 ``estimates`` take any trailing dimensions (the quantities of a map).
 """
