@@ -151,25 +151,25 @@ def estimate_weights(x: np.ndarray, nodes: Sequence[int], stencil: int = STENCIL
 
 class EndTerms(NamedTuple):
     """What the estimate adds at the intervals whose stencil can grow on one side only
-    (``end_terms``): whether each point is in one (``one_sided``), the matrices of the third
-    divided differences of the cubic's window and of the window one node inwards (``near``,
-    ``far``), the positions that extrapolate their growth (``base``, ``reach``), and the matrix
-    of the next two Newton terms (``quintic``: the quintic's difference from the cubic; zero
-    with five nodes)."""
+    (``end_terms``): whether each point is in one (``one_sided``), the third divided differences
+    of the cubic's window and of the window one node inwards as weights on the nodes, one row
+    per end (``near``, ``far``: the first end, the last), the end of each point (``end``), the
+    positions that extrapolate their growth (``base``, ``reach``), and the matrix of the next
+    two Newton terms (``quintic``: the quintic's difference from the cubic; None with five
+    nodes)."""
 
     one_sided: np.ndarray
     near: np.ndarray
     far: np.ndarray
+    end: np.ndarray
     base: np.ndarray
     reach: np.ndarray
-    quintic: np.ndarray
+    quintic: np.ndarray | None
 
 
-def _divided_difference(xs: np.ndarray, points: int) -> np.ndarray:
-    """The divided difference f[xs] as weights on f(xs), Σ_j f(x_j) / Π_{k≠j} (x_j − x_k): one row
-    per point, all alike."""
-    row = np.array([1.0 / np.prod([xj - xk for k, xk in enumerate(xs) if k != j]) for j, xj in enumerate(xs)])
-    return np.tile(row, (points, 1))
+def _divided_difference(xs: np.ndarray) -> np.ndarray:
+    """The divided difference f[xs] as weights on f(xs): Σ_j f(x_j) / Π_{k≠j} (x_j − x_k)."""
+    return np.array([1.0 / np.prod([xj - xk for k, xk in enumerate(xs) if k != j]) for j, xj in enumerate(xs)])
 
 
 def end_terms(x: np.ndarray, nodes: Sequence[int], stencil: int = STENCIL) -> EndTerms | None:
@@ -212,27 +212,29 @@ def end_terms(x: np.ndarray, nodes: Sequence[int], stencil: int = STENCIL) -> En
     one_sided = (first == 0) | (first == count - stencil)
     one_sided[nodes] = False
     size = len(x)
-    near, far, quintic = (np.zeros((size, count)) for _ in range(3))
-    base, reach = np.zeros(size), np.zeros(size)
+    near, far = np.zeros((2, count)), np.zeros((2, count))
+    quintic = np.zeros((size, count)) if count >= stencil + 2 else None
+    end, base, reach = np.zeros(size, dtype=np.intp), np.zeros(size), np.zeros(size)
     cubic = weights(x, nodes, stencil)
     for start in sorted(set(first[one_sided].tolist())):
         rows = np.flatnonzero(one_sided & (first == start))
         cols = list(range(start, start + stencil))
         inwards = 1 if start == 0 else -1  # the side the stencil can grow to
         fifth = cols[-1] + 1 if inwards > 0 else cols[0] - 1
-        if count >= stencil + 2:
-            sixth = fifth + inwards
-            chosen = sorted(cols + [fifth, sixth])
+        if quintic is not None:
+            chosen = sorted(cols + [fifth, fifth + inwards])
             quintic[np.ix_(rows, chosen)] = _lagrange(x[rows], xn[chosen])
             quintic[rows] -= cubic[rows]
         windows = (cols, [c + inwards for c in cols])
+        side = 0 if inwards > 0 else 1
+        end[rows] = side
         for matrix, window in zip((near, far), windows):
-            matrix[np.ix_(rows, window)] = _divided_difference(xn[window], len(rows))
+            matrix[side, window] = _divided_difference(xn[window])
         m_near, m_far = (float(np.mean(xn[w])) for w in windows)
         mean = float(np.mean(xn[sorted({*cols, fifth})]))
         base[rows] = (mean - m_near) / (m_near - m_far)
         reach[rows] = (mean + (x[rows] - xn[fifth]) / (stencil + 1) - m_near) / (m_near - m_far)
-    return EndTerms(one_sided, near, far, base, reach, quintic)
+    return EndTerms(one_sided, near, far, end, base, reach, quintic)
 
 
 def _apply(
@@ -324,7 +326,8 @@ class TensorInterpolant:
 
         def matrix(valid: np.ndarray) -> np.ndarray:
             ends = end_terms(x, nodes[valid], self.stencil)
-            return np.zeros((len(x), int(valid.sum()))) if ends is None else getattr(ends, term)
+            found = None if ends is None else getattr(ends, term)
+            return np.zeros((len(x) if term == "quintic" else 2, int(valid.sum()))) if found is None else found
 
         return matrix
 
@@ -356,9 +359,16 @@ class TensorInterpolant:
             worst = np.fmax(sharp, lower) if conservative else sharp
             ends = self.ends[axis]
             if ends is not None:
-                near, far, quintic = (
-                    self._through(data, axis, getattr(ends, term), self._end_without(axis, term))
-                    for term in ("near", "far", "quintic")
+                near, far = (  # one line per end along ``axis``, then each point's end
+                    np.take(
+                        self._through(data, axis, getattr(ends, term), self._end_without(axis, term)), ends.end, axis
+                    )
+                    for term in ("near", "far")
+                )
+                quintic = (
+                    np.zeros_like(sharp)
+                    if ends.quintic is None
+                    else self._through(data, axis, ends.quintic, self._end_without(axis, "quintic"))
                 )
                 shape = [1] * worst.ndim
                 shape[axis] = len(ends.reach)
