@@ -128,30 +128,67 @@ def test_a_cut_leaves_two_boxes_sharing_a_face_with_a_halo_and_adds_no_node():
     ]  # fewer than 2 LEAF_NODES - 1 along every axis: left as it is
 
 
-def test_a_smooth_map_is_filled_from_few_nodes_within_its_tolerance(sweep, write_spec):
+SMOOTH = MINDLIN.replace("[0, -4, 41]", "[0, -3, 25]").replace("angle = { linspace = [0, 180, 7] }\n", "")
+
+
+def smooth_map(sweep, write_spec) -> tuple[xr.Dataset, dict[str, np.ndarray]]:
     """Issue 40's smooth 2-D map: Mindlin's ellipse (the closed-form stand-in of test_adaptive.py,
-    solve error 1e-4) over b/a logspace(0, −3, 25) × nu (21): 525 points at tolerance 1e-3. Every
-    point within 1e-3 of the closed form, the map error at least the true error at ≥ 95 % of
-    them; and the check round draws ``check_count`` random points on top. Issue 40 asks the
-    refinement's nodes ≤ 15 % of the points (the smallest uniform sub-grid that meets 1e-3 by the
-    truth has 65 points, 12.4 %): 71 nodes (13.5 %) met it while the estimate at the intervals
-    next to the ends of an axis was the next Newton term alone, which fell short of the true
-    error on steep ends (benchmarks/local_refinement.py --families). With its growth towards the
-    end (``interpolation.end_terms``, 2026-11-29) the map takes 91 nodes (17.3 %; 101 solves with
-    the checks): on the old nodes its map error reads 1.0–1.3e-3 at the last nu interval (true
-    3.0–6.6e-4) and next to a cut face (true 1.0–1.3e-4; docs/howto/adaptive.md). The bound here
-    is 18 %, not the issue's 15 %."""
-    text = MINDLIN.replace("[0, -4, 41]", "[0, -3, 25]").replace("angle = { linspace = [0, 180, 7] }\n", "")
-    ds = xr.open_dataset(sweep(write_spec(text), mindlin)).transpose("aspect", "nu")
+    solve error 1e-4) over b/a logspace(0, −3, 25) × nu (21), 525 points at tolerance 1e-3, swept
+    adaptively; and Mindlin's closed form of K_xx, K_yy and K_a/K_b at its points."""
+    ds = xr.open_dataset(sweep(write_spec(SMOOTH), mindlin)).transpose("aspect", "nu")
     ka, kb = mindlin_ellipse_stiffness(1.0, ds["aspect"].values[:, None], 1.0, ds["nu"].values[None, :])
-    for name, exact in {"K_xx": ka, "K_yy": kb, "K_a_over_K_b": ka / kb}.items():
-        true = np.abs(ds[name].values / exact - 1.0)
+    return ds, {"K_xx": ka, "K_yy": kb, "K_a_over_K_b": ka / kb}
+
+
+def smallest_uniform_nodes(xs: list[np.ndarray], exact: dict[str, np.ndarray], tolerance: float) -> int:
+    """The nodes of the smallest uniform sub-grid (every k_d-th index per axis, the last one
+    included) whose cubic tensor interpolant of the closed form (over the map's coordinates
+    ``xs``: ``Layout.xs``, log10 along a logspace axis) is within ``tolerance`` of it at every
+    point, found by trying every pair of strides."""
+    best = math.prod(len(x) for x in xs)
+    for strides in np.ndindex(*(len(x) - 1 for x in xs)):
+        nodes = [sorted(set(range(0, len(x), k + 1)) | {len(x) - 1}) for x, k in zip(xs, strides)]
+        count = math.prod(len(n) for n in nodes)
+        if count >= best:
+            continue
+        interpolant = TensorInterpolant(xs, nodes)
+        at = np.ix_(*nodes)
+        if all(np.max(np.abs(interpolant.values(f[at]) / f - 1.0)) <= tolerance for f in exact.values()):
+            best = count
+    return best
+
+
+def test_a_smooth_map_is_filled_from_few_nodes_within_its_tolerance(sweep, write_spec):
+    """The smooth 2-D map (``smooth_map``): every point within 1e-3 of the closed form, the map
+    error at least the true error at ≥ 95 % of them, the check round's ``check_count`` random
+    points on top, and the refinement's nodes at most 1.5 × those of the smallest uniform
+    sub-grid that meets 1e-3 by the closed form (issue 40 item 4's bar for local refinement;
+    65 nodes here, found by the test). Issue 40's own bar for this map, nodes and checks ≤ 15 %
+    of the points, is not met: ``test_a_smooth_map_needs_at_most_15_percent_of_its_points``."""
+    ds, exact = smooth_map(sweep, write_spec)
+    for name, f in exact.items():
+        true = np.abs(ds[name].values / f - 1.0)
         assert true.max() <= 1e-3, name
         assert np.mean(ds[f"{name}_map_error"].values >= true) >= 0.95, name
     points, checks = ds["solved"].size, ds.attrs["adaptive_check_points"]
     nodes = ds.attrs["sweep_solves"] - checks
-    assert points == 525 and nodes <= 0.18 * points, nodes  # issue 40's 15 %: not met (docstring)
-    assert checks == check_count(parse_spec(text, check_scenes=False).adaptive, nodes)
+    uniform = smallest_uniform_nodes(list(Layout.of(parse_spec(SMOOTH, check_scenes=False)).xs), exact, 1e-3)
+    assert points == 525 and nodes <= 1.5 * uniform, (nodes, uniform)
+    assert checks == check_count(parse_spec(SMOOTH, check_scenes=False).adaptive, nodes)
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="issue 40's 15 % on the smooth 2-D map, open: 101 solves (91 nodes + 10 checks) since the "
+    "estimate extrapolates towards an axis' end (interpolation.end_terms); 81 before it, the floor of "
+    "the refinement then 80 (docs/howto/adaptive.md)",
+)
+def test_a_smooth_map_needs_at_most_15_percent_of_its_points(sweep, write_spec):
+    """Issue 40's bar: the smooth 2-D map (``smooth_map``) at tolerance 1e-3 from ≤ 15 % of its
+    525 points, checks included. Not met (strict: a run that meets it fails here until the mark
+    is taken off)."""
+    ds, _ = smooth_map(sweep, write_spec)
+    assert ds.attrs["sweep_solves"] <= 0.15 * ds["solved"].size, ds.attrs["sweep_solves"]
 
 
 ONE_SIDED = """
