@@ -304,15 +304,16 @@ def needed_axes(axes: Sequence[np.ndarray], budget: np.ndarray) -> list[np.ndarr
     benchmarks/local_refinement.py. Preferring, of the axes whose split alone would do, the one
     that adds the fewest nodes to the point's leaf was measured there too: 85, a cheap split at
     each point but more of them.)"""
-    errors = np.stack([np.nan_to_num(e, nan=0.0) for e in axes])
-    order = np.argsort(-errors, axis=0, kind="stable")
-    ranked = np.take_along_axis(errors, order, axis=0)
-    tails = np.cumsum(ranked[::-1], axis=0)[::-1]  # e_(k) + e_(k+1) + …
-    need = tails > budget
-    need[0] = True
-    out = np.empty_like(need)
-    np.put_along_axis(out, order, need, axis=0)
-    return list(out)
+    errors = np.stack([np.nan_to_num(e, nan=0.0) for e in axes], axis=-1)  # axes last: a point's contiguous
+    ranked = -np.sort(-errors, axis=-1)  # e_(0) ≥ e_(1) ≥ …
+    tails = np.cumsum(ranked[..., ::-1], axis=-1)[..., ::-1]  # e_(k) + e_(k+1) + …
+    last = np.maximum(np.count_nonzero(tails > np.asarray(budget)[..., None], axis=-1) - 1, 0)  # tails decrease
+    threshold = np.take_along_axis(ranked, last[..., None], axis=-1)  # e_(last): the axes ranked up to it
+    above = errors > threshold
+    tied = errors == threshold  # ranked in their order (a stable sort): the first (last + 1 − #above) of them
+    room = last[..., None] + 1 - np.count_nonzero(above, axis=-1, keepdims=True)
+    need = above | (tied & (np.cumsum(tied, axis=-1) <= room))
+    return list(np.moveaxis(need, -1, 0))
 
 
 #: Estimates computed inside ``remembered_estimates`` (None outside): (sub-problem, leaves or sparse
