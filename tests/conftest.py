@@ -41,8 +41,17 @@ def _solves_with_limited_blas() -> Iterator[None]:
         yield
 
 
+def pytest_configure(config: pytest.Config) -> None:
+    """xdist hands out files in the collection's order (``pytest_collection_modifyitems``), not
+    reordered by their number of tests: pytest-xdist ≥ 3.7 sorts the files of ``--dist loadfile``
+    by test count unless ``--no-loadscope-reorder``, which put tests/mpi (few tests, the longest
+    files) last, test_faults.py alone on one worker at the end of the run."""
+    if hasattr(config.option, "loadscopereorder"):
+        config.option.loadscopereorder = False
+
+
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """tests/mpi first (stable otherwise): xdist hands out files in this order."""
+    """tests/mpi first (stable otherwise): xdist hands out files in this order (``pytest_configure``)."""
     mpi = Path(__file__).parent / "mpi"
     items.sort(key=lambda item: mpi not in item.path.parents)
 
