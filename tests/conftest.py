@@ -45,8 +45,9 @@ def pytest_configure(config: pytest.Config) -> None:
     """xdist hands out files in the collection's order (``pytest_collection_modifyitems``), not
     reordered by their number of tests: pytest-xdist ≥ 3.7 sorts the files of ``--dist loadfile``
     by test count unless ``--no-loadscope-reorder``, which put tests/mpi (few tests, the longest
-    files) last, test_faults.py alone on one worker at the end of the run."""
-    if hasattr(config.option, "loadscopereorder"):
+    files) last, test_faults.py alone on one worker at the end of the run. An explicit
+    ``--loadscope-reorder`` still reorders (to compare both orders)."""
+    if hasattr(config.option, "loadscopereorder") and "--loadscope-reorder" not in config.invocation_params.args:
         config.option.loadscopereorder = False
 
 
