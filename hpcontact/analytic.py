@@ -39,8 +39,6 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
-from scipy.optimize import brentq
-from scipy.special import ellipkm1, elliprd
 
 from hpcontact.errors import InputError
 
@@ -203,6 +201,8 @@ def _kdb(gamma: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     thin = gamma < _THIN_SWITCH
     g = np.where(thin, 1.0, gamma)  # placeholder value where the asymptotic form is used
     p = g * g
+    from scipy.special import ellipkm1, elliprd  # on first use, not at import (strip_cells' docstring)
+
     K = ellipkm1(p)
     D = elliprd(0.0, p, 1.0) / 3.0
     B = p * elliprd(0.0, 1.0, p) / 3.0
@@ -575,6 +575,8 @@ def willis_sphere_contact(
     low, high = math.log(1e-3), math.log(1e3)
     if mismatch(low) * mismatch(high) > 0.0:
         raise FloatingPointError("no elliptical contact found for this compliance")
+    from scipy.optimize import brentq  # on first use, not at import (strip_cells' docstring)
+
     e = math.exp(brentq(mismatch, low, high, xtol=1e-15, rtol=1e-15))
     i_c, _, i_0 = moments(e)
     a = math.sqrt(2.0 * R * depth * i_c / i_0)

@@ -63,7 +63,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.optimize import brentq
 
 from hpcontact.analytic import mindlin_ellipse_integrals
 from hpcontact.errors import InputError
@@ -342,6 +341,8 @@ def hertz_aspect(curvature_ratio: float) -> float:
         lo *= 2.0
         if lo < -80.0:
             raise InputError("radius_b", "a contact ellipse with b/a > 1e-30", curvature_ratio)
+    from scipy.optimize import brentq  # on first use, not at import (strip_cells' docstring)
+
     return math.exp(brentq(f, lo, 0.0, xtol=1e-15, rtol=1e-15, maxiter=200))
 
 
