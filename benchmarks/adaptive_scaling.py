@@ -25,8 +25,8 @@ from the job's own refinement run on 2 ranks with one of two task functions (``-
   each scene of the real sparse map's run, 5 353 solves in 7 rounds and a check round of 30,
   2026-11-29; looked up by scene, no solve), so the run makes exactly the real map's decisions
   with the code as it is. The records are stored compactly by ``store_records`` (``--store-records
-  JOURNAL``: 9 484 records, every field, in a 1.7 MB ``results/adaptive_orientation_map_records.npz``,
-  committed although results/ is otherwise not tracked; made from the journals of the real run,
+  JOURNAL``: 9 484 records, every field, in a 1.7 MB
+  ``benchmarks/records/adaptive_orientation_map_records.npz``; made from the journals of the real run,
   ``mpiexec -n 2 hpcontact run jobs/adaptive_orientation_map.toml`` with ``method = "sparse"``, at
   ``/tmp/s4/map4d.nc.journal`` on the development VM, which also hold 4 131 solves of earlier
   runs), read by every rank before the run starts (not counted in its set-up);
@@ -86,7 +86,7 @@ CRYSTAL_MAP = ROOT / "jobs" / "adaptive_orientation_map.toml"
 CRYSTAL_TASK_S = 0.065  # s, one exact-cell crystal solve on the 16-core node of issue 40
 RANKS = (2, 16, 64, 256, 1024)
 # The real 4-D map's records (``store_records``, from the real map's journals; committed)
-RECORDS = ROOT / "results" / "adaptive_orientation_map_records.npz"
+RECORDS = ROOT / "benchmarks" / "records" / "adaptive_orientation_map_records.npz"
 RECORDED_AXES = ("aspect", "nu", "anisotropy", "orientation")
 # The 4-D map's task functions (``worker``): the real map's records, or a smooth stand-in
 TASKS = {"recorded": "real map's records (its solves, looked up)", "stand-in": "stand-in refinement"}
