@@ -90,6 +90,11 @@ RECORDS = ROOT / "benchmarks" / "records" / "adaptive_orientation_map_records.np
 RECORDED_AXES = ("aspect", "nu", "anisotropy", "orientation")
 # The 4-D map's task functions (``worker``): the real map's records, or a smooth stand-in
 TASKS = {"recorded": "real map's records (its solves, looked up)", "stand-in": "stand-in refinement"}
+# The replay's solve times (``crystal``): the bar's line first (module docstring)
+LINES = {
+    "recorded": "each scene at its own recorded solve time on this VM (checked: checked_scale), with this VM's overheads",
+    "65 ms": "every solve at 65 ms, the issue's node's solve time, with this VM's overheads",
+}
 # Rank 0's phases timed in the benchmark's runs (module, attribute, label): the set-up's
 # enumeration (every rank its share) and what rank 0 does alone between rounds.
 PHASES = (
@@ -217,6 +222,59 @@ def recorded(params: Mapping[str, Any]) -> dict[str, Any]:
     return dict(records[point])
 
 
+def fresh(scenes: list[dict[str, Any]]) -> list[float]:
+    """Each scene of ``scenes`` solved for real in this process (one thread, ``call_in_child``),
+    after one solve of the first that is not counted (imports, FFTW plans): each record's own
+    ``wall_time_s``, the field the real map's records hold."""
+    from hpcontact import accuracy
+
+    solve = accuracy.task_function("contact")
+    solve(dict(scenes[0]))
+    return [float(solve(dict(scene))["wall_time_s"]) for scene in scenes]
+
+
+def sample(rounds: list[dict[str, Any]], count: int) -> list[tuple[int, str]]:
+    """``count`` of the rounds' tasks (round, key) spread over the rounds: round after round in
+    turn, each round's k-th pick at evenly spaced positions of its keys in sorted order."""
+    picks_of = [count // len(rounds) + (k < count % len(rounds)) for k in range(len(rounds))]
+    out = []
+    for k, (round_, picks) in enumerate(zip(rounds, picks_of)):
+        keys = sorted(round_["solve"])
+        out += [(k, keys[int(i)]) for i in np.linspace(0, len(keys) - 1, picks).round().astype(int)] if picks else []
+    return out
+
+
+def checked_scale(rounds: list[dict[str, Any]], count: int) -> float:
+    """The recorded solve times checked in this run (step 1 of the module docstring): ``count``
+    scenes (``sample``) solved fresh (``fresh``), fresh/recorded printed per scene; the factor the
+    replay scales the recorded times by: the ratios' median where it differs from 1 by more than
+    their spread (the median absolute deviation from the median), else 1."""
+    picked = sample(rounds, count)
+    scenes = [rounds[k]["params"][key] for k, key in picked]
+    child = harness.call_in_child(__file__, "fresh", scenes, threads=1, check=True)
+    seconds = json.loads(child.stdout.strip().splitlines()[-1])
+    recorded_s = [rounds[k]["solve"][key] for k, key in picked]
+    ratios = np.array(seconds) / np.array(recorded_s)
+    print(
+        f"recorded solve times checked: {count} of the map's scenes solved fresh, one thread ({harness.machine_line(1)})"
+    )
+    print(f"  {'round':>5} {'aspect':>8} {'nu':>5} {'A':>6} {'psi':>5} {'recorded s':>10} {'fresh s':>8} {'ratio':>6}")
+    for (k, key), fresh_s, old_s, ratio in zip(picked, seconds, recorded_s, ratios.tolist()):
+        p = rounds[k]["params"][key]
+        print(
+            f"  {k + 1:5d} {p['aspect']:8.4g} {p['nu']:5.3g} {p.get('anisotropy', 1.0):6.4g} "
+            f"{p.get('orientation', 0.0):5.3g} {old_s:10.3f} {fresh_s:8.3f} {ratio:6.3f}"
+        )
+    median = float(np.median(ratios))
+    spread = float(np.median(np.abs(ratios - median)))
+    scale = median if abs(median - 1.0) > spread else 1.0
+    print(
+        f"  fresh/recorded: median {median:.3f}, spread (median absolute deviation) {spread:.3f}: "
+        + (f"the recorded times scaled by {scale:.3f}" if scale != 1.0 else "the recorded times used as they are")
+    )
+    return scale
+
+
 def process_start() -> float:
     """This process's start (``time.time``; Linux's ``/proc/self/stat`` start time, in clock ticks
     after boot, against ``CLOCK_BOOTTIME``): a rank's set-up includes its interpreter's start and
@@ -333,8 +391,9 @@ def run(spec: Path, output: Path, variant: str, task: str) -> dict[str, Any]:
 
 def timeline(folder: Path) -> list[dict[str, Any]]:
     """The rounds of a run from its journals (one file per rank and round): each round's tasks
-    (key → measured seconds), its first task's start and its last task's end (``time.time``),
-    and how many of its tasks rank 0 ran."""
+    (key → measured seconds), their records' own solve seconds (``solve``: the record's
+    ``wall_time_s``, NaN where it has none) and parameters, its first task's start and its last
+    task's end (``time.time``), and how many of its tasks rank 0 ran."""
     from hpcontact.sweep.data.journal import journal_files
 
     sessions: dict[str, dict[str, Any]] = {}
@@ -344,7 +403,8 @@ def timeline(folder: Path) -> list[dict[str, Any]]:
             event = json.loads(line.split(" ", 1)[1])
             if event.get("event") == "run":
                 round_ = sessions.setdefault(
-                    event["session"], {"tasks": {}, "start": math.inf, "end": -math.inf, "rank0": 0}
+                    event["session"],
+                    {"tasks": {}, "solve": {}, "params": {}, "start": math.inf, "end": -math.inf, "rank0": 0},
                 )
                 rank = event["rank"]
             elif event.get("event") == "started":
@@ -352,6 +412,8 @@ def timeline(folder: Path) -> list[dict[str, Any]]:
                 round_["start"] = min(round_["start"], event["time"])
             elif event.get("event") == "finished":
                 round_["tasks"][event["key"]] = event["wall_time_s"]
+                round_["solve"][event["key"]] = event["record"].get("wall_time_s", math.nan)
+                round_["params"][event["key"]] = event["params"]
                 round_["rank0"] += rank == 0
                 round_["end"] = max(round_["end"], event["finished"])
     return sorted((r for r in sessions.values() if r["tasks"]), key=lambda r: r["start"])
@@ -442,27 +504,36 @@ def phase_seconds(measured: dict[str, Any], clock: str) -> dict[str, list[float]
     return out
 
 
-def crystal(folder: Path, task: str, driver_ms: list[float]) -> None:
+def crystal(folder: Path, task: str, driver_ms: list[float], checks: int) -> None:
     """The 4-D map run on 2 ranks with the task function ``task`` (``recorded`` or ``stand-in``)
     and its rounds replayed on ``RANKS`` (module docstring); ``driver_ms``: the demo map's
-    measured driver seconds a task (empty: the replay's default)."""
+    measured driver seconds a task (empty: the replay's default); ``checks``: the recorded
+    scenes solved fresh to check the recorded times (``checked_scale``; 0: none)."""
     from hpcontact.sweep.work.replay import DEFAULT_OVERHEADS, Overheads
 
     measured = run(CRYSTAL_MAP, folder / f"crystal-{task}.nc", "after", task)
     setup, gaps, setup_cpu, gaps_cpu = between(measured)
-    rounds = [{k: CRYSTAL_TASK_S for k in r["tasks"]} for r in measured["rounds"]]
+    lines = {"65 ms": [{k: CRYSTAL_TASK_S for k in r["tasks"]} for r in measured["rounds"]]}
     print(
         f"\njobs/adaptive_orientation_map.toml, rounds of the {TASKS[task]} on 2 ranks: "
-        f"{' + '.join(str(len(r)) for r in rounds)} = {sum(len(r) for r in rounds)} solves; set-up {setup:.1f} s "
-        f"({setup_cpu:.1f} CPU s), between rounds {', '.join(f'{g:.2f}' for g in gaps)} s "
+        f"{' + '.join(str(len(r)) for r in lines['65 ms'])} = {sum(len(r) for r in lines['65 ms'])} solves; "
+        f"set-up {setup:.1f} s ({setup_cpu:.1f} CPU s), between rounds {', '.join(f'{g:.2f}' for g in gaps)} s "
         f"({', '.join(f'{g:.2f}' for g in gaps_cpu)} CPU s; rank 0 alone, measured)"
     )
+    if task == "recorded":
+        solves = np.array([s for r in measured["rounds"] for s in r["solve"].values()])
+        print(
+            f"the map's recorded solve times (the records' wall_time_s, measured in the real 2-rank run on this VM): "
+            f"median {np.median(solves):.3f} s, mean {solves.mean():.3f} s, {solves.min():.3f}-{solves.max():.3f} s"
+        )
+        scale = checked_scale(measured["rounds"], checks) if checks else 1.0
+        lines["recorded"] = [{k: scale * r["solve"][k] for k in r["solve"]} for r in measured["rounds"]]
     driver = float(np.median(driver_ms)) if driver_ms else DEFAULT_OVERHEADS.driver_s
     cpu_driver = driver_cpu(measured)
     print(
-        f"replayed at {CRYSTAL_TASK_S * 1e3:.0f} ms a solve; the driver's time a task, set-up and the time between "
-        f"rounds as measured (wall; driver {1e3 * driver:.2f} ms a task, the demo map's) and as rank 0's CPU "
-        f"seconds (an idle machine; driver {1e3 * cpu_driver:.2f} ms a task, this run's):"
+        f"replayed with the driver's time a task, the set-up and the time between rounds as measured (wall; driver "
+        f"{1e3 * driver:.2f} ms a task, {'the demo map' if driver_ms else 'the replay default'}) and as rank 0's CPU "
+        f"seconds (an idle machine; driver {1e3 * cpu_driver:.2f} ms a task, this run's)"
     )
     phases = {clock: phase_seconds(measured, clock) for clock in ("wall", "CPU")}
     print("rank 0's CPU seconds by phase on 2 ranks (the set-up, then each round: during it and after it):")
@@ -474,14 +545,6 @@ def crystal(folder: Path, task: str, driver_ms: list[float]) -> None:
         + ", ".join(f"{label} {x:.2f}" for label, x in in_setup.items())
         + f", the rest {setup_cpu - sum(in_setup.values()):.2f} (interpreter, imports, MPI, spec, first decision)"
     )
-    print(
-        "replayed: set-up as assumed or as measured; rank 0's reading ahead during each round spread over the "
-        "ranks (the others take its claims meanwhile)"
-    )
-    print(
-        f"{'ranks':>6} {'between':>7} {'setup':>8} {'wall s':>8} {'effic.':>7} {'between':>8} {'tail':>6} "
-        f"{'claims':>7} {'setup':>6}"
-    )
     shared = {clock: leaf_calls(measured, clock) for clock in ("wall", "CPU")}
     for clock in ("wall", "CPU"):
         calls, spent = shared[clock]
@@ -492,29 +555,39 @@ def crystal(folder: Path, task: str, driver_ms: list[float]) -> None:
             f"{' '.join(f'{x:.2f}' for x in spent)} s after the rounds; the parts {parts:.2f} s on both ranks, "
             f"overhead {overhead:.2f} s"
         )
-    for clock, model in (("wall", "assumed"), ("wall", "measured"), ("CPU", "assumed"), ("CPU", "measured")):
-        times = (setup, gaps) if clock == "wall" else (setup_cpu, gaps_cpu)
-        calls, spent = shared[clock]
-        alone = [g - s for g, s in zip(times[1], spent)]  # rank 0's time between rounds outside the calls
-        enumeration = sum(sum(phases[clock][p]) for p in SPREAD_SETUP) if model == "measured" else None
-        ahead = [sum(phases[clock][p][k + 1] for p in IN_ROUND_PHASES) for k in range(len(rounds))]
-        per_task = driver if clock == "wall" else cpu_driver
-        overheads = Overheads(**{**DEFAULT_OVERHEADS.__dict__, "driver_s": per_task, "spread_gather_s": 0.0})
-        for ranks in RANKS:
-            r = replayed(rounds, ranks, alone, times[0], 139725, overheads, enumeration, ahead, calls)
-            print(
-                f"{ranks:6d} {clock:>7} {model:>8} {r['makespan_s']:8.2f} {r['efficiency']:7.3f} "
-                f"{r['between']:8.3f} {r['tail']:6.3f} {r['claims']:7.3f} {r['setup']:6.3f}",
-                flush=True,
-            )
+    print(
+        "replayed (the set-up as measured; rank 0's reading ahead during each round spread over the ranks): "
+        + "; ".join(f"{name}: {LINES[name]}" for name in lines)
+    )
+    print(
+        f"{'solves':>8} {'ranks':>6} {'clock':>5} {'wall s':>8} {'effic.':>7} {'between':>8} {'tail':>6} "
+        f"{'claims':>7} {'setup':>6}"
+    )
+    for name, rounds in reversed(lines.items()):
+        for clock in ("wall", "CPU"):
+            times = (setup, gaps) if clock == "wall" else (setup_cpu, gaps_cpu)
+            calls, spent = shared[clock]
+            alone = [g - s for g, s in zip(times[1], spent)]  # rank 0's time between rounds outside the calls
+            enumeration = sum(sum(phases[clock][p]) for p in SPREAD_SETUP)
+            ahead = [sum(phases[clock][p][k + 1] for p in IN_ROUND_PHASES) for k in range(len(rounds))]
+            per_task = driver if clock == "wall" else cpu_driver
+            overheads = Overheads(**{**DEFAULT_OVERHEADS.__dict__, "driver_s": per_task, "spread_gather_s": 0.0})
+            for ranks in RANKS:
+                r = replayed(rounds, ranks, alone, times[0], 139725, overheads, enumeration, ahead, calls)
+                print(
+                    f"{name:>8} {ranks:6d} {clock:>5} {r['makespan_s']:8.2f} {r['efficiency']:7.3f} "
+                    f"{r['between']:8.3f} {r['tail']:6.3f} {r['claims']:7.3f} {r['setup']:6.3f}",
+                    flush=True,
+                )
     overheads = Overheads(**{**DEFAULT_OVERHEADS.__dict__, "driver_s": cpu_driver, "spread_gather_s": 0.0})
     enumeration = sum(sum(phases["CPU"][p]) for p in SPREAD_SETUP)
-    ahead = [sum(phases["CPU"][p][k + 1] for p in IN_ROUND_PHASES) for k in range(len(rounds))]
-    r = replayed(rounds, 16, [0.0] * len(gaps_cpu), setup_cpu, 139725, overheads, enumeration, ahead)
-    print(
-        f"bound, not the code: 16 ranks with nothing at all between rounds (CPU, set-up as measured): "
-        f"efficiency {r['efficiency']:.3f} (set-up {r['setup']:.3f} of the makespan)"
-    )
+    for name, rounds in reversed(lines.items()):
+        ahead = [sum(phases["CPU"][p][k + 1] for p in IN_ROUND_PHASES) for k in range(len(rounds))]
+        r = replayed(rounds, 16, [0.0] * len(gaps_cpu), setup_cpu, 139725, overheads, enumeration, ahead)
+        print(
+            f"bound, not the code: {name}, 16 ranks with nothing at all between rounds (CPU, set-up as measured): "
+            f"efficiency {r['efficiency']:.3f} (set-up {r['setup']:.3f} of the makespan)"
+        )
 
 
 def main() -> None:
@@ -529,6 +602,9 @@ def main() -> None:
     )
     parser.add_argument(
         "--store-records", type=Path, metavar="JOURNAL", help=f"store the real map's records from JOURNAL in {RECORDS}"
+    )
+    parser.add_argument(
+        "--checks", type=int, default=12, help="recorded scenes solved fresh to check the recorded times (0: none)"
     )
     parser.add_argument("--keep", type=Path, help="keep data sets and journals in this folder")
     args = parser.parse_args()
@@ -570,7 +646,7 @@ def main() -> None:
                     flush=True,
                 )
         for task in args.crystal:
-            crystal(folder, task, driver_ms)
+            crystal(folder, task, driver_ms, args.checks)
     finally:
         if args.keep is None:
             shutil.rmtree(folder, ignore_errors=True)
