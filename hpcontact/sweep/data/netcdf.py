@@ -2,11 +2,17 @@
 
 ``write(ds, path)`` stores a labelled data set (``dataset.build_dataset``):
 
-* every array with dimensions compressed (zlib level ``COMPLEVEL`` after the shuffle filter)
-  in chunks of at most ``CHUNK_BYTES`` that keep the trailing axes whole (``chunk_shape``), so
-  a curve along the last axes is one chunk and ``xr.open_dataset(path, chunks={})`` gives dask
-  chunks of 1–10 MB on large sweeps. Points that share a task hold equal values next to each
-  other (a polygon's values repeat along b/a), which the compression stores nearly for free;
+* every array with dimensions in chunks of at most ``CHUNK_BYTES`` that keep the trailing axes
+  whole (``chunk_shape``), so a curve along the last axes is one chunk and
+  ``xr.open_dataset(path, chunks={})`` gives dask chunks of 1–10 MB on large sweeps; compressed
+  (zlib level ``COMPLEVEL`` after the shuffle filter) where it pays: counts and text always, a
+  float array where a sample shrinks to at most 1 / ``MIN_ZLIB_RATIO`` (``_compresses``). Points
+  that share a task hold equal values next to each other (a polygon's values repeat along b/a),
+  which the compression stores nearly for free; an adaptive map's interpolated stiffnesses and
+  errors do not repeat (1.1–1.3x on the 4-D map's 146 475 points), and compressing them was
+  ~1 of rank 0's 2.3–2.7 CPU s writing that data set while every other rank waited (1.4–1.6
+  without, the file 27.0 -> 32.9 MB; ``benchmarks/adaptive_scaling.py``'s data set, 2026-11-29,
+  load ~1);
 * counts (``COUNTS``: iterations, grid cells, polygon sides) as int32 with ``INT_FILL`` where
   a task has none; 64-bit integers as int32; coordinates without ``_FillValue``;
 * text (labels, messages, ``plan``: the JSON of each point's plan, "" where a task has none)
@@ -51,6 +57,10 @@ COUNTS = frozenset({"iterations", "nx", "ny", "contact_cells", "sides", "n", "n_
 INT_FILL = -2147483647  # NC_FILL_INT, netCDF's default fill of int32
 CHUNK_BYTES = 4 * 2**20
 COMPLEVEL = 4  # zlib: level 9 made the demo's file 1.5 % smaller (263 against 267 kB), level 1 0.5 % larger
+# zlib only where it pays (``_compresses``): the interpolated stiffnesses and errors of a 4-D map
+# (146 475 points) shrink 1.1-1.3x for ~0.045 CPU s each, the others 13-990x
+MIN_ZLIB_RATIO = 2.0
+ZLIB_SAMPLE_RUNS, ZLIB_SAMPLE_RUN = 8, 1024
 PLAN = "plan"
 PLAN_TABLE = "plan_table"  # files before plan was text: attribute of the stored codes, the distinct plans
 TEXT_ATTRS = "text_attributes"  # files before plan was text: attribute of the stored codes, the text's attributes
@@ -225,13 +235,30 @@ def _encoding(ds: xr.Dataset, name: str) -> dict[str, Any]:
     if var.ndim:
         encoding["fletcher32"] = True
     if var.ndim and var.size:
-        encoding.update(zlib=True, shuffle=True, complevel=COMPLEVEL)
+        if var.dtype.kind != "f" or "dtype" in encoding or _compresses(var.values):  # floats stored as floats: tried
+            encoding.update(zlib=True, shuffle=True, complevel=COMPLEVEL)
         if "char_dim_name" in encoding:  # the characters: one more, trailing, dimension
             encoding["chunksizes"] = chunk_shape((*var.shape, max(width, 1)), 1)
         else:
             itemsize = 4 if encoding.get("dtype") == "int32" else var.dtype.itemsize
             encoding["chunksizes"] = chunk_shape(var.shape, itemsize)
     return encoding
+
+
+def _compresses(values: np.ndarray) -> bool:
+    """Whether zlib (after the shuffle filter, level ``COMPLEVEL``) stores the float array
+    ``values`` in at most 1 / ``MIN_ZLIB_RATIO`` of its bytes, judged on a sample
+    (``ZLIB_SAMPLE_RUNS`` runs of ``ZLIB_SAMPLE_RUN`` consecutive values, evenly spaced; the
+    whole array when it is smaller) shuffled as HDF5's filter does (byte k of every value, then
+    byte k + 1)."""
+    import zlib
+
+    flat = np.ascontiguousarray(values).reshape(-1)
+    if flat.size > ZLIB_SAMPLE_RUNS * ZLIB_SAMPLE_RUN:
+        starts = np.linspace(0, flat.size - ZLIB_SAMPLE_RUN, ZLIB_SAMPLE_RUNS).astype(np.intp)
+        flat = np.concatenate([flat[s : s + ZLIB_SAMPLE_RUN] for s in starts.tolist()])
+    raw = flat.view(np.uint8).reshape(flat.size, flat.itemsize)
+    return raw.size >= MIN_ZLIB_RATIO * len(zlib.compress(raw.T.tobytes(), COMPLEVEL))
 
 
 def _attribute(value: Any) -> Any:

@@ -79,12 +79,46 @@ def test_counts_are_int32_with_a_fill_numbers_compressed_and_checksummed(tmp_pat
         assert nc["status"].dtype == np.int32 and "_FillValue" not in nc["status"].ncattrs()
         assert "_FillValue" not in nc["aspect"].ncattrs()  # a coordinate without a fill
         assert nc["plan"].dtype == np.dtype("S1")  # text as characters
-        for name in ("K_xx", "iterations", "plan"):
+        for name in ("iterations", "plan"):  # counts and text: always compressed
             filters = nc[name].filters()
             assert filters["zlib"] and filters["shuffle"] and filters["fletcher32"], name
             assert filters["complevel"] == netcdf.COMPLEVEL
+        # a float stored as float: compressed where zlib pays (test_zlib_only_where_it_pays), checksummed always
+        assert nc["K_xx"].filters()["zlib"] == netcdf._compresses(_data_set()["K_xx"].values)
+        assert nc["K_xx"].filters()["fletcher32"]
         assert nc["radius"].chunking() == "contiguous"  # a scalar cannot be chunked
         assert type(nc.getncattr("tasks")) in (int, np.int32)
+
+
+def _shuffled_ratio(values: np.ndarray) -> float:
+    """The whole array's bytes over its zlib size after HDF5's shuffle (byte k of every value
+    together), computed here without the module's sample."""
+    import zlib
+
+    raw = np.ascontiguousarray(values).reshape(-1).view(np.uint8).reshape(values.size, values.itemsize)
+    return raw.size / len(zlib.compress(raw.T.tobytes(), netcdf.COMPLEVEL))
+
+
+def test_zlib_only_where_it_pays(tmp_path):
+    """Floats that zlib cannot shrink to half (random mantissas, as an interpolated stiffness
+    over a 4-D map: 1.1-1.3x) are stored uncompressed, with their checksum; floats that repeat
+    (a count, a constant) compressed; the sample's verdict is the whole array's on both, and
+    both read back bitwise."""
+    rng = np.random.default_rng(7)
+    noisy = 1.0 + rng.random((40, 30, 20))  # 24 000 values: the sample is 8 runs of 1024
+    steps = np.repeat(np.arange(40.0), 600).reshape(40, 30, 20)
+    steps[3, 4, 5] = np.nan
+    assert _shuffled_ratio(noisy) < netcdf.MIN_ZLIB_RATIO < _shuffled_ratio(steps)
+    assert not netcdf._compresses(noisy) and netcdf._compresses(steps)
+    ds = xr.Dataset({"noisy": (("a", "b", "c"), noisy), "steps": (("a", "b", "c"), steps)})
+    path = write(ds, tmp_path / "out.nc")
+    with netCDF4.Dataset(path) as nc:
+        assert not nc["noisy"].filters()["zlib"] and nc["noisy"].filters()["fletcher32"]
+        assert nc["steps"].filters()["zlib"] and nc["steps"].filters()["fletcher32"]
+    verify(path)
+    with read(path) as back:
+        for name in ("noisy", "steps"):
+            assert np.array_equal(back[name].values, ds[name].values, equal_nan=True), name
 
 
 def test_a_failed_write_names_the_output_and_leaves_no_temporary_file(tmp_path, monkeypatch):
