@@ -37,9 +37,21 @@ from the job's own refinement run on 2 ranks with one of two task functions (``-
 The times between its rounds and its set-up are
 measured in that run (the stored stiffnesses of 146 475 points, the refinement and, after the
 last round, the data set are what rank 0 does alone, whatever the task function; the set-up from
-the process's start, ``process_start``: its interpreter and imports too); every task is replayed at 65 ms (the issue's measurement),
-each its own chunk (exact cells: one kernel set a task), with the driver's time per task of the
-``after`` runs.
+the process's start, ``process_start``: its interpreter and imports too). Every task is its own
+chunk (exact cells: one kernel set a task) and pays the driver's measured time a task (wall: the
+demo map's ``after`` runs; CPU: this run's). Its solve seconds, two lines (``LINES``):
+
+* ``recorded`` (**the bar's line**, with ``--crystal recorded``): each scene at its own recorded
+  solve time (the record's ``wall_time_s``, measured on this VM in the real 2-rank run), so that
+  solves, set-up and time between rounds are one machine's, as the project judges ranks (against
+  the machine's own 2-process run; issue 40: "the cost model's replay against a measured 2-rank
+  run" where no 16-core machine is available). The recorded times are checked in the same run
+  (``checked_scale``, ``--checks`` scenes, default 12, spread over the rounds: solved fresh in one
+  process with one thread, fresh/recorded printed per scene); where the ratios' median differs
+  from 1 by more than their spread, every recorded time is scaled by it (the real run's ranks
+  shared the 2 cores with other jobs: its solves took ~2x an idle solve), and the line says so;
+* ``65 ms``: every solve at 65 ms, the issue's node's solve time (its measurement), with this
+  VM's overheads: two machines mixed, kept for comparison with earlier records.
 
 Rank 0's CPU seconds in that run are split by phase (``PHASES``: its share of the enumeration
 in the set-up; after each round the journals read and the decision, the outcomes joined, the
@@ -222,14 +234,15 @@ def recorded(params: Mapping[str, Any]) -> dict[str, Any]:
     return dict(records[point])
 
 
-def fresh(scenes: list[dict[str, Any]]) -> list[float]:
+def fresh(scenes: list[dict[str, Any]], warm: dict[str, Any]) -> list[float]:
     """Each scene of ``scenes`` solved for real in this process (one thread, ``call_in_child``),
-    after one solve of the first that is not counted (imports, FFTW plans): each record's own
+    after a solve of ``warm`` (another scene: imports, FFTW plans; a scene solved twice in one
+    process is a cache hit the second time) that is not counted: each record's own
     ``wall_time_s``, the field the real map's records hold."""
     from hpcontact import accuracy
 
     solve = accuracy.task_function("contact")
-    solve(dict(scenes[0]))
+    solve(dict(warm))
     return [float(solve(dict(scene))["wall_time_s"]) for scene in scenes]
 
 
@@ -245,13 +258,16 @@ def sample(rounds: list[dict[str, Any]], count: int) -> list[tuple[int, str]]:
 
 
 def checked_scale(rounds: list[dict[str, Any]], count: int) -> float:
-    """The recorded solve times checked in this run (step 1 of the module docstring): ``count``
-    scenes (``sample``) solved fresh (``fresh``), fresh/recorded printed per scene; the factor the
+    """The recorded solve times checked in this run (the ``recorded`` line, module docstring):
+    ``count`` scenes (``sample``) solved fresh (``fresh``, after another scene of the largest
+    round), fresh/recorded printed per scene; the factor the
     replay scales the recorded times by: the ratios' median where it differs from 1 by more than
     their spread (the median absolute deviation from the median), else 1."""
     picked = sample(rounds, count)
     scenes = [rounds[k]["params"][key] for k, key in picked]
-    child = harness.call_in_child(__file__, "fresh", scenes, threads=1, check=True)
+    largest = max(range(len(rounds)), key=lambda k: len(rounds[k]["params"]))
+    warm = next(p for key, p in sorted(rounds[largest]["params"].items()) if p not in scenes)
+    child = harness.call_in_child(__file__, "fresh", scenes, warm, threads=1, check=True)
     seconds = json.loads(child.stdout.strip().splitlines()[-1])
     recorded_s = [rounds[k]["solve"][key] for k, key in picked]
     ratios = np.array(seconds) / np.array(recorded_s)
