@@ -484,12 +484,18 @@ def replayed(
     enumeration: float | None = None,
     spread_between: list[float] | None = None,
     calls: list[list[Any]] | None = None,
+    known: Mapping[str, tuple[int, float, str]] | None = None,
 ) -> Any:
-    """``replay_rounds`` of ``rounds`` (key → seconds; each task its own chunk) on ``ranks``,
-    the measured ``setup`` of 2 ranks split: with ``enumeration`` (rank 0's share of it, of the
-    2 measured) that twice over spread over the ranks, the rest rank 0's; without, rank 0's part
-    ``overheads.setup_s`` a task (the replay's default) and the rest spread; ``spread_between``
-    and the shared estimates ``calls`` (per round) passed to ``replay_rounds``."""
+    """``replay_rounds`` of ``rounds`` (key → seconds) on ``ranks``, the measured ``setup`` of 2
+    ranks split: with ``enumeration`` (rank 0's share of it, of the 2 measured) that twice over
+    spread over the ranks, the rest rank 0's; without, rank 0's part ``overheads.setup_s`` a task
+    (the replay's default) and the rest spread; ``spread_between`` and the shared estimates
+    ``calls`` (per round) passed to ``replay_rounds``. A round's tasks are chunked as the driver
+    chunks them (``tasks.make_chunks``: by kernel group, the largest cost first) from ``known``
+    (``spec_tasks``: each key's position in the grid, cost-model cost and kernel group; a round's
+    tasks in grid order, as ``resume.prepare`` lists them), not from the seconds they will take,
+    which the driver does not know; without ``known`` each task is its own group, ordered by its
+    seconds (longest first: the tail of an oracle)."""
     from dataclasses import replace
 
     from hpcontact.sweep.work.replay import replay_rounds
@@ -497,8 +503,13 @@ def replayed(
 
     orders = []
     for tasks_of in rounds:
-        keys = list(tasks_of)
-        orders.append((chunk_order([Task(k, {}, tasks_of[k], k) for k in keys]), np.array([tasks_of[k] for k in keys])))
+        if known is None:
+            keys = list(tasks_of)
+            made = [Task(k, {}, tasks_of[k], k) for k in keys]
+        else:
+            keys = sorted(tasks_of, key=lambda k: known[k][0])
+            made = [Task(k, {}, known[k][1], known[k][2]) for k in keys]
+        orders.append((chunk_order(made), np.array([tasks_of[k] for k in keys])))
     if enumeration is None:  # the set-up as assumed: rank 0's join and decision as on the six-axis job
         spread = max(setup - overheads.setup_s * tasks, 0.0) * 2 / tasks
         overheads = replace(overheads, spread_setup_s=spread)
@@ -507,6 +518,16 @@ def replayed(
             overheads, setup_s=max(setup - enumeration, 0.0) / tasks, spread_setup_s=2 * enumeration / tasks
         )
     return replay_rounds(orders, ranks, gaps, tasks, overheads, spread_between, calls)
+
+
+def spec_tasks(spec_path: Path) -> dict[str, tuple[int, float, str]]:
+    """Each task of the spec at ``spec_path`` (``enumerate_tasks``, this process): its key → its
+    position in the grid's tasks, its cost-model cost and its kernel group (``replayed``)."""
+    from hpcontact.sweep.space.parse import load_spec
+    from hpcontact.sweep.work.tasks import enumerate_tasks
+
+    tasks, _ = enumerate_tasks(load_spec(spec_path, check_scenes=False))
+    return {t.key: (i, float(t.cost), t.group) for i, t in enumerate(tasks)}
 
 
 def phase_seconds(measured: dict[str, Any], clock: str) -> dict[str, list[float]]:
@@ -551,6 +572,12 @@ def crystal(folder: Path, task: str, driver_ms: list[float], checks: int) -> Non
         f"{1e3 * driver:.2f} ms a task, {'the demo map' if driver_ms else 'the replay default'}) and as rank 0's CPU "
         f"seconds (an idle machine; driver {1e3 * cpu_driver:.2f} ms a task, this run's)"
     )
+    known = spec_tasks(CRYSTAL_MAP)
+    ran = [k for r in measured["rounds"] for k in r["tasks"]]
+    print(
+        f"chunked as the driver chunks them (the cost model's costs and kernel groups): {len(ran)} tasks in "
+        f"{len({known[k][2] for k in ran})} kernel groups, {len({known[k][1] for k in ran})} distinct costs"
+    )
     phases = {clock: phase_seconds(measured, clock) for clock in ("wall", "CPU")}
     print("rank 0's CPU seconds by phase on 2 ranks (the set-up, then each round: during it and after it):")
     for label, seconds in phases["CPU"].items():
@@ -589,7 +616,7 @@ def crystal(folder: Path, task: str, driver_ms: list[float], checks: int) -> Non
             per_task = driver if clock == "wall" else cpu_driver
             overheads = Overheads(**{**DEFAULT_OVERHEADS.__dict__, "driver_s": per_task, "spread_gather_s": 0.0})
             for ranks in RANKS:
-                r = replayed(rounds, ranks, alone, times[0], 139725, overheads, enumeration, ahead, calls)
+                r = replayed(rounds, ranks, alone, times[0], 139725, overheads, enumeration, ahead, calls, known)
                 print(
                     f"{name:>8} {ranks:6d} {clock:>5} {r['makespan_s']:8.2f} {r['efficiency']:7.3f} "
                     f"{r['between']:8.3f} {r['tail']:6.3f} {r['claims']:7.3f} {r['setup']:6.3f}",
@@ -599,7 +626,7 @@ def crystal(folder: Path, task: str, driver_ms: list[float], checks: int) -> Non
     enumeration = sum(sum(phases["CPU"][p]) for p in SPREAD_SETUP)
     for name, rounds in reversed(lines.items()):
         ahead = [sum(phases["CPU"][p][k + 1] for p in IN_ROUND_PHASES) for k in range(len(rounds))]
-        r = replayed(rounds, 16, [0.0] * len(gaps_cpu), setup_cpu, 139725, overheads, enumeration, ahead)
+        r = replayed(rounds, 16, [0.0] * len(gaps_cpu), setup_cpu, 139725, overheads, enumeration, ahead, None, known)
         print(
             f"bound, not the code: {name}, 16 ranks with nothing at all between rounds (CPU, set-up as measured): "
             f"efficiency {r['efficiency']:.3f} (set-up {r['setup']:.3f} of the makespan)"
@@ -643,6 +670,7 @@ def main() -> None:
         f"{'(CPU s)':>9} {'setup s':>7} {'driver ms/task':>14} {'replayed wall s':>15}"
     )
     driver_ms: list[float] = []
+    demo_tasks = spec_tasks(DEMO_MAP) if args.repeats else None
     try:
         for _ in range(args.repeats):
             for variant in ("before", "after"):
@@ -654,7 +682,7 @@ def main() -> None:
                 if variant == "after":
                     driver_ms.append(driver)
                 overheads = Overheads(**{**DEFAULT_OVERHEADS.__dict__, "driver_s": driver, "spread_gather_s": 0.0})
-                model = replayed([r["tasks"] for r in rounds], 2, gaps, setup, 1365, overheads)
+                model = replayed([r["tasks"] for r in rounds], 2, gaps, setup, 1365, overheads, known=demo_tasks)
                 print(
                     f"{variant:>7} {attrs['sweep_wall_time_s']:7.2f} {attrs['sweep_task_time_s']:7.2f} "
                     f"{attrs['sweep_parallel_efficiency']:7.3f} {len(rounds):6d} {count:6d} {sum(gaps):9.2f} {sum(gaps_cpu):9.2f} "
