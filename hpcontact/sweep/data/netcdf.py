@@ -56,7 +56,11 @@ if TYPE_CHECKING:  # xarray and pandas are imported where a data set is written 
 COUNTS = frozenset({"iterations", "nx", "ny", "contact_cells", "sides", "n", "n_across", "steps", "seed", "threads"})
 INT_FILL = -2147483647  # NC_FILL_INT, netCDF's default fill of int32
 CHUNK_BYTES = 4 * 2**20
-COMPLEVEL = 4  # zlib: level 9 made the demo's file 1.5 % smaller (263 against 267 kB), level 1 0.5 % larger
+# zlib's level: 1. Level 4 made the 4-D map's file (146 475 points, its 12 text variables 70 MB as
+# characters) 1.4 % smaller for 1.27-1.38 against 1.00-1.25 CPU s of rank 0's write, the demo map's
+# 0.8 % smaller for the same time (alternating, 4 each, 2026-11-29 14:26 UTC, load ~3); level 9
+# made the demo's file of then 1.5 % smaller than level 4
+COMPLEVEL = 1
 # zlib only where it pays (``_compresses``): the interpolated stiffnesses and errors of a 4-D map
 # (146 475 points) shrink 1.1-1.3x for ~0.045 CPU s each, the others 13-990x
 MIN_ZLIB_RATIO = 2.0
