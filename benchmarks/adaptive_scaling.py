@@ -49,7 +49,7 @@ demo map's ``after`` runs; CPU: this run's). Its solve seconds, two lines (``LIN
   (``checked_scale``, ``--checks`` scenes, default 12, spread over the rounds: solved fresh in one
   process with one thread, fresh/recorded printed per scene); where the ratios' median differs
   from 1 by more than their spread, every recorded time is scaled by it (the real run's ranks
-  shared the 2 cores with other jobs: its solves took ~2x an idle solve), and the line says so;
+  shared the 2 cores with other jobs: its solves took 2-3x an idle solve), and the line says so;
 * ``65 ms``: every solve at 65 ms, the issue's node's solve time (its measurement), with this
   VM's overheads: two machines mixed, kept for comparison with earlier records.
 
