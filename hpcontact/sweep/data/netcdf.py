@@ -42,6 +42,7 @@ import itertools
 import json
 import math
 import os
+import zlib
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -255,8 +256,6 @@ def _compresses(values: np.ndarray) -> bool:
     (``ZLIB_SAMPLE_RUNS`` runs of ``ZLIB_SAMPLE_RUN`` consecutive values, evenly spaced; the
     whole array when it is smaller) shuffled as HDF5's filter does (byte k of every value, then
     byte k + 1)."""
-    import zlib
-
     flat = np.ascontiguousarray(values).reshape(-1)
     if flat.size > ZLIB_SAMPLE_RUNS * ZLIB_SAMPLE_RUN:
         starts = np.linspace(0, flat.size - ZLIB_SAMPLE_RUN, ZLIB_SAMPLE_RUNS).astype(np.intp)
