@@ -32,6 +32,18 @@ import numpy as np
 #: Nodes of the one-dimensional interpolant (4: cubic).
 STENCIL = 4
 
+#: At an interval whose stencil grows inwards only (``end_terms``), the largest ratio of the
+#: second next Newton term to the first (both with nodes added inwards) for which the estimate
+#: trusts its extrapolations (``TensorInterpolant.axis_estimate``); above it the terms do not
+#: fall as the order assumes and the estimate takes the lower order's own error too. On Mindlin's
+#: K_a/K_b (benchmarks/map_honesty.py M1) at the first interval of b/a next to b/a = 1, nodes
+#: 0.25 apart in log10 b/a, the quintic's second term is 0.07 … 40 × its first (nu 0.5 … 0.025)
+#: and its error 0.3 … 100 × the next term (nu 0.25: 0.97 × and 2.7 ×): with no such rule 44
+#: points of M1 were under their estimate, with the ratio 1, 6. Half is the ratio test's usual
+#: bound; a third (the geometric tail, Σ r^k = 1/(1 − r) within ``estimates.SAFETY`` 1.5) held
+#: every map too but took M9's from 70 to 87 solves (docs/howto/adaptive.md).
+FALLING = 0.5
+
 
 class Scale(Enum):
     """The coordinate an axis is interpolated in."""
@@ -200,7 +212,8 @@ def end_terms(x: np.ndarray, nodes: Sequence[int], stencil: int = STENCIL) -> En
 
     ``TensorInterpolant.estimates`` takes the larger of the next term, the linear one and the
     grown one bounded by the lower order's own error (a growth read from differences near
-    round-off is noise; the lower order's error is not)."""
+    round-off is noise; the lower order's error is not), and that error itself where the next
+    two terms do not fall (``FALLING``): both extrapolations assume they do."""
     x = np.asarray(x, dtype=np.float64)
     nodes = np.asarray(nodes, dtype=np.intp)
     count = len(nodes)
@@ -260,35 +273,38 @@ class TensorInterpolant:
     """Interpolation from the tensor product of ``nodes`` (one index list per axis) to the full
     grid of the axes' coordinates ``xs`` (in their interpolation coordinate: ``coordinate``)."""
 
-    def __init__(self, xs: Sequence[np.ndarray], nodes: Sequence[Sequence[int]], stencil: int = STENCIL) -> None:
+    def __init__(
+        self, xs: Sequence[np.ndarray], nodes: Sequence[Sequence[int]], stencil: int | Sequence[int] = STENCIL
+    ) -> None:
         if len(xs) != len(nodes):
             raise ValueError("one node list per axis")
         self.xs = [np.asarray(x, dtype=np.float64) for x in xs]
         self.nodes = [list(n) for n in nodes]
-        self.stencil = stencil
-        self.high = [weights(x, n, stencil) for x, n in zip(self.xs, self.nodes)]
-        self.low = [
-            (estimate_weights(x, n, stencil, 0), estimate_weights(x, n, stencil, 1))
-            for x, n in zip(self.xs, self.nodes)
-        ]
-        self.lower = [
-            (weights(x, n, stencil, drop=0), weights(x, n, stencil, drop=1)) for x, n in zip(self.xs, self.nodes)
-        ]
-        self.ends = [end_terms(x, n, stencil) for x, n in zip(self.xs, self.nodes)]
+        self.stencils = [stencil] * len(self.xs) if isinstance(stencil, int) else [int(s) for s in stencil]
+        if len(self.stencils) != len(self.xs):
+            raise ValueError("one stencil per axis")
+        triples = list(zip(self.xs, self.nodes, self.stencils))
+        self.high = [weights(x, n, s) for x, n, s in triples]
+        self.low = [(estimate_weights(x, n, s, 0), estimate_weights(x, n, s, 1)) for x, n, s in triples]
+        self.lower = [(weights(x, n, s, drop=0), weights(x, n, s, drop=1)) for x, n, s in triples]
+        self.ends = [end_terms(x, n, s) for x, n, s in triples]
+        self.cubic = [weights(x, n, STENCIL) if s > STENCIL else None for x, n, s in triples]
 
-    def _without(self, axis: int, side: int | None, lower: bool = False) -> Callable[[np.ndarray], np.ndarray]:
+    def _without(
+        self, axis: int, side: int | None, lower: bool = False, stencil: int | None = None
+    ) -> Callable[[np.ndarray], np.ndarray]:
         """The matrix along ``axis`` (``weights``; ``estimate_weights`` of ``side``, or with
         ``lower`` ``weights`` one order lower) of the nodes where ``valid``: a line with a
         failed node interpolates from the others."""
         x, nodes = self.xs[axis], np.asarray(self.nodes[axis])
 
         def matrix(valid: np.ndarray) -> np.ndarray:
-            kept = nodes[valid]
+            kept, size = nodes[valid], self.stencils[axis] if stencil is None else stencil
             if side is None:
-                return weights(x, kept, self.stencil)
+                return weights(x, kept, size)
             if lower:
-                return weights(x, kept, self.stencil, drop=side)
-            return estimate_weights(x, kept, self.stencil, side)
+                return weights(x, kept, size, drop=side)
+            return estimate_weights(x, kept, size, side)
 
         return matrix
 
@@ -325,7 +341,7 @@ class TensorInterpolant:
         x, nodes = self.xs[axis], np.asarray(self.nodes[axis])
 
         def matrix(valid: np.ndarray) -> np.ndarray:
-            ends = end_terms(x, nodes[valid], self.stencil)
+            ends = end_terms(x, nodes[valid], self.stencils[axis])
             found = None if ends is None else getattr(ends, term)
             return np.zeros((len(x) if term == "quintic" else 2, int(valid.sum()))) if found is None else found
 
@@ -348,39 +364,121 @@ class TensorInterpolant:
         across the stencil, as the next term's estimate can). At an interval whose stencil can
         grow on one side only (``end_terms``: the ends of an axis' nodes), the larger of the next
         term, the next two (linear extrapolation of the divided difference towards the end) and
-        the grown one bounded by the lower order's error."""
+        the grown one bounded by the lower order's error; and the lower order's error itself where
+        the second of the next two terms exceeds ``FALLING`` × the first by more than their
+        round-off (the terms do not fall, so neither extrapolation holds), or, above the cubic,
+        where there is no second term to tell."""
         full = self.values(data) if full is None else full
-        out = []
-        for axis in range(len(self.xs)):
-            sharp = np.fmax(*(np.abs(self._along(data, (axis, side)) - full) for side in (0, 1)))
-            lower = None
-            if conservative or self.ends[axis] is not None:
-                lower = np.fmax(*(np.abs(self._along(data, (axis, side), True) - full) for side in (0, 1)))
-            worst = np.fmax(sharp, lower) if conservative else sharp
-            ends = self.ends[axis]
-            if ends is not None:
-                near, far = (  # one line per end along ``axis``, then each point's end
-                    np.take(
-                        self._through(data, axis, getattr(ends, term), self._end_without(axis, term)), ends.end, axis
-                    )
-                    for term in ("near", "far")
-                )
-                quintic = (
-                    np.zeros_like(sharp)
-                    if ends.quintic is None
-                    else self._through(data, axis, ends.quintic, self._end_without(axis, "quintic"))
-                )
-                shape = [1] * worst.ndim
-                shape[axis] = len(ends.reach)
-                base, reach = ends.base.reshape(shape), ends.reach.reshape(shape)
-                with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-                    ratio = near / far  # ρ
-                    numerator, denominator = 1.0 + base * (1.0 - ratio), 1.0 + reach * (1.0 - ratio)
-                    harmonic = (numerator > 0.0) & (denominator > 0.0)
-                    growth = np.where(harmonic, numerator / denominator, np.abs(ratio) ** (reach - base))
-                    growth = np.where(near * far > 0.0, growth, 0.0)  # a sign change: the linear term's
-                    grown = np.fmin(np.nan_to_num(sharp * growth, nan=0.0, posinf=np.inf), lower)
-                extra = np.fmax(np.abs(quintic), grown)
-                worst = np.where(ends.one_sided.reshape(shape), np.fmax(worst, extra), worst)
-            out.append(worst)
-        return out
+        return [self.axis_estimate(data, full, axis, conservative) for axis in range(len(self.xs))]
+
+    def next_terms(self, data: np.ndarray, full: np.ndarray, axis: int) -> list[np.ndarray]:
+        """The next Newton term along ``axis`` on the full grid, signed, with a node added to the
+        left and with one added to the right (``estimate_weights``); ``full`` is ``values(data)``."""
+        return [self._along(data, (axis, side)) - full for side in (0, 1)]
+
+    def next_term(self, data: np.ndarray, full: np.ndarray, axis: int) -> np.ndarray:
+        """The larger of the two ``next_terms`` in size."""
+        return np.fmax(*(np.abs(t) for t in self.next_terms(data, full, axis)))
+
+    def axis_estimate(self, data: np.ndarray, full: np.ndarray, axis: int, conservative: bool = False) -> np.ndarray:
+        """The absolute error estimate of ``axis`` on the full grid (``estimates``), ``full`` the
+        ``values(data)``."""
+        terms = self.next_terms(data, full, axis)
+        sharp = np.fmax(*(np.abs(t) for t in terms))
+        lower = None
+        if conservative or self.ends[axis] is not None:
+            lower = np.fmax(*(np.abs(self._along(data, (axis, side), True) - full) for side in (0, 1)))
+        worst = np.fmax(sharp, lower) if conservative else sharp
+        ends = self.ends[axis]
+        if ends is None:
+            return worst
+        cubic, cap = self.cubic[axis], lower
+        if cubic is not None:  # above the cubic: the cap of the grown term is the cubic's difference too
+            cap = np.fmax(
+                lower, np.abs(self._through(data, axis, cubic, self._without(axis, None, stencil=STENCIL)) - full)
+            )
+        near, far = (  # one line per end along ``axis``, then each point's end
+            np.take(self._through(data, axis, getattr(ends, term), self._end_without(axis, term)), ends.end, axis)
+            for term in ("near", "far")
+        )
+        quintic = (
+            np.zeros_like(sharp)
+            if ends.quintic is None
+            else self._through(data, axis, ends.quintic, self._end_without(axis, "quintic"))
+        )
+        shape = [1] * worst.ndim
+        shape[axis] = len(ends.reach)
+        base, reach = ends.base.reshape(shape), ends.reach.reshape(shape)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            ratio = near / far  # ρ
+            numerator, denominator = 1.0 + base * (1.0 - ratio), 1.0 + reach * (1.0 - ratio)
+            harmonic = (numerator > 0.0) & (denominator > 0.0)
+            growth = np.where(harmonic, numerator / denominator, np.abs(ratio) ** (reach - base))
+            growth = np.where(near * far > 0.0, growth, 0.0)  # a sign change: the linear term's
+            grown = np.fmin(np.nan_to_num(sharp * growth, nan=0.0, posinf=np.inf), cap)
+        extra = np.fmax(np.abs(quintic), grown)
+        if ends.quintic is not None:  # where the next two terms do not fall (``FALLING``): the lower order's error
+            first = np.where((ends.end == 0).reshape(shape), terms[1], terms[0])  # the node added inwards
+            rising = np.abs(quintic - first) > FALLING * np.abs(first) + self._roundoff(data, axis, ends.quintic)
+            extra = np.where(rising, np.fmax(extra, lower), extra)
+        elif cubic is not None:  # above the cubic, no second term to show that its terms fall
+            extra = np.fmax(extra, lower)
+        return np.where(ends.one_sided.reshape(shape), np.fmax(worst, extra), worst)
+
+    def _roundoff(self, data: np.ndarray, axis: int, terms: np.ndarray) -> np.ndarray:
+        """A bound on the round-off of the Newton terms ``terms`` (a matrix along ``axis``, the
+        difference of two interpolants) and of the interpolant on the full grid: n ε Σ_j |w_j| |f_j|
+        (Higham, Accuracy and Stability of Numerical Algorithms, 2nd ed., eq. 3.5: a dot product of
+        n terms is within γ_n ≤ 1.01 n u of its value, u = ε/2; the two interpolants' errors add),
+        n the largest stencil the terms span plus one, with the weights of ``terms`` and of the
+        interpolant along ``axis`` in size, the data in size (0 where a solve failed)."""
+        n = int(np.count_nonzero(terms, axis=1).max(initial=0)) + 1
+        size = self._through(np.abs(np.nan_to_num(data, nan=0.0)), axis, np.abs(terms) + np.abs(self.high[axis]))
+        return n * np.finfo(np.float64).eps * size
+
+
+#: The stencils an axis may be interpolated with (``chosen_stencils``): cubic, quintic.
+ORDERS = (4, 6)
+
+
+def chosen_stencils(
+    xs: Sequence[np.ndarray],
+    nodes: Sequence[Sequence[int]],
+    data: np.ndarray,
+    noise: np.ndarray | float = 0.0,
+    orders: Sequence[int] = ORDERS,
+) -> np.ndarray:
+    """The stencil of each axis for each column of ``data`` (the values at ``nodes``; its trailing
+    dimensions flattened: shape (columns, axes)): the smallest of ``orders`` (the cubic), unless
+    along that axis a larger one has its own next node (``len(nodes[d]) > stencil``) and its next
+    Newton term (``TensorInterpolant.next_term``) is at most the smaller one's at every grid
+    point: the higher order where its terms fall faster everywhere (an analytic function the
+    nodes resolve: on exp(x) with nodes 0.25 apart the quintic's term is 0.02 × the cubic's), the
+    cubic where they do not somewhere (a kink, a steep front, a pole or a bump the nodes do not
+    resolve: there the wider stencil's term is the larger near it; tests/numerics/
+    test_interpolation.py). Where both terms are below ``noise`` (the data's own absolute error,
+    broadcast to the grid and columns) they are differences of that error and not compared.
+    Each axis is judged with the others cubic."""
+    data = np.asarray(data, dtype=np.float64)
+    dims = len(xs)
+    columns = int(np.prod(data.shape[dims:], dtype=np.intp))
+    first = orders[0]
+    chosen = np.full((columns, dims), first, dtype=np.intp)
+
+    def estimate(stencils: Sequence[int], axis: int) -> np.ndarray:
+        interpolant = TensorInterpolant(xs, nodes, stencils)
+        return interpolant.next_term(data, interpolant.values(data), axis).reshape(-1, columns)
+
+    floor = np.broadcast_to(noise, (*(len(x) for x in xs), *data.shape[dims:])).reshape(-1, columns)
+    for axis in range(dims):
+        below = np.fmax(estimate([first] * dims, axis), floor)
+        for stencil in orders[1:]:
+            if len(nodes[axis]) <= stencil:
+                break
+            found = estimate([stencil if d == axis else first for d in range(dims)], axis)
+            better = np.all(found <= below, axis=0)  # NaN (a failed node's line): not better
+            if not better.any():
+                break
+            chosen[better, axis] = stencil
+            below = np.where(better, np.fmax(found, floor), -np.inf)  # a column kept lower stays lower
+    return chosen

@@ -5,16 +5,19 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from hpcontact.analytic import mindlin_ellipse_stiffness_ratio
 from hpcontact.numerics.interpolation import (
     Scale,
     TensorInterpolant,
     bisection_nodes,
+    chosen_stencils,
     coordinate,
     end_terms,
     estimate_weights,
     refined,
     weights,
 )
+from hpcontact.sweep.maps.estimates import SAFETY
 
 
 def test_bisection_nodes_take_every_2k_th_index_with_the_ends():
@@ -146,7 +149,8 @@ def test_the_conservative_estimate_covers_a_next_derivative_that_changes_sign_ac
     22.5° and 67.5°) changes sign inside a stencil, the next Newton term, and its growth read
     from the nodes inwards at the intervals near the ends, nearly vanish and under-estimate the
     cubic's error; the conservative estimate (also the lower order's own error) covers it at
-    every point, and is never below the sharp one."""
+    every point, and is never below the sharp one. At the ends the next two terms do not fall
+    there (``FALLING``), so the sharp estimate takes the lower order's error too and covers it."""
     x = np.radians(np.linspace(0.0, 90.0, 31))
     nodes = [0, 3, 7, 11, 15, 19, 23, 27, 30]
     f = np.cos(4.0 * x) + 3.0
@@ -156,7 +160,31 @@ def test_the_conservative_estimate_covers_a_next_derivative_that_changes_sign_ac
     conservative = interpolant.estimates(f[nodes], full, conservative=True)[0]
     true = np.abs(full - f)
     assert np.all(conservative >= sharp) and np.all(conservative >= true)
-    assert np.any(sharp < true)  # the sharp estimate alone misses somewhere here
+    assert np.all(sharp >= true)
+    assert np.any(interpolant.next_term(f[nodes], full, 0) < true)  # the next term alone misses here
+
+
+@pytest.mark.parametrize("nu", [0.05, 0.1, 0.2, 0.3])
+def test_the_quintic_at_an_end_where_its_terms_do_not_fall(nu):
+    """Mindlin's K_a/K_b (``analytic.mindlin_ellipse_stiffness_ratio``) along log10 b/a from 0
+    to −2, nodes 0.25 apart (benchmarks/map_honesty.py M1's leaf next to b/a = 1): the quintic
+    is chosen (its next term below the cubic's everywhere), but at its first interval its
+    error is 1.9 … 28 × its next term (more than the map's factor, ``estimates.SAFETY``), whose
+    second term is larger than the first: the estimate there takes the lower order's own error
+    and covers the error at every interval that grows inwards only, and within the factor at
+    every point."""
+    x = np.linspace(0.0, -2.0, 17)
+    nodes = list(range(0, 17, 2))
+    f = mindlin_ellipse_stiffness_ratio(10.0**x, nu)
+    assert chosen_stencils([x], [nodes], f[nodes]).tolist() == [[6]]
+    interpolant = TensorInterpolant([x], [nodes], 6)
+    full = interpolant.values(f[nodes])
+    estimate = interpolant.estimates(f[nodes], full)[0]
+    true = np.abs(full - f)
+    assert true[1] > SAFETY * interpolant.next_term(f[nodes], full, 0)[1]
+    ends = interpolant.ends[0].one_sided
+    assert np.all(estimate[ends] >= true[ends])
+    assert np.all(SAFETY * estimate >= true)
 
 
 @pytest.mark.parametrize("nodes", [[0, 6, 12, 18, 24], [0, 4, 8, 12, 16, 20, 24], list(range(0, 25, 3))])
@@ -207,3 +235,57 @@ def test_at_the_end_near_a_pole_the_estimate_covers_the_error_wherever_the_lower
     assert np.all(estimate[one_sided] >= np.fmin(true, lower)[one_sided] * (1.0 - 1e-12))
     inside = np.setdiff1d(np.arange(33), nodes)
     assert np.all(estimate[inside] >= 0.8 * true[inside])
+
+
+def test_the_quintic_is_chosen_on_an_analytic_function_and_its_estimate_bounds_its_error():
+    """1/(3 − x) on x = 0 … 2 (49 points), nodes every 6th (a pole 1 beyond the end, 4 spacings):
+    the quintic's next Newton term is below the cubic's at every point, so ``chosen_stencils``
+    takes it; its error is 0.24 × the cubic's, and its estimate (next term and end terms, no
+    safety factor) is at least its true error at every point. In two dimensions, per quantity
+    and axis: exp(x) cos(y) takes the quintic along both axes; (|x − 0.77| + x) cos(y), a kink
+    between two nodes, keeps the cubic along x and takes the quintic along y."""
+    x = np.linspace(0.0, 2.0, 49)
+    nodes = list(range(0, 49, 6))
+    f = 1.0 / (3.0 - x)
+    assert chosen_stencils([x], [nodes], f[nodes]).tolist() == [[6]]
+    errors = []
+    for stencil in (4, 6):
+        interpolant = TensorInterpolant([x], [nodes], stencil)
+        full = interpolant.values(f[nodes])
+        true = np.abs(full - f)
+        assert np.all(interpolant.estimates(f[nodes], full)[0] >= true)
+        errors.append(true.max())
+    assert errors[1] < 0.3 * errors[0]
+    y = np.linspace(0.0, 1.0, 25)
+    across = list(range(0, 25, 3))
+    both = np.stack([np.exp(x)[:, None] * np.cos(y), (np.abs(x - 0.77) + x)[:, None] * np.cos(y)], axis=-1)
+    assert chosen_stencils([x, y], [nodes, across], both[np.ix_(nodes, across)]).tolist() == [[6, 6], [4, 6]]
+
+
+@pytest.mark.parametrize("stride", [4, 6, 8])
+@pytest.mark.parametrize(
+    "f",
+    [lambda x: np.abs(x - 0.77) + x, lambda x: np.abs(x - 1.0) + x, lambda x: np.tanh(20.0 * (x - 0.93))],
+    ids=["kink between nodes", "kink at a node", "steep front"],
+)
+def test_a_kink_or_a_steep_front_keeps_the_cubic(f, stride):
+    """Where the function is not smooth on the scale of the nodes the Newton terms do not fall:
+    the quintic's next term exceeds the cubic's somewhere near the kink or front (whichever is
+    the larger at its largest), so ``chosen_stencils`` keeps the cubic. On exp(x) over the same
+    nodes the quintic's term is the smaller everywhere, and it is chosen; a quintic term above the
+    cubic's but below the data's own error (``noise``) is not held against it."""
+    x = np.linspace(0.0, 2.0, 49)
+    nodes = list(range(0, 49, stride))
+    assert chosen_stencils([x], [nodes], f(x)[nodes]).tolist() == [[4]]
+    smooth = np.exp(x)
+    assert chosen_stencils([x], [nodes], smooth[nodes]).tolist() == [[6]]
+    assert chosen_stencils([x], [nodes], f(x)[nodes], noise=1.0).tolist() == [[6]]
+
+
+def test_the_quintic_needs_its_own_next_node():
+    """With at most 6 nodes along an axis the quintic's next term would be no term of its own
+    (``estimate_weights`` falls back one order lower): the cubic is kept."""
+    x = np.linspace(0.0, 1.0, 21)
+    nodes = [0, 4, 8, 12, 16, 20]
+    assert chosen_stencils([x], [nodes], np.exp(x)[nodes]).tolist() == [[4]]
+    assert chosen_stencils([x], [[0, 4, 8, 10, 12, 16, 20]], np.exp(x)[[0, 4, 8, 10, 12, 16, 20]]).tolist() == [[6]]

@@ -294,16 +294,22 @@ def worked_quantities(
     return work, derive
 
 
-def needed_axes(axes: Sequence[np.ndarray], budget: np.ndarray) -> list[np.ndarray]:
+def needed_axes(
+    axes: Sequence[np.ndarray], budget: np.ndarray, costs: Sequence[np.ndarray] | None = None
+) -> list[np.ndarray]:
     """Per axis, whether a point (and quantity) over its tolerance has it split: with its axes'
     estimates in decreasing order e_(0) ≥ e_(1) ≥ …, the axis of e_(0), and that of e_(k) where
     e_(k) + e_(k+1) + … alone exceeds ``budget`` (the tolerance less the solve's error): what the
-    larger axes' splits cannot bring within the budget however well they work. (Splitting every
-    axis whose estimate exceeded ``budget / D``, as before, split both axes of points whose error
-    one of them held: 91 nodes instead of 71 on the smooth 2-D map of
-    benchmarks/local_refinement.py. Preferring, of the axes whose split alone would do, the one
-    that adds the fewest nodes to the point's leaf was measured there too: 85, a cheap split at
-    each point but more of them.)"""
+    larger axes' splits cannot bring within the budget however well they work. With ``costs``
+    (per axis, the nodes a split along it adds to the point's leaf, broadcast to the estimates),
+    where the split of one axis alone would do (the other axes' estimates add up to at most
+    ``budget``), the cheapest such axis instead. (Splitting every axis whose estimate exceeded
+    ``budget / D``, as before, split both axes of points whose error one of them held: 91 nodes
+    instead of 71 on the smooth 2-D map of benchmarks/local_refinement.py. The cheapest axis was
+    measured there with the cubic alone: 85, a cheap split at each point but more of them; with
+    the quintic where it converges (``interpolation.chosen_stencils``) a split removes nearly all
+    of its axis' error, and the cheapest axis takes 55 nodes where the largest took 70 (before
+    the end rule ``interpolation.FALLING``).)"""
     errors = np.stack([np.nan_to_num(e, nan=0.0) for e in axes], axis=-1)  # axes last: a point's contiguous
     ranked = -np.sort(-errors, axis=-1)  # e_(0) ≥ e_(1) ≥ …
     tails = np.cumsum(ranked[..., ::-1], axis=-1)[..., ::-1]  # e_(k) + e_(k+1) + …
@@ -313,6 +319,14 @@ def needed_axes(axes: Sequence[np.ndarray], budget: np.ndarray) -> list[np.ndarr
     tied = errors == threshold  # ranked in their order (a stable sort): the first (last + 1 − #above) of them
     room = last[..., None] + 1 - np.count_nonzero(above, axis=-1, keepdims=True)
     need = above | (tied & (np.cumsum(tied, axis=-1) <= room))
+    if costs is not None:
+        cost = np.stack([np.broadcast_to(c, errors.shape[:-1]) for c in costs], axis=-1).astype(np.float64)
+        alone = errors.sum(axis=-1, keepdims=True) - errors <= np.asarray(budget)[..., None]
+        priced = np.where(alone & (errors > 0.0), cost, np.inf)
+        cheapest = np.argmin(priced, axis=-1)
+        some = np.isfinite(np.min(priced, axis=-1))
+        pick = np.arange(errors.shape[-1]) == cheapest[..., None]
+        need = np.where(some[..., None], pick, need)
     return list(np.moveaxis(need, -1, 0))
 
 

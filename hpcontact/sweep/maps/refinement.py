@@ -54,7 +54,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from hpcontact.numerics.interpolation import TensorInterpolant, bisection_nodes, refined
+from hpcontact.numerics.interpolation import ORDERS, TensorInterpolant, bisection_nodes, chosen_stencils, refined
 from hpcontact.sweep.maps.estimates import (
     REMEMBERED,
     SAFETY,
@@ -70,14 +70,19 @@ from hpcontact.sweep.maps.estimates import (
 )
 from hpcontact.sweep.space.adaptive_settings import Settings
 
-#: Fewest nodes along an axis that cutting a leaf leaves in each half: one more than the cubic's
-#: stencil, so each half's estimate (one order higher, ``interpolation.estimate_weights``) has
-#: its own node to add and its middle interval a centred stencil.
-LEAF_NODES = 5
+#: Fewest nodes along an axis that cutting a leaf leaves in each half: one more than the largest
+#: stencil (``interpolation.ORDERS``: the quintic's 6), so each half's estimate of that order
+#: (one order higher, ``interpolation.estimate_weights``) has its own node to add and each half
+#: may take it (``interpolation.chosen_stencils``); with the cubic's 5 the halves of a leaf
+#: stayed cubic and the smooth 2-D map of benchmarks/local_refinement.py took 80 solves, not 65
+#: (both before the end rule ``interpolation.FALLING``; 70 with it).
+LEAF_NODES = max(ORDERS) + 1
 
-#: Nodes a cut leaves each half beyond its face (of the other half's): the interval at the face
-#: keeps a centred cubic stencil, as it had before the cut.
-HALO = 1
+#: Nodes a cut leaves each half beyond its face (of the other half's): the intervals at the face
+#: keep the centred stencil of the largest order (two nodes either side of the quintic's
+#: interval), as they had before the cut. With one (the cubic's) a quintic at a face was
+#: one-sided there and stated 0.5 × its error on a map of the families table (docs/howto/adaptive.md).
+HALO = max(ORDERS) // 2 - 1
 
 
 class Leaf(NamedTuple):
@@ -153,19 +158,42 @@ def leaf_estimate(job: LeafJob) -> LeafPart:
     computes it alike (``maps.spread`` shares the leaves out)."""
     work, kept = list(job.work), slice(0, job.kept)
     interpolant = TensorInterpolant(list(job.xs), job.local)
-    whole = interpolant.values(job.data)
+    solve = np.abs(interpolant.values(job.solve_data))
+    whole, estimates = _hp(job, interpolant, solve)
     full = whole[job.inner]
     relative = relative_scale(work, full)
-    leaf_axes = [job.safety * e[job.inner] / relative for e in interpolant.estimates(job.data, whole, job.conservative)]
+    leaf_axes = [job.safety * e[job.inner] / relative for e in estimates]
     if job.derive:
         principal_from_tensor(full, leaf_axes, work)
         relative = relative_scale(work, full)
-    leaf_solve = np.abs(interpolant.values(job.solve_data))[job.inner]
+    leaf_solve = solve[job.inner]
     error = (sum(leaf_axes, np.zeros_like(leaf_solve)) + leaf_solve)[..., kept]
     worst = np.where(np.isnan(error), np.inf, error).max(axis=-1)
     return LeafPart(
         full[..., kept], [a[..., kept] for a in leaf_axes], leaf_solve[..., kept], relative[..., kept], worst
     )
+
+
+def _hp(job: LeafJob, cubic: TensorInterpolant, solve: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
+    """The values of ``job``'s quantities over the span of its nodes and each axis' absolute
+    estimate, each quantity interpolated along each axis with the stencil ``chosen_stencils``
+    picks for it (the cubic, or the quintic where its next Newton term is the smaller at every
+    point), the solves' own error (``solve``, relative, interpolated by ``cubic``, the leaf's
+    cubic interpolant) the noise below which the terms are not compared: the values and the
+    estimate of the order chosen, the map error of what is drawn."""
+    xs, nodes = list(job.xs), job.local
+    chosen = chosen_stencils(xs, nodes, job.data, np.abs(cubic.values(job.data)) * solve)
+    values = np.full((*(len(x) for x in xs), job.data.shape[-1]), np.nan)
+    axes = [np.full_like(values, np.nan) for _ in xs]
+    for stencils in sorted(set(map(tuple, chosen.tolist()))):
+        columns = np.flatnonzero((chosen == stencils).all(axis=1))
+        interpolant = TensorInterpolant(xs, nodes, stencils)
+        data = job.data[..., columns]
+        full = interpolant.values(data)
+        values[..., columns] = full
+        for target, e in zip(axes, interpolant.estimates(data, full, job.conservative)):
+            target[..., columns] = e
+    return values, axes
 
 
 LeafMap = Callable[[Sequence[LeafJob]], list[LeafPart]]
@@ -282,7 +310,10 @@ def refine(
             over = est.map_error > tol
             budget = np.maximum(tol - est.solve, tol / 4.0)
             excess = np.nan_to_num(np.where(over, est.map_error / tol, 0.0), nan=0.0)
-            ratios = [np.where(n, excess, 0.0).max(axis=-1) for n in needed_axes(est.axes, budget)]
+            ratios = [
+                np.where(n, excess, 0.0).max(axis=-1)
+                for n in needed_axes(est.axes, budget, _split_costs(leaves, est.owner))
+            ]
             excess = excess.max(axis=-1)
         for position, leaf in enumerate(leaves):
             region = box(leaf)
@@ -330,6 +361,15 @@ def refine(
             grown.extend(_grown(leaf, marked, _reach_of(reach, s, position, marked)))
         out.append((cat, tuple(grown)))
     return tuple(out)
+
+
+def _split_costs(leaves: Sequence[Leaf], owner: np.ndarray) -> list[np.ndarray]:
+    """Per axis, the nodes a split of one interval along it adds to the leaf of each point
+    (``owner``): the product of the leaf's node counts along the other axes (quantities last: a
+    trailing axis of 1)."""
+    counts = np.array([[len(n) for n in leaf.nodes] for leaf in leaves], dtype=np.float64)
+    per_leaf = np.prod(counts, axis=1, keepdims=True) / counts
+    return [per_leaf[owner, d][..., None] for d in range(counts.shape[1])]
 
 
 def _between_nodes(leaf: Leaf, axis: int) -> np.ndarray:
