@@ -7,7 +7,10 @@ nodes (cubic: the two nodes either side of the point's interval, shifted inwards
 fewer when the axis has fewer nodes) in the axis' natural coordinate: ``log10`` of the value
 for a logspace axis (``Scale.LOG``), the value itself otherwise. In several dimensions the
 one-dimensional interpolants are applied axis after axis (a tensor product), so the map is
-exact at the nodes and every axis keeps its own spacing.
+exact at the nodes and every axis keeps its own spacing. The stencil may differ by axis
+(``TensorInterpolant``'s ``stencil``: one per axis): ``chosen_stencils`` takes the quintic (6)
+along an axis where its next Newton term is below the cubic's at every point (an analytic
+function the nodes resolve), the cubic elsewhere (a kink, a steep front).
 
 The error estimate of axis ``d`` at a point is the larger difference between the interpolant
 and the two interpolants of one order lower along ``d`` alone (the quadratics through the
