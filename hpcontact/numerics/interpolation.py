@@ -468,17 +468,19 @@ def chosen_stencils(
     first = orders[0]
     chosen = np.full((columns, dims), first, dtype=np.intp)
 
-    def estimate(stencils: Sequence[int], axis: int) -> np.ndarray:
-        interpolant = TensorInterpolant(xs, nodes, stencils)
-        return interpolant.next_term(data, interpolant.values(data), axis).reshape(-1, columns)
+    def estimate(interpolant: TensorInterpolant, full: np.ndarray, axis: int) -> np.ndarray:
+        return interpolant.next_term(data, full, axis).reshape(-1, columns)
 
+    lowest = TensorInterpolant(xs, nodes, [first] * dims)  # built and applied once for every axis
+    lowest_full = lowest.values(data)
     floor = np.broadcast_to(noise, (*(len(x) for x in xs), *data.shape[dims:])).reshape(-1, columns)
     for axis in range(dims):
-        below = np.fmax(estimate([first] * dims, axis), floor)
+        below = np.fmax(estimate(lowest, lowest_full, axis), floor)
         for stencil in orders[1:]:
             if len(nodes[axis]) <= stencil:
                 break
-            found = estimate([stencil if d == axis else first for d in range(dims)], axis)
+            higher = TensorInterpolant(xs, nodes, [stencil if d == axis else first for d in range(dims)])
+            found = estimate(higher, higher.values(data), axis)
             better = np.all(found <= below, axis=0)  # NaN (a failed node's line): not better
             if not better.any():
                 break
