@@ -70,7 +70,13 @@ are recorded call by call (``LeafPool.map``: each leaf's box points and its part
 on whichever rank computed it) and replayed as the code runs them on R ranks
 (``replay.leaf_call_seconds``: the parts assigned by ``replay.assign``, the rank with the most,
 plus the call's overhead: rank 0's CPU seconds sending the jobs and unpickling the parts, as
-measured on 2 ranks); the time between rounds replayed as rank 0's alone is what is left of it
+measured on 2 ranks); the sparse grid's decisions shared out by slabs (``LeafPool.slabs``: each
+slab's rows and CPU seconds, rank 0's overhead sending the job, combining the slabs' parts and
+unpickling their results) alike (``replay.slab_call_seconds``: one slab a rank, at most one a
+row, each the call's fixed part a slab plus its rows at the measured seconds a row, the largest
+plus the overhead; the fixed part, what a slab does whatever its rows, timed for each call after
+the run on rank 0, ``slab_fixed``); the time between rounds
+replayed as rank 0's alone is what is left of it
 without those calls (rank 0's time in a call, CPU seconds too, includes its wait for rank 1:
 MPICH polls). The last line replays nothing between rounds at all (a bound, not the code).
 """
@@ -356,16 +362,35 @@ def worker(spec: str, output: str, variant: str, task: str, times: str) -> None:
     rounds.claimed_chunks = marked
     from hpcontact.sweep.maps import spread
 
-    calls: list[tuple[float, float, float, list[tuple[int, float]], float]] = []
-    pool_map = spread.LeafPool.map
+    calls: list[tuple[float, float, float, list[tuple[int, float]], float, str]] = []
+    jobs: list[tuple[Any, Any]] = []  # the slab calls' functions and jobs, for their fixed part (slab_fixed)
+    pool_map, pool_slabs = spread.LeafPool.map, spread.LeafPool.slabs
 
     def shared(self: Any, jobs: Any) -> Any:
         start, cpu = time.time(), time.process_time()
         parts = pool_map(self, jobs)
-        calls.append((start, time.time() - start, time.process_time() - cpu, self.seconds[-1], self.overhead_s[-1]))
+        calls.append(
+            (start, time.time() - start, time.process_time() - cpu, self.seconds[-1], self.overhead_s[-1], "leaves")
+        )
         return parts
 
-    spread.LeafPool.map = shared
+    def slabs(self: Any, function: Any, job: Any) -> Any:
+        start, cpu = time.time(), time.process_time()
+        results = pool_slabs(self, function, job)
+        jobs.append((function, job))
+        calls.append(
+            (
+                start,
+                time.time() - start,
+                time.process_time() - cpu,
+                self.slab_seconds[-1],
+                self.slab_overhead_s[-1],
+                "slabs",
+            )
+        )
+        return results
+
+    spread.LeafPool.map, spread.LeafPool.slabs = shared, slabs
     started = (process_start(), 0.0)  # the set-up from the process's start: its imports too
     if task == "recorded":  # the records read before the run, and not counted in its set-up
         wall, cpu = time.time(), time.process_time()
@@ -376,10 +401,27 @@ def worker(spec: str, output: str, variant: str, task: str, times: str) -> None:
         run_sweep(spec, output=output, task_function=functions[task], stream=sink)
     if int(os.environ.get("OMPI_COMM_WORLD_RANK", os.environ.get("PMI_RANK", "0"))) == 0:
         ended = (time.time(), time.process_time())
+        fixed = [slab_fixed(function, job) for function, job in jobs]  # after the run: not in its times
         Path(times).write_text(
-            json.dumps({"start": started, "end": ended, "marks": marks, "phases": phases, "calls": calls}),
+            json.dumps(
+                {"start": started, "end": ended, "marks": marks, "phases": phases, "calls": calls, "fixed": fixed}
+            ),
             encoding="utf-8",
         )
+
+
+def slab_fixed(function: Any, job: Any) -> float:
+    """The CPU seconds of a slab of ``job`` that do not shrink with its rows, in this process:
+    (T(one slab a row) − T(the whole grid as one slab)) / (rows − 1), T the CPU seconds of
+    ``function``'s slabs run one after the other (``sparse_grid.stepped``)."""
+    from hpcontact.sweep.maps import sparse_grid
+
+    seconds = []
+    for pieces in (1, job.rows):
+        cpu = time.process_time()
+        sparse_grid.stepped([function(job, rows) for rows in sparse_grid.slab_rows(job.rows, pieces)])
+        seconds.append(time.process_time() - cpu)
+    return max(seconds[1] - seconds[0], 0.0) / max(job.rows - 1, 1)
 
 
 def run(spec: Path, output: Path, variant: str, task: str) -> dict[str, Any]:
@@ -461,15 +503,21 @@ def driver_cpu(measured: dict[str, Any]) -> float:
 def leaf_calls(measured: dict[str, Any], clock: str) -> tuple[list[list[Any]], list[float]]:
     """The estimates rank 0 shared out after each round (``replay.LeafCall``: the parts'
     CPU seconds, the overhead rank 0's CPU seconds sending the jobs and unpickling the parts,
-    ``spread.LeafPool``), and rank 0's ``clock`` seconds in them after each round."""
-    from hpcontact.sweep.work.replay import LeafCall
+    ``spread.LeafPool``; ``replay.SlabCall``: the sparse grid's slabs alike), and rank 0's
+    ``clock`` seconds in them after each round."""
+    from hpcontact.sweep.work.replay import LeafCall, SlabCall
 
     firsts = [m[0] for m in measured["marks"][0::2]]
     out: list[list[Any]] = [[] for _ in firsts]
     spent = [0.0] * len(firsts)
-    for start, wall, cpu, parts, overhead in measured.get("calls", []):
+    fixed = iter(measured.get("fixed", []))
+    for start, wall, cpu, parts, overhead, kind in measured.get("calls", []):
         k = sum(f <= start for f in firsts) - 1  # after round k (its first claim before the call)
-        out[k].append(LeafCall(tuple(p for p, _ in parts), tuple(s for _, s in parts), overhead))
+        sizes, seconds = tuple(p for p, _ in parts), tuple(s for _, s in parts)
+        if kind == "leaves":
+            out[k].append(LeafCall(sizes, seconds, overhead))
+        else:
+            out[k].append(SlabCall(sizes, seconds, overhead, next(fixed)))
         spent[k] += wall if clock == "wall" else cpu
     return out, spent
 
@@ -593,10 +641,13 @@ def crystal(folder: Path, task: str, driver_ms: list[float], checks: int) -> Non
         calls, spent = shared[clock]
         parts = sum(s for round_calls in calls for c in round_calls for s in c.seconds)
         overhead = sum(c.overhead_s for round_calls in calls for c in round_calls)
+        largest = sum(max(c.seconds, default=0.0) for round_calls in calls for c in round_calls)
+        fixed = sum(getattr(c, "fixed_s", 0.0) for round_calls in calls for c in round_calls)
         print(
             f"estimates shared out ({clock}): {sum(len(c) for c in calls)} calls, rank 0 in them "
-            f"{' '.join(f'{x:.2f}' for x in spent)} s after the rounds; the parts {parts:.2f} s on both ranks, "
-            f"overhead {overhead:.2f} s"
+            f"{' '.join(f'{x:.2f}' for x in spent)} s after the rounds; the parts {parts:.2f} s on both ranks "
+            f"(the largest part's in each call, summed: {largest:.2f}; a slab's fixed part, summed over the calls, "
+            f"{fixed:.2f}), overhead {overhead:.2f} s"
         )
     print(
         "replayed (the set-up as measured; rank 0's reading ahead during each round spread over the ranks): "

@@ -1,11 +1,12 @@
-"""An adaptive map on 2 ranks whose rank 1 computes leaves of rank 0's estimate between rounds
-(``hpcontact.sweep.maps.spread``): the data set is bitwise that of one process, rank 1 computed
-parts, and both ranks end. The task function is exact arithmetic (no solve, whose FFT plans may
-differ between processes), so every bit of the map is the estimate's.
+"""An adaptive map on 2 ranks whose rank 1 computes leaves of rank 0's estimate between rounds,
+or slabs of the sparse grid's decisions (``hpcontact.sweep.maps.spread``): the data set is
+bitwise that of one process, rank 1 computed parts, and both ranks end. The task function is
+exact arithmetic (no solve, whose FFT plans may differ between processes), so every bit of the
+map is the estimate's.
 
 Launches its own ``mpiexec -n 2`` (skips under a launcher), running this file as the sweep:
 ``python test_adaptive_spread.py SPEC OUTPUT COUNTS`` (rank R writes the box points of the parts
-it computed to COUNTS/rankR.txt).
+and the rows of the slabs it computed to COUNTS/rankR.txt).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 import xarray as xr
 from launcher import ROOT, STARTS_ITS_OWN_MPIEXEC, finish, start
 
@@ -35,6 +37,7 @@ orientation = { linspace = [0, 90, 37] }
 [adaptive]
 tolerance = 1e-3
 quantities = ["K_xx"]
+method = "{method}"
 """
 
 
@@ -52,12 +55,13 @@ def record(params):
 pytestmark = STARTS_ITS_OWN_MPIEXEC
 
 
-def test_an_adaptive_map_on_two_ranks_shares_its_estimate_and_equals_one_process(tmp_path, launched):
+@pytest.mark.parametrize("method", ["leaves", "sparse"])
+def test_an_adaptive_map_on_two_ranks_shares_its_estimate_and_equals_one_process(tmp_path, launched, method):
     from hpcontact.sweep.driver import run_sweep
     from hpcontact.sweep.run.schedule import SerialTeam
 
     spec = tmp_path / "spec.toml"
-    spec.write_text(SPEC)
+    spec.write_text(SPEC.replace("{method}", method))
     reference = run_sweep(
         spec, output=tmp_path / "one.nc", task_function=record, team=SerialTeam(), stream=io.StringIO()
     )
@@ -68,7 +72,10 @@ def test_an_adaptive_map_on_two_ranks_shares_its_estimate_and_equals_one_process
     status, out, err = finish(proc, timeout=300)
     assert status == 0, out + err
     parts = {rank: json.loads((counts / f"rank{rank}.txt").read_text()) for rank in (0, 1)}
-    assert parts[1], "rank 1 computed no part of rank 0's estimate"
+    kind = "leaves" if method == "leaves" else "slabs"
+    assert parts[1][kind], f"rank 1 computed none of rank 0's {kind}"
+    if method == "sparse":  # one slab a rank, together the anisotropy axis, in every decision
+        assert parts[0]["slabs"] and all(a + b == 41 for a, b in zip(parts[0]["slabs"], parts[1]["slabs"]))
     with xr.open_dataset(tmp_path / "two.nc") as two, xr.open_dataset(reference) as one:
         assert two.attrs["adaptive_rounds"] == one.attrs["adaptive_rounds"] >= 4
         assert two.attrs["sweep_solves"] == one.attrs["sweep_solves"]
@@ -88,14 +95,18 @@ def main(spec: str, output: str, counts: str) -> None:
     from hpcontact.sweep.run.schedule import world
 
     team = world()
-    computed: list[int] = []
-    original = spread.leaf_estimate
+    computed: dict[str, list[int]] = {"leaves": [], "slabs": []}
+    original, steps = spread.leaf_estimate, spread._slab_steps
 
     def counted(job):
-        computed.append(job.points)
+        computed["leaves"].append(job.points)
         return original(job)
 
-    spread.leaf_estimate = counted
+    def stepped(team, function, job, pieces):
+        computed["slabs"].append(pieces[team.rank].stop - pieces[team.rank].start)
+        return steps(team, function, job, pieces)
+
+    spread.leaf_estimate, spread._slab_steps = counted, stepped
     with open(os.devnull, "w", encoding="utf-8") as sink:
         run_sweep(spec, output=output, task_function=record, team=team, stream=sink)
     Path(counts, f"rank{team.rank}.txt").write_text(json.dumps(computed))

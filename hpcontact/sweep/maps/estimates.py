@@ -168,9 +168,8 @@ class Estimate:
         return sum(self.axes, np.zeros_like(self.solve)) + self.solve
 
 
-def relative_scale(names: Sequence[str], values: np.ndarray) -> np.ndarray:
-    """The size each quantity's error is relative to: |q|, the largest diagonal entry for an
-    off-diagonal one; where that is 0, the largest |q| of the sub-problem (1 if all are 0)."""
+def _sizes(names: Sequence[str], values: np.ndarray) -> np.ndarray:
+    """|q|, the largest diagonal |entry| for an off-diagonal one (``relative_scale``)."""
     scale = np.abs(values)
     for q, name in enumerate(names):
         match = OFF_DIAGONAL.match(name)
@@ -179,10 +178,30 @@ def relative_scale(names: Sequence[str], values: np.ndarray) -> np.ndarray:
             diagonal = [names.index(f"K_{a}{a}{suffix}") for a in "xyz" if f"K_{a}{a}{suffix}" in names]
             if diagonal:
                 scale[..., q] = np.max(np.abs(values[..., diagonal]), axis=-1)
+    return scale
+
+
+def scale_extent(names: Sequence[str], values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per quantity, what ``relative_scale`` falls back on over the points of ``values``: the
+    largest size (NaN where every one is NaN) and whether one is finite. Of a part of a grid,
+    combined with the other parts' exactly whatever the order (``np.fmax``, or): the slabs of
+    ``maps.sparse_grid``."""
+    sizes = _sizes(names, values).reshape(-1, len(names))
+    return np.fmax.reduce(sizes, axis=0), np.isfinite(sizes).any(axis=0)
+
+
+def relative_scale(
+    names: Sequence[str], values: np.ndarray, extent: tuple[np.ndarray, np.ndarray] | None = None
+) -> np.ndarray:
+    """The size each quantity's error is relative to: |q|, the largest diagonal entry for an
+    off-diagonal one; where that is 0, the largest |q| of the sub-problem (1 if all are 0):
+    of ``values``, or ``extent`` (``scale_extent`` of the whole sub-problem, where ``values``
+    are a part of it)."""
+    scale = _sizes(names, values)
+    largest, finite = scale_extent(names, values) if extent is None else extent
     for q in range(len(names)):
-        column = scale[..., q]
-        fallback = np.nanmax(column) if np.any(np.isfinite(column)) else 1.0
-        column[~(column > 0.0)] = fallback if fallback > 0.0 else 1.0
+        fallback = largest[q] if finite[q] else 1.0
+        scale[..., q][~(scale[..., q] > 0.0)] = fallback if fallback > 0.0 else 1.0
     return scale
 
 
@@ -192,7 +211,12 @@ def relative_scale(names: Sequence[str], values: np.ndarray) -> np.ndarray:
 PRINCIPAL = ("K_max", "K_min", "K_min_over_K_max")
 
 
-def principal_from_tensor(values: np.ndarray, axes: list[np.ndarray], names: Sequence[str]) -> None:
+def principal_from_tensor(
+    values: np.ndarray,
+    axes: list[np.ndarray],
+    names: Sequence[str],
+    extent: tuple[np.ndarray, np.ndarray] | None = None,
+) -> None:
     """Replace in place, along the last axis of ``values`` (quantities ``names``) and of each
     axis' relative estimate in ``axes``, the principal stiffnesses (``PRINCIPAL``) by those of
     the tensor's symmetric part, (a + d)/2 ± √(((a − d)/2)² + c²) with c = (K_xy + K_yx)/2
@@ -206,16 +230,18 @@ def principal_from_tensor(values: np.ndarray, axes: list[np.ndarray], names: Seq
     of the two. Well apart (a diagonal tensor: K_xx's own estimate for its eigenvalue) the
     expansion is the sharper, near a crossing Weyl's. Needs the four
     entries and their estimates relative to ``relative_scale`` (the diagonal entries to
-    themselves, the off-diagonal ones to the largest diagonal entry)."""
+    themselves, the off-diagonal ones to the largest diagonal entry; ``extent`` as there)."""
     index = {n: i for i, n in enumerate(names)}
     a, b, c, d = (values[..., index[n]] for n in TENSOR)
     mean, half = 0.5 * (a + d), np.hypot(0.5 * (a - d), 0.5 * (b + c))
     derived = {"K_max": mean + half, "K_min": mean - half}
     derived["K_min_over_K_max"] = derived["K_min"] / derived["K_max"]
-    scale = relative_scale(names, values)
+    scale = relative_scale(names, values, extent) if axes else None
     for name, value in derived.items():
         if name in index:
             values[..., index[name]] = value
+    if scale is None:
+        return
     phi = np.arctan2(0.5 * (b + c), 0.5 * (a - d))  # (h, c) = r (cos φ, sin φ): twice K_max's direction
     cos, sin = np.cos(phi), np.abs(np.sin(phi))
     gap = 2.0 * half

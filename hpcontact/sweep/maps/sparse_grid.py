@@ -56,7 +56,7 @@ resumed sweep rebuilds it round by round from its journals.
 First round (``initial_set``): the indices with Σ_d l_d ≤ L₀ (each l_d ≤ its axis' top), L₀
 the level with ``[adaptive] initial`` nodes (5: L₀ = 2).
 
-Failed nodes (``_around_failures``). A solve that failed leaves NaN at its node. Where the
+Failed nodes (``_Failures``). A solve that failed leaves NaN at its node. Where the
 surplus of an index takes it (a nonzero weight: ``reached``), the map at that point x is the
 combination over S_x, S less every index ≥ one that takes it there (downward closed: as if those
 had not been solved), its map error the active surpluses of S_x, so it says what the indices
@@ -66,10 +66,23 @@ opposite it — nothing is left to interpolate from: NaN, which the data set rep
 interpolated (``fill``). A quantity undefined at some nodes (NaN by definition) is treated alike.
 
 Cost of a decision (``combined``): the values and the solves' errors are one ``combination``
-each (the indices sharing their leading levels share one matrix product); the surpluses on the
+each (the indices sharing their last levels share one matrix product); the surpluses on the
 full grid only of the active indices and of those whose maxima ``next_terms`` reads, each
 contracted once where it can be kept (``_Surpluses``), quantities first, none for a principal
 stiffness derived from the tensor; the active parts kept (float32) for the refinement's ranking.
+
+Slabs (``_slab``, issue 40 item 5). A decision is computed in slabs of the grid's first axis
+(``slab_rows``: contiguous ranges of it, every point of the others), as ``spread_slabs`` says:
+the whole grid as one here, one a rank while rank 0 decides (``maps.spread``). Everything at a
+point is a function of the nodes' values (every slab has them: ``SparseJob``) and of what needs
+the whole grid: the surpluses' maxima ``next_terms`` reads and the size ``relative_scale`` falls
+back on, which each slab yields for its points and takes back for the whole (``reduce_slabs``:
+maxima and "any", exact in any order) before it goes on. The refinement's ranking needs no
+parts on rank 0: each slab scores each active index over its points (``scores_slab``), and an
+index's score is the largest of its slabs'. Joined, slabs are bitwise the whole grid: the sums
+at a point run over the indices in index order whatever the slab, and every contraction is
+batched over the slab's rows (``_along``: no BLAS call's dimensions depend on the slab's extent;
+``tests/sweep/maps/test_sparse_grid.py``: slabs of 1, 2, 3 and 7 pieces, with failed nodes).
 On the real 4-D crystal map (25 x 9 x 21 x 31, 232 indices, 104 active; /tmp/s4/map4d.nc of
 2026-11-29), its decisions replayed with BLAS on one thread as in a sweep, old and new in one
 sitting on the 2-core VM (2026-11-29 11:45 and 11:59 UTC, load 2.2-2.6 and 5-7): the rounds'
@@ -83,8 +96,11 @@ from __future__ import annotations
 import functools
 import itertools
 import math
-from collections.abc import Iterator, Mapping, Sequence
-from typing import NamedTuple
+from collections.abc import Callable, Generator, Iterator, Mapping, Sequence
+from contextlib import contextmanager
+from contextvars import ContextVar
+from dataclasses import dataclass
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -101,6 +117,7 @@ from hpcontact.sweep.maps.estimates import (
     node_tasks,
     principal_from_tensor,
     relative_scale,
+    scale_extent,
     solve_errors,
     worked_quantities,
 )
@@ -199,81 +216,109 @@ def _axis_differences(x: tuple[float, ...], top: int) -> list[np.ndarray]:
     return out
 
 
-def _along(matrix: np.ndarray, data: np.ndarray, axis: int) -> np.ndarray:
-    """``matrix`` (n × k) applied along ``axis`` of ``data`` (k long there): a C-contiguous array
-    n long there, each entry Σ_j matrix[i, j] data[…, j, …] (matrix products, no transpose)."""
+#: Every point of the first axis (``rows``: a slab of the grid is a range of it, ``slab_rows``).
+WHOLE = slice(None)
+
+
+def _along(matrix: np.ndarray, data: np.ndarray, axis: int, lead: int) -> np.ndarray:
+    """``matrix`` (n × k) applied along ``axis`` (≥ ``lead``) of ``data`` (k long there): a
+    C-contiguous array n long there, each entry Σ_j matrix[i, j] data[…, j, …]. ``lead`` is the
+    axis of the grid's first (the slab's: ``slab_rows``); the entries along it and the axes before it
+    are batches, so every BLAS call (numpy's matmul: one per batch) has the dimensions, strides
+    and values it has whatever the slab's extent: along ``lead`` (``matrix`` the slab's rows of
+    the whole grid's matrix) one vector-matrix product per output row, elsewhere one matrix
+    product per batch entry. OpenBLAS's products sum an element in an order that depends on the
+    row count (0.3.31, SkylakeX kernels, 2026-11-29: rows of A @ B from a slice of A's rows
+    differed from the whole product's for every one-row slice, and for every slice tried of a
+    31 × 17 by 17 × 675 product); a call of the same dimensions on the same values gives the
+    same, with the same BLAS threads (every rank's alike; ``tests/sweep/maps/test_sparse_grid.py``:
+    slabs against the whole grid)."""
     shape = data.shape
-    before, after = math.prod(shape[:axis]), math.prod(shape[axis + 1 :])
-    flat = np.ascontiguousarray(data).reshape(before, shape[axis], after)
-    if before == 1:
-        out = matrix @ flat[0]
-    elif after == 1:
-        out = flat[..., 0] @ matrix.T
+    k = shape[axis]
+    after = math.prod(shape[axis + 1 :])
+    if axis == lead:
+        flat = np.ascontiguousarray(data).reshape(math.prod(shape[:axis]), 1, k, after)
+        out = np.matmul(matrix[:, None, :], flat)  # (before, n, 1, after): a row a call
     else:
-        out = np.matmul(matrix, flat)
+        batch, middle = math.prod(shape[: lead + 1]), math.prod(shape[lead + 1 : axis])
+        flat = np.ascontiguousarray(data).reshape(batch, middle, k, after)
+        if after == 1:
+            out = np.matmul(flat[..., 0], matrix.T)
+        else:
+            out = np.matmul(matrix, flat.reshape(batch * middle, k, after))
     return out.reshape(*shape[:axis], matrix.shape[0], *shape[axis + 1 :])
 
 
 def _order(matrices: Sequence[np.ndarray]) -> list[int]:
     """The axes in the order they are contracted: those that grow the array least first (twice
     as fast as in order on the 4-D crystal map's 232 indices of 8 quantities, 25 x 9 x 21 x 31,
-    2026-11-29; with the quantities last, before: 20 times with one quantity, 2.3 with 11)."""
+    2026-11-29; with the quantities last, before: 20 times with one quantity, 2.3 with 11).
+    Always of the whole grid's matrices: a slab contracts in the whole grid's order."""
     return sorted(range(len(matrices)), key=lambda a: (matrices[a].shape[0] / matrices[a].shape[1], a))
 
 
-def surplus(matrices: Sequence[np.ndarray], data: np.ndarray) -> np.ndarray:
-    """Δ_l f on the full grid: ``matrices`` (one per axis, ``difference_matrices`` of the index's
-    levels) applied along each axis of ``data`` (the values at the index's grid, quantities
-    first: each one's surplus contiguous). A NaN node (a failed solve) makes NaN every point
-    whose value it enters with a nonzero weight (Σ |w| over its NaN nodes > 0), not the whole
-    lines through it."""
-    missing = np.isnan(data)
-    out = np.where(missing, 0.0, data)
+def _applied(matrices: Sequence[np.ndarray], data: np.ndarray, rows: slice) -> np.ndarray:
+    """``matrices`` (the whole grid's, one per axis) applied along the axes of ``data`` after
+    its first (the quantities), in the whole grid's ``_order``, the first axis' on its ``rows``."""
+    out = data
     for axis in _order(matrices):
-        out = _along(matrices[axis], out, axis + 1)
-    rows = [q for q in range(len(data)) if missing[q].any()]
-    if rows:
-        for row, spread in zip(rows, reached(matrices, missing[rows])):
+        out = _along(matrices[axis][rows] if axis == 0 else matrices[axis], out, axis + 1, 1)
+    return out
+
+
+def surplus(matrices: Sequence[np.ndarray], data: np.ndarray, rows: slice = WHOLE) -> np.ndarray:
+    """Δ_l f on the full grid (``rows``: on those of its first axis): ``matrices`` (one per axis,
+    ``difference_matrices`` of the index's levels) applied along each axis of ``data`` (the
+    values at the index's grid, quantities first: each one's surplus contiguous). A NaN node (a
+    failed solve) makes NaN every point whose value it enters with a nonzero weight (Σ |w| over
+    its NaN nodes > 0), not the whole lines through it."""
+    missing = np.isnan(data)
+    out = _applied(matrices, np.where(missing, 0.0, data), rows)
+    rows_missing = [q for q in range(len(data)) if missing[q].any()]
+    if rows_missing:
+        for row, spread in zip(rows_missing, reached(matrices, missing[rows_missing], rows)):
             np.copyto(out[row], np.nan, where=spread)
     return out
 
 
-def reached(matrices: Sequence[np.ndarray], missing: np.ndarray) -> np.ndarray:
-    """Whether each point of the full grid takes a value from a ``missing`` node of an index's
-    grid (quantities first, as ``surplus``'s data) with a nonzero weight: Σ |w| over them > 0."""
-    spread = missing.astype(np.float64)
-    for axis in _order(matrices):
-        spread = _along(np.abs(matrices[axis]), spread, axis + 1)
-    return spread > 0.0
+def reached(matrices: Sequence[np.ndarray], missing: np.ndarray, rows: slice = WHOLE) -> np.ndarray:
+    """Whether each point of the full grid (``rows``: of its first axis) takes a value from a
+    ``missing`` node of an index's grid (quantities first, as ``surplus``'s data) with a nonzero
+    weight: Σ |w| over them > 0."""
+    return _applied([np.abs(m) for m in matrices], missing.astype(np.float64), rows) > 0.0
 
 
-def combination(matrices: Sequence[Sequence[np.ndarray]], cores: Mapping[Index, np.ndarray]) -> np.ndarray:
-    """Σ_l Δ_l f on the full grid over the indices l of ``cores`` (each the values at its grid,
-    quantities last; no NaN): ``matrices`` per axis and level (``difference_matrices``). The
-    indices sharing their levels along the first axes share the contraction of the rest: the
-    sum over the children c of a prefix p = (l_0 … l_{j−1}) of D_{j,c} applied along axis j is
-    one product of [D_{j,c₁} | D_{j,c₂} | …] with their blocks stacked along that axis, each
-    block the same sum one axis deeper (Σ_l ⊗_d D_{d,l_d} = Σ_{l_0} D_{0,l_0} ⊗ Σ_{l_1} … ): one
-    matrix product per prefix instead of one per index and axis on the full grid. Equal to the
+def combination(
+    matrices: Sequence[Sequence[np.ndarray]], cores: Mapping[Index, np.ndarray], rows: slice = WHOLE
+) -> np.ndarray:
+    """Σ_l Δ_l f on the full grid (``rows``: on those of its first axis) over the indices l of
+    ``cores`` (each the values at its grid, quantities last; no NaN): ``matrices`` per axis and
+    level (``difference_matrices``). The indices sharing their levels along the last axes share
+    the contraction of the rest: the sum over the children c of a suffix p = (l_j … l_{D−1}) of
+    D_{j−1,c} applied along axis j − 1 is one product of [D_{j−1,c₁} | D_{j−1,c₂} | …] with their
+    blocks stacked along that axis, each block the same sum one axis further in (Σ_l ⊗_d D_{d,l_d}
+    = Σ_{l_{D−1}} D_{D−1,l_{D−1}} ⊗ Σ_{l_{D−2}} … ): one matrix product per suffix instead of one
+    per index and axis on the full grid. The first axis (the slab's) is contracted first, on
+    each core, so every product after it is batched over its rows (``_along``). Equal to the
     sum of ``surplus`` over the indices up to the order of the sums (|difference| ≤ 2γ_m Σ_l
     Σ_j |w_lj f_j|, m the terms of the longest sum: Higham, Accuracy and Stability, §3.1)."""
     dims = len(matrices)
     children: dict[Index, list[int]] = {}
     for index in cores:
-        for j in range(dims):
-            children.setdefault(index[:j], [])
-            if index[j] not in children[index[:j]]:
-                children[index[:j]].append(index[j])
+        for j in range(dims, 0, -1):
+            children.setdefault(index[j:], [])
+            if index[j - 1] not in children[index[j:]]:
+                children[index[j:]].append(index[j - 1])
 
-    def summed(prefix: Index) -> np.ndarray:
-        axis = len(prefix)
-        if axis == dims:
-            return cores[prefix]
-        levels = sorted(children[prefix])
-        blocks = [summed((*prefix, level)) for level in levels]
+    def summed(suffix: Index) -> np.ndarray:
+        axis = dims - len(suffix) - 1
+        if axis < 0:
+            return cores[suffix]
+        levels = sorted(children[suffix])
+        blocks = [summed((level, *suffix)) for level in levels]
         stacked = blocks[0] if len(blocks) == 1 else np.concatenate(blocks, axis=axis)
         matrix = np.hstack([matrices[axis][level] for level in levels])
-        return _along(matrix, stacked, axis)
+        return _along(matrix[rows] if axis == 0 else matrix, stacked, axis, 0)
 
     return summed(())
 
@@ -325,31 +370,105 @@ def combined(
     names: Sequence[str],
     fields: Fields,
     safety: float = SAFETY,
-    shares: bool = False,
-) -> tuple[Estimate, dict[Index, np.ndarray], np.ndarray]:
+) -> tuple[Estimate, np.ndarray]:
     """The ``Estimate`` of the sub-problem ``cat`` from the values at the nodes of ``sparse``
     (module docstring: the combination over every index, the map error ``safety`` × the active
     surpluses scaled by ``next_terms``, relative to the quantity's scale, + the combined solve
-    error; its one "axis" the interpolation part); with ``shares`` each active index's part of
-    the interpolation estimate (grid × ``names``, float32; for a derived principal stiffness,
-    the tensor bound of that index's part alone), without an empty dict; and, per point and
-    quantity, whether its map comes from fewer indices because a node it needs failed
-    (``_around_failures``; the refinement leaves those points be: no index brings the failed
-    node back). Inside ``estimates.remembered_estimates``, asked again of the same set,
-    quantities and factor with bitwise the same values at its nodes, the first's (the check's
-    judgement, the refinement and the fill after a round ask alike)."""
+    error; its one "axis" the interpolation part) and, per point and quantity, whether its map
+    comes from fewer indices because a node it needs failed (``_Failures``; the refinement
+    leaves those points be: no index brings the failed node back); computed in slabs of the
+    first axis (``spread_slabs``). Inside ``estimates.remembered_estimates``, asked again of the
+    same set, quantities and factor with bitwise the same values at its nodes, the first's (the
+    check's judgement and the fill after a round ask alike)."""
     remembered = REMEMBERED.get()
     if remembered is None:
-        return _combined(layout, cat, sparse, names, fields, safety, shares)
+        return _combined(layout, cat, sparse, names, fields, safety)
     mask = set_nodes(tuple(len(x) for x in layout.xs), sparse.indices)
     keys = [n for n in fields if n.split("_error")[0] in names or n in TENSOR]
     data = [np.ascontiguousarray(layout.take(fields[n], cat)[mask]) for n in sorted(keys)]
-    key = ("sparse", tuple(cat), sparse, tuple(names), safety, shares)
+    key = ("sparse", tuple(cat), sparse, tuple(names), safety)
     if key in remembered and _same_arrays(remembered[key][0], data):
         return remembered[key][1]
-    result = _combined(layout, cat, sparse, names, fields, safety, shares)
+    result = _combined(layout, cat, sparse, names, fields, safety)
     remembered[key] = (data, result)
     return result
+
+
+@dataclass(frozen=True)
+class SparseJob:
+    """What a slab of a sub-problem's decision needs (``_slab``), small enough to send to
+    another rank: the coordinates per numeric axis (``xs``), the set, the quantities ``work``
+    (the first ``kept`` reported; the rest the tensor a principal stiffness derives from,
+    ``derive``), the estimate's factor, the set's nodes (``mask``, the whole grid) and there the
+    values and the solves' relative errors (``data``, ``solve_data``: quantities last), the
+    quantities left out of the estimate (``lost``: their NaN nodes reach every point through
+    the first index, a function of the whole grid) and, for the refinement's ranking, the
+    tolerances of the kept quantities (``tol``; None: the estimate itself)."""
+
+    xs: tuple[np.ndarray, ...]
+    sparse: SparseSet
+    work: tuple[str, ...]
+    kept: int
+    derive: bool
+    safety: float
+    mask: np.ndarray
+    data: np.ndarray
+    solve_data: np.ndarray
+    lost: frozenset[int]
+    tol: np.ndarray | None = None
+
+    @property
+    def rows(self) -> int:
+        """The points of the first axis: what the slabs share out."""
+        return len(self.xs[0])
+
+
+def _job(
+    layout: Layout,
+    cat: Sequence[int],
+    sparse: SparseSet,
+    names: Sequence[str],
+    fields: Fields,
+    safety: float,
+    tol: np.ndarray | None = None,
+) -> SparseJob:
+    """The ``SparseJob`` of the sub-problem ``cat`` (``combined``'s arguments)."""
+    shape = tuple(len(x) for x in layout.xs)
+    matrices = difference_matrices(layout.xs, tops(shape))
+    mask = set_nodes(shape, sparse.indices)
+    work, derive = worked_quantities(layout, cat, mask, names, fields)
+    data = np.stack([layout.take(fields[n], cat)[mask] for n in work], axis=-1)
+    solve_data = solve_errors(layout, fields, work, cat)[mask]
+    grid = _grid(shape, mask, data)
+    root = sparse.indices[0]
+    lost = {
+        int(q)
+        for q in np.flatnonzero(np.isnan(data).any(axis=0))
+        if reached(
+            [matrices[d][level] for d, level in enumerate(root)],
+            np.isnan(grid[np.ix_(*index_nodes(shape, root))][..., q])[None],
+        ).all()
+    }
+    return SparseJob(
+        tuple(np.asarray(x) for x in layout.xs),
+        sparse,
+        tuple(work),
+        len(names),
+        derive,
+        safety,
+        mask,
+        data,
+        solve_data,
+        frozenset(lost),
+        tol,
+    )
+
+
+def _grid(shape: tuple[int, ...], mask: np.ndarray, data: np.ndarray, fill: float = np.nan) -> np.ndarray:
+    """The whole grid of ``shape`` (quantities last): ``data`` at the points of ``mask``, ``fill`` elsewhere."""
+    out = np.full((*shape, data.shape[-1]), fill)
+    out[mask] = data
+    return out
 
 
 def _combined(
@@ -359,53 +478,144 @@ def _combined(
     names: Sequence[str],
     fields: Fields,
     safety: float,
-    shares: bool,
-) -> tuple[Estimate, dict[Index, np.ndarray], np.ndarray]:
-    """``combined`` computed: the values and the solve errors as one ``combination`` each, each
-    surplus on the full grid only where the estimate reads it (``_Surpluses``), and, where a
-    quantity has NaN nodes, the points they reach from ``_around_failures``."""
-    shape = tuple(len(x) for x in layout.xs)
+) -> tuple[Estimate, np.ndarray]:
+    """``combined`` computed, its slabs as ``spread_slabs`` says, joined along the first axis."""
+    results = _SLAB_MAP.get()(estimate_slab, _job(layout, cat, sparse, names, fields, safety))
+    slabs = [est for est, _ in results]
+
+    def joined(name: str) -> np.ndarray:
+        return np.concatenate([getattr(est, name) for est in slabs])
+
+    est = Estimate(
+        joined("values"),
+        [np.concatenate([e.axes[0] for e in slabs])],
+        joined("solve"),
+        joined("scale"),
+        joined("owner"),
+    )
+    return est, np.concatenate([held for _, held in results])
+
+
+class _Reduced(NamedTuple):
+    """What a slab needs of the whole grid (``_slab``), each exact to combine over slabs in any
+    order (``reduce_slabs``): per index the surpluses' maxima over the grid (what ``next_terms``
+    reads; NaN points left out), and per quantity the largest size ``relative_scale`` falls back
+    on, of the values before and after the principal stiffnesses derive (``scale_extent``)."""
+
+    largest: dict[Index, np.ndarray]
+    before: tuple[np.ndarray, np.ndarray]
+    after: tuple[np.ndarray, np.ndarray]
+
+
+def reduce_slabs(parts: Sequence[_Reduced]) -> _Reduced:
+    """The whole grid's ``_Reduced`` from its slabs': maxima (``np.fmax``: NaN where every slab
+    has NaN) and "any finite" (or): exact, whatever the order."""
+
+    def extent(pairs: Sequence[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:
+        return np.fmax.reduce([p[0] for p in pairs]), np.logical_or.reduce([p[1] for p in pairs])
+
+    return _Reduced(
+        {k: np.fmax.reduce([p.largest[k] for p in parts]) for k in parts[0].largest},
+        extent([p.before for p in parts]),
+        extent([p.after for p in parts]),
+    )
+
+
+class _Recorded(Mapping[Index, np.ndarray]):
+    """The indices whose maxima ``next_terms`` reads (structure alone: it reads the same
+    whatever the values), each answered with a placeholder."""
+
+    def __init__(self) -> None:
+        self.read: set[Index] = set()
+
+    def __getitem__(self, index: Index) -> np.ndarray:
+        self.read.add(index)
+        return np.ones(1)
+
+    def __iter__(self) -> Iterator[Index]:
+        return iter(self.read)
+
+    def __len__(self) -> int:
+        return len(self.read)
+
+
+Slab = Generator[_Reduced, _Reduced, Any]
+
+
+def _slab(job: SparseJob, rows: slice, shares: bool) -> Slab:
+    """One slab of ``combined`` (the points ``rows`` of the first axis, every point of the
+    others): the values and the solve errors as one ``combination`` each, each surplus only
+    where the estimate reads it (``_Surpluses``), and, where a quantity has NaN nodes, the
+    points they reach from ``_Failures``; yields its part of what needs the whole grid
+    (``_Reduced``) and goes on with the whole grid's. Returns the slab's ``Estimate``, the parts
+    (``shares``: each active index's part of the interpolation estimate, float32; else empty)
+    and where a failed node takes part (``combined``). Every number at a point is computed as
+    the whole grid computes it (``_along``; sums over the indices in index order at each
+    point), so any slabs joined are bitwise the whole grid's."""
+    shape = tuple(len(x) for x in job.xs)
     top = tops(shape)
-    matrices = difference_matrices(layout.xs, top)
-    work, derive = worked_quantities(layout, cat, set_nodes(shape, sparse.indices), names, fields)
-    kept = len(names)
-    grid = np.stack([layout.take(fields[n], cat) for n in work], axis=-1)
+    matrices = difference_matrices(job.xs, top)
+    work, sparse, kept, derive = list(job.work), job.sparse, job.kept, job.derive
+    width = len(work)
+    grid = _grid(shape, job.mask, job.data)
+    errors = _grid(shape, job.mask, job.solve_data, 0.0)
     cores = {index: grid[np.ix_(*index_nodes(shape, index))] for index in sparse.indices}
-    values = combination(matrices, {index: np.nan_to_num(core, nan=0.0) for index, core in cores.items()})
-    errors = solve_errors(layout, fields, work, cat)
+    values = combination(matrices, {index: np.nan_to_num(core, nan=0.0) for index, core in cores.items()}, rows)
     error_cores = {index: errors[np.ix_(*index_nodes(shape, index))] for index in cores}
-    solve = np.abs(combination(matrices, error_cores))
-    nodes = grid[set_nodes(shape, sparse.indices)]
+    solve = np.abs(combination(matrices, error_cores, rows))
+    slab_shape = values.shape[:-1]
     groups: dict[bytes, list[int]] = {}  # the quantities NaN at the same nodes (a failed solve: all)
-    for q in np.flatnonzero(np.isnan(nodes).any(axis=0)):
-        groups.setdefault(np.packbits(np.isnan(nodes[:, q])).tobytes(), []).append(int(q))
+    for q in np.flatnonzero(np.isnan(job.data).any(axis=0)):
+        groups.setdefault(np.packbits(np.isnan(job.data[:, q])).tobytes(), []).append(int(q))
     # no surpluses of a principal stiffness derived from the tensor (its value and estimate are
     # replaced below: principal_from_tensor), nor of a quantity whose NaN nodes reach every point
-    # through the first index (no map anywhere: _around_failures; normalized_* of a crystal)
+    # through the first index (no map anywhere: _Failures; normalized_* of a crystal)
     derived = {q for q, name in enumerate(work) if derive and name in PRINCIPAL}
-    root = sparse.indices[0]
-    lost = {
-        q
-        for columns in groups.values()
-        if reached(
-            [matrices[d][level] for d, level in enumerate(root)], np.isnan(cores[root][..., columns[0]])[None]
-        ).all()
-        for q in columns
-    }
-    own = [q for q in range(len(work)) if q not in derived and q not in lost]
+    own = [q for q in range(width) if q not in derived and q not in job.lost]
     surpluses = _Surpluses(
         matrices,
         {index: np.moveaxis(core[..., own], -1, 0) for index, core in cores.items()},
-        len(work),
+        width,
         own,
         set(sparse.active),
+        rows,
     )
-    summed = np.zeros((len(own), *shape))  # Σ ρ_l |Δ_l| over the active indices, quantities first
     members = set(sparse.indices)
+    failures = []
+    held = np.zeros(values.shape, dtype=bool)
+    for columns in groups.values():
+        found = _Failures(
+            matrices,
+            sparse,
+            {index: np.moveaxis(core[..., columns], -1, 0) for index, core in cores.items()},
+            {index: np.moveaxis(core[..., columns], -1, 0) for index, core in error_cores.items()},
+            rows,
+        )
+        for j, c in enumerate(columns):
+            values[..., c] = np.where(found.touched, found.value[j], values[..., c])
+            solve[..., c] = np.where(found.touched, found.error[j], solve[..., c])
+            held[..., c] = found.touched
+        estimated = [(j, c) for j, c in enumerate(columns) if c not in derived]
+        failures.append((found, estimated))
+    read = _Recorded()
+    for index in sparse.active:
+        next_terms(index, members, read, top)
+    wanted = members if any(columns for _, columns in failures) else read.read  # _Failures: any subset's
+    for index in sorted(wanted):
+        surpluses[index]
+    principal = values.copy()
+    if derive:
+        principal_from_tensor(principal, [], work)
+    whole = yield _Reduced(
+        {index: surpluses.largest[index] for index in sorted(wanted)},
+        scale_extent(work, values),
+        scale_extent(work, principal),
+    )
+    summed = np.zeros((len(own), *slab_shape))  # Σ ρ_l |Δ_l| over the active indices, quantities first
     parts: dict[Index, np.ndarray] = {}
     for index in sparse.active:
         size = surpluses.size(index)
-        rho = next_terms(index, members, surpluses, top)[own].reshape(-1, *(1 for _ in shape))
+        rho = next_terms(index, members, whole.largest, top)[own].reshape(-1, *(1 for _ in shape))
         if shares:  # the refinement's ranking keeps the parts: |Δ_l| in float32, as before
             weighted = rho * size.astype(np.float32)
             parts[index] = weighted
@@ -414,111 +624,199 @@ def _combined(
         summed += weighted
     absolute = np.zeros_like(values)
     absolute[..., own] = np.moveaxis(summed, 0, -1)
-    held = np.zeros(values.shape, dtype=bool)
-    for columns in groups.values():
-        estimated = [(j, c) for j, c in enumerate(columns) if c not in derived]
-        touched, value, error, interpolation_sum = _around_failures(
-            matrices,
-            sparse,
-            {index: np.moveaxis(core[..., columns], -1, 0) for index, core in cores.items()},
-            {index: np.moveaxis(core[..., columns], -1, 0) for index, core in error_cores.items()},
-            estimated,
-            surpluses,
-        )
-        for j, c in enumerate(columns):
-            values[..., c] = np.where(touched, value[j], values[..., c])
-            solve[..., c] = np.where(touched, error[j], solve[..., c])
-            held[..., c] = touched
+    for found, estimated in failures:
+        interpolation_sum = found.summed(estimated, whole.largest, top)
         for k, (_, c) in enumerate(estimated):
-            absolute[..., c] = np.where(touched, interpolation_sum[k], absolute[..., c])
-    scale = relative_scale(work, values)
-    interpolation = safety * absolute / scale
+            absolute[..., c] = np.where(found.touched, interpolation_sum[k], absolute[..., c])
+    scale = relative_scale(work, values, whole.before)
+    interpolation = job.safety * absolute / scale
     keep = slice(0, kept)
     for index, part in parts.items():
-        if len(own) == len(work):  # every quantity
-            parts[index] = (safety * np.moveaxis(part[:kept], 0, -1) / scale[..., keep]).astype(np.float32)
+        if len(own) == width:  # every quantity
+            parts[index] = (job.safety * np.moveaxis(part[:kept], 0, -1) / scale[..., keep]).astype(np.float32)
             continue
         share = np.zeros_like(values)
         share[..., own] = np.moveaxis(part, 0, -1)
-        share = safety * share / scale
+        share = job.safety * share / scale
         if derive:
-            principal_from_tensor(values.copy(), [share], work)
+            principal_from_tensor(values.copy(), [share], work, whole.before)
         parts[index] = share[..., :kept].astype(np.float32)
     if derive:
-        principal_from_tensor(values, [interpolation], work)
-        scale = relative_scale(work, values)
+        principal_from_tensor(values, [interpolation], work, whole.before)
+        scale = relative_scale(work, values, whole.after)
         tensor_held = held[..., [work.index(n) for n in TENSOR]].any(axis=-1)
         for q in (q for q, name in enumerate(work) if name in PRINCIPAL):
             held[..., q] = tensor_held
     est = Estimate(
-        values[..., keep], [interpolation[..., keep]], solve[..., keep], scale[..., keep], np.zeros(shape, np.intp)
+        values[..., keep],
+        [interpolation[..., keep]],
+        solve[..., keep],
+        scale[..., keep],
+        np.zeros(slab_shape, np.intp),
     )
     return est, parts, held[..., keep]
 
 
-def _around_failures(
-    matrices: Sequence[Sequence[np.ndarray]],
-    sparse: SparseSet,
-    cores: Mapping[Index, np.ndarray],
-    errors: Mapping[Index, np.ndarray],
-    estimated: Sequence[tuple[int, int]],
-    largest: Mapping[Index, np.ndarray],
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def estimate_slab(job: SparseJob, rows: slice) -> Slab:
+    """A slab's ``Estimate`` and where a failed node takes part (``_slab`` without the parts)."""
+    est, _, held = yield from _slab(job, rows, shares=False)
+    return est, held
+
+
+def scores_slab(job: SparseJob, rows: slice) -> Slab:
+    """Per active index, the largest excess over the tolerance (``job.tol``) of the slab's
+    points and quantities it is needed at (``estimates.needed_axes`` of the indices' parts, at
+    the points over their tolerance but where a failed node takes part): the whole grid's
+    score of an index is the largest of its slabs' (``refine``)."""
+    est, parts, held = yield from _slab(job, rows, shares=True)
+    tol = job.tol
+    with np.errstate(invalid="ignore"):
+        error = est.map_error
+        over = (np.nan_to_num(error, nan=0.0) > tol) & ~held  # a failed node's surroundings: no index helps
+        points = over.any(axis=-1)
+    if not points.any() or not parts:
+        return {}
+    keys = sorted(parts)
+    where = np.flatnonzero(points)
+    stacked = np.stack([parts[k].reshape(-1, len(tol))[where] for k in keys])  # (indices, points, quantities)
+    budget = np.maximum(tol - est.solve[points], tol / 4.0)
+    excess = np.where(over[points], error[points] / tol, 0.0)
+    need = needed_axes(list(stacked), budget)
+    return {index: float(np.where(needed, excess, 0.0).max()) for index, needed in zip(keys, need)}
+
+
+def slab_rows(rows: int, pieces: int) -> list[slice]:
+    """``rows`` split into ``pieces`` contiguous slabs (at most one a row), the first ones a row
+    longer where they do not divide."""
+    count = max(1, min(pieces, rows))
+    edges = [i * (rows // count) + min(i, rows % count) for i in range(count + 1)]
+    return [slice(a, b) for a, b in zip(edges[:-1], edges[1:])]
+
+
+def stepped(slabs: Sequence[Slab]) -> list[Any]:
+    """Run ``slabs`` (``estimate_slab``/``scores_slab`` generators of one job) in step: each
+    time every one has yielded its part, it is sent the whole (``reduce_slabs``); their results in
+    order."""
+    message = None
+    while True:
+        yielded, results = [], []
+        for slab in slabs:
+            try:
+                yielded.append(slab.send(message))
+            except StopIteration as stop:
+                results.append(stop.value)
+        if len(results) == len(slabs):
+            return results
+        if results:
+            raise RuntimeError("the slabs of one job ended at different steps")
+        message = reduce_slabs(yielded)
+
+
+SlabMap = Callable[[Callable[[SparseJob, slice], Slab], SparseJob], list[Any]]
+
+
+def _serial(function: Callable[[SparseJob, slice], Slab], job: SparseJob) -> list[Any]:
+    """The whole grid as one slab, here."""
+    return stepped([function(job, WHOLE)])
+
+
+#: How ``combined`` and ``refine`` compute their slabs (``spread_slabs``: over the ranks of a team).
+_SLAB_MAP: ContextVar[SlabMap] = ContextVar("slab_map", default=_serial)
+
+
+@contextmanager
+def spread_slabs(slab_map: SlabMap) -> Iterator[None]:
+    """Every decision inside computes its slabs with ``slab_map`` (a slab function and its job
+    → the slabs' results in order; ``maps.spread.LeafPool.slabs`` shares them out over the
+    ranks), not the whole grid here."""
+    token = _SLAB_MAP.set(slab_map)
+    try:
+        yield
+    finally:
+        _SLAB_MAP.reset(token)
+
+
+class _Failures:
     """Quantities NaN at the same nodes (a failed solve; ``cores``: each index's values at its
-    grid, quantities first; ``errors``: their solve errors alike) where a NaN node reaches
-    (``reached``) a point x through the surplus of an index: the map there is the combination
-    over S_x, the set less every index ≥ one whose surplus takes a NaN node at x (downward closed:
-    the largest such subset), as if those indices had not been solved — a finer index needs the
-    coarser ones' values to be a surplus at all. Returns whether each point is such a point, and
-    there the values and |solve errors| combined over S_x and, for the quantities ``estimated``
-    ((position here, column of ``largest``)), Σ ρ_l |Δ_l f| over the active indices of S_x
-    (``next_terms`` within S_x: an index whose finer neighbour is left out estimates what that
-    one would add); NaN where S_x is empty (the first index takes a NaN node: nothing to
-    interpolate from)."""
-    shape = tuple(per_axis[0].shape[0] for per_axis in matrices)
-    top = tuple(len(per_axis) - 1 for per_axis in matrices)
-    count = len(next(iter(cores.values())))
-    value, error = np.full((count, *shape), np.nan), np.full((count, *shape), np.nan)
-    summed = np.full((len(estimated), *shape), np.nan)
+    grid, quantities first; ``errors``: their solve errors alike) on the points ``rows`` of the
+    first axis: where a NaN node reaches (``reached``) a point x through the surplus of an index,
+    the map there is the combination over S_x, the set less every index ≥ one whose surplus
+    takes a NaN node at x (downward closed: the largest such subset), as if those indices had
+    not been solved — a finer index needs the coarser ones' values to be a surplus at all.
+    ``touched``: whether each point is such a point; there ``value`` and ``error`` the values
+    and |solve errors| combined over S_x, NaN where S_x is empty (the first index takes a NaN
+    node: nothing to interpolate from); ``summed`` the estimate there."""
 
-    def along(index: Index) -> list[np.ndarray]:
-        return [matrices[d][level] for d, level in enumerate(index)]
-
-    failing = [index for index in sparse.indices if np.isnan(cores[index][0]).any()]
-    root = sparse.indices[0]  # (0, …, 0): below every index
-    dead = reached(along(root), np.isnan(cores[root][:1]))[0] if root in failing else np.zeros(shape, dtype=bool)
-    reach = {} if dead.all() else {i: reached(along(i), np.isnan(cores[i][:1]))[0] for i in failing if i != root}
-    touched = np.logical_or.reduce([dead, *reach.values()])
-    live = np.flatnonzero(touched & ~dead)
-    if not len(live):
-        return touched, value, error, summed
-    keys = list(reach)
-    patterns, inverse = np.unique(np.stack([reach[i].ravel()[live] for i in keys], axis=1), axis=0, return_inverse=True)
-    evaluated: dict[Index, tuple[np.ndarray, np.ndarray]] = {}
-
-    def at(index: Index) -> tuple[np.ndarray, np.ndarray]:  # Δ_l f and Δ_l e at the live points
-        if index not in evaluated:
-            evaluated[index] = (
-                surplus(along(index), cores[index]).reshape(count, -1)[:, live],
-                surplus(along(index), errors[index]).reshape(count, -1)[:, live],
+    def __init__(
+        self,
+        matrices: Sequence[Sequence[np.ndarray]],
+        sparse: SparseSet,
+        cores: Mapping[Index, np.ndarray],
+        errors: Mapping[Index, np.ndarray],
+        rows: slice,
+    ) -> None:
+        self.matrices, self.sparse, self.cores, self.errors, self.rows = matrices, sparse, cores, errors, rows
+        shape = (len(matrices[0][0][rows]), *(per_axis[0].shape[0] for per_axis in matrices[1:]))
+        self.count = count = len(next(iter(cores.values())))
+        self.value, self.error = np.full((count, *shape), np.nan), np.full((count, *shape), np.nan)
+        self.shape = shape
+        failing = [index for index in sparse.indices if np.isnan(cores[index][0]).any()]
+        root = sparse.indices[0]  # (0, …, 0): below every index
+        dead = self._reached(root) if root in failing else np.zeros(shape, dtype=bool)
+        reach = {} if dead.all() else {i: self._reached(i) for i in failing if i != root}
+        self.touched = np.logical_or.reduce([dead, *reach.values()])
+        self.live = live = np.flatnonzero(self.touched & ~dead)
+        self.evaluated: dict[Index, tuple[np.ndarray, np.ndarray]] = {}
+        self.kept: list[tuple[set[Index], np.ndarray]] = []  # per pattern: S_x and its points among live
+        if not len(live):
+            return
+        keys = list(reach)
+        patterns, inverse = np.unique(
+            np.stack([reach[i].ravel()[live] for i in keys], axis=1), axis=0, return_inverse=True
+        )
+        for p, pattern in enumerate(patterns):
+            bad = [index for index, hit in zip(keys, pattern) if hit]
+            kept = {m for m in sparse.indices if not any(all(a >= b for a, b in zip(m, i)) for i in bad)}
+            here = np.flatnonzero(inverse.ravel() == p)
+            points = live[here]
+            self.value.reshape(count, -1)[:, points] = sum(self._at(index)[0][:, here] for index in sorted(kept))
+            self.error.reshape(count, -1)[:, points] = np.abs(
+                sum(self._at(index)[1][:, here] for index in sorted(kept))
             )
-        return evaluated[index]
+            self.kept.append((kept, here))
 
-    for p, pattern in enumerate(patterns):
-        bad = [index for index, hit in zip(keys, pattern) if hit]
-        kept = {m for m in sparse.indices if not any(all(a >= b for a, b in zip(m, i)) for i in bad)}
-        here = np.flatnonzero(inverse.ravel() == p)
-        points = live[here]
-        value.reshape(count, -1)[:, points] = sum(at(index)[0][:, here] for index in sorted(kept))
-        error.reshape(count, -1)[:, points] = np.abs(sum(at(index)[1][:, here] for index in sorted(kept)))
-        if estimated:
-            positions, columns = zip(*estimated)
+    def _along(self, index: Index) -> list[np.ndarray]:
+        return [self.matrices[d][level] for d, level in enumerate(index)]
+
+    def _reached(self, index: Index) -> np.ndarray:
+        return reached(self._along(index), np.isnan(self.cores[index][:1]), self.rows)[0]
+
+    def _at(self, index: Index) -> tuple[np.ndarray, np.ndarray]:
+        """Δ_l f and Δ_l e at the live points."""
+        if index not in self.evaluated:
+            self.evaluated[index] = (
+                surplus(self._along(index), self.cores[index], self.rows).reshape(self.count, -1)[:, self.live],
+                surplus(self._along(index), self.errors[index], self.rows).reshape(self.count, -1)[:, self.live],
+            )
+        return self.evaluated[index]
+
+    def summed(
+        self, estimated: Sequence[tuple[int, int]], largest: Mapping[Index, np.ndarray], top: Sequence[int]
+    ) -> np.ndarray:
+        """For the quantities ``estimated`` ((position here, column of ``largest``, the whole
+        grid's maxima)), Σ ρ_l |Δ_l f| over the active indices of S_x (``next_terms`` within
+        S_x: an index whose finer neighbour is left out estimates what that one would add)."""
+        out = np.full((len(estimated), *self.shape), np.nan)
+        if not estimated:
+            return out
+        positions, columns = (list(c) for c in zip(*estimated))
+        for kept, here in self.kept:
             total = np.zeros((len(estimated), len(here)))
             for index in split_set(kept, top).active:
-                rho = next_terms(index, kept, largest, top)[list(columns)]
-                total += rho[:, None] * np.abs(at(index)[0][list(positions)][:, here])
-            summed.reshape(len(estimated), -1)[:, points] = total
-    return touched, value, error, summed
+                rho = next_terms(index, kept, largest, top)[columns]
+                total += rho[:, None] * np.abs(self._at(index)[0][positions][:, here])
+            out.reshape(len(estimated), -1)[:, self.live[here]] = total
+        return out
 
 
 #: Bytes of surpluses ``_Surpluses`` keeps for the index that will ask for them (beyond, it
@@ -526,12 +824,13 @@ def _around_failures(
 KEPT_BYTES = 2**27
 
 
-class _Surpluses(Mapping[Index, np.ndarray]):
+class _Surpluses:
     """The surpluses of a set's indices (``cores``: the values at each one's grid, of the
-    quantities ``own`` of ``width``), each evaluated on the full grid (``surplus``) when first
-    asked for: ``size(l)``, |Δ_l f|; as a mapping (what ``next_terms`` reads), max over the grid
-    of |Δ_l f| per quantity (0 for the others; NaN points left out). Quantities first. A surplus evaluated for its maximum before
-    ``size`` asks for it (an index of ``wanted``) is kept for that (up to ``KEPT_BYTES``)."""
+    quantities ``own`` of ``width``), each evaluated on the points ``rows`` of the first axis
+    (``surplus``) when first asked for: ``size(l)``, |Δ_l f|; ``[l]`` evaluates it for
+    ``largest[l]``, its maximum per quantity (0 for the others; NaN points left out). Quantities
+    first. A surplus evaluated for its maximum before ``size`` asks for it (an index of
+    ``wanted``) is kept for that (up to ``KEPT_BYTES``)."""
 
     def __init__(
         self,
@@ -540,13 +839,15 @@ class _Surpluses(Mapping[Index, np.ndarray]):
         width: int,
         own: Sequence[int],
         wanted: set[Index],
+        rows: slice,
     ) -> None:
         self.matrices, self.cores, self.width, self.own, self.wanted = matrices, cores, width, list(own), wanted
+        self.rows = rows
         self.largest: dict[Index, np.ndarray] = {}
         self.kept: dict[Index, np.ndarray] = {}
 
     def _evaluated(self, index: Index) -> np.ndarray:
-        size = surplus([self.matrices[d][level] for d, level in enumerate(index)], self.cores[index])
+        size = surplus([self.matrices[d][level] for d, level in enumerate(index)], self.cores[index], self.rows)
         np.abs(size, out=size)
         largest = np.zeros(self.width)
         largest[self.own] = np.fmax.reduce(size.reshape(len(self.own), -1), axis=1, initial=0.0)  # NaN: a failed node
@@ -554,7 +855,7 @@ class _Surpluses(Mapping[Index, np.ndarray]):
         return size
 
     def size(self, index: Index) -> np.ndarray:
-        """|Δ_l f| on the full grid (the quantities ``own`` first), yours to change."""
+        """|Δ_l f| on the slab (the quantities ``own`` first), yours to change."""
         return self.kept.pop(index) if index in self.kept else self._evaluated(index)
 
     def __getitem__(self, index: Index) -> np.ndarray:
@@ -563,12 +864,6 @@ class _Surpluses(Mapping[Index, np.ndarray]):
             if index in self.wanted and size.nbytes + sum(k.nbytes for k in self.kept.values()) <= KEPT_BYTES:
                 self.kept[index] = size
         return self.largest[index]
-
-    def __iter__(self) -> Iterator[Index]:
-        return iter(self.cores)
-
-    def __len__(self) -> int:
-        return len(self.cores)
 
 
 def next_terms(
@@ -627,30 +922,19 @@ def refine(
     checks: Checks,
 ) -> tuple | None:
     """The next round's state (module docstring: refinement), or None when no point is over its
-    tolerance (or no index fits ``max_solves``). Deterministic: every rank given the same values
-    decides the same."""
+    tolerance (or no index fits ``max_solves``). Each index's score is the largest of its slabs'
+    (``scores_slab``, computed as ``spread_slabs`` says). Deterministic: every rank given the
+    same values decides the same."""
     shape = tuple(len(x) for x in layout.xs)
     top = tops(shape)
     tol = np.array([settings.tolerance(n) for n in names])
     candidates = []  # (score, sub-problem, index)
     for s, (cat, sparse) in enumerate(state):
-        est, parts, held = combined(layout, cat, sparse, names, fields, checks.factor(s), shares=True)
-        with np.errstate(invalid="ignore"):
-            error = est.map_error
-            over = (np.nan_to_num(error, nan=0.0) > tol) & ~held  # a failed node's surroundings: no index helps
-            points = over.any(axis=-1)
-        if not points.any() or not parts:
-            continue
-        keys = sorted(parts)
-        where = np.flatnonzero(points)
-        stacked = np.stack([parts[k].reshape(-1, len(names))[where] for k in keys])  # (indices, points, quantities)
-        budget = np.maximum(tol - est.solve[points], tol / 4.0)
-        excess = np.where(over[points], error[points] / tol, 0.0)
-        need = needed_axes(list(stacked), budget)
-        for index, needed in zip(keys, need):
-            score = float(np.where(needed, excess, 0.0).max())
-            if score > 1.0:
-                candidates.append((score, s, index))
+        scores: dict[Index, float] = {}
+        for slab in _SLAB_MAP.get()(scores_slab, _job(layout, cat, sparse, names, fields, checks.factor(s), tol)):
+            for index, score in slab.items():
+                scores[index] = max(scores.get(index, score), score)
+        candidates += [(score, s, index) for index, score in scores.items() if score > 1.0]
     if not candidates:
         return None
     flat = np.arange(math.prod(layout.shape)).reshape(layout.shape)

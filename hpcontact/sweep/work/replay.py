@@ -40,7 +40,9 @@ per-leaf estimate split over the ranks) costs its seconds / R. The estimates ran
 over the ranks while it decides (``leaf_calls``, ``maps.spread``) cost each the seconds of the
 rank with the most (its leaves' parts, as ``assign`` gives them to R ranks: a leaf is
 not split, so never less than the largest) plus the call's own overhead (jobs sent, parts
-gathered and merged). Makespan = setup + Σ rounds (their makespan + ``between_s`` + the shared
+gathered and merged); the sparse grid's decisions shared out by slabs of the grid's first axis
+(``SlabCall``) the seconds of the largest of min(R, rows) slabs, each its fixed part plus its
+rows at the measured seconds a row, plus the overhead. Makespan = setup + Σ rounds (their makespan + ``between_s`` + the shared
 estimates + ``spread_between_s`` / R); efficiency = Σ task seconds / (R × makespan).
 
 """
@@ -196,6 +198,38 @@ class LeafCall:
     overhead_s: float
 
 
+@dataclass(frozen=True)
+class SlabCall:
+    """One sparse-grid decision rank 0 shared out by slabs (``maps.spread.LeafPool.slabs``):
+    each slab's rows of the grid's first axis and the CPU seconds it took, rank 0's own seconds
+    beyond its slab (sending the job, combining what the slabs yield, unpickling their results)
+    and the seconds of a slab that do not shrink with its rows (``fixed_s``: its grid of the
+    nodes' values, the contractions before the first axis', the bookkeeping per index)."""
+
+    rows: tuple[int, ...]
+    seconds: tuple[float, ...]
+    overhead_s: float
+    fixed_s: float = 0.0
+
+
+def slab_call_seconds(call: SlabCall, ranks: int) -> float:
+    """The seconds ``call`` takes on ``ranks`` ranks: one slab a rank, at most one a row
+    (``sparse_grid.slab_rows``), each ``call.fixed_s`` plus its rows at the measured seconds a
+    row beyond that ((Σ seconds − slabs × fixed_s) / Σ rows): the largest slab's, plus
+    ``call.overhead_s``."""
+    rows = sum(call.rows)
+    if not rows:
+        return call.overhead_s
+    largest = -(-rows // max(1, min(ranks, rows)))
+    rate = max(sum(call.seconds) - len(call.rows) * call.fixed_s, 0.0) / rows
+    return call.fixed_s + rate * largest + call.overhead_s
+
+
+def call_seconds(call: LeafCall | SlabCall, ranks: int) -> float:
+    """``leaf_call_seconds`` or ``slab_call_seconds``, by the kind of ``call``."""
+    return leaf_call_seconds(call, ranks) if isinstance(call, LeafCall) else slab_call_seconds(call, ranks)
+
+
 def assign(points: Sequence[int], ranks: int) -> list[list[int]]:
     """The jobs (positions in ``points``, each a leaf's box points) each of ``ranks`` ranks
     computes (``hpcontact.sweep.maps.spread``: each job a leaf's part of the map-error estimate): the largest first (ties: the earlier) to the rank with the
@@ -223,7 +257,7 @@ def replay_rounds(
     tasks: int,
     overheads: Overheads = DEFAULT_OVERHEADS,
     spread_between_s: Sequence[float] | None = None,
-    leaf_calls: Sequence[Sequence[LeafCall]] | None = None,
+    leaf_calls: Sequence[Sequence[LeafCall | SlabCall]] | None = None,
 ) -> dict[str, float]:
     """Discrete-event model of an adaptive map's synchronized rounds (module docstring): each
     round's tasks (``tasks.chunk_order`` of them and their one-core seconds in task order) run
@@ -239,7 +273,7 @@ def replay_rounds(
     ``leaf_calls`` (None: none), per round, the estimates rank 0 shares out over the ranks after
     it (``maps.spread``): each ``LeafCall``'s parts go to the ranks as ``assign`` gives
     them for ``ranks``, and the call takes the largest rank's seconds plus its ``overhead_s``
-    (``leaf_call_seconds``), every other rank waiting."""
+    (``leaf_call_seconds``; a ``SlabCall``: ``slab_call_seconds``), every other rank waiting."""
     if ranks < 1:
         raise InputError("ranks", "an integer >= 1", ranks)
     if len(between_s) != len(rounds):
@@ -250,7 +284,7 @@ def replay_rounds(
     calls = [[] for _ in rounds] if leaf_calls is None else [list(c) for c in leaf_calls]
     if len(calls) != len(rounds):
         raise InputError("leaf_calls", f"one list per round ({len(rounds)})", len(calls))
-    between_s = [b + sum(leaf_call_seconds(c, ranks) for c in round_calls) for b, round_calls in zip(between_s, calls)]
+    between_s = [b + sum(call_seconds(c, ranks) for c in round_calls) for b, round_calls in zip(between_s, calls)]
     within = Overheads(
         driver_s=overheads.driver_s,
         service_s=overheads.service_s,

@@ -253,3 +253,56 @@ def test_the_summed_combination_is_the_sum_of_the_surpluses_within_round_off():
     assert np.all(np.abs(summed - separate) <= 2 * m * unit / (1 - m * unit) * bound_terms)
     nodes = sparse_grid.set_nodes(shape, indices)
     assert np.all(np.abs(summed[nodes] - values[nodes]) <= m * unit / (1 - m * unit) * bound_terms[nodes])
+
+
+@pytest.mark.parametrize("pieces", [1, 2, 3, 7])
+def test_slabs_of_the_first_axis_joined_are_bitwise_the_whole_grid(pieces):
+    """Every state of the 19 × 17 × 31 map's decisions, with a failed inner node in one and a
+    failed corner (nothing to interpolate from at most points) in another, on the refined
+    quantity and on every stored one (the principal stiffnesses derived from the tensor): the
+    slabs of the first axis (``slab_rows``, run in step: ``stepped``) joined equal the whole
+    grid computed as one slab in every value, estimate, solve error, scale, failed-node flag and
+    index's part, bitwise; each index's score is the largest of its slabs'; and ``refine`` with
+    its slabs so computed decides as with the whole grid."""
+    spec, layout, task_of, _, _, _, _, steps = decided(spec_text())
+    held = dead = 0
+    for k, (state, checks, every, _) in enumerate(steps):
+        fields = {
+            n: np.where(np.isin(task_of, state_tasks(layout, state, task_of, checks)), v, np.nan)
+            for n, v in every.items()
+        }
+        if k in (2, 4):  # a failed solve: NaN in every stiffness at an inner node of the set, then at its corner
+            nodes = np.flatnonzero(sparse_grid.set_nodes(tuple(len(x) for x in layout.xs), state[0][1].indices))
+            for values in fields.values():
+                values.flat[nodes[len(nodes) // 2] if k == 2 else nodes[0]] = np.nan
+        for names in (["K_xx"], [n for n in fields if not n.endswith("_error")]):
+            job = sparse_grid._job(layout, (), state[0][1], names, fields, 1.5, np.full(len(names), 1e-3))
+            rows = sparse_grid.slab_rows(job.rows, pieces)
+            assert len(rows) == pieces and rows[0].start == 0 and rows[-1].stop == job.rows
+            (whole,) = sparse_grid.stepped([sparse_grid._slab(job, sparse_grid.WHOLE, True)])
+            slabs = sparse_grid.stepped([sparse_grid._slab(job, r, True) for r in rows])
+            (est, parts, flags), joined = whole, [(e, p, f) for e, p, f in slabs]
+            for name in ("values", "solve", "scale", "owner"):
+                together = np.concatenate([getattr(e, name) for e, _, _ in joined])
+                assert np.array_equal(getattr(est, name), together, equal_nan=True), name
+            assert np.array_equal(est.axes[0], np.concatenate([e.axes[0] for e, _, _ in joined]), equal_nan=True)
+            assert np.array_equal(flags, np.concatenate([f for _, _, f in joined]))
+            assert parts and all(
+                np.array_equal(parts[i], np.concatenate([p[i] for _, p, _ in joined]), equal_nan=True) for i in parts
+            )
+            (scores,) = sparse_grid.stepped([sparse_grid.scores_slab(job, sparse_grid.WHOLE)])
+            merged: dict = {}
+            for slab in sparse_grid.stepped([sparse_grid.scores_slab(job, r) for r in rows]):
+                for index, score in slab.items():
+                    merged[index] = max(merged.get(index, score), score)
+            assert merged == scores
+            held += int(flags.sum())
+            dead += int(np.isnan(est.values).sum())
+
+        def sliced(function, job):
+            return sparse_grid.stepped([function(job, r) for r in sparse_grid.slab_rows(job.rows, pieces)])
+
+        alone = sparse_grid.refine(layout, spec.adaptive, state, fields, ["K_xx"], task_of, checks)
+        with sparse_grid.spread_slabs(sliced):
+            assert sparse_grid.refine(layout, spec.adaptive, state, fields, ["K_xx"], task_of, checks) == alone
+    assert held and dead  # the failed nodes took part
