@@ -19,6 +19,8 @@ same grid: agreement is to round-off or to the CG tolerance, not to discretizati
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import pytest
 
@@ -353,6 +355,19 @@ PAPER = {
     "orthotropic2": ORTHO,
 }
 
+#: The dissimilar orthotropic pair of §6.2 (punch E1 = 50 GPa, Fig. 6d), loaded along the proportional
+#: path with the coupled pair compliance.
+DISSIMILAR = {**PAPER, "orthotropic": ORTHO.replace("E1=25", "E1=50"), "path": "proportional", "coupling": "coupled"}
+
+
+@functools.cache
+def dissimilar_pair(angle: float) -> dict:
+    """``solve_slip`` of ``DISSIMILAR`` with the displacement at ``angle`` (degrees), solved once per
+    angle for the tests that read it (``test_crystal_pair_turns_with_its_scene`` and
+    ``test_proportional_path_shifts_the_stick_zone_of_the_dissimilar_pair`` both need 0°);
+    the record is only read."""
+    return solve_slip({**DISSIMILAR, "angle": angle})
+
 
 def test_crystal_pair_turns_with_its_scene() -> None:
     """The whole scene turned by 90° about the normal (radii swapped, both bodies' azimuths and the
@@ -361,9 +376,8 @@ def test_crystal_pair_turns_with_its_scene() -> None:
     tol = 1e-10; before the crystals were turned into the grid's frame, E1 of the orthotropic pair
     lay along the contact's long axis in one of them: the job's old scene gave a Q 4.5 times
     smaller than with E1 across)."""
-    pair = {**PAPER, "orthotropic": ORTHO.replace("E1=25", "E1=50"), "path": "proportional", "coupling": "coupled"}
-    one = solve_slip({**pair, "angle": 0.0})
-    two = solve_slip({**pair, "radius": 1.1, "radius_b": 0.5, "angle": 90.0, "azimuth": 90.0, "azimuth2": 90.0})
+    one = dissimilar_pair(0.0)
+    two = solve_slip({**DISSIMILAR, "radius": 1.1, "radius_b": 0.5, "angle": 90.0, "azimuth": 90.0, "azimuth2": 90.0})
     assert one["contact_angle_deg"] == 90.0 and two["contact_angle_deg"] == 0.0  # grids turned with the ellipse
     assert _relative(one, two, KEYS[:4]) < 1e-11  # measured 7.4e-13
     assert abs(two["stick_centroid_y"] - one["stick_centroid_x"]) < 1e-12 * one["dx"]
@@ -388,14 +402,8 @@ def test_proportional_path_shifts_the_stick_zone_of_the_dissimilar_pair() -> Non
     the x1 < 0 region" with the punch moved along +x1: so do we (measured −3.9 cells across, −27 mm,
     at n = 16; the grid study of the README). Mirroring the load (the pair is symmetric about
     x = 0) mirrors the stick zone exactly and keeps Q (measured 7e-13, tol = 1e-10)."""
-    dissimilar = {
-        **PAPER,
-        "orthotropic": ORTHO.replace("E1=25", "E1=50"),
-        "path": "proportional",
-        "coupling": "coupled",
-    }
-    minus = solve_slip(dissimilar)
-    plus = solve_slip({**dissimilar, "angle": 0.0})
+    minus = dissimilar_pair(PAPER["angle"])
+    plus = dissimilar_pair(0.0)
     assert minus["stick_centroid_x"] < -2.0 * minus["dy"]  # the grid's y is the scene's x here (-3.9)
     assert abs(minus["stick_centroid_x"] + plus["stick_centroid_x"]) < 1e-9 * minus["dy"]
     assert _relative(minus, plus, KEYS) < 1e-11  # measured 7.4e-13
