@@ -47,7 +47,7 @@ demo map's ``after`` runs; CPU: this run's). Its solve seconds, two lines (``LIN
   the machine's own 2-process run; issue 40: "the cost model's replay against a measured 2-rank
   run" where no 16-core machine is available). The recorded times are checked in the same run
   (``checked_scale``, ``--checks`` scenes, default 12, spread over the rounds: solved fresh in one
-  process with one thread, fresh/recorded printed per scene); where the ratios' median differs
+  process with one thread, their CPU seconds, fresh/recorded printed per scene); where the ratios' median differs
   from 1 by more than their spread, every recorded time is scaled by it (the real run's ranks
   shared the 2 cores with other jobs: its solves took 2-3x an idle solve), and the line says so;
 * ``65 ms``: every solve at 65 ms, the issue's node's solve time (its measurement), with this
@@ -131,9 +131,10 @@ PHASES = (
     ("hpcontact.sweep.maps.rounds", "fill", "fill"),  # the library before 81206b0 imported it by name
     ("hpcontact.sweep.data.dataset", "write_netcdf", "netCDF write"),
     ("hpcontact.sweep.data.journal", "HistoryReader.advance", "read ahead"),
+    ("hpcontact.sweep.run.rounds", "_announce", "announce"),
 )
 # Rank 0's work during a round, not between rounds (the other ranks take its claims meanwhile).
-IN_ROUND_PHASES = ("read ahead",)
+IN_ROUND_PHASES = ("read ahead", "announce")
 # The set-up's phases each rank does for its own share (1/R of the points on R ranks), not for all.
 SPREAD_SETUP = ("enumeration", "pack")
 
@@ -243,13 +244,20 @@ def recorded(params: Mapping[str, Any]) -> dict[str, Any]:
 def fresh(scenes: list[dict[str, Any]], warm: dict[str, Any]) -> list[float]:
     """Each scene of ``scenes`` solved for real in this process (one thread, ``call_in_child``),
     after a solve of ``warm`` (another scene: imports, FFTW plans; a scene solved twice in one
-    process is a cache hit the second time) that is not counted: each record's own
-    ``wall_time_s``, the field the real map's records hold."""
+    process is a cache hit the second time) that is not counted: the CPU seconds of each solve
+    (``time.process_time``: one thread's, what the solve takes on a core of its own whatever
+    else runs on the machine; its wall time swung the scale 0.20-0.68 with the load of the
+    moment, 2026-11-29 17:18-18:01 UTC)."""
     from hpcontact import accuracy
 
     solve = accuracy.task_function("contact")
     solve(dict(warm))
-    return [float(solve(dict(scene))["wall_time_s"]) for scene in scenes]
+    seconds = []
+    for scene in scenes:
+        started = time.process_time()
+        solve(dict(scene))
+        seconds.append(time.process_time() - started)
+    return seconds
 
 
 def sample(rounds: list[dict[str, Any]], count: int) -> list[tuple[int, str]]:
@@ -278,9 +286,10 @@ def checked_scale(rounds: list[dict[str, Any]], count: int) -> float:
     recorded_s = [rounds[k]["solve"][key] for k, key in picked]
     ratios = np.array(seconds) / np.array(recorded_s)
     print(
-        f"recorded solve times checked: {count} of the map's scenes solved fresh, one thread ({harness.machine_line(1)})"
+        f"recorded solve times checked: {count} of the map's scenes solved fresh, one thread, CPU seconds "
+        f"({harness.machine_line(1)})"
     )
-    print(f"  {'round':>5} {'aspect':>8} {'nu':>5} {'A':>6} {'psi':>5} {'recorded s':>10} {'fresh s':>8} {'ratio':>6}")
+    print(f"  {'round':>5} {'aspect':>8} {'nu':>5} {'A':>6} {'psi':>5} {'recorded s':>10} {'CPU s':>8} {'ratio':>6}")
     for (k, key), fresh_s, old_s, ratio in zip(picked, seconds, recorded_s, ratios.tolist()):
         p = rounds[k]["params"][key]
         print(
@@ -495,9 +504,23 @@ def driver_cpu(measured: dict[str, Any]) -> float:
     server thread; not its reading ahead, ``IN_ROUND_PHASES``): with the ``stand_in``, whose
     tasks compute next to nothing, the driver's own time per task, whatever the load."""
     marks = measured["marks"]
-    ahead = phase_seconds(measured, "CPU")
-    busy = sum(b[1] - a[1] for a, b in zip(marks[0::2], marks[1::2])) - sum(sum(ahead[p]) for p in IN_ROUND_PHASES)
+    busy = sum(b[1] - a[1] for a, b in zip(marks[0::2], marks[1::2])) - sum(in_round_seconds(measured, "CPU"))
     return busy / max(sum(r["rank0"] for r in measured["rounds"]), 1)
+
+
+def in_round_seconds(measured: dict[str, Any], clock: str) -> list[float]:
+    """Rank 0's ``clock`` seconds in each round's ``IN_ROUND_PHASES`` calls that started while it
+    took the round's claims (its first claim to its last): the work the other ranks' claims
+    overlap. A call outside them (an announcement before the first claim, as the library did
+    before rank 0 took its first claim first) is the set-up's or the time between rounds."""
+    windows = list(zip(measured["marks"][0::2], measured["marks"][1::2]))
+    out = [0.0] * len(windows)
+    for label, start, wall, cpu in measured.get("phases", []):
+        if label in IN_ROUND_PHASES:
+            for k, (first, last) in enumerate(windows):
+                if first[0] <= start <= last[0]:
+                    out[k] += wall if clock == "wall" else cpu
+    return out
 
 
 def leaf_calls(measured: dict[str, Any], clock: str) -> tuple[list[list[Any]], list[float]]:
@@ -663,7 +686,7 @@ def crystal(folder: Path, task: str, driver_ms: list[float], checks: int) -> Non
             calls, spent = shared[clock]
             alone = [g - s for g, s in zip(times[1], spent)]  # rank 0's time between rounds outside the calls
             enumeration = sum(sum(phases[clock][p]) for p in SPREAD_SETUP)
-            ahead = [sum(phases[clock][p][k + 1] for p in IN_ROUND_PHASES) for k in range(len(rounds))]
+            ahead = in_round_seconds(measured, clock)
             per_task = driver if clock == "wall" else cpu_driver
             overheads = Overheads(**{**DEFAULT_OVERHEADS.__dict__, "driver_s": per_task, "spread_gather_s": 0.0})
             for ranks in RANKS:
@@ -676,7 +699,7 @@ def crystal(folder: Path, task: str, driver_ms: list[float], checks: int) -> Non
     overheads = Overheads(**{**DEFAULT_OVERHEADS.__dict__, "driver_s": cpu_driver, "spread_gather_s": 0.0})
     enumeration = sum(sum(phases["CPU"][p]) for p in SPREAD_SETUP)
     for name, rounds in reversed(lines.items()):
-        ahead = [sum(phases["CPU"][p][k + 1] for p in IN_ROUND_PHASES) for k in range(len(rounds))]
+        ahead = in_round_seconds(measured, "CPU")
         r = replayed(rounds, 16, [0.0] * len(gaps_cpu), setup_cpu, 139725, overheads, enumeration, ahead, None, known)
         print(
             f"bound, not the code: {name}, 16 ranks with nothing at all between rounds (CPU, set-up as measured): "
