@@ -13,8 +13,9 @@ Rank 0 of an adaptive map reads the journals the ranks append while it takes cla
 next round's decision parses only the lines written after its last claim, not the whole round's
 (issue 40 item 5: parsing a round's lines took rank 0 alone up to seconds, the other ranks
 waiting; during the round the other ranks take the claims rank 0 does not).
-While rank 0 decides the next round, the other ranks compute the leaves' parts of its map-error
-estimate with it (``maps.spread``: bitwise the estimate of one process) instead of waiting.
+While rank 0 decides the next round, the other ranks compute parts of its map-error estimate
+with it (``maps.spread``: the leaves' parts, or the sparse grid's slabs; bitwise the estimate of
+one process) instead of waiting.
 
 Rank 0 imports what its data set needs at the round's end (xarray's duck-array modules, ~0.6 s
 once per process): done before its first claim it left a small sweep's every task to the other

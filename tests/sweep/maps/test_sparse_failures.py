@@ -1,5 +1,5 @@
 """A failed solve at a node of a sparse-grid map (hpcontact.sweep.maps.sparse_grid,
-``_around_failures``; issue 40): the map around it comes from the indices that do not need it,
+``_Failures``; issue 40): the map around it comes from the indices that do not need it,
 its map error says what those miss, and a point nothing can be interpolated for is NaN with
 the data set's reason — never a NaN map error that looks like a value, nor one below the true
 error because of the failure. Judged against the closed form of tests/sweep/maps/test_sparse_grid.py."""
