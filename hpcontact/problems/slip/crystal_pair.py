@@ -89,6 +89,15 @@ def surface_green(material: Material, phi: np.ndarray) -> np.ndarray:
     return surface_green_fourier(material, phi)
 
 
+#: ``PairCompliance.coupling_size`` by the pair's key (its bodies' exact lab-frame stiffnesses):
+#: a sweep's cost model asks it of every task (``sweep.cost.task_cost``, ``sweep.cost.engine``)
+#: and the solve again, the same for every load, friction and q_ratio of one pair (the
+#: Barnett–Lothe integrals at 256 directions: 0.24 CPU s for each of the 7 pairs of
+#: jobs/tembleque2011_friction.toml; jobs/crystal_friction_map.toml asks 84 times of 21 pairs, its
+#: enumeration 1.84 → 0.45 CPU s; 2026-11-29, 2-core VM). A float per pair, a few per process.
+_COUPLING_SIZES: dict[tuple, float] = {}
+
+
 @dataclass(frozen=True, eq=False)
 class PairCompliance:
     """H_pair and the cell blocks of u_1 − u_2 for two bodies (None: rigid), in one stress unit."""
@@ -125,10 +134,16 @@ class PairCompliance:
         return out
 
     def coupling_size(self) -> float:
-        """max_φ |(H_xz, H_yz)| / max_φ H_zz (Dundurs' |β| for isotropic pairs)."""
-        phi = np.arange(N_DIRECTIONS) * (2.0 * np.pi / N_DIRECTIONS)
-        H = self.fourier(phi)
-        return float(np.sqrt(np.abs(H[:, 0, 2]) ** 2 + np.abs(H[:, 1, 2]) ** 2).max() / H[:, 2, 2].real.max())
+        """max_φ |(H_xz, H_yz)| / max_φ H_zz (Dundurs' |β| for isotropic pairs), once per pair
+        and process (``_COUPLING_SIZES``)."""
+        key = self.key
+        if key not in _COUPLING_SIZES:
+            phi = np.arange(N_DIRECTIONS) * (2.0 * np.pi / N_DIRECTIONS)
+            H = self.fourier(phi)
+            _COUPLING_SIZES[key] = float(
+                np.sqrt(np.abs(H[:, 0, 2]) ** 2 + np.abs(H[:, 1, 2]) ** 2).max() / H[:, 2, 2].real.max()
+            )
+        return _COUPLING_SIZES[key]
 
 
 def _own_blocks(
