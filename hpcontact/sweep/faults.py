@@ -6,6 +6,8 @@ The task at 0-based position INDEX of the sweep's deterministic task order (the 
 * ``raise``: the task raises ``RuntimeError`` (journaled as an error, retried by ``--resume``);
 * ``kill``: the process sends itself SIGKILL as the task starts (a crash, see ``journal``);
 * ``hang``: the task sleeps until a stop request abandons it (``signals``);
+* ``slow``: the task sleeps ``SLOW_S`` seconds, then runs (work left for a test to strike in,
+  however fast the machine: the journal entries a full disk cuts short);
 * ``torn``: the task runs, then the process writes half of its journal line and SIGKILLs itself
   (a kill in the middle of a journal write).
 
@@ -33,7 +35,9 @@ from collections.abc import Callable, Iterator
 from hpcontact.errors import InputError
 
 VARIABLE = "HPCONTACT_FAULTS"
-KINDS = ("raise", "kill", "hang", "torn")
+KINDS = ("raise", "kill", "hang", "slow", "torn")
+#: Seconds a ``slow`` task sleeps before it runs.
+SLOW_S = 0.1
 PHASE_VARIABLE = "HPCONTACT_SLOW_PHASE"
 SLOW_PHASES = ("setup", "write", "done")
 
@@ -73,7 +77,7 @@ def slow_phase(phase: str) -> None:
 
 
 def before_task(kind: str | None) -> None:
-    """Inject a fault that strikes as the task starts (``raise``, ``kill``, ``hang``)."""
+    """Inject a fault that strikes as the task starts (``raise``, ``kill``, ``hang``, ``slow``)."""
     if kind == "raise":
         raise RuntimeError(f"injected fault ({VARIABLE})")
     if kind == "kill":
@@ -81,6 +85,8 @@ def before_task(kind: str | None) -> None:
     if kind == "hang":
         while True:
             time.sleep(3600.0)
+    if kind == "slow":
+        time.sleep(SLOW_S)
 
 
 def tear(kind: str | None, line: bytes, write: Callable[[bytes], None]) -> None:

@@ -345,8 +345,9 @@ def test_a_journal_cut_at_any_byte_keeps_every_complete_entry_before_the_cut(tmp
 def test_a_full_disk_stops_cleanly_naming_the_journal_and_resume_completes(
     tmp_path, reference, assert_same_results, launched
 ):
-    # The limit is set on one running rank (after MPI's start-up, whose shared-memory files it would break).
-    proc = start(tmp_path, procs=launched)
+    # The limit is set on one running rank (after MPI's start-up, whose shared-memory files it would break),
+    # its tasks slowed (0.1 s each, 2.7 s a rank in all) so that the sweep cannot end before the limit strikes.
+    proc = start(tmp_path, faults=",".join(f"{i}:slow" for i in range(TASKS)), procs=launched)
     wait_for(lambda: len(started_by_rank(tmp_path)) == 2, proc)
     victim = random.Random(5).choice((0, 1))
     path = next(p for p in journal_files(tmp_path / "out.nc.journal") if p.name.startswith(f"rank{victim:05d}"))
