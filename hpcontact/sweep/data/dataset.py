@@ -104,6 +104,7 @@ __all__ = [  # the attribute tables are hpcontact.sweep.data.attributes'; import
     "derive_directional",
     "directional_errors",
     "error_attributes",
+    "import_array_modules",
     "link_errors",
     "open_dataset",
     "stiffness_dataset",
@@ -202,6 +203,16 @@ def stiffness_dataset(spec: Spec, task_of: np.ndarray, joined: Joined) -> xr.Dat
         if stiffness_record(spec, name):
             variables[name] = (dims, values[task_of])
     return link_errors(xr.Dataset(variables), spec.kind_record.estimated)
+
+
+def import_array_modules() -> None:
+    """Import now what xarray imports at the first variable a process makes: the array libraries
+    it knows, dask.array where it is installed (0.2-0.4 CPU s on the 2-core development VM), once
+    a process. Rank 0 calls it during its round (``run.rounds``), so that its first data set,
+    made while every other rank waits for it (an adaptive map's first decision), does not."""
+    import xarray as xr
+
+    xr.Variable(("point",), np.zeros(1))
 
 
 def stiffness_record(spec: Spec, name: str) -> bool:

@@ -17,9 +17,13 @@ While rank 0 decides the next round, the other ranks compute parts of its map-er
 with it (``maps.spread``: the leaves' parts, or the sparse grid's slabs; bitwise the estimate of
 one process) instead of waiting.
 
-Rank 0 imports what its data set needs at the round's end (xarray's duck-array modules, ~0.6 s
-once per process): done before its first claim it left a small sweep's every task to the other
-ranks, done between two of its tasks it stalled its claims past the cluster check's bound."""
+Rank 0 takes its first claim, then announces the round (its line and estimate: the cost model's
+probe of the machine and xarray's import, 0.7-1.0 CPU s on the 4-D map) and imports what its data
+set needs (xarray's array modules, ``dataset.import_array_modules``: dask where installed,
+0.2-0.4 CPU s), before its first task: the other ranks claim meanwhile (served by rank 0's
+thread), not wait for it in the set-up or its first decision. Done before its first claim it left
+a small sweep's every task to the other ranks; done between two of its tasks it stalled its claims
+past the cluster check's bound."""
 
 from __future__ import annotations
 
@@ -28,6 +32,7 @@ import sys
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
+from itertools import chain, islice
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -294,7 +299,6 @@ def _run(run: Run, plan: Plan, kept: Kept | None, scope: RoundScope, options: Op
     todo = plan.isolated + plan.shared
     expect_applications(fft_applications(t.params for t in todo[team.rank :: team.size]))
     setup_s = time.perf_counter() - round_started
-    progress = _announce(run, plan, kept, scope, todo, chunks, options.front) if team.rank == 0 else None
 
     # the position of each task this round runs (not of every task of the grid: on the 4-D map's
     # 139 725, 0.08 CPU s a round on every rank, before its first claim)
@@ -313,6 +317,18 @@ def _run(run: Run, plan: Plan, kept: Kept | None, scope: RoundScope, options: Op
     done_at: list[int] = []
     # rank 0 of an adaptive map: the journals' reader its next round's decision reads from
     reader = scope.memory.reader if team.rank == 0 and scope.memory is not None else None
+    # a GPU rank claims the chunks that fill a batch, handed as one tuple (work.batches.batch_fill)
+    claim = time.perf_counter()
+    claims = claimed_chunks(chunks, counter, team.size, fill=batch_fill(chunks, task_function))
+    progress: Progress | None = None
+    taken: list[tuple[Task, ...]] = []
+    if team.rank == 0:  # its first claim, then the round's line and its data set's imports: the others claim meanwhile
+        taken = list(islice(claims, 1))
+        schedule_s += time.perf_counter() - claim
+        progress = _announce(run, plan, kept, scope, todo, chunks, options.front)
+        from hpcontact.sweep.data.dataset import import_array_modules  # rank 0's alone (assembly)
+
+        import_array_modules()
     read_s, claims_started = 0.0, time.perf_counter()
 
     def run_alone(task: Task) -> Entry:
@@ -354,8 +370,7 @@ def _run(run: Run, plan: Plan, kept: Kept | None, scope: RoundScope, options: Op
                         break
                     run_tasks((task,))
             claim = time.perf_counter()
-            # a GPU rank claims the chunks that fill a batch, handed as one tuple (work.batches.batch_fill)
-            for chunk in claimed_chunks(chunks, counter, team.size, fill=batch_fill(chunks, task_function)):
+            for chunk in chain(taken, claims):
                 schedule_s += time.perf_counter() - claim
                 if stop.stopping:
                     break

@@ -142,3 +142,24 @@ def test_a_join_of_the_stiffness_records_alone_gives_the_same_stiffnesses(fake_s
     assert list(a.data_vars) == list(b.data_vars)
     for name in a.data_vars:
         assert np.array_equal(a[name].values, b[name].values, equal_nan=True), name
+
+
+def test_after_import_array_modules_a_first_data_set_imports_nothing():
+    """``import_array_modules`` (rank 0 during its round) imports what xarray imports at a
+    process's first variable (dask.array where installed, as in the test environment), so that
+    the first stiffness data set (an adaptive map's first decision, the other ranks waiting)
+    imports no module: without it the same data set imports dask's."""
+    make = "link_errors(xr.Dataset({'status': (('x',), np.zeros(3, np.int32)), 'K_xx': (('x',), np.ones(3))})); "
+    code = (
+        "import sys; import numpy as np; import xarray as xr; "
+        "from hpcontact.sweep.data.dataset import import_array_modules, link_errors; "
+        "WARM before = set(sys.modules); " + make + "print(sorted(set(sys.modules) - before))"
+    )
+    warm, cold = (
+        subprocess.run(
+            [sys.executable, "-c", code.replace("WARM", w)], capture_output=True, text=True, check=True
+        ).stdout
+        for w in ("import_array_modules();", "")
+    )
+    assert warm.strip() == "[]"
+    assert "dask.array" in cold
