@@ -57,7 +57,10 @@ Rank 0's CPU seconds in that run are split by phase (``PHASES``: its share of th
 in the set-up; after each round the journals read and the decision, the outcomes joined, the
 stored stiffnesses, the refinement's decision; after the last the data set made, filled and
 written; its own
-outcomes of the round turned into columns, which each rank does for its own). The set-up
+outcomes of the round turned into columns, which each rank does for its own; during a round,
+``IN_ROUND_PHASES``, its announcement, its data set's imports and its reading ahead, replayed as
+rank 0's own work after its first claim, the other ranks claiming meanwhile, ``replay_rounds``'
+``rank0_busy_s``: on many ranks a round too short to cover it waits for it). The set-up
 is replayed as measured: the enumeration and the packing of a rank's share for the others
 (``SPREAD_SETUP``: rank 0's share on 2 ranks, so twice it in all) divided over the ranks, the
 rest on every rank at once: the shares of every rank unpacked and joined (``unpack+join``), the
@@ -132,9 +135,10 @@ PHASES = (
     ("hpcontact.sweep.data.dataset", "write_netcdf", "netCDF write"),
     ("hpcontact.sweep.data.journal", "HistoryReader.advance", "read ahead"),
     ("hpcontact.sweep.run.rounds", "_announce", "announce"),
+    ("hpcontact.sweep.data.dataset", "import_array_modules", "array modules"),
 )
 # Rank 0's work during a round, not between rounds (the other ranks take its claims meanwhile).
-IN_ROUND_PHASES = ("read ahead", "announce")
+IN_ROUND_PHASES = ("read ahead", "announce", "array modules")
 # The set-up's phases each rank does for its own share (1/R of the points on R ranks), not for all.
 SPREAD_SETUP = ("enumeration", "pack")
 
@@ -358,6 +362,7 @@ def worker(spec: str, output: str, variant: str, task: str, times: str) -> None:
         patch(loaded_only=False)
         return assemble(*args, **kwargs)
 
+    importlib.import_module("hpcontact.sweep.data.dataset")  # 0.013 CPU s, no xarray: import_array_modules timed
     patch(loaded_only=True)
     rounds.assemble = assembled
     marks: list[tuple[float, float]] = []
@@ -553,14 +558,14 @@ def replayed(
     tasks: int,
     overheads: Any,
     enumeration: float | None = None,
-    spread_between: list[float] | None = None,
+    rank0_busy: list[float] | None = None,
     calls: list[list[Any]] | None = None,
     known: Mapping[str, tuple[int, float, str]] | None = None,
 ) -> Any:
     """``replay_rounds`` of ``rounds`` (key → seconds) on ``ranks``, the measured ``setup`` of 2
     ranks split: with ``enumeration`` (rank 0's share of it, of the 2 measured) that twice over
     spread over the ranks, the rest rank 0's; without, rank 0's part ``overheads.setup_s`` a task
-    (the replay's default) and the rest spread; ``spread_between`` and the shared estimates
+    (the replay's default) and the rest spread; ``rank0_busy`` and the shared estimates
     ``calls`` (per round) passed to ``replay_rounds``. A round's tasks are chunked as the driver
     chunks them (``tasks.make_chunks``: by kernel group, the largest cost first) from ``known``
     (``spec_tasks``: each key's position in the grid, cost-model cost and kernel group; a round's
@@ -588,7 +593,7 @@ def replayed(
         overheads = replace(
             overheads, setup_s=max(setup - enumeration, 0.0) / tasks, spread_setup_s=2 * enumeration / tasks
         )
-    return replay_rounds(orders, ranks, gaps, tasks, overheads, spread_between, calls)
+    return replay_rounds(orders, ranks, gaps, tasks, overheads, rank0_busy, calls)
 
 
 def spec_tasks(spec_path: Path) -> dict[str, tuple[int, float, str]]:
@@ -673,7 +678,8 @@ def crystal(folder: Path, task: str, driver_ms: list[float], checks: int) -> Non
             f"{fixed:.2f}), overhead {overhead:.2f} s"
         )
     print(
-        "replayed (the set-up as measured; rank 0's reading ahead during each round spread over the ranks): "
+        "replayed (the set-up as measured; rank 0's announcement and reading ahead during each round as its own work "
+        "after its first claim, the other ranks claiming meanwhile): "
         + "; ".join(f"{name}: {LINES[name]}" for name in lines)
     )
     print(

@@ -34,16 +34,18 @@ each round's tasks run as one replayed sweep (without setup or gather of their o
 rounds rank 0 alone decides the next round (the journal lines not read ahead, the outcomes
 joined, the stored stiffnesses of every journaled task, ``dataset.stiffness_dataset``, the
 refinement; after the last round the whole data set made, filled and written: ``between_s``,
-measured) while every other rank waits. Work between rounds that
-the ranks would share (``spread_between_s``: its seconds on one rank, e.g. the refinement's
-per-leaf estimate split over the ranks) costs its seconds / R. The estimates rank 0 shares out
+measured) while every other rank waits. Rank 0's own work during a round (``rank0_busy_s``:
+its announcement, its reading ahead) delays its first chunk, the other ranks taking the claims
+meanwhile: it costs about its seconds / R where the round has work enough for the others, and
+up to all of it where it does not (the 4-D map's first round on 16 ranks: 136 solves of ~65 ms,
+~0.6 s a rank, against an announcement of 0.7-1.0 s). The estimates rank 0 shares out
 over the ranks while it decides (``leaf_calls``, ``maps.spread``) cost each the seconds of the
 rank with the most (its leaves' parts, as ``assign`` gives them to R ranks: a leaf is
 not split, so never less than the largest) plus the call's own overhead (jobs sent, parts
 gathered and merged); the sparse grid's decisions shared out by slabs of the grid's first axis
 (``SlabCall``) the seconds of the largest of min(R, rows) slabs, each its fixed part plus its
 rows at the measured seconds a row, plus the overhead. Makespan = setup + Σ rounds (their makespan + ``between_s`` + the shared
-estimates + ``spread_between_s`` / R); efficiency = Σ task seconds / (R × makespan).
+estimates); efficiency = Σ task seconds / (R × makespan).
 
 """
 
@@ -119,11 +121,15 @@ def _chunk_sums(values: np.ndarray, starts: np.ndarray, stops: np.ndarray) -> np
     return sums
 
 
-def replay_chunks(chunks: ChunkOrder, seconds: np.ndarray, ranks: int, overheads: Overheads) -> dict[str, float]:
+def replay_chunks(
+    chunks: ChunkOrder, seconds: np.ndarray, ranks: int, overheads: Overheads, rank0_busy_s: float = 0.0
+) -> dict[str, float]:
     """``replay`` of the tasks in ``chunks`` (``tasks.chunk_order``) with ``seconds`` in task
     order: the chunks ``make_chunks`` makes for ``ranks`` (``tasks.chunk_bounds``), each chunk's
     work summed in its order as ``make_chunks``' tuples would be, then taken by the ranks in
-    claims (``claim_size``, from each rank's own round trips and chunk seconds so far)."""
+    claims (``claim_size``, from each rank's own round trips and chunk seconds so far).
+    ``rank0_busy_s``: rank 0's own work after its first claim, before that claim's chunk (its
+    announcement and reading ahead, ``run.rounds``), the other ranks claiming meanwhile."""
     if ranks < 1:
         raise InputError("ranks", "an integer >= 1", ranks)
     starts, stops = chunk_bounds(chunks, ranks)
@@ -133,7 +139,7 @@ def replay_chunks(chunks: ChunkOrder, seconds: np.ndarray, ranks: int, overheads
     setup = overheads.setup_s * n + overheads.spread_setup_s * n / ranks
     claim_wait, claims = 0.0, 0
     if ranks == 1:  # rank 0 alone: each chunk starts when the last one ends
-        last = setup
+        last = setup + rank0_busy_s
         for chunk in work.tolist():
             last = last + chunk
         finish, claims = [last], len(work)
@@ -165,7 +171,7 @@ def replay_chunks(chunks: ChunkOrder, seconds: np.ndarray, ranks: int, overheads
             got = chunk_list[at : at + k]
             at += len(got)
             seen[rank] = at
-            end = start
+            end = start + rank0_busy_s if rank == 0 and not taken[0] else start
             for chunk in got:
                 end = end + chunk
             taken[rank] += len(got)
@@ -256,7 +262,7 @@ def replay_rounds(
     between_s: Sequence[float],
     tasks: int,
     overheads: Overheads = DEFAULT_OVERHEADS,
-    spread_between_s: Sequence[float] | None = None,
+    rank0_busy_s: Sequence[float] | None = None,
     leaf_calls: Sequence[Sequence[LeafCall | SlabCall]] | None = None,
 ) -> dict[str, float]:
     """Discrete-event model of an adaptive map's synchronized rounds (module docstring): each
@@ -266,10 +272,11 @@ def replay_rounds(
     made, filled and written)
     while the other ranks wait; before the first round every rank enumerates its share of the
     whole grid's ``tasks`` and rank 0 joins them (``spread_setup_s``, ``setup_s`` per task, as
-    ``replay_chunks``); ``spread_between_s`` (None: none), per round, seconds of work after it
-    that one rank would take and the ``ranks`` share evenly (their seconds / ``ranks``, every
-    rank busy, none waiting on them). Makespan, efficiency, and the shares of the makespan lost
-    between rounds (rank 0 alone and the shared work) and to the rounds' own tails and claims.
+    ``replay_chunks``); ``rank0_busy_s`` (None: none), per round, rank 0's own work during it
+    (its announcement, its reading ahead: ``replay_chunks``' ``rank0_busy_s``), the other
+    ranks taking the claims meanwhile. Makespan, efficiency, and the shares of the makespan
+    lost between rounds (rank 0 alone and the shared estimates) and to the rounds' own tails
+    (rank 0's work during a round that the other ranks' claims do not cover among them) and claims.
     ``leaf_calls`` (None: none), per round, the estimates rank 0 shares out over the ranks after
     it (``maps.spread``): each ``LeafCall``'s parts go to the ranks as ``assign`` gives
     them for ``ranks``, and the call takes the largest rank's seconds plus its ``overhead_s``
@@ -278,9 +285,9 @@ def replay_rounds(
         raise InputError("ranks", "an integer >= 1", ranks)
     if len(between_s) != len(rounds):
         raise InputError("between_s", f"one time per round ({len(rounds)})", len(between_s))
-    spread = [0.0] * len(rounds) if spread_between_s is None else list(spread_between_s)
-    if len(spread) != len(rounds):
-        raise InputError("spread_between_s", f"one time per round ({len(rounds)})", len(spread))
+    busy = [0.0] * len(rounds) if rank0_busy_s is None else list(rank0_busy_s)
+    if len(busy) != len(rounds):
+        raise InputError("rank0_busy_s", f"one time per round ({len(rounds)})", len(busy))
     calls = [[] for _ in rounds] if leaf_calls is None else [list(c) for c in leaf_calls]
     if len(calls) != len(rounds):
         raise InputError("leaf_calls", f"one list per round ({len(rounds)})", len(calls))
@@ -296,10 +303,10 @@ def replay_rounds(
     )
     setup = overheads.setup_s * tasks + overheads.spread_setup_s * tasks / ranks
     makespan, work, lost_tail, lost_claims = setup, 0.0, 0.0, 0.0
-    between_total = float(sum(between_s)) + float(sum(spread)) / ranks
-    for (chunks, seconds), between, shared in zip(rounds, between_s, spread):
-        one = replay_chunks(chunks, seconds, ranks, within)
-        makespan += one["makespan_s"] + between + shared / ranks
+    between_total = float(sum(between_s))
+    for (chunks, seconds), between, own in zip(rounds, between_s, busy):
+        one = replay_chunks(chunks, seconds, ranks, within, own)
+        makespan += one["makespan_s"] + between
         work += float(sum(seconds.tolist()))
         lost_tail += one["tail"] * one["makespan_s"]
         lost_claims += one["claims"] * one["makespan_s"]

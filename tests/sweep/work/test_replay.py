@@ -86,22 +86,25 @@ def test_synchronized_rounds_add_their_makespans_and_rank_0s_time_between():
     assert replay_rounds(rounds, 1, [0.5, 0.25], 8, o)["makespan_s"] == 1.0 + 2.0 + 4.0 + 0.5 + 2.0 + 0.25
 
 
-def test_work_between_rounds_shared_by_the_ranks_costs_its_seconds_over_the_ranks():
-    """The rounds of the test above without set-up, rank 0 alone 0.5 and 0.25 s, and 3 s and
-    1 s of work after them that the ranks share: on 2 ranks 1.5 s and 0.5 s more, makespan
-    2 + 0.5 + 1.5 + 2 + 0.25 + 0.5 = 6.75 s; on 4 ranks 0.75 and 0.25 s (rounds of 1 and 2 s:
-    four tasks of 1 s on 4 ranks), 1 + 0.5 + 0.75 + 2 + 0.25 + 0.25 = 4.75 s; none shared
-    (None) is zeros."""
+def test_rank_0s_work_during_a_round_delays_its_first_chunk_while_the_others_claim():
+    """The rounds of the test above without set-up, rank 0 alone 0.5 and 0.25 s between them,
+    and busy 1 s during the first round and 3 s during the second (its announcement, its reading
+    ahead). On 2 ranks: round 1, rank 0 claims a task of 1 s, works 1 s, solves it and then the
+    fourth (3 s), rank 1 the second and third (2 s); round 2, rank 0 claims the one task, works
+    3 s, solves it (5 s): makespan 3 + 0.5 + 5 + 0.25 = 8.75 s. On 4 ranks: 2 + 0.5 + 5 + 0.25 =
+    7.75 s (the others' claims cover none of the second round's 3 s: it has no other task). On
+    one rank: 1 + 4 + 0.5 + 3 + 2 + 0.25 = 10.75 s. None is zeros."""
     first, _ = toy([1.0] * 4)
     second, _ = toy([2.0])
     rounds = [(chunk_order(first), np.array([1.0] * 4)), (chunk_order(second), np.array([2.0]))]
-    two = replay_rounds(rounds, 2, [0.5, 0.25], 8, NONE, [3.0, 1.0])
-    assert two["makespan_s"] == 6.75 and two["between"] == (0.75 + 2.0) / 6.75
-    assert replay_rounds(rounds, 4, [0.5, 0.25], 8, NONE, [3.0, 1.0])["makespan_s"] == 4.75
+    two = replay_rounds(rounds, 2, [0.5, 0.25], 8, NONE, [1.0, 3.0])
+    assert two["makespan_s"] == 8.75 and two["between"] == 0.75 / 8.75
+    assert replay_rounds(rounds, 4, [0.5, 0.25], 8, NONE, [1.0, 3.0])["makespan_s"] == 7.75
+    assert replay_rounds(rounds, 1, [0.5, 0.25], 8, NONE, [1.0, 3.0])["makespan_s"] == 10.75
     assert replay_rounds(rounds, 2, [0.5, 0.25], 8, NONE, None) == replay_rounds(
         rounds, 2, [0.5, 0.25], 8, NONE, [0.0, 0.0]
     )
-    with pytest.raises(InputError, match="spread_between_s"):
+    with pytest.raises(InputError, match="rank0_busy_s"):
         replay_rounds(rounds, 2, [0.5, 0.25], 8, NONE, [1.0])
 
 
