@@ -5,6 +5,7 @@ entering MPI. In one plain process the team is serial and the tests check the se
 
 from __future__ import annotations
 
+import socket
 import sys
 import time
 
@@ -102,3 +103,16 @@ def test_a_rank_that_leaves_early_does_not_block_the_others(team: Team) -> None:
         assert sorted(i for ranks in claimed for i in ranks) == list(range(len(CHUNKS)))
         if team.size > 1:
             assert len(claimed[-1]) == 1
+
+
+def test_the_team_counts_its_ranks_on_each_node(team: Team) -> None:
+    """``node_size``: the team's ranks that share this rank's node (the probe of a run's estimate
+    does not count them as other work), summed over one rank per node the team's size; every rank
+    of a node agrees. CI's ranks share one machine."""
+    hosts = team.gather((socket.gethostname(), team.node_size))
+    if team.rank == 0:
+        per_host: dict[str, list[int]] = {}
+        for host, size in hosts:
+            per_host.setdefault(host, []).append(size)
+        assert all(sizes == [len(sizes)] * len(sizes) for sizes in per_host.values()), per_host
+        assert sum(len(sizes) for sizes in per_host.values()) == team.size

@@ -247,13 +247,32 @@ def _fit_with_kernels(pair: Sequence[Mapping[str, Any]]) -> Rate:
 
 
 def other_running() -> float | None:
-    """Processes running or runnable on this machine besides this one, now (the fourth field
-    of /proc/loadavg less this process); None where there is no /proc/loadavg."""
+    """Processes running or runnable on this machine besides this one, now: the fourth field of
+    /proc/loadavg (running threads) less this process's running threads (at least the caller's;
+    rank 0's counter thread serving the other ranks' claims is its own work, not another
+    process's); None where there is no /proc/loadavg."""
     try:
         running = int(Path("/proc/loadavg").read_text().split()[3].split("/")[0])
     except (OSError, ValueError, IndexError):
         return None
-    return max(0.0, running - 1.0)
+    return max(0.0, running - max(_own_running_threads(), 1))
+
+
+def _own_running_threads() -> int:
+    """This process's threads in state R (running or runnable), from /proc/self/task; 0 where
+    it cannot be read."""
+    count = 0
+    try:
+        tasks = list(Path("/proc/self/task").iterdir())
+    except OSError:
+        return 0
+    for task in tasks:
+        try:
+            stat = (task / "stat").read_text()
+        except OSError:  # a thread that ended meanwhile
+            continue
+        count += stat[stat.rfind(")") + 2 : stat.rfind(")") + 3] == "R"
+    return count
 
 
 def on_device(params: Mapping[str, Any], device: str) -> dict[str, Any]:

@@ -126,13 +126,16 @@ def scale_of(here: Mapping[str, float], prior: Calibration) -> float:
     return math.exp(sum(logs) / len(logs))
 
 
-def probed_prior() -> tuple[Calibration, str]:
+def probed_prior(own: int = 0) -> tuple[Calibration, str]:
     """The prior scaled to this machine by ``probe`` (module docstring), and where it came from
     in words (the prior's ``whose``, the scale, the probe's wall time and, from
     ``CONTENDED_FROM`` other processes running beside it, that its scale is likely high: CPU
     seconds on shared cores are; the probe is no calibration file, so the ``Calibration`` it
-    returns carries no count of its own)."""
-    others = other_running()
+    returns carries no count of its own). ``own``: the run's other ranks on this node, not
+    counted among those processes (its tasks run beside them too: the probe measured what they
+    will meet)."""
+    running = other_running()
+    others = None if running is None else max(0.0, running - own)
     here, probe_s = _probed(probe)
     prior = prior_calibration()
     scale = scale_of(here, prior)
@@ -143,19 +146,22 @@ def probed_prior() -> tuple[Calibration, str]:
     probed = Calibration(socket.gethostname(), __version__, rates, base_memory_bytes(), probe_s)
     origin = f"shipped prior of {prior.whose()} scaled x{scale:.2f} by a {probe_s:.1f} s probe of this machine"
     if others is not None and others >= CONTENDED_FROM:  # as a contended calibration (Calibration.contended)
-        origin += f", probed beside ~{others:.1f} other process(es): likely high on an idle machine"
+        origin += (
+            f", probed beside ~{others:.1f} other process(es){' besides this run' if own else ''}: likely high on an idle "
+            "machine"
+        )
     return probed, origin
 
 
-def run_calibration() -> tuple[Calibration, str]:
+def run_calibration(own: int = 0) -> tuple[Calibration, str]:
     """The calibration a run's start line uses and where it came from, in words: the cached or
     named one (``calibration_file.cached_calibration``), else the shipped prior scaled by a probe
-    of this machine (``probed_prior``, under a second; never a full calibration, which a run's
-    ranks would wait 12-30 s for)."""
+    of this machine (``probed_prior``, under a second, ``own`` the run's other ranks on this
+    node; never a full calibration, which a run's ranks would wait 12-30 s for)."""
     cached, note = calibration_file.cached_calibration()
     if cached is not None:
         return cached, note
-    probed, origin = probed_prior()
+    probed, origin = probed_prior(own)
     return probed, f"{origin} ({note}; --dry-run calibrates, 12-30 s)"
 
 

@@ -269,7 +269,7 @@ def _announce(
         file=stream,
         flush=True,
     )
-    line, seconds = start_estimate(todo, run.team.size)
+    line, seconds = start_estimate(todo, run.team.size, run.team.node_size)
     if scope.tally is None or scope.tally.begun == 1:  # an adaptive map's later rounds: said once, in its first
         print(line, file=stream, flush=True)
     handed = [t for chunk in chunks for t in chunk]  # what the ranks report, in hand-out order

@@ -118,10 +118,12 @@ class Counter(Protocol):
 
 
 class Team(Protocol):
-    """The processes of a sweep: rank, size and the few collectives the driver needs."""
+    """The processes of a sweep: rank, size, the ranks on this rank's node and the few
+    collectives the driver needs."""
 
     rank: int
     size: int
+    node_size: int  # ranks of the team on this rank's node (shared memory), this one among them
 
     def bcast(self, obj: Any) -> Any:
         """Rank 0's ``obj`` on every rank."""
@@ -166,6 +168,7 @@ class SerialTeam:
 
     rank = 0
     size = 1
+    node_size = 1
 
     def bcast(self, obj: Any) -> Any:
         return obj
@@ -309,10 +312,15 @@ class MPITeam:
     thread (the MPI granted at least ``MPI_THREAD_SERIALIZED``)."""
 
     def __init__(self, comm: Any, threaded: bool = True) -> None:
+        from mpi4py import MPI
+
         self.comm = comm
         self.rank = comm.rank
         self.size = comm.size
         self.threaded = threaded
+        node = comm.Split_type(MPI.COMM_TYPE_SHARED)  # collective: every rank makes its team
+        self.node_size = node.size
+        node.Free()
 
     def bcast(self, obj: Any) -> Any:
         return self.comm.bcast(obj, root=0)

@@ -320,19 +320,20 @@ def _check_gpu_memory(arrays: np.ndarray, on_gpu: np.ndarray) -> None:
         )
 
 
-def start_estimate(tasks: Sequence[Task], ranks: int) -> tuple[str, np.ndarray]:
+def start_estimate(tasks: Sequence[Task], ranks: int, node_ranks: int = 1) -> tuple[str, np.ndarray]:
     """The line ``hpcontact run`` prints on rank 0 before work starts — the estimated core-seconds
     of ``tasks`` (those this run computes) and the replayed wall time on ``ranks`` ranks, and
     whose cost model they come from — and each task's estimated seconds (for the progress lines'
     ETA). The cost model is ``prior.run_calibration``'s: the cached or named
-    calibration, else the shipped prior scaled by a probe of this machine (0.4-0.5 CPU-seconds),
+    calibration, else the shipped prior scaled by a probe of this machine (0.4-0.5 CPU-seconds;
+    beside the run's ``node_ranks`` - 1 other ranks on this node, not counted as contention),
     never a calibration a run would wait for. It warns where the calibration shared its cores
     (``Calibration.contended``: its seconds are high) and where the run shares them now
     (``rates.load_note``: the run will take longer). GPU tasks take their GPU's cost model
     (``GpuCosts``); without one the line says so and states the CPU tasks' seconds alone, and
     the seconds returned for the GPU tasks are their CPU estimates, weights of the ETA only
     (which scales them by the measured wall seconds per estimated second)."""
-    calibration, origin = run_calibration()
+    calibration, origin = run_calibration(own=node_ranks - 1)
     tasks = list(tasks)
     seconds = task_arrays(tasks, calibration)[0]
     on_gpu = device_of(tasks)

@@ -174,3 +174,7 @@ def test_a_probe_beside_other_work_says_its_scale_is_likely_high(node_cache, mon
     assert calibration.contended() == ""  # no calibration file to remove and redo
     monkeypatch.setattr(prior, "other_running", lambda: 0.0)
     assert "probed beside" not in prior.run_calibration()[1]
+    # a run's own other ranks on this node are not others: its tasks run beside them too
+    monkeypatch.setattr(prior, "other_running", lambda: 15.0)
+    assert "probed beside" not in prior.run_calibration(own=15)[1]
+    assert "probed beside ~2.0 other process(es) besides this run: likely high" in prior.run_calibration(own=13)[1]

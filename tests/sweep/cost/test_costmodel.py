@@ -656,6 +656,35 @@ def test_other_running_counts_a_busy_neighbour():
     assert seen >= 1.0
 
 
+def test_other_running_does_not_count_this_processs_own_threads():
+    """A thread of this process that runs without the GIL (hashing, as rank 0's counter thread
+    serves claims beside its announcement) is this process's work: ``_own_running_threads`` sees
+    it (the largest of samples over up to 2 s) and ``other_running`` subtracts it."""
+    import hashlib
+    import threading
+    import time
+
+    if calibration_module.other_running() is None:
+        pytest.skip("no /proc/loadavg")
+    stop = threading.Event()
+    data = b"x" * 2**24
+
+    def busy() -> None:
+        while not stop.is_set():
+            hashlib.sha256(data).digest()  # releases the GIL
+
+    thread = threading.Thread(target=busy)
+    thread.start()
+    try:
+        seen, until = 0, time.monotonic() + 2.0
+        while time.monotonic() < until and seen < 2:
+            seen = max(seen, calibration_module._own_running_threads())
+    finally:
+        stop.set()
+        thread.join()
+    assert seen >= 2
+
+
 def test_the_calibration_times_its_solves_under_the_sweeps_blas_limit(monkeypatch):
     """A sweep's tasks run under ``limited_blas`` (one BLAS thread by default); the calibration's
     solves must too: with OpenBLAS's threads free its CPU seconds were 2-3x a task's on the
