@@ -131,12 +131,15 @@ def probed_prior(own: int = 0) -> tuple[Calibration, str]:
     in words (the prior's ``whose``, the scale, the probe's wall time and, from
     ``CONTENDED_FROM`` other processes running beside it, that its scale is likely high: CPU
     seconds on shared cores are; the probe is no calibration file, so the ``Calibration`` it
-    returns carries no count of its own). ``own``: the run's other ranks on this node, not
-    counted among those processes (its tasks run beside them too: the probe measured what they
-    will meet)."""
-    running = other_running()
-    others = None if running is None else max(0.0, running - own)
+    returns carries no count of its own). The count is the least of two samples, before and
+    after the probe: a process busy beside it shows in both, a moment's wake-up (a rank's
+    thread, the launcher's) in one (a single sample said so in 2 of 4 runs of an idle machine).
+    ``own``: the run's other ranks on this node, not counted among those processes (its tasks
+    run beside them too: the probe measured what they will meet)."""
+    before = other_running()
     here, probe_s = _probed(probe)
+    samples = [n for n in (before, other_running()) if n is not None]
+    others = max(0.0, min(samples) - own) if samples else None
     prior = prior_calibration()
     scale = scale_of(here, prior)
     rates = {
