@@ -127,7 +127,7 @@ PHASES = (
     ("hpcontact.sweep.run.rounds", "to_columns", "own outcomes"),
     ("hpcontact.sweep.run.assembly", "outcome_parts", "outcomes joined"),
     ("hpcontact.sweep.run.assembly", "joined_outcomes", "outcomes joined"),
-    ("hpcontact.sweep.data.dataset", "stiffness_dataset", "stiffnesses"),
+    ("hpcontact.sweep.data.dataset", "stored_stiffnesses", "stiffnesses"),
     ("hpcontact.sweep.data.dataset", "dataset_of", "data set"),
     ("hpcontact.sweep.maps.rounds", "next_step", "refinement"),
     ("hpcontact.sweep.maps.fill", "fill", "fill"),
@@ -374,6 +374,16 @@ def worker(spec: str, output: str, variant: str, task: str, times: str) -> None:
         marks.append((time.time(), time.process_time()))
 
     rounds.claimed_chunks = marked
+    estimated: list[float] = []  # each round's estimated task seconds, all ranks' (rank 0's announcement)
+    announce = rounds._announce
+
+    def announced(*args: Any, **kwargs: Any) -> Any:
+        announced = announce(*args, **kwargs)
+        if isinstance(announced, tuple):  # a tree before 2026-11-29's ARRAY_IMPORTS_COVER_S returns the progress alone
+            estimated.append(announced[1] * args[0].team.size)
+        return announced
+
+    rounds._announce = announced
     from hpcontact.sweep.maps import spread
 
     calls: list[tuple[float, float, float, list[tuple[int, float]], float, str]] = []
@@ -418,7 +428,15 @@ def worker(spec: str, output: str, variant: str, task: str, times: str) -> None:
         fixed = [slab_fixed(function, job) for function, job in jobs]  # after the run: not in its times
         Path(times).write_text(
             json.dumps(
-                {"start": started, "end": ended, "marks": marks, "phases": phases, "calls": calls, "fixed": fixed}
+                {
+                    "start": started,
+                    "end": ended,
+                    "marks": marks,
+                    "phases": phases,
+                    "calls": calls,
+                    "fixed": fixed,
+                    "estimated": estimated,
+                }
             ),
             encoding="utf-8",
         )
@@ -526,6 +544,36 @@ def in_round_seconds(measured: dict[str, Any], clock: str) -> list[float]:
                 if first[0] <= start <= last[0]:
                     out[k] += wall if clock == "wall" else cpu
     return out
+
+
+def imports_moved(
+    measured: dict[str, Any], clock: str, ahead: list[float], alone: list[float], ranks: int
+) -> tuple[list[float], list[float]]:
+    """``ahead`` (rank 0's work during each round) and ``alone`` (its work after each) with its
+    data set's imports (the ``array modules`` calls, in the round the 2-rank run chose) where
+    ``rounds.imports_array_modules`` puts them on ``ranks`` ranks: in the first round whose
+    estimated task seconds (rank 0's announcement, all ranks') a rank reach
+    ``ARRAY_IMPORTS_COVER_S``, else after the last round, with the data set (rank 0 alone)."""
+    from hpcontact.sweep.run import rounds
+
+    ahead, alone = list(ahead), list(alone)
+    if not hasattr(rounds, "ARRAY_IMPORTS_COVER_S"):  # a tree before it imports in its first round's announcement
+        return ahead, alone
+    cover = rounds.ARRAY_IMPORTS_COVER_S
+    windows = list(zip(measured["marks"][0::2], measured["marks"][1::2]))
+    for label, start, wall, cpu in measured.get("phases", []):
+        if label != "array modules":
+            continue
+        seconds = wall if clock == "wall" else cpu
+        for k, (first, last) in enumerate(windows):
+            if first[0] <= start <= last[0]:
+                ahead[k] -= seconds
+        covered = [k for k, total in enumerate(measured["estimated"]) if total / ranks >= cover]
+        if covered:
+            ahead[covered[0]] += seconds
+        else:
+            alone[-1] += seconds
+    return ahead, alone
 
 
 def leaf_calls(measured: dict[str, Any], clock: str) -> tuple[list[list[Any]], list[float]]:
@@ -677,6 +725,22 @@ def crystal(folder: Path, task: str, driver_ms: list[float], checks: int) -> Non
             f"(the largest part's in each call, summed: {largest:.2f}; a slab's fixed part, summed over the calls, "
             f"{fixed:.2f}), overhead {overhead:.2f} s"
         )
+    from hpcontact.sweep.run import rounds as driver_rounds
+
+    cover, totals = getattr(driver_rounds, "ARRAY_IMPORTS_COVER_S", 0.0), measured["estimated"]
+    placed = [
+        next(
+            (f"round {k + 1}" for k, t in enumerate(totals) if t / r >= cover),
+            "round 1" if not totals else "after the last",
+        )
+        for r in RANKS
+    ]
+    print(
+        f"rank 0's data set imports (array modules, {sum(phases['CPU']['array modules']):.2f} CPU s) go in the first "
+        f"round estimated at >= {cover:g} s a rank (the rounds' estimates, all ranks: "
+        f"{', '.join(f'{t:.1f}' for t in totals)} s): "
+        + ", ".join(f"{r} ranks: {where}" for r, where in zip(RANKS, placed))
+    )
     print(
         "replayed (the set-up as measured; rank 0's announcement and reading ahead during each round as its own work "
         "after its first claim, the other ranks claiming meanwhile): "
@@ -696,7 +760,8 @@ def crystal(folder: Path, task: str, driver_ms: list[float], checks: int) -> Non
             per_task = driver if clock == "wall" else cpu_driver
             overheads = Overheads(**{**DEFAULT_OVERHEADS.__dict__, "driver_s": per_task, "spread_gather_s": 0.0})
             for ranks in RANKS:
-                r = replayed(rounds, ranks, alone, times[0], 139725, overheads, enumeration, ahead, calls, known)
+                busy, after = imports_moved(measured, clock, ahead, alone, ranks)
+                r = replayed(rounds, ranks, after, times[0], 139725, overheads, enumeration, busy, calls, known)
                 print(
                     f"{name:>8} {ranks:6d} {clock:>5} {r['makespan_s']:8.2f} {r['efficiency']:7.3f} "
                     f"{r['between']:8.3f} {r['tail']:6.3f} {r['claims']:7.3f} {r['setup']:6.3f}",
@@ -705,7 +770,7 @@ def crystal(folder: Path, task: str, driver_ms: list[float], checks: int) -> Non
     overheads = Overheads(**{**DEFAULT_OVERHEADS.__dict__, "driver_s": cpu_driver, "spread_gather_s": 0.0})
     enumeration = sum(sum(phases["CPU"][p]) for p in SPREAD_SETUP)
     for name, rounds in reversed(lines.items()):
-        ahead = in_round_seconds(measured, "CPU")
+        ahead, _ = imports_moved(measured, "CPU", in_round_seconds(measured, "CPU"), [0.0] * len(gaps_cpu), 16)
         r = replayed(rounds, 16, [0.0] * len(gaps_cpu), setup_cpu, 139725, overheads, enumeration, ahead, None, known)
         print(
             f"bound, not the code: {name}, 16 ranks with nothing at all between rounds (CPU, set-up as measured): "

@@ -1,5 +1,5 @@
 """An adaptive map's rounds on 2 ranks do only what the next round needs: rank 0 decides from the
-stored stiffnesses (``dataset.stiffness_dataset``) and makes the whole data set once, in the
+stored stiffnesses (``dataset.stored_stiffnesses``) and makes the whole data set once, in the
 last round; rank 1 never imports xarray, pandas or netCDF4 (only rank 0 makes a data set). The
 map is a smooth crystal pattern (several rounds, exact arithmetic); its data set equals that
 of one process.
@@ -93,7 +93,7 @@ def main(spec: str, output: str, folder: str) -> None:
         return call
 
     dataset.dataset_of = counted("made", dataset.dataset_of)
-    dataset.stiffness_dataset = counted("decided", dataset.stiffness_dataset)
+    dataset.stored_stiffnesses = counted("decided", dataset.stored_stiffnesses)
     with open(os.devnull, "w", encoding="utf-8") as sink:
         run_sweep(spec, output=output, task_function=record, team=team, stream=sink)
     imported = [m for m in HEAVY if m in sys.modules]

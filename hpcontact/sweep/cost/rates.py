@@ -58,7 +58,8 @@ is ``accuracy.grid_bytes`` of the finest predicted grid with its boundary cells 
     bytes = base + fixed_k + per_cell_k × padded_cells(params)
 
 ``base`` is this process's peak resident set (``resource.getrusage``) after importing what a
-run imports (the solvers, MPI, xarray); ``padded_cells`` is the padded FFT grid
+rank that runs tasks imports (the solvers, MPI; not xarray, which rank 0 alone imports for its
+data set, ~41 MiB, and whose arrays no task's model counts either); ``padded_cells`` is the padded FFT grid
 (``cost.grids.padded_cells``). ``fixed_k`` and ``per_cell_k`` are float64 array sizes (no machine
 dependence), fitted to ``tracemalloc`` peaks of single solves with cold kernel caches
 (``footprint.MEMORY_MODEL``; the fits: docs/performance.md §"Memory per task"):
@@ -291,9 +292,9 @@ def task_array_bytes(params: Mapping[str, Any]) -> float:
 
 
 def base_memory_bytes() -> float:
-    """Peak resident bytes of this process after importing what a run imports (module
-    docstring)."""
+    """Peak resident bytes of this process after importing what a rank that runs tasks imports
+    (module docstring): not xarray, whose import (0.5-0.6 CPU s) a run's first announcement
+    paid while the other ranks of a short first round waited (``run.rounds``)."""
     import mpi4py.MPI  # noqa: F401 - imported for its resident size, as a run does
-    import xarray  # noqa: F401
 
     return resident_bytes()

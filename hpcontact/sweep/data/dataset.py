@@ -107,8 +107,8 @@ __all__ = [  # the attribute tables are hpcontact.sweep.data.attributes'; import
     "import_array_modules",
     "link_errors",
     "open_dataset",
-    "stiffness_dataset",
     "stiffness_record",
+    "stored_stiffnesses",
     "write_netcdf",
 ]
 
@@ -188,35 +188,39 @@ def dataset_of(
     return derive_directional(ds) if derive else ds
 
 
-def stiffness_dataset(spec: Spec, task_of: np.ndarray, joined: Joined) -> xr.Dataset:
-    """The stiffnesses of ``dataset_of(spec, task_of, joined)`` alone: ``status``, the record
-    variables the scene kind's estimated pattern matches and their ``<name>_error``
-    (``link_errors``; NaN where none), the same values in the same order, with no coordinates,
-    other records, attributes or derived variables. An adaptive round decides from these
-    (``maps.rounds``); only its last builds the whole data set (146 475 points, ~20 variables on
-    the 4-D map, rank 0 alone after every round while the other ranks wait)."""
-    import xarray as xr
-
-    dims = tuple(a.name for a in spec.task_axes)
-    variables: dict[str, tuple[tuple[str, ...], np.ndarray]] = {"status": (dims, joined.status[task_of])}
-    for name, values in joined.records.items():
-        if stiffness_record(spec, name):
-            variables[name] = (dims, values[task_of])
-    return link_errors(xr.Dataset(variables), spec.kind_record.estimated)
+def stored_stiffnesses(spec: Spec, task_of: np.ndarray, joined: Joined) -> dict[str, np.ndarray]:
+    """The stiffnesses of ``dataset_of(spec, task_of, joined)`` alone, as float64 arrays over the
+    task axes by name: the record variables the scene kind's estimated pattern matches and their
+    ``<name>_error`` (NaN where no record carries it, as ``link_errors`` adds it), the same values
+    in the same order, and nothing else. An adaptive round decides from these (``maps.rounds``)
+    without xarray, which rank 0 imports during a round with work enough to cover it
+    (``run.rounds``); only the map's last round builds the whole data set (146 475 points, ~60
+    variables on the 4-D map, rank 0 alone while the other ranks wait)."""
+    out = {
+        name: np.asarray(values[task_of], dtype=np.float64)
+        for name, values in joined.records.items()
+        if stiffness_record(spec, name)
+    }
+    pattern = spec.kind_record.estimated
+    for name in [n for n in out if pattern.match(n) and not n.endswith(ERROR_SUFFIX)]:
+        if f"{name}{ERROR_SUFFIX}" not in out:
+            out[f"{name}{ERROR_SUFFIX}"] = np.full(task_of.shape, np.nan)
+    return out
 
 
 def import_array_modules() -> None:
-    """Import now what xarray imports at the first variable a process makes: the array libraries
-    it knows, dask.array where it is installed (0.2-0.4 CPU s on the 2-core development VM), once
-    a process. Rank 0 calls it during its round (``run.rounds``), so that its first data set,
-    made while every other rank waits for it (an adaptive map's first decision), does not."""
+    """Import now xarray and what it imports at the first variable a process makes: the array
+    libraries it knows, dask.array where it is installed (xarray 0.5-0.6 and dask 0.2-0.4 CPU s
+    on the 2-core development VM), once a process. Rank 0 calls it during a round whose work
+    covers it (``run.rounds``), so that its data set, made while every other rank waits, does
+    not import them."""
     import xarray as xr
 
     xr.Variable(("point",), np.zeros(1))
 
 
 def stiffness_record(spec: Spec, name: str) -> bool:
-    """Whether the record key ``name`` is one of ``stiffness_dataset``'s: a stiffness of the
+    """Whether the record key ``name`` is one of ``stored_stiffnesses``': a stiffness of the
     spec's scene kind (``Kind.estimated``) or its ``<name>_error``."""
     pattern = spec.kind_record.estimated
     return bool(pattern.match(name) or pattern.match(name.removesuffix(ERROR_SUFFIX)))

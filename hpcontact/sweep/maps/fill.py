@@ -7,7 +7,6 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-import xarray as xr
 
 from hpcontact.errors import InputError
 from hpcontact.problems.kinds import KINDS
@@ -24,15 +23,16 @@ UNINTERPOLATED_MESSAGE = "not interpolated: a solve it depends on failed (adapti
 
 
 def stiffness_names(ds: Any, kind: str) -> list[str]:
-    """The stored stiffnesses of the data set ``ds`` (those that carry ``<name>_error``)."""
+    """The stored stiffnesses of ``ds`` (those that carry ``<name>_error``): a data set's data
+    variables, or the names of ``dataset.stored_stiffnesses``' arrays."""
 
     pattern = KINDS[kind].estimated
-    return [str(v) for v in ds.data_vars if pattern.match(str(v)) and not str(v).endswith("_error")]
+    return [str(v) for v in ds if pattern.match(str(v)) and not str(v).endswith("_error")]
 
 
 def refined_names(ds: Any, spec: Any) -> list[str]:
-    """The quantities refined on: ``[adaptive] quantities`` that the data set holds, else
-    every stored stiffness."""
+    """The quantities refined on: ``[adaptive] quantities`` that ``ds`` holds (as
+    ``stiffness_names``), else every stored stiffness."""
     stored = stiffness_names(ds, spec.kind)
     chosen = spec.adaptive.quantities
     if chosen is None:
@@ -66,6 +66,7 @@ def fill(
     ``<name>_map_error`` for every stored stiffness (linked by ``ancillary_variables``) and the
     global attributes ``sweep_solves``, ``adaptive_*``. The check points of ``checks`` are
     solved points; each sub-problem's estimate carries the factor its checks set."""
+    import xarray as xr  # here, not at the module's import: a round's decision needs none (maps.rounds)
 
     checks = checks if checks is not None else Checks()
     task_of = np.asarray(task_of)

@@ -13,8 +13,8 @@ solves a subset of it, chosen in rounds::
 
 Rounds. Each round is an ordinary run of the driver (``driver._round``) over the tasks of the
 round's new points: every rank takes chunks of them, each journaled as usual; rank 0 decides
-the next round from the stored stiffnesses of all journaled tasks (``dataset.stiffness_dataset``:
-no other variable, no data set made) at the nodes alone (not from other journaled points), so a sweep interrupted in any round and run again
+the next round from the stored stiffnesses of all journaled tasks (``dataset.stored_stiffnesses``:
+numpy arrays, no other variable, no data set made, no xarray) at the nodes alone (not from other journaled points), so a sweep interrupted in any round and run again
 with ``--resume`` takes the same rounds, reuses every journaled task and solves none twice.
 Only the last round makes and writes the data set (``fill``): the full grid, every variable of a full
 sweep, stiffnesses and their ``<name>_error`` interpolated at unsolved points, plus
@@ -99,17 +99,16 @@ def _rounds(team: Any, spec: Any, task_of: np.ndarray, options: Any, stream: Tex
             checks: Checks = checks,
             this_round: int = this_round,
         ) -> Any:
-            # rank 0 alone (xarray and the fill are imported here): the decision reads the stored
-            # stiffnesses alone; the whole data set is made only for the map's last round
-            from hpcontact.sweep.data.dataset import stiffness_dataset
-            from hpcontact.sweep.maps.fill import fill, quantity_fields, refined_names, stiffness_names
+            # rank 0 alone: the decision reads the stored stiffnesses alone (no xarray); the whole
+            # data set is made only for the map's last round
+            from hpcontact.sweep.data.dataset import stored_stiffnesses
+            from hpcontact.sweep.maps.fill import fill, refined_names, stiffness_names
 
-            values = stiffness_dataset(spec, task_of, joined)
-            stored = stiffness_names(values, spec.kind)
-            fields = quantity_fields(values, stored)
+            fields = stored_stiffnesses(spec, task_of, joined)
+            stored = stiffness_names(fields, spec.kind)
             with remembered_estimates():  # the last check's judgement and the fill: one estimate
                 step = next_step(
-                    layout, spec.adaptive, state, checks, fields, refined_names(values, spec), stored, task_of
+                    layout, spec.adaptive, state, checks, fields, refined_names(fields, spec), stored, task_of
                 )
                 decided["next"] = step if isinstance(step, tuple) else None
                 if isinstance(step, tuple):

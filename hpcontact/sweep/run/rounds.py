@@ -18,12 +18,15 @@ with it (``maps.spread``: the leaves' parts, or the sparse grid's slabs; bitwise
 one process) instead of waiting.
 
 Rank 0 takes its first claim, then announces the round (its line and estimate: the cost model's
-probe of the machine and xarray's import, 0.7-1.0 CPU s on the 4-D map) and imports what its data
-set needs (xarray's array modules, ``dataset.import_array_modules``: dask where installed,
-0.2-0.4 CPU s), before its first task: the other ranks claim meanwhile (served by rank 0's
-thread), not wait for it in the set-up or its first decision. Done before its first claim it left
-a small sweep's every task to the other ranks; done between two of its tasks it stalled its claims
-past the cluster check's bound."""
+probe of the machine, 0.3 CPU s) and, where the round's work covers it, imports what its data set
+needs (``dataset.import_array_modules``: xarray and dask where installed, 0.8-1.1 CPU s on the
+2-core development VM), before its first task: the other ranks claim meanwhile (served by rank
+0's thread), not wait for it in the set-up or a decision. Done before its first claim it left a
+small sweep's every task to the other ranks; done between two of its tasks it stalled its claims
+past the cluster check's bound. An adaptive map decides without xarray (``maps.rounds``), so
+rank 0 imports it in the first round with work enough for the others
+(``imports_array_modules``), not in a short first round the others would finish first (the 4-D
+map's 136 solves on 16 ranks, ~0.7 s a rank, waited for ~1.1 s of announcement and imports)."""
 
 from __future__ import annotations
 
@@ -77,6 +80,19 @@ from hpcontact.sweep.work.tasks import Task, changed_inputs, make_chunks
 # Rank 0 of an adaptive map reads the journals ahead while the round runs for at most this share
 # of its time in the round (module docstring); the rest it computes tasks.
 READ_AHEAD_SHARE = 0.25
+#: Rank 0 of an adaptive map imports its data set's modules in the first round whose estimated
+#: task seconds per rank reach this (``imports_array_modules``): twice the imports' 0.8-1.1 CPU s
+#: on the development VM, for a machine or an estimate that is slower.
+ARRAY_IMPORTS_COVER_S = 2.0
+
+
+def imports_array_modules(scope: RoundScope, per_rank_s: float) -> bool:
+    """Whether rank 0 imports its data set's modules (``dataset.import_array_modules``) during a
+    round of ``scope`` whose tasks are estimated at ``per_rank_s`` seconds a rank: a plain run's
+    one round always (its data set follows it), an adaptive round where ``per_rank_s`` reaches
+    ``ARRAY_IMPORTS_COVER_S`` (the other ranks' claims cover the imports); otherwise rank 0
+    imports them with its data set, after the map's last round."""
+    return scope.tally is None or per_rank_s >= ARRAY_IMPORTS_COVER_S
 
 
 def run_task(
@@ -245,11 +261,11 @@ def _announce(
     todo: list[Task],
     chunks: list[tuple[Task, ...]],
     front: Front,
-) -> Progress:
+) -> tuple[Progress, float]:
     """Rank 0 before the tasks run: the lock's note, dropped journal lines, changed inputs, the
     round's line (tasks to run, reused, alone on rank 0, quarantined, chunks) and its estimate
     (an adaptive map's in its first round alone), options in ``front``'s words; the progress
-    report of the tasks handed out."""
+    report of the tasks handed out, and the tasks' estimated seconds a rank."""
     spec, stream, decision = run.spec, run.stream, plan.decision
     if kept.note:
         print(f"hpcontact: {rendered(kept.note, front)}", file=stream)
@@ -274,7 +290,7 @@ def _announce(
         print(line, file=stream, flush=True)
     handed = [t for chunk in chunks for t in chunk]  # what the ranks report, in hand-out order
     estimated = dict(zip((t.key for t in todo), seconds.tolist()))
-    return Progress(
+    progress = Progress(
         len(run.tasks),
         decision.reused,
         [cost_units(t.cost) for t in handed],
@@ -284,6 +300,7 @@ def _announce(
         run.team.size,
         [len(chunk) for chunk in chunks],
     )
+    return progress, sum(seconds.tolist()) / run.team.size
 
 
 def _run(run: Run, plan: Plan, kept: Kept | None, scope: RoundScope, options: Options, round_started: float) -> Outcome:
@@ -325,10 +342,11 @@ def _run(run: Run, plan: Plan, kept: Kept | None, scope: RoundScope, options: Op
     if team.rank == 0:  # its first claim, then the round's line and its data set's imports: the others claim meanwhile
         taken = list(islice(claims, 1))
         schedule_s += time.perf_counter() - claim
-        progress = _announce(run, plan, kept, scope, todo, chunks, options.front)
-        from hpcontact.sweep.data.dataset import import_array_modules  # rank 0's alone (assembly)
+        progress, per_rank_s = _announce(run, plan, kept, scope, todo, chunks, options.front)
+        if imports_array_modules(scope, per_rank_s):
+            from hpcontact.sweep.data.dataset import import_array_modules  # rank 0's alone (assembly)
 
-        import_array_modules()
+            import_array_modules()
     read_s, claims_started = 0.0, time.perf_counter()
 
     def run_alone(task: Task) -> Entry:

@@ -32,7 +32,7 @@ same rule to its own round trips and chunk seconds.
 (``hpcontact.sweep.maps.rounds``): every rank enumerates its share of the whole grid once, then
 each round's tasks run as one replayed sweep (without setup or gather of their own), and between
 rounds rank 0 alone decides the next round (the journal lines not read ahead, the outcomes
-joined, the stored stiffnesses of every journaled task, ``dataset.stiffness_dataset``, the
+joined, the stored stiffnesses of every journaled task, ``dataset.stored_stiffnesses``, the
 refinement; after the last round the whole data set made, filled and written: ``between_s``,
 measured) while every other rank waits. Rank 0's own work during a round (``rank0_busy_s``:
 its announcement, its reading ahead) delays its first chunk, the other ranks taking the claims

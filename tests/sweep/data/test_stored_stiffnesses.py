@@ -1,7 +1,7 @@
-"""The stiffnesses an adaptive round decides from (``dataset.stiffness_dataset``) are those of the
-whole data set (``dataset.dataset_of``) of the same columns: same names in the same order, same
-values bitwise (NaN where a task failed or has no entry), ``<name>_error`` NaN where a record
-carries none; and making them imports no other variable."""
+"""The stiffnesses an adaptive round decides from (``dataset.stored_stiffnesses``) are those of
+the whole data set (``dataset.dataset_of``) of the same columns: same names in the same order,
+same values bitwise (NaN where a task failed or has no entry), ``<name>_error`` NaN where a
+record carries none; numpy arrays alone (no xarray), no other variable."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ import numpy as np
 from hpcontact.fields import SLIP
 from hpcontact.quantities import SLIP_ESTIMATED
 from hpcontact.sweep.data.columns import join, task_positions, to_columns
-from hpcontact.sweep.data.dataset import FIXED_VARIABLES, dataset_of, stiffness_dataset, stiffness_record
+from hpcontact.sweep.data.dataset import FIXED_VARIABLES, dataset_of, stiffness_record, stored_stiffnesses
 from hpcontact.sweep.data.journal import ERROR, OK, Entry
 from hpcontact.sweep.space.parse import parse_spec
 from hpcontact.sweep.work.tasks import enumerate_tasks
@@ -71,19 +71,19 @@ def columns_parts(spec, solve, with_positions=False):
 
 
 def assert_same_stiffnesses(spec, task_of, joined) -> list[str]:
-    """``stiffness_dataset`` against ``dataset_of`` of the same columns; the stiffness names."""
+    """``stored_stiffnesses`` against ``dataset_of`` of the same columns; the stiffness names."""
     whole = dataset_of(spec, task_of, joined, {"mpi_size": 1}, derive=False)
-    alone = stiffness_dataset(spec, task_of, joined)
+    alone = stored_stiffnesses(spec, task_of, joined)
     pattern = spec.kind_record.estimated
     expected = [str(v) for v in whole.data_vars if pattern.match(str(v)) and not str(v).endswith("_error")]
-    names = [str(v) for v in alone.data_vars if pattern.match(str(v)) and not str(v).endswith("_error")]
+    names = [v for v in alone if pattern.match(v) and not v.endswith("_error")]
     assert names == expected
     for name in names:
         for full in (name, f"{name}_error"):
-            a, b = alone[full].values, whole[full].values
-            assert a.dtype == b.dtype == np.float64 and a.shape == b.shape, full
+            a, b = alone[full], whole[full].values
+            assert type(a) is np.ndarray and a.dtype == b.dtype == np.float64 and a.shape == b.shape, full
             assert np.array_equal(a, b, equal_nan=True), full
-    assert set(alone.data_vars) <= set(whole.data_vars) and not alone.coords
+    assert set(alone) == {f"{n}{e}" for n in names for e in ("", "_error")}
     return names
 
 
@@ -92,10 +92,10 @@ def test_the_stiffnesses_are_those_of_the_whole_data_set(fake_solve):
     joined, task_of = columns_of(spec, fake_solve)
     names = assert_same_stiffnesses(spec, task_of, joined)
     assert "K_xx" in names and "K_zz" in names
-    alone = stiffness_dataset(spec, task_of, joined)
-    assert np.isnan(alone["K_xx"].values[np.isin(task_of, [2, 3])]).all()  # not computed, failed
-    assert np.isnan(alone["K_yy_error"].values).all()  # no record carries it
-    assert np.isfinite(alone["K_xx_error"].values).any() and "plan" not in alone
+    alone = stored_stiffnesses(spec, task_of, joined)
+    assert np.isnan(alone["K_xx"][np.isin(task_of, [2, 3])]).all()  # not computed, failed
+    assert np.isnan(alone["K_yy_error"]).all()  # no record carries it
+    assert np.isfinite(alone["K_xx_error"]).any() and "plan" not in alone
 
 
 def test_a_slip_sweeps_stored_errors_are_kept(fake_solve):
@@ -109,7 +109,7 @@ def test_a_slip_sweeps_stored_errors_are_kept(fake_solve):
 
     joined, task_of = columns_of(spec, solve)
     assert assert_same_stiffnesses(spec, task_of, joined) == ["tangential_stiffness"]
-    errors = stiffness_dataset(spec, task_of, joined)["tangential_stiffness_error"].values
+    errors = stored_stiffnesses(spec, task_of, joined)["tangential_stiffness_error"]
     assert np.nanmax(errors) == np.nanmin(errors) == 1e-4
 
 
@@ -138,17 +138,17 @@ def test_a_join_of_the_stiffness_records_alone_gives_the_same_stiffnesses(fake_s
     assert set(lean.records) == {n for n in joined.records if stiffness_record(spec, n)} and "plan" in joined.records
     assert "plan" not in lean.records and "K_xx_error" in lean.records
     np.testing.assert_array_equal(lean.status, joined.status)
-    a, b = stiffness_dataset(spec, task_of, lean), stiffness_dataset(spec, task_of, joined)
-    assert list(a.data_vars) == list(b.data_vars)
-    for name in a.data_vars:
-        assert np.array_equal(a[name].values, b[name].values, equal_nan=True), name
+    a, b = stored_stiffnesses(spec, task_of, lean), stored_stiffnesses(spec, task_of, joined)
+    assert list(a) == list(b)
+    for name in a:
+        assert np.array_equal(a[name], b[name], equal_nan=True), name
 
 
 def test_after_import_array_modules_a_first_data_set_imports_nothing():
-    """``import_array_modules`` (rank 0 during its round) imports what xarray imports at a
+    """``import_array_modules`` (rank 0 during a round) imports what xarray imports at a
     process's first variable (dask.array where installed, as in the test environment), so that
-    the first stiffness data set (an adaptive map's first decision, the other ranks waiting)
-    imports no module: without it the same data set imports dask's."""
+    the data set after it (the other ranks waiting) imports no module: without it the same data
+    set imports dask's."""
     make = "link_errors(xr.Dataset({'status': (('x',), np.zeros(3, np.int32)), 'K_xx': (('x',), np.ones(3))})); "
     code = (
         "import sys; import numpy as np; import xarray as xr; "
