@@ -30,36 +30,38 @@ from pathlib import Path
 from types import ModuleType
 
 import numpy as np
-import scipy.fft
 
 from hpcontact.errors import InputError
 from hpcontact.numerics.backend import Array, to_device
 
 
-def _import_pyfftw_without_dask():
-    """``pyfftw``, imported without its optional dask interface.
+def _import_pyfftw_alone():
+    """``pyfftw``, imported without its optional dask and scipy interfaces.
 
     ``pyfftw/interfaces/__init__.py`` (0.15) tries ``from dask.array.fft import fft_wrap`` and
     builds ``pyfftw.interfaces.dask_fft`` when dask is installed: 1.1 s of every process's
     start-up (measured: ``python -X importtime``, 2.4 s → 1.3 s for ``import hpcontact.cli`` on
     the 2-core development VM, 2026-11-26), paid by every rank of every job in an environment
-    with xarray's dask extra. hpcontact uses only ``pyfftw.FFTW`` and the wisdom functions, so
-    dask is hidden (a ``None`` entry in ``sys.modules`` makes its import raise ImportError, which
-    pyfftw catches) while pyfftw imports, unless dask is already imported; ``import dask``
-    afterwards works as usual.
+    with xarray's dask extra; and it imports ``scipy.fftpack`` (and with it ``scipy.fft`` and
+    ``scipy.special``) for its scipy interfaces: 0.25-0.35 s more (2026-11-29, same VM), which a
+    process that solves no grid (exact cells, the 4-D map's every task) never needs.
+    hpcontact uses only ``pyfftw.FFTW`` and the wisdom functions, so both are hidden (a ``None``
+    entry in ``sys.modules`` makes their import raise ImportError, which pyfftw catches) while
+    pyfftw imports, unless already imported; ``import dask`` or ``import scipy.fft`` afterwards
+    works as usual (this module and ``preconditioner`` import ``scipy.fft`` at first use).
     """
-    hidden = "dask" not in sys.modules
-    if hidden:
-        sys.modules["dask"] = None  # type: ignore[assignment]
+    hidden = [name for name in ("dask", "scipy.fftpack") if name not in sys.modules]
+    for name in hidden:
+        sys.modules[name] = None  # type: ignore[assignment]
     try:
         import pyfftw as module
     finally:
-        if hidden:
-            del sys.modules["dask"]
+        for name in hidden:
+            del sys.modules[name]
     return module
 
 
-pyfftw = _import_pyfftw_without_dask()
+pyfftw = _import_pyfftw_alone()
 
 COMPONENT_INDEX = {"x": 0, "y": 1, "z": 2}
 _SPECTRUM_CACHE: OrderedDict[tuple, np.ndarray] = OrderedDict()
@@ -100,6 +102,8 @@ MEASURE_AFTER_SECONDS = 1.3
 
 def padded_shape(nx: int, ny: int) -> tuple[int, int]:
     """Smallest FFTW-friendly sizes ≥ (2nx − 1, 2ny − 1): enough for a linear convolution."""
+    import scipy.fft  # on first use, not at import: 0.2-0.4 CPU s a process that solves no grid (exact cells)
+
     return (
         scipy.fft.next_fast_len(2 * nx - 1, real=True),
         scipy.fft.next_fast_len(2 * ny - 1, real=True),

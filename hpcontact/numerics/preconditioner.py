@@ -30,7 +30,6 @@ from collections.abc import Callable
 from types import ModuleType
 
 import numpy as np
-import scipy.fft
 
 from hpcontact.geometry import Grid
 from hpcontact.numerics.backend import Array, is_numpy, to_device
@@ -48,6 +47,8 @@ def preconditioner_length(n: int, length: float, other_length: float) -> int:
     iterations; contacts that are not thin are unaffected (docs/performance.md §"Fourier
     preconditioner").
     """
+    import scipy.fft  # on first use, not at import: 0.2-0.4 CPU s a process that solves no grid (exact cells)
+
     return scipy.fft.next_fast_len(2 * n if (n < 64 or 4.0 * length < other_length) else n, real=True)
 
 
@@ -94,6 +95,8 @@ class FourierPreconditioner:
         """M⁻¹ r for a residual (c, nx, ny); a new array (c, nx, ny) (a view of a fresh one)."""
         nx, ny = self.grid_shape
         if is_numpy(self.xp):
+            import scipy.fft  # imported by the preconditioner's grid (preconditioner_length)
+
             self._padded[:, :nx, :ny] = residual
             spectra = scipy.fft.rfft2(self._padded, axes=(1, 2))
             if spectra.shape[0] == 1:

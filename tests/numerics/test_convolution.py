@@ -399,3 +399,21 @@ def test_planner_effort_from_the_environment(monkeypatch):
     monkeypatch.setenv(op_mod.PLANNER_ENV, "fast")
     with pytest.raises(InputError, match="HPCONTACT_FFTW_PLANNER.*one of auto, FFTW_ESTIMATE"):
         op_mod.ConvolutionOperator(16, 8, "z", spectra)
+
+
+def test_importing_the_operator_imports_no_dask_nor_scipy_fft():
+    """pyfftw is imported without its dask and scipy interfaces (``_import_pyfftw_alone``): a
+    fresh process importing the sweep driver has neither dask nor ``scipy.fft`` (a process that
+    solves no grid never needs them); ``scipy.fft`` comes at the first padded grid (the same
+    sizes), and ``import scipy.fftpack``, hidden while pyfftw imported, works afterwards."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys; import hpcontact.sweep.driver; from hpcontact.numerics.convolution import padded_shape; "
+        "before = sorted(m for m in ('dask', 'scipy.fft', 'scipy.fftpack', 'scipy.special') if m in sys.modules); "
+        "shape = padded_shape(9, 17); import scipy.fftpack; "
+        "print(before, 'scipy.fft' in sys.modules, shape)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    assert " ".join(out) == "[] True (18, 36)"
