@@ -62,8 +62,9 @@ outcomes of the round turned into columns, which each rank does for its own; dur
 rank 0's own work after its first claim, the other ranks claiming meanwhile, ``replay_rounds``'
 ``rank0_busy_s``: on many ranks a round too short to cover it waits for it). The set-up
 is replayed as measured: the enumeration and the packing of a rank's share for the others
-(``SPREAD_SETUP``: rank 0's share on 2 ranks, so twice it in all) divided over the ranks, the
-rest on every rank at once: the shares of every rank unpacked and joined (``unpack+join``), the
+(``SPREAD_SETUP``: rank 0's share on 2 ranks, so twice it in all) divided over the ranks; the
+other ranks' shares unpacked (``unpack``: each rank unpacks the R - 1 others', so rank 0's on 2
+ranks times 2 (R - 1) / R); the rest on every rank at once: the shares joined (``join``), the
 interpreter, imports, MPI, the spec and the first round's nodes (``setup as measured``;
 ``setup as assumed``: rank 0's ``Overheads.setup_s`` a task of the six-axis job, the replay's
 default).
@@ -121,8 +122,8 @@ LINES = {
 PHASES = (
     ("hpcontact.sweep.run.rounds", "share", "enumeration"),
     ("hpcontact.sweep.run.rounds", "packed", "pack"),
-    ("hpcontact.sweep.run.rounds", "unpacked", "unpack+join"),
-    ("hpcontact.sweep.run.rounds", "joined", "unpack+join"),
+    ("hpcontact.sweep.run.rounds", "unpacked", "unpack"),
+    ("hpcontact.sweep.run.rounds", "joined", "join"),
     ("hpcontact.sweep.run.rounds", "prepare", "journals+decision"),
     ("hpcontact.sweep.run.rounds", "to_columns", "own outcomes"),
     ("hpcontact.sweep.run.assembly", "outcome_parts", "outcomes joined"),
@@ -609,12 +610,15 @@ def replayed(
     rank0_busy: list[float] | None = None,
     calls: list[list[Any]] | None = None,
     known: Mapping[str, tuple[int, float, str]] | None = None,
+    unpack: float = 0.0,
 ) -> Any:
     """``replay_rounds`` of ``rounds`` (key → seconds) on ``ranks``, the measured ``setup`` of 2
     ranks split: with ``enumeration`` (rank 0's share of it, of the 2 measured) that twice over
-    spread over the ranks, the rest rank 0's; without, rank 0's part ``overheads.setup_s`` a task
-    (the replay's default) and the rest spread; ``rank0_busy`` and the shared estimates
-    ``calls`` (per round) passed to ``replay_rounds``. A round's tasks are chunked as the driver
+    spread over the ranks, ``unpack`` (rank 0's unpacking of the other's share, of the 2
+    measured) times 2 (ranks - 1) / ranks (every rank unpacks the others'), the rest rank 0's;
+    without, rank 0's part ``overheads.setup_s`` a task (the replay's default) and the rest spread;
+    ``rank0_busy`` and the shared estimates ``calls`` (per round) passed to ``replay_rounds``. A
+    round's tasks are chunked as the driver
     chunks them (``tasks.make_chunks``: by kernel group, the largest cost first) from ``known``
     (``spec_tasks``: each key's position in the grid, cost-model cost and kernel group; a round's
     tasks in grid order, as ``resume.prepare`` lists them), not from the seconds they will take,
@@ -638,9 +642,8 @@ def replayed(
         spread = max(setup - overheads.setup_s * tasks, 0.0) * 2 / tasks
         overheads = replace(overheads, spread_setup_s=spread)
     else:  # as measured: the enumeration spread over the ranks (2 measured), the rest on every rank at once
-        overheads = replace(
-            overheads, setup_s=max(setup - enumeration, 0.0) / tasks, spread_setup_s=2 * enumeration / tasks
-        )
+        alone = max(setup - enumeration - unpack, 0.0) + unpack * 2 * (ranks - 1) / ranks
+        overheads = replace(overheads, setup_s=alone / tasks, spread_setup_s=2 * enumeration / tasks)
     return replay_rounds(orders, ranks, gaps, tasks, overheads, rank0_busy, calls)
 
 
@@ -759,9 +762,10 @@ def crystal(folder: Path, task: str, driver_ms: list[float], checks: int) -> Non
             ahead = in_round_seconds(measured, clock)
             per_task = driver if clock == "wall" else cpu_driver
             overheads = Overheads(**{**DEFAULT_OVERHEADS.__dict__, "driver_s": per_task, "spread_gather_s": 0.0})
+            unpack = sum(phases[clock]["unpack"])
             for ranks in RANKS:
                 busy, after = imports_moved(measured, clock, ahead, alone, ranks)
-                r = replayed(rounds, ranks, after, times[0], 139725, overheads, enumeration, busy, calls, known)
+                r = replayed(rounds, ranks, after, times[0], 139725, overheads, enumeration, busy, calls, known, unpack)
                 print(
                     f"{name:>8} {ranks:6d} {clock:>5} {r['makespan_s']:8.2f} {r['efficiency']:7.3f} "
                     f"{r['between']:8.3f} {r['tail']:6.3f} {r['claims']:7.3f} {r['setup']:6.3f}",
@@ -771,7 +775,10 @@ def crystal(folder: Path, task: str, driver_ms: list[float], checks: int) -> Non
     enumeration = sum(sum(phases["CPU"][p]) for p in SPREAD_SETUP)
     for name, rounds in reversed(lines.items()):
         ahead, _ = imports_moved(measured, "CPU", in_round_seconds(measured, "CPU"), [0.0] * len(gaps_cpu), 16)
-        r = replayed(rounds, 16, [0.0] * len(gaps_cpu), setup_cpu, 139725, overheads, enumeration, ahead, None, known)
+        unpack = sum(phases["CPU"]["unpack"])
+        r = replayed(
+            rounds, 16, [0.0] * len(gaps_cpu), setup_cpu, 139725, overheads, enumeration, ahead, None, known, unpack
+        )
         print(
             f"bound, not the code: {name}, 16 ranks with nothing at all between rounds (CPU, set-up as measured): "
             f"efficiency {r['efficiency']:.3f} (set-up {r['setup']:.3f} of the makespan)"
