@@ -85,6 +85,9 @@ class FourierPreconditioner:
         self.xp = xp
         self.symbol = to_device(np.ascontiguousarray(symbol), xp)
         if is_numpy(xp):  # pocketfft through scipy, the CPU path's transforms and rounding
+            import scipy.fft  # imported by the grid's length (preconditioner_length)
+
+            self._fft = scipy.fft
             self._padded = np.zeros((len(components),) + self.shape)  # zero outside the grid's cells
         else:  # the symbol's blocks as one scene's products (xp.fft: cuFFT on a GPU)
             c = len(components)
@@ -95,14 +98,12 @@ class FourierPreconditioner:
         """M⁻¹ r for a residual (c, nx, ny); a new array (c, nx, ny) (a view of a fresh one)."""
         nx, ny = self.grid_shape
         if is_numpy(self.xp):
-            import scipy.fft  # imported by the preconditioner's grid (preconditioner_length)
-
             self._padded[:, :nx, :ny] = residual
-            spectra = scipy.fft.rfft2(self._padded, axes=(1, 2))
+            spectra = self._fft.rfft2(self._padded, axes=(1, 2))
             if spectra.shape[0] == 1:
                 out = np.multiply(spectra, self.symbol[0], out=spectra)
             else:  # einsum: faster than the sums below on numpy, and the CPU path's rounding
                 out = np.einsum("ij...,j...->i...", self.symbol, spectra)
-            result = scipy.fft.irfft2(out, s=self.shape, axes=(1, 2), overwrite_x=True)
+            result = self._fft.irfft2(out, s=self.shape, axes=(1, 2), overwrite_x=True)
             return result[:, :nx, :ny]
         return self._product.apply(self.xp.expand_dims(residual, axis=0))[0, ...]
