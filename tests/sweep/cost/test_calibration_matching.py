@@ -120,6 +120,22 @@ def test_a_new_machine_gets_the_prior_scaled_by_its_probe_and_never_waits_for_a_
     assert "--dry-run calibrates" in origin and not node_cache.exists()  # a probe is not cached
 
 
+def test_the_memory_base_is_a_task_ranks_imports_without_xarray():
+    """The probe's memory base (``rates.base_memory_bytes``, in a run's first announcement)
+    imports what a rank that runs tasks imports, not xarray: rank 0 imports it where a round's
+    work covers it (``run.rounds.imports_array_modules``). A fresh process: this one has
+    imported xarray already."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys; from hpcontact.sweep.cost.rates import base_memory_bytes; b = base_memory_bytes(); "
+        "print(b > 0, 'mpi4py.MPI' in sys.modules, 'xarray' in sys.modules)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.split() == ["True", "True", "False"]
+
+
 def test_the_probe_scale_is_the_geometric_mean_of_its_ratios():
     shipped = prior.prior_calibration()
     factors = dict(zip(prior.PROBE_SCENES, (1.0, 2.0, 4.0)))
