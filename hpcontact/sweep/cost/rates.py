@@ -58,9 +58,9 @@ is ``accuracy.grid_bytes`` of the finest predicted grid with its boundary cells 
     bytes = base + fixed_k + per_cell_k × padded_cells(params)
 
 ``base`` is this process's peak resident set (``resource.getrusage``) after importing what a
-rank that runs tasks imports (the solvers, MPI; not xarray, which rank 0 alone imports for its
-data set, ~41 MiB, and whose arrays no task's model counts either); ``padded_cells`` is the padded FFT grid
-(``cost.grids.padded_cells``). ``fixed_k`` and ``per_cell_k`` are float64 array sizes (no machine
+rank that runs tasks imports (the solvers, MPI; not xarray, ~41 MiB, which rank 0 alone imports
+for its data set, whose arrays no task's model counts either); ``padded_cells`` is the padded
+FFT grid (``cost.grids.padded_cells``). ``fixed_k`` and ``per_cell_k`` are float64 array sizes (no machine
 dependence), fitted to ``tracemalloc`` peaks of single solves with cold kernel caches
 (``footprint.MEMORY_MODEL``; the fits: docs/performance.md §"Memory per task"):
 

@@ -20,13 +20,14 @@ one process) instead of waiting.
 Rank 0 takes its first claim, then announces the round (its line and estimate: the cost model's
 probe of the machine, 0.3 CPU s, and ``scipy.fft`` for its solves, 0.3) and, where the round's
 work covers it, imports what its data set needs (``dataset.import_array_modules``: xarray and
-dask where installed, 0.4-0.9 CPU s on the 2-core development VM), before its first task: the other ranks claim meanwhile (served by rank
-0's thread), not wait for it in the set-up or a decision. Done before its first claim it left a
-small sweep's every task to the other ranks; done between two of its tasks it stalled its claims
-past the cluster check's bound. An adaptive map decides without xarray (``maps.rounds``), so
-rank 0 imports it in the first round with work enough for the others
-(``imports_array_modules``), not in a short first round the others would finish first (the 4-D
-map's 136 solves on 16 ranks, ~0.5 s a rank, waited for 0.8-0.9 s of announcement and imports)."""
+dask where installed, 0.4-0.6 CPU s on the 2-core development VM), before its first task: the
+other ranks claim meanwhile (served by rank 0's thread), not wait for it in the set-up or a
+decision. Done before its first claim it left a small sweep's every task to the other ranks;
+done between two of its tasks it stalled its claims past the cluster check's bound. An adaptive
+map decides without xarray (``maps.rounds``), so rank 0 imports it in the first round with work
+enough for the others (``imports_array_modules``), not in a short first round the others would
+finish first (the 4-D map's 136 solves on 16 ranks, ~0.5 s a rank, waited for 0.9-1.4 CPU s of
+announcement and imports)."""
 
 from __future__ import annotations
 
@@ -81,7 +82,7 @@ from hpcontact.sweep.work.tasks import Task, changed_inputs, make_chunks
 # of its time in the round (module docstring); the rest it computes tasks.
 READ_AHEAD_SHARE = 0.25
 #: Rank 0 of an adaptive map imports its data set's modules in the first round whose estimated
-#: task seconds per rank reach this (``imports_array_modules``): about twice the imports' 0.4-0.5
+#: task seconds per rank reach this (``imports_array_modules``): about twice the imports' 0.4-0.6
 #: CPU s after a run's own imports (``benchmarks/adaptive_scaling.py``, 2-core development VM,
 #: 2026-11-29). A round that covers them only in part loses the rest; no round at all, the whole
 #: of them, every rank waiting for the data set: a low bound errs the cheaper way.
