@@ -156,16 +156,34 @@ def probed_prior(own: int = 0) -> tuple[Calibration, str]:
     return probed, origin
 
 
-def run_calibration(own: int = 0) -> tuple[Calibration, str]:
+def run_calibration(own: int = 0, probe_now: bool = True) -> tuple[Calibration, str]:
     """The calibration a run's start line uses and where it came from, in words: the cached or
     named one (``calibration_file.cached_calibration``), else the shipped prior scaled by a probe
     of this machine (``probed_prior``, under a second, ``own`` the run's other ranks on this
-    node; never a full calibration, which a run's ranks would wait 12-30 s for)."""
+    node; never a full calibration, which a run's ranks would wait 12-30 s for). Without
+    ``probe_now``, a process that has not probed yet gets the shipped prior as it is, and its
+    origin says so (``probe_pending``: an adaptive round too short to cover the probe)."""
     cached, note = calibration_file.cached_calibration()
     if cached is not None:
         return cached, note
+    if not probe_now and not probed_yet():
+        shipped = prior_calibration()
+        return (
+            shipped,
+            f"shipped prior of {shipped.whose()}, not scaled to this machine yet ({note}; --dry-run calibrates, 12-30 s)",
+        )
     probed, origin = probed_prior(own)
     return probed, f"{origin} ({note}; --dry-run calibrates, 12-30 s)"
+
+
+def probed_yet() -> bool:
+    """Whether this process has probed this machine (``_probed``: once per process)."""
+    return _probed.cache_info().currsize > 0
+
+
+def probe_pending() -> bool:
+    """Whether ``run_calibration`` would probe now: no calibration cached or named, no probe yet."""
+    return calibration_file.cached_calibration()[0] is None and not probed_yet()
 
 
 if __name__ == "__main__":

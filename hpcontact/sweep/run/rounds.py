@@ -87,6 +87,12 @@ READ_AHEAD_SHARE = 0.25
 #: 2026-11-29). A round that covers them only in part loses the rest; no round at all, the whole
 #: of them, every rank waiting for the data set: a low bound errs the cheaper way.
 ARRAY_IMPORTS_COVER_S = 1.0
+#: An adaptive round probes the machine for its start estimate (where no calibration is cached,
+#: ``cost.prior.probe_pending``) only when its estimated task seconds per rank by the shipped
+#: prior reach this: about twice the probe's 0.85-0.90 CPU s with its scipy.fft import (2-core
+#: development VM, 2026-11-29); a shorter round's line is the prior's, unscaled, and says so.
+#: Probing in the 4-D map's first round on 16 ranks (~0.5 s a rank) kept the other 15 waiting.
+PROBE_COVER_S = 2.0
 
 
 def imports_array_modules(scope: RoundScope, per_rank_s: float) -> bool:
@@ -288,7 +294,9 @@ def _announce(
         file=stream,
         flush=True,
     )
-    line, seconds = start_estimate(todo, run.team.size, run.team.node_size)
+    line, seconds = start_estimate(
+        todo, run.team.size, run.team.node_size, 0.0 if scope.tally is None else PROBE_COVER_S
+    )
     if scope.tally is None or scope.tally.begun == 1:  # an adaptive map's later rounds: said once, in its first
         print(line, file=stream, flush=True)
     handed = [t for chunk in chunks for t in chunk]  # what the ranks report, in hand-out order

@@ -40,7 +40,7 @@ from hpcontact.sweep.cost.calibration import other_running
 from hpcontact.sweep.cost.calibration_file import gpu_calibration
 from hpcontact.sweep.cost.engine import omega_nodes
 from hpcontact.sweep.cost.grids import asks_accuracy, padded_cells
-from hpcontact.sweep.cost.prior import run_calibration
+from hpcontact.sweep.cost.prior import probe_pending, run_calibration
 from hpcontact.sweep.cost.rates import (
     IMPORTS_BYTES,
     Calibration,
@@ -320,7 +320,9 @@ def _check_gpu_memory(arrays: np.ndarray, on_gpu: np.ndarray) -> None:
         )
 
 
-def start_estimate(tasks: Sequence[Task], ranks: int, node_ranks: int = 1) -> tuple[str, np.ndarray]:
+def start_estimate(
+    tasks: Sequence[Task], ranks: int, node_ranks: int = 1, probe_cover_s: float = 0.0
+) -> tuple[str, np.ndarray]:
     """The line ``hpcontact run`` prints on rank 0 before work starts — the estimated core-seconds
     of ``tasks`` (those this run computes) and the replayed wall time on ``ranks`` ranks, and
     whose cost model they come from — and each task's estimated seconds (for the progress lines'
@@ -332,10 +334,17 @@ def start_estimate(tasks: Sequence[Task], ranks: int, node_ranks: int = 1) -> tu
     (``rates.load_note``: the run will take longer). GPU tasks take their GPU's cost model
     (``GpuCosts``); without one the line says so and states the CPU tasks' seconds alone, and
     the seconds returned for the GPU tasks are their CPU estimates, weights of the ETA only
-    (which scales them by the measured wall seconds per estimated second)."""
-    calibration, origin = run_calibration(own=node_ranks - 1)
+    (which scales them by the measured wall seconds per estimated second). Where the probe is
+    still to come (``prior.probe_pending``) and the tasks' seconds a rank by the shipped prior as
+    it is fall short of ``probe_cover_s`` (an adaptive round too short to cover the probe, which
+    the other ranks would wait for), the line is the prior's, unscaled, and says so."""
+    pending = probe_cover_s > 0.0 and probe_pending()
+    calibration, origin = run_calibration(own=node_ranks - 1, probe_now=not pending)
     tasks = list(tasks)
     seconds = task_arrays(tasks, calibration)[0]
+    if pending and sum(seconds.tolist()) / ranks >= probe_cover_s:  # the round covers the probe
+        calibration, origin = run_calibration(own=node_ranks - 1)
+        seconds = task_arrays(tasks, calibration)[0]
     on_gpu = device_of(tasks)
     if on_gpu is not None:
         gpu = GpuCosts.here()

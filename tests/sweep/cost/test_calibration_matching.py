@@ -198,3 +198,47 @@ def test_a_probe_beside_other_work_says_its_scale_is_likely_high(node_cache, mon
     samples = iter([2.0, 0.0])
     monkeypatch.setattr(prior, "other_running", lambda: next(samples))
     assert "probed beside" not in prior.run_calibration()[1]
+
+
+@pytest.fixture
+def fresh_probe(node_cache, monkeypatch):
+    """No calibration cached, this process not probed yet, and a probe that measures the probe
+    scenes at 2.5 x the prior's seconds, counted; the probe's cache cleared after."""
+    shipped = prior.prior_calibration()
+    calls = []
+
+    def measured():
+        calls.append(1)
+        return {name: 2.5 * shipped.task_seconds(s) for name, s in prior.PROBE_SCENES.items()}
+
+    prior._probed.cache_clear()
+    monkeypatch.setattr(prior, "probe", measured)
+    yield calls
+    prior._probed.cache_clear()
+
+
+def test_a_round_too_short_for_the_probe_is_estimated_by_the_prior_as_it_is(fresh_probe):
+    """``start_estimate`` with ``probe_cover_s`` (an adaptive round, ``run.rounds.PROBE_COVER_S``):
+    tasks estimated by the shipped prior below it a rank leave the probe for later and say the
+    line is the prior's, unscaled; a round that reaches it probes, once a process, and every
+    round after uses the probe's scale whatever its length."""
+    from hpcontact.sweep.work.estimate import start_estimate, task_arrays
+    from hpcontact.sweep.work.tasks import Task
+
+    params = {"shape": "circle", "n": 32, "tol": 1e-6}
+    tasks = [Task(key=f"k{i}", params=params, cost=4096 * 12 * 6.0, group="g") for i in range(4)]
+    unscaled = float(task_arrays(tasks[:1], prior.prior_calibration())[0][0])
+    assert unscaled > 0.0
+    per_rank = 4 * unscaled / 2
+    assert prior.probe_pending()
+    line, seconds = start_estimate(tasks, 2, probe_cover_s=per_rank * 1.01)
+    assert "not scaled to this machine yet" in line and "--dry-run calibrates" in line
+    assert seconds.tolist() == [pytest.approx(unscaled, rel=1e-12)] * 4 and fresh_probe == []
+    line, seconds = start_estimate(tasks, 2, probe_cover_s=per_rank * 0.99)
+    assert "scaled x2.50 by a" in line and fresh_probe == [1] and not prior.probe_pending()
+    assert seconds.tolist() == [pytest.approx(2.5 * unscaled, rel=1e-12)] * 4
+    line, seconds = start_estimate(tasks, 2, probe_cover_s=per_rank * 100.0)  # probed: the scale stays
+    assert "scaled x2.50 by a" in line and fresh_probe == [1]
+    # a plain run's estimate probes whatever its length (its one round covers it)
+    prior._probed.cache_clear()
+    assert "scaled x2.50 by a" in start_estimate(tasks[:1], 64)[0] and fresh_probe == [1, 1]
