@@ -65,7 +65,9 @@ written; its own
 outcomes of the round turned into columns, which each rank does for its own; during a round,
 ``IN_ROUND_PHASES``, its announcement, its data set's imports and its reading ahead, replayed as
 rank 0's own work after its first claim, the other ranks claiming meanwhile, ``replay_rounds``'
-``rank0_busy_s``: on many ranks a round too short to cover it waits for it). The set-up
+``rank0_busy_s``: on many ranks a round too short to cover it waits for it; its probe of the
+machine, inside its first announcement, and its data set's imports replayed in the rounds where
+the library's rules put them on R ranks, ``placed``, ``moved``). The set-up
 is replayed as measured: the enumeration and the packing of a rank's share for the others
 (``SPREAD_SETUP``: rank 0's share on 2 ranks, so twice it in all) divided over the ranks; the
 other ranks' shares unpacked (``unpack``: each rank unpacks the R - 1 others', so rank 0's on 2
@@ -153,6 +155,7 @@ PHASES = (
     ("hpcontact.sweep.data.journal", "HistoryReader.advance", "read ahead"),
     ("hpcontact.sweep.run.rounds", "_announce", "announce"),
     ("hpcontact.sweep.data.dataset", "import_array_modules", "array modules"),
+    ("hpcontact.sweep.cost.prior", "probe", "probe"),  # inside its round's announcement
 )
 # Rank 0's work during a round, not between rounds (the other ranks take its claims meanwhile).
 IN_ROUND_PHASES = ("read ahead", "announce", "array modules")
@@ -396,6 +399,16 @@ def worker(spec: str, output: str, variant: str, task: str, times: str) -> None:
         return announced
 
     rounds._announce = announced
+    from hpcontact.sweep.cost import prior
+
+    scales: list[float] = []  # the probe's scale of the shipped prior (none: a cached calibration)
+    scale_of = prior.scale_of
+
+    def scaled(*args: Any, **kwargs: Any) -> float:
+        scales.append(scale_of(*args, **kwargs))
+        return scales[-1]
+
+    prior.scale_of = scaled
     from hpcontact.sweep.maps import spread
 
     calls: list[tuple[float, float, float, list[tuple[int, float]], float, str]] = []
@@ -450,6 +463,7 @@ def worker(spec: str, output: str, variant: str, task: str, times: str) -> None:
                     "calls": calls,
                     "fixed": fixed,
                     "estimated": estimated,
+                    "scale": scales[0] if scales else None,
                 }
             ),
             encoding="utf-8",
@@ -560,32 +574,64 @@ def in_round_seconds(measured: dict[str, Any], clock: str) -> list[float]:
     return out
 
 
-def imports_moved(
+def placed(measured: dict[str, Any], ranks: int) -> tuple[int | None, int | None]:
+    """The rounds (0-based; None: none) in which rank 0 probes the machine and imports its data
+    set's modules on ``ranks`` ranks, as the library's rules place them (``rounds.PROBE_COVER_S``,
+    ``rounds.imports_array_modules``) from the rounds' estimates of the 2-rank run (rank 0's
+    announcements, all ranks' seconds; scaled by the probe's ``scale`` from the round it probed
+    in, the shipped prior's before): the probe in the first round whose estimate by the prior a
+    rank reaches its cover (never where none does), the imports in the first round whose
+    estimate a rank, scaled where probed by then, reaches theirs (None: after the last round). A
+    tree without a rule: the probe in the first round, the imports in the first round's
+    announcement."""
+    from hpcontact.sweep.run import rounds
+
+    estimated, scale = measured["estimated"], measured.get("scale")
+    probed_in = in_round_calls(measured, "probe")
+    first = probed_in[0] if probed_in else len(estimated)
+    prior_s = [t / (scale if scale is not None and k >= first else 1.0) for k, t in enumerate(estimated)]
+    probe_cover = getattr(rounds, "PROBE_COVER_S", 0.0)
+    probe = None if scale is None else next((k for k, t in enumerate(prior_s) if t / ranks >= probe_cover), None)
+    if not hasattr(rounds, "ARRAY_IMPORTS_COVER_S"):
+        return probe, 0
+    per_rank = [t * (scale if probe is not None and k >= probe else 1.0) / ranks for k, t in enumerate(prior_s)]
+    return probe, next((k for k, t in enumerate(per_rank) if t >= rounds.ARRAY_IMPORTS_COVER_S), None)
+
+
+def in_round_calls(measured: dict[str, Any], label: str) -> list[int]:
+    """The rounds (0-based) during whose claims rank 0 started a call of the phase ``label``."""
+    windows = list(zip(measured["marks"][0::2], measured["marks"][1::2]))
+    return [
+        k
+        for name, start, _, _ in measured.get("phases", [])
+        if name == label
+        for k, (first, last) in enumerate(windows)
+        if first[0] <= start <= last[0]
+    ]
+
+
+def moved(
     measured: dict[str, Any], clock: str, ahead: list[float], alone: list[float], ranks: int
 ) -> tuple[list[float], list[float]]:
     """``ahead`` (rank 0's work during each round) and ``alone`` (its work after each) with its
-    data set's imports (the ``array modules`` calls, in the round the 2-rank run chose) where
-    ``rounds.imports_array_modules`` puts them on ``ranks`` ranks: in the first round whose
-    estimated task seconds (rank 0's announcement, all ranks') a rank reach
-    ``ARRAY_IMPORTS_COVER_S``, else after the last round, with the data set (rank 0 alone)."""
-    from hpcontact.sweep.run import rounds
-
+    probe and its data set's imports (the ``probe`` and ``array modules`` calls, in the rounds
+    the 2-rank run chose) where ``placed`` puts them on ``ranks`` ranks: a probe no round covers
+    is not made, imports no round covers come with the data set, after the last round."""
     ahead, alone = list(ahead), list(alone)
-    if not hasattr(rounds, "ARRAY_IMPORTS_COVER_S"):  # a tree before it imports in its first round's announcement
-        return ahead, alone
-    cover = rounds.ARRAY_IMPORTS_COVER_S
+    where = dict(zip(("probe", "array modules"), placed(measured, ranks)))
     windows = list(zip(measured["marks"][0::2], measured["marks"][1::2]))
     for label, start, wall, cpu in measured.get("phases", []):
-        if label != "array modules":
+        if label not in where:
             continue
         seconds = wall if clock == "wall" else cpu
-        for k, (first, last) in enumerate(windows):
-            if first[0] <= start <= last[0]:
-                ahead[k] -= seconds
-        covered = [k for k, total in enumerate(measured["estimated"]) if total / ranks >= cover]
-        if covered:
-            ahead[covered[0]] += seconds
+        k = next((k for k, (first, last) in enumerate(windows) if first[0] <= start <= last[0]), None)
+        if k is None:  # after the last round: rank 0 alone
+            alone[-1] -= seconds
         else:
+            ahead[k] -= seconds
+        if where[label] is not None:
+            ahead[where[label]] += seconds
+        elif label == "array modules":
             alone[-1] += seconds
     return ahead, alone
 
@@ -746,19 +792,21 @@ def crystal(folder: Path, task: str, driver_ms: list[float], checks: int) -> Non
         )
     from hpcontact.sweep.run import rounds as driver_rounds
 
-    cover, totals = getattr(driver_rounds, "ARRAY_IMPORTS_COVER_S", 0.0), measured["estimated"]
-    placed = [
-        next(
-            (f"round {k + 1}" for k, t in enumerate(totals) if t / r >= cover),
-            "round 1" if not totals else "after the last",
-        )
-        for r in RANKS
-    ]
+    totals, where = measured["estimated"], [placed(measured, r) for r in RANKS]
+
+    def said(k: int | None, none: str) -> str:
+        return none if k is None else f"round {k + 1}"
+
     print(
-        f"rank 0's data set imports (array modules, {sum(phases['CPU']['array modules']):.2f} CPU s) go in the first "
-        f"round estimated at >= {cover:g} s a rank (the rounds' estimates, all ranks: "
-        f"{', '.join(f'{t:.1f}' for t in totals)} s): "
-        + ", ".join(f"{r} ranks: {where}" for r, where in zip(RANKS, placed))
+        f"rank 0's probe ({sum(phases['CPU']['probe']):.2f} CPU s, in its announcement) goes in the first round estimated "
+        f"by the shipped prior at >= {getattr(driver_rounds, 'PROBE_COVER_S', 0.0):g} s a rank, its data set's imports "
+        f"(array modules, {sum(phases['CPU']['array modules']):.2f} CPU s) in the first estimated at >= "
+        f"{getattr(driver_rounds, 'ARRAY_IMPORTS_COVER_S', 0.0):g} s a rank (the rounds' estimates, all ranks: "
+        f"{', '.join(f'{t:.1f}' for t in totals)} s; the probe's scale {measured.get('scale') or 1.0:.2f}): "
+        + ", ".join(
+            f"{r} ranks: {said(probe, 'no probe')}, {said(imports, 'after the last')}"
+            for r, (probe, imports) in zip(RANKS, where)
+        )
     )
     print(
         "replayed (the set-up as measured; rank 0's announcement and reading ahead during each round as its own work "
@@ -786,7 +834,7 @@ def crystal(folder: Path, task: str, driver_ms: list[float], checks: int) -> Non
             overheads = Overheads(**{**DEFAULT_OVERHEADS.__dict__, "driver_s": per_task, "spread_gather_s": 0.0})
             unpack = sum(phases[clock]["unpack"])
             for ranks in RANKS:
-                busy, after = imports_moved(measured, clock, ahead, alone, ranks)
+                busy, after = moved(measured, clock, ahead, alone, ranks)
                 r = replayed(rounds, ranks, after, times[0], 139725, overheads, enumeration, busy, calls, known, unpack)
                 print(
                     f"{name:>8} {ranks:6d} {clock:>5} {r['makespan_s']:8.2f} {r['efficiency']:7.3f} "
@@ -799,7 +847,7 @@ def crystal(folder: Path, task: str, driver_ms: list[float], checks: int) -> Non
     calls, spent = shared["CPU"]
     unpack = sum(phases["CPU"]["unpack"])
     for name, rounds in reversed(lines.items()):
-        ahead, after = imports_moved(
+        ahead, after = moved(
             measured, "CPU", in_round_seconds(measured, "CPU"), [g - s for g, s in zip(gaps_cpu, spent)], 16
         )
         r = replayed(
