@@ -564,14 +564,19 @@ def in_round_seconds(measured: dict[str, Any], clock: str) -> list[float]:
     took the round's claims (its first claim to its last): the work the other ranks' claims
     overlap. A call outside them (an announcement before the first claim, as the library did
     before rank 0 took its first claim first) is the set-up's or the time between rounds."""
-    windows = list(zip(measured["marks"][0::2], measured["marks"][1::2]))
-    out = [0.0] * len(windows)
+    out = [0.0] * (len(measured["marks"]) // 2)
     for label, start, wall, cpu in measured.get("phases", []):
-        if label in IN_ROUND_PHASES:
-            for k, (first, last) in enumerate(windows):
-                if first[0] <= start <= last[0]:
-                    out[k] += wall if clock == "wall" else cpu
+        k = claims_round(measured, start)
+        if label in IN_ROUND_PHASES and k is not None:
+            out[k] += wall if clock == "wall" else cpu
     return out
+
+
+def claims_round(measured: dict[str, Any], start: float) -> int | None:
+    """The round (0-based) during whose claims (rank 0's first to its last) the time ``start``
+    falls, or None (the set-up, between rounds, after the last)."""
+    windows = zip(measured["marks"][0::2], measured["marks"][1::2])
+    return next((k for k, (first, last) in enumerate(windows) if first[0] <= start <= last[0]), None)
 
 
 def placed(measured: dict[str, Any], ranks: int) -> tuple[int | None, int | None]:
@@ -600,14 +605,8 @@ def placed(measured: dict[str, Any], ranks: int) -> tuple[int | None, int | None
 
 def in_round_calls(measured: dict[str, Any], label: str) -> list[int]:
     """The rounds (0-based) during whose claims rank 0 started a call of the phase ``label``."""
-    windows = list(zip(measured["marks"][0::2], measured["marks"][1::2]))
-    return [
-        k
-        for name, start, _, _ in measured.get("phases", [])
-        if name == label
-        for k, (first, last) in enumerate(windows)
-        if first[0] <= start <= last[0]
-    ]
+    rounds_of = (claims_round(measured, start) for name, start, _, _ in measured.get("phases", []) if name == label)
+    return [k for k in rounds_of if k is not None]
 
 
 def moved(
@@ -616,15 +615,16 @@ def moved(
     """``ahead`` (rank 0's work during each round) and ``alone`` (its work after each) with its
     probe and its data set's imports (the ``probe`` and ``array modules`` calls, in the rounds
     the 2-rank run chose) where ``placed`` puts them on ``ranks`` ranks: a probe no round covers
-    is not made, imports no round covers come with the data set, after the last round."""
+    is not made, imports no round covers come with the data set, after the last round. A call
+    in the set-up or between rounds stays where it was."""
     ahead, alone = list(ahead), list(alone)
     where = dict(zip(("probe", "array modules"), placed(measured, ranks)))
-    windows = list(zip(measured["marks"][0::2], measured["marks"][1::2]))
+    last_claim = measured["marks"][-1][0]
     for label, start, wall, cpu in measured.get("phases", []):
-        if label not in where:
+        k = claims_round(measured, start)
+        if label not in where or (k is None and start < last_claim):
             continue
         seconds = wall if clock == "wall" else cpu
-        k = next((k for k, (first, last) in enumerate(windows) if first[0] <= start <= last[0]), None)
         if k is None:  # after the last round: rank 0 alone
             alone[-1] -= seconds
         else:
