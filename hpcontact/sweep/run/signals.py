@@ -17,8 +17,9 @@ frozen process does. A counter, not a time stamp: nodes' clocks need not agree.
 
 Every phase of a run honours a stop request (``phase``). While the ranks set up (spec, shares, journal
 reading, the plan's broadcast) or gather and write the data set, no task is in flight: a rank
-that is still there ``grace_s`` after the request (blocked in a collective with a rank that
-is, or in a long read or write) prints one line and ends with status 4 — the journals hold
+that is still there ``HARD_EXIT_S`` after the request's grace (blocked in a collective with a
+rank that is, or in a long read or write; counted from the request on every rank, so that they
+end together) prints one line and ends with status 4 — the journals hold
 every finished task, and the data set is written atomically, so nothing is lost. Once the
 data set is written (``done``) a request changes nothing: the run ends with its own status.
 
@@ -240,9 +241,17 @@ class StopControl:
                     signal.pthread_kill(threading.main_thread().ident, ABANDON)
                 if late >= HARD_EXIT_S:
                     self._exit_now()
-            elif (self.phase == "setup" or self.rank == 0) and late >= 0.0 and now - self._phase_at >= HARD_EXIT_S:
-                # no task in flight: the grace, and the phase's own HARD_EXIT_S to end cleanly. While
-                # rank 0 writes the data set the others wait for its word (or for its heartbeat to stop).
+            elif (
+                (self.phase == "setup" or self.rank == 0)
+                and late >= HARD_EXIT_S
+                and now - self._phase_at >= HARD_EXIT_S
+            ):
+                # no task in flight: HARD_EXIT_S after the grace, as with a task, and at least the
+                # phase's own HARD_EXIT_S to end cleanly. Counted from the request, which reaches every
+                # rank at once, not from each rank's entry into the phase: ranks that started seconds
+                # apart ended seconds apart, and the launcher's clean-up of the later one (Hydra's)
+                # then reported status 9, not 4. While rank 0 writes the data set the others wait for
+                # its word (or for its heartbeat to stop).
                 self._exit_now()
 
     def _record_stall(self, other: int) -> None:
