@@ -76,7 +76,7 @@ from hpcontact.sweep.space.parse import load_spec
 from hpcontact.sweep.space.spec import Spec, Validator
 from hpcontact.sweep.work.batches import batch_fill, plan_batches, run_batch
 from hpcontact.sweep.work.estimate import start_estimate
-from hpcontact.sweep.work.tasks import Task, changed_inputs, make_chunks
+from hpcontact.sweep.work.tasks import Task, changed_inputs, frozen_heap, make_chunks
 
 # Rank 0 of an adaptive map reads the journals ahead while the round runs for at most this share
 # of its time in the round (module docstring); the rest it computes tasks.
@@ -210,8 +210,10 @@ def execute(
     shares = [mine if r == team.rank else unpacked(b) for r, b in enumerate(sent)]
     tasks, task_of, over = joined(spec, shares)
     run = Run(team, spec, tasks, task_of, over, task_function, stream, stop, started, command)
+    # each round with what is alive at its start frozen (the grid's tasks, the journals so far)
     if spec.adaptive is None:
-        return _round(run, options, EVERY_TASK)
+        with frozen_heap():
+            return _round(run, options, EVERY_TASK)
     tally, memory = RoundTally(), RoundMemory()
 
     def run_round(
@@ -220,7 +222,8 @@ def execute(
         finish: Callable | None = None,
         earlier: frozenset[int] = frozenset(),
     ) -> Outcome:
-        return _round(run, options, RoundScope(select, finish, tally, earlier, memory))
+        with frozen_heap():
+            return _round(run, options, RoundScope(select, finish, tally, earlier, memory))
 
     # rounds of runs over subsets of the tasks (hpcontact.sweep.maps)
     from hpcontact.sweep.maps.rounds import run_rounds

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import functools
+import gc
 import io
 import json
 import os
@@ -591,3 +592,23 @@ def test_main_names_the_runner_of_its_task_function(write_spec, fake_solve, tmp_
 
     assert main([str(spec), "--resume"], task_function=other) == 0
     assert f"{TASKS} journal entries were computed by {runner_name(fake_solve)}, not reused" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("kind", ["plain", "adaptive"])
+def test_every_round_runs_with_the_grids_tasks_frozen_and_nothing_stays_frozen(kind, sweep, write_spec, fake_solve):
+    """``tasks.frozen_heap`` around each round (``run.rounds.execute``): while a task runs, the
+    collector's frozen objects include every task of the grid (each a tracked tuple); after the
+    run, none (a plain sweep; the Mindlin map's rounds)."""
+    from mindlin_map import MAP, mindlin
+
+    spec, solve, tasks = (SPEC, fake_solve, TASKS) if kind == "plain" else (MAP, mindlin, 17 * 9)
+    frozen: list[int] = []
+
+    def task(params):
+        frozen.append(gc.get_freeze_count())
+        return solve(params)
+
+    assert gc.get_freeze_count() == 0
+    sweep(write_spec(spec), task_function=task)
+    assert frozen and min(frozen) >= tasks
+    assert gc.get_freeze_count() == 0

@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+import gc
 import sys
+import weakref
 
 import pytest
 
 from hpcontact.sweep.cost.task_cost import estimated_cost
 from hpcontact.sweep.space.parse import parse_spec
-from hpcontact.sweep.work.tasks import Task, enumerate_tasks, make_chunks, task_key
+from hpcontact.sweep.work.tasks import Task, enumerate_tasks, frozen_heap, make_chunks, task_key
 
 
 def spec_of(text: str):
@@ -326,3 +328,36 @@ def test_strip_grids_are_costed_by_their_pairs_and_strips():
     # an ellipse never takes strips in a sweep (its exact cell instead): its strips are not modelled
     with pytest.raises(ValueError, match="rectangles only"):
         strip_units({"shape": "ellipse", "aspect": 1e-3, "n": 64})
+
+
+class Node:
+    """A cyclic garbage's node (weakly referable)."""
+
+    def __init__(self) -> None:
+        self.me = self
+
+
+def test_a_frozen_heap_hides_what_lives_on_entry_and_still_collects_what_is_made_inside():
+    """``frozen_heap``: the objects alive on entry leave the collector's generations (frozen),
+    a cycle made inside is collected, and on exit (also by an exception) nothing stays frozen;
+    a heap the caller froze itself stays frozen."""
+    assert gc.get_freeze_count() == 0
+    alive = [[k] for k in range(1000)]  # 1001 tracked lists
+    with pytest.raises(RuntimeError), frozen_heap():
+        assert gc.get_freeze_count() >= len(alive) + 1
+        made = Node()
+        gone = weakref.ref(made)
+        del made
+        gc.collect()
+        assert gone() is None
+        raise RuntimeError("a round that fails")
+    assert gc.get_freeze_count() == 0
+    gc.freeze()
+    try:
+        later = [[k] for k in range(10)]  # made after the caller's freeze, alive on entry
+        frozen = gc.get_freeze_count()
+        with frozen_heap():
+            assert gc.get_freeze_count() >= frozen + len(later) + 1
+        assert gc.get_freeze_count() >= frozen + len(later) + 1
+    finally:
+        gc.unfreeze()
