@@ -105,6 +105,7 @@ entirely could reach with the set-up and the data set as they are.
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import math
 import os
@@ -440,6 +441,16 @@ def worker(spec: str, output: str, variant: str, task: str, times: str) -> None:
         return results
 
     spread.LeafPool.map, spread.LeafPool.slabs = shared, slabs
+    collections: list[tuple[int, float, float]] = []  # each collection: generation, start, CPU seconds
+    collecting: list[float] = []
+
+    def collector(phase: str, info: dict[str, int]) -> None:
+        if phase == "start":
+            collecting[:] = [time.time(), time.process_time()]
+        else:
+            collections.append((info["generation"], collecting[0], time.process_time() - collecting[1]))
+
+    gc.callbacks.append(collector)
     started = (process_start(), 0.0)  # the set-up from the process's start: its imports too
     if task == "recorded":  # the records read before the run, and not counted in its set-up
         wall, cpu = time.time(), time.process_time()
@@ -464,6 +475,7 @@ def worker(spec: str, output: str, variant: str, task: str, times: str) -> None:
                     "fixed": fixed,
                     "estimated": estimated,
                     "scale": scales[0] if scales else None,
+                    "collections": collections,
                 }
             ),
             encoding="utf-8",
@@ -727,6 +739,18 @@ def phase_seconds(measured: dict[str, Any], clock: str) -> dict[str, list[float]
     return out
 
 
+def collector_seconds(measured: dict[str, Any], generation: int) -> list[float]:
+    """Rank 0's CPU seconds in the cyclic garbage collector's collections of ``generation`` or
+    older (``gc.callbacks``; 0: all, 2: the full ones), bucketed as ``phase_seconds``: the
+    set-up's and then each round's (during it and after it), up to the run's end."""
+    firsts = [m[0] for m in measured["marks"][0::2]]
+    out = [0.0] * (len(firsts) + 1)
+    for older, start, cpu in measured.get("collections", []):
+        if older >= generation and start <= measured["end"][0]:
+            out[sum(f <= start for f in firsts)] += cpu
+    return out
+
+
 def crystal(folder: Path, task: str, driver_ms: list[float], checks: int) -> None:
     """The 4-D map run on 2 ranks with the task function ``task`` (``recorded`` or ``stand-in``)
     and its rounds replayed on ``RANKS`` (module docstring); ``driver_ms``: the demo map's
@@ -771,6 +795,11 @@ def crystal(folder: Path, task: str, driver_ms: list[float], checks: int) -> Non
     print("rank 0's CPU seconds by phase on 2 ranks (the set-up, then each round: during it and after it):")
     for label, seconds in phases["CPU"].items():
         print(f"  {label:18s} {' '.join(f'{x:6.2f}' for x in seconds)}  (sum {sum(seconds):.2f})")
+    full, every = collector_seconds(measured, 2), collector_seconds(measured, 0)
+    print(
+        f"  {'collector (gc)':18s} {' '.join(f'{x:6.2f}' for x in every)}  (sum {sum(every):.2f}; full collections: "
+        f"{sum(full):.2f}, in the set-up {full[0]:.2f}; the cyclic garbage collector's, inside the phases above too)"
+    )
     in_setup = {label: seconds[0] for label, seconds in phases["CPU"].items() if seconds[0] > 0.0}
     print(
         f"rank 0's set-up, {setup_cpu:.2f} CPU s: "
