@@ -200,15 +200,16 @@ def frozen_heap() -> Iterator[None]:
     """Every object alive on entry kept out of the cyclic garbage collector's traversals until
     the exit (``gc.freeze``, ``gc.unfreeze``), for one round of a run: the grid's tasks (every
     task on every rank: the 4-D map's 139 725), the spec, the modules and the journals read so
-    far live to the run's end, and a full collection of the round would traverse them all again
-    (0.09-0.28 s each on the 4-D map, three or four a run, one while rank 0 reads the journals
-    with every rank waiting on it; what ``paused_gc`` left uncollected, right after the set-up,
-    cost one gen-1 and one gen-2 collection more, 0.1 and 0.2 s). A round's own objects are
-    collected as before; refcounting frees a frozen object as before; cyclic garbage alive on
-    entry waits for the exit. A caller that froze objects itself (``gc.get_freeze_count()`` > 0
-    on entry: before forking, say) keeps its heap frozen on exit, these objects too. In one
-    process on the 4-D map's recorded solves, the collector's seconds 0.81 -> 0.27 (2026-11-30,
-    ``gc.callbacks``)."""
+    far live to the run's end, and each full collection traversed them all again (the 4-D map
+    in one process: a gen-1 and a gen-2 collection right after the set-up, 0.1 and 0.2 s, what
+    ``paused_gc`` had left to the collector; two more full ones of 0.09-0.28 s, one while rank 0
+    read the journals ahead with every rank waiting on it). A round's own objects are collected
+    as before; refcounting frees a frozen object as before; cyclic garbage alive on entry waits
+    for the exit. A caller that froze objects itself (``gc.get_freeze_count()`` > 0 on entry:
+    before forking, say) keeps its heap frozen on exit, these objects too. The collector's
+    seconds on the 4-D map's recorded solves: one process 0.71-0.78 -> 0.23-0.30, rank 0 of 2
+    ranks 0.59-0.72 -> 0.23-0.34 CPU s (3 alternating pairs each, 2026-11-30, ``gc.callbacks``;
+    docs/performance.md § Adaptive rounds on many ranks)."""
     ours = gc.get_freeze_count() == 0
     gc.freeze()
     try:
