@@ -185,13 +185,21 @@ def paused_gc() -> Iterator[None]:
     """The cyclic garbage collector off while a sweep's tasks are made or estimated: they are
     dicts, tuples and strings without cycles, and 10^6 tasks are ~3·10^6 tracked objects that
     every full collection would traverse again as they pile up (a third of the time of a 10^6
-    task dry run). Anything cyclic made meanwhile is collected once it is back on."""
+    task dry run). On the way out, where no caller has frozen objects, every tracked object is
+    moved to the oldest generation (``gc.freeze`` then ``gc.unfreeze``: two list merges, the
+    generations' counts reset): the young generation no longer holds what was made meanwhile,
+    so the first allocation after the pause does not traverse it all (the 4-D map's enumeration
+    in one process: one gen-0 collection of 0.08 CPU s, 2026-11-30). Anything cyclic made
+    meanwhile is collected at the next full collection."""
     enabled = gc.isenabled()
     gc.disable()
     try:
         yield
     finally:
         if enabled:
+            if gc.get_freeze_count() == 0:
+                gc.freeze()
+                gc.unfreeze()
             gc.enable()
 
 

@@ -10,7 +10,7 @@ import pytest
 
 from hpcontact.sweep.cost.task_cost import estimated_cost
 from hpcontact.sweep.space.parse import parse_spec
-from hpcontact.sweep.work.tasks import Task, enumerate_tasks, frozen_heap, make_chunks, task_key
+from hpcontact.sweep.work.tasks import Task, enumerate_tasks, frozen_heap, make_chunks, paused_gc, task_key
 
 
 def spec_of(text: str):
@@ -359,5 +359,36 @@ def test_a_frozen_heap_hides_what_lives_on_entry_and_still_collects_what_is_made
         with frozen_heap():
             assert gc.get_freeze_count() >= frozen + len(later) + 1
         assert gc.get_freeze_count() >= frozen + len(later) + 1
+    finally:
+        gc.unfreeze()
+
+
+def test_a_paused_collector_hands_what_was_made_to_the_oldest_generation():
+    """``paused_gc``: the collector is off inside; on exit what was made meanwhile is in the
+    oldest generation, not the youngest (whose first collection would traverse it all), the
+    generations' counts start again from 0, and a cycle made inside is collected by the next
+    full collection; a heap the caller froze stays frozen, and nothing is moved then."""
+    assert gc.isenabled() and gc.get_freeze_count() == 0
+    with paused_gc():
+        assert not gc.isenabled()
+        made = [[k] for k in range(5000)]
+        cycle = Node()
+        gone = weakref.ref(cycle)
+        del cycle
+    assert gc.isenabled() and gc.get_freeze_count() == 0
+    assert gc.get_count()[0] < 5000
+    young = {id(o) for o in gc.get_objects(generation=0)}
+    oldest = {id(o) for o in gc.get_objects(generation=2)}
+    assert not any(id(o) in young for o in made)
+    assert all(id(o) in oldest for o in made)
+    gc.collect()
+    assert gone() is None
+    gc.freeze()
+    try:
+        frozen = gc.get_freeze_count()
+        with paused_gc():
+            later = [[k] for k in range(10)]
+        assert gc.isenabled() and gc.get_freeze_count() == frozen
+        assert all(id(o) not in {id(f) for f in gc.get_objects(generation=2)} for o in later)
     finally:
         gc.unfreeze()
