@@ -26,7 +26,7 @@ from hpcontact.sweep.data.journal import ERROR, read_journals
 from hpcontact.sweep.maps import estimates
 from hpcontact.sweep.maps.checks import MAX_CHECKS, MIN_CHECKS, check_count, drawn_checks
 from hpcontact.sweep.maps.estimates import Checks, Layout
-from hpcontact.sweep.maps.rounds import dry_run_text
+from hpcontact.sweep.maps.rounds import distinct_tasks, dry_run_text
 from hpcontact.sweep.maps.state import initial_state, state_points, state_tasks
 from hpcontact.sweep.run.records import Options, runner_name
 from hpcontact.sweep.run.rounds import execute
@@ -437,3 +437,13 @@ def test_principal_values_come_from_the_interpolated_tensor_across_their_kink(sw
     monkeypatch.setattr(estimates, "PRINCIPAL", ())
     direct = xr.open_dataset(sweep(write_spec(CROSSING, "direct.toml"), crossing, output=tmp_path / "direct.nc"))
     assert ds.attrs["sweep_solves"] < direct.attrs["sweep_solves"]
+
+
+@pytest.mark.parametrize("shape", [(0,), (1,), (7, 5), (146_475,)])
+def test_distinct_tasks_counts_what_np_unique_counts(shape: tuple[int, ...]) -> None:
+    """``distinct_tasks`` (the rounds' "of N in all"): the count of distinct positions that a
+    sort gives, on points that share tasks and on positions left unused."""
+    rng = np.random.default_rng(7)
+    size = math.prod(shape)
+    task_of = rng.integers(0, max(1, size // 2), size=size).reshape(shape)
+    assert distinct_tasks(task_of) == len(np.unique(task_of))
