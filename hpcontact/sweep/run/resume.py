@@ -13,6 +13,7 @@ written before runners were recorded) was computed by the scene kind's own solve
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
+from itertools import chain
 from pathlib import Path
 from typing import Any
 
@@ -139,6 +140,7 @@ def prepare(
                 if tasks[i].key in history.entries and tasks[i].key not in reused and tasks[i].key not in crashed
             }
             counted = sum(1 for i in scope.select if tasks[i].key in reused)  # not the other rounds'
+        memory.handed_out.update(tasks[i].key for i in chain(isolated, shared))
     except BaseException:
         lock.release()
         raise
@@ -211,7 +213,8 @@ def _decide(
     and the rest to share (positions), the reused keys, the quarantined keys, and the line that
     says how many entries another runner computed (run again), if any. Each journaled task's
     verdict is kept in ``memory`` while its entry is the same object (an adaptive map's earlier
-    rounds are not resolved again each round)."""
+    rounds are not resolved again each round), and the entry of a task the run handed out
+    itself (``RoundMemory.handed_out``) is not checked against the scene resolved again."""
     positions = range(len(tasks)) if covered is None else covered
     reused = []
     foreign: dict[str, int] = {}  # entries that would be reused but for their runner, per runner
@@ -222,7 +225,9 @@ def _decide(
             continue
         known = memory.verdicts.get(task.key)
         if known is None or known[0] is not entry:
-            usable = entry.status not in RETRIED and entry.resolved == provenance.resolved_scene(task.params)
+            usable = entry.status not in RETRIED and (
+                task.key in memory.handed_out or entry.resolved == provenance.resolved_scene(task.params)
+            )
             known = (entry, runner_of(entry, spec) if usable else None)
             memory.verdicts[task.key] = known
         runner = known[1]
