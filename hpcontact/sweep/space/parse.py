@@ -47,8 +47,8 @@ naming the key it came from (``axes.nu``, ``scene.G``). A ``shape`` value is a s
 of such a table win over the other axes. Anything unknown, empty, duplicated or impossible is
 refused with an ``InputError`` naming the key (``axes.nu``, ``scene.G``, …), so a bad spec never
 reaches a rank's work loop. Values are checked by the scene's own validator: every distinct
-scene of the sweep, except in a range of more than ``SCENE_CHECK_POINTS`` points (a large spec,
-or a rank's share of one) along its last axis when that axis is a field whose valid values form
+scene of the sweep, except in a spec of more than ``SCENE_CHECK_POINTS`` points (in every
+rank's share of it too) along its last axis when that axis is a field whose valid values form
 an interval (``kinds.interval_fields``: nu, b/a, A, ψ, …): there the validator checks each run's
 extreme and branch values (a bisection finds the first refused point when one is refused:
 ``scene_runs``), with the same error, naming the same key, as a check of every scene.

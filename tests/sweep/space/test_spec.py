@@ -346,6 +346,36 @@ def test_short_runs_of_many_contexts_are_checked_at_their_ends_too(isotropic, to
     assert (fast[0] == "ok") == (top < 0.5) and checked <= 60 * 12  # a few per run of 50, not 50
 
 
+@pytest.mark.parametrize("top", [0.45, 0.55])
+def test_a_ranks_share_of_a_large_spec_is_checked_as_the_whole_spec_is(monkeypatch, top):
+    """A share of a large spec smaller than ``SCENE_CHECK_POINTS`` (a rank's, on many ranks) is
+    checked run by run at the runs' ends as the whole spec is, not scene by scene (which cost
+    each of 16 ranks 5-8 CPU s on the 4-D map), and finds the same first bad point as a check of
+    every scene of that share."""
+    from hpcontact.scene import Scene
+    from hpcontact.scene import validate as contact_validate
+    from hpcontact.sweep.work.tasks import enumerate_part
+
+    text = f"[scene]\nanisotropy = 1.5\n[axes]\norientation = [0.0, 10.0, 20.0, 30.0]\nnu = {{ linspace = [0.3, {top}, 50] }}\n"
+    spec = parse_spec(text, path="job.toml", check_scenes=False)
+    monkeypatch.setattr(enumeration, "SCENE_CHECK_POINTS", 150)  # the spec's 200 points are many
+    calls = []
+    build = Scene.from_params.__func__
+    monkeypatch.setattr(Scene, "from_params", classmethod(lambda cls, p: calls.append(1) or build(cls, p)))
+
+    def outcome(validate=None) -> tuple:
+        try:
+            return ("ok", len(enumerate_part(spec, 50, 150, validate, check=True).task_of))
+        except InputError as exc:
+            return exc.field, exc.allowed, exc.value
+
+    fast = outcome()  # a share of 100 points: two runs of 50
+    checked = len(calls)
+    every = outcome(lambda p: contact_validate(p))
+    assert fast == every and (fast[0] == "ok") == (top < 0.5)
+    assert checked <= 2 * 12 < 100  # a few per run of 50, not every scene
+
+
 def test_a_small_spec_is_checked_scene_by_scene(monkeypatch):
     from hpcontact.scene import Scene
 
