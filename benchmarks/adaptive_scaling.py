@@ -69,7 +69,13 @@ rank 0's own work after its first claim, the other ranks claiming meanwhile, ``r
 machine, inside its first announcement, and its data set's imports replayed in the rounds where
 the library's rules put them on R ranks, ``placed``, ``moved``). The set-up
 is replayed as measured: the enumeration and the packing of a rank's share for the others
-(``SPREAD_SETUP``: rank 0's share on 2 ranks, so twice it in all) divided over the ranks; the
+(``SPREAD_SETUP``: on 2 ranks the slower of the two ranks' shares, ``spread_setup``; on R
+ranks the slowest of ``SHARE_SAMPLES`` shares of R, each timed in a fresh process,
+``share_seconds``: a share of R is not 2/R of a share of 2, 0.29-0.49 CPU s on 16 ranks where
+a share of 2 took 0.93, 2026-11-30); rank 0's wait in the exchange (``exchange``: the
+shares gathered and broadcast) for the other rank, when its share took longer, is that
+difference, not rank 0's own work (the two halves of the 4-D map took 0.97-1.85 CPU s each,
+either the slower, 2026-11-30); the
 other ranks' shares unpacked (``unpack``: each rank unpacks the R - 1 others', so rank 0's on 2
 ranks times 2 (R - 1) / R); the rest on every rank at once: the shares joined (``join``), the
 interpreter, imports, MPI, the spec and the first round's nodes (``setup as measured``;
@@ -141,6 +147,8 @@ LINES = {
 PHASES = (
     ("hpcontact.sweep.run.rounds", "share", "enumeration"),
     ("hpcontact.sweep.run.rounds", "packed", "pack"),
+    ("hpcontact.sweep.run.schedule", "MPITeam.gather", "exchange"),
+    ("hpcontact.sweep.run.schedule", "MPITeam.bcast", "exchange"),
     ("hpcontact.sweep.run.rounds", "unpacked", "unpack"),
     ("hpcontact.sweep.run.rounds", "joined", "join"),
     ("hpcontact.sweep.run.rounds", "prepare", "journals+decision"),
@@ -162,6 +170,8 @@ PHASES = (
 IN_ROUND_PHASES = ("read ahead", "announce", "array modules")
 # The set-up's phases each rank does for its own share (1/R of the points on R ranks), not for all.
 SPREAD_SETUP = ("enumeration", "pack")
+# Shares timed on each R of RANKS above 2 (``share_seconds``): evenly spaced over the ranks.
+SHARE_SAMPLES = 4
 
 _TEMPLATE: dict[str, Any] = {}
 
@@ -341,7 +351,8 @@ def worker(spec: str, output: str, variant: str, task: str, times: str) -> None:
     ``times`` the run's start and end, for each round when it began and ended taking claims
     (``time.time`` and this process's CPU seconds, ``time.process_time``), each call of the
     ``PHASES`` (its label, start and CPU seconds) and each estimate shared out over the ranks
-    (its start, wall and CPU seconds, and its leaves' box points and parts' CPU seconds)."""
+    (its start, wall and CPU seconds, and its leaves' box points and parts' CPU seconds). Every
+    other rank writes its start and its ``PHASES`` calls to ``times``.rank<r> (``spread_setup``)."""
     import importlib
 
     from hpcontact.sweep.driver import run_sweep
@@ -460,7 +471,12 @@ def worker(spec: str, output: str, variant: str, task: str, times: str) -> None:
     driven = (time.time(), time.process_time())  # the driver's start: interpreter, imports and MPI before it
     with open(os.devnull, "w", encoding="utf-8") as sink:
         run_sweep(spec, output=output, task_function=functions[task], stream=sink)
-    if int(os.environ.get("OMPI_COMM_WORLD_RANK", os.environ.get("PMI_RANK", "0"))) == 0:
+    rank = int(os.environ.get("OMPI_COMM_WORLD_RANK", os.environ.get("PMI_RANK", "0")))
+    if rank != 0:
+        Path(f"{times}.rank{rank}").write_text(
+            json.dumps({"start": started, "driven": driven, "phases": phases}), encoding="utf-8"
+        )
+    if rank == 0:
         ended = (time.time(), time.process_time())
         fixed = [slab_fixed(function, job) for function, job in jobs]  # after the run: not in its times
         Path(times).write_text(
@@ -480,6 +496,36 @@ def worker(spec: str, output: str, variant: str, task: str, times: str) -> None:
             ),
             encoding="utf-8",
         )
+
+
+def share_time(spec: str, rank: int, ranks: int) -> list[float]:
+    """Child process (``call_in_child``): the wall and CPU seconds of what rank ``rank`` of
+    ``ranks`` does with its share of ``spec``'s points before the exchange (``shares.share``:
+    enumerated and every distinct scene checked; ``shares.packed``), in a fresh interpreter as a
+    rank is (no material built or scene checked before)."""
+    from hpcontact.sweep.run.records import Options
+    from hpcontact.sweep.run.shares import packed, share
+    from hpcontact.sweep.space.parse import load_spec
+
+    loaded = load_spec(spec, check_scenes=False)
+    wall, cpu = time.perf_counter(), time.process_time()
+    packed(share(loaded, rank, ranks, None, Options()))
+    return [time.perf_counter() - wall, time.process_time() - cpu]
+
+
+def share_seconds(spec: Path, ranks: int, samples: int) -> tuple[float, float]:
+    """The wall and CPU seconds of the slowest of ``samples`` shares of ``spec`` on ``ranks``
+    ranks (evenly spaced over the ranks, each in a fresh process: ``share_time``): a rank's
+    share is not 2/R of what a rank of 2 does (a run is checked at its ends whatever its length,
+    and each process builds the materials it meets)."""
+    picks = sorted({round(k * (ranks - 1) / max(samples - 1, 1)) for k in range(samples)})
+    times = [
+        json.loads(
+            harness.call_in_child(__file__, "share_time", str(spec), r, ranks, check=True).stdout.splitlines()[-1]
+        )
+        for r in picks
+    ]
+    return max(t[0] for t in times), max(t[1] for t in times)
 
 
 def slab_fixed(function: Any, job: Any) -> float:
@@ -502,7 +548,7 @@ def run(spec: Path, output: Path, variant: str, task: str) -> dict[str, Any]:
     if mpiexec is None:
         raise SystemExit("mpiexec not found")
     times = output.with_suffix(".times.json")
-    for stale in (output, Path(f"{output}.journal")):
+    for stale in (output, Path(f"{output}.journal"), *times.parent.glob(f"{times.name}.rank*")):
         shutil.rmtree(stale, ignore_errors=True) if stale.is_dir() else stale.unlink(missing_ok=True)
     arguments = (str(spec), str(output), variant, task, str(times))
     harness.run_child(
@@ -512,9 +558,11 @@ def run(spec: Path, output: Path, variant: str, task: str) -> dict[str, Any]:
 
     with xr.open_dataset(output) as ds:
         attrs = dict(ds.attrs)
+    others = sorted(times.parent.glob(f"{times.name}.rank*"))
     return {
         "attrs": attrs,
         **json.loads(times.read_text(encoding="utf-8")),
+        "others": [json.loads(path.read_text(encoding="utf-8")) for path in others],
         "rounds": timeline(Path(f"{output}.journal")),
     }
 
@@ -682,10 +730,12 @@ def replayed(
     calls: list[list[Any]] | None = None,
     known: Mapping[str, tuple[int, float, str]] | None = None,
     unpack: float = 0.0,
+    share: float | None = None,
 ) -> Any:
     """``replay_rounds`` of ``rounds`` (key → seconds) on ``ranks``, the measured ``setup`` of 2
-    ranks split: with ``enumeration`` (rank 0's share of it, of the 2 measured) that twice over
-    spread over the ranks, ``unpack`` (rank 0's unpacking of the other's share, of the 2
+    ranks split: with ``enumeration`` (the slower rank's share of it, ``spread_setup``) that twice over
+    spread over the ranks, or ``share`` (a rank's share's seconds on ``ranks`` ranks, measured:
+    ``share_seconds``) where given, ``unpack`` (rank 0's unpacking of the other's share, of the 2
     measured) times 2 (ranks - 1) / ranks (every rank unpacks the others'), the rest rank 0's;
     without, rank 0's part ``overheads.setup_s`` a task (the replay's default) and the rest spread;
     ``rank0_busy`` and the shared estimates ``calls`` (per round) passed to ``replay_rounds``. A
@@ -714,7 +764,8 @@ def replayed(
         overheads = replace(overheads, spread_setup_s=spread)
     else:  # as measured: the enumeration spread over the ranks (2 measured), the rest on every rank at once
         alone = max(setup - enumeration - unpack, 0.0) + unpack * 2 * (ranks - 1) / ranks
-        overheads = replace(overheads, setup_s=alone / tasks, spread_setup_s=2 * enumeration / tasks)
+        spread = 2 * enumeration / ranks if share is None else share  # a rank's share's seconds on R ranks
+        overheads = replace(overheads, setup_s=alone / tasks, spread_setup_s=spread * ranks / tasks)
     return replay_rounds(orders, ranks, gaps, tasks, overheads, rank0_busy, calls)
 
 
@@ -737,6 +788,23 @@ def phase_seconds(measured: dict[str, Any], clock: str) -> dict[str, list[float]
     for label, start, wall, cpu in measured.get("phases", []):
         out[label][sum(f <= start for f in firsts)] += wall if clock == "wall" else cpu
     return out
+
+
+def spread_setup(measured: dict[str, Any], clock: str) -> float:
+    """The ``clock`` seconds of the slower rank's ``SPREAD_SETUP`` calls in the set-up (its share
+    of the points enumerated and packed; every rank starts it at once, after the spec's
+    broadcast): what the replay spreads over R ranks, twice it in all. Rank 0's alone (no other
+    rank's file, a tree before 2026-11-30) where the others are not recorded."""
+    first = measured["marks"][0][0]
+    ranks = [measured.get("phases", []), *(other["phases"] for other in measured.get("others", []))]
+    return max(
+        sum(
+            wall if clock == "wall" else cpu
+            for label, start, wall, cpu in calls
+            if label in SPREAD_SETUP and start < first
+        )
+        for calls in ranks
+    )
 
 
 def collector_seconds(measured: dict[str, Any], generation: int) -> list[float]:
@@ -806,6 +874,21 @@ def crystal(folder: Path, task: str, driver_ms: list[float], checks: int) -> Non
         + ", ".join(f"{label} {x:.2f}" for label, x in in_setup.items())
         + f", the rest {setup_cpu - sum(in_setup.values()):.2f} (interpreter, imports, MPI, spec, first decision)"
     )
+    shares_on = {r: share_seconds(CRYSTAL_MAP, r, SHARE_SAMPLES) for r in RANKS if r > 2}
+    print(
+        f"a rank's share enumerated and packed on R ranks (the slowest of {SHARE_SAMPLES} shares, each in a fresh "
+        "process; wall / CPU s): " + ", ".join(f"{r}: {w:.2f} / {c:.2f}" for r, (w, c) in shares_on.items())
+    )
+    first = measured["marks"][0][0]
+    shares = [
+        sum(cpu for label, start, _, cpu in calls if label in SPREAD_SETUP and start < first)
+        for calls in (measured["phases"], *(other["phases"] for other in measured.get("others", [])))
+    ]
+    print(
+        f"each rank's share enumerated and packed: {', '.join(f'{x:.2f}' for x in shares)} CPU s (rank 0 first); "
+        f"the 2-rank replay takes the slower, {spread_setup(measured, 'CPU'):.2f}, as every rank's, and rank 0's wait "
+        f"for it in the exchange is not its own work; on more ranks, a share as measured above"
+    )
     shared = {clock: leaf_calls(measured, clock) for clock in ("wall", "CPU")}
     for clock in ("wall", "CPU"):
         calls, spent = shared[clock]
@@ -857,14 +940,17 @@ def crystal(folder: Path, task: str, driver_ms: list[float], checks: int) -> Non
             times = (setup, gaps) if clock == "wall" else (setup_cpu, gaps_cpu)
             calls, spent = shared[clock]
             alone = [g - s for g, s in zip(times[1], spent)]  # rank 0's time between rounds outside the calls
-            enumeration = sum(sum(phases[clock][p]) for p in SPREAD_SETUP)
+            enumeration = spread_setup(measured, clock)
             ahead = in_round_seconds(measured, clock)
             per_task = driver if clock == "wall" else cpu_driver
             overheads = Overheads(**{**DEFAULT_OVERHEADS.__dict__, "driver_s": per_task, "spread_gather_s": 0.0})
             unpack = sum(phases[clock]["unpack"])
             for ranks in RANKS:
                 busy, after = moved(measured, clock, ahead, alone, ranks)
-                r = replayed(rounds, ranks, after, times[0], 139725, overheads, enumeration, busy, calls, known, unpack)
+                share = shares_on[ranks][0 if clock == "wall" else 1] if ranks in shares_on else None
+                r = replayed(
+                    rounds, ranks, after, times[0], 139725, overheads, enumeration, busy, calls, known, unpack, share
+                )
                 print(
                     f"{name:>8} {ranks:6d} {clock:>5} {r['makespan_s']:8.2f} {r['efficiency']:7.3f} "
                     f"{r['between']:8.3f} {r['tail']:6.3f} {r['claims']:7.3f} {r['setup']:6.3f} "
@@ -872,7 +958,7 @@ def crystal(folder: Path, task: str, driver_ms: list[float], checks: int) -> Non
                     flush=True,
                 )
     overheads = Overheads(**{**DEFAULT_OVERHEADS.__dict__, "driver_s": cpu_driver, "spread_gather_s": 0.0})
-    enumeration = sum(sum(phases["CPU"][p]) for p in SPREAD_SETUP)
+    enumeration = spread_setup(measured, "CPU")
     calls, spent = shared["CPU"]
     unpack = sum(phases["CPU"]["unpack"])
     for name, rounds in reversed(lines.items()):
@@ -880,7 +966,18 @@ def crystal(folder: Path, task: str, driver_ms: list[float], checks: int) -> Non
             measured, "CPU", in_round_seconds(measured, "CPU"), [g - s for g, s in zip(gaps_cpu, spent)], 16
         )
         r = replayed(
-            rounds, 16, [0.0] * len(gaps_cpu), setup_cpu, 139725, overheads, enumeration, ahead, None, known, unpack
+            rounds,
+            16,
+            [0.0] * len(gaps_cpu),
+            setup_cpu,
+            139725,
+            overheads,
+            enumeration,
+            ahead,
+            None,
+            known,
+            unpack,
+            shares_on[16][1],
         )
         print(
             f"bound, not the code: {name}, 16 ranks with nothing at all between rounds (CPU, set-up as measured): "
@@ -889,7 +986,18 @@ def crystal(folder: Path, task: str, driver_ms: list[float], checks: int) -> Non
         )
         one = [{k: v for r in rounds for k, v in r.items()}]
         r = replayed(
-            one, 16, after[-1:], setup_cpu, 139725, overheads, enumeration, [sum(ahead)], calls[-1:], known, unpack
+            one,
+            16,
+            after[-1:],
+            setup_cpu,
+            139725,
+            overheads,
+            enumeration,
+            [sum(ahead)],
+            calls[-1:],
+            known,
+            unpack,
+            shares_on[16][1],
         )
         print(
             f"bound, not the code: {name}, 16 ranks, every solve in one round, then the last round's time after it as "
