@@ -121,7 +121,7 @@ def scene_runs(
     is refused even at A = 1), and a bad field raises ``InputError`` naming the spec key it came
     from, at the first bad point in C order. In a spec of more than ``SCENE_CHECK_POINTS``
     points (in every range of it: a rank's share of the 4-D map, 146 475 points on 16 ranks,
-    is 9 155 points, and checked scene by scene it took 5-8 CPU s a rank instead of ~0.1,
+    is 9 155 points, and checked scene by scene it took 5-8 CPU s a rank instead of 0.3-0.5,
     2026-11-30), the kind's own validator sees a run of three or more points of a field whose valid
     values form an interval (``kinds.interval_fields``) at its extreme values and branch values
     only: both valid, every value between is; one refused, a bisection from a valid value finds
