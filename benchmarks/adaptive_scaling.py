@@ -790,21 +790,26 @@ def phase_seconds(measured: dict[str, Any], clock: str) -> dict[str, list[float]
     return out
 
 
-def spread_setup(measured: dict[str, Any], clock: str) -> float:
-    """The ``clock`` seconds of the slower rank's ``SPREAD_SETUP`` calls in the set-up (its share
-    of the points enumerated and packed; every rank starts it at once, after the spec's
-    broadcast): what the replay spreads over R ranks, twice it in all. Rank 0's alone (no other
-    rank's file, a tree before 2026-11-30) where the others are not recorded."""
+def rank_shares(measured: dict[str, Any], clock: str) -> list[float]:
+    """Each rank's ``clock`` seconds of its ``SPREAD_SETUP`` calls in the set-up (its share of
+    the points enumerated and packed; every rank starts it at once, after the spec's broadcast),
+    rank 0's first; rank 0's alone where the others are not recorded (a tree before 2026-11-30)."""
     first = measured["marks"][0][0]
     ranks = [measured.get("phases", []), *(other["phases"] for other in measured.get("others", []))]
-    return max(
+    return [
         sum(
             wall if clock == "wall" else cpu
             for label, start, wall, cpu in calls
             if label in SPREAD_SETUP and start < first
         )
         for calls in ranks
-    )
+    ]
+
+
+def spread_setup(measured: dict[str, Any], clock: str) -> float:
+    """The slower rank's share of the set-up (``rank_shares``): what the replay spreads over R
+    ranks, twice it in all."""
+    return max(rank_shares(measured, clock))
 
 
 def collector_seconds(measured: dict[str, Any], generation: int) -> list[float]:
@@ -879,14 +884,10 @@ def crystal(folder: Path, task: str, driver_ms: list[float], checks: int) -> Non
         f"a rank's share enumerated and packed on R ranks (the slowest of {SHARE_SAMPLES} shares, each in a fresh "
         "process; wall / CPU s): " + ", ".join(f"{r}: {w:.2f} / {c:.2f}" for r, (w, c) in shares_on.items())
     )
-    first = measured["marks"][0][0]
-    shares = [
-        sum(cpu for label, start, _, cpu in calls if label in SPREAD_SETUP and start < first)
-        for calls in (measured["phases"], *(other["phases"] for other in measured.get("others", [])))
-    ]
+    shares = rank_shares(measured, "CPU")
     print(
         f"each rank's share enumerated and packed: {', '.join(f'{x:.2f}' for x in shares)} CPU s (rank 0 first); "
-        f"the 2-rank replay takes the slower, {spread_setup(measured, 'CPU'):.2f}, as every rank's, and rank 0's wait "
+        f"the 2-rank replay takes the slower, {max(shares):.2f}, as every rank's, and rank 0's wait "
         f"for it in the exchange is not its own work; on more ranks, a share as measured above"
     )
     shared = {clock: leaf_calls(measured, clock) for clock in ("wall", "CPU")}
