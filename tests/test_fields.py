@@ -302,6 +302,23 @@ def test_coordinate_attributes_are_the_old_ones():
     assert slip["device"] == (fields.field("device").long_name, "")
 
 
+def test_a_slip_data_sets_coordinates_are_described_by_their_fields():
+    """Every slip field's coordinate attributes come from its declaration (``device`` too), the
+    units in the spec's force and length units or in SI where it names library materials."""
+    from pathlib import Path
+
+    from hpcontact.sweep.data.attributes import attribute_table
+    from hpcontact.sweep.space.parse import parse_spec
+
+    job = Path(__file__).resolve().parents[1] / "jobs" / "sphere_pairs.toml"
+    table = attribute_table(parse_spec(job.read_text(), path=job, validate=lambda params: None))
+    declared = fields.axis_attrs(SLIP)
+    assert "device" in declared
+    for name, attrs in declared.items():
+        assert table[name]["long_name"] == attrs["long_name"], name
+        assert ("units" in table[name]) == ("units" in attrs), name
+
+
 def test_slip_fields_are_the_slip_validators():
     assert set(fields.names(SLIP)) - {"device"} == set(OLD_SLIP_VALIDATOR_FIELDS)
     assert "device" in fields.names(SLIP)

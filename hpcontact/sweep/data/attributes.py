@@ -135,7 +135,6 @@ SLIP_ATTRS: Mapping[str, tuple[str, str]] = {
         for i in "xy"
         for j in "xy"
     },
-    "load": ("normal load P", "F"),
     "no_slip_stiffness": ("tangential stiffness k_t at Q = 0 on the grid", "F L-1"),
     "stiffness_ratio": ("k_t / k_t(Q = 0)", "1"),
     "force_ratio": ("Q/(mu P) reached", "1"),
@@ -161,35 +160,9 @@ SLIP_ATTRS: Mapping[str, tuple[str, str]] = {
     "dy": ("cell size along the contact ellipse's minor axis", "L"),
     "history": ("every load step of the path (JSON)", ""),
     "decoupled_history": ("every load step of the decoupled path (JSON)", ""),
-    # coordinates (axes and fixed fields)
+    # coordinates: the contact pair, and every slip field (axes and fixed fields) as fields.py declares it
     "pair": ("contact pair", ""),
-    "mu": ("friction coefficient", "1"),
-    "q_ratio": ("tangential load at the end of the path Q/(mu P)", "1"),
-    "angle": ("direction of the tangential load from x", "degree"),
-    "radius": ("radius of curvature of body 1", "L"),
-    "radius_b": ("second principal radius of curvature of body 1", "L"),
-    "radius2": ("radius of curvature of body 2 (inf: flat)", "L"),
-    "radius2_b": ("second principal radius of curvature of body 2", "L"),
-    "body2_angle": ("angle between the principal axes of the bodies", "degree"),
-    "material": ("material of body 1 (hpcontact.problems.slip.bodies library, or crystal:NAME)", ""),
-    "material2": ("material of body 2 (hpcontact.problems.slip.bodies library, or crystal:NAME)", ""),
-    "orthotropic": ("orthotropic engineering constants of body 1", ""),
-    "orthotropic2": ("orthotropic engineering constants of body 2", ""),
-    "orientation": ("surface normal of the crystal along [110] -> [111] -> [001]", "degree"),
-    "azimuth": ("in-plane turn of the crystal about the surface normal", "degree"),
-    "miller": ("surface normal (h k l) of the crystal", ""),
-    "E": ("Young's modulus of body 1", "F L-2"),
-    "G": ("shear modulus of body 1", "F L-2"),
-    "nu": ("Poisson ratio of body 1", "1"),
-    "E2": ("Young's modulus of body 2", "F L-2"),
-    "G2": ("shear modulus of body 2", "F L-2"),
-    "nu2": ("Poisson ratio of body 2", "1"),
-    "displacement": ("final tangential displacement (displacement control)", "L"),
-    "n": ("grid cells across the contact's major diameter", "1"),
-    "steps": ("tangential load steps", "1"),
-    "control": ("tangential load control: force or displacement", ""),
-    "path": ("tangential loading path: load, or loop (load, unload, reload)", ""),
-    "coupling": ("coupling of the normal and tangential problems: auto, both, coupled or decoupled", ""),
+    **{name: (attrs["long_name"], attrs.get("units", "")) for name, attrs in fields.axis_attrs(SLIP).items()},
 }
 SI_UNITS = {"F": "N", "L": "m"}
 
