@@ -29,8 +29,8 @@ from typing import TYPE_CHECKING, Any, TextIO
 
 from hpcontact.accuracy import (
     AccuracyNotMet,
+    accuracy_request,
     default_scene_solve,
-    extrapolates_by_default,
     solve_to_accuracy,
     task_function,
 )
@@ -147,7 +147,7 @@ def _solve_contact(
             exc.record = finished(exc.record)
             raise
     else:
-        if not extrapolates_by_default(scene):  # one grid: refused before it is allocated
+        if accuracy_request(scene) is None:  # one grid: refused before it is allocated
             _check_one_grid(scene, memory, name)
         try:  # without n: as accuracy=DEFAULT_ACCURACY where that applies
             record = default_scene_solve(scene)

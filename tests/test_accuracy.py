@@ -263,27 +263,36 @@ def test_singular_memory_plan_counts_the_near_field() -> None:
 
 
 def test_default_discretization() -> None:
-    """Without n: grids 16 … 256 extrapolated, K_a/K_b within 1e-4 of Mindlin's (measured 6.9e-6
-    at b/a = 0.05, nu = 0.3; ≤ 5.8e-5 over b/a = 1 … 1e-8, nu = 0 … 0.5 in the README table)
-    and the estimate above the true error; with n: one centre-in-cell grid, as always."""
-    r = acc.default_solve(Scene.from_params({"shape": "ellipse", "aspect": 0.05, "nu": 0.3}))
-    true = abs(r["K_a_over_K_b"] / analytic.mindlin_ellipse_stiffness_ratio(0.05, 0.3) - 1.0)
-    assert true <= 1e-4 and true <= r["estimated_errors"]["K_a_over_K_b"]
-    assert r["grids"][0] == acc.DEFAULT_N0 and r["grids"][-1] <= 256 and "estimated_error" in r
+    """Without n: an elliptical contact on its one exact cell (K_a/K_b of Mindlin's closed form
+    within its estimate, ~1e-14); another refinable outline on grids 16 … 256 extrapolated: a star
+    without lobes (amplitude 0: the circle on coverage-weighted cells) within 1e-4 of Mindlin's
+    (measured 1.8e-6 at nu = 0.3) and the estimate above the true error; with n: one
+    centre-in-cell grid, as always."""
+    ellipse = acc.default_solve(Scene.from_params({"shape": "ellipse", "aspect": 0.05, "nu": 0.3}))
+    true = abs(ellipse["K_a_over_K_b"] / analytic.mindlin_ellipse_stiffness_ratio(0.05, 0.3) - 1.0)
+    assert ellipse["boundary"] == "galin" and true <= ellipse["estimated_errors"]["K_a_over_K_b"] <= 1e-12
+    r = acc.default_solve(Scene.from_params({"shape": "star", "amplitude": 0.0, "nu": 0.3}))
+    true = abs(r["K_xx"] / analytic.circle_tangential_stiffness(1.0, 1.0, 0.3) - 1.0)
+    assert true <= 1e-4 and true <= r["estimated_errors"]["K_xx"]
+    assert r["boundary"] == "coverage" and r["grids"][0] == acc.DEFAULT_N0 and r["grids"][-1] <= 256
     one = acc.default_solve(Scene.from_params({"shape": "ellipse", "aspect": 0.05, "nu": 0.3, "n": 32}))
     assert one["nx"] == 32 and "estimated_error" not in one and "boundary" not in one["plan"]
     assert not acc.extrapolates_by_default(Scene.from_params({"shape": "rough"}))
     assert not acc.extrapolates_by_default(
         Scene.from_params({"shape": "circle", "anisotropy": 2.0, "orientation": 30.0})
     )
+    # a crystal's elliptical contact: its exact cell too, not one grid of n = 128
+    crystal = Scene.from_params({"shape": "circle", "anisotropy": 2.0, "orientation": 30.0})
+    assert acc.exact_by_default(crystal) and acc.default_solve(crystal)["boundary"] == "galin"
 
 
 def test_the_default_of_one_scene_is_the_default_accuracy() -> None:
     """Without n, one scene (``hpcontact solve``, ``hpcontact.solve``) is solved as ``--accuracy
     DEFAULT_ACCURACY`` (strategy auto: an ellipse's exact cell, a slender rectangle's strips, whose
     default grids 16 … 256 missed 1e-4 or took coverage cells; issue 42 item 2), and a miss raises
-    ``AccuracyNotMet`` for the caller to report; a sweep's task keeps ``default_solve``'s planned
-    grids 16 … 256 on coverage-weighted cells (its cost model, ``sweep.cost.grids.solved_grids``)."""
+    ``AccuracyNotMet`` for the caller to report; a sweep's task solves an ellipse as one scene's
+    default does (bitwise: the exact cell) and keeps ``default_solve``'s planned grids 16 … 256 on
+    coverage-weighted cells elsewhere (bounded; its cost model, ``sweep.cost.grids.solved_grids``)."""
     for params in ({"shape": "ellipse", "aspect": 0.3, "nu": 0.3}, {"shape": "rectangle", "aspect": 1e-7, "nu": 0.3}):
         scene = Scene.from_params(params)
         one = acc.default_scene_solve(scene)
@@ -291,7 +300,10 @@ def test_the_default_of_one_scene_is_the_default_accuracy() -> None:
         assert one["boundary"] == asked["boundary"] == ("galin" if params["shape"] == "ellipse" else "strip")
         assert one["grids"] == asked["grids"] and one["K_xx"] == asked["K_xx"] and one["accuracy_met"]
         sweep = acc.default_solve(scene)
-        assert sweep["boundary"] == "coverage" and sweep["grids"][0] == acc.DEFAULT_N0
+        if params["shape"] == "ellipse":
+            assert sweep["boundary"] == "galin" and sweep["K_xx"] == one["K_xx"] and sweep["K_yy"] == one["K_yy"]
+        else:
+            assert sweep["boundary"] == "coverage" and sweep["grids"][0] == acc.DEFAULT_N0
     circle = acc.default_scene_solve(Scene.from_params({"shape": "circle", "nu": 0.3}))
     K = analytic.circle_tangential_stiffness(1.0, 1.0, 0.3)
     assert circle["estimated_error"] <= 1e-10 and abs(circle["K_xx"] / K - 1.0) <= 1e-12

@@ -19,6 +19,7 @@ from hpcontact.accuracy import (
     MIN_GRIDS,
     STRATEGIES,
     default_grids,
+    exact_by_default,
     first_grid,
     grid_bytes,
     plan_grids,
@@ -64,7 +65,7 @@ def solved_grids(params: Mapping[str, Any]) -> list[Mapping[str, Any]]:
     fields that do not change its grids (``GRID_NEUTRAL_FIELDS``) aside."""
     if not kind_of(params).accuracy_applies:  # solved on its own grid (a slip scene)
         return [params]
-    if params.get("accuracy") is not None:  # before n: solve_to_accuracy ignores the scene's grid
+    if with_request(params).get("accuracy") is not None:  # before n: solve_to_accuracy ignores the scene's grid
         return accuracy_levels(params)
     if params.get("n") is not None:
         return [params]
@@ -76,17 +77,36 @@ def solved_grids(params: Mapping[str, Any]) -> list[Mapping[str, Any]]:
 
 
 @functools.lru_cache(maxsize=4096)
+def _exact_by_default(text: str) -> bool:
+    """``accuracy.exact_by_default`` of the scene ``text`` (canonical JSON, ``GRID_NEUTRAL_FIELDS``
+    left out)."""
+    return exact_by_default(Scene.from_key(text))
+
+
+@functools.lru_cache(maxsize=4096)
 def _default_grids(text: str) -> tuple[tuple[int, int], ...]:
     """(n, n_across) of every grid ``accuracy.default_solve`` solves the scene ``text``
     (canonical JSON, ``GRID_NEUTRAL_FIELDS`` left out) on; () when it solves one grid."""
     return tuple(default_grids(Scene.from_key(text)))
 
 
+def with_request(params: Mapping[str, Any]) -> Mapping[str, Any]:
+    """``params`` with the accuracy ``accuracy.default_solve`` solves the contact scene to: its
+    own ``accuracy``, or ``DEFAULT_ACCURACY`` where it gives neither that nor ``n`` and its contact
+    is elliptical (``accuracy.exact_by_default``: its one exact cell, as a request of that
+    accuracy); ``params`` itself otherwise."""
+    if params.get("accuracy") is not None or params.get("n") is not None or not kind_of(params).accuracy_applies:
+        return params
+    if _exact_by_default(canonical_json({k: v for k, v in params.items() if k not in GRID_NEUTRAL_FIELDS})):
+        return {**params, "accuracy": DEFAULT_ACCURACY}
+    return params
+
+
 def asks_accuracy(params: Mapping[str, Any]) -> bool:
-    """Whether ``params`` is a contact scene that asks for an accuracy (a sweep's ``[numerics]
-    accuracy``, ``hpcontact run --accuracy``): ``accuracy.default_solve`` solves it as
-    ``hpcontact solve --accuracy`` does."""
-    return params.get("accuracy") is not None and kind_of(params).accuracy_applies
+    """Whether ``params`` is a contact scene solved to an accuracy (a sweep's ``[numerics]
+    accuracy``, ``hpcontact run --accuracy``, or an elliptical contact without ``n``:
+    ``with_request``): ``accuracy.default_solve`` solves it as ``hpcontact solve --accuracy`` does."""
+    return with_request(params).get("accuracy") is not None and kind_of(params).accuracy_applies
 
 
 class AccuracyPlan(NamedTuple):
@@ -135,7 +155,8 @@ def accuracy_plan(params: Mapping[str, Any]) -> AccuracyPlan:
     that the estimate never depends on this process's resident set: a finest grid over a rank's
     memory shows in the task's memory, which ``--mem-per-rank`` checks), the first
     ``predicted_grid_count`` of them (a plan of no grid: its first one). Cached per scene, the
-    fields that do not change its grids (``GRID_NEUTRAL_FIELDS``) aside."""
+    fields that do not change its grids (``GRID_NEUTRAL_FIELDS``) aside; its accuracy ``with_request``'s."""
+    params = with_request(params)
     return _accuracy_plan(canonical_json({k: v for k, v in params.items() if k not in GRID_NEUTRAL_FIELDS}))
 
 
@@ -158,7 +179,9 @@ def accuracy_levels(params: Mapping[str, Any]) -> list[dict[str, Any]]:
     """The one-grid scenes of the accuracy task ``params`` (``accuracy_plan``): ``params``
     without ``accuracy``, with each grid's ``n``, ``n_across``, the CG tolerance
     ``solve_to_accuracy`` uses (at most accuracy / 100) and ``BOUNDARY_TAG`` the grid's
-    boundary cells (``level_fields`` gives the scene's fields without it)."""
+    boundary cells (``level_fields`` gives the scene's fields without it); its accuracy
+    ``with_request``'s."""
+    params = with_request(params)
     plan = accuracy_plan(params)
     tol = max(min(float(params.get("tol", DEFAULT_TOL)), float(params["accuracy"]) * 1e-2), 1e-14)
     fields = {k: v for k, v in params.items() if k not in ("accuracy", BOUNDARY_TAG)}

@@ -37,6 +37,7 @@ from hpcontact.sweep.cost.grids import (
     asks_accuracy,
     padded_cells,
     solved_grids,
+    with_request,
 )
 from hpcontact.sweep.space.axes import PATH_FIELDS
 
@@ -207,6 +208,7 @@ def accuracy_work(params: Mapping[str, Any]) -> Work:
     planned grid's and less ``ONE_FEWER_SHARE`` of the last predicted grid's beyond
     ``MIN_GRIDS`` (the expected time of a count that varies by one: docs/performance.md
     §"Accuracy tasks")."""
+    params = with_request(params)
     plan, levels = accuracy_plan(params), accuracy_levels(params)
     parts = [(1.0, level_work(level)) for level in levels]
     if task_kind(params) in footprint.KERNEL_BUILD_BYTES:  # a crystal: its kernel, once, whatever its cells

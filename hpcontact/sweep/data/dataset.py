@@ -22,8 +22,9 @@ in the force and length units of the input (F, L). The tables below write units 
 scale in ``scale``, ``comment`` and ``long_name``, so every unit parses with UDUNITS as what it
 means (the convention: ``hpcontact.sweep.data.units``, and the data set's global ``comment``).
 
-A contact spec without ``n`` (neither fixed nor an axis) is solved by ``hpcontact solve``'s
-extrapolated default (``accuracy.default_solve``, ``kinds``) wherever it applies: the data set
+A contact spec without ``n`` (neither fixed nor an axis) is solved as ``accuracy.default_solve``
+says (``kinds``): an elliptical contact on its exact cell, elsewhere the extrapolated default
+wherever it applies: the data set
 then has no ``n`` coordinate; ``nx``, ``ny``, ``dx``, ``dy`` are the *finest* grid's (256 cells
 along the long side, ``grid_sequence``'s across: 256 × 128 for b/a = 0.5), ``grids`` and
 ``grids_across`` the JSON lists of every grid solved, ``estimated_error`` the estimated relative

@@ -360,9 +360,9 @@ def test_the_memory_plan_counts_a_mask_at_its_pixels(tmp_path):
 # 3. enumeration: each distinct scene validated once, each key made once, progress, a limit
 # ------------------------------------------------------------------------------------------
 def test_a_dry_run_validates_each_distinct_scene_once(write_spec, monkeypatch, capsys):
-    """1000 points, 500 distinct scenes (a circle ignores b/a), no n (the extrapolated default,
-    whose grids needed a second Scene per scene before): 500 validations, 500 keys, and one
-    more Scene for the default grids of the one outline."""
+    """1000 points, 500 distinct scenes (a circle ignores b/a), no n (the default, whose grids
+    needed a second Scene per scene before): 500 validations, 500 keys, and two more Scenes for
+    the one outline: whether it takes its exact cell, and that cell's plan."""
     built, keys = [], []
     from_params = Scene.from_params.__func__
     monkeypatch.setattr(Scene, "from_params", classmethod(lambda cls, p: built.append(1) or from_params(cls, p)))
@@ -370,12 +370,14 @@ def test_a_dry_run_validates_each_distinct_scene_once(write_spec, monkeypatch, c
     monkeypatch.setattr(tasks_module, "task_key", lambda p, text=None: keys.append(1) or key(p, text))
     monkeypatch.setattr(enumeration, "PROGRESS_POINTS", 200)
     cost_grids._default_grids.cache_clear()
+    cost_grids._exact_by_default.cache_clear()
+    cost_grids._accuracy_plan.cache_clear()
     task_cost._cached_contact_cost.cache_clear()
     scene_module._scene_of_key.cache_clear()  # Scene.from_key's cache: an earlier test may hold the outline's scene
     path = write_spec('[scene]\nshape = "circle"\n[axes]\naspect = [0.5, 1.0]\nnu = { linspace = [0, 0.5, 500] }\n')
     assert dry_run(path, stream=io.StringIO()) == 0
     assert len(keys) == 500
-    assert len(built) == 500 + 1
+    assert len(built) == 500 + 2
     progress = [line for line in capsys.readouterr().err.splitlines() if "points checked" in line]
     assert [line.split()[1] for line in progress] == ["200", "400", "600", "800"]
 

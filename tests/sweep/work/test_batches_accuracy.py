@@ -148,8 +148,9 @@ def test_grid_sequences_batch_by_cells_and_first_grid_sized_by_their_largest_gri
     assert group == ("cpu", SEQUENCE, "coverage", (16, 4), ("tangential",), True)
     assert batch_group(TASKS[1], batches.solve_contact_fields) == group
     assert batch_group(TASKS[2], batches.solve_contact_fields) is None  # the exact cell
-    extrapolated = batch_group({"shape": "circle", "nu": 0.2}, batches.solve_contact_fields)  # the default, no n
-    assert extrapolated == ("cpu", SEQUENCE, "coverage", (16, 16), ("tangential",), True)
+    assert batch_group({"shape": "circle", "nu": 0.2}, batches.solve_contact_fields) is None  # the default: exact
+    extrapolated = batch_group({"shape": "star", "amplitude": 0.0, "nu": 0.2}, batches.solve_contact_fields)
+    assert extrapolated == ("cpu", SEQUENCE, "coverage", (16, 16), ("tangential",), True)  # the default, no n
     # a sequence's bytes are those of the largest grid it may reach: the cell limit's, n = 1024 here
     scene = Scene.from_params(TASKS[0])
     largest = accuracy.plan_grids(scene, 16, 4, MAX_CELLS, None, "coverage").grids[-1]
