@@ -77,7 +77,8 @@ def default_solve(scene: Scene) -> dict[str, Any]:
     ``auto``, as ``hpcontact solve`` without ``--n``); else ``solve_to_accuracy`` on grids 16, 32, … , 256
     (``DEFAULT_GRIDS``), stopping once the estimate is ≤ ``DEFAULT_ACCURACY`` = 1e-4, never an
     error: the record's ``estimated_error`` says what was reached (docs/howto/accuracy.md,
-    "Without ``--n``: the default": 0.3–1.1 s CPU, true errors ≤ 9e-5 on ellipses b/a 1 … 1e-8).
+    "Without ``--n``: the default"; docs/performance.md, "A sweep's default extrapolation": 0.3–0.7 s
+    CPU a task, measured when ellipses took these grids too).
     Its ``nx``, ``ny``, ``dx``, ``dy`` are the finest grid's, ``grids`` and ``grids_across`` list every grid.
 
     A scene with an ``accuracy`` field (a sweep's ``[numerics] accuracy``, ``hpcontact run
