@@ -283,27 +283,29 @@ def test_default_discretization() -> None:
     )
     # a crystal's elliptical contact: its exact cell too, not one grid of n = 128
     crystal = Scene.from_params({"shape": "circle", "anisotropy": 2.0, "orientation": 30.0})
-    assert acc.exact_by_default(crystal) and acc.default_solve(crystal)["boundary"] == "galin"
+    assert acc.requested_by_default(crystal) and acc.default_solve(crystal)["boundary"] == "galin"
 
 
 def test_the_default_of_one_scene_is_the_default_accuracy() -> None:
     """Without n, one scene (``hpcontact solve``, ``hpcontact.solve``) is solved as ``--accuracy
     DEFAULT_ACCURACY`` (strategy auto: an ellipse's exact cell, a slender rectangle's strips, whose
     default grids 16 … 256 missed 1e-4 or took coverage cells; issue 42 item 2), and a miss raises
-    ``AccuracyNotMet`` for the caller to report; a sweep's task solves an ellipse as one scene's
-    default does (bitwise: the exact cell) and keeps ``default_solve``'s planned grids 16 … 256 on
-    coverage-weighted cells elsewhere (bounded; its cost model, ``sweep.cost.grids.solved_grids``)."""
+    ``AccuracyNotMet`` for the caller to report; a sweep's task solves an ellipse and a slender
+    rectangle as one scene's default does (bitwise: the exact cell, the strips) and keeps
+    ``default_solve``'s planned grids 16 … 256 on coverage-weighted cells (bounded; its cost
+    model, ``sweep.cost.grids.solved_grids``)."""
     for params in ({"shape": "ellipse", "aspect": 0.3, "nu": 0.3}, {"shape": "rectangle", "aspect": 1e-7, "nu": 0.3}):
         scene = Scene.from_params(params)
         one = acc.default_scene_solve(scene)
         asked = acc.solve_to_accuracy(scene, acc.DEFAULT_ACCURACY, strategy="auto")
         assert one["boundary"] == asked["boundary"] == ("galin" if params["shape"] == "ellipse" else "strip")
         assert one["grids"] == asked["grids"] and one["K_xx"] == asked["K_xx"] and one["accuracy_met"]
-        sweep = acc.default_solve(scene)
-        if params["shape"] == "ellipse":
-            assert sweep["boundary"] == "galin" and sweep["K_xx"] == one["K_xx"] and sweep["K_yy"] == one["K_yy"]
-        else:
-            assert sweep["boundary"] == "coverage" and sweep["grids"][0] == acc.DEFAULT_N0
+        sweep = acc.default_solve(scene)  # cells that bound themselves: as one scene, bitwise
+        assert sweep["boundary"] == one["boundary"] and sweep["grids"] == one["grids"]
+        assert sweep["K_xx"] == one["K_xx"] and sweep["K_yy"] == one["K_yy"]
+    # coverage-weighted cells: a sweep keeps the bounded grids 16 … 256 where one scene refines on
+    square = Scene.from_params({"shape": "rectangle", "aspect": 1.0, "nu": 0.3})
+    assert not acc.requested_by_default(square) and acc.default_grids(square)[0] == (acc.DEFAULT_N0, acc.DEFAULT_N0)
     circle = acc.default_scene_solve(Scene.from_params({"shape": "circle", "nu": 0.3}))
     K = analytic.circle_tangential_stiffness(1.0, 1.0, 0.3)
     assert circle["estimated_error"] <= 1e-10 and abs(circle["K_xx"] / K - 1.0) <= 1e-12

@@ -51,8 +51,8 @@ from hpcontact.accuracy.defaults import (
     default_solve,
     default_solve_batch,
     error_columns,
-    exact_by_default,
     extrapolates_by_default,
+    requested_by_default,
     task_function,
 )
 from hpcontact.accuracy.extrapolation import (
@@ -133,7 +133,7 @@ __all__ = [
     "accuracy_request",
     "default_scene_solve",
     "default_grids",
-    "exact_by_default",
+    "requested_by_default",
     "extrapolates_by_default",
     "AccuracyNotMet",
     "error_columns",

@@ -13,7 +13,7 @@ from hpcontact.accuracy.refinement import (
     solve_to_accuracy,
     solve_to_accuracy_batch,
 )
-from hpcontact.accuracy.strategies import grid_sequence
+from hpcontact.accuracy.strategies import first_grid, grid_sequence
 from hpcontact.discretizations import galin_ellipse
 from hpcontact.discretizations.boundary_cells import SUPPORTED
 from hpcontact.materials.isotropic import Isotropic
@@ -23,8 +23,9 @@ from hpcontact.problems.slip.partial_slip import solve_slip
 from hpcontact.scene import Scene
 
 #: Without ``n``: one scene (``hpcontact solve``, ``hpcontact.solve``) is solved as ``--accuracy
-#: DEFAULT_ACCURACY`` (:func:`default_scene_solve`); a sweep whose spec gives none solves an
-#: elliptical contact on its one exact cell as that does (:func:`exact_by_default`), any other on
+#: DEFAULT_ACCURACY`` (:func:`default_scene_solve`); a sweep whose spec gives none solves each
+#: scene as that does where its cells are not coverage-weighted (:func:`requested_by_default`: an
+#: elliptical contact's exact cell, a slender rectangle's strips), and coverage-weighted cells on
 #: grids 16 … 256 along the long side (``DEFAULT_N0``, ``DEFAULT_GRIDS``), extrapolated, stopping
 #: once the estimate is ≤ 1e-4 (:func:`default_solve`).
 DEFAULT_ACCURACY = 1e-4
@@ -45,25 +46,32 @@ def extrapolates_by_default(scene: Scene) -> bool:
     )
 
 
-def exact_by_default(scene: Scene) -> bool:
-    """Whether ``scene`` without ``n`` and without ``accuracy`` is solved on the one exact cell
-    of its elliptical contact (``galin_ellipse.applies``: a circle or ellipse, turned or not, any
-    material, quantities tangential or normal), as ``hpcontact solve`` solves it without ``--n``:
-    ``solve_to_accuracy`` at ``DEFAULT_ACCURACY``, strategy ``auto``, whose first choice that cell
-    is (estimates ~4e-14 in ~1 ms a scene where grids 16 … 256 took 0.3–0.5 s and estimated
-    7e-5–1.9e-4, b/a 1 and 0.5, nu 0.3 and 0.4; 2026-11-30, 2-core Intel Xeon VM)."""
-    return scene.accuracy is None and not scene.grid_given and galin_ellipse.applies(scene)
+def requested_by_default(scene: Scene) -> bool:
+    """Whether ``scene`` without ``n`` and without ``accuracy`` is solved in a sweep as one scene
+    is without ``--n`` (``solve_to_accuracy`` at ``DEFAULT_ACCURACY``, strategy ``auto``): where the
+    cells ``auto`` takes are not coverage-weighted, so that the request bounds itself — the one
+    exact cell of an elliptical contact (``galin_ellipse.applies``: a circle or ellipse, turned or
+    not, any material, quantities tangential or normal: estimates ~4e-14 in ~1 ms a scene where
+    grids 16 … 256 took 0.3–0.5 s and estimated 7e-5–1.9e-4) and the strips of a slender
+    isotropic rectangle (b/a = 1e-6: estimate 3.3e-7 where the grids estimated 3.6e-5, 0.26–0.49 s
+    either way); 2026-11-30, 2-core Intel Xeon VM. Coverage-weighted cells keep the bounded grids of
+    :func:`default_grids` (a request of 1e-4 takes them to n = 1024)."""
+    if scene.accuracy is not None or scene.grid_given:
+        return False
+    if galin_ellipse.applies(scene):
+        return True
+    return extrapolates_by_default(scene) and first_grid(scene, "auto", accuracy=DEFAULT_ACCURACY)[0] != "coverage"
 
 
 def default_grids(scene: Scene) -> list[tuple[int, int]]:
     """The grids (n, n_across) :func:`default_solve` solves ``scene`` on at most: grids 16, 32,
     … (``DEFAULT_N0``, ``DEFAULT_GRIDS`` of them, ``grid_sequence``'s cells across), or [] when
-    ``scene`` gives ``n``, is solved on its exact cell (:func:`exact_by_default`) or does not
+    ``scene`` gives ``n``, is solved as a request (:func:`requested_by_default`) or does not
     :func:`extrapolate by default <extrapolates_by_default>`.
     It stops earlier when the estimate is met on fewer (never before ``MIN_GRIDS``); the memory
     plan never cuts grids this small. The sweep's cost model sums its tasks' cost over these
     (``sweep.cost.grids.solved_grids``)."""
-    if exact_by_default(scene) or not extrapolates_by_default(scene):
+    if requested_by_default(scene) or not extrapolates_by_default(scene):
         return []
     return grid_sequence(scene.shape, DEFAULT_N0)[:DEFAULT_GRIDS]
 
@@ -72,9 +80,10 @@ def default_solve(scene: Scene) -> dict[str, Any]:
     """A sweep's scene with the default discretization (one scene from ``hpcontact solve`` or
     ``hpcontact.solve``: :func:`default_scene_solve`): ``hpcontact.problems.contact.solve`` when ``scene`` gives
     ``n`` (one grid, centre-in-cell, as always) or the scene is not one that
-    :func:`extrapolates_by_default` (an elliptical contact aside); an elliptical contact its one
-    exact cell (:func:`exact_by_default`: ``solve_to_accuracy`` at ``DEFAULT_ACCURACY``, strategy
-    ``auto``, as ``hpcontact solve`` without ``--n``); else ``solve_to_accuracy`` on grids 16, 32, … , 256
+    :func:`extrapolates_by_default` (an elliptical contact aside); an elliptical contact's exact
+    cell or a slender rectangle's strips as one scene's default (:func:`requested_by_default`:
+    ``solve_to_accuracy`` at ``DEFAULT_ACCURACY``, strategy ``auto``, as ``hpcontact solve``
+    without ``--n``); else ``solve_to_accuracy`` on grids 16, 32, … , 256
     (``DEFAULT_GRIDS``), stopping once the estimate is ≤ ``DEFAULT_ACCURACY`` = 1e-4, never an
     error: the record's ``estimated_error`` says what was reached (docs/howto/accuracy.md,
     "Without ``--n``: the default"; docs/performance.md, "A sweep's default extrapolation": 0.3–0.7 s
@@ -95,7 +104,7 @@ def default_solve(scene: Scene) -> dict[str, Any]:
 def accuracy_request(scene: Scene) -> dict[str, Any] | None:
     """The keyword arguments of :func:`solve_to_accuracy` that :func:`default_solve` solves ``scene``
     with (``accuracy`` among them), or None where it solves one grid (``problems.contact.solve``)."""
-    if scene.accuracy is not None or exact_by_default(scene):
+    if scene.accuracy is not None or requested_by_default(scene):
         return {"accuracy": scene.accuracy or DEFAULT_ACCURACY, "strategy": "auto", "strict": False}
     if not extrapolates_by_default(scene):
         return None
@@ -122,8 +131,8 @@ def default_scene_solve(scene: Scene) -> dict[str, Any]:
     is the extrapolated record; ``hpcontact.api.solve_fields`` returns it with an
     ``errors.AccuracyWarning``). Other scenes: :func:`default_solve` (one grid).
 
-    A sweep's task keeps :func:`default_solve`'s five fixed grids 16 … 256 where its contact is
-    not elliptical (its cost model plans them, ``sweep.cost.grids.solved_grids``), not the
+    A sweep's task keeps :func:`default_solve`'s five fixed grids 16 … 256 on coverage-weighted
+    cells (its cost model plans them, ``sweep.cost.grids.solved_grids``), not the
     unbounded grids of a request (a star to n = 1024 at 1e-4: 19.2 s and 0.93 GB peak, 2026-11-30,
     2-core Intel Xeon VM)."""
     if scene.accuracy is not None or not extrapolates_by_default(scene):

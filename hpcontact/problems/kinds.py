@@ -5,7 +5,8 @@ A sweep runs one kind of scene, named by its [scene] ``quantities``:
 * ``contact`` (every other ``quantities``): a flat punch or a rigid sphere on one body,
   ``hpcontact.accuracy.default_solve`` checked by ``hpcontact.scene.validate``: a scene with
   ``n`` is one grid (``hpcontact.problems.contact.solve``, as ``hpcontact solve --n``); a scene without it
-  the one exact cell of an elliptical contact (``accuracy.exact_by_default``), else
+  one scene's default where its cells bound themselves (``accuracy.requested_by_default``: an
+  elliptical contact's exact cell, a slender rectangle's strips), else
   the sweep's extrapolated default where ``accuracy.extrapolates_by_default`` holds
   (grids 16 … 256, coverage-weighted cells, stop at
   an estimate ≤ 1e-4; its record's ``estimated_error`` and the finest grid's ``nx``, ``ny`` go

@@ -1,7 +1,7 @@
 """A sweep whose spec gives no n solves each task as ``accuracy.default_solve`` does: an
-elliptical contact on its one exact cell, as ``hpcontact solve`` without ``--n``; another
-refinable outline on grids 16 … 256 extrapolated (issue 12), the record's ``estimated_error`` in
-the data set and the cost of every grid in the cost model."""
+elliptical contact on its one exact cell and a slender rectangle on strips, as ``hpcontact
+solve`` without ``--n``; coverage-weighted cells on grids 16 … 256 extrapolated (issue 12), the
+record's ``estimated_error`` in the data set and the cost of every grid in the cost model."""
 
 from __future__ import annotations
 
@@ -64,6 +64,19 @@ def test_a_sweep_without_n_solves_an_elliptical_contact_on_its_exact_cell(write_
     assert "contact accuracy: one exact cell (galin): 2 tasks" in capsys.readouterr().out
     # with n, one grid as before
     assert solved_grids({**plain, "n": 64}) == [{**plain, "n": 64}]
+
+
+def test_a_sweep_without_n_solves_a_slender_rectangle_on_its_strips(write_spec):
+    spec = write_spec('[scene]\nshape = "rectangle"\naspect = 1e-6\nquantities = ["tangential"]\n[axes]\nnu = [0.3]\n')
+    path = run_sweep(spec, team=SerialTeam(), stream=io.StringIO())
+    scene = {"shape": "rectangle", "aspect": 1e-6, "nu": 0.3, "quantities": ["tangential"]}
+    alone = default_scene_solve(Scene.from_params(scene))  # one scene's default, bitwise
+    with xr.open_dataset(path) as ds:
+        point = ds.sel(nu=0.3)
+        assert str(point["boundary"].values) == "strip" and float(point["K_xx"]) == alone["K_xx"]
+        assert float(point["estimated_error"]) == alone["estimated_error"] <= DEFAULT_ACCURACY
+    assert solved_grids(scene) == solved_grids({**scene, "accuracy": DEFAULT_ACCURACY})
+    assert estimated_cost(scene) == estimated_cost({**scene, "accuracy": DEFAULT_ACCURACY})
 
 
 def test_a_sweep_without_n_extrapolates_another_outline_with_its_estimate(write_spec, capsys):

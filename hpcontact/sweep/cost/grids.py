@@ -19,10 +19,10 @@ from hpcontact.accuracy import (
     MIN_GRIDS,
     STRATEGIES,
     default_grids,
-    exact_by_default,
     first_grid,
     grid_bytes,
     plan_grids,
+    requested_by_default,
 )
 from hpcontact.accuracy.strategies import EXACT, Strategy
 from hpcontact.problems import footprint
@@ -77,10 +77,10 @@ def solved_grids(params: Mapping[str, Any]) -> list[Mapping[str, Any]]:
 
 
 @functools.lru_cache(maxsize=4096)
-def _exact_by_default(text: str) -> bool:
-    """``accuracy.exact_by_default`` of the scene ``text`` (canonical JSON, ``GRID_NEUTRAL_FIELDS``
+def _requested_by_default(text: str) -> bool:
+    """``accuracy.requested_by_default`` of the scene ``text`` (canonical JSON, ``GRID_NEUTRAL_FIELDS``
     left out)."""
-    return exact_by_default(Scene.from_key(text))
+    return requested_by_default(Scene.from_key(text))
 
 
 @functools.lru_cache(maxsize=4096)
@@ -92,19 +92,19 @@ def _default_grids(text: str) -> tuple[tuple[int, int], ...]:
 
 def with_request(params: Mapping[str, Any]) -> Mapping[str, Any]:
     """``params`` with the accuracy ``accuracy.default_solve`` solves the contact scene to: its
-    own ``accuracy``, or ``DEFAULT_ACCURACY`` where it gives neither that nor ``n`` and its contact
-    is elliptical (``accuracy.exact_by_default``: its one exact cell, as a request of that
-    accuracy); ``params`` itself otherwise."""
+    own ``accuracy``, or ``DEFAULT_ACCURACY`` where it gives neither that nor ``n`` and the sweep
+    solves it as one scene's default (``accuracy.requested_by_default``: an elliptical contact's
+    exact cell, a slender rectangle's strips); ``params`` itself otherwise."""
     if params.get("accuracy") is not None or params.get("n") is not None or not kind_of(params).accuracy_applies:
         return params
-    if _exact_by_default(canonical_json({k: v for k, v in params.items() if k not in GRID_NEUTRAL_FIELDS})):
+    if _requested_by_default(canonical_json({k: v for k, v in params.items() if k not in GRID_NEUTRAL_FIELDS})):
         return {**params, "accuracy": DEFAULT_ACCURACY}
     return params
 
 
 def asks_accuracy(params: Mapping[str, Any]) -> bool:
     """Whether ``params`` is a contact scene solved to an accuracy (a sweep's ``[numerics]
-    accuracy``, ``hpcontact run --accuracy``, or an elliptical contact without ``n``:
+    accuracy``, ``hpcontact run --accuracy``, or a scene without ``n`` solved as a request:
     ``with_request``): ``accuracy.default_solve`` solves it as ``hpcontact solve --accuracy`` does."""
     return with_request(params).get("accuracy") is not None and kind_of(params).accuracy_applies
 

@@ -23,7 +23,8 @@ scale in ``scale``, ``comment`` and ``long_name``, so every unit parses with UDU
 means (the convention: ``hpcontact.sweep.data.units``, and the data set's global ``comment``).
 
 A contact spec without ``n`` (neither fixed nor an axis) is solved as ``accuracy.default_solve``
-says (``kinds``): an elliptical contact on its exact cell, elsewhere the extrapolated default
+says (``kinds``): an elliptical contact on its exact cell, a slender rectangle on strips,
+elsewhere the extrapolated default
 wherever it applies: the data set
 then has no ``n`` coordinate; ``nx``, ``ny``, ``dx``, ``dy`` are the *finest* grid's (256 cells
 along the long side, ``grid_sequence``'s across: 256 × 128 for b/a = 0.5), ``grids`` and

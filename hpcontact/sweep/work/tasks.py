@@ -1,8 +1,9 @@
 """Tasks of a sweep: the distinct scenes of the spec's parameter space, keyed, costed, chunked.
 
 A task is one call of the task function (``accuracy.task_function``: ``hpcontact.problems.contact.solve`` on
-one grid for a contact scene with ``n``; without ``n``, an elliptical contact's exact cell
-and elsewhere the extrapolated default over grids 16 … 256, ``accuracy.default_solve``; with an ``accuracy``,
+one grid for a contact scene with ``n``; without ``n``, an elliptical contact's exact cell or
+a slender rectangle's strips, elsewhere the extrapolated default over grids 16 … 256,
+``accuracy.default_solve``; with an ``accuracy``,
 ``solve_to_accuracy`` with strategy auto) on one scene, costed by the cost model
 (``hpcontact.sweep.cost.task_cost``: over every grid it solves). Points of the
 parameter space whose scenes are equal (a circle on an aspect axis, the load angle in tensor

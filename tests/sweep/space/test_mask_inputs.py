@@ -370,7 +370,7 @@ def test_a_dry_run_validates_each_distinct_scene_once(write_spec, monkeypatch, c
     monkeypatch.setattr(tasks_module, "task_key", lambda p, text=None: keys.append(1) or key(p, text))
     monkeypatch.setattr(enumeration, "PROGRESS_POINTS", 200)
     cost_grids._default_grids.cache_clear()
-    cost_grids._exact_by_default.cache_clear()
+    cost_grids._requested_by_default.cache_clear()
     cost_grids._accuracy_plan.cache_clear()
     task_cost._cached_contact_cost.cache_clear()
     scene_module._scene_of_key.cache_clear()  # Scene.from_key's cache: an earlier test may hold the outline's scene
