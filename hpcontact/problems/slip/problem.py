@@ -37,8 +37,8 @@ from typing import Any
 
 import numpy as np
 
-from hpcontact.errors import ConvergenceError, InputError, finite_number, integer
-from hpcontact.fields import DEVICES, SLIP, names
+from hpcontact.errors import ConvergenceError, InputError
+from hpcontact.fields import DEVICES, SLIP, field, names
 from hpcontact.geometry import Grid
 from hpcontact.kernels.engine import Engine
 from hpcontact.kernels.isotropic import isotropic_surface_green
@@ -56,6 +56,8 @@ FIELDS = names(SLIP)
 #: Fields of the generic ``hpcontact solve`` parser that a slip scene does not use: the contact
 #: shape follows from the bodies. Accepted (so the CLI may pass its defaults) and ignored.
 IGNORED = ("shape",)
+#: The fields a slip scene cannot do without (the first missing is the error's field).
+REQUIRED = ("radius", "load", "mu", "q_ratio")
 CONTROLS = ("force", "displacement")
 PATHS = ("load", "loop", "proportional")
 COUPLINGS = ("auto", "both", "coupled", "decoupled")
@@ -97,6 +99,13 @@ def _flag(name: str, value: Any) -> bool:
     raise InputError(name, "true or false", value)
 
 
+def _checked(p: Mapping[str, Any], name: str) -> Any:
+    """``p[name]`` (the field's default where absent) checked as ``hpcontact.fields`` declares
+    the field for a slip scene: its type, range and message (``Field.check``)."""
+    declared = field(name, SLIP)
+    return declared.check(p.get(name, declared.default))
+
+
 def validate(params: Mapping[str, Any]) -> SlipScene:
     """Check the fields of a slip scene; ``InputError(field, allowed, value)`` on the first bad one.
 
@@ -124,27 +133,24 @@ def validate(params: Mapping[str, Any]) -> SlipScene:
         items = [s.strip() for s in (q.split(",") if isinstance(q, str) else q)]
         if items != ["slip"]:
             raise InputError("quantities", "slip (a slip scene solves nothing else)", q)
-    for name in ("radius", "load", "mu", "q_ratio"):
-        if name not in p:
-            raise InputError(name, "required for a slip scene", None)
-    load = finite_number("load", p["load"], "a normal load, finite and > 0")
-    if not load > 0.0:
-        raise InputError("load", "a normal load, finite and > 0", p["load"])
+    missing = [name for name in REQUIRED if name not in p]
+    if missing:
+        first = field(missing[0], SLIP)
+        also = f"; also missing: {', '.join(missing[1:])}" if missing[1:] else ""
+        raise InputError(missing[0], f"required for a slip scene: {first.message or first.long_name}{also}", None)
+    load = _checked(p, "load")
     # mu below 1e-6: the tangential load q mu P falls under the solver's resolution (smaller mu
     # stopped unconverged or silently gave the bonded state: docs/validation.md §"Partial slip")
-    mu = finite_number("mu", p["mu"], "a friction coefficient, 0 or finite and >= 1e-6")
+    mu_field = field("mu", SLIP)
+    mu = mu_field.check(p["mu"])
     if mu < 0.0 or 0.0 < mu < 1e-6:
-        raise InputError("mu", "a friction coefficient, 0 or finite and >= 1e-6", p["mu"])
-    q_ratio = finite_number("q_ratio", p["q_ratio"], "Q/(mu P) in [0, 1) (1 is gross sliding)")
-    if not 0.0 <= q_ratio < 1.0:
-        raise InputError("q_ratio", "Q/(mu P) in [0, 1) (1 is gross sliding)", p["q_ratio"])
+        raise InputError("mu", mu_field.message, p["mu"])
+    q_ratio = _checked(p, "q_ratio")
     pair = pair_from_params(p)
-    angle = finite_number("angle", p.get("angle", 0.0), "a finite angle in degrees")
-    n = integer("n", p.get("n", 64), 8, "an integer in [8, 4096] (cells across the contact)", 4096)
-    tol = finite_number("tol", p.get("tol", 1e-8), "a tolerance in [1e-14, 1e-4]")
-    if not 1e-14 <= tol <= 1e-4:
-        raise InputError("tol", "a tolerance in [1e-14, 1e-4]", p["tol"])
-    steps = integer("steps", p.get("steps", 10), 1, "an integer in [1, 1000]", 1000)
+    angle = _checked(p, "angle")
+    n = _checked(p, "n")
+    tol = _checked(p, "tol")
+    steps = _checked(p, "steps")
     control = p.get("control", "force")
     if control not in CONTROLS:
         raise InputError("control", f"one of {', '.join(CONTROLS)}", control)
@@ -152,9 +158,7 @@ def validate(params: Mapping[str, Any]) -> SlipScene:
     if control == "displacement":
         if "displacement" not in p:
             raise InputError("displacement", "the final tangential displacement (control = displacement)", None)
-        displacement = finite_number("displacement", p["displacement"], "a finite displacement >= 0")
-        if displacement < 0.0:
-            raise InputError("displacement", "a finite displacement >= 0", p["displacement"])
+        displacement = _checked(p, "displacement")
     elif "displacement" in p:
         raise InputError("displacement", "only with control = displacement", p["displacement"])
     path = p.get("path", "load")
@@ -174,7 +178,7 @@ def validate(params: Mapping[str, Any]) -> SlipScene:
     coupling = p.get("coupling", "auto")
     if coupling not in COUPLINGS:
         raise InputError("coupling", f"one of {', '.join(COUPLINGS)}", coupling)
-    threads = integer("threads", p.get("threads", 1), 1, "an integer >= 1", 1024)
+    threads = _checked(p, "threads")
     device = p.get("device", "cpu")
     if device not in DEVICES:
         raise InputError("device", f"one of {', '.join(DEVICES)}", device)

@@ -30,7 +30,9 @@ import numpy as np
 import pytest
 
 from hpcontact import analytic as an
+from hpcontact import fields
 from hpcontact.errors import InputError
+from hpcontact.fields import SLIP
 from hpcontact.materials.isotropic import Isotropic
 from hpcontact.problems.contact import Engine
 from hpcontact.problems.slip.crystal_pair import pair_from_params
@@ -92,6 +94,11 @@ def test_missing_required_fields() -> None:
         with pytest.raises(InputError) as info:
             validate(params)
         assert info.value.field == name
+        declared = fields.field(name, SLIP)  # what is allowed, as fields.py declares it
+        assert str(info.value) == f"{name}: required for a slip scene: {declared.message or declared.long_name}"
+    with pytest.raises(InputError) as info:  # every missing field named in the one line
+        validate({key: value for key, value in SPHERE.items() if key not in ("radius", "load")})
+    assert info.value.field == "radius" and str(info.value).endswith("; also missing: load, q_ratio")
 
 
 # ------------------------------------------------------------------------------------------
