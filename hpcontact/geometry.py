@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from hpcontact.errors import InputError
+from hpcontact.fields import field
 
 SHAPES = ("circle", "ellipse", "rectangle", "polygon", "star", "rough", "mask")
 #: The most cells a scene's grid may have (``hpcontact.scene``: n · n_across); a mask file's
@@ -87,17 +88,17 @@ class Shape:
         if not (0.0 < self.aspect <= 1.0) or not math.isfinite(self.aspect):
             raise InputError("aspect", "b/a in (0, 1]", self.aspect)
         if not math.isfinite(self.angle_deg):
-            raise InputError("shape_angle", "a finite angle in degrees", self.angle_deg)
+            raise InputError("shape_angle", field("shape_angle").message, self.angle_deg)
         if self.name == "polygon" and not (3 <= self.sides <= 1000):
             raise InputError("sides", "an integer in [3, 1000] for a polygon", self.sides)
         if self.name == "star":
             if not (2 <= self.sides <= 1000):
                 raise InputError("sides", "an integer in [2, 1000] lobes for a star", self.sides)
             if not (0.0 <= self.amplitude < 1.0):
-                raise InputError("amplitude", "star modulation in [0, 1)", self.amplitude)
+                raise InputError("amplitude", field("amplitude").message, self.amplitude)
         if self.name == "rough":
             if not (0.0 < self.hurst < 1.0):
-                raise InputError("hurst", "Hurst exponent in (0, 1)", self.hurst)
+                raise InputError("hurst", field("hurst").message, self.hurst)
             if not (0.0 < self.rms <= 1.0):
                 raise InputError("rms", "roughness rms in (0, 1] (units of the contact radius)", self.rms)
         if self.name == "mask" and not self.mask_path:
@@ -187,9 +188,9 @@ def grid_for(shape: Shape, n: int, n_across: int | None = None) -> Grid:
     min(n, 16) across, so a thin shape is still resolved across its width.
     """
     if n < 2:
-        raise InputError("n", "an integer >= 2 (cells along the long side)", n)
+        raise InputError("n", field("n").message, n)
     if n_across is not None and n_across < 1:
-        raise InputError("n_across", "an integer >= 1 (cells across the short side)", n_across)
+        raise InputError("n_across", field("n_across").message, n_across)
     X, Y = shape.half_extents()
     if n_across is None:
         n_across = max(min(n, 16), int(round(n * Y / X)))

@@ -319,6 +319,41 @@ def test_a_slip_data_sets_coordinates_are_described_by_their_fields():
         assert ("units" in table[name]) == ("units" in attrs), name
 
 
+def test_lower_layers_word_a_bad_value_as_its_field_does():
+    """The shape, the grid, the crystal, the pair and the accuracy loop check their own inputs
+    with the message their field declares (one text, whichever layer refuses the value)."""
+    from hpcontact.accuracy import solve_to_accuracy
+    from hpcontact.geometry import Shape, grid_for
+    from hpcontact.materials.elastic_constants import anisotropic_material
+    from hpcontact.materials.isotropic import Isotropic
+    from hpcontact.problems.slip.bodies import Body, Pair
+    from hpcontact.scene import Scene
+
+    cases = [
+        (lambda: Shape("star", amplitude=1.5), "amplitude", fields.field("amplitude").message),
+        (lambda: Shape("rough", hurst=1.0), "hurst", fields.field("hurst").message),
+        (lambda: Shape("circle", angle_deg=math.inf), "shape_angle", fields.field("shape_angle").message),
+        (lambda: grid_for(Shape("circle"), 1), "n", fields.field("n").message),
+        (lambda: grid_for(Shape("circle"), 8, 0), "n_across", fields.field("n_across").message),
+        (lambda: anisotropic_material({"anisotropy": 200.0}), "anisotropy", fields.field("anisotropy").message),
+        (lambda: anisotropic_material({"anisotropy": 2.0, "orientation": math.nan}), "orientation", None),
+        (lambda: anisotropic_material({"anisotropy": 2.0, "orientation": 95.0}), "orientation", None),
+        (lambda: anisotropic_material({"anisotropy": 2.0, "azimuth": math.inf}), "azimuth", None),
+        (lambda: Pair(Body.sphere(Isotropic(1.0, 0.3), 1.0), Body.flat(None)).hertz(-1.0), "load", None),
+        (lambda: Body(None, 1.0, 1.0, math.nan), "angle", None),
+    ]
+    for make, name, message in cases:
+        with pytest.raises(InputError) as info:
+            make()
+        assert info.value.field == name
+        assert info.value.allowed == (
+            message or fields.field(name, SLIP if name in ("load", "angle") else CONTACT).message
+        ), name
+    with pytest.raises(InputError) as info:
+        solve_to_accuracy(Scene.from_params({"shape": "circle", "nu": 0.3}), 2.0)
+    assert (info.value.field, info.value.allowed) == ("accuracy", fields.ACCURACY_RANGE)
+
+
 def test_slip_fields_are_the_slip_validators():
     assert set(fields.names(SLIP)) - {"device"} == set(OLD_SLIP_VALIDATOR_FIELDS)
     assert "device" in fields.names(SLIP)

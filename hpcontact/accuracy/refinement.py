@@ -396,7 +396,7 @@ def plan_accuracy(
     grids within the limits, raises ``InputError``."""
     started = time.perf_counter()
     if not (isinstance(accuracy, (int, float)) and math.isfinite(accuracy) and 1e-9 <= accuracy < 1.0):
-        raise InputError("accuracy", "a relative error in [1e-9, 1)", accuracy)
+        raise InputError("accuracy", fields.ACCURACY_RANGE, accuracy)
     if memory_budget is not None and not (math.isfinite(memory_budget) and memory_budget > 0):
         raise InputError("memory", "a memory budget > 0 bytes", memory_budget)
     tol = max(min(scene.tol, accuracy * 1e-2), 1e-14)

@@ -46,6 +46,7 @@ from typing import Any
 import numpy as np
 
 from hpcontact.errors import InputError, finite_number, unused_field
+from hpcontact.fields import field
 from hpcontact.materials.crystal import (
     CRYSTAL_NU_RANGE,
     Crystal,
@@ -181,16 +182,14 @@ def _in_unit(base: Crystal, gpa: float) -> Crystal:
 def _orient(base: Crystal, p: Mapping[str, Any], suffix: str, cubic_frame: bool) -> Crystal:
     """Turn ``base`` (material frame) into the lab frame by the body's orientation fields."""
     names = {n: f"{n}{suffix}" for n in ORIENTATION}
-    azimuth = finite_number(names["azimuth"], p.get(names["azimuth"], 0.0), "a finite in-plane angle in degrees")
+    azimuth = finite_number(names["azimuth"], p.get(names["azimuth"], 0.0), field("azimuth").message)
     orientation, miller = p.get(names["orientation"]), p.get(names["miller"])
     if orientation is not None and miller is not None:
         raise InputError(names["miller"], f"either {names['miller']} or {names['orientation']}, not both", miller)
     if orientation is not None:
-        psi = finite_number(names["orientation"], orientation, "path angle psi in [0, 90] degrees")
+        psi = finite_number(names["orientation"], orientation, field("orientation").message)
         if not 0.0 <= psi <= 90.0:
-            raise InputError(
-                names["orientation"], "path angle psi in [0, 90] degrees ([110] -> [111] -> [001])", orientation
-            )
+            raise InputError(names["orientation"], field("orientation").message, orientation)
         return base.oriented(psi_deg=psi, azimuth_deg=azimuth)
     if miller is not None:
         try:
@@ -221,9 +220,9 @@ def anisotropic_material(
         named = str(name)
     anisotropy = p.get(f["anisotropy"])
     if anisotropy is not None:
-        anisotropy = finite_number(f["anisotropy"], anisotropy, "cubic anisotropy factor A in [0.01, 100]")
+        anisotropy = finite_number(f["anisotropy"], anisotropy, field("anisotropy").message)
         if not 0.01 <= anisotropy <= 100.0:
-            raise InputError(f["anisotropy"], "cubic anisotropy factor A in [0.01, 100]", p[f["anisotropy"]])
+            raise InputError(f["anisotropy"], field("anisotropy").message, p[f["anisotropy"]])
         if anisotropy != 1.0 or given:
             given.append("anisotropy")
     if named is not None:

@@ -66,6 +66,7 @@ import numpy as np
 
 from hpcontact.analytic import mindlin_ellipse_integrals
 from hpcontact.errors import InputError
+from hpcontact.fields import SLIP, field
 from hpcontact.materials.isotropic import NU_RANGE, Isotropic, modulus, modulus_range
 
 #: name → (Young's modulus E [Pa], Poisson ratio nu, source). Dowling 2013, Table 5.2.
@@ -170,7 +171,7 @@ class Body:
             if not (r > 0.0) or math.isnan(r):
                 raise InputError(name, "a radius of curvature > 0 (or inf)", r)
         if not math.isfinite(self.angle_deg):
-            raise InputError("angle", "a finite angle in degrees", self.angle_deg)
+            raise InputError("angle", field("angle", SLIP).message, self.angle_deg)
 
     @classmethod
     def sphere(cls, material: Isotropic | None, radius: float) -> Body:
@@ -308,7 +309,7 @@ class Pair:
     def hertz(self, load: float) -> HertzEllipse:
         """Hertz contact ellipse of the pair at normal load ``load`` (Johnson 1985, §4.2)."""
         if not (math.isfinite(load) and load > 0.0):
-            raise InputError("load", "a normal load, finite and > 0", load)
+            raise InputError("load", field("load", SLIP).message, load)
         A, B, angle = self.relative_curvature()
         k = hertz_aspect(B / A)
         K, D, _ = (float(v) for v in mindlin_ellipse_integrals(k))
