@@ -521,24 +521,6 @@ def reduce_slabs(parts: Sequence[_Reduced]) -> _Reduced:
     )
 
 
-class _Recorded(Mapping[Index, np.ndarray]):
-    """The indices whose maxima ``next_terms`` reads (structure alone: it reads the same
-    whatever the values), each answered with a placeholder."""
-
-    def __init__(self) -> None:
-        self.read: set[Index] = set()
-
-    def __getitem__(self, index: Index) -> np.ndarray:
-        self.read.add(index)
-        return np.ones(1)
-
-    def __iter__(self) -> Iterator[Index]:
-        return iter(self.read)
-
-    def __len__(self) -> int:
-        return len(self.read)
-
-
 Slab = Generator[_Reduced, _Reduced, Any]
 
 
@@ -597,10 +579,9 @@ def _slab(job: SparseJob, rows: slice, shares: bool) -> Slab:
             held[..., c] = found.touched
         estimated = [(j, c) for j, c in enumerate(columns) if c not in derived]
         failures.append((found, estimated))
-    read = _Recorded()
-    for index in sparse.active:
-        next_terms(index, members, read, top)
-    wanted = members if any(columns for _, columns in failures) else read.read  # _Failures: any subset's
+    steps = set_steps(sparse, top)
+    read = set().union(*(steps[index].read(index) for index in sparse.active))
+    wanted = members if any(columns for _, columns in failures) else read  # _Failures: any subset's
     for index in sorted(wanted):
         surpluses[index]
     principal = values.copy()
@@ -613,9 +594,10 @@ def _slab(job: SparseJob, rows: slice, shares: bool) -> Slab:
     )
     summed = np.zeros((len(own), *slab_shape))  # Σ ρ_l |Δ_l| over the active indices, quantities first
     parts: dict[Index, np.ndarray] = {}
+    rhos = next_terms_of(sparse.active, steps, whole.largest) if sparse.active else {}
     for index in sparse.active:
         size = surpluses.size(index)
-        rho = next_terms(index, members, whole.largest, top)[own].reshape(-1, *(1 for _ in shape))
+        rho = rhos[index][own].reshape(-1, *(1 for _ in shape))
         if shares:  # the refinement's ranking keeps the parts: |Δ_l| in float32, as before
             weighted = rho * size.astype(np.float32)
             parts[index] = weighted
@@ -876,8 +858,28 @@ def next_terms(
     one level lower along another axis j); at most 1, and 1 where no such step is in the set.
     The interpolation's order grows up to the cubic's (linear, quadratic, then cubic on halved
     spacing: ratios about 1/4, 1/8, then 1/16), so the last step's ratio over-estimates the
-    next one's where the surpluses are in their asymptotic regime."""
-    out = np.zeros_like(largest[index])
+    next one's where the surpluses are in their asymptotic regime. One index of
+    ``next_terms_of``."""
+    return next_terms_of([index], {index: next_steps(index, members, top)}, largest)[index]
+
+
+class Steps(NamedTuple):
+    """The steps whose ratios ``next_terms`` takes for an active index (structure alone, the
+    same whatever the values): the pairs (k, k − e_d), and whether a missing forward neighbour
+    has no step next to it (ρ = 1 whatever the pairs)."""
+
+    pairs: tuple[tuple[Index, Index], ...]
+    none_seen: bool
+
+    def read(self, index: Index) -> set[Index]:
+        """The indices whose maxima ``next_terms`` of ``index`` reads."""
+        return {index, *(i for pair in self.pairs for i in pair)}
+
+
+def next_steps(index: Index, members: set[Index], top: Sequence[int]) -> Steps:
+    """``Steps`` of the active ``index`` of the set ``members`` (``next_terms``), the pairs in the
+    order ``next_terms`` reads them up to the first missing neighbour without a step."""
+    pairs: list[tuple[Index, Index]] = []
     for d in range(len(top)):
         if index[d] >= top[d] or _forward(index, d) in members:
             continue
@@ -888,12 +890,41 @@ def next_terms(
             if behind != tuple(i - (e == d) for e, i in enumerate(index)) and _forward(behind, d) in members
         ]
         if not steps:
-            return np.ones_like(out)
-        for k in steps:
-            below = largest[tuple(i - (e == d) for e, i in enumerate(k))]
-            with np.errstate(invalid="ignore", divide="ignore"):
-                out = np.fmax(out, np.where(below > 0.0, np.fmin(largest[k] / below, 1.0), 1.0))
-    return out
+            return Steps(tuple(pairs), True)
+        pairs += [(k, tuple(i - (e == d) for e, i in enumerate(k))) for k in steps]
+    return Steps(tuple(pairs), False)
+
+
+@functools.lru_cache(maxsize=32)
+def set_steps(sparse: SparseSet, top: tuple[int, ...]) -> dict[Index, Steps]:
+    """``next_steps`` of every active index of ``sparse`` (cached, not to be changed: a decision's
+    slabs on one rank, its estimate and its ranking read the same set's)."""
+    members = set(sparse.indices)
+    return {index: next_steps(index, members, top) for index in sparse.active}
+
+
+def next_terms_of(
+    indices: Sequence[Index], steps: Mapping[Index, Steps], largest: Mapping[Index, np.ndarray]
+) -> dict[Index, np.ndarray]:
+    """``next_terms`` of each of ``indices`` from its ``steps``, every ratio at once: per pair
+    max|Δ_k| / max|Δ_{k − e_d}| capped at 1 (1 where the step's maximum is not > 0), the largest
+    of an index's pairs (0 without any), 1 where a neighbour has no step. Elementwise the
+    operations of one index at a time, and a maximum is exact in any order: the same bits."""
+    like = largest[indices[0]]
+    refs = sorted({i for index in indices for pair in steps[index].pairs for i in pair})
+    where = {ref: n for n, ref in enumerate(refs)}
+    owner = [n for n, index in enumerate(indices) for _ in steps[index].pairs]
+    above = [where[k] for index in indices for k, _ in steps[index].pairs]
+    below_at = [where[b] for index in indices for _, b in steps[index].pairs]
+    out = np.zeros((len(indices), *like.shape), like.dtype)
+    if owner:
+        maxima = np.stack([largest[ref] for ref in refs])
+        below = maxima[below_at]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ratio = np.where(below > 0.0, np.fmin(maxima[above] / below, 1.0), 1.0)
+        np.fmax.at(out, np.asarray(owner), ratio)
+    out[[n for n, index in enumerate(indices) if steps[index].none_seen]] = 1.0
+    return {index: out[n] for n, index in enumerate(indices)}
 
 
 def estimate(

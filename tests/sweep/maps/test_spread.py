@@ -229,7 +229,7 @@ def test_a_slab_that_fails_on_another_rank_is_raised_on_rank_0_and_no_rank_waits
     records = [record(task.params) for task in tasks]
     every = {n: np.array([r[n] for r in records])[task_of] for n in records[0] if n.startswith("K_")}
     state = initial_state(layout, spec.adaptive)
-    original = sparse_grid.next_terms
+    original = sparse_grid.next_terms_of
 
     def failing(*args):
         if threading.current_thread().name == "rank1":
@@ -237,7 +237,7 @@ def test_a_slab_that_fails_on_another_rank_is_raised_on_rank_0_and_no_rank_waits
         return original(*args)
 
     zero, one = ThreadTeam.of(2)
-    sparse_grid.next_terms = failing
+    sparse_grid.next_terms_of = failing
     try:
         helper = served(one)
         with pytest.raises(RuntimeError, match="ValueError on rank 1: a broken slab"):
@@ -246,7 +246,7 @@ def test_a_slab_that_fails_on_another_rank_is_raised_on_rank_0_and_no_rank_waits
         helper.join(WAIT_S)
         assert not helper.is_alive()
     finally:
-        sparse_grid.next_terms = original
+        sparse_grid.next_terms_of = original
 
 
 def test_a_slab_call_is_replayed_as_its_largest_slab_at_the_measured_seconds_a_row():
