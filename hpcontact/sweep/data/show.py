@@ -93,6 +93,16 @@ def _axis(ds: xr.Dataset, name: str) -> dict[str, Any]:
     return axis
 
 
+def _default_target(ds: xr.Dataset) -> float | None:
+    """The one target every estimated point was solved to where the spec requested no accuracy
+    (the default's, ``accuracy.DEFAULT_ACCURACY``: the records' ``accuracy``), else None."""
+    if _attr(ds, "requested_accuracy") is not None or "accuracy" not in ds.data_vars:
+        return None
+    targets = np.unique(np.asarray(ds["accuracy"].values, dtype=float))
+    targets = targets[np.isfinite(targets)]
+    return float(targets[0]) if len(targets) == 1 else None
+
+
 def _worst(var: xr.DataArray) -> dict[str, Any] | None:
     """The largest finite value of ``var`` and its point; None when it has none."""
     values = np.asarray(var.values, dtype=float)
@@ -176,6 +186,7 @@ def summarize(ds: xr.Dataset, path: str | Path | None = None) -> dict[str, Any]:
         "failures": {"count": int(len(failed)), "by_status": by_status, "first": first},
         "errors": {
             "requested_accuracy": _attr(ds, "requested_accuracy"),
+            "default_target": _default_target(ds),
             "worst": {name: _worst(ds[f"{name}_error"]) for name in stiffnesses},
             "error_status": error_counts,
         },
@@ -274,18 +285,21 @@ def text(summary: Mapping[str, Any]) -> str:
 
     errors = summary["errors"]
     if errors["worst"]:
-        requested = errors["requested_accuracy"]
-        lines.append(
-            "estimated relative errors (worst"
-            + (f"; requested accuracy {_number(requested)})" if requested is not None else "; no accuracy requested)")
-        )
+        requested, target = errors["requested_accuracy"], errors["default_target"]
+        if requested is not None:
+            said, limit, what = f"requested accuracy {_number(requested)}", requested, "the requested accuracy"
+        elif target is not None:
+            said, limit, what = f"no accuracy requested: the default's target {_number(target)}", target, "that target"
+        else:
+            said, limit, what = "no accuracy requested", None, ""
+        lines.append(f"estimated relative errors (worst; {said})")
         width = max(len(n) for n in errors["worst"])
         for name, worst in errors["worst"].items():
             if worst is None:
                 lines.append(f"  {name:<{width}s}  no estimate")
                 continue
-            above = requested is not None and worst["error"] > requested * (1.0 + ROUNDING)
-            over = "  (above the requested accuracy)" if above else ""
+            above = limit is not None and worst["error"] > limit * (1.0 + ROUNDING)
+            over = f"  (above {what})" if above else ""
             lines.append(f"  {name:<{width}s}  {_error(worst['error'])}  at {_at(worst['at'])}{over}")
         if errors["error_status"] is not None:
             lines.append("  points: " + ", ".join(f"{n} {m}" for m, n in errors["error_status"].items()))
