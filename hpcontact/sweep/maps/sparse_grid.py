@@ -594,7 +594,7 @@ def _slab(job: SparseJob, rows: slice, shares: bool) -> Slab:
     )
     summed = np.zeros((len(own), *slab_shape))  # Σ ρ_l |Δ_l| over the active indices, quantities first
     parts: dict[Index, np.ndarray] = {}
-    rhos = next_terms_of(sparse.active, steps, whole.largest) if sparse.active else {}
+    rhos = next_terms_of(sparse.active, steps, whole.largest)
     for index in sparse.active:
         size = surpluses.size(index)
         rho = rhos[index][own].reshape(-1, *(1 for _ in shape))
@@ -910,6 +910,8 @@ def next_terms_of(
     max|Δ_k| / max|Δ_{k − e_d}| capped at 1 (1 where the step's maximum is not > 0), the largest
     of an index's pairs (0 without any), 1 where a neighbour has no step. Elementwise the
     operations of one index at a time, and a maximum is exact in any order: the same bits."""
+    if not indices:
+        return {}
     like = largest[indices[0]]
     refs = sorted({i for index in indices for pair in steps[index].pairs for i in pair})
     where = {ref: n for n, ref in enumerate(refs)}
