@@ -101,6 +101,7 @@ from typing import Any
 
 import numpy as np
 
+from hpcontact import fields
 from hpcontact.errors import InputError, Option, did_you_mean
 from hpcontact.numerics.backend import require_gpu
 from hpcontact.problems.kinds import kind_of
@@ -358,6 +359,7 @@ def spec_of_tables(
     sweep, scene, numerics, axes_table, adaptive = (tables[name] for name in TABLES)
     _known_keys("sweep.", sweep, SWEEP_KEYS)
     _known_keys("numerics.", numerics, NUMERIC_KEYS)
+    _fixed_fields_off_the_axes(axes_table)
     _known_keys("axes.", axes_table, AXIS_NAMES)
     check_points(axes_table)  # counted before any axis is made
     for key in NUMERIC_KEYS:
@@ -479,6 +481,27 @@ def _refuse_grid_with_accuracy(fixed: Mapping[str, Any], axes: tuple[Axis, ...],
         if grid in names:
             where = f"axes.{grid}" if grid not in fixed else f"numerics.{grid}"
             raise InputError(key, f"an accuracy or a grid ({where}), not both: an accuracy picks its own grids")
+
+
+def _fixed_fields_off_the_axes(axes_table: Mapping[str, Any]) -> None:
+    """A scene field that no axis runs over (``hpcontact.fields``: ``axis`` False) under [axes]:
+    refused saying where it goes: in [scene] (a numerical setting in [numerics]), or in the labelled entries (``LABEL_AXES``) of
+    ``shape`` for a field a shape reads (``{ label = "triangle", shape = "polygon", sides = 3 }``)
+    and of ``pair`` for a slip scene's own."""
+    for key in axes_table:
+        if key in AXIS_NAMES or key not in fields.names():
+            continue
+        declared = fields.field(key)
+        if declared.read_by is not None and declared.read_by[0] == "shape":
+            entries = (
+                f' or per entry of axes.shape ({{ label = "...", shape = "{declared.read_by[1][0]}", {key} = ... }})'
+            )
+        elif fields.CONTACT not in declared.kinds:
+            entries = ' or per entry of axes.pair ({ label = "...", ' + key + " = ... })"
+        else:
+            entries = ""
+        table = "[numerics]" if key in NUMERIC_KEYS else "[scene]"
+        raise InputError(f"axes.{key}", f"not a sweep axis: fix it in {table}{entries}")
 
 
 def _known_keys(prefix: str, table: Mapping[str, Any], allowed: tuple[str, ...]) -> None:

@@ -138,6 +138,27 @@ def test_bad_specs_are_refused_naming_the_key(text, key):
     assert refused(text).field == key
 
 
+def test_a_scene_field_under_axes_that_no_axis_runs_over_says_where_it_goes():
+    """A field with no axis (``fields``: ``axis`` False) is refused naming the table it goes in,
+    and, where labelled entries carry it, how: a shape's field per entry of axes.shape (taken up
+    as the message says, the spec parses), a slip scene's per entry of axes.pair; a key that is
+    no field at all stays "unknown"."""
+    sides = refused('[scene]\nshape = "polygon"\n[axes]\nsides = [3, 4]\n')
+    assert sides.field == "axes.sides" and sides.allowed == (
+        'not a sweep axis: fix it in [scene] or per entry of axes.shape ({ label = "...", shape = "polygon", sides = ... })'
+    )
+    spec = parse(
+        '[axes]\nshape = [{ label = "triangle", shape = "polygon", sides = 3 }, { label = "square", shape = "polygon", sides = 4 }]\n'
+    )
+    assert [a.name for a in spec.axes] == ["shape"]
+    assert refused("[axes]\nn_across = [8, 16]\n").allowed == "not a sweep axis: fix it in [numerics]"
+    assert refused("[axes]\nthreads = [1, 2]\n").allowed == "not a sweep axis: fix it in [scene]"
+    assert refused("[axes]\nradius2 = [1.0, 2.0]\n").allowed.endswith(
+        'per entry of axes.pair ({ label = "...", radius2 = ... })'
+    )
+    assert refused("[axes]\nsidez = [3]\n").allowed.startswith("unknown key; allowed: shape, aspect")
+
+
 def test_impossible_values_are_refused_by_the_scene_validator_with_the_spec_key():
     text = """
     [scene]
