@@ -472,9 +472,9 @@ FIELDS: tuple[Field, ...] = (
         kinds=_BOTH,
         long_name="grid cells along the long side",
         unit="1",
-        help="cells along the long side (default: as --accuracy 1e-4 for circles, ellipses and isotropic outlined shapes, else {value})",
+        help="cells along the long side (default: as --accuracy 1e-4 for shapes with an outline, any material; else {value})",
         group="numerics",
-        doc="Cells along the long side. Without it (and without ``accuracy``): as ``accuracy=1e-4`` (``hpcontact.accuracy.DEFAULT_ACCURACY``) where that applies (the one exact cell of a circle or an ellipse, any material; refined grids extrapolated for other isotropic, outlined shapes), else 128.",
+        doc="Cells along the long side. Without it (and without ``accuracy``): as ``accuracy=1e-4`` (``hpcontact.accuracy.DEFAULT_ACCURACY``) where that applies (the one exact cell of a circle or an ellipse, any material; refined grids extrapolated for other outlined shapes, any material), else 128 (a rough patch, a mask).",
         axis=True,
         variants=_in_slip(
             default=64,

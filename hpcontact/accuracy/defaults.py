@@ -16,7 +16,6 @@ from hpcontact.accuracy.refinement import (
 from hpcontact.accuracy.strategies import first_grid, grid_sequence
 from hpcontact.discretizations import galin_ellipse
 from hpcontact.discretizations.boundary_cells import SUPPORTED
-from hpcontact.materials.isotropic import Isotropic
 from hpcontact.problems.contact import solve
 from hpcontact.problems.kinds import CONTACT, SLIP
 from hpcontact.problems.slip.partial_slip import solve_slip
@@ -35,15 +34,15 @@ DEFAULT_GRIDS = 5
 
 def extrapolates_by_default(scene: Scene) -> bool:
     """Whether ``scene`` without ``n`` gets the extrapolated default (:func:`default_solve`):
-    an isotropic body, a shape with a refinable outline (not rough, not a mask) and
-    quantities that coverage-weighted cells solve (tangential, normal, coupled)."""
+    a shape with a refinable outline (not rough, not a mask), any material (isotropic, a cubic
+    crystal turned or not, a general Voigt stiffness), and quantities that coverage-weighted cells solve (tangential, normal,
+    coupled). The estimator calibrated on isotropic ellipses is honest on crystals' grids too
+    (docs/explanation/accuracy.md; ``tests/test_accuracy.py::test_default_discretization``: a
+    turned crystal's lobeless star against Galin's exact cell of its circle); until 2026-11-30 a
+    crystal polygon, star or rectangle without ``n`` was one grid of n = 128 with no estimate."""
     if scene.grid_given:
         return False
-    return (
-        isinstance(scene.material, Isotropic)
-        and scene.shape.name not in ("rough", "mask")
-        and all(x in SUPPORTED for x in scene.quantities)
-    )
+    return scene.shape.name not in ("rough", "mask") and all(x in SUPPORTED for x in scene.quantities)
 
 
 def requested_by_default(scene: Scene) -> bool:

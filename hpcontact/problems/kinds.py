@@ -10,7 +10,8 @@ A sweep runs one kind of scene, named by its [scene] ``quantities``:
   the sweep's extrapolated default where ``accuracy.extrapolates_by_default`` holds
   (grids 16 … 256, coverage-weighted cells, stop at
   an estimate ≤ 1e-4; its record's ``estimated_error`` and the finest grid's ``nx``, ``ny`` go
-  into the data set), else one grid of the engine's default n = 128;
+  into the data set: an outline of any material), else one grid of the engine's default n = 128
+  (a rough patch, a mask);
 * ``slip`` (``quantities = "slip"`` or ``["slip"]``): two bodies pressed together and loaded
   tangentially with Coulomb friction, ``hpcontact.problems.slip.partial_slip.solve_slip`` checked by
   ``hpcontact.problems.slip.partial_slip.validate``.

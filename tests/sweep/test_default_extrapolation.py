@@ -11,7 +11,14 @@ import pytest
 import xarray as xr
 
 from hpcontact import analytic
-from hpcontact.accuracy import DEFAULT_ACCURACY, DEFAULT_GRIDS, DEFAULT_N0, default_grids, default_scene_solve
+from hpcontact.accuracy import (
+    DEFAULT_ACCURACY,
+    DEFAULT_GRIDS,
+    DEFAULT_N0,
+    default_grids,
+    default_scene_solve,
+    default_solve,
+)
 from hpcontact.scene import Scene
 from hpcontact.sweep.cost.grids import padded_cells, solved_grids
 from hpcontact.sweep.cost.task_cost import EXTRAPOLATION_WORK, estimated_cost
@@ -112,3 +119,20 @@ def test_a_sweep_without_n_extrapolates_another_outline_with_its_estimate(write_
     assert solved_grids({**scene, "n": 64}) == [{**scene, "n": 64}]
     rough = {"shape": "rough", "nu": NU}
     assert solved_grids(rough) == [rough]
+
+
+def test_a_sweep_without_n_extrapolates_a_crystal_outline_with_its_estimate(write_spec):
+    """A crystal's polygon without n: the grids 16 … 256 with their estimate (one grid of n = 128
+    without one until 2026-11-30), the record ``accuracy.default_solve``'s bitwise, and the cost
+    model planning every grid."""
+    spec = write_spec('[scene]\nshape = "polygon"\nsides = 6\nnu = 0.3\n[axes]\nanisotropy = [2.0]\n')
+    path = run_sweep(spec, team=SerialTeam(), stream=io.StringIO())
+    scene = {"shape": "polygon", "sides": 6, "nu": 0.3, "anisotropy": 2.0}
+    alone = default_solve(Scene.from_params(scene))
+    with xr.open_dataset(path) as ds:
+        point = ds.sel(anisotropy=2.0)
+        assert str(point["boundary"].values) == "coverage" and str(point["grids"].values).startswith("[16, 32")
+        assert float(point["K_xx"]) == alone["K_xx"] and float(point["estimated_error"]) == alone["estimated_error"]
+        assert 0.0 < float(point["estimated_error"]) < 10 * DEFAULT_ACCURACY
+    levels = solved_grids(scene)
+    assert [(p["n"], p["n_across"]) for p in levels] == default_grids(Scene.from_params(scene)) and len(levels) == 5

@@ -31,7 +31,8 @@ along the long side, ``grid_sequence``'s across: 256 × 128 for b/a = 0.5), ``gr
 ``grids_across`` the JSON lists of every grid solved, ``estimated_error`` the estimated relative
 error of the extrapolated K (NaN for tasks solved on one grid), ``accuracy_met`` whether it is
 ≤ 1e-4 and ``stopped_by`` why the sequence ended. A task the default does not extrapolate (a
-rough patch, a mask, a crystal) is one grid of n = 128 as before.
+rough patch, a mask) is one grid of n = 128 as before; a crystal's outline extrapolates as an
+isotropic one's (until 2026-11-30 it was one grid).
 
 With an ``angle`` axis and a tangential tensor, ``derive_directional`` adds the stiffness along
 the load direction ``K_nn`` (and Li's ``normalized_nn``): K_nn = nᵀ K n in tensor mode, K_xx of
