@@ -31,6 +31,7 @@ import tomllib
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import freshness
 import matplotlib
@@ -228,25 +229,47 @@ def save(fig: plt.Figure, outdir: Path, name: str, dpi: int = DPI) -> Path:
 
 
 def fit_titles(fig: plt.Figure) -> None:
-    """Wrap the figure's suptitle and its axes' titles onto more lines where they are wider
-    than the figure (suptitle) or their axes (titles, with a little room to the sides), so
-    that none is cut at the edge of the figure. Constrained layout then makes room."""
-    fig.draw_without_rendering()  # the layout: sizes of the axes and the texts
-    renderer = fig.canvas.get_renderer()
-    texts = [(getattr(fig, "_suptitle", None), fig.bbox.width * 0.96)]
-    for ax in fig.axes:
-        room = min(fig.bbox.width * 0.96, ax.bbox.width * 1.15)
-        texts += [(title, room) for title in (ax.title, ax._left_title, ax._right_title)]
-    for text, room in texts:
-        if text is None or not text.get_text() or not text.get_visible():
-            continue
-        width = text.get_window_extent(renderer).width
-        if width <= room:
-            continue
-        lines = text.get_text().splitlines()
-        longest = max(len(line) for line in lines)
-        columns = max(12, int(longest * room / width))
-        text.set_text("\n".join(textwrap.fill(line, columns, break_on_hyphens=False) for line in lines))
+    """Wrap the figure's suptitle, its axes' titles and their axis labels (a colour bar's
+    among them) onto more lines where they are longer than the figure (suptitle) or their axes
+    (along their axis: a title or an x label with a little room to the sides, a y label within
+    its axes' height), so that none is cut at the edge of the figure (a one-panel crystal map's
+    colour-bar label ran past its 4.2-inch figure before). Constrained layout then makes room;
+    what it moves is measured again (at most ``FIT_PASSES`` times)."""
+    for _ in range(FIT_PASSES):
+        fig.draw_without_rendering()  # the layout: sizes of the axes and the texts
+        renderer = fig.canvas.get_renderer()
+        texts = [(getattr(fig, "_suptitle", None), fig.bbox.width * 0.96, "width")]
+        for ax in fig.axes:
+            across = min(fig.bbox.width * 0.96, ax.bbox.width * 1.15)
+            texts += [(title, across, "width") for title in (ax.title, ax._left_title, ax._right_title)]
+            texts.append((ax.xaxis.label, across, "width"))
+            texts.append((ax.yaxis.label, min(fig.bbox.height * 0.96, ax.bbox.height), "height"))
+        long = [(text, room, along) for text, room, along in texts if _too_long(text, room, along, renderer)]
+        if not long:
+            return
+        for text, room, along in long:
+            _wrap(text, room, along, renderer)
+
+
+#: Layouts ``fit_titles`` measures at most: a wrap changes the layout it was measured in.
+FIT_PASSES = 3
+
+
+def _too_long(text: Any, room: float, along: str, renderer: Any) -> bool:
+    """Whether the visible ``text`` is longer than ``room`` pixels ``along`` ("width", "height")."""
+    if text is None or not text.get_text() or not text.get_visible():
+        return False
+    return getattr(text.get_window_extent(renderer), along) > room
+
+
+def _wrap(text: Any, room: float, along: str, renderer: Any) -> None:
+    """Wrap ``text`` onto lines of the characters that fit ``room`` pixels ``along`` it, every
+    word kept (its own lines kept)."""
+    length = getattr(text.get_window_extent(renderer), along)
+    lines = text.get_text().splitlines()
+    longest = max(len(line) for line in lines)
+    columns = max(12, int(longest * room / length))
+    text.set_text("\n".join(textwrap.fill(line, columns, break_on_hyphens=False) for line in lines))
 
 
 COARSE = 40  # a contour map's axis with at most this many values is coarse: its grid points are marked

@@ -236,6 +236,28 @@ def test_save_wraps_titles_wider_than_the_figure(monkeypatch, tmp_path):
         assert "\n" in text and " ".join(text.split()) == long  # wrapped, every word kept
 
 
+def test_save_wraps_axis_labels_longer_than_their_axes(monkeypatch, tmp_path):
+    """A colour-bar label longer than its bar (the one-panel crystal map of
+    ``orientation_map.py``: its label on a 4.2-inch panel, its start cut off below the figure
+    before) is wrapped, every word kept, and lies inside the figure."""
+    monkeypatch.syspath_prepend(str(ROOT / "postprocess"))
+    import common
+
+    common.use_format("png")
+    fig, (ax,) = common.panels(1, size=4.2)
+    drawn = ax.pcolormesh(np.arange(9.0).reshape(3, 3))
+    long = "K_min / K_max (principal tangential stiffnesses)"
+    bar = fig.colorbar(drawn, ax=[ax], label=long)
+    fig.suptitle("Tangential stiffness anisotropy\nν = 0.3\nswept points only, nothing drawn between them")
+    common.save(fig, tmp_path, "labels.png")
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    text = bar.ax.yaxis.label
+    box = text.get_window_extent(canvas.get_renderer())
+    assert "\n" in text.get_text() and " ".join(text.get_text().split()) == long
+    assert box.x0 >= 0 and box.y0 >= 0 and box.x1 <= fig.bbox.width and box.y1 <= fig.bbox.height
+
+
 def test_the_anisotropy_map_marks_the_swept_points(plotted, dataset):
     figures = plotted("anisotropy_map.py", str(dataset))
     ((title, lines),) = figures["anisotropy_map_ellipse.png"]
