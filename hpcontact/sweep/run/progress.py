@@ -43,7 +43,9 @@ def clock_text(seconds: float) -> str:
 class Progress:
     """Prints ``done/total``, rate and ETA at most every ``interval`` seconds.
 
-    ``total`` counts every task of the sweep, ``reused`` those already in journals; ``units`` are
+    ``total`` counts every task of the run (an adaptive round's: that round's), ``reused`` those
+    already in journals, ``label`` what the line counts (an adaptive round: "adaptive round 2: ",
+    its tasks, not the whole grid's, whose other tasks it may never solve); ``units`` are
     the cost units of the tasks the ranks report, in the order they are handed out, and
     ``seconds`` their estimated seconds (None without a calibration: the ETA is then by units);
     ``ranks`` run them, in chunks of ``chunk_lengths`` tasks (in hand-out order; None: one chunk).
@@ -59,8 +61,10 @@ class Progress:
         stream: TextIO,
         ranks: int = 1,
         chunk_lengths: Sequence[int] | None = None,
+        label: str = "",
     ) -> None:
         self.total = total
+        self.label = label
         self.reused = reused
         self._units_done = np.concatenate(([0.0], np.cumsum(np.asarray(units, dtype=np.float64))))
         weights = units if seconds is None else seconds
@@ -114,6 +118,6 @@ class Progress:
         eta_text = "?" if eta is None else clock_text(eta)
         finished = self.reused + done
         return (
-            f"hpcontact: {finished}/{self.total} tasks ({100.0 * finished / max(self.total, 1):.0f}%), "
+            f"hpcontact: {self.label}{finished}/{self.total} tasks ({100.0 * finished / max(self.total, 1):.0f}%), "
             f"{rate:.2f} tasks/s, elapsed {clock_text(elapsed)}, ETA {eta_text}"
         )

@@ -304,8 +304,10 @@ def _announce(
         print(line, file=stream, flush=True)
     handed = [t for chunk in chunks for t in chunk]  # what the ranks report, in hand-out order
     estimated = dict(zip((t.key for t in todo), seconds.tolist()))
+    # an adaptive round counts its own tasks: "14/61" of a round of 25 read as the whole map's
+    adaptive = scope.tally is not None
     progress = Progress(
-        len(run.tasks),
+        decision.reused + len(todo) if adaptive else len(run.tasks),
         decision.reused,
         [cost_units(t.cost) for t in handed],
         [estimated[t.key] for t in handed],
@@ -313,6 +315,7 @@ def _announce(
         stream,
         run.team.size,
         [len(chunk) for chunk in chunks],
+        f"adaptive round {scope.tally.begun}: " if adaptive else "",
     )
     return progress, sum(seconds.tolist()) / run.team.size
 

@@ -84,3 +84,17 @@ def test_a_stalled_rank_is_recorded_so_its_task_is_not_taken_for_a_crash(tmp_pat
     with Journal(tmp_path / "rank00001-20250101T020000Z-3-cccccc.jsonl", 1, {"session": "x"}) as journal:
         journal.started("stuck")  # a run that died: no stall recorded
     assert len(read_history(tmp_path).suspects()["stuck"]) == 1
+
+
+def test_an_adaptive_rounds_progress_counts_that_rounds_tasks(sweep, write_spec):
+    """Each progress line of an adaptive round counts the round's tasks ("adaptive round 2:
+    16/30"), not the whole grid's ("16/61" in a round of 30 read as the map's progress)."""
+    spec = write_spec(MAP.replace("progress_interval = 100.0", "progress_interval = 1e-9"))
+    stream = io.StringIO()
+    sweep(spec, mindlin, stream=stream)
+    text = stream.getvalue()
+    # a round's line: its scenes added, or a check round's random points solved
+    added = {int(k): int(n) for k, n in re.findall(r"adaptive round (\d+): (\d+) (?:scene|random point)", text)}
+    shown = [tuple(map(int, m)) for m in re.findall(r"adaptive round (\d+): (\d+)/(\d+) tasks", text)]
+    assert len(added) >= 2 and {k for k, _, _ in shown} == set(added)  # a line in every round
+    assert all(total == added[k] and 0 <= done <= total for k, done, total in shown)
