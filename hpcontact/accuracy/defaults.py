@@ -35,11 +35,12 @@ DEFAULT_GRIDS = 5
 def extrapolates_by_default(scene: Scene) -> bool:
     """Whether ``scene`` without ``n`` gets the extrapolated default (:func:`default_solve`):
     a shape with a refinable outline (not rough, not a mask), any material (isotropic, a cubic
-    crystal turned or not, a general Voigt stiffness), and quantities that coverage-weighted cells solve (tangential, normal,
-    coupled). The estimator calibrated on isotropic ellipses is honest on crystals' grids too
-    (docs/explanation/accuracy.md; ``tests/test_accuracy.py::test_default_discretization``: a
-    turned crystal's lobeless star against Galin's exact cell of its circle); until 2026-11-30 a
-    crystal polygon, star or rectangle without ``n`` was one grid of n = 128 with no estimate."""
+    crystal turned or not, a general Voigt stiffness), and quantities that coverage-weighted
+    cells solve (tangential, normal, coupled). The estimator calibrated on isotropic ellipses is
+    honest on crystals' grids too (docs/explanation/accuracy.md;
+    ``tests/test_accuracy.py::test_default_discretization``: a turned crystal's lobeless star
+    against Galin's exact cell of its circle); until 2026-11-30 a crystal's polygon, star or
+    rectangle without ``n`` was one grid of n = 128 with no estimate."""
     if scene.grid_given:
         return False
     return scene.shape.name not in ("rough", "mask") and all(x in SUPPORTED for x in scene.quantities)
