@@ -154,19 +154,31 @@ def select_rest(
 ) -> tuple[xr.DataArray, str]:
     """``da`` reduced to the dimensions ``keep``: every other dimension at the value ``choose``
     gives (nearest), else at ``PREFERRED``'s value where the axis has it, else its first; also a
-    note naming the values taken."""
+    note naming the values taken where they matter: a dimension along which ``da`` (at the
+    values taken before) does not change is left out of it (a polygon's b/a, ψ of an isotropic
+    body: the sweep solved one scene for all of them, and a title naming one reads as if it
+    mattered)."""
     keep = set(keep)
     choose = {**{d: v for d, v in PREFERRED.items() if d in da.dims and np.any(da[d].values == v)}, **(choose or {})}
     notes = []
     for dim in [d for d in da.dims if d not in keep]:
+        ignored = _constant_along(da, dim)
         if dim in choose and da[dim].dtype.kind == "f":
             da = da.sel({dim: choose[dim]}, method="nearest")
         elif dim in choose:
             da = da.sel({dim: choose[dim]})
         else:
             da = da.isel({dim: 0})
-        notes.append(value_text(da.coords.to_dataset(), dim))
+        if not ignored:
+            notes.append(value_text(da.coords.to_dataset(), dim))
     return da, ", ".join(notes)
+
+
+def _constant_along(da: xr.DataArray, dim: str) -> bool:
+    """Whether every value of ``da`` is the same at each value of ``dim`` (NaN equal to NaN)."""
+    first = da.isel({dim: 0})
+    same = (da == first) | (da.isnull() & first.isnull())
+    return bool(same.all())
 
 
 def scalar_notes(ds: xr.Dataset, names: Iterable[str] = ("nu", "aspect")) -> str:

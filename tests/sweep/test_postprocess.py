@@ -216,6 +216,17 @@ def test_titles_fit_in_their_figures(saved, dataset):
         assert titles_inside(fig)
 
 
+def test_titles_name_only_the_values_that_matter(saved, dataset):
+    """The hexagon ignores b/a (the sweep solved one scene for every b/a): its title does not
+    name the b/a taken, as if it mattered; the ellipse's does (issue 40: no "b/a" on shapes that
+    ignore it). nu matters to both."""
+    figures = saved("tensor_components.py", str(dataset))
+    hexagon = " ".join(figures["tensor_components_hexagon.png"]._suptitle.get_text().split())
+    ellipse = " ".join(figures["tensor_components_ellipse.png"]._suptitle.get_text().split())
+    assert "b/a" not in hexagon and "ν = 0.5" in hexagon
+    assert "b/a = 0.1" in ellipse and "ν = 0.5" in ellipse
+
+
 def test_save_wraps_titles_wider_than_the_figure(monkeypatch, tmp_path):
     """A title wider than its figure (the demo's tensor components: b/a, nu, A, psi, n and tol
     in the suptitle of a 7.2-inch figure, cut at both ends before) is wrapped, not cut."""
