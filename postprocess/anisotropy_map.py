@@ -36,6 +36,7 @@ from common import (
     draw_map,
     error_bars,
     error_caption,
+    fixed_shape,
     label,
     open_dataset,
     panels,
@@ -67,7 +68,7 @@ def shape_name(ds, shape: str) -> str:
     """The shape's label, or the sweep's one shape when shape is not an axis."""
     if shape:
         return shape
-    return str(ds["shape"].values) if "shape" in ds.coords and ds["shape"].ndim == 0 else "contact"
+    return fixed_shape(ds)
 
 
 def curves(ds, names, outdir) -> None:

@@ -187,6 +187,22 @@ def scalar_notes(ds: xr.Dataset, names: Iterable[str] = ("nu", "aspect")) -> str
     return ", ".join(value_text(ds, n) for n in names if n in ds.coords and ds[n].ndim == 0)
 
 
+def fixed_shape(data: xr.Dataset | xr.DataArray) -> str:
+    """The sweep's one shape (a scalar coordinate: not an axis, or one selected) in words, with
+    the fields that make it one of its kind where they are fixed too ("polygon, 6 sides", "star,
+    5 lobes, amplitude 0.3"); "contact" without one."""
+    if "shape" not in data.coords or data["shape"].ndim != 0:
+        return "contact"
+    fixed = {name: data[name].values for name in ("sides", "amplitude") if name in data.coords and data[name].ndim == 0}
+    name = str(data["shape"].values)
+    if name == "polygon" and "sides" in fixed:
+        return f"polygon, {int(fixed['sides'])} sides"
+    if name == "star" and "sides" in fixed:
+        amplitude = f", amplitude {float(fixed['amplitude']):g}" if "amplitude" in fixed else ""
+        return f"star, {int(fixed['sides'])} lobes{amplitude}"
+    return name
+
+
 def shapes(ds: xr.Dataset) -> list[str]:
     """The shape labels of the data set ([""] when shape is not an axis)."""
     return [str(s) for s in ds["shape"].values] if "shape" in ds.dims else [""]

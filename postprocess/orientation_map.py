@@ -56,6 +56,7 @@ from common import (
     error_bars,
     error_caption,
     error_marks,
+    fixed_shape,
     label,
     open_dataset,
     panels,
@@ -218,7 +219,7 @@ def tangential_ratio(ds, nu: float | None, shape: str | None):
 
 def aspect_title(da, aspect) -> str:
     """Panel title: the shape (a scalar coordinate of ``da``: fixed or selected) and b/a."""
-    shape = str(da["shape"].values) if "shape" in da.coords and da["shape"].ndim == 0 else "contact"
+    shape = fixed_shape(da)
     if aspect is None or aspect == 1.0:
         return "circle" if shape in ("ellipse", "circle") else shape
     return f"{shape}, b/a = {aspect:g} (major axis along x = [1̄10])"

@@ -227,6 +227,22 @@ def test_titles_name_only_the_values_that_matter(saved, dataset):
     assert "b/a = 0.1" in ellipse and "ν = 0.5" in ellipse
 
 
+def test_a_fixed_shape_is_named_with_what_makes_it_one_of_its_kind(monkeypatch):
+    """A sweep of one polygon says how many sides ("polygon" alone titled a hexagon's crystal
+    map), a star its lobes and amplitude; a shape axis is no one shape."""
+    monkeypatch.syspath_prepend(str(ROOT / "postprocess"))
+    import common
+
+    def fixed(**coords):
+        return xr.Dataset(coords={name: ((), value) for name, value in coords.items()})
+
+    assert common.fixed_shape(fixed(shape="polygon", sides=6, nu=0.3)) == "polygon, 6 sides"
+    assert common.fixed_shape(fixed(shape="star", sides=5, amplitude=0.3)) == "star, 5 lobes, amplitude 0.3"
+    assert common.fixed_shape(fixed(shape="ellipse", aspect=0.5)) == "ellipse"
+    axis = xr.Dataset(coords={"shape": ("shape", ["ellipse", "hexagon"])})
+    assert common.fixed_shape(axis) == "contact" == common.fixed_shape(xr.Dataset())
+
+
 def test_save_wraps_titles_wider_than_the_figure(monkeypatch, tmp_path):
     """A title wider than its figure (the demo's tensor components: b/a, nu, A, psi, n and tol
     in the suptitle of a 7.2-inch figure, cut at both ends before) is wrapped, not cut."""
