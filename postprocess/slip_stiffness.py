@@ -3,6 +3,10 @@
     mpiexec -n 2 hpcontact run jobs/sphere_pairs.toml
     python postprocess/slip_stiffness.py results/sphere_pairs.nc results/figures/slip/ [--mu 0.2]
 
+Another slip sweep over ``q_ratio`` (a user's own: one pair in ``[scene]``, say, over mu) gets
+``kt_ratio.png`` alone, one curve per point of its other axes, and a line naming what the other
+figures need; a data set without ``q_ratio`` is refused in one line (exit 2).
+
 Reads the data set of ``jobs/sphere_pairs.toml`` (dimensions pair, load, mu, q_ratio; one
 ``hpcontact.problems.slip.partial_slip.solve_slip`` record per point, SI units). The pairs' scene fields (materials,
 radii, n) are the data set's coordinates, so the scenes solved here for the maps are the
@@ -54,16 +58,28 @@ from hpcontact import analytic  # noqa: E402
 from hpcontact.problems.slip.crystal_pair import pair_from_params  # noqa: E402
 from hpcontact.problems.slip.partial_slip import PathSolver, SlipProblem, solve_slip, validate  # noqa: E402
 from hpcontact.sweep.space.axes import LABEL_AXES  # noqa: E402
-from postprocess.common import add_format, open_dataset, refuse, require, save, use_format  # noqa: E402
+from postprocess.common import (  # noqa: E402
+    add_format,
+    error_caption,
+    error_marks,
+    open_dataset,
+    refuse,
+    require,
+    save,
+    use_format,
+    value_text,
+)
 
 RATIO_BAND = (0.25, 0.35)  # constant-ratio model k_t = c k_n (seed paper, refs. 5 and 6)
 UM = 1e-6  # stiffness shown in N/µm
 SWEEP = "jobs/sphere_pairs.toml"  # the sweep whose data set this script draws
+#: What ``kt_ratio.png`` draws, from any slip sweep over ``q_ratio`` (``figure_ratio``)
+RATIO_DRAWN = ("stiffness_ratio", "normal_stiffness", "no_slip_stiffness")
+#: The seed's sweep's axes and variables, which its other figures and the summary need
+SEED_AXES = ("pair", "load", "mu", "q_ratio")
 DRAWN = (
     "status",
-    "stiffness_ratio",
-    "normal_stiffness",
-    "no_slip_stiffness",
+    *RATIO_DRAWN,
     "tangential_stiffness",
     "mindlin_stiffness",
     "mindlin_no_slip_stiffness",
@@ -127,23 +143,34 @@ def figure_kt_vs_q(ds: xr.Dataset, mu: float, outdir: Path) -> None:
 
 
 def figure_ratio(ds: xr.Dataset, outdir: Path) -> None:
+    """k_t/k_t(0) against Q/(μP), one curve per point of the data set's other axes (marked by
+    the first of them: the pair in the seed's sweep), Mindlin–Deresiewicz's (1 − Q/μP)^⅓ and the
+    constant-ratio band c k_n/k_t(0)."""
     fig, ax = plt.subplots(figsize=(5.5, 4.2), layout="constrained")
     q_fine = np.linspace(0.0, 0.999, 200)
     ax.plot(q_fine, np.cbrt(1.0 - q_fine), "k-", lw=1.2, label="Mindlin–Deresiewicz (1 − Q/μP)^⅓")
     markers = "osD^v<>p"
-    for marker, pair in zip(markers, ds["pair"].values):
-        ratio = ds["stiffness_ratio"].sel(pair=pair)
-        for i, load in enumerate(ds["load"].values):
-            for j, mu in enumerate(ds["mu"].values):
-                ax.plot(
-                    ds["q_ratio"],
-                    ratio.sel(load=load, mu=mu),
-                    marker,
-                    ms=3,
-                    alpha=0.7,
-                    mfc="none",
-                    label=str(pair) if i == j == 0 else None,
-                )
+    ratio = ds["stiffness_ratio"]
+    others = [d for d in ratio.dims if d != "q_ratio"]
+    first = others[0] if others else None
+    marked = list(ds[first].values) if first else [None]
+    for index in np.ndindex(*(ratio.sizes[d] for d in others)):
+        curve = ratio.isel(dict(zip(others, index)))
+        at = marked.index(curve[first].values) if first else 0
+        legend = (
+            (f"{curve[first].values}" if first == "pair" else value_text(curve.coords.to_dataset(), first))
+            if first
+            else "sweep"
+        )
+        ax.plot(
+            ds["q_ratio"],
+            curve,
+            markers[at % len(markers)],
+            ms=3,
+            alpha=0.7,
+            mfc="none",
+            label=legend if not any(index[1:]) else None,
+        )
     band = ds["normal_stiffness"] / ds["no_slip_stiffness"]
     ax.axhspan(
         RATIO_BAND[0] * float(band.min()),
@@ -159,6 +186,9 @@ def figure_ratio(ds: xr.Dataset, outdir: Path) -> None:
     ax.set_ylim(0, 1.05)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, ncol=2)
+    ax.set_title(
+        f"{ds.attrs.get('title', 'k_t / k_t(0)')}\n{error_caption([error_marks(ds, ratio)], 'bars')}", fontsize=9
+    )
     save(fig, outdir, "kt_ratio.png", dpi=110)
 
 
@@ -306,12 +336,20 @@ def main() -> None:
     )
     args = parser.parse_args()
     ds = open_dataset(args.dataset)
-    require(ds, args.dataset, SWEEP, axes=("pair", "load", "mu", "q_ratio"), variables=DRAWN)
+    require(ds, args.dataset, "a slip sweep over q_ratio", axes=("q_ratio",), variables=RATIO_DRAWN)
     try:
         args.outdir.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         refuse(f"{args.outdir}: cannot make the figure folder ({exc.strerror or type(exc).__name__})")
     use_format(args.format)
+    missing = [a for a in SEED_AXES if a not in ds.dims] + [v for v in DRAWN if v not in ds.variables]
+    if missing:  # another slip sweep than the seed's: the figure that needs only q_ratio
+        figure_ratio(ds, args.outdir)
+        print(
+            f"drew kt_ratio.png alone: the other figures draw the data set of {SWEEP} (this one lacks: "
+            f"{', '.join(missing)})"
+        )
+        return
     mu = float(ds["mu"].values[0]) if args.mu is None else float(ds["mu"].sel(mu=args.mu, method="nearest"))
     pair = args.pair if args.pair in ds["pair"].values else str(ds["pair"].values[0])
     load = float(ds["load"].sel(load=args.load, method="nearest"))

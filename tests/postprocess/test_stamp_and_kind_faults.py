@@ -76,7 +76,7 @@ def tangential_sweep(path: Path) -> Path:
     [
         ("tembleque2011_friction.py", "pair"),
         ("crystal_friction_map.py", "material"),
-        ("slip_stiffness.py", "pair"),
+        ("slip_stiffness.py", "q_ratio"),
         ("orientation_map.py", "anisotropy"),
         ("accuracy_cost.py", "n"),
     ],

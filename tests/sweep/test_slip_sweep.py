@@ -283,3 +283,27 @@ def test_the_postprocess_script_reads_the_sweep_data_set(tiny_sweep, tmp_path):
     assert done.returncode == 0, done.stderr
     assert sorted(p.name for p in (tmp_path / "fig").iterdir()) == ["kt_ratio.png", "kt_vs_q.png", "stick_zones.png"]
     assert "4/4 points ok" in done.stdout and "Cu-Fe flat" in done.stdout
+
+
+def test_the_postprocess_script_draws_a_users_own_slip_sweep(tmp_path):
+    """A slip sweep of one pair over mu and q_ratio (no pair or load axis: not the seed's
+    layout) gets the figure that needs only q_ratio, k_t/k_t(0), one curve per mu, and one line
+    saying why the others are not drawn; before, the script refused it."""
+    spec = tmp_path / "own.toml"
+    text = SPEC.replace("[sweep]", f'[sweep]\noutput = "{tmp_path / "own.nc"}"')
+    text = text.replace("steps = 2", 'steps = 2\nmaterial = "Fe"\nmaterial2 = "Fe"\nload = 100.0')
+    text = text[: text.index("pair = [")] + "mu = [0.2, 0.4]\nq_ratio = [0.0, 0.6]\n"
+    spec.write_text(text, encoding="utf-8")
+    path = run_sweep(spec, team=SerialTeam(), stream=io.StringIO())
+    script = ROOT / "postprocess" / "slip_stiffness.py"
+    env = {**os.environ, "PYTHONPATH": f"{ROOT}{os.pathsep}{os.environ.get('PYTHONPATH', '')}", "MPLBACKEND": "Agg"}
+    done = subprocess.run(
+        [sys.executable, str(script), str(path), str(tmp_path / "fig")],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 0, done.stderr
+    assert sorted(p.name for p in (tmp_path / "fig").iterdir() if p.suffix == ".png") == ["kt_ratio.png"]
+    assert "drew kt_ratio.png alone" in done.stdout and "lacks: pair, load" in done.stdout
