@@ -142,6 +142,15 @@ def figure_kt_vs_q(ds: xr.Dataset, mu: float, outdir: Path) -> None:
     save(fig, outdir, "kt_vs_q.png", dpi=110)
 
 
+def curve_label(curve: xr.DataArray, others: list[str]) -> str:
+    """The legend of a curve of ``figure_ratio``: its value of the first of the ``others`` axes
+    (a label axis' text, the pair's "Fe-Fe", as it is), or "sweep" without another axis."""
+    if not others:
+        return "sweep"
+    name = others[0]
+    return str(curve[name].values) if name in LABEL_AXES else value_text(curve.coords.to_dataset(), name)
+
+
 def figure_ratio(ds: xr.Dataset, outdir: Path) -> None:
     """k_t/k_t(0) against Q/(μP), one curve per point of the data set's other axes (marked by
     the first of them: the pair in the seed's sweep), Mindlin–Deresiewicz's (1 − Q/μP)^⅓ and the
@@ -152,24 +161,16 @@ def figure_ratio(ds: xr.Dataset, outdir: Path) -> None:
     markers = "osD^v<>p"
     ratio = ds["stiffness_ratio"]
     others = [d for d in ratio.dims if d != "q_ratio"]
-    first = others[0] if others else None
-    marked = list(ds[first].values) if first else [None]
     for index in np.ndindex(*(ratio.sizes[d] for d in others)):
         curve = ratio.isel(dict(zip(others, index)))
-        at = marked.index(curve[first].values) if first else 0
-        legend = (
-            (f"{curve[first].values}" if first == "pair" else value_text(curve.coords.to_dataset(), first))
-            if first
-            else "sweep"
-        )
         ax.plot(
             ds["q_ratio"],
             curve,
-            markers[at % len(markers)],
+            markers[(index[0] if index else 0) % len(markers)],
             ms=3,
             alpha=0.7,
             mfc="none",
-            label=legend if not any(index[1:]) else None,
+            label=curve_label(curve, others) if not any(index[1:]) else None,
         )
     band = ds["normal_stiffness"] / ds["no_slip_stiffness"]
     ax.axhspan(
