@@ -102,7 +102,9 @@ process's start to the data set written (``effic.``), and the sweep's own, as th
 ``sweep_parallel_efficiency`` states it and as issue 40 measured its 16-core node (0.73; the main
 job's 0.93): from the driver's start, after the interpreter, the imports and MPI's start, to the
 data set assembled, before its netCDF write (``driver``; ``driver_outside``: both measured on rank
-0 in the 2-rank run). The last lines are bounds, not the code, on 16 ranks: nothing between rounds
+0 in the 2-rank run). After the table, where each 16-rank CPU replay's makespan goes
+(``breakdown``): the set-up, the rounds (the work a rank), rank 0 alone and its shared estimates
+after each round, and rank 0's work during each. The last lines are bounds, not the code, on 16 ranks: nothing between rounds
 at all (no decision, no data set); and every solve in one round followed by the last round's time
 after it as measured (the data set made, filled and written): what decisions that overlap the work
 entirely could reach with the set-up and the data set as they are.
@@ -936,6 +938,7 @@ def crystal(folder: Path, task: str, driver_ms: list[float], checks: int) -> Non
         f"{'solves':>8} {'ranks':>6} {'clock':>5} {'wall s':>8} {'effic.':>7} {'between':>8} {'tail':>6} "
         f"{'claims':>7} {'setup':>6} {'driver':>7}"
     )
+    breakdowns: list[str] = []
     for name, rounds in reversed(lines.items()):
         for clock in ("wall", "CPU"):
             times = (setup, gaps) if clock == "wall" else (setup_cpu, gaps_cpu)
@@ -958,6 +961,10 @@ def crystal(folder: Path, task: str, driver_ms: list[float], checks: int) -> Non
                     f"{driver_measure(r, outside[clock]):7.3f}",
                     flush=True,
                 )
+                if ranks == 16 and clock == "CPU":
+                    breakdowns.append(breakdown(name, r, rounds, after, busy, calls))
+    for line in breakdowns:
+        print(line)
     overheads = Overheads(**{**DEFAULT_OVERHEADS.__dict__, "driver_s": cpu_driver, "spread_gather_s": 0.0})
     enumeration = spread_setup(measured, "CPU")
     calls, spent = shared["CPU"]
@@ -1005,6 +1012,32 @@ def crystal(folder: Path, task: str, driver_ms: list[float], checks: int) -> Non
             f"measured (decisions that overlap the work entirely; CPU): efficiency {r['efficiency']:.3f}, "
             f"the sweep's own measure {driver_measure(r, outside['CPU']):.3f}"
         )
+
+
+def breakdown(
+    name: str,
+    replay: Mapping[str, float],
+    rounds: list[dict[str, float]],
+    after: list[float],
+    busy: list[float],
+    calls: list[list[Any]],
+) -> str:
+    """Where a 16-rank replay's makespan goes (issue 40's bar): the set-up, the rounds' own time
+    (the work a rank, its tail and claims), after each round rank 0 alone and its shared
+    estimates (``replay.call_seconds``: the other ranks wait in both), and rank 0's work during
+    each round (``busy``: covered by the other ranks' claims where the round is long enough)."""
+    from hpcontact.sweep.work.replay import call_seconds
+
+    makespan = replay["makespan_s"]
+    shared = [sum(call_seconds(c, 16) for c in round_calls) for round_calls in calls]
+    setup, between = replay["setup"] * makespan, replay["between"] * makespan
+    work = sum(sum(r.values()) for r in rounds) / 16
+    return (
+        f"{name}, 16 ranks, CPU: makespan {makespan:.2f} s = set-up {setup:.2f} + rounds "
+        f"{makespan - setup - between:.2f} (the work a rank {work:.2f}) + after the rounds {between:.2f}: rank 0 "
+        f"alone {' '.join(f'{x:.2f}' for x in after)}, shared estimates {' '.join(f'{x:.2f}' for x in shared)}; "
+        f"rank 0 during the rounds {' '.join(f'{x:.2f}' for x in busy)}"
+    )
 
 
 def driver_outside(
