@@ -208,8 +208,10 @@ def distinct_tasks(task_of: np.ndarray) -> int:
     return int(np.count_nonzero(np.bincount(np.ravel(task_of)))) if np.size(task_of) else 0
 
 
-def dry_run_text(spec: Any, task_of: np.ndarray) -> str:
-    """The dry run's lines on an adaptive spec: the first round and the bound."""
+def dry_run_text(spec: Any, task_of: np.ndarray, seconds: np.ndarray | None = None) -> str:
+    """The dry run's line on an adaptive spec: the first round (with its estimated core-seconds,
+    the sum of ``seconds``, each task's, where given) and the bound. The rounds after the first
+    are decided from its results: no dry run can say how many they solve."""
     layout = Layout.of(spec)
     task_of = np.asarray(task_of)
     first = state_tasks(layout, initial_state(layout, spec.adaptive), task_of)
@@ -228,7 +230,15 @@ def dry_run_text(spec: Any, task_of: np.ndarray) -> str:
         else f"nodes {' x '.join(str(len(bisection_nodes(layout.shape[p], settings.initial))) for p in layout.numeric)}"
         " per sub-problem"
     )
+    first_seconds = None if seconds is None else np.asarray(seconds, dtype=float)[first]
+    cost = (
+        ""
+        if first_seconds is None
+        else f", estimated {float(first_seconds.sum()):.4g} core-seconds"
+        if np.isfinite(first_seconds).all()
+        else ", not all estimated"
+    )
     return (
-        f"# adaptive: first round {len(first)} of the {total} tasks ({grid}); solves {bound}; "
+        f"# adaptive: first round {len(first)} of the {total} tasks ({grid}{cost}); solves {bound}; "
         f"tolerance {settings.default:g} on {quantities}; interpolated axes: {scales}"
     )

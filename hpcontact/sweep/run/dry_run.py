@@ -137,8 +137,10 @@ def dry_run(
     grids = "; ".join(f"{label}: {count} tasks" for label, count in counts.items())
     print(f"# {len(counts)} grid(s) ({grids}); {est.kernel_sets()} kernel set(s)", file=stream)
     left_out = f" ({est.not_estimated} GPU task(s) not estimated)" if est.not_estimated else ""
+    # an adaptive map's totals are its bound, every task solved: its rounds solve fewer (its line below)
+    every = " if every task is solved (an adaptive map's bound)" if spec.adaptive is not None else ""
     print(
-        f"# estimated: {est.total_seconds:.4g} core-seconds = {est.total_seconds / 3600.0:.3g} core-hours{left_out}; "
+        f"# estimated{every}: {est.total_seconds:.4g} core-seconds = {est.total_seconds / 3600.0:.3g} core-hours{left_out}; "
         f"peak memory {est.peak_bytes / 2**20:.0f} MiB (task {peak_task}); limit {limit / 2**20:.0f} MiB per rank "
         f"({source})",
         file=stream,
@@ -148,7 +150,7 @@ def dry_run(
     )
     cpu_tasks = "" if est.on_gpu is None else " (CPU tasks)"
     print(
-        f"# wall time: {walls or 'not estimated while a task has no seconds'}; {described(calibration)}{cpu_tasks}",
+        f"# wall time{every}: {walls or 'not estimated while a task has no seconds'}; {described(calibration)}{cpu_tasks}",
         file=stream,
     )
     for line in _gpu_lines(est):
@@ -158,7 +160,7 @@ def dry_run(
     if spec.adaptive is not None:  # all the tasks are the bound; the first round solves fewer
         from hpcontact.sweep.maps.rounds import dry_run_text
 
-        print(dry_run_text(spec, task_of), file=stream)
+        print(dry_run_text(spec, task_of, est.seconds), file=stream)
     shown = json.JSONEncoder(sort_keys=True).encode  # json.dumps(..., sort_keys=True) without an encoder per line
     listed = listed_tasks(len(tasks), list_all)
     left_out = len(tasks) - LISTED_HEAD - LISTED_TAIL
