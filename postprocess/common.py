@@ -256,6 +256,10 @@ def save(fig: plt.Figure, outdir: Path, name: str, dpi: int = DPI) -> Path:
     return path
 
 
+#: Layouts ``fit_titles`` measures at most: a wrap changes the layout it was measured in.
+FIT_PASSES = 3
+
+
 def fit_titles(fig: plt.Figure) -> None:
     """Wrap the figure's suptitle, its axes' titles and their axis labels (a colour bar's
     among them) onto more lines where they are longer than the figure (suptitle) or their axes
@@ -277,10 +281,6 @@ def fit_titles(fig: plt.Figure) -> None:
             return
         for text, room, along in long:
             _wrap(text, room, along, renderer)
-
-
-#: Layouts ``fit_titles`` measures at most: a wrap changes the layout it was measured in.
-FIT_PASSES = 3
 
 
 def _too_long(text: Any, room: float, along: str, renderer: Any) -> bool:
