@@ -83,6 +83,7 @@ from hpcontact import quantities as q
 from hpcontact.kernels.anisotropic import kernel_for
 from hpcontact.kernels.isotropic import isotropic_surface_green
 from hpcontact.materials.isotropic import Isotropic
+from hpcontact.numerics.backend import require_gpu
 from hpcontact.plan import holds_normal_load, plan_for
 from hpcontact.scene import Scene
 
@@ -189,7 +190,14 @@ def solve(scene: Scene) -> dict[str, Any]:
     ``hpcontact.problems.contact.solve`` for its quantities, with ``absolute_errors``, the bounds
     |δK| of the tensor entries K_xx … K_zz (module docstring, "Error"; ``hpcontact.accuracy``
     turns them into relative errors per reported quantity), ``boundary`` "galin", and one cell:
-    nx = ny = 1 with the ellipse's bounding box as dx, dy (K in G·a, as everywhere)."""
+    nx = ny = 1 with the ellipse's bounding box as dx, dy (K in G·a, as everywhere).
+
+    The cell is computed on the CPU (a contour integral, ~1 ms) whatever the scene's ``device``;
+    ``device = "gpu"`` where CuPy or a CUDA device is missing is refused as a grid's solve refuses
+    it (``backend.require_gpu``), so that one command gives one answer on a node, whatever the
+    shape (before, an ellipse's was computed and a polygon's refused)."""
+    if scene.device == "gpu":
+        require_gpu()
     started = time.perf_counter()
     shape = scene.shape
     e = 1.0 if shape.name == "circle" else shape.aspect

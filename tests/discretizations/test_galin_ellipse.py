@@ -163,3 +163,19 @@ def test_where_the_exact_cell_applies() -> None:
     assert acc.first_grid(Scene.from_params({"shape": "polygon", "sides": 6}))[0] == "coverage"
     with pytest.raises(InputError, match="strategy"):
         acc.solve_to_accuracy(Scene.from_params({"shape": "rectangle", "aspect": 0.5}), 1e-3, strategy="galin")
+
+
+def test_a_gpu_asked_where_there_is_none_is_refused_as_a_grids_solve_refuses_it(monkeypatch) -> None:
+    """``device = "gpu"`` on a node without CuPy or a CUDA device: the exact cell (computed on the
+    CPU) refuses it naming the field, as a polygon's grid solve does, so one command gives one
+    answer whatever the shape; where a GPU is there the cell is computed as on "cpu"."""
+    from hpcontact.numerics import backend
+
+    gpu = Scene.from_params({"shape": "ellipse", "aspect": 0.5, "device": "gpu"})
+    monkeypatch.setattr(backend, "cuda_devices", lambda: (None, 0, "CuPy is not installed"))
+    with pytest.raises(InputError) as refused:
+        galin_ellipse.solve(gpu)
+    assert refused.value.field == "device" and "CuPy is not installed" in str(refused.value)
+    monkeypatch.setattr(backend, "cuda_devices", lambda: (object(), 1, ""))
+    cpu = galin_ellipse.solve(Scene.from_params({"shape": "ellipse", "aspect": 0.5}))
+    assert galin_ellipse.solve(gpu)["K_xx"] == cpu["K_xx"]
