@@ -578,3 +578,18 @@ def test_a_ratio_estimate_is_at_most_what_its_parts_allow() -> None:
     errors = crystal["estimated_errors"]
     assert errors["K_min_over_K_max"] <= (errors["K_min"] + errors["K_max"]) / (1.0 - errors["K_max"]) < 1e-4
     assert crystal["principal_angle_deg"] is not None and "principal_angle_note" not in crystal
+
+
+def test_a_thin_crystal_outline_on_grids_is_honest_against_the_exact_cell() -> None:
+    """The default gives a crystal's rectangle of b/a = 1e-8 coverage-weighted grids (its strips
+    are the isotropic body's); on the crystal ellipse of that aspect, judged by Galin's exact cell
+    (no grid), those cells' estimate of every quantity is at least its true error (measured
+    3.9e-8 … 2.6e-7 against 2.8e-5 … 3.9e-5, grids 32 … 512, 2026-11-30)."""
+    scene = Scene.from_params({"shape": "ellipse", "aspect": 1e-8, "anisotropy": 2.0})
+    exact = acc.default_solve(scene)
+    grids = acc.solve_to_accuracy(scene, 1e-4, strategy="coverage", strict=False)
+    assert exact["boundary"] == "galin" and grids["boundary"] == "coverage"
+    for name in ("K_xx", "K_yy", "K_a_over_K_b", "K_min_over_K_max"):
+        assert abs(grids[name] / exact[name] - 1.0) <= grids["estimated_errors"][name], name
+    rectangle = acc.default_scene_solve(Scene.from_params({"shape": "rectangle", "aspect": 1e-8, "anisotropy": 2.0}))
+    assert rectangle["boundary"] == "coverage" and rectangle["estimated_error"] <= acc.DEFAULT_ACCURACY
