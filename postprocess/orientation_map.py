@@ -265,7 +265,7 @@ def tangential_map(ds, outdir, nu: float | None, shape: str | None) -> None:
             )
             # what is drawn, for checks against the data set: psi then K_min/K_max per point
             print(
-                f"plotted b/a = {1.0 if aspect is None else aspect:.12g}, A = {A:.12g}: "
+                f"plotted {'' if aspect is None else f'b/a = {aspect:.12g}, '}A = {A:.12g}: "
                 + " ".join(f"{x:.12g}:{y:.12g}" for x, y in zip(line.get_xdata(), line.get_ydata()))
             )
         pole_ticks(ax)

@@ -231,7 +231,8 @@ def test_orientation_map_draws_the_sphere_curves_and_the_tangential_map(sweep, w
     assert len(curves) == 4  # two b/a x two A
     for line in curves:
         head, points = line.split(": ", 1)
-        aspect, anisotropy = (float(part.split("= ")[1]) for part in head.split(", "))
+        named = dict(part.removeprefix("plotted ").split(" = ") for part in head.split(", "))
+        aspect, anisotropy = float(named["b/a"]), float(named["A"])
         for point in points.split():
             psi, drawn = (float(v) for v in point.split(":"))
             assert drawn == pytest.approx(
