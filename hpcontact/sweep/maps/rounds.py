@@ -208,6 +208,14 @@ def distinct_tasks(task_of: np.ndarray) -> int:
     return int(np.count_nonzero(np.bincount(np.ravel(task_of)))) if np.size(task_of) else 0
 
 
+def _estimated(seconds: np.ndarray) -> str:
+    """ ", estimated S core-seconds" of tasks estimated at ``seconds``; that not all are (a task
+    the model leaves out, NaN) where one is not: said, not summed."""
+    return (
+        f", estimated {float(seconds.sum()):.4g} core-seconds" if np.isfinite(seconds).all() else ", not all estimated"
+    )
+
+
 def dry_run_text(spec: Any, task_of: np.ndarray, seconds: np.ndarray | None = None) -> str:
     """The dry run's line on an adaptive spec: the first round (with its estimated core-seconds,
     the sum of ``seconds``, each task's, where given) and the bound. The rounds after the first
@@ -230,14 +238,7 @@ def dry_run_text(spec: Any, task_of: np.ndarray, seconds: np.ndarray | None = No
         else f"nodes {' x '.join(str(len(bisection_nodes(layout.shape[p], settings.initial))) for p in layout.numeric)}"
         " per sub-problem"
     )
-    first_seconds = None if seconds is None else np.asarray(seconds, dtype=float)[first]
-    cost = (
-        ""
-        if first_seconds is None
-        else f", estimated {float(first_seconds.sum()):.4g} core-seconds"
-        if np.isfinite(first_seconds).all()
-        else ", not all estimated"
-    )
+    cost = "" if seconds is None else _estimated(np.asarray(seconds, dtype=float)[first])
     return (
         f"# adaptive: first round {len(first)} of the {total} tasks ({grid}{cost}); solves {bound}; "
         f"tolerance {settings.default:g} on {quantities}; interpolated axes: {scales}"
