@@ -146,10 +146,13 @@ def test_a_join_of_the_stiffness_records_alone_gives_the_same_stiffnesses(fake_s
 
 def test_after_import_array_modules_a_first_data_set_imports_nothing():
     """``import_array_modules`` (rank 0 during a round) imports what xarray imports at a
-    process's first variable (dask.array where installed, as in the test environment), so that
-    the data set after it (the other ranks waiting) imports no module: without it the same data
-    set imports dask's."""
-    make = "link_errors(xr.Dataset({'status': (('x',), np.zeros(3, np.int32)), 'K_xx': (('x',), np.ones(3))})); "
+    process's first variable (dask.array where installed, as in the test environment) and at its
+    first coordinate's index (pint where installed), so that the data set after it (the other
+    ranks waiting) imports no module: without it the same data set imports dask's and pint."""
+    make = (
+        "link_errors(xr.Dataset({'status': (('x',), np.zeros(3, np.int32)), 'K_xx': (('x',), np.ones(3))}, "
+        "coords={'x': np.linspace(0.0, 1.0, 3)})); "
+    )
     code = (
         "import sys; import numpy as np; import xarray as xr; "
         "from hpcontact.sweep.data.dataset import import_array_modules, link_errors; "
@@ -162,4 +165,4 @@ def test_after_import_array_modules_a_first_data_set_imports_nothing():
         for w in ("import_array_modules();", "")
     )
     assert warm.strip() == "[]"
-    assert "dask.array" in cold
+    assert "dask.array" in cold and "pint" in cold
